@@ -1,0 +1,50 @@
+# Shared build settings for every rollstep target.
+
+function(rollstep_target_defaults target)
+  target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic -Wshadow
+    -Wnon-virtual-dtor -Wold-style-cast -Wcast-align -Woverloaded-virtual
+    -Wnull-dereference -Wdouble-promotion -Wformat=2)
+  if(ROLLSTEP_WERROR)
+    target_compile_options(${target} PRIVATE -Werror)
+  endif()
+  if(ROLLSTEP_NATIVE)
+    target_compile_options(${target} PRIVATE -march=native)
+  endif()
+  if(ROLLSTEP_SANITIZE)
+    string(REPLACE ";" "," _san "${ROLLSTEP_SANITIZE}")
+    target_compile_options(${target} PRIVATE -fsanitize=${_san} -fno-omit-frame-pointer
+      -fno-sanitize-recover=all)
+    target_link_options(${target} PUBLIC -fsanitize=${_san})
+  endif()
+endfunction()
+
+# rollstep_add_layer(<layer> SOURCES ... [DEPS ...])
+# Creates the static library rollstep_<layer>, alias rollstep::<layer>, exported.
+function(rollstep_add_layer layer)
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
+  set(target rollstep_${layer})
+  add_library(${target} STATIC ${ARG_SOURCES})
+  add_library(rollstep::${layer} ALIAS ${target})
+  set_target_properties(${target} PROPERTIES EXPORT_NAME ${layer} OUTPUT_NAME rollstep_${layer})
+  target_include_directories(${target} PUBLIC
+    $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}/include> $<INSTALL_INTERFACE:include>)
+  target_compile_features(${target} PUBLIC cxx_std_17)
+  target_link_libraries(${target} PUBLIC ${ARG_DEPS})
+  rollstep_target_defaults(${target})
+  install(TARGETS ${target} EXPORT rollstepTargets
+    ARCHIVE DESTINATION lib LIBRARY DESTINATION lib RUNTIME DESTINATION bin)
+endfunction()
+
+# rollstep_add_test(<name> SOURCES ... [LIBS ...] [LABELS ...])
+# A GoogleTest executable registered with ctest; every test gets its layer label.
+function(rollstep_add_test name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;LIBS;LABELS" ${ARGN})
+  add_executable(${name} ${ARG_SOURCES})
+  target_link_libraries(${name} PRIVATE ${ARG_LIBS} rollstep_test_common GTest::gtest_main)
+  target_compile_definitions(${name} PRIVATE
+    ROLLSTEP_ROBOTS_DIR="${ROLLSTEP_ROBOTS_DIR}"
+    ROLLSTEP_TEST_DATA_DIR="${PROJECT_SOURCE_DIR}/tests/data")
+  rollstep_target_defaults(${name})
+  include(GoogleTest)
+  gtest_discover_tests(${name} PROPERTIES LABELS "${ARG_LABELS}" DISCOVERY_TIMEOUT 60)
+endfunction()
