@@ -1,0 +1,55 @@
+#pragma once
+// Cost terms. Running costs are densities: the node's cost is dt * l(x, u); terminal
+// costs are taken as they are.
+#include <memory>
+
+#include "rollstep/ocp/residual.hpp"
+
+namespace rollstep::ocp {
+
+struct CostData {
+  virtual ~CostData() = default;
+};
+
+class CostTerm {
+ public:
+  CostTerm(int ndx, int nu) : ndx_(ndx), nu_(nu) {}
+  virtual ~CostTerm() = default;
+  int ndx() const { return ndx_; }
+  int nu() const { return nu_; }
+  /// False for state-only costs (required for terminal costs).
+  virtual bool dependsOnInput() const { return true; }
+  virtual bool active(const NodeContext& /*ctx*/) const { return true; }
+  virtual std::unique_ptr<CostData> createData() const = 0;
+  /// Value l(x, u).
+  virtual double calc(const NodeContext& ctx, ConstVecRef x, ConstVecRef u, CostData& d) const = 0;
+  /// ADDS scale * (gradient, Gauss-Newton Hessian) to the given accumulators (the
+  /// caller passes scale = dt for running nodes). Called right after calc.
+  virtual void calcDiff(const NodeContext& ctx, ConstVecRef x, ConstVecRef u, CostData& d,
+                        double scale, VecRef lx, VecRef lu, MatRef Lxx, MatRef Luu,
+                        MatRef Lux) const = 0;
+
+ private:
+  int ndx_, nu_;
+};
+
+/// l = 0.5 * sum_i w_i r_i(x, u)^2 with a nonnegative diagonal weight; Gauss-Newton
+/// Hessian R^T W R.
+class LeastSquaresCost final : public CostTerm {
+ public:
+  LeastSquaresCost(std::shared_ptr<const Residual> residual, const VectorXd& weights);
+  bool dependsOnInput() const override { return residual_->dependsOnInput(); }
+  bool active(const NodeContext& ctx) const override { return residual_->rows(ctx) > 0; }
+  std::unique_ptr<CostData> createData() const override;
+  double calc(const NodeContext& ctx, ConstVecRef x, ConstVecRef u, CostData& d) const override;
+  void calcDiff(const NodeContext& ctx, ConstVecRef x, ConstVecRef u, CostData& d, double scale,
+                VecRef lx, VecRef lu, MatRef Lxx, MatRef Luu, MatRef Lux) const override;
+  void setWeights(const VectorXd& weights);  ///< same size as before; does not allocate
+  const Residual& residual() const { return *residual_; }
+
+ private:
+  std::shared_ptr<const Residual> residual_;
+  VectorXd weights_;
+};
+
+}  // namespace rollstep::ocp

@@ -1,0 +1,169 @@
+#pragma once
+// The switched-system optimal control problem of the paper (Sec. 2.1), transcribed by
+// direct multiple shooting on a uniform grid of N steps of length dt:
+//
+//   min  sum_{k<N} dt * l_k(x_k, u_k) + V(x_N)
+//   s.t. x_0 = x_init,   x_{k+1} = F(x_k, u_k)                (defects on the manifold)
+//        e_k(x_k, u_k) = 0                 k < N              (state-input, projected)
+//        g_k(x_k, u_k) >= 0                k < N (and k = N for state-only terms)
+//        u_lo <= u_k <= u_hi,  x_lo <= x_k <= x_hi            (simple bounds)
+//
+// The mode of node k is the mode schedule's mode at t_k = t0 + k dt; every term sees it
+// in its NodeContext and decides its own rows (0 = inactive). The problem is composed
+// once (not real-time); evaluation afterwards never allocates.
+#include <limits>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "rollstep/ocp/cost.hpp"
+#include "rollstep/ocp/dynamics.hpp"
+#include "rollstep/ocp/mode_schedule.hpp"
+#include "rollstep/ocp/residual.hpp"
+
+namespace rollstep::ocp {
+
+/// Creates and fills the per-node cache (NodeContext::cache) before the dynamics and
+/// the terms of a node run, so that shared work (kinematics, Jacobians) is done once.
+class NodePrecomputation {
+ public:
+  virtual ~NodePrecomputation() = default;
+  virtual std::unique_ptr<NodeCache> createCache() const = 0;
+  virtual void compute(const NodeContext& ctx, ConstVecRef x, ConstVecRef u, bool derivatives,
+                       NodeCache& cache) const = 0;
+};
+
+/// How an inequality is enforced.
+struct InequalityOptions {
+  /// false: hard (primal-dual interior point, slack > 0 always).
+  /// true: soft, relaxed log barrier (Feller and Jones 2016) with the given relaxation
+  /// delta; only for state-only residuals. Allowed to be violated, penalised
+  /// quadratically beyond delta.
+  bool soft = false;
+  double relaxation = 1e-2;
+};
+
+/// Everything evaluated at one node, sized once for the problem's capacity.
+/// Rows [0, ne) of the equality block and [0, ni) of the inequality block are in use.
+struct NodeData {
+  NodeContext context;
+  double cost = 0.0;        ///< dt * l (running) or V (terminal)
+  VectorXd lx, lu;          ///< cost gradient (tangent of x, u)
+  MatrixXd Lxx, Luu, Lux;   ///< Gauss-Newton cost Hessian (Lux is nu x ndx)
+  VectorXd xnext;           ///< F(x, u) (running nodes)
+  MatrixXd Fx, Fu;          ///< dynamics Jacobians (tangent)
+  int ne = 0;               ///< equality rows in use
+  VectorXd e;               ///< e(x, u)
+  MatrixXd Ex, Eu;
+  int ni = 0;               ///< general inequality rows in use (bounds are separate)
+  VectorXd g;               ///< g(x, u) >= 0
+  MatrixXd Gx, Gu;
+  Eigen::Matrix<bool, Eigen::Dynamic, 1> soft;  ///< per inequality row
+  VectorXd relaxation;                          ///< per inequality row (soft rows)
+  VectorXd zero_input;      ///< the u passed to terms at the terminal node
+
+  // Owned workspaces of the terms (opaque to the solver).
+  std::unique_ptr<NodeCache> cache;
+  std::unique_ptr<DynamicsData> dynamics_data;
+  std::vector<std::unique_ptr<CostData>> cost_data;
+  std::vector<std::unique_ptr<ResidualData>> equality_data;
+  std::vector<std::unique_ptr<ResidualData>> inequality_data;
+};
+
+/// Simple bounds on a set of coordinates: lower <= v[index[j]] <= upper (j-th bound).
+/// For the state, indices are tangent indices of the Euclidean part (the representation
+/// coordinate is index + nx - ndx). Infinite sides are dropped when the bound set is built.
+struct BoundSet {
+  std::vector<int> index;
+  VectorXd lower, upper;
+  std::vector<bool> has_lower, has_upper;
+  InequalityOptions options;
+  int size() const { return static_cast<int>(index.size()); }
+};
+
+class OptimalControlProblem {
+ public:
+  static constexpr double kInfinity = std::numeric_limits<double>::infinity();
+
+  /// @param dynamics discrete dynamics (gives the state space and nu)
+  /// @param horizon  number of steps N (nodes 0..N, N+1 states, N inputs)
+  /// @param dt       step length [s]
+  OptimalControlProblem(std::shared_ptr<const Dynamics> dynamics, int horizon, double dt,
+                        int schedule_capacity = 64);
+
+  // --- composition (before a solver is built) ---------------------------------------
+  void setPrecomputation(std::shared_ptr<const NodePrecomputation> pre);
+  void addCost(std::string name, std::shared_ptr<const CostTerm> cost, Stage stage = Stage::Running);
+  /// State-input equality e(x, u) = 0 on running nodes; its active rows must have full
+  /// row rank in u (they are eliminated by projection).
+  void addEquality(std::string name, std::shared_ptr<const Residual> residual);
+  /// g(x, u) >= 0. Terminal or soft inequalities must be state-only.
+  void addInequality(std::string name, std::shared_ptr<const Residual> residual,
+                     Stage stage = Stage::Running, InequalityOptions options = {});
+  /// lower <= u <= upper on running nodes (size nu; +-kInfinity for none).
+  void setInputBounds(const VectorXd& lower, const VectorXd& upper);
+  /// lower <= x <= upper on the Euclidean tangent coordinates (size ndx; entries of the
+  /// non-Euclidean part must be infinite), on every node 0..N.
+  void setStateBounds(const VectorXd& lower, const VectorXd& upper, InequalityOptions options = {});
+
+  // --- per-solve inputs (real-time safe) ------------------------------------------------
+  void setInitialTime(double t0) { t0_ = t0; }
+  double initialTime() const { return t0_; }
+  ModeSchedule& modeSchedule() { return schedule_; }
+  const ModeSchedule& modeSchedule() const { return schedule_; }
+
+  // --- dimensions -------------------------------------------------------------------------
+  const StateSpace& stateSpace() const { return dynamics_->space(); }
+  const Dynamics& dynamics() const { return *dynamics_; }
+  int nx() const { return stateSpace().nx(); }
+  int ndx() const { return stateSpace().ndx(); }
+  int nu() const { return dynamics_->nu(); }
+  int horizon() const { return horizon_; }
+  double dt() const { return dt_; }
+  /// Upper bounds on the rows any node can have (sum of the terms' maxRows).
+  int maxEqualities() const { return max_eq_; }
+  int maxInequalities() const { return max_ineq_; }
+  const BoundSet& inputBounds() const { return input_bounds_; }
+  const BoundSet& stateBounds() const { return state_bounds_; }
+
+  // --- evaluation (never allocates) ------------------------------------------------------
+  NodeContext context(int k) const;
+  std::unique_ptr<NodeData> createNodeData() const;
+  /// Values only: cost, xnext (running), e, g. At k == horizon() u is ignored.
+  void evaluate(int k, ConstVecRef x, ConstVecRef u, NodeData& d) const;
+  /// Values and first derivatives (Gauss-Newton Hessian of the cost).
+  void linearize(int k, ConstVecRef x, ConstVecRef u, NodeData& d) const;
+
+  /// Term names, in the order their rows are stacked (for reports and errors).
+  const std::vector<std::string>& costNames() const { return cost_names_; }
+  const std::vector<std::string>& equalityNames() const { return eq_names_; }
+  const std::vector<std::string>& inequalityNames() const { return ineq_names_; }
+
+ private:
+  void run(int k, ConstVecRef x, ConstVecRef u, NodeData& d, bool derivatives) const;
+
+  std::shared_ptr<const Dynamics> dynamics_;
+  int horizon_;
+  double dt_;
+  double t0_ = 0.0;
+  ModeSchedule schedule_;
+  std::shared_ptr<const NodePrecomputation> pre_;
+
+  struct CostEntry {
+    std::shared_ptr<const CostTerm> term;
+    Stage stage;
+  };
+  struct IneqEntry {
+    std::shared_ptr<const Residual> residual;
+    Stage stage;
+    InequalityOptions options;
+  };
+  std::vector<CostEntry> costs_;
+  std::vector<std::shared_ptr<const Residual>> equalities_;
+  std::vector<IneqEntry> inequalities_;
+  std::vector<std::string> cost_names_, eq_names_, ineq_names_;
+  int max_eq_ = 0, max_ineq_ = 0;
+  BoundSet input_bounds_, state_bounds_;
+};
+
+}  // namespace rollstep::ocp

@@ -1,0 +1,55 @@
+#pragma once
+// A vector function r(x, u) of one node with its Jacobians: the building block of
+// least-squares costs, equality constraints (r = 0) and inequality constraints (r >= 0).
+#include <memory>
+
+#include "rollstep/ocp/types.hpp"
+
+namespace rollstep::ocp {
+
+/// Workspace of one residual at one node. Derived residuals may extend it.
+struct ResidualData {
+  ResidualData(int max_rows, int ndx, int nu)
+      : r(VectorXd::Zero(max_rows)), Rx(MatrixXd::Zero(max_rows, ndx)),
+        Ru(MatrixXd::Zero(max_rows, nu)) {}
+  virtual ~ResidualData() = default;
+  int rows = 0;  ///< rows active at this node, set by the caller from Residual::rows
+  VectorXd r;    ///< value; rows [0, rows) are meaningful
+  MatrixXd Rx;   ///< d r / d x in the tangent space of x (rows x ndx)
+  MatrixXd Ru;   ///< d r / d u (rows x nu)
+};
+
+class Residual {
+ public:
+  /// @param ndx tangent size of the state, @param nu input size,
+  /// @param max_rows the largest number of rows this residual can have at any node.
+  Residual(int ndx, int nu, int max_rows) : ndx_(ndx), nu_(nu), max_rows_(max_rows) {}
+  virtual ~Residual() = default;
+
+  int ndx() const { return ndx_; }
+  int nu() const { return nu_; }
+  int maxRows() const { return max_rows_; }
+
+  /// Rows active at this node, in [0, maxRows()]. 0 means the term is inactive here
+  /// (for example a stance-only constraint at a swing node). Must not allocate.
+  virtual int rows(const NodeContext& /*ctx*/) const { return max_rows_; }
+  /// False when the residual depends on the state only (Ru == 0): required for terminal
+  /// terms and for soft (relaxed-barrier) inequalities.
+  virtual bool dependsOnInput() const { return true; }
+
+  virtual std::unique_ptr<ResidualData> createData() const {
+    return std::make_unique<ResidualData>(max_rows_, ndx_, nu_);
+  }
+  /// Writes d.r.head(d.rows). At terminal nodes u is a zero vector of size nu.
+  virtual void calc(const NodeContext& ctx, ConstVecRef x, ConstVecRef u,
+                    ResidualData& d) const = 0;
+  /// Writes d.Rx and d.Ru (top d.rows rows). Called right after calc with the same
+  /// arguments, so it may reuse what calc stored in d.
+  virtual void calcDiff(const NodeContext& ctx, ConstVecRef x, ConstVecRef u,
+                        ResidualData& d) const = 0;
+
+ private:
+  int ndx_, nu_, max_rows_;
+};
+
+}  // namespace rollstep::ocp
