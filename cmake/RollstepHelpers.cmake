@@ -8,7 +8,9 @@ function(rollstep_target_defaults target)
     target_compile_options(${target} PRIVATE -Werror)
   endif()
   if(ROLLSTEP_NATIVE)
-    target_compile_options(${target} PRIVATE -march=native)
+    # PUBLIC: fixed-size Eigen members change layout with the instruction set, so every
+    # consumer of our headers must be compiled with the same flag.
+    target_compile_options(${target} PUBLIC -march=native)
   endif()
   if(ROLLSTEP_SANITIZE)
     string(REPLACE ";" "," _san "${ROLLSTEP_SANITIZE}")

@@ -1,4 +1,7 @@
 #pragma once
+// API change (solver engineer): added slacks(k), nodeData(k), barrier(), failedNode(),
+// message() and riccati(); documented the layout of inequalityDuals(k) and that hard
+// state bounds are not imposed at node 0 (x_0 is fixed by the initial state).
 // Multiple-shooting primal-dual interior-point solver with Gauss-Newton Hessian,
 // equality constraints eliminated by projection and a Riccati recursion for the search
 // direction (paper Sec. 3.1-3.2). All memory is sized at construction; solve() and
@@ -8,6 +11,7 @@
 #include <vector>
 
 #include "rollstep/ocp/problem.hpp"
+#include "rollstep/solver/riccati.hpp"
 
 namespace rollstep::solver {
 
@@ -76,19 +80,40 @@ class Solver {
 
   const std::vector<VectorXd>& states() const;   ///< x_0..x_N
   const std::vector<VectorXd>& inputs() const;   ///< u_0..u_{N-1}
-  /// Equality multipliers and inequality duals of node k (rows in use), for KKT checks.
+  /// Equality multipliers of node k: entry i belongs to equality row i of
+  /// nodeData(k) (first nodeData(k).ne entries; the rest are zero). Sign convention: the
+  /// Lagrangian is cost + nu^T e + lambda^T (defects) - z^T g.
   const VectorXd& equalityMultipliers(int k) const;
+  /// Inequality duals z >= 0 of node k. Layout (size maxInequalities() + 2 nbu + 2 nbx,
+  /// nbu = problem().inputBounds().size(), nbx = problem().stateBounds().size()):
+  ///   [0, maxInequalities())   general rows (first nodeData(k).ni in use; 0 for soft rows)
+  ///   next nbu                 input lower bounds,  then nbu input upper bounds
+  ///   next nbx                 state lower bounds,  then nbx state upper bounds
+  /// Entries of absent or inactive rows are 0. Hard state bounds are not imposed at node 0
+  /// (x_0 is fixed by the initial state), nor input bounds at node N.
   const VectorXd& inequalityDuals(int k) const;
-  /// Feedback gain of the first node: du = K dx (+ k) from the last Riccati pass.
+  /// Slacks s > 0 of node k (same layout as inequalityDuals; g - s = 0 at convergence).
+  const VectorXd& slacks(int k) const;
+  /// Feedback gain of node k (k < N): du = K dx (+ k) from the last Riccati pass, in the
+  /// full input (equality projection included). Computed on first access after a solve.
   const MatrixXd& feedbackGain(int k) const;
-
+  /// The problem's evaluation of node k at the last linearisation or trial point
+  /// (ne, ni: rows in use; g, e values).
+  const ocp::NodeData& nodeData(int k) const;
   const std::vector<IterationStats>& stats() const;  ///< of the last solve/update
   int iterations() const;
   SolverStatus status() const;
   double cost() const;
+  double barrier() const;        ///< barrier parameter of the last iteration
+  /// Node where the last solve failed (rank-deficient equalities, factorisation), or -1.
+  int failedNode() const;
+  /// Human-readable reason of the last non-successful status ("" otherwise).
+  const char* message() const;
   const SolverSettings& settings() const;
   void setSettings(const SolverSettings& s);  ///< same num_threads as before; not real-time
   ocp::OptimalControlProblem& problem();
+  /// The Riccati workspace of the last iteration (search direction dx, du; for tests).
+  const RiccatiSolver& riccati() const;
 
  private:
   struct Impl;

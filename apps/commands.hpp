@@ -1,0 +1,13 @@
+#pragma once
+// Subcommands of the rollstep program. Each registerX adds its subcommand to the app
+// and arranges for it to run (via a final callback) when selected. To add one (mpc demo,
+// step20 experiment, ...): write x_command.cpp with registerXCommand, list it in
+// apps/CMakeLists.txt and call it from main.cpp.
+#include <CLI/CLI.hpp>
+
+namespace rollstep::apps {
+
+/// `rollstep sim`: run the MuJoCo plant with a simple controller, write a CSV log.
+void registerSimCommand(CLI::App& app);
+
+}  // namespace rollstep::apps

@@ -1,0 +1,195 @@
+#pragma once
+// The MuJoCo plant: the Tachyon 3 MJCF (robots/tachyon3/tachyon3.xml) in a scene,
+// stepped at the control rate (1 kHz), driven by hip/knee position targets and
+// drive-wheel velocity targets, read through its sensors and through ground truth.
+//
+// Conventions used by the whole project:
+//  - Legs in the URDF order: LF, MF, RF, LR, MR, RR (kLegNames, leg index 0..5).
+//  - Joint vectors (12) in URDF depth-first order, per leg:
+//      LF_hip, LF_knee, MF_hip, MF_knee, RF_hip, RF_knee, LR_hip, LR_knee,
+//      MR_hip, MR_knee, RR_hip, RR_knee.
+//    Hips in rad (positive about base +y), knees in m (positive = leg extends down).
+//  - Drive wheels (4) in the order LF, RF, LR, RR (kDriveWheelLegs); wheel angles in
+//    rad about the axle (+y of the shank), positive = rolls the robot forward (+x).
+//  - Quaternions are Eigen::Quaterniond, rotating body-frame vectors into the world.
+//
+// Threading: a Plant is not thread-safe; one thread steps it.
+// Memory: everything is allocated at construction; step(), setCommand(), sensors(),
+// groundTruth() and raycast() do not allocate.
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <array>
+#include <cstddef>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "rollstep/sim/scene.hpp"
+
+struct mjModel_;
+struct mjData_;
+
+namespace rollstep::sim {
+
+inline constexpr int kNumLegs = 6;
+inline constexpr int kNumJoints = 12;
+inline constexpr int kNumDriveWheels = 4;
+inline constexpr std::array<const char*, kNumLegs> kLegNames{"LF", "MF", "RF", "LR", "MR", "RR"};
+/// Leg index of each drive wheel (LF, RF, LR, RR).
+inline constexpr std::array<int, kNumDriveWheels> kDriveWheelLegs{0, 2, 3, 5};
+/// Index of a leg's hip / knee in a joint vector.
+constexpr int hipIndex(int leg) { return 2 * leg; }
+constexpr int kneeIndex(int leg) { return 2 * leg + 1; }
+
+using JointVector = Eigen::Matrix<double, kNumJoints, 1>;
+using WheelVector = Eigen::Matrix<double, kNumDriveWheels, 1>;
+using FootFlags = std::array<bool, kNumLegs>;
+
+/// Error loading or running the plant; the message names the file and the problem.
+class SimError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Targets of the actuators. Values outside the actuator ranges are clamped by MuJoCo
+/// (hips/knees to the joint range, wheels to +-25 rad/s).
+struct PlantCommand {
+  JointVector joint_position = JointVector::Zero();  ///< hip [rad] / knee [m] targets
+  WheelVector wheel_velocity = WheelVector::Zero();  ///< drive wheels [rad/s]
+};
+
+/// What the robot's own sensors report. Sampled at the start of the last physics step
+/// (one physics step, 1 ms, old), like a sampled sensor.
+struct SensorReadings {
+  JointVector joint_position = JointVector::Zero();  ///< encoders
+  JointVector joint_velocity = JointVector::Zero();
+  WheelVector wheel_position = WheelVector::Zero();
+  WheelVector wheel_velocity = WheelVector::Zero();
+  /// IMU at the base centre, IMU (= base) frame: specific force [m/s^2] (reads +g up
+  /// when at rest) and angular velocity [rad/s]; orientation as a fused IMU would give.
+  Eigen::Vector3d imu_acceleration = Eigen::Vector3d::Zero();
+  Eigen::Vector3d imu_angular_velocity = Eigen::Vector3d::Zero();
+  Eigen::Quaterniond imu_orientation = Eigen::Quaterniond::Identity();
+  /// Foot contact sensors: summed normal force [N] at each wheel and the flag
+  /// force > PlantOptions::contact_threshold.
+  std::array<double, kNumLegs> foot_normal_force{};
+  FootFlags foot_contact{};
+};
+
+/// The simulator's exact state, for tests, logs and estimator-free controllers.
+struct GroundTruth {
+  double time = 0.0;                                                     ///< [s]
+  Eigen::Vector3d base_position = Eigen::Vector3d::Zero();               ///< world [m]
+  Eigen::Quaterniond base_orientation = Eigen::Quaterniond::Identity();  ///< base->world
+  Eigen::Vector3d base_linear_velocity = Eigen::Vector3d::Zero();        ///< WORLD frame
+  Eigen::Vector3d base_angular_velocity = Eigen::Vector3d::Zero();       ///< LOCAL (base)
+  JointVector joint_position = JointVector::Zero();
+  JointVector joint_velocity = JointVector::Zero();
+  WheelVector wheel_position = WheelVector::Zero();
+  WheelVector wheel_velocity = WheelVector::Zero();
+  std::array<Eigen::Vector3d, kNumLegs> wheel_center{};  ///< world [m]
+  /// Per wheel: in contact with anything, and the total contact force the
+  /// environment exerts on the wheel, world frame [N] (sum over its contacts).
+  FootFlags foot_contact{};
+  std::array<Eigen::Vector3d, kNumLegs> foot_force{};
+};
+
+struct PlantOptions {
+  /// Robot MJCF; empty = defaultRobotFile().
+  std::string robot_file;
+  /// Control period [s]: one step() advances this much time, in physics steps of the
+  /// model's timestep (must divide it).
+  double control_period = 0.001;
+  /// Touch sensor threshold [N] for SensorReadings::foot_contact.
+  double contact_threshold = 1.0;
+};
+
+/// The Tachyon 3 MJCF shipped with the project: $ROLLSTEP_ROBOTS_DIR/tachyon3/tachyon3.xml
+/// if that environment variable is set, else the source tree's robots/ folder.
+std::string defaultRobotFile();
+
+class Plant {
+ public:
+  /// Loads the robot into the scene and resets to the nominal posture.
+  /// Throws SimError naming the file and MuJoCo's message if the robot file is
+  /// missing, malformed or lacks an element the plant needs.
+  explicit Plant(const SceneConfig& scene, const PlantOptions& options = {});
+  ~Plant();
+  Plant(const Plant&) = delete;
+  Plant& operator=(const Plant&) = delete;
+
+  /// Back to time 0, at rest in the nominal posture (keyframe "nominal" of the MJCF),
+  /// base at (x, y) facing `yaw` [rad], wheels touching flat ground at z = 0 (or
+  /// `lift` [m] above it), commands = nominal.
+  void reset(double x = 0.0, double y = 0.0, double yaw = 0.0, double lift = 0.0);
+
+  void setCommand(const PlantCommand& command);
+  const PlantCommand& command() const { return command_; }
+
+  /// Advances one control period, then updates sensors() and groundTruth().
+  void step();
+
+  double time() const;
+  const SensorReadings& sensors() const { return sensors_; }
+  const GroundTruth& groundTruth() const { return truth_; }
+
+  /// Distance [m] along the unit direction `direction` from `origin` (world) to the
+  /// first terrain surface (robot geoms are ignored), or -1 if nothing is hit within
+  /// max_range.
+  double raycast(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction,
+                 double max_range) const;
+
+  /// Nominal posture (hips/knees) and zero wheel speeds, from the MJCF keyframe.
+  const PlantCommand& nominalCommand() const { return nominal_command_; }
+  /// Radius [m] of a leg's wheel geom.
+  double wheelRadius(int leg) const { return wheel_radius_[static_cast<std::size_t>(leg)]; }
+  /// Hip joint origin of a leg in the base frame [m].
+  const Eigen::Vector3d& hipPosition(int leg) const {
+    return hip_position_[static_cast<std::size_t>(leg)];
+  }
+  double totalMass() const { return total_mass_; }
+  const SceneConfig& scene() const { return scene_; }
+  const std::string& robotFile() const { return robot_file_; }
+  double controlPeriod() const { return control_period_; }
+  int physicsStepsPerControl() const { return substeps_; }
+  /// Number of MuJoCo warnings (bad accelerations, contact buffer full, ...) since
+  /// reset; a healthy run has 0.
+  int warningCount() const;
+
+  /// Raw MuJoCo access for tests and tools (do not change the model structure).
+  const mjModel_* mujocoModel() const { return model_; }
+  mjData_* mujocoData() { return data_; }
+  const mjData_* mujocoData() const { return data_; }
+
+ private:
+  void updateReadings();
+
+  SceneConfig scene_;
+  std::string robot_file_;
+  double control_period_;
+  double contact_threshold_;
+  int substeps_ = 1;
+  mjModel_* model_ = nullptr;
+  mjData_* data_ = nullptr;
+  PlantCommand command_;
+  PlantCommand nominal_command_;
+  SensorReadings sensors_;
+  GroundTruth truth_;
+  double total_mass_ = 0.0;
+  int key_nominal_ = -1;
+
+  // Indices resolved once at load.
+  std::array<int, kNumJoints> joint_qpos_{}, joint_qvel_{}, joint_ctrl_{};
+  std::array<int, kNumJoints> sensor_jpos_{}, sensor_jvel_{};
+  std::array<int, kNumDriveWheels> wheel_qpos_{}, wheel_qvel_{}, wheel_ctrl_{};
+  std::array<int, kNumDriveWheels> sensor_wpos_{}, sensor_wvel_{};
+  std::array<int, kNumLegs> wheel_body_{}, wheel_geom_{}, sensor_touch_{};
+  std::array<double, kNumLegs> wheel_radius_{};
+  std::array<Eigen::Vector3d, kNumLegs> hip_position_{};
+  int sensor_acc_ = -1, sensor_gyro_ = -1, sensor_quat_ = -1;
+  int base_qpos_ = 0, base_qvel_ = 0;
+  std::vector<int> geom_leg_;  // geom id -> leg index whose wheel it is, or -1
+};
+
+}  // namespace rollstep::sim

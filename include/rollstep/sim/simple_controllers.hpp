@@ -1,0 +1,75 @@
+#pragma once
+// Joint-hold and driving controllers for the plant demo, the plant tests and the CLI.
+// They use no model and no estimator: hips and knees hold a posture, the drive wheels
+// get velocity targets. Real controllers (MPC, CBF-QP) live in the control layer.
+#include <algorithm>
+#include <string_view>
+
+#include "rollstep/sim/plant.hpp"
+
+namespace rollstep::sim {
+
+/// A controller of the plant, called once per control period.
+class Controller {
+ public:
+  virtual ~Controller() = default;
+  /// Writes the command for time t [s] from the sensor readings.
+  virtual void compute(double t, const SensorReadings& sensors, PlantCommand& command) = 0;
+  virtual std::string_view name() const = 0;
+};
+
+/// Holds a joint posture (default: the plant's nominal posture), wheels at rest.
+class StandController final : public Controller {
+ public:
+  explicit StandController(const PlantCommand& posture) : posture_(posture) {
+    posture_.wheel_velocity.setZero();
+  }
+  void compute(double, const SensorReadings&, PlantCommand& command) override {
+    command = posture_;
+  }
+  std::string_view name() const override { return "stand"; }
+
+ private:
+  PlantCommand posture_;
+};
+
+/// Holds a joint posture and rolls on the drive wheels: left wheels (LF, LR) at surface
+/// speed v - turn_speed, right wheels (RF, RR) at v + turn_speed [m/s], where v ramps
+/// from 0 to `speed` at `acceleration` from `start_time`.
+class DriveController final : public Controller {
+ public:
+  struct Params {
+    double speed = 0.5;         ///< [m/s] forward surface speed of the wheels
+    double turn_speed = 0.0;    ///< [m/s] right minus left surface speed, halved
+    double acceleration = 1.0;  ///< [m/s^2] ramp of both speeds
+    double start_time = 0.0;    ///< [s] wheels at rest before this time
+  };
+  DriveController(const PlantCommand& posture, double wheel_radius, const Params& params)
+      : posture_(posture), radius_(wheel_radius), params_(params) {}
+
+  void compute(double t, const SensorReadings&, PlantCommand& command) override {
+    command = posture_;
+    const double elapsed = t - params_.start_time;
+    if (elapsed <= 0.0) {
+      command.wheel_velocity.setZero();
+      return;
+    }
+    const auto ramp = [&](double target) {
+      const double reach = params_.acceleration * elapsed;
+      return target >= 0.0 ? std::min(target, reach) : std::max(target, -reach);
+    };
+    const double v = ramp(params_.speed);
+    const double turn = ramp(params_.turn_speed);
+    const double left = (v - turn) / radius_;
+    const double right = (v + turn) / radius_;
+    command.wheel_velocity << left, right, left, right;  // LF, RF, LR, RR
+  }
+  std::string_view name() const override { return "drive"; }
+
+ private:
+  PlantCommand posture_;
+  double radius_;
+  Params params_;
+};
+
+}  // namespace rollstep::sim

@@ -1,0 +1,111 @@
+#pragma once
+// Riccati recursion for an equality-constrained linear-quadratic problem (the search
+// direction of the interior-point solver, usable on its own):
+//
+//   min  sum_{k<N} 0.5 [dx;du]^T [Q S^T; S R] [dx;du] + q^T dx + r^T du
+//        + 0.5 dx_N^T Q_N dx_N + q_N^T dx_N
+//   s.t. dx_0 = dx_init,  dx_{k+1} = A_k dx_k + B_k du_k + b_k,
+//        Ex_k dx_k + Eu_k du_k + e_k = 0      (ne_k rows, full row rank in du)
+//
+// Equalities are eliminated by projection: a Householder QR with column pivoting of
+// Eu^T (rank revealing) gives du = -Eu^+ (e + Ex dx) + Z w with Z an orthonormal basis of
+// null(Eu); the Riccati recursion then runs on the reduced input w (nu - ne entries).
+// Multipliers: costates lambda_k (lambda_k = P_k dx_k + p_k, the multiplier of the
+// dynamics constraint that defines dx_k) and nu_k of the equalities, with the
+// Lagrangian sum cost + lambda_{k+1}^T (A dx + B du + b - dx_{k+1}) + nu^T (e + Ex dx + Eu du).
+//
+// Memory: everything is sized by the constructor; projectStage, backward, forward and
+// recoverStage never allocate. projectStage(k) and recoverStage(k) touch stage k only,
+// so callers may run them for different k on different threads.
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace rollstep::solver {
+
+/// Data of one stage (sized at the maximum dimensions; rows [0, ne) of the equality
+/// block are used). Q and R must be stored FULL (both triangles). The terminal stage
+/// (k = N) uses Q and q only.
+struct LqStage {
+  int ne = 0;
+  Eigen::MatrixXd Q, S, R;     ///< nx x nx, nu x nx, nu x nu
+  Eigen::VectorXd q, r;        ///< nx, nu
+  Eigen::MatrixXd A, B;        ///< nx x nx, nx x nu
+  Eigen::VectorXd b;           ///< nx
+  Eigen::MatrixXd Ex, Eu;      ///< ne_max x nx, ne_max x nu
+  Eigen::VectorXd e;           ///< ne_max
+};
+
+class RiccatiSolver {
+ public:
+  RiccatiSolver(int horizon, int nx, int nu, int ne_max);
+
+  int horizon() const { return N_; }
+  int nx() const { return nx_; }
+  int nu() const { return nu_; }
+  int maxEqualities() const { return ne_max_; }
+
+  LqStage& stage(int k) { return stages_[static_cast<std::size_t>(k)]; }
+  const LqStage& stage(int k) const { return stages_[static_cast<std::size_t>(k)]; }
+
+  /// Projects the equalities of running stage k (k < N) and builds its reduced stage.
+  /// Returns false when Eu_k is rank deficient: a pivot of the QR below
+  /// rank_tolerance * (largest pivot), or ne > nu. `pivot_ratio` (optional) receives the
+  /// smallest relative pivot.
+  bool projectStage(int k, double rank_tolerance, double* pivot_ratio = nullptr);
+  /// Backward Riccati sweep over the projected stages (call projectStage for every
+  /// k < N first). Returns false when a reduced Hessian of the input is not positive
+  /// definite even after regularisation (failedStage() says where).
+  bool backward();
+  /// Forward sweep: dx, w, the costates lambda. Call after backward().
+  void forward(const Eigen::Ref<const Eigen::VectorXd>& dx0);
+  /// du_k and the equality multipliers nu_k (needs forward()).
+  void recoverStage(int k);
+  /// Convenience: projectStage for every k, backward, forward, recoverStage for every k.
+  bool solve(const Eigen::Ref<const Eigen::VectorXd>& dx0, double rank_tolerance = 1e-9);
+
+  // --- results ------------------------------------------------------------------------
+  const Eigen::VectorXd& dx(int k) const { return work_[idx(k)].dx; }
+  const Eigen::VectorXd& du(int k) const { return work_[idx(k)].du; }
+  const Eigen::VectorXd& costate(int k) const { return work_[idx(k)].lam; }
+  /// Equality multipliers of stage k (first stage(k).ne entries; the rest are zero).
+  const Eigen::VectorXd& equalityMultipliers(int k) const { return work_[idx(k)].mult; }
+  /// Full-input feedback du_k = K_k dx_k + kff_k (computes K into `K`, nu x nx).
+  void feedbackGain(int k, Eigen::MatrixXd& K) const;
+  int failedStage() const { return failed_stage_; }
+  /// Largest diagonal regularisation added in the last backward() (0 when none).
+  double regularization() const { return regularization_; }
+
+ private:
+  struct Work {
+    int nw = 0;               // reduced input size nu - ne
+    Eigen::MatrixXd qr;       // nu x ne_max: Householder QR of Eu^T (R on top)
+    Eigen::VectorXd tau;      // ne_max
+    Eigen::VectorXi perm;     // ne_max: column permutation (equality row order)
+    Eigen::MatrixXd Qm;       // nu x nu: explicit orthogonal factor [Q1 Z]
+    Eigen::VectorXd hh;       // Householder workspace
+    Eigen::MatrixXd T;        // nu x (nu + nx + 1): du = T [w; dx; 1] = Z w + Dx dx + d0
+    Eigen::MatrixXd Y;        // ne_max x (nx + 1)
+    Eigen::MatrixXd RT;       // nu x (nu + nx + 1)
+    Eigen::MatrixXd Hr;       // (nu + nx)^2: reduced Hessian in [w; dx]
+    Eigen::VectorXd gr;       // nu + nx: reduced gradient
+    Eigen::MatrixXd BA;       // nx x (nu + nx + 1): reduced [B A | b]
+    Eigen::MatrixXd PBA;      // nx x (nu + nx)
+    Eigen::MatrixXd M;        // (nu + nx)^2: [L 0; Lxw Lxx] after backward
+    Eigen::VectorXd hm;       // nu + nx; its head(nw) becomes v = L^-1 h_w
+    Eigen::VectorXd pb;       // nx
+    Eigen::MatrixXd P;        // nx x nx (lower triangle valid)
+    Eigen::VectorXd p;        // nx
+    Eigen::VectorXd dx, w, du, lam, mult, rho, t;
+    mutable Eigen::MatrixXd Kw;  // nu x nx scratch for feedbackGain
+  };
+  std::size_t idx(int k) const { return static_cast<std::size_t>(k); }
+
+  int N_, nx_, nu_, ne_max_;
+  std::vector<LqStage> stages_;
+  std::vector<Work> work_;
+  int failed_stage_ = -1;
+  double regularization_ = 0.0;
+};
+
+}  // namespace rollstep::solver

@@ -1,0 +1,74 @@
+#include "rollstep/ocp/cost.hpp"
+
+#include <stdexcept>
+
+namespace rollstep::ocp {
+
+namespace {
+struct LsqData final : CostData {
+  LsqData(std::unique_ptr<ResidualData> r, int max_rows, int ndx, int nu)
+      : res(std::move(r)), wr(VectorXd::Zero(max_rows)), WRx(MatrixXd::Zero(max_rows, ndx)),
+        WRu(MatrixXd::Zero(max_rows, nu)) {}
+  std::unique_ptr<ResidualData> res;
+  VectorXd wr;         // W r
+  MatrixXd WRx, WRu;   // W Rx, W Ru
+};
+}  // namespace
+
+LeastSquaresCost::LeastSquaresCost(std::shared_ptr<const Residual> residual, const VectorXd& weights)
+    : CostTerm(residual ? residual->ndx() : 0, residual ? residual->nu() : 0),
+      residual_(std::move(residual)), weights_(weights) {
+  if (!residual_) throw std::invalid_argument("LeastSquaresCost: null residual");
+  if (weights.size() != residual_->maxRows()) {
+    throw std::invalid_argument("LeastSquaresCost: weights must have maxRows() entries");
+  }
+  if ((weights.array() < 0.0).any() || !weights.allFinite()) {
+    throw std::invalid_argument("LeastSquaresCost: weights must be finite and nonnegative");
+  }
+}
+
+void LeastSquaresCost::setWeights(const VectorXd& weights) {
+  if (weights.size() != weights_.size() || (weights.array() < 0.0).any() || !weights.allFinite()) {
+    throw std::invalid_argument("LeastSquaresCost::setWeights: wrong size or negative weight");
+  }
+  weights_ = weights;
+}
+
+std::unique_ptr<CostData> LeastSquaresCost::createData() const {
+  return std::make_unique<LsqData>(residual_->createData(), residual_->maxRows(), ndx(), nu());
+}
+
+double LeastSquaresCost::calc(const NodeContext& ctx, ConstVecRef x, ConstVecRef u,
+                              CostData& d) const {
+  auto& s = static_cast<LsqData&>(d);
+  const int m = residual_->rows(ctx);
+  s.res->rows = m;
+  if (m == 0) return 0.0;
+  residual_->calc(ctx, x, u, *s.res);
+  const auto r = s.res->r.head(m);
+  return 0.5 * r.dot(weights_.head(m).cwiseProduct(r));
+}
+
+void LeastSquaresCost::calcDiff(const NodeContext& ctx, ConstVecRef x, ConstVecRef u, CostData& d,
+                                double scale, VecRef lx, VecRef lu, MatRef Lxx, MatRef Luu,
+                                MatRef Lux) const {
+  auto& s = static_cast<LsqData&>(d);
+  const int m = s.res->rows;
+  if (m == 0) return;
+  residual_->calcDiff(ctx, x, u, *s.res);
+  const auto w = weights_.head(m);
+  const auto Rx = s.res->Rx.topRows(m);
+  s.wr.head(m) = scale * w.cwiseProduct(s.res->r.head(m));
+  s.WRx.topRows(m).noalias() = (scale * w).asDiagonal() * Rx;
+  lx.noalias() += Rx.transpose() * s.wr.head(m);
+  Lxx.noalias() += Rx.transpose() * s.WRx.topRows(m);
+  if (residual_->dependsOnInput()) {
+    const auto Ru = s.res->Ru.topRows(m);
+    s.WRu.topRows(m).noalias() = (scale * w).asDiagonal() * Ru;
+    lu.noalias() += Ru.transpose() * s.wr.head(m);
+    Luu.noalias() += Ru.transpose() * s.WRu.topRows(m);
+    Lux.noalias() += Ru.transpose() * s.WRx.topRows(m);
+  }
+}
+
+}  // namespace rollstep::ocp

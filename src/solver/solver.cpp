@@ -1,0 +1,914 @@
+#include "rollstep/solver/solver.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <stdexcept>
+
+#include "rollstep/solver/riccati.hpp"
+#include "thread_pool.hpp"
+
+namespace rollstep::solver {
+
+using ocp::MatrixXd;
+using ocp::NodeData;
+using ocp::VectorXd;
+
+const char* toString(SolverStatus s) {
+  switch (s) {
+    case SolverStatus::Converged: return "Converged";
+    case SolverStatus::IterationDone: return "IterationDone";
+    case SolverStatus::MaxIterations: return "MaxIterations";
+    case SolverStatus::LineSearchFailed: return "LineSearchFailed";
+    case SolverStatus::RankDeficientEqualities: return "RankDeficientEqualities";
+    case SolverStatus::Diverged: return "Diverged";
+    case SolverStatus::InvalidInput: return "InvalidInput";
+  }
+  return "Unknown";
+}
+
+#define ROLLSTEP_MSG(...) std::snprintf(message, sizeof(message), __VA_ARGS__)
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
+}
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// Row kinds of the per-node inequality layout.
+enum : int { kInactive = 0, kHard = 1, kSoft = 2 };
+
+/// Relaxed logarithmic barrier (Feller and Jones 2016): -log(c) above delta, the
+/// quadratic extension (C2 at delta) below. Returns the value; d1, d2 the derivatives.
+double relaxedLog(double c, double delta, double& d1, double& d2) {
+  if (c > delta) {
+    d1 = -1.0 / c;
+    d2 = 1.0 / (c * c);
+    return -std::log(c);
+  }
+  const double t = (c - 2.0 * delta) / delta;
+  d1 = (c - 2.0 * delta) / (delta * delta);
+  d2 = 1.0 / (delta * delta);
+  return 0.5 * (t * t - 1.0) - std::log(delta);
+}
+
+}  // namespace
+
+// ------------------------------------------------------------------------------------------
+struct Solver::Impl {
+  struct Node {
+    std::unique_ptr<NodeData> d;
+    VectorXd s, z, ds, dz, c;        // slacks, duals, steps, constraint values (layout rows)
+    VectorXd s_bak, z_bak, s_trial;
+    Eigen::VectorXi kind;            // kInactive / kHard / kSoft per row
+    VectorXd lam, lam_bak;           // costate of the constraint defining x_k (ndx)
+    VectorXd mult, mult_bak;         // equality multipliers (ne_max)
+    VectorXd defect;                 // F(x_k, u_k) (-) x_{k+1}, tangent at x_{k+1}
+    MatrixXd J0, J1;                 // difference Jacobians
+    VectorXd rx, ru, tmp;            // dual residual pieces, scratch
+    MatrixXd WGu, WGx;               // weighted general-row Jacobians
+    VectorXd W, gam;
+    VectorXd soft_dual;              // -mu beta'(c) of soft rows (reporting)
+    int ni_prev = -1;
+    bool fresh = true;               // (re)initialise slacks and duals at next linearisation
+    bool finite = true;
+    bool rank_ok = true;
+    double pivot_ratio = 1.0;
+    double primal = 0.0, dual = 0.0, sz_max = 0.0, sz_min = kInf, mult_sum = 0.0;
+    int mult_count = 0;
+    double alpha_p = 1.0, alpha_d = 1.0, dphi = 0.0, zmax = 0.0;
+    double merit_f = 0.0, merit_theta = 0.0;
+  };
+
+  std::shared_ptr<ocp::OptimalControlProblem> prob;
+  SolverSettings set;
+  int N, nx, ndx, nu, ne_max, ni_max, nbu, nbx, nrows, rep_off;
+  bool euclid;
+  RiccatiSolver lq;
+  detail::ThreadPool pool;
+  std::vector<Node> nodes;
+  std::vector<VectorXd> xs, us, xs_bak, us_bak, xs_trial, us_trial;
+  VectorXd x0, dx0, zero_u;
+  std::vector<MatrixXd> gains;
+  mutable std::vector<bool> gains_valid;
+  std::vector<IterationStats> stats;
+  SolverStatus status = SolverStatus::MaxIterations;
+  int iterations = 0;
+  double cost = 0.0;
+  double mu = 0.0;
+  double penalty = 1.0;
+  bool has_guess = false;
+  bool has_solution = false;
+  double solution_t0 = 0.0;
+  int failed_node = -1;
+  char message[256] = "";
+
+  Impl(std::shared_ptr<ocp::OptimalControlProblem> p, SolverSettings s)
+      : prob(std::move(p)), set(s), N(prob->horizon()), nx(prob->nx()), ndx(prob->ndx()),
+        nu(prob->nu()), ne_max(prob->maxEqualities()), ni_max(prob->maxInequalities()),
+        nbu(prob->inputBounds().size()), nbx(prob->stateBounds().size()),
+        nrows(ni_max + 2 * nbu + 2 * nbx), rep_off(nx - ndx),
+        euclid(prob->stateSpace().isEuclidean()), lq(N, ndx, nu, ne_max), pool(s.num_threads) {
+    nodes.resize(static_cast<std::size_t>(N) + 1);
+    for (auto& n : nodes) {
+      n.d = prob->createNodeData();
+      for (VectorXd* v : {&n.s, &n.z, &n.ds, &n.dz, &n.c, &n.s_bak, &n.z_bak, &n.s_trial}) {
+        *v = VectorXd::Zero(nrows);
+      }
+      n.kind = Eigen::VectorXi::Zero(nrows);
+      n.lam = VectorXd::Zero(ndx);
+      n.lam_bak = VectorXd::Zero(ndx);
+      n.mult = VectorXd::Zero(ne_max);
+      n.mult_bak = VectorXd::Zero(ne_max);
+      n.defect = VectorXd::Zero(ndx);
+      n.J0 = MatrixXd::Zero(ndx, ndx);
+      n.J1 = MatrixXd::Zero(ndx, ndx);
+      n.rx = VectorXd::Zero(ndx);
+      n.ru = VectorXd::Zero(nu);
+      n.tmp = VectorXd::Zero(std::max(ni_max, 1));
+      n.WGu = MatrixXd::Zero(ni_max, nu);
+      n.WGx = MatrixXd::Zero(ni_max, ndx);
+      n.W = VectorXd::Zero(ni_max);
+      n.gam = VectorXd::Zero(ni_max);
+      n.soft_dual = VectorXd::Zero(nrows);
+    }
+    xs.assign(static_cast<std::size_t>(N) + 1, VectorXd::Zero(nx));
+    for (auto& x : xs) prob->stateSpace().neutral(x);
+    us.assign(static_cast<std::size_t>(N), VectorXd::Zero(nu));
+    xs_bak = xs_trial = xs;
+    us_bak = us_trial = us;
+    x0 = VectorXd::Zero(nx);
+    dx0 = VectorXd::Zero(ndx);
+    zero_u = VectorXd::Zero(nu);
+    gains.assign(static_cast<std::size_t>(N), MatrixXd::Zero(nu, ndx));
+    gains_valid.assign(static_cast<std::size_t>(N), false);
+    stats.reserve(static_cast<std::size_t>(std::max(set.max_iterations, 1)) + 2);
+  }
+
+  const VectorXd& uOf(int k) const { return k < N ? us[static_cast<std::size_t>(k)] : zero_u; }
+  Node& node(int k) { return nodes[static_cast<std::size_t>(k)]; }
+
+  // ---- rows ---------------------------------------------------------------------------------
+  /// Sets kind and value c of every row of node k from d (general rows) and (x, u).
+  void rowValues(int k, const VectorXd& x, const VectorXd& u, Node& n) const {
+    const NodeData& d = *n.d;
+    const bool terminal = (k == N);
+    n.kind.setZero();
+    for (int i = 0; i < d.ni; ++i) {
+      n.kind(i) = d.soft(i) ? kSoft : kHard;
+      n.c(i) = d.g(i);
+    }
+    for (int i = d.ni; i < ni_max; ++i) n.c(i) = 0.0;
+    const auto& ub = prob->inputBounds();
+    for (int j = 0; j < nbu; ++j) {
+      const int lo = ni_max + j, hi = ni_max + nbu + j;
+      const double v = terminal ? 0.0 : u(ub.index[static_cast<std::size_t>(j)]);
+      n.c(lo) = v - ub.lower(j);
+      n.c(hi) = ub.upper(j) - v;
+      if (!terminal) {
+        if (ub.has_lower[static_cast<std::size_t>(j)]) n.kind(lo) = kHard;
+        if (ub.has_upper[static_cast<std::size_t>(j)]) n.kind(hi) = kHard;
+      }
+    }
+    const auto& xb = prob->stateBounds();
+    const int sk = xb.options.soft ? kSoft : kHard;
+    for (int j = 0; j < nbx; ++j) {
+      const int lo = ni_max + 2 * nbu + j, hi = lo + nbx;
+      const double v = x(xb.index[static_cast<std::size_t>(j)] + rep_off);
+      n.c(lo) = v - xb.lower(j);
+      n.c(hi) = xb.upper(j) - v;
+      if (k > 0) {  // x_0 is fixed by the initial state: its bounds cannot be acted upon
+        if (xb.has_lower[static_cast<std::size_t>(j)]) n.kind(lo) = sk;
+        if (xb.has_upper[static_cast<std::size_t>(j)]) n.kind(hi) = sk;
+      }
+    }
+  }
+
+  double relaxation(const Node& n, int i) const {
+    return i < ni_max ? n.d->relaxation(i) : prob->stateBounds().options.relaxation;
+  }
+
+  // ---- phase 1: linearisation and residuals --------------------------------------------------
+  void linearizeNode(int k) {
+    Node& n = node(k);
+    NodeData& d = *n.d;
+    const VectorXd& x = xs[static_cast<std::size_t>(k)];
+    const VectorXd& u = uOf(k);
+    prob->linearize(k, x, u, d);
+    LqStage& st = lq.stage(k);
+    if (k < N) {
+      const VectorXd& xn = xs[static_cast<std::size_t>(k) + 1];
+      prob->stateSpace().difference(xn, d.xnext, n.defect);
+      if (euclid) {
+        st.A = d.Fx;
+        st.B = d.Fu;
+      } else {
+        prob->stateSpace().differenceJacobians(xn, d.xnext, n.J0, n.J1);
+        st.A.noalias() = n.J1 * d.Fx;
+        st.B.noalias() = n.J1 * d.Fu;
+      }
+      st.b = n.defect;
+    }
+    rowValues(k, x, u, n);
+    if (n.fresh || d.ni != n.ni_prev) initRows(n);
+    n.ni_prev = d.ni;
+    n.fresh = false;
+    residuals(k, n);
+  }
+
+  void initRows(Node& n) const {
+    const double floor = std::max(1e-3, std::sqrt(std::max(mu, 1e-16)));
+    for (int i = 0; i < nrows; ++i) {
+      if (n.kind(i) == kHard) {
+        n.s(i) = std::max(n.c(i), floor);
+        n.z(i) = mu / n.s(i);
+      } else {
+        n.s(i) = 1.0;
+        n.z(i) = 0.0;
+      }
+    }
+    n.mult.setZero();
+  }
+
+  /// KKT residuals of node k at the current linearisation and multipliers.
+  void residuals(int k, Node& n) {
+    const NodeData& d = *n.d;
+    const LqStage& st = lq.stage(k);
+    n.finite = std::isfinite(d.cost) && d.lx.allFinite() && d.Lxx.allFinite() &&
+               n.c.allFinite();
+    double primal = 0.0;
+    n.rx = d.lx;
+    n.rx -= n.lam;
+    if (k < N) {
+      n.finite = n.finite && n.defect.allFinite() && st.A.allFinite() && st.B.allFinite() &&
+                 d.lu.allFinite() && d.Luu.allFinite() && d.e.head(d.ne).allFinite() &&
+                 d.Eu.topRows(d.ne).allFinite() && d.Ex.topRows(d.ne).allFinite();
+      primal = std::max(primal, n.defect.lpNorm<Eigen::Infinity>());
+      if (d.ne > 0) primal = std::max(primal, d.e.head(d.ne).lpNorm<Eigen::Infinity>());
+      const VectorXd& lam_next = node(k + 1).lam;
+      n.rx.noalias() += st.A.transpose() * lam_next;
+      n.ru = d.lu;
+      n.ru.noalias() += st.B.transpose() * lam_next;
+      if (d.ne > 0) {
+        n.rx.noalias() += d.Ex.topRows(d.ne).transpose() * n.mult.head(d.ne);
+        n.ru.noalias() += d.Eu.topRows(d.ne).transpose() * n.mult.head(d.ne);
+      }
+    } else {
+      n.ru.setZero();
+    }
+    // Inequalities: hard rows contribute -z grad c; soft rows their barrier gradient.
+    double sz_max = 0.0, sz_min = kInf, msum = n.lam.lpNorm<1>() + n.mult.lpNorm<1>();
+    int mcount = ndx + d.ne;
+    for (int i = 0; i < d.ni; ++i) {
+      double coef = 0.0;
+      if (n.kind(i) == kHard) {
+        coef = -n.z(i);
+        primal = std::max(primal, std::abs(n.c(i) - n.s(i)));
+        const double sz = n.s(i) * n.z(i);
+        sz_max = std::max(sz_max, sz);
+        sz_min = std::min(sz_min, sz);
+        msum += n.z(i);
+        ++mcount;
+      } else {
+        double d1 = 0.0, d2 = 0.0;
+        relaxedLog(n.c(i), d.relaxation(i), d1, d2);
+        coef = mu * d1;
+      }
+      n.tmp(i) = coef;
+    }
+    if (d.ni > 0) {
+      n.rx.noalias() += d.Gx.topRows(d.ni).transpose() * n.tmp.head(d.ni);
+      if (k < N) n.ru.noalias() += d.Gu.topRows(d.ni).transpose() * n.tmp.head(d.ni);
+    }
+    const auto& ub = prob->inputBounds();
+    const auto& xb = prob->stateBounds();
+    for (int i = ni_max; i < nrows; ++i) {
+      if (n.kind(i) == kInactive) continue;
+      const bool input = i < ni_max + 2 * nbu;
+      const int j = input ? (i - ni_max) % std::max(nbu, 1) : (i - ni_max - 2 * nbu) % std::max(nbx, 1);
+      const bool lower = input ? (i - ni_max) < nbu : (i - ni_max - 2 * nbu) < nbx;
+      const int idx = input ? ub.index[static_cast<std::size_t>(j)] : xb.index[static_cast<std::size_t>(j)];
+      double coef = 0.0;  // derivative of the Lagrangian w.r.t. c_i
+      if (n.kind(i) == kHard) {
+        coef = -n.z(i);
+        primal = std::max(primal, std::abs(n.c(i) - n.s(i)));
+        const double sz = n.s(i) * n.z(i);
+        sz_max = std::max(sz_max, sz);
+        sz_min = std::min(sz_min, sz);
+        msum += n.z(i);
+        ++mcount;
+      } else {
+        double d1 = 0.0, d2 = 0.0;
+        relaxedLog(n.c(i), relaxation(n, i), d1, d2);
+        coef = mu * d1;
+      }
+      const double g = lower ? coef : -coef;
+      if (input) {
+        n.ru(idx) += g;
+      } else {
+        n.rx(idx) += g;
+      }
+    }
+    n.finite = n.finite && n.rx.allFinite() && n.ru.allFinite();
+    n.primal = primal;
+    n.dual = std::max(n.rx.lpNorm<Eigen::Infinity>(), n.ru.lpNorm<Eigen::Infinity>());
+    n.sz_max = sz_max;
+    n.sz_min = sz_min;
+    n.mult_sum = msum;
+    n.mult_count = mcount;
+  }
+
+  // ---- phase 2: condensing and projection ------------------------------------------------
+  void condenseNode(int k) {
+    Node& n = node(k);
+    const NodeData& d = *n.d;
+    LqStage& st = lq.stage(k);
+    const bool running = k < N;
+    st.Q = d.Lxx;
+    st.q = d.lx;
+    if (running) {
+      st.R = d.Luu;
+      st.S = d.Lux;
+      st.r = d.lu;
+      st.ne = d.ne;
+      if (d.ne > 0) {
+        st.Ex.topRows(d.ne) = d.Ex.topRows(d.ne);
+        st.Eu.topRows(d.ne) = d.Eu.topRows(d.ne);
+        st.e.head(d.ne) = d.e.head(d.ne);
+      }
+    } else {
+      st.ne = 0;
+    }
+    // General rows: Hessian += G^T W G, gradient += G^T gamma.
+    for (int i = 0; i < d.ni; ++i) {
+      if (n.kind(i) == kHard) {
+        n.W(i) = n.z(i) / n.s(i);
+        n.gam(i) = n.W(i) * (n.c(i) - n.s(i)) - mu / n.s(i);
+        n.soft_dual(i) = 0.0;
+      } else {
+        double d1 = 0.0, d2 = 0.0;
+        relaxedLog(n.c(i), d.relaxation(i), d1, d2);
+        n.W(i) = mu * d2;
+        n.gam(i) = mu * d1;
+        n.soft_dual(i) = -mu * d1;
+      }
+    }
+    if (d.ni > 0) {
+      const int m = d.ni;
+      const auto Gx = d.Gx.topRows(m);
+      const auto W = n.W.head(m);
+      n.WGx.topRows(m).noalias() = W.asDiagonal() * Gx;
+      st.Q.noalias() += Gx.transpose() * n.WGx.topRows(m);
+      st.q.noalias() += Gx.transpose() * n.gam.head(m);
+      bool has_u = false;
+      if (running) {
+        for (int i = 0; i < m; ++i) has_u = has_u || (n.kind(i) == kHard);
+      }
+      if (has_u) {
+        const auto Gu = d.Gu.topRows(m);
+        n.WGu.topRows(m).noalias() = W.asDiagonal() * Gu;
+        st.R.noalias() += Gu.transpose() * n.WGu.topRows(m);
+        st.S.noalias() += Gu.transpose() * n.WGx.topRows(m);
+        st.r.noalias() += Gu.transpose() * n.gam.head(m);
+      }
+    }
+    // Bounds: diagonal terms only.
+    const auto& ub = prob->inputBounds();
+    const auto& xb = prob->stateBounds();
+    for (int i = ni_max; i < nrows; ++i) {
+      if (n.kind(i) == kInactive) continue;
+      const bool input = i < ni_max + 2 * nbu;
+      const int j = input ? (i - ni_max) % std::max(nbu, 1) : (i - ni_max - 2 * nbu) % std::max(nbx, 1);
+      const bool lower = input ? (i - ni_max) < nbu : (i - ni_max - 2 * nbu) < nbx;
+      const int idx = input ? ub.index[static_cast<std::size_t>(j)] : xb.index[static_cast<std::size_t>(j)];
+      double W = 0.0, gam = 0.0;
+      if (n.kind(i) == kHard) {
+        W = n.z(i) / n.s(i);
+        gam = W * (n.c(i) - n.s(i)) - mu / n.s(i);
+      } else {
+        double d1 = 0.0, d2 = 0.0;
+        relaxedLog(n.c(i), relaxation(n, i), d1, d2);
+        W = mu * d2;
+        gam = mu * d1;
+        n.soft_dual(i) = -mu * d1;
+      }
+      if (input) {
+        st.R(idx, idx) += W;
+        st.r(idx) += lower ? gam : -gam;
+      } else {
+        st.Q(idx, idx) += W;
+        st.q(idx) += lower ? gam : -gam;
+      }
+    }
+    n.rank_ok = true;
+    n.pivot_ratio = 1.0;
+    if (running) n.rank_ok = lq.projectStage(k, set.rank_tolerance, &n.pivot_ratio);
+  }
+
+  // ---- phase 3: step recovery --------------------------------------------------------------
+  void recoverNode(int k) {
+    Node& n = node(k);
+    const NodeData& d = *n.d;
+    lq.recoverStage(k);
+    const VectorXd& dx = lq.dx(k);
+    const bool running = k < N;
+    const VectorXd& du = running ? lq.du(k) : zero_u;
+    double dphi = d.lx.dot(dx) + (running ? d.lu.dot(du) : 0.0);
+    if (d.ni > 0) {
+      auto t = n.tmp.head(d.ni);
+      t.noalias() = d.Gx.topRows(d.ni) * dx;
+      if (running) t.noalias() += d.Gu.topRows(d.ni) * du;
+    }
+    const auto& ub = prob->inputBounds();
+    const auto& xb = prob->stateBounds();
+    const double tau = set.fraction_to_boundary;
+    double ap = 1.0, ad = 1.0, zmax = 0.0;
+    for (int i = 0; i < nrows; ++i) {
+      if (n.kind(i) == kInactive) {
+        n.ds(i) = 0.0;
+        n.dz(i) = 0.0;
+        continue;
+      }
+      double gdv = 0.0;
+      if (i < ni_max) {
+        gdv = n.tmp(i);
+      } else {
+        const bool input = i < ni_max + 2 * nbu;
+        const int j = input ? (i - ni_max) % std::max(nbu, 1) : (i - ni_max - 2 * nbu) % std::max(nbx, 1);
+        const bool lower = input ? (i - ni_max) < nbu : (i - ni_max - 2 * nbu) < nbx;
+        const int idx = input ? ub.index[static_cast<std::size_t>(j)] : xb.index[static_cast<std::size_t>(j)];
+        gdv = input ? du(idx) : dx(idx);
+        if (!lower) gdv = -gdv;
+      }
+      if (n.kind(i) == kSoft) {
+        double d1 = 0.0, d2 = 0.0;
+        relaxedLog(n.c(i), relaxation(n, i), d1, d2);
+        dphi += mu * d1 * gdv;
+        n.ds(i) = 0.0;
+        n.dz(i) = 0.0;
+        continue;
+      }
+      const double s = n.s(i), z = n.z(i);
+      const double ds = gdv + (n.c(i) - s);
+      const double dz = mu / s - z - (z / s) * ds;
+      n.ds(i) = ds;
+      n.dz(i) = dz;
+      dphi -= mu / s * ds;
+      if (ds < 0.0) ap = std::min(ap, -tau * s / ds);
+      if (dz < 0.0) ad = std::min(ad, -tau * z / dz);
+      zmax = std::max(zmax, std::abs(z + dz));
+    }
+    n.alpha_p = ap;
+    n.alpha_d = ad;
+    n.dphi = dphi;
+    n.zmax = zmax;
+    n.finite = std::isfinite(dphi) && dx.allFinite() && du.allFinite() && n.ds.allFinite() &&
+               n.dz.allFinite() && lq.costate(k).allFinite() &&
+               (!running || lq.equalityMultipliers(k).allFinite());
+  }
+
+  // ---- line search ---------------------------------------------------------------------------
+  std::vector<VectorXd> scaled;  // per-node scaled tangent steps (manifold states)
+  void trialPoint(int k, double alpha) {
+    const auto kk = static_cast<std::size_t>(k);
+    if (euclid) {
+      xs_trial[kk] = xs[kk] + alpha * lq.dx(k);
+    } else {
+      scaled[kk] = alpha * lq.dx(k);
+      prob->stateSpace().integrate(xs[kk], scaled[kk], xs_trial[kk]);
+    }
+    if (k < N) us_trial[kk] = us[kk] + alpha * lq.du(k);
+    Node& n = node(k);
+    n.s_trial = n.s + alpha * n.ds;
+  }
+
+  void evaluateTrial(int k) {
+    Node& n = node(k);
+    NodeData& d = *n.d;
+    const auto kk = static_cast<std::size_t>(k);
+    const VectorXd& u = k < N ? us_trial[kk] : zero_u;
+    prob->evaluate(k, xs_trial[kk], u, d);
+    if (k < N) prob->stateSpace().difference(xs_trial[kk + 1], d.xnext, n.defect);
+    rowValues(k, xs_trial[kk], u, n);
+    meritNode(k, n, n.s_trial);
+  }
+
+  /// f: cost + barrier terms; theta: l1 norm of the constraint violation.
+  void meritNode(int k, Node& n, const VectorXd& s) const {
+    const NodeData& d = *n.d;
+    double f = d.cost, theta = 0.0;
+    if (k < N) {
+      theta += n.defect.lpNorm<1>();
+      if (d.ne > 0) theta += d.e.head(d.ne).lpNorm<1>();
+    }
+    for (int i = 0; i < nrows; ++i) {
+      if (n.kind(i) == kHard) {
+        f -= mu * std::log(s(i));
+        theta += std::abs(n.c(i) - s(i));
+      } else if (n.kind(i) == kSoft) {
+        double d1 = 0.0, d2 = 0.0;
+        f += mu * relaxedLog(n.c(i), relaxation(n, i), d1, d2);
+      }
+    }
+    n.merit_f = f;
+    n.merit_theta = theta;
+  }
+
+  // ---- helpers --------------------------------------------------------------------------------
+  template <class F>
+  void forNodes(F&& f) {
+    auto body = [&](int b, int e) {
+      for (int k = b; k < e; ++k) f(k);
+    };
+    pool.run(N + 1, body);
+  }
+
+  void backup() {
+    for (int k = 0; k <= N; ++k) {
+      const auto kk = static_cast<std::size_t>(k);
+      Node& n = node(k);
+      xs_bak[kk] = xs[kk];
+      if (k < N) us_bak[kk] = us[kk];
+      n.s_bak = n.s;
+      n.z_bak = n.z;
+      n.lam_bak = n.lam;
+      n.mult_bak = n.mult;
+    }
+  }
+  void restore() {
+    for (int k = 0; k <= N; ++k) {
+      const auto kk = static_cast<std::size_t>(k);
+      Node& n = node(k);
+      xs[kk] = xs_bak[kk];
+      if (k < N) us[kk] = us_bak[kk];
+      n.s = n.s_bak;
+      n.z = n.z_bak;
+      n.lam = n.lam_bak;
+      n.mult = n.mult_bak;
+    }
+  }
+
+
+  // ---- one full run --------------------------------------------------------------------------
+  SolverStatus run(ConstVecRef x_init, bool realtime);
+};
+
+SolverStatus Solver::Impl::run(ConstVecRef x_init, bool realtime) {
+  stats.clear();
+  iterations = 0;
+  failed_node = -1;
+  message[0] = '\0';
+  gains_valid.assign(gains_valid.size(), false);
+  if (x_init.size() != nx || !x_init.allFinite()) {
+    ROLLSTEP_MSG("initial state has the wrong size or non-finite entries");
+    return status = SolverStatus::InvalidInput;
+  }
+  x0 = x_init;
+  if (!has_guess) {
+    for (auto& x : xs) x = x0;
+    has_guess = true;
+  }
+  if (realtime) {
+    mu = set.barrier_realtime;
+  } else {
+    mu = set.barrier_initial;
+    for (auto& n : nodes) {
+      n.fresh = true;
+      n.lam.setZero();
+    }
+    penalty = 1.0;
+  }
+  bool have_backup = false;
+  const int max_it = realtime ? 1 : std::max(set.max_iterations, 0);
+
+  for (;;) {
+    IterationStats it;
+    it.iteration = iterations;
+    auto t_lin = Clock::now();
+    forNodes([this](int k) { linearizeNode(k); });
+    prob->stateSpace().difference(xs[0], x0, dx0);
+    // Residuals (fixed order reduction).
+    bool finite = dx0.allFinite();
+    double primal = dx0.lpNorm<Eigen::Infinity>(), dual = 0.0, sz_max = 0.0, sz_min = kInf;
+    double msum = 0.0, total_cost = 0.0;
+    int mcount = 0;
+    for (int k = 0; k <= N; ++k) {
+      const Node& n = node(k);
+      finite = finite && n.finite;
+      primal = std::max(primal, n.primal);
+      dual = std::max(dual, n.dual);
+      sz_max = std::max(sz_max, n.sz_max);
+      sz_min = std::min(sz_min, n.sz_min);
+      msum += n.mult_sum;
+      mcount += n.mult_count;
+      total_cost += n.d->cost;
+    }
+    it.time_linearize_ms = msSince(t_lin);
+    if (!finite || !std::isfinite(primal) || primal > set.divergence_threshold) {
+      if (have_backup) {
+        restore();
+        ROLLSTEP_MSG("the iterate diverged (primal residual %.3g); the last good iterate was restored",
+                   primal);
+        return status = SolverStatus::Diverged;
+      }
+      ROLLSTEP_MSG("the problem evaluates to non-finite values at the initial guess");
+      return status = SolverStatus::InvalidInput;
+    }
+    const double sd = std::max(100.0, msum / std::max(mcount, 1)) / 100.0;
+    const double dual_scaled = dual / sd;
+    auto complMu = [&](double m) {
+      return sz_min == kInf ? 0.0 : std::max(sz_max - m, m - sz_min);
+    };
+    cost = total_cost;
+    it.cost = total_cost;
+    it.primal_residual = primal;
+    it.dual_residual = dual;
+    it.complementarity = complMu(mu);
+
+    if (!realtime) {
+      const double e0 = std::max({primal, dual_scaled, sz_max});
+      if (e0 <= set.kkt_tolerance) {
+        it.barrier = mu;
+        stats.push_back(it);
+        has_solution = true;
+        return status = SolverStatus::Converged;
+      }
+      if (iterations >= max_it) {
+        it.barrier = mu;
+        stats.push_back(it);
+        has_solution = true;
+        ROLLSTEP_MSG("no convergence in %d iterations (KKT error %.3g)", max_it, e0);
+        return status = SolverStatus::MaxIterations;
+      }
+      // Monotone (Fiacco-McCormick) barrier update.
+      while (mu > set.barrier_min &&
+             std::max({primal, dual_scaled, complMu(mu)}) <= 10.0 * mu) {
+        mu = std::max(set.barrier_min, std::min(set.barrier_decrease * mu, std::pow(mu, 1.5)));
+      }
+    }
+    it.barrier = mu;
+
+    // Search direction.
+    auto t_ric = Clock::now();
+    forNodes([this](int k) { condenseNode(k); });
+    for (int k = 0; k < N; ++k) {
+      if (!node(k).rank_ok) {
+        failed_node = k;
+        it.time_riccati_ms = msSince(t_ric);
+        stats.push_back(it);
+        std::snprintf(message, sizeof(message),
+                      "equality rows of node %d are not full row rank in u (relative pivot %.3g, "
+                      "%d rows, %d inputs)",
+                      k, node(k).pivot_ratio, node(k).d->ne, nu);
+        return status = SolverStatus::RankDeficientEqualities;
+      }
+    }
+    if (!lq.backward()) {
+      failed_node = lq.failedStage();
+      stats.push_back(it);
+      std::snprintf(message, sizeof(message),
+                    "the reduced Hessian of node %d is not positive definite", failed_node);
+      return status = SolverStatus::Diverged;
+    }
+    lq.forward(dx0);
+    forNodes([this](int k) { recoverNode(k); });
+    double ap = 1.0, ad = 1.0, dphi = 0.0, mult_max = 0.0;
+    finite = true;
+    for (int k = 0; k <= N; ++k) {
+      const Node& n = node(k);
+      finite = finite && n.finite;
+      ap = std::min(ap, n.alpha_p);
+      ad = std::min(ad, n.alpha_d);
+      dphi += n.dphi;
+      mult_max = std::max({mult_max, n.zmax, lq.costate(k).lpNorm<Eigen::Infinity>()});
+      if (k < N) mult_max = std::max(mult_max, lq.equalityMultipliers(k).lpNorm<Eigen::Infinity>());
+    }
+    it.time_riccati_ms = msSince(t_ric);
+    if (!finite) {
+      if (have_backup) restore();
+      stats.push_back(it);
+      ROLLSTEP_MSG("non-finite search direction; the last good iterate was kept");
+      return status = SolverStatus::Diverged;
+    }
+
+    // Step length.
+    auto t_upd = Clock::now();
+    backup();
+    have_backup = true;
+    double alpha = ap;
+    if (!realtime && set.line_search) {
+      penalty = std::max(penalty, 1.01 * mult_max + 1e-6);
+      double f0 = 0.0, theta0 = 0.0;
+      for (int k = 0; k <= N; ++k) {
+        Node& n = node(k);
+        // Values of the current iterate: recompute rows from the linearisation.
+        meritNode(k, n, n.s);
+        f0 += n.merit_f;
+        theta0 += n.merit_theta;
+      }
+      theta0 += dx0.lpNorm<1>();
+      const double phi0 = f0 + penalty * theta0;
+      const double slope = dphi - penalty * theta0;
+      bool accepted = false;
+      for (int ls = 0; ls < std::max(set.max_line_search_steps, 1); ++ls) {
+        forNodes([this, alpha](int k) { trialPoint(k, alpha); });
+        forNodes([this](int k) { evaluateTrial(k); });
+        double f = 0.0, theta = 0.0;
+        for (int k = 0; k <= N; ++k) {
+          f += node(k).merit_f;
+          theta += node(k).merit_theta;
+        }
+        prob->stateSpace().difference(xs_trial[0], x0, dx0);
+        theta += dx0.lpNorm<1>();
+        const double phi = f + penalty * theta;
+        if (std::isfinite(phi) &&
+            phi <= phi0 + 1e-4 * alpha * std::min(slope, 0.0) + 1e-12 * (1.0 + std::abs(phi0))) {
+          accepted = true;
+          break;
+        }
+        alpha *= 0.5;
+      }
+      if (!accepted) {
+        restore();
+        it.primal_step = 0.0;
+        it.dual_step = 0.0;
+        it.time_update_ms = msSince(t_upd);
+        stats.push_back(it);
+        ROLLSTEP_MSG("line search failed after %d backtracking steps (merit slope %.3g)",
+                   set.max_line_search_steps, slope);
+        return status = SolverStatus::LineSearchFailed;
+      }
+      for (int k = 0; k <= N; ++k) {
+        const auto kk = static_cast<std::size_t>(k);
+        xs[kk] = xs_trial[kk];
+        if (k < N) us[kk] = us_trial[kk];
+        node(k).s = node(k).s_trial;
+      }
+    } else {
+      forNodes([this, alpha](int k) {
+        trialPoint(k, alpha);
+        const auto kk = static_cast<std::size_t>(k);
+        xs[kk] = xs_trial[kk];
+        if (k < N) us[kk] = us_trial[kk];
+        node(k).s = node(k).s_trial;
+      });
+    }
+    // Duals and multipliers.
+    for (int k = 0; k <= N; ++k) {
+      Node& n = node(k);
+      for (int i = 0; i < nrows; ++i) {
+        if (n.kind(i) == kHard) n.z(i) = std::max(n.z(i) + ad * n.dz(i), 1e-300);
+      }
+      n.lam += alpha * (lq.costate(k) - n.lam);
+      if (k < N && n.d->ne > 0) {
+        n.mult.head(n.d->ne) += alpha * (lq.equalityMultipliers(k).head(n.d->ne) - n.mult.head(n.d->ne));
+      }
+    }
+    it.primal_step = alpha;
+    it.dual_step = ad;
+    it.time_update_ms = msSince(t_upd);
+    stats.push_back(it);
+    ++iterations;
+    has_solution = true;
+    if (realtime) {
+      // Guard against a non-finite iterate (should not happen: the step was finite).
+      for (int k = 0; k <= N; ++k) {
+        if (!xs[static_cast<std::size_t>(k)].allFinite() ||
+            (k < N && !us[static_cast<std::size_t>(k)].allFinite())) {
+          restore();
+          ROLLSTEP_MSG("non-finite iterate; the last good iterate was restored");
+          return status = SolverStatus::Diverged;
+        }
+      }
+      return status = SolverStatus::IterationDone;
+    }
+  }
+}
+
+// ------------------------------------------------------------------------------------------
+Solver::Solver(std::shared_ptr<ocp::OptimalControlProblem> problem, SolverSettings settings) {
+  if (!problem) throw std::invalid_argument("Solver: null problem");
+  if (settings.num_threads < 1) throw std::invalid_argument("Solver: num_threads must be >= 1");
+  impl_ = std::make_unique<Impl>(std::move(problem), settings);
+  impl_->scaled.assign(static_cast<std::size_t>(impl_->N) + 1, VectorXd::Zero(impl_->ndx));
+}
+
+Solver::~Solver() = default;
+
+void Solver::setInitialGuess(const std::vector<VectorXd>& xs, const std::vector<VectorXd>& us) {
+  Impl& m = *impl_;
+  if (xs.size() != static_cast<std::size_t>(m.N) + 1 || us.size() != static_cast<std::size_t>(m.N)) {
+    throw std::invalid_argument("Solver::setInitialGuess: need N+1 states and N inputs");
+  }
+  for (const auto& x : xs) {
+    if (x.size() != m.nx || !x.allFinite()) {
+      throw std::invalid_argument("Solver::setInitialGuess: a state has the wrong size or is not finite");
+    }
+  }
+  for (const auto& u : us) {
+    if (u.size() != m.nu || !u.allFinite()) {
+      throw std::invalid_argument("Solver::setInitialGuess: an input has the wrong size or is not finite");
+    }
+  }
+  for (std::size_t k = 0; k < xs.size(); ++k) m.xs[k] = xs[k];
+  for (std::size_t k = 0; k < us.size(); ++k) m.us[k] = us[k];
+  for (auto& n : m.nodes) {
+    n.fresh = true;
+    n.lam.setZero();
+  }
+  m.has_guess = true;
+}
+
+SolverStatus Solver::solve(ConstVecRef x0) {
+  Impl& m = *impl_;
+  m.solution_t0 = m.prob->initialTime();
+  return m.run(x0, m.set.mode == SolverMode::RealTime);
+}
+
+SolverStatus Solver::update(double t0, ConstVecRef x0) {
+  Impl& m = *impl_;
+  if (!std::isfinite(t0)) {
+    m.stats.clear();
+    std::snprintf(m.message, sizeof(m.message), "non-finite time");
+    return m.status = SolverStatus::InvalidInput;
+  }
+  const double dt = m.prob->dt();
+  if (m.has_solution) {
+    const int shift = static_cast<int>(std::floor((t0 - m.solution_t0) / dt + 1e-6));
+    if (shift > 0) {
+      const int n = std::min(shift, m.N);
+      for (int k = 0; k + n <= m.N; ++k) {
+        const auto a = static_cast<std::size_t>(k), b = static_cast<std::size_t>(k + n);
+        m.xs[a].swap(m.xs[b]);
+        auto& na = m.nodes[a];
+        auto& nb = m.nodes[b];
+        na.s.swap(nb.s);
+        na.z.swap(nb.z);
+        na.lam.swap(nb.lam);
+        na.mult.swap(nb.mult);
+        std::swap(na.ni_prev, nb.ni_prev);
+        if (k + n < m.N) m.us[a].swap(m.us[b]);
+      }
+      const int keep_x = m.N - n;          // index of the (shifted) old last state
+      for (int k = keep_x + 1; k <= m.N; ++k) m.xs[static_cast<std::size_t>(k)] = m.xs[static_cast<std::size_t>(keep_x)];
+      const int keep_u = m.N - 1 - n;      // index of the (shifted) old last input
+      for (int k = std::max(keep_u + 1, 0); k < m.N; ++k) {
+        m.us[static_cast<std::size_t>(k)] = m.us[static_cast<std::size_t>(std::max(keep_u, 0))];
+      }
+      for (int k = std::max(keep_x, 0); k <= m.N; ++k) {
+        m.nodes[static_cast<std::size_t>(k)].fresh = true;
+        m.nodes[static_cast<std::size_t>(k)].lam.setZero();
+      }
+    }
+  }
+  m.prob->setInitialTime(t0);
+  m.solution_t0 = t0;
+  return m.run(x0, true);
+}
+
+const std::vector<VectorXd>& Solver::states() const { return impl_->xs; }
+const std::vector<VectorXd>& Solver::inputs() const { return impl_->us; }
+const VectorXd& Solver::equalityMultipliers(int k) const {
+  return impl_->nodes.at(static_cast<std::size_t>(k)).mult;
+}
+const VectorXd& Solver::inequalityDuals(int k) const {
+  return impl_->nodes.at(static_cast<std::size_t>(k)).z;
+}
+const VectorXd& Solver::slacks(int k) const { return impl_->nodes.at(static_cast<std::size_t>(k)).s; }
+const MatrixXd& Solver::feedbackGain(int k) const {
+  Impl& m = *impl_;
+  const auto kk = static_cast<std::size_t>(k);
+  if (k < 0 || k >= m.N) throw std::out_of_range("Solver::feedbackGain: node out of range");
+  if (!m.gains_valid[kk]) {
+    m.lq.feedbackGain(k, m.gains[kk]);
+    m.gains_valid[kk] = true;
+  }
+  return m.gains[kk];
+}
+const ocp::NodeData& Solver::nodeData(int k) const {
+  return *impl_->nodes.at(static_cast<std::size_t>(k)).d;
+}
+const std::vector<IterationStats>& Solver::stats() const { return impl_->stats; }
+int Solver::iterations() const { return impl_->iterations; }
+SolverStatus Solver::status() const { return impl_->status; }
+double Solver::cost() const { return impl_->cost; }
+double Solver::barrier() const { return impl_->mu; }
+int Solver::failedNode() const { return impl_->failed_node; }
+const char* Solver::message() const { return impl_->message; }
+const SolverSettings& Solver::settings() const { return impl_->set; }
+void Solver::setSettings(const SolverSettings& s) {
+  if (s.num_threads != impl_->set.num_threads) {
+    throw std::invalid_argument("Solver::setSettings: num_threads cannot change after construction");
+  }
+  impl_->set = s;
+  impl_->stats.reserve(static_cast<std::size_t>(std::max(s.max_iterations, 1)) + 2);
+}
+ocp::OptimalControlProblem& Solver::problem() { return *impl_->prob; }
+const RiccatiSolver& Solver::riccati() const { return impl_->lq; }
+
+}  // namespace rollstep::solver

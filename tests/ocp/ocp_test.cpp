@@ -1,0 +1,516 @@
+// Unit tests of the ocp layer: state spaces, discretisations, residuals, costs, the mode
+// schedule and the problem's stacking of rows, against finite differences.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "common/alloc_counter.hpp"
+#include "malloc_guard.hpp"
+#include "rollstep/lie/so3.hpp"
+#include "rollstep/ocp/cost.hpp"
+#include "rollstep/ocp/problem.hpp"
+#include "rollstep/ocp/residuals.hpp"
+#include "test_models.hpp"
+
+namespace {
+
+using namespace rollstep;
+using ocp::MatrixXd;
+using ocp::VectorXd;
+
+VectorXd randomState(const ocp::StateSpace& s, std::mt19937& rng) {
+  std::normal_distribution<double> n(0.0, 1.0);
+  VectorXd x(s.nx()), d(s.ndx());
+  s.neutral(x);
+  for (int i = 0; i < d.size(); ++i) d(i) = n(rng);
+  VectorXd out(s.nx());
+  s.integrate(x, d, out);
+  return out;
+}
+
+VectorXd randomVec(int n, std::mt19937& rng, double scale = 1.0) {
+  std::normal_distribution<double> d(0.0, scale);
+  VectorXd v(n);
+  for (int i = 0; i < n; ++i) v(i) = d(rng);
+  return v;
+}
+
+/// Central finite difference of a manifold-valued map y(x (+) h e_i), expressed in the
+/// tangent at y(x).
+template <class F>
+MatrixXd fdManifold(const ocp::StateSpace& in, const ocp::StateSpace& out, const VectorXd& x, F f) {
+  const double h = 1e-6;
+  VectorXd y0(out.nx()), yp(out.nx()), ym(out.nx()), xp(in.nx()), xm(in.nx());
+  VectorXd dp(out.ndx()), dm(out.ndx());
+  f(x, y0);
+  MatrixXd J(out.ndx(), in.ndx());
+  for (int i = 0; i < in.ndx(); ++i) {
+    VectorXd e = VectorXd::Zero(in.ndx());
+    e(i) = h;
+    in.integrate(x, e, xp);
+    in.integrate(x, -e, xm);
+    f(xp, yp);
+    f(xm, ym);
+    out.difference(y0, yp, dp);
+    out.difference(y0, ym, dm);
+    J.col(i) = (dp - dm) / (2 * h);
+  }
+  return J;
+}
+
+class SpaceTest : public ::testing::TestWithParam<int> {};
+
+std::shared_ptr<ocp::StateSpace> makeSpace(int which) {
+  if (which == 0) return std::make_shared<ocp::EuclideanSpace>(5);
+  return std::make_shared<ocp::SE3xEuclideanSpace>(which == 1 ? 0 : 4);
+}
+
+TEST_P(SpaceTest, IntegrateDifferenceRoundTripAndJacobians) {
+  auto s = makeSpace(GetParam());
+  std::mt19937 rng(3);
+  for (int trial = 0; trial < 5; ++trial) {
+    const VectorXd x = randomState(*s, rng);
+    const VectorXd dx = randomVec(s->ndx(), rng, 0.7);
+    VectorXd y(s->nx()), back(s->ndx());
+    s->integrate(x, dx, y);
+    s->difference(x, y, back);
+    EXPECT_LT((back - dx).norm(), 1e-10);
+
+    MatrixXd Jx(s->ndx(), s->ndx()), Jd(s->ndx(), s->ndx());
+    s->integrateJacobians(x, dx, Jx, Jd);
+    const MatrixXd Jx_fd = fdManifold(*s, *s, x, [&](const VectorXd& xx, VectorXd& out) {
+      s->integrate(xx, dx, out);
+    });
+    EXPECT_LT((Jx - Jx_fd).lpNorm<Eigen::Infinity>(), 1e-6);
+    // d/d(dx): perturb dx additively.
+    MatrixXd Jd_fd(s->ndx(), s->ndx());
+    {
+      const double h = 1e-6;
+      VectorXd yp(s->nx()), ym(s->nx()), dp(s->ndx()), dm(s->ndx());
+      for (int i = 0; i < s->ndx(); ++i) {
+        VectorXd e = VectorXd::Zero(s->ndx());
+        e(i) = h;
+        s->integrate(x, dx + e, yp);
+        s->integrate(x, dx - e, ym);
+        s->difference(y, yp, dp);
+        s->difference(y, ym, dm);
+        Jd_fd.col(i) = (dp - dm) / (2 * h);
+      }
+    }
+    EXPECT_LT((Jd - Jd_fd).lpNorm<Eigen::Infinity>(), 1e-6);
+
+    // difference Jacobians (outputs are plain vectors).
+    const VectorXd x1 = randomState(*s, rng);
+    MatrixXd J0(s->ndx(), s->ndx()), J1(s->ndx(), s->ndx());
+    s->differenceJacobians(x, x1, J0, J1);
+    const double h = 1e-6;
+    MatrixXd J0_fd(s->ndx(), s->ndx()), J1_fd(s->ndx(), s->ndx());
+    VectorXd xp(s->nx()), xm(s->nx()), dp(s->ndx()), dm(s->ndx());
+    for (int i = 0; i < s->ndx(); ++i) {
+      VectorXd e = VectorXd::Zero(s->ndx());
+      e(i) = h;
+      s->integrate(x, e, xp);
+      s->integrate(x, -e, xm);
+      s->difference(xp, x1, dp);
+      s->difference(xm, x1, dm);
+      J0_fd.col(i) = (dp - dm) / (2 * h);
+      s->integrate(x1, e, xp);
+      s->integrate(x1, -e, xm);
+      s->difference(x, xp, dp);
+      s->difference(x, xm, dm);
+      J1_fd.col(i) = (dp - dm) / (2 * h);
+    }
+    EXPECT_LT((J0 - J0_fd).lpNorm<Eigen::Infinity>(), 1e-6);
+    EXPECT_LT((J1 - J1_fd).lpNorm<Eigen::Infinity>(), 1e-6);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Spaces, SpaceTest, ::testing::Values(0, 1, 2));
+
+TEST(StateSpace, Se3NeutralAndSizes) {
+  ocp::SE3xEuclideanSpace s(6);
+  EXPECT_EQ(s.nx(), 13);
+  EXPECT_EQ(s.ndx(), 12);
+  EXPECT_FALSE(s.isEuclidean());
+  EXPECT_EQ(s.euclideanTangentOffset(), 6);
+  VectorXd x(13);
+  s.neutral(x);
+  EXPECT_DOUBLE_EQ(x(6), 1.0);
+  EXPECT_DOUBLE_EQ(x.head<6>().norm(), 0.0);
+}
+
+// ---- discretisations ----------------------------------------------------------------------
+
+template <class Disc>
+void checkDiscreteJacobians(std::shared_ptr<const ocp::ContinuousDynamics> f, double tol) {
+  const Disc F(f);
+  const auto& s = F.space();
+  std::mt19937 rng(11);
+  auto data = F.createData();
+  ocp::NodeContext ctx;
+  ctx.dt = 0.05;
+  for (int trial = 0; trial < 4; ++trial) {
+    const VectorXd x = randomState(s, rng);
+    const VectorXd u = randomVec(F.nu(), rng);
+    VectorXd xn(s.nx());
+    MatrixXd Fx(s.ndx(), s.ndx()), Fu(s.ndx(), F.nu());
+    F.calc(ctx, x, u, *data, xn);
+    F.calcDiff(ctx, x, u, *data, Fx, Fu);
+    const MatrixXd Fx_fd = fdManifold(s, s, x, [&](const VectorXd& xx, VectorXd& out) {
+      F.calc(ctx, xx, u, *data, out);
+    });
+    MatrixXd Fu_fd(s.ndx(), F.nu());
+    const double h = 1e-6;
+    VectorXd yp(s.nx()), ym(s.nx()), dp(s.ndx()), dm(s.ndx());
+    for (int i = 0; i < F.nu(); ++i) {
+      VectorXd e = VectorXd::Zero(F.nu());
+      e(i) = h;
+      F.calc(ctx, x, u + e, *data, yp);
+      F.calc(ctx, x, u - e, *data, ym);
+      s.difference(xn, yp, dp);
+      s.difference(xn, ym, dm);
+      Fu_fd.col(i) = (dp - dm) / (2 * h);
+    }
+    EXPECT_LT((Fx - Fx_fd).lpNorm<Eigen::Infinity>(), tol);
+    EXPECT_LT((Fu - Fu_fd).lpNorm<Eigen::Infinity>(), tol);
+  }
+}
+
+TEST(Dynamics, ExplicitEulerJacobiansEuclidean) {
+  checkDiscreteJacobians<ocp::ExplicitEuler>(std::make_shared<testmodels::Pendulum>(), 1e-7);
+}
+
+TEST(Dynamics, ExplicitEulerJacobiansOnSe3) {
+  checkDiscreteJacobians<ocp::ExplicitEuler>(std::make_shared<testmodels::FloatingBody>(), 1e-6);
+}
+
+TEST(Dynamics, RungeKutta4Jacobians) {
+  checkDiscreteJacobians<ocp::RungeKutta4>(std::make_shared<testmodels::Pendulum>(), 1e-7);
+}
+
+TEST(Dynamics, RungeKutta4IsFourthOrder) {
+  // Linear system x' = -x: one RK4 step equals the degree-4 Taylor polynomial of exp(-h).
+  class Decay final : public ocp::ContinuousDynamics {
+   public:
+    Decay() : ContinuousDynamics(std::make_shared<ocp::EuclideanSpace>(1), 1) {}
+    std::unique_ptr<ocp::DynamicsData> createData() const override {
+      return std::make_unique<ocp::DynamicsData>();
+    }
+    void calc(const ocp::NodeContext&, ocp::ConstVecRef x, ocp::ConstVecRef, ocp::DynamicsData&,
+              ocp::VecRef xdot) const override {
+      xdot = -x;
+    }
+    void calcDiff(const ocp::NodeContext&, ocp::ConstVecRef, ocp::ConstVecRef, ocp::DynamicsData&,
+                  ocp::MatRef fx, ocp::MatRef fu) const override {
+      fx(0, 0) = -1.0;
+      fu(0, 0) = 0.0;
+    }
+  };
+  ocp::RungeKutta4 F(std::make_shared<Decay>());
+  auto d = F.createData();
+  ocp::NodeContext ctx;
+  ctx.dt = 0.1;
+  VectorXd x(1), u(1), xn(1);
+  x << 1.0;
+  u << 0.0;
+  F.calc(ctx, x, u, *d, xn);
+  const double h = 0.1;
+  EXPECT_NEAR(xn(0), 1 - h + h * h / 2 - h * h * h / 6 + h * h * h * h / 24, 1e-15);
+}
+
+TEST(Dynamics, RungeKutta4RejectsManifolds) {
+  EXPECT_THROW(ocp::RungeKutta4(std::make_shared<testmodels::FloatingBody>()),
+               std::invalid_argument);
+}
+
+// ---- residuals and costs ------------------------------------------------------------------
+
+TEST(Residuals, StateErrorOnSe3MatchesFiniteDifferences) {
+  auto s = std::make_shared<ocp::SE3xEuclideanSpace>(3);
+  std::mt19937 rng(5);
+  const VectorXd xref = randomState(*s, rng);
+  ocp::StateErrorResidual r(s, 2, xref);
+  auto d = r.createData();
+  ocp::NodeContext ctx;
+  const VectorXd x = randomState(*s, rng);
+  const VectorXd u = VectorXd::Zero(2);
+  r.calc(ctx, x, u, *d);
+  r.calcDiff(ctx, x, u, *d);
+  VectorXd expect(s->ndx());
+  s->difference(xref, x, expect);
+  EXPECT_LT((d->r.head(s->ndx()) - expect).norm(), 1e-14);
+  const double h = 1e-6;
+  VectorXd xp(s->nx()), xm(s->nx()), rp(s->ndx()), rm(s->ndx());
+  for (int i = 0; i < s->ndx(); ++i) {
+    VectorXd e = VectorXd::Zero(s->ndx());
+    e(i) = h;
+    s->integrate(x, e, xp);
+    s->integrate(x, -e, xm);
+    s->difference(xref, xp, rp);
+    s->difference(xref, xm, rm);
+    EXPECT_LT(((rp - rm) / (2 * h) - d->Rx.col(i)).lpNorm<Eigen::Infinity>(), 1e-6);
+  }
+  EXPECT_TRUE(d->Ru.isZero());
+  EXPECT_FALSE(r.dependsOnInput());
+}
+
+TEST(Residuals, InputAndAffine) {
+  std::mt19937 rng(7);
+  ocp::InputErrorResidual ui(3, (VectorXd(2) << 1.0, -2.0).finished());
+  auto d = ui.createData();
+  ocp::NodeContext ctx;
+  const VectorXd x = randomVec(3, rng), u = randomVec(2, rng);
+  ui.calc(ctx, x, u, *d);
+  ui.calcDiff(ctx, x, u, *d);
+  EXPECT_NEAR(d->r(0), u(0) - 1.0, 1e-15);
+  EXPECT_NEAR(d->r(1), u(1) + 2.0, 1e-15);
+  EXPECT_TRUE(d->Ru.isIdentity());
+
+  auto s = std::make_shared<ocp::EuclideanSpace>(3);
+  const MatrixXd C = MatrixXd::Random(4, 3), D = MatrixXd::Random(4, 2);
+  const VectorXd c = VectorXd::Random(4), xl = VectorXd::Random(3);
+  ocp::AffineResidual ar(s, xl, C, D, c);
+  auto ad = ar.createData();
+  ar.calc(ctx, x, u, *ad);
+  ar.calcDiff(ctx, x, u, *ad);
+  EXPECT_LT((ad->r - (C * (x - xl) + D * u + c)).norm(), 1e-14);
+  EXPECT_TRUE(ad->Rx.isApprox(C));
+  EXPECT_TRUE(ad->Ru.isApprox(D));
+  EXPECT_TRUE(ar.dependsOnInput());
+  ocp::AffineResidual state_only(s, xl, C, MatrixXd::Zero(4, 2), c);
+  EXPECT_FALSE(state_only.dependsOnInput());
+}
+
+TEST(Cost, LeastSquaresGradientAndGaussNewtonHessian) {
+  auto s = std::make_shared<ocp::SE3xEuclideanSpace>(2);
+  std::mt19937 rng(9);
+  const int nu = 3;
+  const MatrixXd C = MatrixXd::Random(5, s->ndx()), D = MatrixXd::Random(5, nu);
+  const VectorXd c = VectorXd::Random(5);
+  const VectorXd xl = randomState(*s, rng);
+  auto res = std::make_shared<ocp::AffineResidual>(s, xl, C, D, c);
+  const VectorXd w = (VectorXd(5) << 1.0, 2.0, 0.5, 3.0, 0.0).finished();
+  ocp::LeastSquaresCost cost(res, w);
+  auto cd = cost.createData();
+  auto rd = res->createData();
+  ocp::NodeContext ctx;
+  const VectorXd x = randomState(*s, rng), u = randomVec(nu, rng);
+  const int n = s->ndx();
+  VectorXd lx = VectorXd::Zero(n), lu = VectorXd::Zero(nu);
+  MatrixXd Lxx = MatrixXd::Zero(n, n), Luu = MatrixXd::Zero(nu, nu), Lux = MatrixXd::Zero(nu, n);
+  const double l = cost.calc(ctx, x, u, *cd);
+  cost.calcDiff(ctx, x, u, *cd, 2.0, lx, lu, Lxx, Luu, Lux);
+  res->calc(ctx, x, u, *rd);
+  res->calcDiff(ctx, x, u, *rd);
+  EXPECT_NEAR(l, 0.5 * rd->r.dot(w.asDiagonal() * rd->r), 1e-13);
+  // Gauss-Newton Hessian and gradient (scale 2).
+  EXPECT_LT((Lxx - 2.0 * rd->Rx.transpose() * w.asDiagonal() * rd->Rx).norm(), 1e-12);
+  EXPECT_LT((Luu - 2.0 * rd->Ru.transpose() * w.asDiagonal() * rd->Ru).norm(), 1e-12);
+  EXPECT_LT((Lux - 2.0 * rd->Ru.transpose() * w.asDiagonal() * rd->Rx).norm(), 1e-12);
+  // Gradient against finite differences of the value.
+  const double h = 1e-6;
+  VectorXd xp(s->nx()), xm(s->nx());
+  for (int i = 0; i < n; ++i) {
+    VectorXd e = VectorXd::Zero(n);
+    e(i) = h;
+    s->integrate(x, e, xp);
+    s->integrate(x, -e, xm);
+    const double fd = (cost.calc(ctx, xp, u, *cd) - cost.calc(ctx, xm, u, *cd)) / (2 * h);
+    EXPECT_NEAR(2.0 * fd, lx(i), 1e-6);
+  }
+  for (int i = 0; i < nu; ++i) {
+    VectorXd e = VectorXd::Zero(nu);
+    e(i) = h;
+    const double fd = (cost.calc(ctx, x, u + e, *cd) - cost.calc(ctx, x, u - e, *cd)) / (2 * h);
+    EXPECT_NEAR(2.0 * fd, lu(i), 1e-6);
+  }
+  EXPECT_THROW(ocp::LeastSquaresCost(res, VectorXd::Ones(4)), std::invalid_argument);
+  EXPECT_THROW(ocp::LeastSquaresCost(res, -VectorXd::Ones(5)), std::invalid_argument);
+}
+
+// ---- mode schedule ---------------------------------------------------------------------------
+
+TEST(ModeSchedule, PhasesAndModes) {
+  ocp::ModeSchedule m(4, 7);
+  EXPECT_EQ(m.modeAt(-1.0), 7);
+  EXPECT_EQ(m.modeAt(100.0), 7);
+  m.set({0.5, 1.0}, {1, 2, 3});
+  EXPECT_EQ(m.switches(), 2);
+  EXPECT_EQ(m.modeAt(0.0), 1);
+  EXPECT_EQ(m.modeAt(0.5), 2);  // [t_0, t_1) belongs to m_1
+  EXPECT_EQ(m.modeAt(0.99), 2);
+  EXPECT_EQ(m.modeAt(1.0), 3);
+  EXPECT_EQ(m.phaseAt(0.2), 0);
+  EXPECT_EQ(m.phaseAt(2.0), 2);
+  EXPECT_THROW(m.set({1.0, 0.5}, {1, 2, 3}), std::invalid_argument);
+  EXPECT_THROW(m.set({0.5}, {1, 2, 3}), std::invalid_argument);
+  EXPECT_THROW(m.set({0.1, 0.2, 0.3, 0.4, 0.5}, {1, 2, 3, 4, 5, 6}), std::invalid_argument);
+  m.setConstant(4);
+  EXPECT_EQ(m.modeAt(0.7), 4);
+  // Within capacity, set() does not allocate.
+  const std::vector<double> t{0.1, 0.2, 0.3, 0.4};
+  const std::vector<int> md{0, 1, 0, 1, 0};
+  test::AllocationGuard guard;
+  m.set(t, md);
+  EXPECT_EQ(guard.count(), 0u);
+}
+
+// ---- problem -------------------------------------------------------------------------------
+
+/// Rows depend on the mode: `rows_in_mode1` rows in mode 1, none otherwise. r = u(0) + k x(0).
+class ModeResidual final : public ocp::Residual {
+ public:
+  ModeResidual(int ndx, int nu, int rows, double k) : Residual(ndx, nu, rows), k_(k) {}
+  int rows(const ocp::NodeContext& ctx) const override { return ctx.mode == 1 ? maxRows() : 0; }
+  void calc(const ocp::NodeContext&, ocp::ConstVecRef x, ocp::ConstVecRef u,
+            ocp::ResidualData& d) const override {
+    for (int i = 0; i < d.rows; ++i) d.r(i) = u(0) + k_ * x(0) + i;
+  }
+  void calcDiff(const ocp::NodeContext&, ocp::ConstVecRef, ocp::ConstVecRef,
+                ocp::ResidualData& d) const override {
+    d.Rx.setZero();
+    d.Ru.setZero();
+    for (int i = 0; i < d.rows; ++i) {
+      d.Rx(i, 0) = k_;
+      d.Ru(i, 0) = 1.0;
+    }
+  }
+
+ private:
+  double k_;
+};
+
+std::shared_ptr<ocp::OptimalControlProblem> stackingProblem() {
+  auto dyn = std::make_shared<ocp::ExplicitEuler>(std::make_shared<testmodels::Pendulum>());
+  auto p = std::make_shared<ocp::OptimalControlProblem>(dyn, 10, 0.1);
+  auto s = dyn->spacePtr();
+  p->addCost("state", std::make_shared<ocp::LeastSquaresCost>(
+                          std::make_shared<ocp::StateErrorResidual>(s, 1, VectorXd::Zero(2)),
+                          VectorXd::Ones(2)),
+             ocp::Stage::All);
+  p->addCost("input", std::make_shared<ocp::LeastSquaresCost>(
+                          std::make_shared<ocp::InputErrorResidual>(2, VectorXd::Zero(1)),
+                          VectorXd::Ones(1)));
+  p->addEquality("always", std::make_shared<ModeResidual>(2, 1, 1, 0.0));  // only in mode 1
+  p->addEquality("mode1", std::make_shared<ModeResidual>(2, 1, 2, 2.0));
+  p->addInequality("ineq", std::make_shared<ModeResidual>(2, 1, 3, -1.0));
+  p->addInequality("terminal",
+                   std::make_shared<ocp::AffineResidual>(s, VectorXd::Zero(2), MatrixXd::Identity(2, 2),
+                                                         MatrixXd::Zero(2, 1), VectorXd::Ones(2)),
+                   ocp::Stage::Terminal);
+  return p;
+}
+
+TEST(Problem, StacksActiveRowsByMode) {
+  auto p = stackingProblem();
+  EXPECT_EQ(p->maxEqualities(), 3);
+  EXPECT_EQ(p->maxInequalities(), 5);
+  p->modeSchedule().set({0.45}, {0, 1});  // nodes 0..4 in mode 0, 5..10 in mode 1
+  p->setInitialTime(0.0);
+  auto d = p->createNodeData();
+  const VectorXd x = (VectorXd(2) << 0.3, -0.2).finished();
+  const VectorXd u = (VectorXd(1) << 0.7).finished();
+  p->linearize(2, x, u, *d);
+  EXPECT_EQ(d->context.mode, 0);
+  EXPECT_EQ(d->ne, 0);
+  EXPECT_EQ(d->ni, 0);
+  p->linearize(6, x, u, *d);
+  EXPECT_EQ(d->context.mode, 1);
+  ASSERT_EQ(d->ne, 3);
+  EXPECT_NEAR(d->e(0), 0.7, 1e-15);               // "always" row
+  EXPECT_NEAR(d->e(1), 0.7 + 0.6, 1e-15);         // "mode1" rows follow in order
+  EXPECT_NEAR(d->e(2), 0.7 + 0.6 + 1.0, 1e-15);
+  EXPECT_DOUBLE_EQ(d->Ex(1, 0), 2.0);
+  EXPECT_DOUBLE_EQ(d->Eu(2, 0), 1.0);
+  ASSERT_EQ(d->ni, 3);
+  EXPECT_NEAR(d->g(2), 0.7 - 0.3 + 2.0, 1e-15);
+  // Dynamics: explicit Euler.
+  EXPECT_NEAR(d->xnext(0), 0.3 + 0.1 * -0.2, 1e-15);
+  // Cost: dt * 0.5 (|x|^2 + u^2).
+  EXPECT_NEAR(d->cost, 0.1 * 0.5 * (0.09 + 0.04 + 0.49), 1e-15);
+  EXPECT_NEAR(d->lu(0), 0.1 * 0.7, 1e-15);
+  // Terminal node: only terminal terms, no input, no equalities.
+  p->linearize(10, x, u, *d);
+  EXPECT_TRUE(d->context.terminal);
+  EXPECT_EQ(d->ne, 0);
+  ASSERT_EQ(d->ni, 2);
+  EXPECT_NEAR(d->g(0), 1.3, 1e-15);
+  EXPECT_NEAR(d->cost, 0.5 * 0.13, 1e-15);  // terminal cost is not scaled by dt
+  EXPECT_EQ(p->equalityNames()[1], "mode1");
+}
+
+TEST(Problem, EvaluateAndLinearizeDoNotAllocate) {
+  auto p = stackingProblem();
+  p->modeSchedule().set({0.45}, {0, 1});
+  auto d = p->createNodeData();
+  const VectorXd x = (VectorXd(2) << 0.3, -0.2).finished();
+  const VectorXd u = (VectorXd(1) << 0.7).finished();
+  test::AllocationGuard guard;
+  test::MallocGuard mguard;
+  for (int k = 0; k <= p->horizon(); ++k) {
+    p->evaluate(k, x, u, *d);
+    p->linearize(k, x, u, *d);
+  }
+  EXPECT_EQ(guard.count(), 0u);
+  EXPECT_EQ(mguard.count(), 0u);
+}
+
+TEST(Problem, Se3ProblemDoesNotAllocate) {
+  auto f = std::make_shared<testmodels::FloatingBody>();
+  auto dyn = std::make_shared<ocp::ExplicitEuler>(f);
+  auto p = std::make_shared<ocp::OptimalControlProblem>(dyn, 5, 0.05);
+  auto s = dyn->spacePtr();
+  VectorXd xr(13);
+  s->neutral(xr);
+  p->addCost("x", std::make_shared<ocp::LeastSquaresCost>(
+                      std::make_shared<ocp::StateErrorResidual>(s, 6, xr), VectorXd::Ones(12)),
+             ocp::Stage::All);
+  auto d = p->createNodeData();
+  std::mt19937 rng(1);
+  const VectorXd x = randomState(*s, rng), u = randomVec(6, rng);
+  test::AllocationGuard guard;
+  test::MallocGuard mguard;
+  p->linearize(0, x, u, *d);
+  p->linearize(5, x, u, *d);
+  EXPECT_EQ(guard.count(), 0u);
+  EXPECT_EQ(mguard.count(), 0u);
+}
+
+TEST(Problem, RejectsInvalidComposition) {
+  auto p = stackingProblem();
+  auto s = p->dynamics().spacePtr();
+  // Terminal cost / inequality depending on the input.
+  EXPECT_THROW(p->addCost("u", std::make_shared<ocp::LeastSquaresCost>(
+                                   std::make_shared<ocp::InputErrorResidual>(2, VectorXd::Zero(1)),
+                                   VectorXd::Ones(1)),
+                          ocp::Stage::Terminal),
+               std::invalid_argument);
+  EXPECT_THROW(p->addInequality("soft-u", std::make_shared<ModeResidual>(2, 1, 1, 1.0),
+                                ocp::Stage::Running, {true, 0.1}),
+               std::invalid_argument);
+  // Wrong dimensions.
+  EXPECT_THROW(p->addEquality("bad", std::make_shared<ModeResidual>(3, 1, 1, 1.0)),
+               std::invalid_argument);
+  // Bounds: lower > upper, sizes, non-Euclidean part.
+  const double inf = ocp::OptimalControlProblem::kInfinity;
+  EXPECT_THROW(p->setInputBounds(VectorXd::Constant(1, 1.0), VectorXd::Constant(1, 0.0)),
+               std::invalid_argument);
+  EXPECT_THROW(p->setInputBounds(VectorXd::Zero(2), VectorXd::Ones(2)), std::invalid_argument);
+  p->setInputBounds(VectorXd::Constant(1, -inf), VectorXd::Constant(1, 2.0));
+  ASSERT_EQ(p->inputBounds().size(), 1);
+  EXPECT_FALSE(p->inputBounds().has_lower[0]);
+  EXPECT_TRUE(p->inputBounds().has_upper[0]);
+  p->setStateBounds(VectorXd::Constant(2, -inf), VectorXd::Constant(2, inf));
+  EXPECT_EQ(p->stateBounds().size(), 0);
+
+  auto dyn = std::make_shared<ocp::ExplicitEuler>(std::make_shared<testmodels::FloatingBody>());
+  ocp::OptimalControlProblem q(dyn, 3, 0.1);
+  VectorXd lo = VectorXd::Constant(12, -inf), hi = VectorXd::Constant(12, inf);
+  lo(8) = -1.0;
+  q.setStateBounds(lo, hi);
+  EXPECT_EQ(q.stateBounds().index[0], 8);
+  lo(2) = -1.0;  // translation tangent: not Euclidean
+  EXPECT_THROW(q.setStateBounds(lo, hi), std::invalid_argument);
+}
+
+}  // namespace

@@ -1,0 +1,144 @@
+// Infeasible, ill-posed or invalid nonlinear problems (issue 4): the solver ends with a
+// clear status and its outputs contain no NaN.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "nonlinear_problems.hpp"
+#include "rollstep/ocp/residuals.hpp"
+#include "rollstep/solver/solver.hpp"
+
+namespace rollstep::nltest {
+namespace {
+
+using solver::Solver;
+using solver::SolverSettings;
+using solver::SolverStatus;
+
+void expectFiniteOutputs(const Solver& s) {
+  const auto& pb = const_cast<Solver&>(s).problem();
+  for (const auto& x : s.states()) EXPECT_TRUE(x.allFinite());
+  for (const auto& u : s.inputs()) EXPECT_TRUE(u.allFinite());
+  for (int k = 0; k <= pb.horizon(); ++k) {
+    EXPECT_TRUE(s.equalityMultipliers(k).allFinite()) << k;
+    EXPECT_TRUE(s.inequalityDuals(k).allFinite()) << k;
+  }
+  EXPECT_TRUE(std::isfinite(s.cost()));
+  for (const auto& it : s.stats()) {
+    EXPECT_FALSE(std::isnan(it.cost));
+    EXPECT_FALSE(std::isnan(it.primal_residual));
+  }
+}
+
+TEST(NonlinearFailure, NanOrInfInitialStateIsInvalidInput) {
+  for (const auto& inst : {makeCartPole(), makeUnicycle(), makeRigidBody()}) {
+    for (double bad : {std::numeric_limits<double>::quiet_NaN(),
+                       std::numeric_limits<double>::infinity()}) {
+      Solver s(inst.problem);
+      s.setInitialGuess(inst.xs_guess, inst.us_guess);
+      VectorXd x0 = inst.x0;
+      x0[1] = bad;
+      EXPECT_EQ(s.solve(x0), SolverStatus::InvalidInput) << inst.name;
+      EXPECT_EQ(s.status(), SolverStatus::InvalidInput);
+      EXPECT_STRNE(s.message(), "");
+      expectFiniteOutputs(s);
+      // A valid state afterwards works again (the solver is not poisoned).
+      SolverSettings few;
+      few.max_iterations = 3;
+      s.setSettings(few);
+      const SolverStatus st = s.solve(inst.x0);
+      EXPECT_NE(st, SolverStatus::InvalidInput) << inst.name;
+      expectFiniteOutputs(s);
+    }
+  }
+}
+
+TEST(NonlinearFailure, StartInsideHardObstacleIsNotConverged) {
+  UnicycleOptions o;
+  o.x0 = VectorXd::Zero(3);
+  o.x0[0] = 2.0;  // the centre-ish of the obstacle at (2, -0.2), r = 0.5
+  o.horizon = 30;
+  const auto inst = makeUnicycle(o);
+  SolverSettings set;
+  set.max_iterations = 60;
+  Solver s(inst.problem, set);
+  s.setInitialGuess(inst.xs_guess, inst.us_guess);
+  const SolverStatus st = s.solve(inst.x0);
+  std::printf("[infeasible start] status %s: %s\n", solver::toString(st), s.message());
+  EXPECT_TRUE(st == SolverStatus::MaxIterations || st == SolverStatus::LineSearchFailed ||
+              st == SolverStatus::Diverged)
+      << solver::toString(st);
+  EXPECT_STRNE(s.message(), "");
+  expectFiniteOutputs(s);
+}
+
+TEST(NonlinearFailure, EqualityContradictingInputBoundsIsNotConverged) {
+  // Cart-pole with F = 50 imposed while |F| <= 20.
+  CartPoleOptions o;
+  o.horizon = 20;
+  const auto inst = makeCartPole(o);
+  MatrixXd D = MatrixXd::Ones(1, 1);
+  inst.problem->addEquality(
+      "force", std::make_shared<ocp::AffineResidual>(inst.problem->dynamics().spacePtr(), inst.x0,
+                                                     MatrixXd::Zero(1, 4), D,
+                                                     VectorXd::Constant(1, -50.0)));
+  SolverSettings set;
+  set.max_iterations = 60;
+  Solver s(inst.problem, set);
+  s.setInitialGuess(inst.xs_guess, inst.us_guess);
+  const SolverStatus st = s.solve(inst.x0);
+  std::printf("[eq vs bounds] status %s: %s\n", solver::toString(st), s.message());
+  EXPECT_NE(st, SolverStatus::Converged);
+  EXPECT_NE(st, SolverStatus::InvalidInput);
+  EXPECT_STRNE(s.message(), "");
+  expectFiniteOutputs(s);
+}
+
+TEST(NonlinearFailure, ContradictoryEqualitiesAreRankDeficient) {
+  // Speed profile plus v = 5: two rows that only involve v (rank 1 in u).
+  UnicycleOptions o;
+  o.horizon = 20;
+  const auto inst = makeUnicycle(o);
+  MatrixXd D = MatrixXd::Zero(1, 2);
+  D(0, 0) = 1.0;
+  inst.problem->addEquality(
+      "v_fixed", std::make_shared<ocp::AffineResidual>(inst.problem->dynamics().spacePtr(),
+                                                       inst.x0, MatrixXd::Zero(1, 3), D,
+                                                       VectorXd::Constant(1, -5.0)));
+  Solver s(inst.problem);
+  s.setInitialGuess(inst.xs_guess, inst.us_guess);
+  const SolverStatus st = s.solve(inst.x0);
+  std::printf("[rank deficient] status %s: %s (node %d)\n", solver::toString(st), s.message(),
+              s.failedNode());
+  EXPECT_EQ(st, SolverStatus::RankDeficientEqualities);
+  EXPECT_GE(s.failedNode(), 0);
+  EXPECT_STRNE(s.message(), "");
+  expectFiniteOutputs(s);
+}
+
+TEST(NonlinearFailure, ObstacleCoveringTheTargetStopsOutside) {
+  // Feasible but the target is unreachable: the car must end outside the (hard) obstacle.
+  // (Slightly off-centre: with the obstacle centred on the goal and the start on the axis,
+  // the straight-on guess is a symmetric point where Ipopt too reports local infeasibility.)
+  UnicycleOptions o;
+  o.hard_obstacles = {{4.05, 0.1, 0.5}};
+  o.horizon = 50;
+  const auto inst = makeUnicycle(o);
+  SolverSettings set;
+  set.max_iterations = 300;
+  Solver s(inst.problem, set);
+  s.setInitialGuess(inst.xs_guess, inst.us_guess);
+  const SolverStatus st = s.solve(inst.x0);
+  std::printf("[covered target] status %s: %s, iterations %d\n", solver::toString(st),
+              s.message(), s.iterations());
+  EXPECT_EQ(st, SolverStatus::Converged) << s.message();
+  expectFiniteOutputs(s);
+  EXPECT_LT(maxViolation(*inst.problem, inst.x0, s.states(), s.inputs()), 1e-8);
+  const auto& xN = s.states().back();
+  EXPECT_GE(std::hypot(xN[0] - 4.05, xN[1] - 0.1), 0.5 - 1e-8);
+  EXPECT_LT(std::hypot(xN[0] - 4.05, xN[1] - 0.1), 0.6);
+}
+
+}  // namespace
+}  // namespace rollstep::nltest

@@ -1,0 +1,164 @@
+// The Riccati recursion with equality projection against one dense KKT solve of the same
+// equality-constrained LQ.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "lq_problems.hpp"
+#include "rollstep/solver/riccati.hpp"
+
+namespace {
+
+using namespace rollstep;
+using lqtest::randn;
+using ocp::MatrixXd;
+using ocp::VectorXd;
+
+struct Case {
+  int nx, nu, N, ne;
+};
+
+class RiccatiDense : public ::testing::TestWithParam<Case> {};
+
+TEST_P(RiccatiDense, MatchesDenseKkt) {
+  const Case c = GetParam();
+  const int nx = c.nx, nu = c.nu, N = c.N;
+  std::mt19937 rng(42u + static_cast<unsigned>(c.ne));
+  solver::RiccatiSolver ric(N, nx, nu, c.ne);
+  // Random time-varying stages; the number of equality rows varies with k.
+  std::vector<int> nes(static_cast<std::size_t>(N));
+  for (int k = 0; k <= N; ++k) {
+    auto& s = ric.stage(k);
+    const MatrixXd Lh = randn(nx + nu, nx + nu, rng, 0.5);
+    const MatrixXd H = Lh * Lh.transpose() + 0.1 * MatrixXd::Identity(nx + nu, nx + nu);
+    s.Q = H.bottomRightCorner(nx, nx);
+    s.R = H.topLeftCorner(nu, nu);
+    s.S = H.topRightCorner(nu, nx);
+    s.q = randn(nx, 1, rng);
+    s.r = randn(nu, 1, rng);
+    s.A = MatrixXd::Identity(nx, nx) + randn(nx, nx, rng, 0.2 / std::sqrt(nx));
+    s.B = randn(nx, nu, rng, 0.5 / std::sqrt(nu));
+    s.b = randn(nx, 1, rng, 0.3);
+    s.ne = (k < N) ? (c.ne == 0 ? 0 : (k % 3 == 1 ? c.ne - 1 : c.ne)) : 0;
+    s.Ex.setZero();
+    s.Eu.setZero();
+    s.e.setZero();
+    if (s.ne > 0) {
+      s.Ex.topRows(s.ne) = randn(s.ne, nx, rng);
+      s.Eu.topRows(s.ne) = randn(s.ne, nu, rng, 0.3);  // well conditioned: [I 0] + noise
+      s.Eu.topLeftCorner(s.ne, s.ne) += MatrixXd::Identity(s.ne, s.ne);
+      s.e.head(s.ne) = randn(s.ne, 1, rng);
+    }
+    if (k < N) nes[static_cast<std::size_t>(k)] = s.ne;
+  }
+  const VectorXd dx0 = randn(nx, 1, rng);
+  ASSERT_TRUE(ric.solve(dx0, 1e-12));
+
+  // Dense: z = [x_0 u_0 ... x_N]; equalities: -x_0 = -dx0, A x + B u - x+ = -b, Ex x + Eu u = -e.
+  const int nz = N * (nx + nu) + nx;
+  int neq = nx;
+  for (int k = 0; k < N; ++k) neq += nx + nes[static_cast<std::size_t>(k)];
+  MatrixXd K = MatrixXd::Zero(nz + neq, nz + neq);
+  VectorXd rhs = VectorXd::Zero(nz + neq);
+  int r = nz;
+  K.block(r, 0, nx, nx) = -MatrixXd::Identity(nx, nx);
+  rhs.segment(r, nx) = -dx0;
+  r += nx;
+  for (int k = 0; k <= N; ++k) {
+    const auto& s = ric.stage(k);
+    const int o = k * (nx + nu);
+    K.block(o, o, nx, nx) = s.Q;
+    rhs.segment(o, nx) = -s.q;
+    if (k == N) break;
+    K.block(o + nx, o + nx, nu, nu) = s.R;
+    K.block(o + nx, o, nu, nx) = s.S;
+    K.block(o, o + nx, nx, nu) = s.S.transpose();
+    rhs.segment(o + nx, nu) = -s.r;
+    K.block(r, o, nx, nx) = s.A;
+    K.block(r, o + nx, nx, nu) = s.B;
+    K.block(r, o + nx + nu, nx, nx) = -MatrixXd::Identity(nx, nx);
+    rhs.segment(r, nx) = -s.b;
+    r += nx;
+    if (s.ne > 0) {
+      K.block(r, o, s.ne, nx) = s.Ex.topRows(s.ne);
+      K.block(r, o + nx, s.ne, nu) = s.Eu.topRows(s.ne);
+      rhs.segment(r, s.ne) = -s.e.head(s.ne);
+      r += s.ne;
+    }
+  }
+  K.topRightCorner(nz, neq) = K.bottomLeftCorner(neq, nz).transpose();
+  const VectorXd sol = K.fullPivLu().solve(rhs);
+  ASSERT_LT((K * sol - rhs).norm(), 1e-9);
+
+  // Our solution in the same stacking: its KKT residual must be as small as the dense one.
+  VectorXd ours(nz + neq);
+  r = nz;
+  ours.segment(r, nx) = ric.costate(0);
+  r += nx;
+  for (int k = 0; k <= N; ++k) {
+    const int o = k * (nx + nu);
+    ours.segment(o, nx) = ric.dx(k);
+    if (k == N) break;
+    ours.segment(o + nx, nu) = ric.du(k);
+    ours.segment(r, nx) = ric.costate(k + 1);
+    r += nx;
+    const int ne = ric.stage(k).ne;
+    ours.segment(r, ne) = ric.equalityMultipliers(k).head(ne);
+    r += ne;
+  }
+  const double scale = std::max(1.0, sol.lpNorm<Eigen::Infinity>());
+  EXPECT_LT((K * ours - rhs).lpNorm<Eigen::Infinity>(), 1e-11 * scale);
+  const double tol = 1e-9 * scale;  // scale is O(1..100) for these data
+  r = nz;
+  EXPECT_LT((ric.costate(0) - sol.segment(r, nx)).lpNorm<Eigen::Infinity>(), tol);
+  r += nx;
+  for (int k = 0; k <= N; ++k) {
+    const int o = k * (nx + nu);
+    EXPECT_LT((ric.dx(k) - sol.segment(o, nx)).lpNorm<Eigen::Infinity>(), tol) << "node " << k;
+    if (k == N) break;
+    EXPECT_LT((ric.du(k) - sol.segment(o + nx, nu)).lpNorm<Eigen::Infinity>(), tol) << "node " << k;
+    EXPECT_LT((ric.costate(k + 1) - sol.segment(r, nx)).lpNorm<Eigen::Infinity>(), tol) << "node " << k;
+    r += nx;
+    const int ne = ric.stage(k).ne;
+    if (ne > 0) {
+      EXPECT_LT((ric.equalityMultipliers(k).head(ne) - sol.segment(r, ne)).lpNorm<Eigen::Infinity>(),
+                tol)
+          << "node " << k;
+      r += ne;
+    }
+  }
+  // Feedback gain: du = K dx + k. Check with a perturbed initial state (linearity).
+  MatrixXd K0(nu, nx);
+  ric.feedbackGain(0, K0);
+  const VectorXd du0 = ric.du(0);
+  const VectorXd delta = randn(nx, 1, rng, 1e-2);
+  ric.forward(dx0 + delta);
+  ric.recoverStage(0);
+  EXPECT_LT((ric.du(0) - du0 - K0 * delta).lpNorm<Eigen::Infinity>(), 1e-10);
+}
+
+INSTANTIATE_TEST_SUITE_P(Sizes, RiccatiDense,
+                         ::testing::Values(Case{4, 2, 10, 0}, Case{4, 3, 12, 2}, Case{6, 5, 8, 5},
+                                           Case{24, 30, 6, 15}));
+
+TEST(RiccatiProjection, RankDeficientEqualitiesAreDetected) {
+  const int nx = 3, nu = 4;
+  solver::RiccatiSolver ric(2, nx, nu, 3);
+  auto& s = ric.stage(0);
+  s.ne = 3;
+  s.Eu.setZero();
+  s.Eu.row(0) << 1, 2, 0, 0;
+  s.Eu.row(1) << 0, 1, 1, 0;
+  s.Eu.row(2) = 2.0 * s.Eu.row(0) - s.Eu.row(1);  // dependent
+  double ratio = 1.0;
+  EXPECT_FALSE(ric.projectStage(0, 1e-9, &ratio));
+  EXPECT_LT(ratio, 1e-9);
+  s.Eu.row(2) << 0, 0, 0, 1;
+  EXPECT_TRUE(ric.projectStage(0, 1e-9, &ratio));
+  EXPECT_GT(ratio, 1e-3);
+  s.ne = 0;
+  EXPECT_TRUE(ric.projectStage(0, 1e-9));
+}
+
+}  // namespace

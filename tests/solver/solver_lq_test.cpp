@@ -1,0 +1,348 @@
+// Interior-point solver on linear-quadratic problems against independent dense solutions,
+// failure statuses, thread-count invariance, real-time iterations and allocation freedom.
+#include <gtest/gtest.h>
+
+#include <cstring>
+
+#include "common/alloc_counter.hpp"
+#include "lq_problems.hpp"
+#include "malloc_guard.hpp"
+#include "rollstep/solver/solver.hpp"
+
+namespace {
+
+using namespace rollstep;
+using lqtest::kInf;
+using ocp::MatrixXd;
+using ocp::VectorXd;
+using solver::Solver;
+using solver::SolverSettings;
+using solver::SolverStatus;
+
+SolverSettings tight() {
+  SolverSettings s;
+  s.kkt_tolerance = 1e-10;
+  s.barrier_min = 1e-12;
+  s.max_iterations = 100;
+  return s;
+}
+
+bool allFinite(const Solver& s) {
+  for (const auto& x : s.states())
+    if (!x.allFinite()) return false;
+  for (const auto& u : s.inputs())
+    if (!u.allFinite()) return false;
+  return true;
+}
+
+VectorXd stackSolution(const Solver& s, const lqtest::LqData& d) {
+  VectorXd z(d.N * (d.nx + d.nu) + d.nx);
+  for (int k = 0; k <= d.N; ++k) {
+    z.segment(k * (d.nx + d.nu), d.nx) = s.states()[static_cast<std::size_t>(k)];
+    if (k < d.N) z.segment(k * (d.nx + d.nu) + d.nx, d.nu) = s.inputs()[static_cast<std::size_t>(k)];
+  }
+  return z;
+}
+
+TEST(SolverLq, EqualityConstrainedMatchesDenseKkt) {
+  const auto d = lqtest::randomLq(1, 4, 3, 15, 2, 0);
+  auto p = lqtest::buildProblem(d);
+  Solver s(p, tight());
+  ASSERT_EQ(s.solve(d.x0), SolverStatus::Converged) << s.message();
+  EXPECT_LE(s.iterations(), 2);  // one Newton step solves an LQ
+  const auto q = lqtest::denseQp(d);
+  const auto ref = lqtest::denseKkt(q, {});
+  EXPECT_LT((stackSolution(s, d) - ref.z).lpNorm<Eigen::Infinity>(), 1e-8);
+  // Multipliers: lambda_0, then (lambda_{k+1}, nu_k).
+  int r = 0;
+  const auto& ric = s.riccati();
+  (void)ric;
+  for (int k = 0; k < d.N; ++k) {
+    if (k == 0) {
+      r += d.nx;
+    }
+    r += d.nx;
+    EXPECT_LT((s.equalityMultipliers(k).head(d.ne()) - ref.y.segment(r, d.ne())).lpNorm<Eigen::Infinity>(),
+              1e-8)
+        << "node " << k;
+    r += d.ne();
+  }
+  EXPECT_NEAR(s.cost(), 0.5 * ref.z.dot(q.H * ref.z) + q.h.dot(ref.z) +
+                            d.N * d.dt * 0.5 * d.cr.dot(d.w.asDiagonal() * d.cr) +
+                            0.5 * d.cf.dot(d.wf.asDiagonal() * d.cf),
+              1e-8);
+}
+
+struct BoxCase {
+  int ne, ni;
+  bool state_bounds;
+};
+class SolverBoxLq : public ::testing::TestWithParam<BoxCase> {};
+
+TEST_P(SolverBoxLq, MatchesActiveSetDenseKkt) {
+  const BoxCase c = GetParam();
+  auto d = lqtest::randomLq(7, 4, 3, 20, c.ne, c.ni);
+  d.ulo = VectorXd::Constant(3, -0.4);
+  d.uhi = VectorXd::Constant(3, 0.4);
+  d.uhi(2) = kInf;
+  d.x0 *= 2.0;
+  if (c.state_bounds) {
+    d.xlo(1) = -0.5;
+    d.xhi(1) = 0.8;
+    d.xhi(3) = 1.0;
+  }
+  auto p = lqtest::buildProblem(d);
+  Solver s(p, tight());
+  ASSERT_EQ(s.solve(d.x0), SolverStatus::Converged) << s.message();
+  const auto q = lqtest::denseQp(d);
+  // Active set from our solution: dual larger than slack.
+  std::vector<int> active;
+  for (int i = 0; i < q.Ain.rows(); ++i) {
+    const int k = q.row_node[static_cast<std::size_t>(i)], j = q.row_index[static_cast<std::size_t>(i)];
+    if (s.inequalityDuals(k)(j) > s.slacks(k)(j)) active.push_back(i);
+  }
+  ASSERT_FALSE(active.empty()) << "the test problem should have active constraints";
+  const auto ref = lqtest::denseKkt(q, active);
+  const VectorXd z = stackSolution(s, d);
+  EXPECT_LT((z - ref.z).lpNorm<Eigen::Infinity>(), 1e-8);
+  // Optimality of the reference (hence of ours): active multipliers >= 0, all rows feasible.
+  EXPECT_GT(ref.mu.minCoeff(), 0.0);
+  EXPECT_GT((q.Ain * ref.z + q.bin).minCoeff(), -1e-10);
+  for (int i = 0; i < q.Ain.rows(); ++i) {
+    const int k = q.row_node[static_cast<std::size_t>(i)], j = q.row_index[static_cast<std::size_t>(i)];
+    if ((q.Ain.row(i) * ref.z)(0) + q.bin(i) < -1e-10)
+      std::printf("violated row %d node %d idx %d: s %g z %g\n", i, k, j, s.slacks(k)(j), s.inequalityDuals(k)(j));
+  }
+  for (std::size_t a = 0; a < active.size(); ++a) {
+    const int i = active[a];
+    const int k = q.row_node[static_cast<std::size_t>(i)], j = q.row_index[static_cast<std::size_t>(i)];
+    EXPECT_NEAR(s.inequalityDuals(k)(j), ref.mu(static_cast<int>(a)), 1e-6 * (1.0 + ref.mu.cwiseAbs().maxCoeff()));
+  }
+  // Every iteration reported; the last one meets the tolerance.
+  ASSERT_FALSE(s.stats().empty());
+  EXPECT_LE(s.stats().back().primal_residual, 1e-10);
+  EXPECT_LE(s.stats().back().dual_residual, 1e-8);
+}
+
+INSTANTIATE_TEST_SUITE_P(Cases, SolverBoxLq,
+                         ::testing::Values(BoxCase{0, 0, false}, BoxCase{0, 0, true},
+                                           BoxCase{1, 0, true}, BoxCase{1, 2, true},
+                                           BoxCase{0, 3, false}));
+
+TEST(SolverLq, RankDeficientEqualitiesAreReported) {
+  auto d = lqtest::randomLq(3, 4, 3, 10, 2, 0);
+  d.Eu.row(1) = 3.0 * d.Eu.row(0);  // dependent rows in u
+  auto p = lqtest::buildProblem(d);
+  Solver s(p, tight());
+  EXPECT_EQ(s.solve(d.x0), SolverStatus::RankDeficientEqualities);
+  EXPECT_EQ(s.failedNode(), 0);
+  EXPECT_NE(std::strstr(s.message(), "node 0"), nullptr) << s.message();
+  EXPECT_TRUE(allFinite(s));
+  // More equality rows than inputs.
+  auto d2 = lqtest::randomLq(3, 4, 2, 10, 3, 0);
+  Solver s2(lqtest::buildProblem(d2), tight());
+  EXPECT_EQ(s2.solve(d2.x0), SolverStatus::RankDeficientEqualities);
+  EXPECT_TRUE(allFinite(s2));
+}
+
+TEST(SolverLq, InfeasibleProblemEndsWithoutNaN) {
+  auto d = lqtest::randomLq(5, 4, 3, 10, 1, 0);
+  d.Ex.setZero();
+  d.Eu.setZero();
+  d.Eu(0, 0) = 1.0;
+  d.e << -1.0;        // u_0 = 1 ...
+  d.uhi(0) = 0.5;     // ... but u_0 <= 0.5
+  auto p = lqtest::buildProblem(d);
+  auto set = tight();
+  set.max_iterations = 60;
+  Solver s(p, set);
+  const auto st = s.solve(d.x0);
+  EXPECT_NE(st, SolverStatus::Converged);
+  EXPECT_TRUE(allFinite(s)) << solver::toString(st);
+  EXPECT_GT(std::strlen(s.message()), 0u);
+  // Contradictory bounds are rejected when the problem is composed.
+  EXPECT_THROW(p->setInputBounds(VectorXd::Constant(3, 1.0), VectorXd::Constant(3, 0.0)),
+               std::invalid_argument);
+}
+
+TEST(SolverLq, InvalidInitialState) {
+  const auto d = lqtest::randomLq(1, 4, 3, 10, 0, 0);
+  Solver s(lqtest::buildProblem(d));
+  VectorXd x0 = d.x0;
+  x0(1) = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_EQ(s.solve(x0), SolverStatus::InvalidInput);
+  EXPECT_EQ(s.solve(VectorXd::Zero(3)), SolverStatus::InvalidInput);
+  EXPECT_TRUE(allFinite(s));
+  EXPECT_EQ(s.solve(d.x0), SolverStatus::Converged);
+}
+
+// ---- nonlinear (pendulum) and SE(3) problems ----------------------------------------------------
+
+std::shared_ptr<ocp::OptimalControlProblem> pendulumProblem(int N = 40) {
+  auto dyn = std::make_shared<ocp::RungeKutta4>(std::make_shared<testmodels::Pendulum>());
+  auto p = std::make_shared<ocp::OptimalControlProblem>(dyn, N, 0.05);
+  auto s = dyn->spacePtr();
+  p->addCost("x", std::make_shared<ocp::LeastSquaresCost>(
+                      std::make_shared<ocp::StateErrorResidual>(s, 1, VectorXd::Zero(2)),
+                      (VectorXd(2) << 10.0, 1.0).finished()));
+  p->addCost("u", std::make_shared<ocp::LeastSquaresCost>(
+                      std::make_shared<ocp::InputErrorResidual>(2, VectorXd::Zero(1)),
+                      VectorXd::Constant(1, 0.1)));
+  p->addCost("xN", std::make_shared<ocp::LeastSquaresCost>(
+                       std::make_shared<ocp::StateErrorResidual>(s, 1, VectorXd::Zero(2)),
+                       VectorXd::Constant(2, 100.0)),
+             ocp::Stage::Terminal);
+  p->setInputBounds(VectorXd::Constant(1, -3.0), VectorXd::Constant(1, 3.0));
+  p->setStateBounds((VectorXd(2) << -kInf, -2.0).finished(), (VectorXd(2) << kInf, 2.0).finished());
+  // A soft state-only inequality: angle <= 1.2 (relaxed barrier).
+  p->addInequality("soft", std::make_shared<ocp::AffineResidual>(s, VectorXd::Zero(2),
+                                                                 (MatrixXd(1, 2) << -1.0, 0.0).finished(),
+                                                                 MatrixXd::Zero(1, 1), VectorXd::Constant(1, 1.2)),
+                   ocp::Stage::All, {true, 0.05});
+  return p;
+}
+
+TEST(SolverNonlinear, PendulumConverges) {
+  auto p = pendulumProblem();
+  Solver s(p, tight());
+  const VectorXd x0 = (VectorXd(2) << 1.0, 0.0).finished();
+  ASSERT_EQ(s.solve(x0), SolverStatus::Converged) << s.message();
+  EXPECT_LT(s.iterations(), 60);
+  EXPECT_LT(s.states().back().norm(), 0.2);
+  for (const auto& u : s.inputs()) EXPECT_LE(std::abs(u(0)), 3.0 + 1e-9);
+  EXPECT_NEAR(s.states()[0](0), 1.0, 1e-12);
+}
+
+TEST(SolverNonlinear, ResultsAreIdenticalForAnyThreadCount) {
+  const VectorXd x0 = (VectorXd(2) << 1.0, 0.0).finished();
+  std::vector<std::vector<VectorXd>> xs, us;
+  std::vector<int> its;
+  for (int threads : {1, 2, 3}) {
+    auto set = tight();
+    set.num_threads = threads;
+    Solver s(pendulumProblem(), set);
+    ASSERT_EQ(s.solve(x0), SolverStatus::Converged);
+    xs.push_back(s.states());
+    us.push_back(s.inputs());
+    its.push_back(s.iterations());
+  }
+  for (std::size_t t = 1; t < xs.size(); ++t) {
+    EXPECT_EQ(its[t], its[0]);
+    for (std::size_t k = 0; k < xs[0].size(); ++k) EXPECT_TRUE(xs[t][k] == xs[0][k]) << k;
+    for (std::size_t k = 0; k < us[0].size(); ++k) EXPECT_TRUE(us[t][k] == us[0][k]) << k;
+  }
+  // Same for a constrained LQ with equalities and general rows.
+  auto d = lqtest::randomLq(7, 4, 3, 20, 1, 2);
+  d.ulo = VectorXd::Constant(3, -0.4);
+  d.uhi = VectorXd::Constant(3, 0.4);
+  std::vector<VectorXd> ref;
+  for (int threads : {1, 2}) {
+    auto set = tight();
+    set.num_threads = threads;
+    Solver s(lqtest::buildProblem(d), set);
+    ASSERT_EQ(s.solve(d.x0), SolverStatus::Converged);
+    if (threads == 1) {
+      ref = s.states();
+    } else {
+      for (std::size_t k = 0; k < ref.size(); ++k) EXPECT_TRUE(s.states()[k] == ref[k]);
+    }
+  }
+}
+
+TEST(SolverNonlinear, SolveAndUpdateDoNotAllocate) {
+  for (int threads : {1, 2}) {
+    auto set = tight();
+    set.num_threads = threads;
+    auto p = pendulumProblem();
+    Solver s(p, set);
+    const VectorXd x0 = (VectorXd(2) << 1.0, 0.0).finished();
+    {
+      test::AllocationGuard guard;
+      test::MallocGuard mguard;
+      EXPECT_EQ(s.solve(x0), SolverStatus::Converged);
+      EXPECT_EQ(guard.count(), 0u);
+      EXPECT_EQ(mguard.count(), 0u);
+    }
+    set.mode = solver::SolverMode::RealTime;
+    s.setSettings(set);
+    {
+      test::AllocationGuard guard;
+      test::MallocGuard mguard;
+      for (int i = 1; i <= 5; ++i) {
+        EXPECT_EQ(s.update(i * 0.05, s.states()[1]), SolverStatus::IterationDone);
+      }
+      (void)s.feedbackGain(0);
+      EXPECT_EQ(guard.count(), 0u);
+      EXPECT_EQ(mguard.count(), 0u);
+    }
+  }
+  // The malloc guard does see Eigen's allocations.
+  test::MallocGuard mguard;
+  VectorXd v(1000);
+  v.setZero();
+  EXPECT_GT(mguard.count(), 0u);
+}
+
+TEST(SolverRealTime, IterationsConvergeAndShiftWarmStarts) {
+  auto set = tight();
+  set.mode = solver::SolverMode::RealTime;
+  set.barrier_realtime = 1e-3;
+  auto p = pendulumProblem(60);
+  Solver s(p, set);
+  const VectorXd x0 = (VectorXd(2) << 0.8, 0.0).finished();
+  for (int i = 0; i < 40; ++i) ASSERT_EQ(s.update(0.0, x0), SolverStatus::IterationDone);
+  ASSERT_EQ(s.stats().size(), 1u);
+  EXPECT_LT(s.stats()[0].primal_residual, 1e-8);
+  EXPECT_LT(s.stats()[0].dual_residual, 1e-6);
+  EXPECT_DOUBLE_EQ(s.stats()[0].barrier, 1e-3);
+  // Shift by two nodes, starting from the predicted state: the shifted guess is nearly
+  // feasible (only the repeated tail adds a defect).
+  const auto prev = s.states();
+  ASSERT_EQ(s.update(2 * 0.05 + 1e-9, prev[2]), SolverStatus::IterationDone);
+  EXPECT_LT(s.stats()[0].primal_residual, 5e-2);
+  EXPECT_NEAR(s.states()[0](0), prev[2](0), 1e-12);
+  // The feedback gain of node 0 maps state deviations to input changes (nu x ndx).
+  EXPECT_EQ(s.feedbackGain(0).rows(), 1);
+  EXPECT_EQ(s.feedbackGain(0).cols(), 2);
+  EXPECT_TRUE(s.feedbackGain(0).allFinite());
+}
+
+TEST(SolverNonlinear, FloatingBodyOnSe3ReachesTarget) {
+  auto f = std::make_shared<testmodels::FloatingBody>();
+  auto dyn = std::make_shared<ocp::ExplicitEuler>(f);
+  auto p = std::make_shared<ocp::OptimalControlProblem>(dyn, 30, 0.05);
+  auto sp = dyn->spacePtr();
+  VectorXd target(13);
+  sp->neutral(target);
+  target.head<3>() << 0.5, -0.3, 0.2;
+  const Eigen::Quaterniond qt(Eigen::AngleAxisd(1.2, Eigen::Vector3d(1, 2, 3).normalized()));
+  target.segment<4>(3) = qt.coeffs();
+  VectorXd w = VectorXd::Constant(12, 1.0);
+  p->addCost("x", std::make_shared<ocp::LeastSquaresCost>(
+                      std::make_shared<ocp::StateErrorResidual>(sp, 6, target), w));
+  p->addCost("u", std::make_shared<ocp::LeastSquaresCost>(
+                      std::make_shared<ocp::InputErrorResidual>(12, VectorXd::Zero(6)),
+                      VectorXd::Constant(6, 1e-2)));
+  p->addCost("xN", std::make_shared<ocp::LeastSquaresCost>(
+                       std::make_shared<ocp::StateErrorResidual>(sp, 6, target),
+                       VectorXd::Constant(12, 1e3)),
+             ocp::Stage::Terminal);
+  VectorXd lo = VectorXd::Constant(12, -kInf), hi = VectorXd::Constant(12, kInf);
+  lo.tail<6>().setConstant(-3.0);
+  hi.tail<6>().setConstant(3.0);
+  p->setStateBounds(lo, hi);
+  p->setInputBounds(VectorXd::Constant(6, -30.0), VectorXd::Constant(6, 30.0));
+  Solver s(p, tight());
+  VectorXd x0(13);
+  sp->neutral(x0);
+  ASSERT_EQ(s.solve(x0), SolverStatus::Converged) << s.message();
+  VectorXd err(12);
+  sp->difference(target, s.states().back(), err);
+  EXPECT_LT(err.head<6>().norm(), 0.05);
+  for (const auto& x : s.states()) {
+    EXPECT_NEAR(x.segment<4>(3).norm(), 1.0, 1e-12);
+    EXPECT_LE(x.tail<6>().cwiseAbs().maxCoeff(), 3.0 + 1e-8);
+  }
+}
+
+}  // namespace
