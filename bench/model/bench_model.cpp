@@ -67,6 +67,21 @@ void BM_AllNodeQuantitiesWithDerivatives(benchmark::State& state) {
 }
 BENCHMARK(BM_AllNodeQuantitiesWithDerivatives);
 
+// The full-centroidal variant: v_b = A_b^-1 (h - A_J v_J) solved inside, plus d v_b/dq and
+// d v_b/dv_J on top of everything above.
+void BM_AllNodeQuantitiesFromMomentum(benchmark::State& state) {
+  Fixture& fx = fixture();
+  computeNodeQuantities(fx.model, fx.data, fx.q, fx.v, fx.f, fx.node);
+  const Vector6d h = fx.node.h;
+  const Eigen::VectorXd vJ = fx.v.tail(fx.model.nj);
+  for (auto _ : state) {
+    computeNodeQuantitiesFromMomentum(fx.model, fx.data, fx.q, h, vJ, fx.f, fx.node);
+    benchmark::DoNotOptimize(fx.node.dvb_dq.data());
+    benchmark::ClobberMemory();
+  }
+}
+BENCHMARK(BM_AllNodeQuantitiesFromMomentum);
+
 void BM_ForwardKinematics(benchmark::State& state) {
   Fixture& fx = fixture();
   for (auto _ : state) {

@@ -5,6 +5,7 @@
 // joint k by the same world motion, which is what every derivative below uses:
 //   d(S_i)/dq_k = S_k x S_i  and  d(point p)/dq_k = S_k.v + S_k.w x p   for k on i's path.
 #include <cmath>
+#include <stdexcept>
 
 #include "rollstep/model/all.hpp"
 
@@ -91,33 +92,35 @@ void comPass(const Model& m, Data& d) {
   d.com = d.subtreeMoment[0] / m.totalMass;
 }
 
-// Composite rotational inertias about the world origin; with momentum, also the subtree
-// spatial momenta about the world origin (needs velocityPass). Needs comPass.
-void inertiaPass(const Model& m, Data& d, bool with_momentum) {
+// Body and composite rotational inertias about the world origin. Needs comPass.
+void inertiaPass(const Model& m, Data& d) {
   const int nb = m.nbodies();
   for (int i = 0; i < nb; ++i) {
     const Body& b = m.bodies[i];
     const Vector3d& c = d.ocom[i];
     const Matrix3d RI = d.oRb[i] * b.inertia;
-    Matrix3d Io;
+    Matrix3d& Io = d.bodyInertia[i];
     Io.noalias() = RI * d.oRb[i].transpose();
     Io.diagonal().array() += b.mass * c.squaredNorm();
     Io.noalias() -= (b.mass * c) * c.transpose();
     d.subtreeInertia[i] = Io;
-    if (with_momentum) {
-      const Vector3d h = b.mass * c;
-      const Vector6d& V = d.ov[i];
-      const Vector3d vv = V.head<3>();
-      const Vector3d w = V.tail<3>();
-      d.subtreeMomentum[i].head<3>() = b.mass * vv - h.cross(w);
-      d.subtreeMomentum[i].tail<3>() = h.cross(vv) + Io * w;
-    }
   }
-  for (int i = nb - 1; i > 0; --i) {
-    const int p = m.bodies[i].parent;
-    d.subtreeInertia[p] += d.subtreeInertia[i];
-    if (with_momentum) d.subtreeMomentum[p] += d.subtreeMomentum[i];
+  for (int i = nb - 1; i > 0; --i) d.subtreeInertia[m.bodies[i].parent] += d.subtreeInertia[i];
+}
+
+// Subtree spatial momenta about the world origin. Needs inertiaPass and velocityPass.
+void momentumPass(const Model& m, Data& d) {
+  const int nb = m.nbodies();
+  for (int i = 0; i < nb; ++i) {
+    const Body& b = m.bodies[i];
+    const Vector3d h = b.mass * d.ocom[i];
+    const Vector6d& V = d.ov[i];
+    const Vector3d vv = V.head<3>();
+    const Vector3d w = V.tail<3>();
+    d.subtreeMomentum[i].head<3>() = b.mass * vv - h.cross(w);
+    d.subtreeMomentum[i].tail<3>() = h.cross(vv) + d.bodyInertia[i] * w;
   }
+  for (int i = nb - 1; i > 0; --i) d.subtreeMomentum[m.bodies[i].parent] += d.subtreeMomentum[i];
 }
 
 // Needs subspacePass and comPass.
@@ -400,7 +403,7 @@ const Matrix6Xd& computeCentroidalMap(const Model& model, Data& data, const Cons
   placementPass(model, data, q);
   subspacePass(model, data);
   comPass(model, data);
-  inertiaPass(model, data, false);
+  inertiaPass(model, data);
   comJacobianPass(model, data);
   centroidalMapPass(model, data);
   return data.Ag;
@@ -420,7 +423,8 @@ const Matrix6Xd& computeCentroidalMomentumDerivatives(const Model& model, Data& 
   subspacePass(model, data);
   velocityPass(model, data, v);
   comPass(model, data);
-  inertiaPass(model, data, true);
+  inertiaPass(model, data);
+  momentumPass(model, data);
   comJacobianPass(model, data);
   centroidalMapPass(model, data);
   data.hg.noalias() = data.Ag * v;
@@ -453,7 +457,7 @@ const Eigen::VectorXd& computeStaticTorque(const Model& model, Data& data, const
   gravityPass(model, data, data.g);
   contactTorquePass(model, data, frames, forces, data.tauContact,
                     static_cast<Eigen::MatrixXd*>(nullptr));
-  data.tauStatic = data.g + data.tauContact;
+  data.tauStatic = data.g - data.tauContact;
   return data.tauStatic;
 }
 
@@ -494,20 +498,14 @@ NodeQuantities::NodeQuantities(const Model& model, std::vector<FrameIndex> conta
   dg_dq = Eigen::MatrixXd::Zero(nv, nv);
   contactTorque = Eigen::VectorXd::Zero(nv);
   dContactTorque_dq = Eigen::MatrixXd::Zero(nv, nv);
+  v = Eigen::VectorXd::Zero(nv);
+  dvb_dq = Matrix6Xd::Zero(6, nv);
+  dvb_dvJ = Matrix6Xd::Zero(6, model.nj);
 }
 
-void computeNodeQuantities(const Model& model, Data& data, const ConstVec& q, const ConstVec& v,
-                           const ConstVec& forces, NodeQuantities& out) {
-  placementPass(model, data, q);
-  subspacePass(model, data);
-  velocityPass(model, data, v);
-  comPass(model, data);
-  inertiaPass(model, data, true);
-  comJacobianPass(model, data);
-  centroidalMapPass(model, data);
-  data.hg.noalias() = data.Ag * v;
-  centroidalDerivativePass(model, data);
-
+namespace {
+// Outputs shared by both node functions; needs every pass up to centroidalDerivativePass.
+void finishNode(const Model& model, Data& data, const ConstVec& forces, NodeQuantities& out) {
   out.com = data.com;
   out.comJacobian = data.Jcom;
   out.A = data.Ag;
@@ -538,6 +536,60 @@ void computeNodeQuantities(const Model& model, Data& data, const ConstVec& q, co
     });
   }
   fillTorqueDerivative(model, data, data.Y, 1.0, out.dContactTorque_dq);
+}
+}  // namespace
+
+void computeNodeQuantities(const Model& model, Data& data, const ConstVec& q, const ConstVec& v,
+                           const ConstVec& forces, NodeQuantities& out) {
+  placementPass(model, data, q);
+  subspacePass(model, data);
+  velocityPass(model, data, v);
+  comPass(model, data);
+  inertiaPass(model, data);
+  momentumPass(model, data);
+  comJacobianPass(model, data);
+  centroidalMapPass(model, data);
+  data.hg.noalias() = data.Ag * v;
+  centroidalDerivativePass(model, data);
+  out.v = v;
+  finishNode(model, data, forces, out);
+}
+
+void computeNodeQuantitiesFromMomentum(const Model& model, Data& data, const ConstVec& q,
+                                       const Vector6d& h, const ConstVec& vJ,
+                                       const ConstVec& forces, NodeQuantities& out) {
+  if (!model.hasFreeFlyer()) {
+    throw std::invalid_argument("computeNodeQuantitiesFromMomentum needs a free-flyer model");
+  }
+  placementPass(model, data, q);
+  subspacePass(model, data);
+  comPass(model, data);
+  inertiaPass(model, data);
+  comJacobianPass(model, data);
+  centroidalMapPass(model, data);
+  // A_b = [[M R, -M hat(c - p) R], [0, I_G R]] (I_G: locked inertia about the com), so
+  // A_b^-1 = [[R^T / M, R^T hat(c - p) I_G^-1], [0, R^T I_G^-1]].
+  const Matrix3d& R = data.oRb[0];
+  const Matrix3d IG = data.Ag.block<3, 3>(3, 3) * R.transpose();
+  const Matrix3d IGinv = IG.inverse();
+  const Vector3d r = data.com - data.opb[0];
+  lie::Matrix6d& Ai = out.AbInverse;
+  Ai.topLeftCorner<3, 3>() = R.transpose() / model.totalMass;
+  Ai.topRightCorner<3, 3>() = R.transpose() * lie::hat(r) * IGinv;
+  Ai.bottomLeftCorner<3, 3>().setZero();
+  Ai.bottomRightCorner<3, 3>() = R.transpose() * IGinv;
+  Vector6d rhs = h;
+  rhs.noalias() -= data.Ag.rightCols(model.nj) * vJ;
+  out.v.head<6>().noalias() = Ai * rhs;
+  out.v.tail(model.nj) = vJ;
+
+  velocityPass(model, data, out.v);
+  momentumPass(model, data);
+  data.hg.noalias() = data.Ag * out.v;
+  centroidalDerivativePass(model, data);
+  finishNode(model, data, forces, out);
+  out.dvb_dq.noalias() = -Ai * out.dh_dq;
+  out.dvb_dvJ.noalias() = -Ai * data.Ag.rightCols(model.nj);
 }
 
 }  // namespace rollstep::model

@@ -62,6 +62,7 @@ Data::Data(const Model& model) {
   J = Matrix6Xd::Zero(6, nv);
   ocom.assign(nb, Eigen::Vector3d::Zero());
   subtreeMoment.assign(nb, Eigen::Vector3d::Zero());
+  bodyInertia.assign(nb, Eigen::Matrix3d::Zero());
   subtreeInertia.assign(nb, Eigen::Matrix3d::Zero());
   subtreeMomentum.assign(nb, Vector6d::Zero());
   Jcom = Eigen::Matrix3Xd::Zero(3, nv);

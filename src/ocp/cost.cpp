@@ -2,6 +2,8 @@
 
 #include <stdexcept>
 
+#include "rollstep/ocp/residuals.hpp"
+
 namespace rollstep::ocp {
 
 namespace {
@@ -24,6 +26,16 @@ LeastSquaresCost::LeastSquaresCost(std::shared_ptr<const Residual> residual, con
   }
   if ((weights.array() < 0.0).any() || !weights.allFinite()) {
     throw std::invalid_argument("LeastSquaresCost: weights must be finite and nonnegative");
+  }
+  if (dynamic_cast<const InputErrorResidual*>(residual_.get()) != nullptr) {
+    structure_ = Structure::InputIdentity;
+  } else if (const auto* se = dynamic_cast<const StateErrorResidual*>(residual_.get())) {
+    if (se->space().isEuclidean()) {
+      structure_ = Structure::StateIdentity;
+    } else {
+      structure_ = Structure::StateBlock;
+      block_ = se->space().euclideanTangentOffset();
+    }
   }
 }
 
@@ -55,19 +67,43 @@ void LeastSquaresCost::calcDiff(const NodeContext& ctx, ConstVecRef x, ConstVecR
   auto& s = static_cast<LsqData&>(d);
   const int m = s.res->rows;
   if (m == 0) return;
+  if (structure_ == Structure::InputIdentity || structure_ == Structure::StateIdentity) {
+    // r = u - u_ref or x - x_ref: gradient scale W r, Hessian scale W (diagonal).
+    const bool input = structure_ == Structure::InputIdentity;
+    auto g = input ? lu : lx;
+    auto H = input ? Luu : Lxx;
+    g.head(m) += scale * weights_.head(m).cwiseProduct(s.res->r.head(m));
+    H.diagonal().head(m) += scale * weights_.head(m);
+    return;
+  }
   residual_->calcDiff(ctx, x, u, *s.res);
+  if (structure_ == Structure::StateBlock) {
+    // Rx = blockdiag(J, I) with J = d(x_ref (-) x)/dx on the pose (block_ x block_).
+    const int b = block_, n = m - b;
+    const auto J = s.res->Rx.topLeftCorner(b, b);
+    s.wr.head(m) = scale * weights_.head(m).cwiseProduct(s.res->r.head(m));
+    lx.head(b).noalias() += J.transpose() * s.wr.head(b);
+    lx.tail(n) += s.wr.tail(n);
+    s.WRx.topLeftCorner(b, b).noalias() = (scale * weights_.head(b)).asDiagonal() * J;
+    Lxx.topLeftCorner(b, b).noalias() += J.transpose() * s.WRx.topLeftCorner(b, b);
+    Lxx.diagonal().tail(n) += scale * weights_.tail(n);
+    return;
+  }
   const auto w = weights_.head(m);
   const auto Rx = s.res->Rx.topRows(m);
+  const bool on_x = residual_->dependsOnState(), on_u = residual_->dependsOnInput();
   s.wr.head(m) = scale * w.cwiseProduct(s.res->r.head(m));
-  s.WRx.topRows(m).noalias() = (scale * w).asDiagonal() * Rx;
-  lx.noalias() += Rx.transpose() * s.wr.head(m);
-  Lxx.noalias() += Rx.transpose() * s.WRx.topRows(m);
-  if (residual_->dependsOnInput()) {
+  if (on_x) {
+    s.WRx.topRows(m).noalias() = (scale * w).asDiagonal() * Rx;
+    lx.noalias() += Rx.transpose() * s.wr.head(m);
+    Lxx.noalias() += Rx.transpose() * s.WRx.topRows(m);
+  }
+  if (on_u) {
     const auto Ru = s.res->Ru.topRows(m);
     s.WRu.topRows(m).noalias() = (scale * w).asDiagonal() * Ru;
     lu.noalias() += Ru.transpose() * s.wr.head(m);
     Luu.noalias() += Ru.transpose() * s.WRu.topRows(m);
-    Lux.noalias() += Ru.transpose() * s.WRx.topRows(m);
+    if (on_x) Lux.noalias() += Ru.transpose() * s.WRx.topRows(m);
   }
 }
 

@@ -17,6 +17,7 @@ RiccatiSolver::RiccatiSolver(int horizon, int nx, int nu, int ne_max)
     throw std::invalid_argument("RiccatiSolver: bad dimensions");
   }
   stages_.resize(static_cast<std::size_t>(N_) + 1);
+  PBA_ = MatrixXd::Zero(nx, nu + nx);
   work_.resize(static_cast<std::size_t>(N_) + 1);
   const int nz = nu + nx;
   for (auto& s : stages_) {
@@ -33,18 +34,18 @@ RiccatiSolver::RiccatiSolver(int horizon, int nx, int nu, int ne_max)
     s.e = VectorXd::Zero(ne_max);
   }
   for (auto& w : work_) {
-    w.qr = MatrixXd::Zero(nu, ne_max);
+    w.qr = MatrixXd::Zero(ne_max, nz + 1);
     w.tau = VectorXd::Zero(ne_max);
-    w.perm = Eigen::VectorXi::Zero(ne_max);
-    w.Qm = MatrixXd::Zero(nu, nu);
+    w.perm = Eigen::VectorXi::LinSpaced(nu, 0, nu - 1);
     w.hh = VectorXd::Zero(nz + 2);
-    w.T = MatrixXd::Zero(nu, nz + 1);
-    w.Y = MatrixXd::Zero(ne_max, nx + 1);
-    w.RT = MatrixXd::Zero(nu, nz + 1);
-    w.Hr = MatrixXd::Zero(nz, nz);
+    w.T = MatrixXd::Zero(ne_max, nz + 1);
+    w.HD = MatrixXd::Zero(ne_max, nz + 1);
+    w.HDD = MatrixXd::Zero(ne_max, ne_max);
+    w.BD = MatrixXd::Zero(nx, ne_max);
+    w.Hr = MatrixXd::Zero(nz + 1, nz + 1);
+    w.cn = VectorXd::Zero(nu);
     w.gr = VectorXd::Zero(nz);
     w.BA = MatrixXd::Zero(nx, nz + 1);
-    w.PBA = MatrixXd::Zero(nx, nz);
     w.M = MatrixXd::Zero(nz, nz);
     w.hm = VectorXd::Zero(nz);
     w.pb = VectorXd::Zero(nx);
@@ -58,9 +59,31 @@ RiccatiSolver::RiccatiSolver(int horizon, int nx, int nu, int ne_max)
     w.rho = VectorXd::Zero(nu);
     w.t = VectorXd::Zero(nu);
     w.Kw = MatrixXd::Zero(nu, nx);
+    w.KD = MatrixXd::Zero(ne_max, nx);
     w.nw = nu;
   }
 }
+
+namespace {
+/// Applies H = I - tau v v^T, v = [1; F(j+1:ne, j)], to F(j:ne, c0:c1) (raw loops: the
+/// blocks are tiny and Eigen's generic path costs more than the arithmetic).
+template <class Mat>
+void applyReflector(Mat& F, int j, int ne, int c0, int c1, double tau) {
+  if (tau == 0.0) return;
+  const Eigen::Index ld = F.outerStride();
+  double* base = F.data();
+  const double* v = base + j * ld + j;  // v[0] is R(j, j); the essential part follows
+  const int m = ne - j;
+  for (int c = c0; c < c1; ++c) {
+    double* col = base + c * ld + j;
+    double dot = col[0];
+    for (int i = 1; i < m; ++i) dot += v[i] * col[i];
+    dot *= tau;
+    col[0] -= dot;
+    for (int i = 1; i < m; ++i) col[i] -= dot * v[i];
+  }
+}
+}  // namespace
 
 bool RiccatiSolver::projectStage(int k, double rank_tolerance, double* pivot_ratio) {
   const LqStage& s = stages_[idx(k)];
@@ -68,109 +91,131 @@ bool RiccatiSolver::projectStage(int k, double rank_tolerance, double* pivot_rat
   const int nx = nx_, nu = nu_, ne = s.ne;
   if (pivot_ratio) *pivot_ratio = 1.0;
   if (ne < 0 || ne > ne_max_) throw std::out_of_range("RiccatiSolver::projectStage: bad ne");
-
-  if (ne == 0) {
-    // No equalities: the reduced problem is the stage itself (w = du).
-    w.nw = nu;
-    w.Hr.topLeftCorner(nu, nu) = s.R;
-    w.Hr.block(0, nu, nu, nx) = s.S;
-    w.Hr.block(nu, 0, nx, nu) = s.S.transpose();
-    w.Hr.block(nu, nu, nx, nx) = s.Q;
-    w.gr.head(nu) = s.r;
-    w.gr.tail(nx) = s.q;
-    w.BA.leftCols(nu) = s.B;
-    w.BA.middleCols(nu, nx) = s.A;
-    w.BA.col(nu + nx) = s.b;
-    w.mult.setZero();
-    return true;
-  }
   if (ne > nu) {
     if (pivot_ratio) *pivot_ratio = 0.0;
     return false;
   }
+  for (int c = 0; c < nu; ++c) w.perm(c) = c;
 
-  // Householder QR with column pivoting of Eu^T (nu x ne): Eu^T P = Q [R; 0].
-  auto A = w.qr.leftCols(ne);
-  A = s.Eu.topRows(ne).transpose();
-  for (int j = 0; j < ne; ++j) w.perm(j) = j;
-  double r00 = 0.0, min_ratio = 1.0;
-  for (int j = 0; j < ne; ++j) {
-    int best = j;
-    double best_norm = A.col(j).tail(nu - j).squaredNorm();
-    for (int c = j + 1; c < ne; ++c) {
-      const double n = A.col(c).tail(nu - j).squaredNorm();
-      if (n > best_norm) {
-        best_norm = n;
-        best = c;
+  // Householder QR with column pivoting of Eu (ne x nu): Eu P = Q [R11 R12], applied to
+  // the augmented [Eu | Ex | e] so that Q^T [Ex e] comes out of the same sweep.
+  auto F = w.qr.topRows(ne);
+  if (ne > 0) {
+    F.leftCols(nu) = s.Eu.topRows(ne);
+    F.middleCols(nu, nx) = s.Ex.topRows(ne);
+    F.col(nu + nx) = s.e.head(ne);
+    double r00 = 0.0, min_ratio = 1.0;
+    auto norms = w.cn.head(nu);
+    norms = F.leftCols(nu).colwise().squaredNorm().transpose();
+    for (int j = 0; j < ne; ++j) {
+      if (j > 0) {
+        // Downdate the remaining column norms by the row just eliminated (LAPACK xGEQPF);
+        // recompute exactly when cancellation makes the downdate unreliable.
+        for (int c = j; c < nu; ++c) {
+          norms(c) -= F(j - 1, c) * F(j - 1, c);
+          if (norms(c) < 1e-3 * std::abs(F(j - 1, c) * F(j - 1, c)) || norms(c) < 0.0) {
+            norms(c) = F.col(c).segment(j, ne - j).squaredNorm();
+          }
+        }
       }
+      int best = j;
+      for (int c = j + 1; c < nu; ++c) {
+        if (norms(c) > norms(best)) best = c;
+      }
+      if (best != j) {
+        F.col(j).swap(F.col(best));
+        std::swap(w.perm(j), w.perm(best));
+        std::swap(norms(j), norms(best));
+      }
+      double beta = 0.0;
+      F.col(j).segment(j, ne - j).makeHouseholderInPlace(w.tau(j), beta);
+      F(j, j) = beta;
+      if (j == 0) r00 = std::abs(beta);
+      const double ratio = (r00 > 0.0 && std::isfinite(r00)) ? std::abs(beta) / r00 : 0.0;
+      min_ratio = std::min(min_ratio, ratio);
+      if (!(ratio > rank_tolerance)) {
+        if (pivot_ratio) *pivot_ratio = ratio;
+        return false;
+      }
+      applyReflector(F, j, ne, j + 1, nu + nx + 1, w.tau(j));
     }
-    if (best != j) {
-      A.col(j).swap(A.col(best));
-      std::swap(w.perm(j), w.perm(best));
-    }
-    double beta = 0.0;
-    A.col(j).tail(nu - j).makeHouseholderInPlace(w.tau(j), beta);
-    A(j, j) = beta;
-    if (j == 0) r00 = std::abs(beta);
-    const double ratio = (r00 > 0.0 && std::isfinite(r00)) ? std::abs(beta) / r00 : 0.0;
-    min_ratio = std::min(min_ratio, ratio);
-    if (!(ratio > rank_tolerance)) {
-      if (pivot_ratio) *pivot_ratio = ratio;
-      return false;
-    }
-    if (j + 1 < ne) {
-      A.block(j, j + 1, nu - j, ne - j - 1)
-          .applyHouseholderOnTheLeft(A.col(j).tail(nu - j - 1), w.tau(j), w.hh.data());
-    }
-  }
-  if (pivot_ratio) *pivot_ratio = min_ratio;
-
-  // Explicit Q = H_0 ... H_{ne-1} (backward accumulation).
-  w.Qm.setIdentity();
-  for (int j = ne - 1; j >= 0; --j) {
-    w.Qm.bottomRightCorner(nu - j, nu - j)
-        .applyHouseholderOnTheLeft(A.col(j).tail(nu - j - 1), w.tau(j), w.hh.data());
+    if (pivot_ratio) *pivot_ratio = min_ratio;
   }
 
-  // Particular solution: Eu du = -(e + Ex dx)  =>  du_p = -Q1 R^-T P^T [Ex e] [dx; 1].
-  const int nw = nu - ne;
+  const int nw = nu - ne, nz = nw + nx;
   w.nw = nw;
-  auto Y = w.Y.topRows(ne);
-  for (int j = 0; j < ne; ++j) {
-    const int row = w.perm(j);
-    Y.row(j).head(nx) = s.Ex.row(row);
-    Y(j, nx) = s.e(row);
+  const int* pD = w.perm.data();
+  const int* pI = w.perm.data() + ne;
+
+  // Dependent inputs: du_D = T [w; dx; 1] with T = -R11^-1 [R12 | Q^T Ex | Q^T e].
+  auto T = w.T.topLeftCorner(ne, nz + 1);
+  if (ne > 0) {
+    T = F.rightCols(nz + 1);  // [R12 | Q^T Ex | Q^T e]
+    F.leftCols(ne).triangularView<Eigen::Upper>().solveInPlace(T);
+    T = -T;
   }
-  A.topRows(ne).triangularView<Eigen::Upper>().transpose().solveInPlace(Y);
-  auto T = w.T.leftCols(nw + nx + 1);
-  T.leftCols(nw) = w.Qm.rightCols(nw);
-  T.rightCols(nx + 1).noalias() = -w.Qm.leftCols(ne) * Y;
-  const auto Z = T.leftCols(nw);
-  const auto Dx = T.middleCols(nw, nx);
-  const auto d0 = T.col(nw + nx);
 
-  // Reduced Hessian and gradient in [w; dx].
-  auto RT = w.RT.leftCols(nw + nx + 1);
-  RT.noalias() = s.R * T;
-  RT.middleCols(nw, nx) += s.S;
-  RT.col(nw + nx) += s.r;
-  w.Hr.topLeftCorner(nw, nw + nx).noalias() = Z.transpose() * RT.leftCols(nw + nx);
-  w.gr.head(nw).noalias() = Z.transpose() * RT.col(nw + nx);
-  w.Hr.block(nw, 0, nx, nw) = w.Hr.block(0, nw, nw, nx).transpose();
-  auto Hxx = w.Hr.block(nw, nw, nx, nx);
-  Hxx = s.Q;
-  Hxx.noalias() += Dx.transpose() * RT.middleCols(nw, nx);
-  Hxx.noalias() += s.S.transpose() * Dx;
-  auto gx = w.gr.segment(nw, nx);
-  gx = s.q;
-  gx.noalias() += s.S.transpose() * d0;
-  gx.noalias() += Dx.transpose() * RT.col(nw + nx);
-
-  // Reduced dynamics [B Z, A + B Dx | b + B d0].
-  auto BA = w.BA.leftCols(nw + nx + 1);
-  BA.noalias() = s.B * T;
-  BA.middleCols(nw, nx) += s.A;
-  BA.col(nw + nx) += s.b;
+  // Reduced augmented Hessian in [w; dx; 1] (lower triangle): gather the independent
+  // part, then add T^T Y + Y^T T with Y = H_Dv + 0.5 H_DD T.
+  auto H = w.Hr.topLeftCorner(nz + 1, nz + 1);
+  // Raw column-major gathers (contiguous writes, reads within one column of R or S).
+  const double* Rp = s.R.data();
+  const double* Sp = s.S.data();
+  const Eigen::Index ldR = s.R.outerStride(), ldS = s.S.outerStride();
+  double* Hp = w.Hr.data();
+  const Eigen::Index ldH = w.Hr.outerStride();
+  for (int j = 0; j < nw; ++j) {
+    const double* Rc = Rp + pI[j] * ldR;
+    double* Hc = Hp + j * ldH;
+    for (int i = j; i < nw; ++i) Hc[i] = Rc[pI[i]];
+    for (int a = 0; a < nx; ++a) Hc[nw + a] = Sp[pI[j] + a * ldS];
+    Hc[nz] = s.r(pI[j]);
+  }
+  H.block(nw, nw, nx, nx).triangularView<Eigen::Lower>() = s.Q;
+  H.row(nz).segment(nw, nx) = s.q.transpose();
+  H(nz, nz) = 0.0;
+  auto BA = w.BA.leftCols(nz + 1);
+  for (int j = 0; j < nw; ++j) BA.col(j) = s.B.col(pI[j]);
+  BA.middleCols(nw, nx) = s.A;
+  BA.col(nz) = s.b;
+  if (ne > 0) {
+    auto Y = w.HD.topLeftCorner(ne, nz + 1);
+    auto HDD = w.HDD.topLeftCorner(ne, ne);
+    double* Yp = w.HD.data();
+    double* Dp = w.HDD.data();
+    const Eigen::Index ldY = w.HD.outerStride(), ldD = w.HDD.outerStride();
+    for (int j = 0; j < nw; ++j) {
+      const double* Rc = Rp + pI[j] * ldR;
+      double* Yc = Yp + j * ldY;
+      for (int i = 0; i < ne; ++i) Yc[i] = Rc[pD[i]];
+    }
+    for (int a = 0; a < nx; ++a) {
+      const double* Sc = Sp + a * ldS;
+      double* Yc = Yp + (nw + a) * ldY;
+      for (int i = 0; i < ne; ++i) Yc[i] = Sc[pD[i]];
+    }
+    for (int i = 0; i < ne; ++i) Yp[i + nz * ldY] = s.r(pD[i]);
+    for (int j = 0; j < ne; ++j) {
+      const double* Rc = Rp + pD[j] * ldR;
+      double* Dc = Dp + j * ldD;
+      for (int i = 0; i < ne; ++i) Dc[i] = Rc[pD[i]];
+    }
+    Y.noalias() += 0.5 * HDD * T;
+    // T^T Y goes into M (free until backward(); nz + 1 <= nu + nx when ne > 0).
+    auto TY = w.M.topLeftCorner(nz + 1, nz + 1);
+    TY.noalias() = T.transpose() * Y;
+    const double* TYp = w.M.data();
+    const Eigen::Index ldT = w.M.outerStride();
+    for (int j = 0; j <= nz; ++j) {
+      double* Hc = Hp + j * ldH;
+      const double* Tc = TYp + j * ldT;
+      for (int i = j; i <= nz; ++i) Hc[i] += Tc[i] + TYp[j + i * ldT];
+    }
+    auto BD = w.BD.leftCols(ne);
+    for (int i = 0; i < ne; ++i) BD.col(i) = s.B.col(pD[i]);
+    BA.noalias() += BD * T;
+  }
+  w.gr.head(nz) = H.row(nz).head(nz).transpose();
   return true;
 }
 
@@ -189,7 +234,7 @@ bool RiccatiSolver::backward() {
     const int nw = w.nw, nz = nw + nx;
     const auto BA = w.BA.leftCols(nz);
     const auto br = w.BA.col(nz);
-    auto PBA = w.PBA.leftCols(nz);
+    auto PBA = PBA_.leftCols(nz);
     PBA.noalias() = n.P.selfadjointView<Eigen::Lower>() * BA;
     auto M = w.M.topLeftCorner(nz, nz);
     M.triangularView<Eigen::Lower>() = w.Hr.topLeftCorner(nz, nz);
@@ -267,26 +312,32 @@ void RiccatiSolver::recoverStage(int k) {
   if (k >= N_) return;
   const LqStage& s = stages_[idx(k)];
   Work& w = work_[idx(k)];
-  const int nx = nx_, nu = nu_, ne = s.ne, nw = w.nw;
-  if (ne == 0) {
-    w.du = w.w;
-    return;
-  }
-  w.du = w.T.col(nw + nx);
-  w.du.noalias() += w.T.leftCols(nw) * w.w.head(nw);
-  w.du.noalias() += w.T.middleCols(nw, nx) * w.dx;
+  const int nx = nx_, ne = s.ne, nw = w.nw, nz = nw + nx;
+  const int* pD = w.perm.data();
+  const int* pI = w.perm.data() + ne;
+  for (int j = 0; j < nw; ++j) w.du(pI[j]) = w.w(j);
+  w.mult.setZero();
+  if (ne == 0) return;
+  const auto T = w.T.topLeftCorner(ne, nz + 1);
+  auto t = w.t.head(ne);
+  t = T.col(nz);
+  t.noalias() += T.leftCols(nw) * w.w.head(nw);
+  t.noalias() += T.middleCols(nw, nx) * w.dx;
+  for (int i = 0; i < ne; ++i) w.du(pD[i]) = t(i);
   // Stationarity in du: rho + Eu^T nu = 0 with rho = R du + S dx + r + B^T lambda_{k+1};
-  // Eu^T = Q1 R P^T  =>  nu = -P R^-1 Q1^T rho.
+  // Eu = Q [R11 R12] P^T  =>  nu = -Q R11^-T rho_D.
   w.rho = s.r;
   w.rho.noalias() += s.R * w.du;
   w.rho.noalias() += s.S * w.dx;
   w.rho.noalias() += s.B.transpose() * work_[idx(k + 1)].lam;
-  auto y = w.t.head(ne);
-  y.noalias() = w.Qm.leftCols(ne).transpose() * w.rho;
-  w.qr.topLeftCorner(ne, ne).triangularView<Eigen::Upper>().solveInPlace(y);
-  w.mult.setZero();
-  for (int j = 0; j < ne; ++j) w.mult(w.perm(j)) = -y(j);
-  (void)nu;
+  auto y = w.mult.head(ne);
+  for (int i = 0; i < ne; ++i) y(i) = -w.rho(pD[i]);
+  const auto F = w.qr.topRows(ne);
+  F.leftCols(ne).triangularView<Eigen::Upper>().transpose().solveInPlace(y);
+  for (int j = ne - 1; j >= 0; --j) {
+    y.segment(j, ne - j)
+        .applyHouseholderOnTheLeft(F.col(j).segment(j + 1, ne - j - 1), w.tau(j), w.hh.data());
+  }
 }
 
 bool RiccatiSolver::solve(const Eigen::Ref<const VectorXd>& dx0, double rank_tolerance) {
@@ -304,17 +355,20 @@ bool RiccatiSolver::solve(const Eigen::Ref<const VectorXd>& dx0, double rank_tol
 
 void RiccatiSolver::feedbackGain(int k, MatrixXd& K) const {
   const Work& w = work_[idx(k)];
-  const int nx = nx_, nw = w.nw;
+  const int nx = nx_, nw = w.nw, ne = stages_[idx(k)].ne;
   auto Kw = w.Kw.topRows(nw);
   if (nw > 0) {
     Kw = -w.M.block(nw, 0, nx, nw).transpose();
     w.M.topLeftCorner(nw, nw).transpose().triangularView<Eigen::Upper>().solveInPlace(Kw);
   }
-  if (stages_[idx(k)].ne == 0) {
-    K = Kw;
-  } else {
-    K = w.T.middleCols(nw, nx);
-    K.noalias() += w.T.leftCols(nw) * Kw;
+  const int* pD = w.perm.data();
+  const int* pI = w.perm.data() + ne;
+  for (int j = 0; j < nw; ++j) K.row(pI[j]) = Kw.row(j);
+  if (ne > 0) {
+    auto KD = w.KD.topRows(ne);
+    KD = w.T.block(0, nw, ne, nx);
+    KD.noalias() += w.T.topLeftCorner(ne, nw) * Kw;
+    for (int i = 0; i < ne; ++i) K.row(pD[i]) = KD.row(i);
   }
 }
 

@@ -104,6 +104,8 @@ struct Solver::Impl {
   double penalty = 1.0;
   bool has_guess = false;
   bool has_solution = false;
+  bool direction_ready = false;  // the Riccati workspace holds a valid factorisation
+  bool backup_valid = false;     // xs_bak, ... hold the iterate before the last step
   double solution_t0 = 0.0;
   int failed_node = -1;
   char message[256] = "";
@@ -239,15 +241,15 @@ struct Solver::Impl {
   void residuals(int k, Node& n) {
     const NodeData& d = *n.d;
     const LqStage& st = lq.stage(k);
-    n.finite = std::isfinite(d.cost) && d.lx.allFinite() && d.Lxx.allFinite() &&
-               n.c.allFinite();
+    // Values are checked here; a non-finite Jacobian or Hessian shows up in the step,
+    // which recoverNode checks.
+    n.finite = std::isfinite(d.cost) && d.lx.allFinite() && n.c.allFinite();
     double primal = 0.0;
     n.rx = d.lx;
     n.rx -= n.lam;
     if (k < N) {
-      n.finite = n.finite && n.defect.allFinite() && st.A.allFinite() && st.B.allFinite() &&
-                 d.lu.allFinite() && d.Luu.allFinite() && d.e.head(d.ne).allFinite() &&
-                 d.Eu.topRows(d.ne).allFinite() && d.Ex.topRows(d.ne).allFinite();
+      n.finite = n.finite && n.defect.allFinite() && d.lu.allFinite() &&
+                 d.e.head(d.ne).allFinite();
       primal = std::max(primal, n.defect.lpNorm<Eigen::Infinity>());
       if (d.ne > 0) primal = std::max(primal, d.e.head(d.ne).lpNorm<Eigen::Infinity>());
       const VectorXd& lam_next = node(k + 1).lam;
@@ -554,6 +556,49 @@ struct Solver::Impl {
   }
 
 
+  /// Moves the solution n whole nodes earlier (warm start of a real-time update): node k
+  /// takes node k + n; the tail repeats the old last state and input, its slacks and duals
+  /// are reinitialised. The backup iterate is shifted the same way.
+  void shiftNodes(int n) {
+    auto shiftStates = [&](std::vector<VectorXd>& v) {
+      for (int k = 0; k + n <= N; ++k) v[static_cast<std::size_t>(k)].swap(v[static_cast<std::size_t>(k + n)]);
+      const auto last = static_cast<std::size_t>(N - n);
+      for (int k = N - n + 1; k <= N; ++k) v[static_cast<std::size_t>(k)] = v[last];
+    };
+    auto shiftInputs = [&](std::vector<VectorXd>& v) {
+      for (int k = 0; k + n < N; ++k) v[static_cast<std::size_t>(k)].swap(v[static_cast<std::size_t>(k + n)]);
+      const auto last = static_cast<std::size_t>(N - 1 - n >= 0 ? N - 1 - n : N - 1);
+      for (int k = std::max(N - n, 0); k < N; ++k) v[static_cast<std::size_t>(k)] = v[last];
+    };
+    shiftStates(xs);
+    shiftStates(xs_bak);
+    shiftInputs(us);
+    shiftInputs(us_bak);
+    for (int k = 0; k + n <= N; ++k) {
+      Node& a = node(k);
+      Node& b = node(k + n);
+      a.s.swap(b.s);
+      a.z.swap(b.z);
+      a.lam.swap(b.lam);
+      a.mult.swap(b.mult);
+      a.s_bak.swap(b.s_bak);
+      a.z_bak.swap(b.z_bak);
+      a.lam_bak.swap(b.lam_bak);
+      a.mult_bak.swap(b.mult_bak);
+      std::swap(a.ni_prev, b.ni_prev);
+    }
+    for (int k = std::max(N - n, 0); k <= N; ++k) {
+      Node& t = node(k);
+      t.fresh = true;
+      t.lam.setZero();
+      t.lam_bak.setZero();
+      // The backup tail keeps slacks/duals that are reinitialised at the next
+      // linearisation anyway (fresh); mark them consistent with the primary ones.
+      t.s_bak = t.s;
+      t.z_bak = t.z;
+    }
+  }
+
   // ---- one full run --------------------------------------------------------------------------
   SolverStatus run(ConstVecRef x_init, bool realtime);
 };
@@ -583,7 +628,6 @@ SolverStatus Solver::Impl::run(ConstVecRef x_init, bool realtime) {
     }
     penalty = 1.0;
   }
-  bool have_backup = false;
   const int max_it = realtime ? 1 : std::max(set.max_iterations, 0);
 
   for (;;) {
@@ -610,7 +654,7 @@ SolverStatus Solver::Impl::run(ConstVecRef x_init, bool realtime) {
     }
     it.time_linearize_ms = msSince(t_lin);
     if (!finite || !std::isfinite(primal) || primal > set.divergence_threshold) {
-      if (have_backup) {
+      if (backup_valid) {
         restore();
         ROLLSTEP_MSG("the iterate diverged (primal residual %.3g); the last good iterate was restored",
                    primal);
@@ -669,6 +713,7 @@ SolverStatus Solver::Impl::run(ConstVecRef x_init, bool realtime) {
       }
     }
     if (!lq.backward()) {
+      direction_ready = false;
       failed_node = lq.failedStage();
       stats.push_back(it);
       std::snprintf(message, sizeof(message),
@@ -676,6 +721,7 @@ SolverStatus Solver::Impl::run(ConstVecRef x_init, bool realtime) {
       return status = SolverStatus::Diverged;
     }
     lq.forward(dx0);
+    direction_ready = true;
     forNodes([this](int k) { recoverNode(k); });
     double ap = 1.0, ad = 1.0, dphi = 0.0, mult_max = 0.0;
     finite = true;
@@ -690,7 +736,7 @@ SolverStatus Solver::Impl::run(ConstVecRef x_init, bool realtime) {
     }
     it.time_riccati_ms = msSince(t_ric);
     if (!finite) {
-      if (have_backup) restore();
+      if (backup_valid) restore();
       stats.push_back(it);
       ROLLSTEP_MSG("non-finite search direction; the last good iterate was kept");
       return status = SolverStatus::Diverged;
@@ -699,10 +745,9 @@ SolverStatus Solver::Impl::run(ConstVecRef x_init, bool realtime) {
     // Step length.
     auto t_upd = Clock::now();
     backup();
-    have_backup = true;
+    backup_valid = true;
     double alpha = ap;
     if (!realtime && set.line_search) {
-      penalty = std::max(penalty, 1.01 * mult_max + 1e-6);
       double f0 = 0.0, theta0 = 0.0;
       for (int k = 0; k <= N; ++k) {
         Node& n = node(k);
@@ -712,6 +757,8 @@ SolverStatus Solver::Impl::run(ConstVecRef x_init, bool realtime) {
         theta0 += n.merit_theta;
       }
       theta0 += dx0.lpNorm<1>();
+      // l1 exact penalty: above the largest multiplier (dynamics, equalities, duals).
+      penalty = std::max(penalty, 1.01 * mult_max + 1e-6);
       const double phi0 = f0 + penalty * theta0;
       const double slope = dphi - penalty * theta0;
       bool accepted = false;
@@ -816,6 +863,7 @@ void Solver::setInitialGuess(const std::vector<VectorXd>& xs, const std::vector<
     }
   }
   for (std::size_t k = 0; k < xs.size(); ++k) m.xs[k] = xs[k];
+  m.backup_valid = false;
   for (std::size_t k = 0; k < us.size(); ++k) m.us[k] = us[k];
   for (auto& n : m.nodes) {
     n.fresh = true;
@@ -841,29 +889,7 @@ SolverStatus Solver::update(double t0, ConstVecRef x0) {
   if (m.has_solution) {
     const int shift = static_cast<int>(std::floor((t0 - m.solution_t0) / dt + 1e-6));
     if (shift > 0) {
-      const int n = std::min(shift, m.N);
-      for (int k = 0; k + n <= m.N; ++k) {
-        const auto a = static_cast<std::size_t>(k), b = static_cast<std::size_t>(k + n);
-        m.xs[a].swap(m.xs[b]);
-        auto& na = m.nodes[a];
-        auto& nb = m.nodes[b];
-        na.s.swap(nb.s);
-        na.z.swap(nb.z);
-        na.lam.swap(nb.lam);
-        na.mult.swap(nb.mult);
-        std::swap(na.ni_prev, nb.ni_prev);
-        if (k + n < m.N) m.us[a].swap(m.us[b]);
-      }
-      const int keep_x = m.N - n;          // index of the (shifted) old last state
-      for (int k = keep_x + 1; k <= m.N; ++k) m.xs[static_cast<std::size_t>(k)] = m.xs[static_cast<std::size_t>(keep_x)];
-      const int keep_u = m.N - 1 - n;      // index of the (shifted) old last input
-      for (int k = std::max(keep_u + 1, 0); k < m.N; ++k) {
-        m.us[static_cast<std::size_t>(k)] = m.us[static_cast<std::size_t>(std::max(keep_u, 0))];
-      }
-      for (int k = std::max(keep_x, 0); k <= m.N; ++k) {
-        m.nodes[static_cast<std::size_t>(k)].fresh = true;
-        m.nodes[static_cast<std::size_t>(k)].lam.setZero();
-      }
+      m.shiftNodes(std::min(shift, m.N));
     }
   }
   m.prob->setInitialTime(t0);
@@ -885,7 +911,11 @@ const MatrixXd& Solver::feedbackGain(int k) const {
   const auto kk = static_cast<std::size_t>(k);
   if (k < 0 || k >= m.N) throw std::out_of_range("Solver::feedbackGain: node out of range");
   if (!m.gains_valid[kk]) {
-    m.lq.feedbackGain(k, m.gains[kk]);
+    if (m.direction_ready) {
+      m.lq.feedbackGain(k, m.gains[kk]);
+    } else {
+      m.gains[kk].setZero();  // no factorisation yet
+    }
     m.gains_valid[kk] = true;
   }
   return m.gains[kk];

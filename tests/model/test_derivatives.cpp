@@ -128,7 +128,52 @@ TEST_P(Derivatives, NodeQuantitiesMatchFiniteDifferences) {
                               node.dContactTorque_dq, 1e-12));
     EXPECT_TRUE(closeRelative(jacobianCenterOfMass(m, d2, q), node.comJacobian, 1e-12));
     EXPECT_TRUE(closeRelative(computeStaticTorque(m, d2, q, ids, forces),
-                              node.g + node.contactTorque, 1e-12));
+                              node.g - node.contactTorque, 1e-12));
+  }
+}
+
+// Full-centroidal variant: v_b solved from the momentum, and its derivatives.
+TEST_P(Derivatives, BaseVelocityFromMomentum) {
+  const Model m = buildModelFromUrdfFile(GetParam().path, GetParam().root);
+  if (!m.hasFreeFlyer()) GTEST_SKIP() << "fixed base";
+  const std::vector<FrameIndex> ids = test::frameIds(m, GetParam().contacts);
+  const int nc = static_cast<int>(ids.size());
+  Data d(m);
+  NodeQuantities node(m, ids);
+  NodeQuantities node2(m, ids);
+  std::mt19937 rng(77);
+  for (int trial = 0; trial < 25; ++trial) {
+    const VectorXd q = test::randomConfiguration(m, rng);
+    const Vector6d h = test::randomVector(6, rng, 20.0);
+    const VectorXd vJ = test::randomVector(m.nj, rng);
+    const VectorXd forces = test::randomVector(3 * nc, rng, 50.0);
+    computeNodeQuantitiesFromMomentum(m, d, q, h, vJ, forces, node);
+    EXPECT_TRUE(closeRelative(node.A * node.v, h, 1e-12));
+    EXPECT_TRUE(closeRelative(node.h, h, 1e-12));
+    EXPECT_TRUE(closeRelative(node.v.tail(m.nj), vJ, 0.0));
+    EXPECT_TRUE(
+        closeRelative(node.AbInverse * node.A.leftCols<6>(), MatrixXd::Identity(6, 6), 1e-12));
+    // Same quantities as the plain node evaluation at that v.
+    computeNodeQuantities(m, d, q, node.v, forces, node2);
+    EXPECT_TRUE(closeRelative(node.dh_dq, node2.dh_dq, 1e-12));
+    EXPECT_TRUE(
+        closeRelative(node.contactVelocityDerivatives, node2.contactVelocityDerivatives, 1e-12));
+    EXPECT_TRUE(closeRelative(node.dContactTorque_dq, node2.dContactTorque_dq, 1e-12));
+    // v_b derivatives against finite differences.
+    auto vb = [&](const VectorXd& x, const VectorXd& w) {
+      computeNodeQuantitiesFromMomentum(m, d, x, h, w, forces, node2);
+      return VectorXd(node2.v.head<6>());
+    };
+    EXPECT_TRUE(closeRelative(
+        node.dvb_dq, test::fdConfiguration(m, q, [&](const VectorXd& x) { return vb(x, vJ); }),
+        kTol))
+        << trial;
+    MatrixXd fd(6, m.nj);
+    for (int j = 0; j < m.nj; ++j) {
+      const VectorXd e = VectorXd::Unit(m.nj, j) * 1e-6;
+      fd.col(j) = (vb(q, vJ + e) - vb(q, vJ - e)) / 2e-6;
+    }
+    EXPECT_TRUE(closeRelative(node.dvb_dvJ, fd, kTol)) << trial;
   }
 }
 

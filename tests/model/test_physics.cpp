@@ -76,19 +76,48 @@ TEST_P(Physics, GravityIsPotentialGradient) {
   }
 }
 
-TEST_P(Physics, StaticTorqueSelection) {
-  // At the neutral posture with the robot's weight spread over the contacts, the base
-  // rows of g + J^T f vanish only when the forces balance gravity about the com; here we
-  // check the simpler identity that S picks the joint rows.
+// Static equilibrium: vertical contact forces (on the robot) that balance the weight and
+// its moment about the com make the base rows of g - J^T f vanish; the joint rows are the
+// static joint torques.
+TEST_P(Physics, StaticEquilibrium) {
   const Model m = buildModelFromUrdfFile(GetParam().path, GetParam().root);
+  if (!m.hasFreeFlyer() || GetParam().contacts.size() < 3) GTEST_SKIP();
   const std::vector<FrameIndex> ids = test::frameIds(m, GetParam().contacts);
+  const int nc = static_cast<int>(ids.size());
   Data d(m);
   std::mt19937 rng(8);
-  const VectorXd q = test::randomConfiguration(m, rng);
-  const VectorXd f = test::randomVector(3 * static_cast<int>(ids.size()), rng, 10.0);
-  const VectorXd tau = computeStaticTorque(m, d, q, ids, f);
-  EXPECT_EQ(tau.tail(m.nj).size(), m.nj);
-  EXPECT_TRUE(closeRelative(tau, d.g + d.tauContact, 1e-14));
+  for (int trial = 0; trial < 10; ++trial) {
+    const VectorXd q = test::randomConfiguration(m, rng);
+    const Vector3d c = centerOfMass(m, d, q);
+    updateFramePlacements(m, d);
+    // Minimum-norm vertical forces: sum fz = m g, sum fz (x - cx) = sum fz (y - cy) = 0.
+    Eigen::MatrixXd A(3, nc);
+    for (int i = 0; i < nc; ++i) {
+      const Vector3d p = d.opf[ids[i]];
+      A.col(i) << 1.0, p.x() - c.x(), p.y() - c.y();
+    }
+    const Vector3d b(-m.totalMass * m.gravity.z(), 0.0, 0.0);
+    const VectorXd fz = A.transpose() * (A * A.transpose()).ldlt().solve(b);
+    VectorXd f = VectorXd::Zero(3 * nc);
+    for (int i = 0; i < nc; ++i) f[3 * i + 2] = fz[i];
+    const VectorXd tau = computeStaticTorque(m, d, q, ids, f);
+    EXPECT_LT(tau.head<6>().norm(), 1e-9 * m.totalMass) << tau.head<6>().transpose();
+    EXPECT_TRUE(closeRelative(tau, d.g - d.tauContact, 1e-14));
+    if (GetParam().name == "tachyon3") {
+      // Prismatic knee (axis -z of the hip link): it pushes the wheel down with the
+      // contact force minus the weight it carries, along the leg axis.
+      for (int i = 0; i < nc; ++i) {
+        const std::string leg = GetParam().contacts[static_cast<std::size_t>(i)].substr(0, 2);
+        const int j = m.getJointId(leg + "_knee");
+        const FrameIndex shank = m.getFrameId(leg + "_shank");
+        const Vector3d axis = d.oRf[shank] * Vector3d(0, 0, -1);
+        const double carried = m.bodies[static_cast<std::size_t>(m.frames[shank].body)].mass;
+        const double expected =
+            -axis.dot(f.segment<3>(3 * i)) + carried * m.gravity.dot(axis) * -1.0;
+        EXPECT_NEAR(tau[m.nvBase + j], expected, 1e-9) << leg;
+      }
+    }
+  }
 }
 
 // After Data (and NodeQuantities) are built, no algorithm allocates.
@@ -110,6 +139,9 @@ TEST_P(Physics, NoAllocation) {
   {
     rollstep::test::AllocationGuard guard;
     computeNodeQuantities(m, d, q, v, f, node);
+    if (m.hasFreeFlyer()) {
+      computeNodeQuantitiesFromMomentum(m, d, q, Vector6d::Ones(), v.tail(m.nj), f, node);
+    }
     forwardKinematics(m, d, q);
     forwardKinematics(m, d, q, v);
     updateFramePlacements(m, d);

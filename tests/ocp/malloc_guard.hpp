@@ -1,7 +1,8 @@
 #pragma once
 // Counts calls to malloc/calloc/realloc on this thread (Eigen's aligned allocator calls
 // std::malloc directly, so operator-new counting alone would not see it). Link
-// malloc_guard.cpp into the test executable; glibc only (wraps __libc_malloc).
+// malloc_guard.cpp into the test executable; glibc only (wraps __libc_malloc). Under
+// ASan/TSan (which interpose malloc) counting is disabled: enabled() is false.
 //
 //   rollstep::test::MallocGuard guard;
 //   solver.solve(x0);
@@ -17,6 +18,7 @@ class MallocGuard {
   MallocGuard(const MallocGuard&) = delete;
   MallocGuard& operator=(const MallocGuard&) = delete;
   std::size_t count() const;
+  static bool enabled();
 
  private:
   std::size_t start_;

@@ -328,6 +328,45 @@ TEST(Cost, LeastSquaresGradientAndGaussNewtonHessian) {
   EXPECT_THROW(ocp::LeastSquaresCost(res, -VectorXd::Ones(5)), std::invalid_argument);
 }
 
+TEST(Cost, StructuredTrackingPathsMatchTheGenericProducts) {
+  std::mt19937 rng(21);
+  const int nu = 4;
+  for (int which = 0; which < 2; ++which) {
+    std::shared_ptr<ocp::StateSpace> s;
+    if (which == 0) {
+      s = std::make_shared<ocp::EuclideanSpace>(5);
+    } else {
+      s = std::make_shared<ocp::SE3xEuclideanSpace>(3);
+    }
+    const int n = s->ndx();
+    const VectorXd xr = randomState(*s, rng), x = randomState(*s, rng), u = randomVec(nu, rng);
+    const VectorXd ur = randomVec(nu, rng);
+    std::vector<std::shared_ptr<const ocp::Residual>> residuals{
+        std::make_shared<ocp::StateErrorResidual>(s, nu, xr),
+        std::make_shared<ocp::InputErrorResidual>(n, ur)};
+    for (const auto& res : residuals) {
+      const VectorXd w = randomVec(res->maxRows(), rng).cwiseAbs();
+      ocp::LeastSquaresCost cost(res, w);
+      auto cd = cost.createData();
+      auto rd = res->createData();
+      ocp::NodeContext ctx;
+      VectorXd lx = VectorXd::Ones(n), lu = VectorXd::Ones(nu);  // accumulates on top
+      MatrixXd Lxx = MatrixXd::Ones(n, n), Luu = MatrixXd::Ones(nu, nu), Lux = MatrixXd::Ones(nu, n);
+      cost.calc(ctx, x, u, *cd);
+      cost.calcDiff(ctx, x, u, *cd, 0.5, lx, lu, Lxx, Luu, Lux);
+      rd->rows = res->maxRows();
+      res->calc(ctx, x, u, *rd);
+      res->calcDiff(ctx, x, u, *rd);
+      const MatrixXd W = w.asDiagonal();
+      EXPECT_LT((lx - VectorXd::Ones(n) - 0.5 * rd->Rx.transpose() * W * rd->r).norm(), 1e-12);
+      EXPECT_LT((lu - VectorXd::Ones(nu) - 0.5 * rd->Ru.transpose() * W * rd->r).norm(), 1e-12);
+      EXPECT_LT((Lxx - MatrixXd::Ones(n, n) - 0.5 * rd->Rx.transpose() * W * rd->Rx).norm(), 1e-12);
+      EXPECT_LT((Luu - MatrixXd::Ones(nu, nu) - 0.5 * rd->Ru.transpose() * W * rd->Ru).norm(), 1e-12);
+      EXPECT_LT((Lux - MatrixXd::Ones(nu, n) - 0.5 * rd->Ru.transpose() * W * rd->Rx).norm(), 1e-12);
+    }
+  }
+}
+
 // ---- mode schedule ---------------------------------------------------------------------------
 
 TEST(ModeSchedule, PhasesAndModes) {

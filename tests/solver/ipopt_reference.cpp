@@ -347,7 +347,6 @@ class OcpTnlp final : public Ipopt::TNLP {
     nw.grad.resize(wd);
     nw.grad.setZero();
     nw.grad.head(ndx_) = nw.Tk.transpose() * d.lx;
-    const int ws = term ? ndx_ : ndx_ + nu_;
     if (!term) {
       nw.grad.segment(ndx_, nu_) = d.lu;
       space_.integrateJacobians(xbar_[kk + 1], w.tail(ndx_), nw.Jtmp, nw.Tk1);
@@ -364,7 +363,6 @@ class OcpTnlp final : public Ipopt::TNLP {
       nw.Jin.topLeftCorner(d.ni, ndx_) = d.Gx.topRows(d.ni) * nw.Tk;
       if (!term) nw.Jin.block(0, ndx_, d.ni, nu_) = d.Gu.topRows(d.ni);
     }
-    (void)ws;
   }
 
   void lagrangianGradient(int k, const NodeWork& nw, double sigma, const double* lambda,

@@ -26,7 +26,8 @@ struct Data {
   // ---- Mass distribution (centerOfMass, jacobianCenterOfMass, centroidal, gravity)
   std::vector<Eigen::Vector3d> ocom;              ///< world com of each body
   std::vector<Eigen::Vector3d> subtreeMoment;     ///< sum of m_i c_i over the subtree (world)
-  std::vector<Eigen::Matrix3d> subtreeInertia;    ///< rotational inertia about the world origin
+  std::vector<Eigen::Matrix3d> bodyInertia;       ///< rotational inertia about the world origin
+  std::vector<Eigen::Matrix3d> subtreeInertia;    ///< same, summed over the subtree
   std::vector<Vector6d> subtreeMomentum;          ///< spatial momentum about the world origin
   Eigen::Vector3d com = Eigen::Vector3d::Zero();  ///< centre of mass (world)
   Eigen::Matrix3Xd Jcom;                          ///< 3 x nv, d com / dq = d com_dot / dv
@@ -41,7 +42,7 @@ struct Data {
   Eigen::MatrixXd dg_dq;           ///< nv x nv
   Eigen::VectorXd tauContact;      ///< nv, sum_c J_c(q)^T f_c
   Eigen::MatrixXd dtauContact_dq;  ///< nv x nv at fixed forces
-  Eigen::VectorXd tauStatic;       ///< nv, g + sum_c J_c^T f_c
+  Eigen::VectorXd tauStatic;       ///< nv, g - sum_c J_c^T f_c (static torque)
 
   // ---- Scratch
   Eigen::Matrix3Xd Y;       ///< 3 x nv, used by torque derivatives

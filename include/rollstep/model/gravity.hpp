@@ -5,7 +5,11 @@
 //  base LOCAL frame [force; torque about the base origin].
 //  tauContact = sum_c J_c(q)^T f_c: f_c a world-frame force applied at the origin of frame c,
 //  J_c the linear rows of its LOCAL_WORLD_ALIGNED Jacobian.
-//  S (g + J^T f): the actuated rows are the last nj, i.e. tau.tail(model.nj).
+//  Static torque: with f the contact forces acting ON the robot (as in the centroidal
+//  dynamics h_lin' = sum f + m gravity), static equilibrium M(q) 0 + g(q) = S^T tau + J^T f
+//  gives the joint torques tau = S (g(q) - J(q)^T f): the actuated rows are the last nj,
+//  i.e. tauStatic.tail(model.nj). (The paper's S (g + J^T f) uses g = gravity force = -g
+//  here; with symmetric limits both give the same constraint.)
 #include <vector>
 
 #include "rollstep/model/data.hpp"
@@ -20,7 +24,8 @@ const Eigen::VectorXd& computeContactTorque(const Model& model, Data& data,
                                             const Eigen::Ref<const Eigen::VectorXd>& q,
                                             const std::vector<FrameIndex>& frames,
                                             const Eigen::Ref<const Eigen::VectorXd>& forces);
-/// Fills data.tauStatic = g(q) + J(q)^T f (and data.g, data.tauContact).
+/// Fills data.tauStatic = g(q) - J(q)^T f, f acting on the robot (and data.g,
+/// data.tauContact = J^T f). Its base rows vanish at a static equilibrium.
 const Eigen::VectorXd& computeStaticTorque(const Model& model, Data& data,
                                            const Eigen::Ref<const Eigen::VectorXd>& q,
                                            const std::vector<FrameIndex>& frames,

@@ -14,6 +14,8 @@
 //  - Joint j (1 DoF, revolute or prismatic; URDF continuous = revolute without limits) has
 //    configuration index q[bodies[i].idxQ] and velocity index v[bodies[i].idxV]; joints are in
 //    depth-first order of the URDF tree, like Pinocchio.
+//  - The quaternion in q must have unit norm (integrate() keeps it so); it is not
+//    renormalised by the algorithms.
 //  - Units: SI (m, rad, kg, N, s). Gravity is (0, 0, -9.81) m/s^2 unless changed.
 #include <Eigen/Core>
 #include <limits>

@@ -25,8 +25,14 @@ struct NodeQuantities {
   Matrix6Xd dh_dq;                    ///< 6 x nv
   Eigen::VectorXd g;                  ///< nv generalized gravity
   Eigen::MatrixXd dg_dq;              ///< nv x nv
-  Eigen::VectorXd contactTorque;      ///< nv, J^T f
+  Eigen::VectorXd contactTorque;      ///< nv, J^T f (static torque: S (g - J^T f))
   Eigen::MatrixXd dContactTorque_dq;  ///< nv x nv at fixed f
+  Eigen::VectorXd v;                  ///< nv, the generalized velocity used
+
+  // Filled by computeNodeQuantitiesFromMomentum only (free-flyer models).
+  lie::Matrix6d AbInverse = lie::Matrix6d::Identity();  ///< A_b(q)^-1
+  Matrix6Xd dvb_dq;   ///< 6 x nv, d v_b/dq at fixed h, v_J: -A_b^-1 dh_dq
+  Matrix6Xd dvb_dvJ;  ///< 6 x nj, d v_b/dv_J at fixed q, h: -A_b^-1 A_J
 };
 
 /// Computes every NodeQuantities member at (q, v) with world contact forces `forces`
@@ -36,5 +42,18 @@ void computeNodeQuantities(const Model& model, Data& data,
                            const Eigen::Ref<const Eigen::VectorXd>& q,
                            const Eigen::Ref<const Eigen::VectorXd>& v,
                            const Eigen::Ref<const Eigen::VectorXd>& forces, NodeQuantities& out);
+
+/// Full-centroidal variant: the base twist is not an input but follows from the centroidal
+/// momentum, v_b = A_b(q)^-1 (h - A_J(q) v_J) (DESIGN.md section 2); then everything above
+/// is computed at v = (v_b, v_J), and also out.AbInverse, out.dvb_dq, out.dvb_dvJ.
+/// All derivatives in `out` other than dvb_* are partial derivatives at fixed v; the total
+/// derivative of a velocity quantity y(q, v) w.r.t. q at fixed (h, v_J) is
+/// dy/dq + dy/dv_b * dvb_dq. Requires a free-flyer model (throws std::invalid_argument).
+void computeNodeQuantitiesFromMomentum(const Model& model, Data& data,
+                                       const Eigen::Ref<const Eigen::VectorXd>& q,
+                                       const Vector6d& h,
+                                       const Eigen::Ref<const Eigen::VectorXd>& vJ,
+                                       const Eigen::Ref<const Eigen::VectorXd>& forces,
+                                       NodeQuantities& out);
 
 }  // namespace rollstep::model

@@ -34,7 +34,9 @@ class CostTerm {
 };
 
 /// l = 0.5 * sum_i w_i r_i(x, u)^2 with a nonnegative diagonal weight; Gauss-Newton
-/// Hessian R^T W R.
+/// Hessian R^T W R. Tracking residuals (InputErrorResidual, StateErrorResidual and classes
+/// derived from them that only override reference()) take a structured path: identity
+/// Jacobians, and on SE(3) x R^n only the 6 x 6 pose block is dense.
 class LeastSquaresCost final : public CostTerm {
  public:
   LeastSquaresCost(std::shared_ptr<const Residual> residual, const VectorXd& weights);
@@ -48,8 +50,11 @@ class LeastSquaresCost final : public CostTerm {
   const Residual& residual() const { return *residual_; }
 
  private:
+  enum class Structure { Generic, InputIdentity, StateIdentity, StateBlock };
   std::shared_ptr<const Residual> residual_;
   VectorXd weights_;
+  Structure structure_ = Structure::Generic;
+  int block_ = 0;  ///< StateBlock: size of the dense leading block (6 on SE(3) x R^n)
 };
 
 }  // namespace rollstep::ocp

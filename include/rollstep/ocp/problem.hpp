@@ -10,7 +10,10 @@
 //
 // The mode of node k is the mode schedule's mode at t_k = t0 + k dt; every term sees it
 // in its NodeContext and decides its own rows (0 = inactive). The problem is composed
-// once (not real-time); evaluation afterwards never allocates.
+// once (not real-time); evaluation afterwards never allocates. The solver evaluates
+// different nodes concurrently (SolverSettings::num_threads > 1), each into its own
+// NodeData: terms and precomputations must not modify shared state in calc/calcDiff.
+// Hard state bounds are not imposed at node 0 by the solver (x_0 is fixed by x_init).
 #include <limits>
 #include <memory>
 #include <string>

@@ -1,4 +1,6 @@
 #pragma once
+// API change (solver engineer): added Residual::dependsOnState() (default true), so that
+// costs skip the state products of input-only residuals.
 // A vector function r(x, u) of one node with its Jacobians: the building block of
 // least-squares costs, equality constraints (r = 0) and inequality constraints (r >= 0).
 #include <memory>
@@ -36,6 +38,8 @@ class Residual {
   /// False when the residual depends on the state only (Ru == 0): required for terminal
   /// terms and for soft (relaxed-barrier) inequalities.
   virtual bool dependsOnInput() const { return true; }
+  /// False when the residual depends on the input only (Rx == 0), e.g. input tracking.
+  virtual bool dependsOnState() const { return true; }
 
   virtual std::unique_ptr<ResidualData> createData() const {
     return std::make_unique<ResidualData>(max_rows_, ndx_, nu_);

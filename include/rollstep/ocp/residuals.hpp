@@ -31,6 +31,7 @@ class StateErrorResidual : public Residual {
 class InputErrorResidual : public Residual {
  public:
   InputErrorResidual(int ndx, const VectorXd& u_ref);
+  bool dependsOnState() const override { return false; }
   void setReference(const VectorXd& u_ref);
   virtual void reference(const NodeContext& ctx, VecRef u_ref) const;
   void calc(const NodeContext& ctx, ConstVecRef x, ConstVecRef u, ResidualData& d) const override;

@@ -7,9 +7,12 @@
 //   s.t. dx_0 = dx_init,  dx_{k+1} = A_k dx_k + B_k du_k + b_k,
 //        Ex_k dx_k + Eu_k du_k + e_k = 0      (ne_k rows, full row rank in du)
 //
-// Equalities are eliminated by projection: a Householder QR with column pivoting of
-// Eu^T (rank revealing) gives du = -Eu^+ (e + Ex dx) + Z w with Z an orthonormal basis of
-// null(Eu); the Riccati recursion then runs on the reduced input w (nu - ne entries).
+// Equalities are eliminated by projection (variable reduction): a Householder QR with
+// column pivoting of Eu (rank revealing), Eu P = Q [R11 R12], splits the input into ne
+// dependent entries du_D = -R11^-1 (R12 w + Q^T (Ex dx + e)) and nu - ne independent
+// entries w = du_I, on which the Riccati recursion runs. The null-space basis is
+// Z = P [-R11^-1 R12; I]: cheaper than an orthonormal basis (no dense nu x nu products),
+// and as well conditioned as R11, which the column pivoting keeps away from singular.
 // Multipliers: costates lambda_k (lambda_k = P_k dx_k + p_k, the multiplier of the
 // dynamics constraint that defines dx_k) and nu_k of the equalities, with the
 // Lagrangian sum cost + lambda_{k+1}^T (A dx + B du + b - dx_{k+1}) + nu^T (e + Ex dx + Eu du).
@@ -79,31 +82,32 @@ class RiccatiSolver {
  private:
   struct Work {
     int nw = 0;               // reduced input size nu - ne
-    Eigen::MatrixXd qr;       // nu x ne_max: Householder QR of Eu^T (R on top)
+    Eigen::MatrixXd qr;       // ne_max x (nu + nx + 1): pivoted QR of [Eu | Ex | e]
     Eigen::VectorXd tau;      // ne_max
-    Eigen::VectorXi perm;     // ne_max: column permutation (equality row order)
-    Eigen::MatrixXd Qm;       // nu x nu: explicit orthogonal factor [Q1 Z]
+    Eigen::VectorXi perm;     // nu: input permutation [dependent (ne); independent (nw)]
     Eigen::VectorXd hh;       // Householder workspace
-    Eigen::MatrixXd T;        // nu x (nu + nx + 1): du = T [w; dx; 1] = Z w + Dx dx + d0
-    Eigen::MatrixXd Y;        // ne_max x (nx + 1)
-    Eigen::MatrixXd RT;       // nu x (nu + nx + 1)
-    Eigen::MatrixXd Hr;       // (nu + nx)^2: reduced Hessian in [w; dx]
+    Eigen::MatrixXd T;        // ne_max x (nu + nx + 1): du_D = T [w; dx; 1]
+    Eigen::MatrixXd HD;       // ne_max x (nu + nx + 1): [R_DI S_D r_D] + 0.5 R_DD T
+    Eigen::MatrixXd HDD;      // ne_max x ne_max
+    Eigen::MatrixXd BD;       // nx x ne_max: dependent columns of B
+    Eigen::MatrixXd Hr;       // (nu + nx + 1)^2: reduced augmented Hessian [w; dx; 1] (lower)
+    Eigen::VectorXd cn;       // nu: QR column norms
     Eigen::VectorXd gr;       // nu + nx: reduced gradient
     Eigen::MatrixXd BA;       // nx x (nu + nx + 1): reduced [B A | b]
-    Eigen::MatrixXd PBA;      // nx x (nu + nx)
     Eigen::MatrixXd M;        // (nu + nx)^2: [L 0; Lxw Lxx] after backward
     Eigen::VectorXd hm;       // nu + nx; its head(nw) becomes v = L^-1 h_w
     Eigen::VectorXd pb;       // nx
     Eigen::MatrixXd P;        // nx x nx (lower triangle valid)
     Eigen::VectorXd p;        // nx
     Eigen::VectorXd dx, w, du, lam, mult, rho, t;
-    mutable Eigen::MatrixXd Kw;  // nu x nx scratch for feedbackGain
+    mutable Eigen::MatrixXd Kw, KD;  // feedbackGain scratch
   };
   std::size_t idx(int k) const { return static_cast<std::size_t>(k); }
 
   int N_, nx_, nu_, ne_max_;
   std::vector<LqStage> stages_;
   std::vector<Work> work_;
+  Eigen::MatrixXd PBA_;  // nx x (nu + nx): backward scratch P [B A] (sequential)
   int failed_stage_ = -1;
   double regularization_ = 0.0;
 };

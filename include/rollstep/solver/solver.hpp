@@ -1,11 +1,25 @@
 #pragma once
 // API change (solver engineer): added slacks(k), nodeData(k), barrier(), failedNode(),
-// message() and riccati(); documented the layout of inequalityDuals(k) and that hard
-// state bounds are not imposed at node 0 (x_0 is fixed by the initial state).
+// message() and riccati() (new header rollstep/solver/riccati.hpp: the projected Riccati
+// recursion on its own); documented the layout of inequalityDuals(k), that hard state
+// bounds are not imposed at node 0 (x_0 is fixed by the initial state) and that update()
+// always runs one real-time iteration.
 // Multiple-shooting primal-dual interior-point solver with Gauss-Newton Hessian,
 // equality constraints eliminated by projection and a Riccati recursion for the search
 // direction (paper Sec. 3.1-3.2). All memory is sized at construction; solve() and
 // update() never allocate.
+//
+// Method, per iteration: linearise every node (in parallel), defects on the manifold
+// b_k = F(x_k, u_k) (-) x_{k+1} with A = J Fx, B = J Fu (J: Jacobian of the difference at
+// x_{k+1}), dx_0 = x_init (-) x_0; hard inequalities g(x, u) >= 0 and bounds get slacks
+// s > 0 and duals z > 0 and are condensed into the node Hessian/gradient (G^T Z S^-1 G,
+// bounds on the diagonal); soft state-only rows add mu times the relaxed log barrier
+// (quadratic below delta) to the cost; equalities are projected (RiccatiSolver); the
+// Riccati recursion gives dx, du, the costates and the equality multipliers; ds and dz
+// follow; fraction to boundary separately for s and z. Converging mode: Fiacco-McCormick
+// barrier decrease, backtracking on the l1 merit (cost + barrier + penalty * violation),
+// stop when max(primal, scaled dual, max s z) <= kkt_tolerance. Real-time mode: fixed
+// barrier, one full (fraction-to-boundary) step per call.
 #include <cstdint>
 #include <memory>
 #include <vector>
@@ -33,24 +47,34 @@ struct SolverSettings {
   double barrier_decrease = 0.2;       ///< mu <- max(barrier_min, min(k mu, mu^1.5))
   double barrier_realtime = 1e-3;      ///< real-time mode: fixed barrier parameter
   double fraction_to_boundary = 0.995;
-  bool line_search = true;             ///< filter/merit backtracking (converging mode)
+  bool line_search = true;             ///< l1-merit backtracking (converging mode)
   int max_line_search_steps = 20;
   double rank_tolerance = 1e-9;        ///< projection: relative pivot below this = rank deficient
-  int num_threads = 1;                 ///< linearisation threads; results are identical for any count
+  int num_threads = 1;                 ///< node-parallel work (linearisation, condensing,
+                                       ///< projection, step recovery); results identical
+                                       ///< for any count
   double divergence_threshold = 1e12;  ///< primal residual above this = diverged
 };
 
+/// How a solve ended. The outputs (states, inputs, duals) are finite after every status;
+/// message() says what went wrong. An infeasible problem typically ends with Diverged
+/// (the duals of the contradicting rows blow up and the reduced Hessian stops being
+/// positive definite), LineSearchFailed or MaxIterations: never Converged.
 enum class SolverStatus {
   Converged,              ///< KKT tolerance reached (converging mode)
   IterationDone,          ///< one real-time iteration completed (real-time mode)
   MaxIterations,          ///< converging mode hit max_iterations
   LineSearchFailed,       ///< no acceptable step; the previous iterate is kept
-  RankDeficientEqualities,///< equality rows not full row rank in u (node reported in stats)
-  Diverged,               ///< residuals exploded or became non-finite; iterate restored
-  InvalidInput,           ///< NaN/inf in the initial state or problem data
+  RankDeficientEqualities,///< equality rows not full row rank in u (failedNode(), message())
+  Diverged,               ///< residuals exploded, a non-finite or non-descent step; the
+                          ///< last good iterate is restored
+  InvalidInput,           ///< NaN/inf or wrong size in x0, or non-finite problem values at
+                          ///< the initial guess
 };
 const char* toString(SolverStatus s);
 
+/// One Newton iteration. Residuals are those of the linearisation point, BEFORE the step
+/// (so the last entry of a Converged solve holds the final KKT residuals).
 struct IterationStats {
   int iteration = 0;
   double cost = 0.0;
@@ -74,8 +98,11 @@ class Solver {
   /// Converging solve from the initial state x0 (mode Converging), or one real-time
   /// iteration (mode RealTime). Never allocates.
   SolverStatus solve(ConstVecRef x0);
-  /// Real-time update: shifts the previous solution to the new initial time t0 (warm
-  /// start), then runs one Newton iteration from x0. Never allocates.
+  /// Real-time update: sets the problem's initial time to t0, shifts the previous
+  /// solution by the number of whole nodes t0 moved since the last solve/update (the last
+  /// state and input are repeated; slacks and duals of the new tail nodes are
+  /// reinitialised), then runs one Newton iteration from x0 with the fixed barrier
+  /// barrier_realtime, whatever settings().mode is. Never allocates.
   SolverStatus update(double t0, ConstVecRef x0);
 
   const std::vector<VectorXd>& states() const;   ///< x_0..x_N

@@ -1,0 +1,251 @@
+// Search direction and Newton step of the interior-point solver at the sizes of the
+// Tachyon 3 OCP: nx = 24, nu = 30, N = 100, 15 equality rows per node, 100 inequality
+// rows per node (30 input bounds and 12 state bounds on both sides, 16 general rows).
+//
+//   BM_RiccatiN100       projection of the equalities + backward Riccati + forward sweep +
+//                        recovery of du and the equality multipliers, on the condensed
+//                        LQ (what the interior-point iteration factorises).
+//   BM_RiccatiSweepN100  backward + forward only, on the projected stages (comparable
+//                        to an unconstrained Riccati sweep with nu = 15 reduced inputs).
+//   BM_RiccatiUnconstrainedN100  no equalities (nu = 30 in the recursion), projection
+//                        is a copy: comparable to HPIPM's unconstrained sweep.
+//   BM_NewtonStepN100    one real-time iteration of the solver: linearisation of every
+//                        node, barrier condensing, projection, Riccati, slack/dual step,
+//                        fraction-to-boundary, update (single thread; /threads:2 variant).
+#include <benchmark/benchmark.h>
+
+#include <memory>
+#include <random>
+
+#include "rollstep/ocp/cost.hpp"
+#include "rollstep/ocp/problem.hpp"
+#include "rollstep/ocp/residuals.hpp"
+#include "rollstep/solver/riccati.hpp"
+#include "rollstep/solver/solver.hpp"
+#include "test_models.hpp"
+
+namespace {
+
+using namespace rollstep;
+using ocp::MatrixXd;
+using ocp::VectorXd;
+
+constexpr int kNx = 24, kNu = 30, kN = 100, kNe = 15, kNbu = 30, kNbx = 12, kNg = 16;
+
+MatrixXd randn(int r, int c, std::mt19937& rng, double s) {
+  std::normal_distribution<double> n(0.0, s);
+  MatrixXd m(r, c);
+  for (int j = 0; j < c; ++j)
+    for (int i = 0; i < r; ++i) m(i, j) = n(rng);
+  return m;
+}
+
+struct Data {
+  MatrixXd A, B, Cx, Cu, Ex, Eu, Gx, Gu;
+  VectorXd c, cr, e, g, x0;
+};
+
+Data makeData() {
+  std::mt19937 rng(2026);
+  Data d;
+  d.A = MatrixXd::Identity(kNx, kNx) + randn(kNx, kNx, rng, 0.02);
+  d.B = randn(kNx, kNu, rng, 0.05);
+  d.c = randn(kNx, 1, rng, 0.01);
+  const int nr = kNx + kNu;
+  d.Cx = randn(nr, kNx, rng, 0.2);
+  d.Cx.topRows(kNx) += MatrixXd::Identity(kNx, kNx);
+  d.Cu = randn(nr, kNu, rng, 0.2);
+  d.Cu.bottomRows(kNu) += MatrixXd::Identity(kNu, kNu);
+  d.cr = randn(nr, 1, rng, 0.3);
+  d.Ex = randn(kNe, kNx, rng, 0.1);
+  d.Eu = randn(kNe, kNu, rng, 0.3);
+  d.Eu.leftCols(kNe) += MatrixXd::Identity(kNe, kNe);
+  d.e = randn(kNe, 1, rng, 0.05);
+  d.Gx = randn(kNg, kNx, rng, 0.1);
+  d.Gu = randn(kNg, kNu, rng, 0.1);
+  d.g = VectorXd::Constant(kNg, 2.0);
+  d.x0 = randn(kNx, 1, rng, 0.1);
+  return d;
+}
+
+std::shared_ptr<ocp::OptimalControlProblem> makeProblem(const Data& d) {
+  auto dyn = std::make_shared<testmodels::LinearDynamics>(d.A, d.B, d.c);
+  auto p = std::make_shared<ocp::OptimalControlProblem>(dyn, kN, 0.015);
+  auto s = dyn->spacePtr();
+  const VectorXd zx = VectorXd::Zero(kNx);
+  // Like the Tachyon 3 OCP: state and input tracking (identity Jacobians) plus a small
+  // dense residual (the base-velocity tracking, 6 rows).
+  p->addCost("state", std::make_shared<ocp::LeastSquaresCost>(
+                          std::make_shared<ocp::StateErrorResidual>(s, kNu, zx),
+                          VectorXd::Constant(kNx, 1.0)));
+  p->addCost("input", std::make_shared<ocp::LeastSquaresCost>(
+                          std::make_shared<ocp::InputErrorResidual>(kNx, VectorXd::Zero(kNu)),
+                          VectorXd::Constant(kNu, 0.1)));
+  p->addCost("velocity", std::make_shared<ocp::LeastSquaresCost>(
+                             std::make_shared<ocp::AffineResidual>(s, zx, d.Cx.topRows(6),
+                                                                   d.Cu.topRows(6), d.cr.head(6)),
+                             VectorXd::Constant(6, 5.0)));
+  p->addCost("terminal", std::make_shared<ocp::LeastSquaresCost>(
+                             std::make_shared<ocp::StateErrorResidual>(s, kNu, zx),
+                             VectorXd::Constant(kNx, 10.0)),
+             ocp::Stage::Terminal);
+  p->addEquality("eq", std::make_shared<ocp::AffineResidual>(s, zx, d.Ex, d.Eu, d.e));
+  p->addInequality("general", std::make_shared<ocp::AffineResidual>(s, zx, d.Gx, d.Gu, d.g));
+  p->setInputBounds(VectorXd::Constant(kNu, -1.0), VectorXd::Constant(kNu, 1.0));
+  VectorXd lo = VectorXd::Constant(kNx, -ocp::OptimalControlProblem::kInfinity);
+  VectorXd hi = VectorXd::Constant(kNx, ocp::OptimalControlProblem::kInfinity);
+  lo.head(kNbx).setConstant(-1.0);
+  hi.head(kNbx).setConstant(1.0);
+  p->setStateBounds(lo, hi);
+  return p;
+}
+
+/// Flops of one running stage (multiply and add counted separately).
+double projectionFlops(int nx, int nu, int ne) {
+  const int nw = nu - ne, nz = nw + nx;
+  double f = 0.0;
+  for (int j = 0; j < ne; ++j) {
+    f += 2.0 * (ne - j) * (nu - j);          // pivot column norms
+    f += 4.0 * (ne - j) * (nu - j - 1);      // reflector on the remaining columns
+    f += 4.0 * (ne - j) * (nx + 1);          // Q^T [Ex e]
+  }
+  f += 1.0 * ne * ne * (nz + 1);             // R11^-1 [R12 Q^T Ex Q^T e]
+  f += 2.0 * ne * ne * (nz + 1);             // Y = H_Dv + 0.5 H_DD T
+  f += 2.0 * (nz + 1) * (nz + 2) * ne;       // lower(T^T Y + Y^T T)
+  f += 2.0 * nx * ne * (nz + 1);             // B_D T
+  return f;
+}
+double backwardFlops(int nx, int nw) {
+  const int nz = nx + nw;
+  double f = 2.0 * nx * nx * nz;             // P [B A] (symmetric product, full)
+  f += 1.0 * nz * (nz + 1) * nx;             // lower triangle of [B A]^T P [B A]
+  f += 2.0 * nx * nx + 2.0 * nz * nx;        // gradient
+  f += nw * nw * nw / 3.0;                   // Cholesky
+  f += 1.0 * nx * nw * nw + nw * nw;         // triangular solves
+  f += 1.0 * nx * (nx + 1) * nw + 2.0 * nx * nw;  // P update (syrk) and p
+  return f;
+}
+double forwardFlops(int nx, int nw) {
+  return 2.0 * nw * nx + nw * nw + 2.0 * nx * nx + 2.0 * nx * (nw + nx);
+}
+double recoverFlops(int nx, int nu, int ne) {
+  const int nw = nu - ne;
+  return 2.0 * ne * (nw + nx) + 2.0 * nu * nu + 4.0 * nu * nx + ne * ne + 2.0 * ne * ne;
+}
+
+void fillStages(solver::RiccatiSolver& r, const Data& d, int ne) {
+  std::mt19937 rng(7);
+  const int nr = kNx + kNu;
+  MatrixXd C(nr, kNx + kNu);
+  C << d.Cx, d.Cu;
+  const MatrixXd H = 0.015 * C.transpose() * C;
+  for (int k = 0; k <= kN; ++k) {
+    auto& s = r.stage(k);
+    s.Q = H.topLeftCorner(kNx, kNx);
+    s.R = H.bottomRightCorner(kNu, kNu);
+    s.S = H.bottomLeftCorner(kNu, kNx);
+    // Barrier terms: diagonal (bounds) plus a rank-16 update (general rows).
+    const VectorXd wb = randn(kNu, 1, rng, 1.0).cwiseAbs();
+    s.R.diagonal() += wb;
+    s.Q.diagonal().head(kNbx) += randn(kNbx, 1, rng, 1.0).cwiseAbs();
+    s.Q += d.Gx.transpose() * d.Gx;
+    s.R += d.Gu.transpose() * d.Gu;
+    s.S += d.Gu.transpose() * d.Gx;
+    s.q = randn(kNx, 1, rng, 1.0);
+    s.r = randn(kNu, 1, rng, 1.0);
+    s.A = d.A;
+    s.B = d.B;
+    s.b = randn(kNx, 1, rng, 0.01);
+    s.ne = (k < kN) ? ne : 0;
+    if (ne > 0) {
+      s.Ex = d.Ex;
+      s.Eu = d.Eu;
+      s.e = d.e;
+    }
+  }
+}
+
+void setFlops(benchmark::State& state, double flops) {
+  state.counters["MFLOP"] = flops * 1e-6;
+  state.counters["GFLOP/s"] =
+      benchmark::Counter(flops * 1e-9, benchmark::Counter::kIsIterationInvariantRate);
+}
+
+void BM_RiccatiN100(benchmark::State& state) {
+  const Data d = makeData();
+  solver::RiccatiSolver r(kN, kNx, kNu, kNe);
+  fillStages(r, d, kNe);
+  const VectorXd dx0 = d.x0;
+  for (auto _ : state) {
+    for (int k = 0; k < kN; ++k) r.projectStage(k, 1e-9);
+    r.backward();
+    r.forward(dx0);
+    for (int k = 0; k < kN; ++k) r.recoverStage(k);
+    benchmark::DoNotOptimize(r.du(0).data());
+  }
+  const int nw = kNu - kNe;
+  setFlops(state, kN * (projectionFlops(kNx, kNu, kNe) + backwardFlops(kNx, nw) +
+                        forwardFlops(kNx, nw) + recoverFlops(kNx, kNu, kNe)));
+}
+BENCHMARK(BM_RiccatiN100)->Unit(benchmark::kMillisecond);
+
+void BM_RiccatiSweepN100(benchmark::State& state) {
+  const Data d = makeData();
+  solver::RiccatiSolver r(kN, kNx, kNu, kNe);
+  fillStages(r, d, kNe);
+  for (int k = 0; k < kN; ++k) r.projectStage(k, 1e-9);
+  const VectorXd dx0 = d.x0;
+  for (auto _ : state) {
+    r.backward();
+    r.forward(dx0);
+    benchmark::DoNotOptimize(r.dx(kN).data());
+  }
+  const int nw = kNu - kNe;
+  setFlops(state, kN * (backwardFlops(kNx, nw) + forwardFlops(kNx, nw)));
+}
+BENCHMARK(BM_RiccatiSweepN100)->Unit(benchmark::kMillisecond);
+
+void BM_RiccatiUnconstrainedN100(benchmark::State& state) {
+  const Data d = makeData();
+  solver::RiccatiSolver r(kN, kNx, kNu, 0);
+  fillStages(r, d, 0);
+  for (int k = 0; k < kN; ++k) r.projectStage(k, 1e-9);
+  const VectorXd dx0 = d.x0;
+  for (auto _ : state) {
+    r.backward();
+    r.forward(dx0);
+    benchmark::DoNotOptimize(r.dx(kN).data());
+  }
+  setFlops(state, kN * (backwardFlops(kNx, kNu) + forwardFlops(kNx, kNu)));
+}
+BENCHMARK(BM_RiccatiUnconstrainedN100)->Unit(benchmark::kMillisecond);
+
+void newtonStep(benchmark::State& state, int threads) {
+  const Data d = makeData();
+  solver::SolverSettings set;
+  set.mode = solver::SolverMode::RealTime;
+  set.num_threads = threads;
+  solver::Solver s(makeProblem(d), set);
+  // Warm up into a representative interior point.
+  for (int i = 0; i < 20; ++i) s.update(0.0, d.x0);
+  double lin = 0.0, ric = 0.0, upd = 0.0;
+  for (auto _ : state) {
+    s.update(0.0, d.x0);
+    lin += s.stats()[0].time_linearize_ms;
+    ric += s.stats()[0].time_riccati_ms;
+    upd += s.stats()[0].time_update_ms;
+  }
+  const double n = static_cast<double>(state.iterations());
+  state.counters["lin_ms"] = lin / n;
+  state.counters["riccati_ms"] = ric / n;
+  state.counters["update_ms"] = upd / n;
+  state.counters["primal_res"] = s.stats()[0].primal_residual;
+}
+void BM_NewtonStepN100(benchmark::State& state) { newtonStep(state, 1); }
+BENCHMARK(BM_NewtonStepN100)->Unit(benchmark::kMillisecond);
+void BM_NewtonStepN100_2Threads(benchmark::State& state) { newtonStep(state, 2); }
+BENCHMARK(BM_NewtonStepN100_2Threads)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+}  // namespace
+
+BENCHMARK_MAIN();
