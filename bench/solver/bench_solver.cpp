@@ -85,10 +85,11 @@ std::shared_ptr<ocp::OptimalControlProblem> makeProblem(const Data& d) {
                              std::make_shared<ocp::AffineResidual>(s, zx, d.Cx.topRows(6),
                                                                    d.Cu.topRows(6), d.cr.head(6)),
                              VectorXd::Constant(6, 5.0)));
-  p->addCost("terminal", std::make_shared<ocp::LeastSquaresCost>(
-                             std::make_shared<ocp::StateErrorResidual>(s, kNu, zx),
-                             VectorXd::Constant(kNx, 10.0)),
-             ocp::Stage::Terminal);
+  p->addCost(
+      "terminal",
+      std::make_shared<ocp::LeastSquaresCost>(std::make_shared<ocp::StateErrorResidual>(s, kNu, zx),
+                                              VectorXd::Constant(kNx, 10.0)),
+      ocp::Stage::Terminal);
   p->addEquality("eq", std::make_shared<ocp::AffineResidual>(s, zx, d.Ex, d.Eu, d.e));
   p->addInequality("general", std::make_shared<ocp::AffineResidual>(s, zx, d.Gx, d.Gu, d.g));
   p->setInputBounds(VectorXd::Constant(kNu, -1.0), VectorXd::Constant(kNu, 1.0));
@@ -105,23 +106,23 @@ double projectionFlops(int nx, int nu, int ne) {
   const int nw = nu - ne, nz = nw + nx;
   double f = 0.0;
   for (int j = 0; j < ne; ++j) {
-    f += 2.0 * (ne - j) * (nu - j);          // pivot column norms
-    f += 4.0 * (ne - j) * (nu - j - 1);      // reflector on the remaining columns
-    f += 4.0 * (ne - j) * (nx + 1);          // Q^T [Ex e]
+    f += 2.0 * (ne - j) * (nu - j);      // pivot column norms
+    f += 4.0 * (ne - j) * (nu - j - 1);  // reflector on the remaining columns
+    f += 4.0 * (ne - j) * (nx + 1);      // Q^T [Ex e]
   }
-  f += 1.0 * ne * ne * (nz + 1);             // R11^-1 [R12 Q^T Ex Q^T e]
-  f += 2.0 * ne * ne * (nz + 1);             // Y = H_Dv + 0.5 H_DD T
-  f += 2.0 * (nz + 1) * (nz + 2) * ne;       // lower(T^T Y + Y^T T)
-  f += 2.0 * nx * ne * (nz + 1);             // B_D T
+  f += 1.0 * ne * ne * (nz + 1);        // R11^-1 [R12 Q^T Ex Q^T e]
+  f += 2.0 * ne * ne * (nz + 1);        // Y = H_Dv + 0.5 H_DD T
+  f += 2.0 * (nz + 1) * (nz + 2) * ne;  // lower(T^T Y + Y^T T)
+  f += 2.0 * nx * ne * (nz + 1);        // B_D T
   return f;
 }
 double backwardFlops(int nx, int nw) {
   const int nz = nx + nw;
-  double f = 2.0 * nx * nx * nz;             // P [B A] (symmetric product, full)
-  f += 1.0 * nz * (nz + 1) * nx;             // lower triangle of [B A]^T P [B A]
-  f += 2.0 * nx * nx + 2.0 * nz * nx;        // gradient
-  f += nw * nw * nw / 3.0;                   // Cholesky
-  f += 1.0 * nx * nw * nw + nw * nw;         // triangular solves
+  double f = 2.0 * nx * nx * nz;                  // P [B A] (symmetric product, full)
+  f += 1.0 * nz * (nz + 1) * nx;                  // lower triangle of [B A]^T P [B A]
+  f += 2.0 * nx * nx + 2.0 * nz * nx;             // gradient
+  f += nw * nw * nw / 3.0;                        // Cholesky
+  f += 1.0 * nx * nw * nw + nw * nw;              // triangular solves
   f += 1.0 * nx * (nx + 1) * nw + 2.0 * nx * nw;  // P update (syrk) and p
   return f;
 }

@@ -9,17 +9,21 @@ namespace rollstep::ocp {
 namespace {
 struct LsqData final : CostData {
   LsqData(std::unique_ptr<ResidualData> r, int max_rows, int ndx, int nu)
-      : res(std::move(r)), wr(VectorXd::Zero(max_rows)), WRx(MatrixXd::Zero(max_rows, ndx)),
+      : res(std::move(r)),
+        wr(VectorXd::Zero(max_rows)),
+        WRx(MatrixXd::Zero(max_rows, ndx)),
         WRu(MatrixXd::Zero(max_rows, nu)) {}
   std::unique_ptr<ResidualData> res;
-  VectorXd wr;         // W r
-  MatrixXd WRx, WRu;   // W Rx, W Ru
+  VectorXd wr;        // W r
+  MatrixXd WRx, WRu;  // W Rx, W Ru
 };
 }  // namespace
 
-LeastSquaresCost::LeastSquaresCost(std::shared_ptr<const Residual> residual, const VectorXd& weights)
+LeastSquaresCost::LeastSquaresCost(std::shared_ptr<const Residual> residual,
+                                   const VectorXd& weights)
     : CostTerm(residual ? residual->ndx() : 0, residual ? residual->nu() : 0),
-      residual_(std::move(residual)), weights_(weights) {
+      residual_(std::move(residual)),
+      weights_(weights) {
   if (!residual_) throw std::invalid_argument("LeastSquaresCost: null residual");
   if (weights.size() != residual_->maxRows()) {
     throw std::invalid_argument("LeastSquaresCost: weights must have maxRows() entries");

@@ -8,16 +8,21 @@ namespace {
 
 struct EulerData final : DynamicsData {
   EulerData(std::unique_ptr<DynamicsData> c, int ndx, int nu)
-      : cont(std::move(c)), v(VectorXd::Zero(ndx)), fx(MatrixXd::Zero(ndx, ndx)),
-        fu(MatrixXd::Zero(ndx, nu)), Jx(MatrixXd::Zero(ndx, ndx)), Jv(MatrixXd::Zero(ndx, ndx)) {}
+      : cont(std::move(c)),
+        v(VectorXd::Zero(ndx)),
+        fx(MatrixXd::Zero(ndx, ndx)),
+        fu(MatrixXd::Zero(ndx, nu)),
+        Jx(MatrixXd::Zero(ndx, ndx)),
+        Jv(MatrixXd::Zero(ndx, ndx)) {}
   std::unique_ptr<DynamicsData> cont;
-  VectorXd v;           // dt * f(x, u)
-  MatrixXd fx, fu;      // continuous Jacobians
-  MatrixXd Jx, Jv;      // Jacobians of integrate(x, v)
+  VectorXd v;       // dt * f(x, u)
+  MatrixXd fx, fu;  // continuous Jacobians
+  MatrixXd Jx, Jv;  // Jacobians of integrate(x, v)
 };
 
 struct Rk4Data final : DynamicsData {
-  Rk4Data(std::unique_ptr<DynamicsData> c, int n, int nu) : cont(std::move(c)), xs(VectorXd::Zero(n)) {
+  Rk4Data(std::unique_ptr<DynamicsData> c, int n, int nu)
+      : cont(std::move(c)), xs(VectorXd::Zero(n)) {
     for (int i = 0; i < 4; ++i) {
       k[i] = VectorXd::Zero(n);
       kx[i] = MatrixXd::Zero(n, n);
@@ -28,10 +33,10 @@ struct Rk4Data final : DynamicsData {
     tx = MatrixXd::Zero(n, n);
   }
   std::unique_ptr<DynamicsData> cont;
-  VectorXd xs;           // stage point
-  VectorXd k[4];         // stage slopes
-  MatrixXd kx[4], ku[4]; // stage slope Jacobians
-  MatrixXd fx, fu, tx;   // scratch
+  VectorXd xs;            // stage point
+  VectorXd k[4];          // stage slopes
+  MatrixXd kx[4], ku[4];  // stage slope Jacobians
+  MatrixXd fx, fu, tx;    // scratch
 };
 
 }  // namespace

@@ -16,16 +16,18 @@ ModeSchedule::ModeSchedule(int capacity, int initial_mode) : capacity_(capacity)
 
 void ModeSchedule::set(const std::vector<double>& switching_times, const std::vector<int>& modes) {
   if (modes.size() != switching_times.size() + 1) {
-    throw std::invalid_argument("ModeSchedule::set: need modes.size() == switching_times.size() + 1 (got " +
-                                std::to_string(modes.size()) + " modes, " +
-                                std::to_string(switching_times.size()) + " times)");
+    throw std::invalid_argument(
+        "ModeSchedule::set: need modes.size() == switching_times.size() + 1 (got " +
+        std::to_string(modes.size()) + " modes, " + std::to_string(switching_times.size()) +
+        " times)");
   }
   if (static_cast<int>(switching_times.size()) > capacity_) {
     throw std::invalid_argument("ModeSchedule::set: " + std::to_string(switching_times.size()) +
                                 " switches exceed the capacity " + std::to_string(capacity_));
   }
   for (std::size_t i = 0; i < switching_times.size(); ++i) {
-    if (!std::isfinite(switching_times[i]) || (i > 0 && switching_times[i] < switching_times[i - 1])) {
+    if (!std::isfinite(switching_times[i]) ||
+        (i > 0 && switching_times[i] < switching_times[i - 1])) {
       throw std::invalid_argument("ModeSchedule::set: switching times must be finite and sorted");
     }
   }

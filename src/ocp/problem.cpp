@@ -40,14 +40,14 @@ BoundSet makeBounds(const VectorXd& lower, const VectorXd& upper, InequalityOpti
 
 void checkBoundValues(const char* what, const VectorXd& lower, const VectorXd& upper, int n) {
   if (lower.size() != n || upper.size() != n) {
-    throw std::invalid_argument(std::string("OptimalControlProblem::") + what + ": need " +
-                                std::to_string(n) + " entries, got " +
-                                std::to_string(lower.size()) + " and " +
-                                std::to_string(upper.size()));
+    throw std::invalid_argument(
+        std::string("OptimalControlProblem::") + what + ": need " + std::to_string(n) +
+        " entries, got " + std::to_string(lower.size()) + " and " + std::to_string(upper.size()));
   }
   for (int i = 0; i < n; ++i) {
     if (std::isnan(lower(i)) || std::isnan(upper(i)) || lower(i) > upper(i) ||
-        lower(i) == OptimalControlProblem::kInfinity || upper(i) == -OptimalControlProblem::kInfinity) {
+        lower(i) == OptimalControlProblem::kInfinity ||
+        upper(i) == -OptimalControlProblem::kInfinity) {
       throw std::invalid_argument(std::string("OptimalControlProblem::") + what + ": entry " +
                                   std::to_string(i) + " has lower " + std::to_string(lower(i)) +
                                   " > upper " + std::to_string(upper(i)) + " (or NaN)");
@@ -74,7 +74,8 @@ void OptimalControlProblem::setPrecomputation(std::shared_ptr<const NodePrecompu
 
 void OptimalControlProblem::addCost(std::string name, std::shared_ptr<const CostTerm> cost,
                                     Stage stage) {
-  if (!cost) throw std::invalid_argument("OptimalControlProblem::addCost: null term '" + name + "'");
+  if (!cost)
+    throw std::invalid_argument("OptimalControlProblem::addCost: null term '" + name + "'");
   checkDims("cost", name, cost->ndx(), cost->nu(), ndx(), nu());
   if (appliesTo(stage, true) && cost->dependsOnInput()) {
     throw std::invalid_argument("OptimalControlProblem::addCost: terminal cost '" + name +
@@ -84,7 +85,8 @@ void OptimalControlProblem::addCost(std::string name, std::shared_ptr<const Cost
   cost_names_.push_back(std::move(name));
 }
 
-void OptimalControlProblem::addEquality(std::string name, std::shared_ptr<const Residual> residual) {
+void OptimalControlProblem::addEquality(std::string name,
+                                        std::shared_ptr<const Residual> residual) {
   if (!residual) {
     throw std::invalid_argument("OptimalControlProblem::addEquality: null residual '" + name + "'");
   }
@@ -94,10 +96,12 @@ void OptimalControlProblem::addEquality(std::string name, std::shared_ptr<const 
   eq_names_.push_back(std::move(name));
 }
 
-void OptimalControlProblem::addInequality(std::string name, std::shared_ptr<const Residual> residual,
-                                          Stage stage, InequalityOptions options) {
+void OptimalControlProblem::addInequality(std::string name,
+                                          std::shared_ptr<const Residual> residual, Stage stage,
+                                          InequalityOptions options) {
   if (!residual) {
-    throw std::invalid_argument("OptimalControlProblem::addInequality: null residual '" + name + "'");
+    throw std::invalid_argument("OptimalControlProblem::addInequality: null residual '" + name +
+                                "'");
   }
   checkDims("inequality", name, residual->ndx(), residual->nu(), ndx(), nu());
   if ((appliesTo(stage, true) || options.soft) && residual->dependsOnInput()) {
@@ -125,11 +129,13 @@ void OptimalControlProblem::setStateBounds(const VectorXd& lower, const VectorXd
   for (int i = 0; i < off; ++i) {
     if (std::isfinite(lower(i)) || std::isfinite(upper(i))) {
       throw std::invalid_argument("OptimalControlProblem::setStateBounds: tangent coordinate " +
-                                  std::to_string(i) + " is not Euclidean; its bounds must be infinite");
+                                  std::to_string(i) +
+                                  " is not Euclidean; its bounds must be infinite");
     }
   }
   if (options.soft && !(options.relaxation > 0.0)) {
-    throw std::invalid_argument("OptimalControlProblem::setStateBounds: soft bounds need a positive relaxation");
+    throw std::invalid_argument(
+        "OptimalControlProblem::setStateBounds: soft bounds need a positive relaxation");
   }
   state_bounds_ = makeBounds(lower, upper, options);
 }

@@ -9,8 +9,11 @@ namespace {
 /// Residual workspace with a reference state and the difference Jacobians.
 struct StateDiffData final : ResidualData {
   StateDiffData(int max_rows, int nx, int ndx, int nu)
-      : ResidualData(max_rows, ndx, nu), xref(VectorXd::Zero(nx)), dx(VectorXd::Zero(ndx)),
-        J0(MatrixXd::Zero(ndx, ndx)), J1(MatrixXd::Zero(ndx, ndx)) {}
+      : ResidualData(max_rows, ndx, nu),
+        xref(VectorXd::Zero(nx)),
+        dx(VectorXd::Zero(ndx)),
+        J0(MatrixXd::Zero(ndx, ndx)),
+        J1(MatrixXd::Zero(ndx, ndx)) {}
   VectorXd xref, dx;
   MatrixXd J0, J1;
 };
@@ -21,7 +24,8 @@ struct StateDiffData final : ResidualData {
 
 StateErrorResidual::StateErrorResidual(std::shared_ptr<const StateSpace> space, int nu,
                                        const VectorXd& x_ref)
-    : Residual(space ? space->ndx() : 0, nu, space ? space->ndx() : 0), space_(std::move(space)),
+    : Residual(space ? space->ndx() : 0, nu, space ? space->ndx() : 0),
+      space_(std::move(space)),
       x_ref_(x_ref) {
   if (!space_) throw std::invalid_argument("StateErrorResidual: null state space");
   if (x_ref.size() != space_->nx()) {
@@ -86,8 +90,8 @@ void InputErrorResidual::calc(const NodeContext& ctx, ConstVecRef /*x*/, ConstVe
   r = u - r;
 }
 
-void InputErrorResidual::calcDiff(const NodeContext& /*ctx*/, ConstVecRef /*x*/,
-                                  ConstVecRef /*u*/, ResidualData& d) const {
+void InputErrorResidual::calcDiff(const NodeContext& /*ctx*/, ConstVecRef /*x*/, ConstVecRef /*u*/,
+                                  ResidualData& d) const {
   d.Rx.setZero();
   d.Ru.setIdentity();
 }
@@ -97,12 +101,17 @@ void InputErrorResidual::calcDiff(const NodeContext& /*ctx*/, ConstVecRef /*x*/,
 AffineResidual::AffineResidual(std::shared_ptr<const StateSpace> space, const VectorXd& x_lin,
                                const MatrixXd& C, const MatrixXd& D, const VectorXd& c)
     : Residual(space ? space->ndx() : 0, static_cast<int>(D.cols()), static_cast<int>(c.size())),
-      space_(std::move(space)), x_lin_(x_lin), C_(C), D_(D), c_(c) {
+      space_(std::move(space)),
+      x_lin_(x_lin),
+      C_(C),
+      D_(D),
+      c_(c) {
   if (!space_) throw std::invalid_argument("AffineResidual: null state space");
   if (x_lin.size() != space_->nx() || C.cols() != space_->ndx() || C.rows() != c.size() ||
       D.rows() != c.size()) {
-    throw std::invalid_argument("AffineResidual: inconsistent sizes (need C: m x ndx, D: m x nu, "
-                                "c: m, x_lin: nx)");
+    throw std::invalid_argument(
+        "AffineResidual: inconsistent sizes (need C: m x ndx, D: m x nu, "
+        "c: m, x_lin: nx)");
   }
 }
 

@@ -14,13 +14,9 @@ EuclideanSpace::EuclideanSpace(int n) : n_(n) {
 
 void EuclideanSpace::neutral(VecRef x) const { x.setZero(); }
 
-void EuclideanSpace::integrate(ConstVecRef x, ConstVecRef dx, VecRef out) const {
-  out = x + dx;
-}
+void EuclideanSpace::integrate(ConstVecRef x, ConstVecRef dx, VecRef out) const { out = x + dx; }
 
-void EuclideanSpace::difference(ConstVecRef x0, ConstVecRef x1, VecRef out) const {
-  out = x1 - x0;
-}
+void EuclideanSpace::difference(ConstVecRef x0, ConstVecRef x1, VecRef out) const { out = x1 - x0; }
 
 void EuclideanSpace::integrateJacobians(ConstVecRef /*x*/, ConstVecRef /*dx*/, MatRef Jx,
                                         MatRef Jdx) const {

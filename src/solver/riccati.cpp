@@ -255,8 +255,7 @@ bool RiccatiSolver::backward() {
           const double scale = 1.0 + w.Hr.topLeftCorner(nw, nw).diagonal().cwiseAbs().maxCoeff();
           reg = (attempt == 1) ? 1e-12 * scale : reg * 100.0;
           Mww.triangularView<Eigen::Lower>() = w.Hr.topLeftCorner(nw, nw);
-          Mww.triangularView<Eigen::Lower>() +=
-              BA.leftCols(nw).transpose() * PBA.leftCols(nw);
+          Mww.triangularView<Eigen::Lower>() += BA.leftCols(nw).transpose() * PBA.leftCols(nw);
           Mww.diagonal().array() += reg;
         }
         Eigen::LLT<Eigen::Ref<MatrixXd>> llt(Mww);
@@ -335,8 +334,8 @@ void RiccatiSolver::recoverStage(int k) {
   const auto F = w.qr.topRows(ne);
   F.leftCols(ne).triangularView<Eigen::Upper>().transpose().solveInPlace(y);
   for (int j = ne - 1; j >= 0; --j) {
-    y.segment(j, ne - j)
-        .applyHouseholderOnTheLeft(F.col(j).segment(j + 1, ne - j - 1), w.tau(j), w.hh.data());
+    y.segment(j, ne - j).applyHouseholderOnTheLeft(F.col(j).segment(j + 1, ne - j - 1), w.tau(j),
+                                                   w.hh.data());
   }
 }
 

@@ -18,13 +18,20 @@ using ocp::VectorXd;
 
 const char* toString(SolverStatus s) {
   switch (s) {
-    case SolverStatus::Converged: return "Converged";
-    case SolverStatus::IterationDone: return "IterationDone";
-    case SolverStatus::MaxIterations: return "MaxIterations";
-    case SolverStatus::LineSearchFailed: return "LineSearchFailed";
-    case SolverStatus::RankDeficientEqualities: return "RankDeficientEqualities";
-    case SolverStatus::Diverged: return "Diverged";
-    case SolverStatus::InvalidInput: return "InvalidInput";
+    case SolverStatus::Converged:
+      return "Converged";
+    case SolverStatus::IterationDone:
+      return "IterationDone";
+    case SolverStatus::MaxIterations:
+      return "MaxIterations";
+    case SolverStatus::LineSearchFailed:
+      return "LineSearchFailed";
+    case SolverStatus::RankDeficientEqualities:
+      return "RankDeficientEqualities";
+    case SolverStatus::Diverged:
+      return "Diverged";
+    case SolverStatus::InvalidInput:
+      return "InvalidInput";
   }
   return "Unknown";
 }
@@ -63,19 +70,19 @@ double relaxedLog(double c, double delta, double& d1, double& d2) {
 struct Solver::Impl {
   struct Node {
     std::unique_ptr<NodeData> d;
-    VectorXd s, z, ds, dz, c;        // slacks, duals, steps, constraint values (layout rows)
+    VectorXd s, z, ds, dz, c;  // slacks, duals, steps, constraint values (layout rows)
     VectorXd s_bak, z_bak, s_trial;
-    Eigen::VectorXi kind;            // kInactive / kHard / kSoft per row
-    VectorXd lam, lam_bak;           // costate of the constraint defining x_k (ndx)
-    VectorXd mult, mult_bak;         // equality multipliers (ne_max)
-    VectorXd defect;                 // F(x_k, u_k) (-) x_{k+1}, tangent at x_{k+1}
-    MatrixXd J0, J1;                 // difference Jacobians
-    VectorXd rx, ru, tmp;            // dual residual pieces, scratch
-    MatrixXd WGu, WGx;               // weighted general-row Jacobians
+    Eigen::VectorXi kind;     // kInactive / kHard / kSoft per row
+    VectorXd lam, lam_bak;    // costate of the constraint defining x_k (ndx)
+    VectorXd mult, mult_bak;  // equality multipliers (ne_max)
+    VectorXd defect;          // F(x_k, u_k) (-) x_{k+1}, tangent at x_{k+1}
+    MatrixXd J0, J1;          // difference Jacobians
+    VectorXd rx, ru, tmp;     // dual residual pieces, scratch
+    MatrixXd WGu, WGx;        // weighted general-row Jacobians
     VectorXd W, gam;
-    VectorXd soft_dual;              // -mu beta'(c) of soft rows (reporting)
+    VectorXd soft_dual;  // -mu beta'(c) of soft rows (reporting)
     int ni_prev = -1;
-    bool fresh = true;               // (re)initialise slacks and duals at next linearisation
+    bool fresh = true;  // (re)initialise slacks and duals at next linearisation
     bool finite = true;
     bool rank_ok = true;
     double pivot_ratio = 1.0;
@@ -111,11 +118,21 @@ struct Solver::Impl {
   char message[256] = "";
 
   Impl(std::shared_ptr<ocp::OptimalControlProblem> p, SolverSettings s)
-      : prob(std::move(p)), set(s), N(prob->horizon()), nx(prob->nx()), ndx(prob->ndx()),
-        nu(prob->nu()), ne_max(prob->maxEqualities()), ni_max(prob->maxInequalities()),
-        nbu(prob->inputBounds().size()), nbx(prob->stateBounds().size()),
-        nrows(ni_max + 2 * nbu + 2 * nbx), rep_off(nx - ndx),
-        euclid(prob->stateSpace().isEuclidean()), lq(N, ndx, nu, ne_max), pool(s.num_threads) {
+      : prob(std::move(p)),
+        set(s),
+        N(prob->horizon()),
+        nx(prob->nx()),
+        ndx(prob->ndx()),
+        nu(prob->nu()),
+        ne_max(prob->maxEqualities()),
+        ni_max(prob->maxInequalities()),
+        nbu(prob->inputBounds().size()),
+        nbx(prob->stateBounds().size()),
+        nrows(ni_max + 2 * nbu + 2 * nbx),
+        rep_off(nx - ndx),
+        euclid(prob->stateSpace().isEuclidean()),
+        lq(N, ndx, nu, ne_max),
+        pool(s.num_threads) {
     nodes.resize(static_cast<std::size_t>(N) + 1);
     for (auto& n : nodes) {
       n.d = prob->createNodeData();
@@ -248,8 +265,7 @@ struct Solver::Impl {
     n.rx = d.lx;
     n.rx -= n.lam;
     if (k < N) {
-      n.finite = n.finite && n.defect.allFinite() && d.lu.allFinite() &&
-                 d.e.head(d.ne).allFinite();
+      n.finite = n.finite && n.defect.allFinite() && d.lu.allFinite() && d.e.head(d.ne).allFinite();
       primal = std::max(primal, n.defect.lpNorm<Eigen::Infinity>());
       if (d.ne > 0) primal = std::max(primal, d.e.head(d.ne).lpNorm<Eigen::Infinity>());
       const VectorXd& lam_next = node(k + 1).lam;
@@ -292,9 +308,11 @@ struct Solver::Impl {
     for (int i = ni_max; i < nrows; ++i) {
       if (n.kind(i) == kInactive) continue;
       const bool input = i < ni_max + 2 * nbu;
-      const int j = input ? (i - ni_max) % std::max(nbu, 1) : (i - ni_max - 2 * nbu) % std::max(nbx, 1);
+      const int j =
+          input ? (i - ni_max) % std::max(nbu, 1) : (i - ni_max - 2 * nbu) % std::max(nbx, 1);
       const bool lower = input ? (i - ni_max) < nbu : (i - ni_max - 2 * nbu) < nbx;
-      const int idx = input ? ub.index[static_cast<std::size_t>(j)] : xb.index[static_cast<std::size_t>(j)];
+      const int idx =
+          input ? ub.index[static_cast<std::size_t>(j)] : xb.index[static_cast<std::size_t>(j)];
       double coef = 0.0;  // derivative of the Lagrangian w.r.t. c_i
       if (n.kind(i) == kHard) {
         coef = -n.z(i);
@@ -385,9 +403,11 @@ struct Solver::Impl {
     for (int i = ni_max; i < nrows; ++i) {
       if (n.kind(i) == kInactive) continue;
       const bool input = i < ni_max + 2 * nbu;
-      const int j = input ? (i - ni_max) % std::max(nbu, 1) : (i - ni_max - 2 * nbu) % std::max(nbx, 1);
+      const int j =
+          input ? (i - ni_max) % std::max(nbu, 1) : (i - ni_max - 2 * nbu) % std::max(nbx, 1);
       const bool lower = input ? (i - ni_max) < nbu : (i - ni_max - 2 * nbu) < nbx;
-      const int idx = input ? ub.index[static_cast<std::size_t>(j)] : xb.index[static_cast<std::size_t>(j)];
+      const int idx =
+          input ? ub.index[static_cast<std::size_t>(j)] : xb.index[static_cast<std::size_t>(j)];
       double W = 0.0, gam = 0.0;
       if (n.kind(i) == kHard) {
         W = n.z(i) / n.s(i);
@@ -441,9 +461,11 @@ struct Solver::Impl {
         gdv = n.tmp(i);
       } else {
         const bool input = i < ni_max + 2 * nbu;
-        const int j = input ? (i - ni_max) % std::max(nbu, 1) : (i - ni_max - 2 * nbu) % std::max(nbx, 1);
+        const int j =
+            input ? (i - ni_max) % std::max(nbu, 1) : (i - ni_max - 2 * nbu) % std::max(nbx, 1);
         const bool lower = input ? (i - ni_max) < nbu : (i - ni_max - 2 * nbu) < nbx;
-        const int idx = input ? ub.index[static_cast<std::size_t>(j)] : xb.index[static_cast<std::size_t>(j)];
+        const int idx =
+            input ? ub.index[static_cast<std::size_t>(j)] : xb.index[static_cast<std::size_t>(j)];
         gdv = input ? du(idx) : dx(idx);
         if (!lower) gdv = -gdv;
       }
@@ -555,18 +577,19 @@ struct Solver::Impl {
     }
   }
 
-
   /// Moves the solution n whole nodes earlier (warm start of a real-time update): node k
   /// takes node k + n; the tail repeats the old last state and input, its slacks and duals
   /// are reinitialised. The backup iterate is shifted the same way.
   void shiftNodes(int n) {
     auto shiftStates = [&](std::vector<VectorXd>& v) {
-      for (int k = 0; k + n <= N; ++k) v[static_cast<std::size_t>(k)].swap(v[static_cast<std::size_t>(k + n)]);
+      for (int k = 0; k + n <= N; ++k)
+        v[static_cast<std::size_t>(k)].swap(v[static_cast<std::size_t>(k + n)]);
       const auto last = static_cast<std::size_t>(N - n);
       for (int k = N - n + 1; k <= N; ++k) v[static_cast<std::size_t>(k)] = v[last];
     };
     auto shiftInputs = [&](std::vector<VectorXd>& v) {
-      for (int k = 0; k + n < N; ++k) v[static_cast<std::size_t>(k)].swap(v[static_cast<std::size_t>(k + n)]);
+      for (int k = 0; k + n < N; ++k)
+        v[static_cast<std::size_t>(k)].swap(v[static_cast<std::size_t>(k + n)]);
       const auto last = static_cast<std::size_t>(N - 1 - n >= 0 ? N - 1 - n : N - 1);
       for (int k = std::max(N - n, 0); k < N; ++k) v[static_cast<std::size_t>(k)] = v[last];
     };
@@ -656,8 +679,9 @@ SolverStatus Solver::Impl::run(ConstVecRef x_init, bool realtime) {
     if (!finite || !std::isfinite(primal) || primal > set.divergence_threshold) {
       if (backup_valid) {
         restore();
-        ROLLSTEP_MSG("the iterate diverged (primal residual %.3g); the last good iterate was restored",
-                   primal);
+        ROLLSTEP_MSG(
+            "the iterate diverged (primal residual %.3g); the last good iterate was restored",
+            primal);
         return status = SolverStatus::Diverged;
       }
       ROLLSTEP_MSG("the problem evaluates to non-finite values at the initial guess");
@@ -690,8 +714,7 @@ SolverStatus Solver::Impl::run(ConstVecRef x_init, bool realtime) {
         return status = SolverStatus::MaxIterations;
       }
       // Monotone (Fiacco-McCormick) barrier update.
-      while (mu > set.barrier_min &&
-             std::max({primal, dual_scaled, complMu(mu)}) <= 10.0 * mu) {
+      while (mu > set.barrier_min && std::max({primal, dual_scaled, complMu(mu)}) <= 10.0 * mu) {
         mu = std::max(set.barrier_min, std::min(set.barrier_decrease * mu, std::pow(mu, 1.5)));
       }
     }
@@ -787,7 +810,7 @@ SolverStatus Solver::Impl::run(ConstVecRef x_init, bool realtime) {
         it.time_update_ms = msSince(t_upd);
         stats.push_back(it);
         ROLLSTEP_MSG("line search failed after %d backtracking steps (merit slope %.3g)",
-                   set.max_line_search_steps, slope);
+                     set.max_line_search_steps, slope);
         return status = SolverStatus::LineSearchFailed;
       }
       for (int k = 0; k <= N; ++k) {
@@ -813,7 +836,8 @@ SolverStatus Solver::Impl::run(ConstVecRef x_init, bool realtime) {
       }
       n.lam += alpha * (lq.costate(k) - n.lam);
       if (k < N && n.d->ne > 0) {
-        n.mult.head(n.d->ne) += alpha * (lq.equalityMultipliers(k).head(n.d->ne) - n.mult.head(n.d->ne));
+        n.mult.head(n.d->ne) +=
+            alpha * (lq.equalityMultipliers(k).head(n.d->ne) - n.mult.head(n.d->ne));
       }
     }
     it.primal_step = alpha;
@@ -849,17 +873,20 @@ Solver::~Solver() = default;
 
 void Solver::setInitialGuess(const std::vector<VectorXd>& xs, const std::vector<VectorXd>& us) {
   Impl& m = *impl_;
-  if (xs.size() != static_cast<std::size_t>(m.N) + 1 || us.size() != static_cast<std::size_t>(m.N)) {
+  if (xs.size() != static_cast<std::size_t>(m.N) + 1 ||
+      us.size() != static_cast<std::size_t>(m.N)) {
     throw std::invalid_argument("Solver::setInitialGuess: need N+1 states and N inputs");
   }
   for (const auto& x : xs) {
     if (x.size() != m.nx || !x.allFinite()) {
-      throw std::invalid_argument("Solver::setInitialGuess: a state has the wrong size or is not finite");
+      throw std::invalid_argument(
+          "Solver::setInitialGuess: a state has the wrong size or is not finite");
     }
   }
   for (const auto& u : us) {
     if (u.size() != m.nu || !u.allFinite()) {
-      throw std::invalid_argument("Solver::setInitialGuess: an input has the wrong size or is not finite");
+      throw std::invalid_argument(
+          "Solver::setInitialGuess: an input has the wrong size or is not finite");
     }
   }
   for (std::size_t k = 0; k < xs.size(); ++k) m.xs[k] = xs[k];
@@ -905,7 +932,9 @@ const VectorXd& Solver::equalityMultipliers(int k) const {
 const VectorXd& Solver::inequalityDuals(int k) const {
   return impl_->nodes.at(static_cast<std::size_t>(k)).z;
 }
-const VectorXd& Solver::slacks(int k) const { return impl_->nodes.at(static_cast<std::size_t>(k)).s; }
+const VectorXd& Solver::slacks(int k) const {
+  return impl_->nodes.at(static_cast<std::size_t>(k)).s;
+}
 const MatrixXd& Solver::feedbackGain(int k) const {
   Impl& m = *impl_;
   const auto kk = static_cast<std::size_t>(k);
@@ -933,7 +962,8 @@ const char* Solver::message() const { return impl_->message; }
 const SolverSettings& Solver::settings() const { return impl_->set; }
 void Solver::setSettings(const SolverSettings& s) {
   if (s.num_threads != impl_->set.num_threads) {
-    throw std::invalid_argument("Solver::setSettings: num_threads cannot change after construction");
+    throw std::invalid_argument(
+        "Solver::setSettings: num_threads cannot change after construction");
   }
   impl_->set = s;
   impl_->stats.reserve(static_cast<std::size_t>(std::max(s.max_iterations, 1)) + 2);

@@ -78,9 +78,8 @@ TEST_P(SpaceTest, IntegrateDifferenceRoundTripAndJacobians) {
 
     MatrixXd Jx(s->ndx(), s->ndx()), Jd(s->ndx(), s->ndx());
     s->integrateJacobians(x, dx, Jx, Jd);
-    const MatrixXd Jx_fd = fdManifold(*s, *s, x, [&](const VectorXd& xx, VectorXd& out) {
-      s->integrate(xx, dx, out);
-    });
+    const MatrixXd Jx_fd = fdManifold(
+        *s, *s, x, [&](const VectorXd& xx, VectorXd& out) { s->integrate(xx, dx, out); });
     EXPECT_LT((Jx - Jx_fd).lpNorm<Eigen::Infinity>(), 1e-6);
     // d/d(dx): perturb dx additively.
     MatrixXd Jd_fd(s->ndx(), s->ndx());
@@ -156,9 +155,8 @@ void checkDiscreteJacobians(std::shared_ptr<const ocp::ContinuousDynamics> f, do
     MatrixXd Fx(s.ndx(), s.ndx()), Fu(s.ndx(), F.nu());
     F.calc(ctx, x, u, *data, xn);
     F.calcDiff(ctx, x, u, *data, Fx, Fu);
-    const MatrixXd Fx_fd = fdManifold(s, s, x, [&](const VectorXd& xx, VectorXd& out) {
-      F.calc(ctx, xx, u, *data, out);
-    });
+    const MatrixXd Fx_fd = fdManifold(
+        s, s, x, [&](const VectorXd& xx, VectorXd& out) { F.calc(ctx, xx, u, *data, out); });
     MatrixXd Fu_fd(s.ndx(), F.nu());
     const double h = 1e-6;
     VectorXd yp(s.nx()), ym(s.nx()), dp(s.ndx()), dm(s.ndx());
@@ -351,7 +349,8 @@ TEST(Cost, StructuredTrackingPathsMatchTheGenericProducts) {
       auto rd = res->createData();
       ocp::NodeContext ctx;
       VectorXd lx = VectorXd::Ones(n), lu = VectorXd::Ones(nu);  // accumulates on top
-      MatrixXd Lxx = MatrixXd::Ones(n, n), Luu = MatrixXd::Ones(nu, nu), Lux = MatrixXd::Ones(nu, n);
+      MatrixXd Lxx = MatrixXd::Ones(n, n), Luu = MatrixXd::Ones(nu, nu),
+               Lux = MatrixXd::Ones(nu, n);
       cost.calc(ctx, x, u, *cd);
       cost.calcDiff(ctx, x, u, *cd, 0.5, lx, lu, Lxx, Luu, Lux);
       rd->rows = res->maxRows();
@@ -361,8 +360,10 @@ TEST(Cost, StructuredTrackingPathsMatchTheGenericProducts) {
       EXPECT_LT((lx - VectorXd::Ones(n) - 0.5 * rd->Rx.transpose() * W * rd->r).norm(), 1e-12);
       EXPECT_LT((lu - VectorXd::Ones(nu) - 0.5 * rd->Ru.transpose() * W * rd->r).norm(), 1e-12);
       EXPECT_LT((Lxx - MatrixXd::Ones(n, n) - 0.5 * rd->Rx.transpose() * W * rd->Rx).norm(), 1e-12);
-      EXPECT_LT((Luu - MatrixXd::Ones(nu, nu) - 0.5 * rd->Ru.transpose() * W * rd->Ru).norm(), 1e-12);
-      EXPECT_LT((Lux - MatrixXd::Ones(nu, n) - 0.5 * rd->Ru.transpose() * W * rd->Rx).norm(), 1e-12);
+      EXPECT_LT((Luu - MatrixXd::Ones(nu, nu) - 0.5 * rd->Ru.transpose() * W * rd->Ru).norm(),
+                1e-12);
+      EXPECT_LT((Lux - MatrixXd::Ones(nu, n) - 0.5 * rd->Ru.transpose() * W * rd->Rx).norm(),
+                1e-12);
     }
   }
 }
@@ -423,20 +424,22 @@ std::shared_ptr<ocp::OptimalControlProblem> stackingProblem() {
   auto dyn = std::make_shared<ocp::ExplicitEuler>(std::make_shared<testmodels::Pendulum>());
   auto p = std::make_shared<ocp::OptimalControlProblem>(dyn, 10, 0.1);
   auto s = dyn->spacePtr();
-  p->addCost("state", std::make_shared<ocp::LeastSquaresCost>(
-                          std::make_shared<ocp::StateErrorResidual>(s, 1, VectorXd::Zero(2)),
-                          VectorXd::Ones(2)),
-             ocp::Stage::All);
+  p->addCost(
+      "state",
+      std::make_shared<ocp::LeastSquaresCost>(
+          std::make_shared<ocp::StateErrorResidual>(s, 1, VectorXd::Zero(2)), VectorXd::Ones(2)),
+      ocp::Stage::All);
   p->addCost("input", std::make_shared<ocp::LeastSquaresCost>(
                           std::make_shared<ocp::InputErrorResidual>(2, VectorXd::Zero(1)),
                           VectorXd::Ones(1)));
   p->addEquality("always", std::make_shared<ModeResidual>(2, 1, 1, 0.0));  // only in mode 1
   p->addEquality("mode1", std::make_shared<ModeResidual>(2, 1, 2, 2.0));
   p->addInequality("ineq", std::make_shared<ModeResidual>(2, 1, 3, -1.0));
-  p->addInequality("terminal",
-                   std::make_shared<ocp::AffineResidual>(s, VectorXd::Zero(2), MatrixXd::Identity(2, 2),
-                                                         MatrixXd::Zero(2, 1), VectorXd::Ones(2)),
-                   ocp::Stage::Terminal);
+  p->addInequality(
+      "terminal",
+      std::make_shared<ocp::AffineResidual>(s, VectorXd::Zero(2), MatrixXd::Identity(2, 2),
+                                            MatrixXd::Zero(2, 1), VectorXd::Ones(2)),
+      ocp::Stage::Terminal);
   return p;
 }
 
@@ -456,8 +459,8 @@ TEST(Problem, StacksActiveRowsByMode) {
   p->linearize(6, x, u, *d);
   EXPECT_EQ(d->context.mode, 1);
   ASSERT_EQ(d->ne, 3);
-  EXPECT_NEAR(d->e(0), 0.7, 1e-15);               // "always" row
-  EXPECT_NEAR(d->e(1), 0.7 + 0.6, 1e-15);         // "mode1" rows follow in order
+  EXPECT_NEAR(d->e(0), 0.7, 1e-15);        // "always" row
+  EXPECT_NEAR(d->e(1), 0.7 + 0.6, 1e-15);  // "mode1" rows follow in order
   EXPECT_NEAR(d->e(2), 0.7 + 0.6 + 1.0, 1e-15);
   EXPECT_DOUBLE_EQ(d->Ex(1, 0), 2.0);
   EXPECT_DOUBLE_EQ(d->Eu(2, 0), 1.0);
@@ -501,8 +504,9 @@ TEST(Problem, Se3ProblemDoesNotAllocate) {
   auto s = dyn->spacePtr();
   VectorXd xr(13);
   s->neutral(xr);
-  p->addCost("x", std::make_shared<ocp::LeastSquaresCost>(
-                      std::make_shared<ocp::StateErrorResidual>(s, 6, xr), VectorXd::Ones(12)),
+  p->addCost("x",
+             std::make_shared<ocp::LeastSquaresCost>(
+                 std::make_shared<ocp::StateErrorResidual>(s, 6, xr), VectorXd::Ones(12)),
              ocp::Stage::All);
   auto d = p->createNodeData();
   std::mt19937 rng(1);
@@ -519,9 +523,10 @@ TEST(Problem, RejectsInvalidComposition) {
   auto p = stackingProblem();
   auto s = p->dynamics().spacePtr();
   // Terminal cost / inequality depending on the input.
-  EXPECT_THROW(p->addCost("u", std::make_shared<ocp::LeastSquaresCost>(
-                                   std::make_shared<ocp::InputErrorResidual>(2, VectorXd::Zero(1)),
-                                   VectorXd::Ones(1)),
+  EXPECT_THROW(p->addCost("u",
+                          std::make_shared<ocp::LeastSquaresCost>(
+                              std::make_shared<ocp::InputErrorResidual>(2, VectorXd::Zero(1)),
+                              VectorXd::Ones(1)),
                           ocp::Stage::Terminal),
                std::invalid_argument);
   EXPECT_THROW(p->addInequality("soft-u", std::make_shared<ModeResidual>(2, 1, 1, 1.0),

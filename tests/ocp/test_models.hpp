@@ -23,7 +23,9 @@ class LinearDynamics final : public ocp::Dynamics {
   LinearDynamics(const MatrixXd& A, const MatrixXd& B, const VectorXd& c)
       : Dynamics(std::make_shared<ocp::EuclideanSpace>(static_cast<int>(A.rows())),
                  static_cast<int>(B.cols())),
-        A_(A), B_(B), c_(c) {}
+        A_(A),
+        B_(B),
+        c_(c) {}
   std::unique_ptr<ocp::DynamicsData> createData() const override {
     return std::make_unique<ocp::DynamicsData>();
   }

@@ -50,8 +50,16 @@ class OcpTnlp final : public Ipopt::TNLP {
   OcpTnlp(const ocp::OptimalControlProblem& pb, const VectorXd& x_init,
           const std::vector<VectorXd>& xbar, const std::vector<VectorXd>& us_guess,
           const IpoptOptions& opt)
-      : pb_(pb), space_(pb.stateSpace()), N_(pb.horizon()), ndx_(pb.ndx()), nu_(pb.nu()),
-        nx_(pb.nx()), x_init_(x_init), xbar_(xbar), us_guess_(us_guess), opt_(opt) {
+      : pb_(pb),
+        space_(pb.stateSpace()),
+        N_(pb.horizon()),
+        ndx_(pb.ndx()),
+        nu_(pb.nu()),
+        nx_(pb.nx()),
+        x_init_(x_init),
+        xbar_(xbar),
+        us_guess_(us_guess),
+        opt_(opt) {
     xbar_[0] = x_init_;
     // Active rows per node (fixed for the solve: they depend on the node context only).
     auto d = pb_.createNodeData();
@@ -128,8 +136,7 @@ class OcpTnlp final : public Ipopt::TNLP {
     return true;
   }
 
-  bool get_bounds_info(Index, Number* x_l, Number* x_u, Index, Number* g_l,
-                       Number* g_u) override {
+  bool get_bounds_info(Index, Number* x_l, Number* x_u, Index, Number* g_l, Number* g_u) override {
     for (int i = 0; i < n_; ++i) {
       x_l[i] = -kIpoptInf;
       x_u[i] = kIpoptInf;
@@ -159,7 +166,8 @@ class OcpTnlp final : public Ipopt::TNLP {
       }
     }
     for (int k = 0; k <= N_; ++k) {
-      for (int i = 0; i < (k < N_ ? ndx_ : 0) + ne(k); ++i) g_l[cdef(k) + i] = g_u[cdef(k) + i] = 0.0;
+      for (int i = 0; i < (k < N_ ? ndx_ : 0) + ne(k); ++i)
+        g_l[cdef(k) + i] = g_u[cdef(k) + i] = 0.0;
       for (int i = 0; i < ni(k); ++i) {
         g_l[cin(k) + i] = 0.0;
         g_u[cin(k) + i] = kIpoptInf;
@@ -282,7 +290,8 @@ class OcpTnlp final : public Ipopt::TNLP {
         const auto& pos = hess_pos_[static_cast<size_t>(k)];
         int q = 0;
         for (int i = 0; i < wd; ++i)
-          for (int j = 0; j <= i; ++j) values[pos[static_cast<size_t>(q++)]] += 0.5 * (H(i, j) + H(j, i));
+          for (int j = 0; j <= i; ++j)
+            values[pos[static_cast<size_t>(q++)]] += 0.5 * (H(i, j) + H(j, i));
       }
       return true;
     } catch (...) {
@@ -440,22 +449,38 @@ class OcpTnlp final : public Ipopt::TNLP {
 
 const char* statusName(Ipopt::ApplicationReturnStatus s) {
   switch (s) {
-    case Ipopt::Solve_Succeeded: return "Solve_Succeeded";
-    case Ipopt::Solved_To_Acceptable_Level: return "Solved_To_Acceptable_Level";
-    case Ipopt::Infeasible_Problem_Detected: return "Infeasible_Problem_Detected";
-    case Ipopt::Search_Direction_Becomes_Too_Small: return "Search_Direction_Becomes_Too_Small";
-    case Ipopt::Diverging_Iterates: return "Diverging_Iterates";
-    case Ipopt::User_Requested_Stop: return "User_Requested_Stop";
-    case Ipopt::Feasible_Point_Found: return "Feasible_Point_Found";
-    case Ipopt::Maximum_Iterations_Exceeded: return "Maximum_Iterations_Exceeded";
-    case Ipopt::Restoration_Failed: return "Restoration_Failed";
-    case Ipopt::Error_In_Step_Computation: return "Error_In_Step_Computation";
-    case Ipopt::Maximum_CpuTime_Exceeded: return "Maximum_CpuTime_Exceeded";
-    case Ipopt::Not_Enough_Degrees_Of_Freedom: return "Not_Enough_Degrees_Of_Freedom";
-    case Ipopt::Invalid_Problem_Definition: return "Invalid_Problem_Definition";
-    case Ipopt::Invalid_Option: return "Invalid_Option";
-    case Ipopt::Invalid_Number_Detected: return "Invalid_Number_Detected";
-    default: return "Ipopt_Error";
+    case Ipopt::Solve_Succeeded:
+      return "Solve_Succeeded";
+    case Ipopt::Solved_To_Acceptable_Level:
+      return "Solved_To_Acceptable_Level";
+    case Ipopt::Infeasible_Problem_Detected:
+      return "Infeasible_Problem_Detected";
+    case Ipopt::Search_Direction_Becomes_Too_Small:
+      return "Search_Direction_Becomes_Too_Small";
+    case Ipopt::Diverging_Iterates:
+      return "Diverging_Iterates";
+    case Ipopt::User_Requested_Stop:
+      return "User_Requested_Stop";
+    case Ipopt::Feasible_Point_Found:
+      return "Feasible_Point_Found";
+    case Ipopt::Maximum_Iterations_Exceeded:
+      return "Maximum_Iterations_Exceeded";
+    case Ipopt::Restoration_Failed:
+      return "Restoration_Failed";
+    case Ipopt::Error_In_Step_Computation:
+      return "Error_In_Step_Computation";
+    case Ipopt::Maximum_CpuTime_Exceeded:
+      return "Maximum_CpuTime_Exceeded";
+    case Ipopt::Not_Enough_Degrees_Of_Freedom:
+      return "Not_Enough_Degrees_Of_Freedom";
+    case Ipopt::Invalid_Problem_Definition:
+      return "Invalid_Problem_Definition";
+    case Ipopt::Invalid_Option:
+      return "Invalid_Option";
+    case Ipopt::Invalid_Number_Detected:
+      return "Invalid_Number_Detected";
+    default:
+      return "Ipopt_Error";
   }
 }
 
@@ -469,7 +494,8 @@ IpoptResult solveWithIpopt(const ocp::OptimalControlProblem& problem, const Vect
     throw std::invalid_argument("solveWithIpopt: initial guess sizes");
   IpoptResult res;
   std::vector<VectorXd> xbar = xs_guess, ubar = us_guess;
-  const int passes = problem.stateSpace().isEuclidean() ? 1 : 1 + std::max(0, options.recentre_passes);
+  const int passes =
+      problem.stateSpace().isEuclidean() ? 1 : 1 + std::max(0, options.recentre_passes);
   for (int pass = 0; pass < passes; ++pass) {
     Ipopt::SmartPtr<OcpTnlp> nlp = new OcpTnlp(problem, x_init, xbar, ubar, options);
     Ipopt::SmartPtr<Ipopt::IpoptApplication> app = IpoptApplicationFactory();
@@ -509,9 +535,14 @@ IpoptResult solveWithIpopt(const ocp::OptimalControlProblem& problem, const Vect
     res.inequality_multipliers.clear();
     for (int k = 0; k <= N; ++k) {
       const double* l = nlp->lambda_sol.data();
-      if (k < N) res.defect_multipliers.emplace_back(Eigen::Map<const VectorXd>(l + nlp->cdef(k), problem.ndx()));
-      if (k < N) res.equality_multipliers.emplace_back(Eigen::Map<const VectorXd>(l + nlp->ceq(k), nlp->ne(k)));
-      res.inequality_multipliers.emplace_back(Eigen::Map<const VectorXd>(l + nlp->cin(k), nlp->ni(k)));
+      if (k < N)
+        res.defect_multipliers.emplace_back(
+            Eigen::Map<const VectorXd>(l + nlp->cdef(k), problem.ndx()));
+      if (k < N)
+        res.equality_multipliers.emplace_back(
+            Eigen::Map<const VectorXd>(l + nlp->ceq(k), nlp->ne(k)));
+      res.inequality_multipliers.emplace_back(
+          Eigen::Map<const VectorXd>(l + nlp->cin(k), nlp->ni(k)));
     }
     if (!res.success) break;
     xbar = res.xs;

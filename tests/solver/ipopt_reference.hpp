@@ -35,12 +35,12 @@ struct IpoptOptions {
 };
 
 struct IpoptResult {
-  bool success = false;          ///< Solve_Succeeded or Solved_To_Acceptable_Level
-  int status = -1;               ///< Ipopt::ApplicationReturnStatus
+  bool success = false;  ///< Solve_Succeeded or Solved_To_Acceptable_Level
+  int status = -1;       ///< Ipopt::ApplicationReturnStatus
   std::string status_string;
-  double cost = 0.0;             ///< objective at the solution (sum of node costs)
+  double cost = 0.0;  ///< objective at the solution (sum of node costs)
   int iterations = 0;
-  double max_violation = 0.0;    ///< our own measure (defects, e, g, bounds)
+  double max_violation = 0.0;  ///< our own measure (defects, e, g, bounds)
   std::vector<Eigen::VectorXd> xs, us;
   /// Ipopt's multipliers (its convention: L = f + lambda^T c), per node.
   std::vector<Eigen::VectorXd> defect_multipliers, equality_multipliers, inequality_multipliers;

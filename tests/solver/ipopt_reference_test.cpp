@@ -1,11 +1,12 @@
 // Trust in the Ipopt reference: on linear-quadratic problems with known answers (discrete
 // Riccati, a one-step problem with an active bound) the adapter reproduces them, and on
 // the nonlinear test problems Ipopt's solution satisfies our independent KKT check.
+#include "ipopt_reference.hpp"
+
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
 
-#include "ipopt_reference.hpp"
 #include "nonlinear_problems.hpp"
 #include "rollstep/ocp/cost.hpp"
 #include "rollstep/ocp/residuals.hpp"
@@ -19,7 +20,8 @@ class LinearDynamics final : public ocp::ContinuousDynamics {
   LinearDynamics(const MatrixXd& A, const MatrixXd& B)
       : ContinuousDynamics(std::make_shared<ocp::EuclideanSpace>(static_cast<int>(A.rows())),
                            static_cast<int>(B.cols())),
-        A_(A), B_(B) {}
+        A_(A),
+        B_(B) {}
   std::unique_ptr<ocp::DynamicsData> createData() const override {
     return std::make_unique<ocp::DynamicsData>();
   }
@@ -49,8 +51,8 @@ Lq makeLq(int N, double dt, double q, double r, double qf) {
   Ac << 0, 1, -0.5, -0.1;
   Bc << 0, 1;
   auto f = std::make_shared<LinearDynamics>(Ac, Bc);
-  auto pb = std::make_shared<ocp::OptimalControlProblem>(std::make_shared<ocp::ExplicitEuler>(f),
-                                                         N, dt);
+  auto pb =
+      std::make_shared<ocp::OptimalControlProblem>(std::make_shared<ocp::ExplicitEuler>(f), N, dt);
   auto xerr = std::make_shared<ocp::StateErrorResidual>(f->spacePtr(), 1, VectorXd::Zero(2));
   pb->addCost("x", std::make_shared<ocp::LeastSquaresCost>(xerr, VectorXd::Constant(2, q)));
   pb->addCost("u", std::make_shared<ocp::LeastSquaresCost>(
@@ -88,8 +90,9 @@ TEST(IpoptReference, UnconstrainedLqMatchesRiccati) {
   for (bool exact : {true, false}) {
     IpoptOptions opt;
     opt.exact_hessian = exact;
-    const auto res = solveWithIpopt(*lq.pb, x0, std::vector<VectorXd>(static_cast<size_t>(N + 1), VectorXd::Zero(2)),
-                                    std::vector<VectorXd>(static_cast<size_t>(N), VectorXd::Zero(1)), opt);
+    const auto res = solveWithIpopt(
+        *lq.pb, x0, std::vector<VectorXd>(static_cast<size_t>(N + 1), VectorXd::Zero(2)),
+        std::vector<VectorXd>(static_cast<size_t>(N), VectorXd::Zero(1)), opt);
     ASSERT_TRUE(res.success) << res.status_string;
     EXPECT_NEAR(res.cost, cost_riccati, 1e-9 * cost_riccati) << "exact=" << exact;
     for (int k = 0; k < N; ++k)
@@ -112,8 +115,8 @@ TEST(IpoptReference, OneStepWithActiveInputBound) {
   const double u_free = -bqa / (lq.r * lq.dt + bqb);
   ASSERT_LT(u_free, -umax);
   const VectorXd x1 = lq.A * x0 + lq.B * VectorXd::Constant(1, -umax);
-  const double cost = 0.5 * lq.dt * (lq.q * x0.squaredNorm() + lq.r * umax * umax) +
-                      0.5 * lq.qf * x1.squaredNorm();
+  const double cost =
+      0.5 * lq.dt * (lq.q * x0.squaredNorm() + lq.r * umax * umax) + 0.5 * lq.qf * x1.squaredNorm();
   const auto res = solveWithIpopt(*lq.pb, x0, {x0, x0}, {VectorXd::Zero(1)});
   ASSERT_TRUE(res.success) << res.status_string;
   EXPECT_NEAR(res.us[0][0], -umax, 1e-9);
@@ -166,7 +169,8 @@ TEST(IpoptReference, SolvesTheNonlinearProblemsToAKktPoint) {
                 inst.name.c_str(), err.lpNorm<Eigen::Infinity>(),
                 err.head(2).lpNorm<Eigen::Infinity>());
     const double tol_goal = inst.name == "unicycle" ? 0.2 : 0.1;
-    EXPECT_LT(err.head(inst.name == "unicycle" ? 2 : err.size()).lpNorm<Eigen::Infinity>(), tol_goal)
+    EXPECT_LT(err.head(inst.name == "unicycle" ? 2 : err.size()).lpNorm<Eigen::Infinity>(),
+              tol_goal)
         << inst.name;
     const auto xs_guess = rollout(*inst.problem, inst.x0, inst.us_guess);
     if (inst.name != "unicycle") {  // the unicycle guess violates the speed profile

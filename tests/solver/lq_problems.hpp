@@ -1,13 +1,12 @@
 #pragma once
 // Linear-quadratic test problems for the solver: built with the ocp API, and the same
 // problem as one dense stacked QP (Eigen) for independent reference solutions.
+#include <Eigen/Dense>
 #include <cmath>
 #include <limits>
 #include <memory>
 #include <random>
 #include <vector>
-
-#include <Eigen/Dense>
 
 #include "rollstep/ocp/cost.hpp"
 #include "rollstep/ocp/problem.hpp"
@@ -80,13 +79,16 @@ inline std::shared_ptr<ocp::OptimalControlProblem> buildProblem(const LqData& d)
   const VectorXd zx = VectorXd::Zero(d.nx);
   p->addCost("running", std::make_shared<ocp::LeastSquaresCost>(
                             std::make_shared<ocp::AffineResidual>(s, zx, d.Cx, d.Cu, d.cr), d.w));
-  p->addCost("terminal",
-             std::make_shared<ocp::LeastSquaresCost>(
-                 std::make_shared<ocp::AffineResidual>(s, zx, d.Cf, MatrixXd::Zero(d.nx, d.nu), d.cf),
-                 d.wf),
-             ocp::Stage::Terminal);
-  if (d.ne() > 0) p->addEquality("eq", std::make_shared<ocp::AffineResidual>(s, zx, d.Ex, d.Eu, d.e));
-  if (d.ni() > 0) p->addInequality("ineq", std::make_shared<ocp::AffineResidual>(s, zx, d.Gx, d.Gu, d.g));
+  p->addCost(
+      "terminal",
+      std::make_shared<ocp::LeastSquaresCost>(
+          std::make_shared<ocp::AffineResidual>(s, zx, d.Cf, MatrixXd::Zero(d.nx, d.nu), d.cf),
+          d.wf),
+      ocp::Stage::Terminal);
+  if (d.ne() > 0)
+    p->addEquality("eq", std::make_shared<ocp::AffineResidual>(s, zx, d.Ex, d.Eu, d.e));
+  if (d.ni() > 0)
+    p->addInequality("ineq", std::make_shared<ocp::AffineResidual>(s, zx, d.Gx, d.Gu, d.g));
   p->setInputBounds(d.ulo, d.uhi);
   p->setStateBounds(d.xlo, d.xhi);
   return p;

@@ -33,8 +33,7 @@ KktInputs solverMultipliers(const Solver& s, const ocp::OptimalControlProblem& p
     ne.push_back(k < pb.horizon() ? d->ne : 0);
     ni.push_back(d->ni);
   }
-  const int mi = pb.maxInequalities(), nbu = pb.inputBounds().size(),
-            nbx = pb.stateBounds().size();
+  const int mi = pb.maxInequalities(), nbu = pb.inputBounds().size(), nbx = pb.stateBounds().size();
   KktInputs in;
   in.equality_sign = 1.0;
   in.equality_multipliers = [&s, ne](int k) {

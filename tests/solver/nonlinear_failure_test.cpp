@@ -33,8 +33,8 @@ void expectFiniteOutputs(const Solver& s) {
 
 TEST(NonlinearFailure, NanOrInfInitialStateIsInvalidInput) {
   for (const auto& inst : {makeCartPole(), makeUnicycle(), makeRigidBody()}) {
-    for (double bad : {std::numeric_limits<double>::quiet_NaN(),
-                       std::numeric_limits<double>::infinity()}) {
+    for (double bad :
+         {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity()}) {
       Solver s(inst.problem);
       s.setInitialGuess(inst.xs_guess, inst.us_guess);
       VectorXd x0 = inst.x0;
@@ -79,10 +79,9 @@ TEST(NonlinearFailure, EqualityContradictingInputBoundsIsNotConverged) {
   o.horizon = 20;
   const auto inst = makeCartPole(o);
   MatrixXd D = MatrixXd::Ones(1, 1);
-  inst.problem->addEquality(
-      "force", std::make_shared<ocp::AffineResidual>(inst.problem->dynamics().spacePtr(), inst.x0,
-                                                     MatrixXd::Zero(1, 4), D,
-                                                     VectorXd::Constant(1, -50.0)));
+  inst.problem->addEquality("force", std::make_shared<ocp::AffineResidual>(
+                                         inst.problem->dynamics().spacePtr(), inst.x0,
+                                         MatrixXd::Zero(1, 4), D, VectorXd::Constant(1, -50.0)));
   SolverSettings set;
   set.max_iterations = 60;
   Solver s(inst.problem, set);
@@ -102,10 +101,9 @@ TEST(NonlinearFailure, ContradictoryEqualitiesAreRankDeficient) {
   const auto inst = makeUnicycle(o);
   MatrixXd D = MatrixXd::Zero(1, 2);
   D(0, 0) = 1.0;
-  inst.problem->addEquality(
-      "v_fixed", std::make_shared<ocp::AffineResidual>(inst.problem->dynamics().spacePtr(),
-                                                       inst.x0, MatrixXd::Zero(1, 3), D,
-                                                       VectorXd::Constant(1, -5.0)));
+  inst.problem->addEquality("v_fixed", std::make_shared<ocp::AffineResidual>(
+                                           inst.problem->dynamics().spacePtr(), inst.x0,
+                                           MatrixXd::Zero(1, 3), D, VectorXd::Constant(1, -5.0)));
   Solver s(inst.problem);
   s.setInitialGuess(inst.xs_guess, inst.us_guess);
   const SolverStatus st = s.solve(inst.x0);
@@ -130,8 +128,8 @@ TEST(NonlinearFailure, ObstacleCoveringTheTargetStopsOutside) {
   Solver s(inst.problem, set);
   s.setInitialGuess(inst.xs_guess, inst.us_guess);
   const SolverStatus st = s.solve(inst.x0);
-  std::printf("[covered target] status %s: %s, iterations %d\n", solver::toString(st),
-              s.message(), s.iterations());
+  std::printf("[covered target] status %s: %s, iterations %d\n", solver::toString(st), s.message(),
+              s.iterations());
   EXPECT_EQ(st, SolverStatus::Converged) << s.message();
   expectFiniteOutputs(s);
   EXPECT_LT(maxViolation(*inst.problem, inst.x0, s.states(), s.inputs()), 1e-8);

@@ -99,10 +99,10 @@ ProblemInstance makeCartPole(const CartPoleOptions& o) {
                            state_err, VectorXd::Constant(4, o.state_weight)));
   pb->addCost("input", std::make_shared<ocp::LeastSquaresCost>(
                            input_err, VectorXd::Constant(1, o.input_weight)));
-  pb->addCost("terminal",
-              std::make_shared<ocp::LeastSquaresCost>(state_err,
-                                                      VectorXd::Constant(4, o.terminal_weight)),
-              ocp::Stage::Terminal);
+  pb->addCost(
+      "terminal",
+      std::make_shared<ocp::LeastSquaresCost>(state_err, VectorXd::Constant(4, o.terminal_weight)),
+      ocp::Stage::Terminal);
   pb->setInputBounds(VectorXd::Constant(1, -o.force_limit), VectorXd::Constant(1, o.force_limit));
   if (o.track_limit > 0.0) {
     VectorXd lo = VectorXd::Constant(4, -ocp::OptimalControlProblem::kInfinity);
@@ -144,9 +144,8 @@ void UnicycleDynamics::calcDiff(const ocp::NodeContext&, ConstVecRef x, ConstVec
   fu(2, 1) = 1.0;
 }
 
-CircleObstacleResidual::CircleObstacleResidual(std::shared_ptr<const ocp::StateSpace> space,
-                                               int nu, std::vector<Circle> circles, int ix,
-                                               int iy)
+CircleObstacleResidual::CircleObstacleResidual(std::shared_ptr<const ocp::StateSpace> space, int nu,
+                                               std::vector<Circle> circles, int ix, int iy)
     : Residual(space->ndx(), nu, static_cast<int>(circles.size())),
       circles_(std::move(circles)),
       ix_(ix + space->nx() - space->ndx()),
@@ -221,8 +220,8 @@ ProblemInstance makeUnicycle(const UnicycleOptions& o) {
   MatrixXd C = MatrixXd::Zero(2, 3);
   C(0, 0) = 1.0;
   C(1, 1) = 1.0;
-  auto pos_err = std::make_shared<ocp::AffineResidual>(space, inst.x_goal, C,
-                                                       MatrixXd::Zero(2, 2), VectorXd::Zero(2));
+  auto pos_err = std::make_shared<ocp::AffineResidual>(space, inst.x_goal, C, MatrixXd::Zero(2, 2),
+                                                       VectorXd::Zero(2));
   MatrixXd Dw = MatrixXd::Zero(1, 2);
   Dw(0, 1) = 1.0;
   auto turn = std::make_shared<ocp::AffineResidual>(space, inst.x_goal, MatrixXd::Zero(1, 3), Dw,
@@ -231,12 +230,12 @@ ProblemInstance makeUnicycle(const UnicycleOptions& o) {
                               pos_err, VectorXd::Constant(2, o.position_weight)));
   pb->addCost("turn_rate",
               std::make_shared<ocp::LeastSquaresCost>(turn, VectorXd::Constant(1, o.turn_weight)));
-  pb->addCost("terminal_position",
-              std::make_shared<ocp::LeastSquaresCost>(pos_err,
-                                                      VectorXd::Constant(2, o.terminal_weight)),
-              ocp::Stage::Terminal);
-  auto profile = std::make_shared<SpeedProfileResidual>(o.speed_gain, o.cruise_speed, o.goal_x,
-                                                        o.goal_y);
+  pb->addCost(
+      "terminal_position",
+      std::make_shared<ocp::LeastSquaresCost>(pos_err, VectorXd::Constant(2, o.terminal_weight)),
+      ocp::Stage::Terminal);
+  auto profile =
+      std::make_shared<SpeedProfileResidual>(o.speed_gain, o.cruise_speed, o.goal_x, o.goal_y);
   pb->addEquality("speed_profile", profile);
   if (!o.hard_obstacles.empty()) {
     auto obs = std::make_shared<CircleObstacleResidual>(space, 2, o.hard_obstacles);
@@ -315,8 +314,8 @@ void RigidBodyDynamics::calcDiff(const ocp::NodeContext&, ConstVecRef x, ConstVe
 ProblemInstance makeRigidBody(const RigidBodyOptions& o) {
   auto f = std::make_shared<RigidBodyDynamics>(o.params);
   auto space = f->spacePtr();
-  auto pb = std::make_shared<ocp::OptimalControlProblem>(
-      std::make_shared<ocp::ExplicitEuler>(f), o.horizon, o.dt);
+  auto pb = std::make_shared<ocp::OptimalControlProblem>(std::make_shared<ocp::ExplicitEuler>(f),
+                                                         o.horizon, o.dt);
   ProblemInstance inst;
   inst.name = "rigid_body";
   inst.problem = pb;
@@ -471,9 +470,9 @@ KktReport kktResidual(const ocp::OptimalControlProblem& problem, const VectorXd&
   rep.primal = maxViolation(problem, x_init, xs, us);
 
   VectorXd rhs = VectorXd::Zero(n_eq_rows);
-  std::vector<VectorXd> cols;  // extra unknown columns (dense, n_eq_rows)
-  std::vector<int> col_sign;   // 0 free, +1 must be >= 0
-  std::vector<double> col_gap; // |g| or bound gap of the fitted dual (complementarity)
+  std::vector<VectorXd> cols;   // extra unknown columns (dense, n_eq_rows)
+  std::vector<int> col_sign;    // 0 free, +1 must be >= 0
+  std::vector<double> col_gap;  // |g| or bound gap of the fitted dual (complementarity)
   MatrixXd Alam = MatrixXd::Zero(n_eq_rows, N * ndx);
   MatrixXd J0(ndx, ndx), J1(ndx, ndx);
 
@@ -515,7 +514,8 @@ KktReport kktResidual(const ocp::OptimalControlProblem& problem, const VectorXd&
         if (z.size() != d.ni) throw std::invalid_argument("kktResidual: dual size");
         for (int i = 0; i < d.ni; ++i) {
           rep.dual_sign = std::max(rep.dual_sign, -z[i]);
-          if (!d.soft[i]) rep.complementarity = std::max(rep.complementarity, std::abs(z[i] * d.g[i]));
+          if (!d.soft[i])
+            rep.complementarity = std::max(rep.complementarity, std::abs(z[i] * d.g[i]));
         }
         if (k >= 1) rhs.segment(xrow(k), ndx) += d.Gx.topRows(d.ni).transpose() * z;
         if (!term) rhs.segment(urow(k), nu) += d.Gu.topRows(d.ni).transpose() * z;
@@ -592,8 +592,7 @@ KktReport kktResidual(const ocp::OptimalControlProblem& problem, const VectorXd&
   const VectorXd y = A.colPivHouseholderQr().solve(rhs);
   rep.stationarity = (A * y - rhs).lpNorm<Eigen::Infinity>();
   for (int i = 0; i < nextra; ++i)
-    if (col_sign[static_cast<size_t>(i)] > 0)
-      rep.dual_sign = std::max(rep.dual_sign, -y[nlam + i]);
+    if (col_sign[static_cast<size_t>(i)] > 0) rep.dual_sign = std::max(rep.dual_sign, -y[nlam + i]);
   for (int i = 0; i < nextra; ++i)
     rep.complementarity =
         std::max(rep.complementarity, std::abs(y[nlam + i] * col_gap[static_cast<size_t>(i)]));

@@ -23,8 +23,8 @@
 namespace rollstep::nltest {
 
 using ocp::ConstVecRef;
-using ocp::MatrixXd;
 using ocp::MatRef;
+using ocp::MatrixXd;
 using ocp::VecRef;
 using ocp::VectorXd;
 
@@ -32,10 +32,10 @@ using ocp::VectorXd;
 struct ProblemInstance {
   std::string name;
   std::shared_ptr<ocp::OptimalControlProblem> problem;
-  VectorXd x0;                      ///< initial state (representation)
-  VectorXd x_goal;                  ///< target state (representation)
-  std::vector<VectorXd> xs_guess;   ///< N+1 states
-  std::vector<VectorXd> us_guess;   ///< N inputs
+  VectorXd x0;                     ///< initial state (representation)
+  VectorXd x_goal;                 ///< target state (representation)
+  std::vector<VectorXd> xs_guess;  ///< N+1 states
+  std::vector<VectorXd> us_guess;  ///< N inputs
 };
 
 // =====================================================================================
@@ -44,7 +44,7 @@ struct ProblemInstance {
 struct CartPoleParams {
   double cart_mass = 1.0;
   double pole_mass = 0.3;
-  double length = 0.5;   ///< pivot to point mass
+  double length = 0.5;  ///< pivot to point mass
   double gravity = 9.81;
 };
 
@@ -66,9 +66,9 @@ struct CartPoleOptions {
   CartPoleParams params;
   int horizon = 50;
   double dt = 0.05;
-  bool rk4 = true;             ///< false: explicit Euler
-  double force_limit = 20.0;   ///< |F| <= force_limit (input bounds)
-  double track_limit = 2.0;    ///< |p| <= track_limit (state bounds); <= 0: none
+  bool rk4 = true;            ///< false: explicit Euler
+  double force_limit = 20.0;  ///< |F| <= force_limit (input bounds)
+  double track_limit = 2.0;   ///< |p| <= track_limit (state bounds); <= 0: none
   double terminal_weight = 200.0;
   double input_weight = 1e-2;
   double state_weight = 1e-1;  ///< running weight on x - x_goal
@@ -133,20 +133,20 @@ struct UnicycleOptions {
   bool rk4 = true;
   VectorXd x0 = VectorXd::Zero(3);
   double goal_x = 4.0, goal_y = 0.0;
-  double speed_gain = 1.0;          ///< speed profile slope near the goal [1/s]
-  double cruise_speed = 1.0;        ///< speed profile far from the goal
-  double speed_limit = 1.5;         ///< |v| <= speed_limit
-  double turn_rate_limit = 2.0;     ///< |omega| <= turn_rate_limit
+  double speed_gain = 1.0;       ///< speed profile slope near the goal [1/s]
+  double cruise_speed = 1.0;     ///< speed profile far from the goal
+  double speed_limit = 1.5;      ///< |v| <= speed_limit
+  double turn_rate_limit = 2.0;  ///< |omega| <= turn_rate_limit
   std::vector<Circle> hard_obstacles{{2.0, -0.2, 0.5}};
   std::vector<Circle> soft_obstacles{};
   double soft_relaxation = 1e-2;
-  bool terminal_obstacles = true;   ///< hard obstacles also at the terminal node
-  double position_weight = 1.0;     ///< running, on p - goal
+  bool terminal_obstacles = true;  ///< hard obstacles also at the terminal node
+  double position_weight = 1.0;    ///< running, on p - goal
   /// Running, on omega. With 0.1 the Gauss-Newton iteration (which drops the curvature
   /// -2 z I of the active obstacle rows and lambda^T F'') stalls near KKT 1e-7; with 1.0 it
   /// converges in ~60 iterations.
   double turn_weight = 1.0;
-  double terminal_weight = 50.0;    ///< on p - goal
+  double terminal_weight = 50.0;  ///< on p - goal
 };
 ProblemInstance makeUnicycle(const UnicycleOptions& o = {});
 
@@ -240,8 +240,9 @@ struct KktInputs {
   std::function<VectorXd(int)> input_bound_duals;
   /// Duals of the state bounds of node k (k >= 1): [lower (nbx); upper (nbx)]; null: fitted.
   std::function<VectorXd(int)> state_bound_duals;
-  double equality_sign = 1.0;   ///< +1: L contains + nu^T e, -1: - nu^T e
-  double active_tolerance = 1e-6;  ///< a bound/inequality within this is treated active when fitting
+  double equality_sign = 1.0;  ///< +1: L contains + nu^T e, -1: - nu^T e
+  double active_tolerance =
+      1e-6;  ///< a bound/inequality within this is treated active when fitting
 };
 KktReport kktResidual(const ocp::OptimalControlProblem& problem, const VectorXd& x_init,
                       const std::vector<VectorXd>& xs, const std::vector<VectorXd>& us,

@@ -1,12 +1,12 @@
 // Derivatives of the nonlinear test problems against central finite differences on the
 // manifold: each ContinuousDynamics and Residual, then every node of the composed
 // problems (cost gradient, discrete dynamics, equalities, inequalities).
+#include "nonlinear_problems.hpp"
+
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
 #include <random>
-
-#include "nonlinear_problems.hpp"
 
 namespace rollstep::nltest {
 namespace {
@@ -49,8 +49,8 @@ void checkContinuous(const ocp::ContinuousDynamics& f, std::mt19937& rng, double
     f.calcDiff(ctx, x, u, *d, fx, fu);
     finiteDifference(
         space, x, u,
-        [&](ConstVecRef xx, ConstVecRef uu, VecRef out) { f.calc(ctx, xx, uu, *d, out); }, ndx,
-        fxn, fun);
+        [&](ConstVecRef xx, ConstVecRef uu, VecRef out) { f.calc(ctx, xx, uu, *d, out); }, ndx, fxn,
+        fun);
     EXPECT_LT(relErr(fx, fxn), kTol) << "fx\n" << fx << "\nfd\n" << fxn;
     EXPECT_LT(relErr(fu, fun), kTol) << "fu\n" << fu << "\nfd\n" << fun;
   }
@@ -198,8 +198,8 @@ TEST(NonlinearProblems, ResidualDerivatives) {
   std::mt19937 rng(4);
   auto plane = std::make_shared<ocp::EuclideanSpace>(3);
   checkResidual(SpeedProfileResidual(0.7, 1.2, 4.0, 1.0), *plane, rng, 3.0);
-  checkResidual(CircleObstacleResidual(plane, 2, {{1.0, 2.0, 0.5}, {-1.0, 0.3, 0.2}}), *plane,
-                rng, 3.0);
+  checkResidual(CircleObstacleResidual(plane, 2, {{1.0, 2.0, 0.5}, {-1.0, 0.3, 0.2}}), *plane, rng,
+                3.0);
   // Obstacles on the Euclidean part of an SE(3) x R^2 state.
   auto se3 = std::make_shared<ocp::SE3xEuclideanSpace>(2);
   checkResidual(CircleObstacleResidual(se3, 1, {{1.0, 2.0, 0.5}}, 6, 7), *se3, rng, 2.0);
@@ -244,8 +244,7 @@ TEST(NonlinearProblems, InstancesAreConsistent) {
     if (inst.name == "unicycle") {
       // Driving straight on at the profile speed: only the obstacle is violated.
       EXPECT_GT(viol, 0.1);
-      for (size_t k = 0; k < xs.size(); ++k)
-        EXPECT_LT((xs[k] - inst.xs_guess[k]).norm(), 1e-12);
+      for (size_t k = 0; k < xs.size(); ++k) EXPECT_LT((xs[k] - inst.xs_guess[k]).norm(), 1e-12);
     } else {
       EXPECT_LT(viol, 1e-12) << inst.name;
     }

@@ -78,19 +78,19 @@ TEST(NonlinearRealTime, UnicycleClosedLoopAvoidsObstaclesAndReachesGoal) {
     ASSERT_TRUE(allFinite(s.states()) && allFinite(s.inputs())) << "step " << i;
     const Eigen::Vector2d u = s.inputs()[0];
     // Input bounds and the speed profile (state-input equality) at the applied input.
-    max_bound = std::max({max_bound, std::abs(u[0]) - o.speed_limit,
-                          std::abs(u[1]) - o.turn_rate_limit});
+    max_bound =
+        std::max({max_bound, std::abs(u[0]) - o.speed_limit, std::abs(u[1]) - o.turn_rate_limit});
     max_eq = std::max(max_eq, std::abs(u[0] - profile.speed(x)));
     x = simulate(truth, x, u, dt, 10);
     t += dt;
     for (const Circle& c : o.hard_obstacles)
-      min_clearance = std::min(min_clearance,
-                               std::hypot(x[0] - c.cx, x[1] - c.cy) - c.radius);
+      min_clearance = std::min(min_clearance, std::hypot(x[0] - c.cx, x[1] - c.cy) - c.radius);
   }
   const double dist = std::hypot(x[0] - o.goal_x, x[1] - o.goal_y);
-  std::printf("[rti unicycle] final distance %.3e, min clearance %.3e, max |e| %.2e, "
-              "max bound violation %.2e\n",
-              dist, min_clearance, max_eq, max_bound);
+  std::printf(
+      "[rti unicycle] final distance %.3e, min clearance %.3e, max |e| %.2e, "
+      "max bound violation %.2e\n",
+      dist, min_clearance, max_eq, max_bound);
   EXPECT_LT(dist, 0.02);
   EXPECT_GT(min_clearance, 0.0);
   EXPECT_LE(max_bound, 1e-9);

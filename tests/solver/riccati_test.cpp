@@ -1,12 +1,13 @@
 // The Riccati recursion with equality projection against one dense KKT solve of the same
 // equality-constrained LQ.
+#include "rollstep/solver/riccati.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <random>
 
 #include "lq_problems.hpp"
-#include "rollstep/solver/riccati.hpp"
 
 namespace {
 
@@ -119,12 +120,13 @@ TEST_P(RiccatiDense, MatchesDenseKkt) {
     EXPECT_LT((ric.dx(k) - sol.segment(o, nx)).lpNorm<Eigen::Infinity>(), tol) << "node " << k;
     if (k == N) break;
     EXPECT_LT((ric.du(k) - sol.segment(o + nx, nu)).lpNorm<Eigen::Infinity>(), tol) << "node " << k;
-    EXPECT_LT((ric.costate(k + 1) - sol.segment(r, nx)).lpNorm<Eigen::Infinity>(), tol) << "node " << k;
+    EXPECT_LT((ric.costate(k + 1) - sol.segment(r, nx)).lpNorm<Eigen::Infinity>(), tol)
+        << "node " << k;
     r += nx;
     const int ne = ric.stage(k).ne;
     if (ne > 0) {
-      EXPECT_LT((ric.equalityMultipliers(k).head(ne) - sol.segment(r, ne)).lpNorm<Eigen::Infinity>(),
-                tol)
+      EXPECT_LT(
+          (ric.equalityMultipliers(k).head(ne) - sol.segment(r, ne)).lpNorm<Eigen::Infinity>(), tol)
           << "node " << k;
       r += ne;
     }

@@ -39,7 +39,8 @@ VectorXd stackSolution(const Solver& s, const lqtest::LqData& d) {
   VectorXd z(d.N * (d.nx + d.nu) + d.nx);
   for (int k = 0; k <= d.N; ++k) {
     z.segment(k * (d.nx + d.nu), d.nx) = s.states()[static_cast<std::size_t>(k)];
-    if (k < d.N) z.segment(k * (d.nx + d.nu) + d.nx, d.nu) = s.inputs()[static_cast<std::size_t>(k)];
+    if (k < d.N)
+      z.segment(k * (d.nx + d.nu) + d.nx, d.nu) = s.inputs()[static_cast<std::size_t>(k)];
   }
   return z;
 }
@@ -62,14 +63,16 @@ TEST(SolverLq, EqualityConstrainedMatchesDenseKkt) {
       r += d.nx;
     }
     r += d.nx;
-    EXPECT_LT((s.equalityMultipliers(k).head(d.ne()) - ref.y.segment(r, d.ne())).lpNorm<Eigen::Infinity>(),
+    EXPECT_LT((s.equalityMultipliers(k).head(d.ne()) - ref.y.segment(r, d.ne()))
+                  .lpNorm<Eigen::Infinity>(),
               1e-8)
         << "node " << k;
     r += d.ne();
   }
-  EXPECT_NEAR(s.cost(), 0.5 * ref.z.dot(q.H * ref.z) + q.h.dot(ref.z) +
-                            d.N * d.dt * 0.5 * d.cr.dot(d.w.asDiagonal() * d.cr) +
-                            0.5 * d.cf.dot(d.wf.asDiagonal() * d.cf),
+  EXPECT_NEAR(s.cost(),
+              0.5 * ref.z.dot(q.H * ref.z) + q.h.dot(ref.z) +
+                  d.N * d.dt * 0.5 * d.cr.dot(d.w.asDiagonal() * d.cr) +
+                  0.5 * d.cf.dot(d.wf.asDiagonal() * d.cf),
               1e-8);
 }
 
@@ -97,7 +100,8 @@ TEST_P(SolverBoxLq, MatchesActiveSetDenseKkt) {
   // Guarantee feasibility by construction: a trajectory with u(0) = u(1) = 0 and u(2)
   // solving the equality; the state bounds and general rows are set around it (tight
   // enough to become active at the optimum).
-  std::vector<VectorXd> xf(static_cast<std::size_t>(d.N) + 1, d.x0), uf(static_cast<std::size_t>(d.N), VectorXd::Zero(3));
+  std::vector<VectorXd> xf(static_cast<std::size_t>(d.N) + 1, d.x0),
+      uf(static_cast<std::size_t>(d.N), VectorXd::Zero(3));
   for (int k = 0; k < d.N; ++k) {
     const auto kk = static_cast<std::size_t>(k);
     if (c.ne > 0) uf[kk](2) = -(d.e(0) + d.Ex.row(0).dot(xf[kk])) / d.Eu(0, 2);
@@ -137,7 +141,8 @@ TEST_P(SolverBoxLq, MatchesActiveSetDenseKkt) {
   // Active set from our solution: dual larger than slack.
   std::vector<int> active;
   for (int i = 0; i < q.Ain.rows(); ++i) {
-    const int k = q.row_node[static_cast<std::size_t>(i)], j = q.row_index[static_cast<std::size_t>(i)];
+    const int k = q.row_node[static_cast<std::size_t>(i)],
+              j = q.row_index[static_cast<std::size_t>(i)];
     if (s.inequalityDuals(k)(j) > s.slacks(k)(j)) active.push_back(i);
   }
   ASSERT_FALSE(active.empty()) << "the test problem should have active constraints";
@@ -165,8 +170,10 @@ TEST_P(SolverBoxLq, MatchesActiveSetDenseKkt) {
   EXPECT_GT((q.Ain * ref.z + q.bin).minCoeff(), -1e-10);
   for (std::size_t a = 0; a < active.size(); ++a) {
     const int i = active[a];
-    const int k = q.row_node[static_cast<std::size_t>(i)], j = q.row_index[static_cast<std::size_t>(i)];
-    EXPECT_NEAR(s.inequalityDuals(k)(j), ref.mu(static_cast<int>(a)), 1e-6 * (1.0 + ref.mu.cwiseAbs().maxCoeff()));
+    const int k = q.row_node[static_cast<std::size_t>(i)],
+              j = q.row_index[static_cast<std::size_t>(i)];
+    EXPECT_NEAR(s.inequalityDuals(k)(j), ref.mu(static_cast<int>(a)),
+                1e-6 * (1.0 + ref.mu.cwiseAbs().maxCoeff()));
   }
   // Every iteration reported; the last one meets the tolerance.
   ASSERT_FALSE(s.stats().empty());
@@ -200,8 +207,8 @@ TEST(SolverLq, InfeasibleProblemEndsWithoutNaN) {
   d.Ex.setZero();
   d.Eu.setZero();
   d.Eu(0, 0) = 1.0;
-  d.e << -1.0;        // u_0 = 1 ...
-  d.uhi(0) = 0.5;     // ... but u_0 <= 0.5
+  d.e << -1.0;     // u_0 = 1 ...
+  d.uhi(0) = 0.5;  // ... but u_0 <= 0.5
   auto p = lqtest::buildProblem(d);
   auto set = tight();
   set.max_iterations = 60;
@@ -238,16 +245,18 @@ std::shared_ptr<ocp::OptimalControlProblem> pendulumProblem(int N = 40) {
   p->addCost("u", std::make_shared<ocp::LeastSquaresCost>(
                       std::make_shared<ocp::InputErrorResidual>(2, VectorXd::Zero(1)),
                       VectorXd::Constant(1, 0.1)));
-  p->addCost("xN", std::make_shared<ocp::LeastSquaresCost>(
-                       std::make_shared<ocp::StateErrorResidual>(s, 1, VectorXd::Zero(2)),
-                       VectorXd::Constant(2, 100.0)),
+  p->addCost("xN",
+             std::make_shared<ocp::LeastSquaresCost>(
+                 std::make_shared<ocp::StateErrorResidual>(s, 1, VectorXd::Zero(2)),
+                 VectorXd::Constant(2, 100.0)),
              ocp::Stage::Terminal);
   p->setInputBounds(VectorXd::Constant(1, -3.0), VectorXd::Constant(1, 3.0));
   p->setStateBounds((VectorXd(2) << -kInf, -2.0).finished(), (VectorXd(2) << kInf, 2.0).finished());
   // A soft state-only inequality: angle <= 1.2 (relaxed barrier).
-  p->addInequality("soft", std::make_shared<ocp::AffineResidual>(s, VectorXd::Zero(2),
-                                                                 (MatrixXd(1, 2) << -1.0, 0.0).finished(),
-                                                                 MatrixXd::Zero(1, 1), VectorXd::Constant(1, 1.2)),
+  p->addInequality("soft",
+                   std::make_shared<ocp::AffineResidual>(
+                       s, VectorXd::Zero(2), (MatrixXd(1, 2) << -1.0, 0.0).finished(),
+                       MatrixXd::Zero(1, 1), VectorXd::Constant(1, 1.2)),
                    ocp::Stage::All, {true, 0.05});
   return p;
 }
@@ -462,8 +471,9 @@ TEST(SolverRealTime, DivergingIterateIsRestored) {
   auto p = std::make_shared<ocp::OptimalControlProblem>(dyn, 20, 0.05);
   auto sp = dyn->spacePtr();
   const VectorXd target = (VectorXd(2) << 10.0, 0.0).finished();  // far: asks for speed > 3
-  p->addCost("x", std::make_shared<ocp::LeastSquaresCost>(
-                      std::make_shared<ocp::StateErrorResidual>(sp, 1, target), VectorXd::Ones(2)),
+  p->addCost("x",
+             std::make_shared<ocp::LeastSquaresCost>(
+                 std::make_shared<ocp::StateErrorResidual>(sp, 1, target), VectorXd::Ones(2)),
              ocp::Stage::All);
   p->addCost("u", std::make_shared<ocp::LeastSquaresCost>(
                       std::make_shared<ocp::InputErrorResidual>(2, VectorXd::Zero(1)),
@@ -502,10 +512,11 @@ TEST(SolverNonlinear, FloatingBodyOnSe3ReachesTarget) {
   p->addCost("u", std::make_shared<ocp::LeastSquaresCost>(
                       std::make_shared<ocp::InputErrorResidual>(12, VectorXd::Zero(6)),
                       VectorXd::Constant(6, 1e-2)));
-  p->addCost("xN", std::make_shared<ocp::LeastSquaresCost>(
-                       std::make_shared<ocp::StateErrorResidual>(sp, 6, target),
-                       VectorXd::Constant(12, 1e3)),
-             ocp::Stage::Terminal);
+  p->addCost(
+      "xN",
+      std::make_shared<ocp::LeastSquaresCost>(
+          std::make_shared<ocp::StateErrorResidual>(sp, 6, target), VectorXd::Constant(12, 1e3)),
+      ocp::Stage::Terminal);
   VectorXd lo = VectorXd::Constant(12, -kInf), hi = VectorXd::Constant(12, kInf);
   lo.tail<6>().setConstant(-3.0);
   hi.tail<6>().setConstant(3.0);

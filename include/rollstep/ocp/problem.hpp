@@ -50,20 +50,20 @@ struct InequalityOptions {
 /// Rows [0, ne) of the equality block and [0, ni) of the inequality block are in use.
 struct NodeData {
   NodeContext context;
-  double cost = 0.0;        ///< dt * l (running) or V (terminal)
-  VectorXd lx, lu;          ///< cost gradient (tangent of x, u)
-  MatrixXd Lxx, Luu, Lux;   ///< Gauss-Newton cost Hessian (Lux is nu x ndx)
-  VectorXd xnext;           ///< F(x, u) (running nodes)
-  MatrixXd Fx, Fu;          ///< dynamics Jacobians (tangent)
-  int ne = 0;               ///< equality rows in use
-  VectorXd e;               ///< e(x, u)
+  double cost = 0.0;       ///< dt * l (running) or V (terminal)
+  VectorXd lx, lu;         ///< cost gradient (tangent of x, u)
+  MatrixXd Lxx, Luu, Lux;  ///< Gauss-Newton cost Hessian (Lux is nu x ndx)
+  VectorXd xnext;          ///< F(x, u) (running nodes)
+  MatrixXd Fx, Fu;         ///< dynamics Jacobians (tangent)
+  int ne = 0;              ///< equality rows in use
+  VectorXd e;              ///< e(x, u)
   MatrixXd Ex, Eu;
-  int ni = 0;               ///< general inequality rows in use (bounds are separate)
-  VectorXd g;               ///< g(x, u) >= 0
+  int ni = 0;  ///< general inequality rows in use (bounds are separate)
+  VectorXd g;  ///< g(x, u) >= 0
   MatrixXd Gx, Gu;
   Eigen::Matrix<bool, Eigen::Dynamic, 1> soft;  ///< per inequality row
   VectorXd relaxation;                          ///< per inequality row (soft rows)
-  VectorXd zero_input;      ///< the u passed to terms at the terminal node
+  VectorXd zero_input;                          ///< the u passed to terms at the terminal node
 
   // Owned workspaces of the terms (opaque to the solver).
   std::unique_ptr<NodeCache> cache;
@@ -96,7 +96,8 @@ class OptimalControlProblem {
 
   // --- composition (before a solver is built) ---------------------------------------
   void setPrecomputation(std::shared_ptr<const NodePrecomputation> pre);
-  void addCost(std::string name, std::shared_ptr<const CostTerm> cost, Stage stage = Stage::Running);
+  void addCost(std::string name, std::shared_ptr<const CostTerm> cost,
+               Stage stage = Stage::Running);
   /// State-input equality e(x, u) = 0 on running nodes; its active rows must have full
   /// row rank in u (they are eliminated by projection).
   void addEquality(std::string name, std::shared_ptr<const Residual> residual);

@@ -12,7 +12,8 @@ namespace rollstep::ocp {
 /// Workspace of one residual at one node. Derived residuals may extend it.
 struct ResidualData {
   ResidualData(int max_rows, int ndx, int nu)
-      : r(VectorXd::Zero(max_rows)), Rx(MatrixXd::Zero(max_rows, ndx)),
+      : r(VectorXd::Zero(max_rows)),
+        Rx(MatrixXd::Zero(max_rows, ndx)),
         Ru(MatrixXd::Zero(max_rows, nu)) {}
   virtual ~ResidualData() = default;
   int rows = 0;  ///< rows active at this node, set by the caller from Residual::rows

@@ -47,8 +47,8 @@ class InputErrorResidual : public Residual {
 /// dx = x (-) x_lin. Useful for linear constraints and linear-quadratic tests.
 class AffineResidual : public Residual {
  public:
-  AffineResidual(std::shared_ptr<const StateSpace> space, const VectorXd& x_lin,
-                 const MatrixXd& C, const MatrixXd& D, const VectorXd& c);
+  AffineResidual(std::shared_ptr<const StateSpace> space, const VectorXd& x_lin, const MatrixXd& C,
+                 const MatrixXd& D, const VectorXd& c);
   bool dependsOnInput() const override { return !D_.isZero(0.0); }
   std::unique_ptr<ResidualData> createData() const override;
   void calc(const NodeContext& ctx, ConstVecRef x, ConstVecRef u, ResidualData& d) const override;

@@ -19,8 +19,7 @@ class StateSpace {
   /// Jacobians of integrate(x, dx) w.r.t. x (tangent at x) and dx. ndx x ndx each.
   virtual void integrateJacobians(ConstVecRef x, ConstVecRef dx, MatRef Jx, MatRef Jdx) const = 0;
   /// Jacobians of difference(x0, x1) w.r.t. x0 and x1 (tangent perturbations). ndx x ndx each.
-  virtual void differenceJacobians(ConstVecRef x0, ConstVecRef x1, MatRef J0,
-                                   MatRef J1) const = 0;
+  virtual void differenceJacobians(ConstVecRef x0, ConstVecRef x1, MatRef J0, MatRef J1) const = 0;
   /// True when nx() == ndx() and integrate is plain addition.
   virtual bool isEuclidean() const = 0;
   /// Offset of the Euclidean tail of the tangent (components that are plain coordinates);

@@ -24,13 +24,13 @@ class NodeCache {
 /// Where a node sits in the horizon. Passed to every term so that a term can depend on
 /// time (references, swing trajectories) and on the mode (contact flags).
 struct NodeContext {
-  int node = 0;                             ///< 0..N-1 running nodes, N the terminal node
-  bool terminal = false;                    ///< true for node N (no input, no dynamics)
-  double time = 0.0;                        ///< time at the node [s]
-  double dt = 0.0;                          ///< step to the next node [s]; 0 at the terminal node
-  int mode = 0;                             ///< mode active at `time` (from the schedule)
-  const ModeSchedule* schedule = nullptr;   ///< the whole schedule, for phase-dependent terms
-  NodeCache* cache = nullptr;               ///< shared precomputation of this node (may be null)
+  int node = 0;                            ///< 0..N-1 running nodes, N the terminal node
+  bool terminal = false;                   ///< true for node N (no input, no dynamics)
+  double time = 0.0;                       ///< time at the node [s]
+  double dt = 0.0;                         ///< step to the next node [s]; 0 at the terminal node
+  int mode = 0;                            ///< mode active at `time` (from the schedule)
+  const ModeSchedule* schedule = nullptr;  ///< the whole schedule, for phase-dependent terms
+  NodeCache* cache = nullptr;              ///< shared precomputation of this node (may be null)
 };
 
 /// Which nodes a term applies to.

@@ -20,9 +20,8 @@
 // Memory: everything is sized by the constructor; projectStage, backward, forward and
 // recoverStage never allocate. projectStage(k) and recoverStage(k) touch stage k only,
 // so callers may run them for different k on different threads.
-#include <vector>
-
 #include <Eigen/Core>
+#include <vector>
 
 namespace rollstep::solver {
 
@@ -31,12 +30,12 @@ namespace rollstep::solver {
 /// (k = N) uses Q and q only.
 struct LqStage {
   int ne = 0;
-  Eigen::MatrixXd Q, S, R;     ///< nx x nx, nu x nx, nu x nu
-  Eigen::VectorXd q, r;        ///< nx, nu
-  Eigen::MatrixXd A, B;        ///< nx x nx, nx x nu
-  Eigen::VectorXd b;           ///< nx
-  Eigen::MatrixXd Ex, Eu;      ///< ne_max x nx, ne_max x nu
-  Eigen::VectorXd e;           ///< ne_max
+  Eigen::MatrixXd Q, S, R;  ///< nx x nx, nu x nx, nu x nu
+  Eigen::VectorXd q, r;     ///< nx, nu
+  Eigen::MatrixXd A, B;     ///< nx x nx, nx x nu
+  Eigen::VectorXd b;        ///< nx
+  Eigen::MatrixXd Ex, Eu;   ///< ne_max x nx, ne_max x nu
+  Eigen::VectorXd e;        ///< ne_max
 };
 
 class RiccatiSolver {
@@ -81,24 +80,24 @@ class RiccatiSolver {
 
  private:
   struct Work {
-    int nw = 0;               // reduced input size nu - ne
-    Eigen::MatrixXd qr;       // ne_max x (nu + nx + 1): pivoted QR of [Eu | Ex | e]
-    Eigen::VectorXd tau;      // ne_max
-    Eigen::VectorXi perm;     // nu: input permutation [dependent (ne); independent (nw)]
-    Eigen::VectorXd hh;       // Householder workspace
-    Eigen::MatrixXd T;        // ne_max x (nu + nx + 1): du_D = T [w; dx; 1]
-    Eigen::MatrixXd HD;       // ne_max x (nu + nx + 1): [R_DI S_D r_D] + 0.5 R_DD T
-    Eigen::MatrixXd HDD;      // ne_max x ne_max
-    Eigen::MatrixXd BD;       // nx x ne_max: dependent columns of B
-    Eigen::MatrixXd Hr;       // (nu + nx + 1)^2: reduced augmented Hessian [w; dx; 1] (lower)
-    Eigen::VectorXd cn;       // nu: QR column norms
-    Eigen::VectorXd gr;       // nu + nx: reduced gradient
-    Eigen::MatrixXd BA;       // nx x (nu + nx + 1): reduced [B A | b]
-    Eigen::MatrixXd M;        // (nu + nx)^2: [L 0; Lxw Lxx] after backward
-    Eigen::VectorXd hm;       // nu + nx; its head(nw) becomes v = L^-1 h_w
-    Eigen::VectorXd pb;       // nx
-    Eigen::MatrixXd P;        // nx x nx (lower triangle valid)
-    Eigen::VectorXd p;        // nx
+    int nw = 0;            // reduced input size nu - ne
+    Eigen::MatrixXd qr;    // ne_max x (nu + nx + 1): pivoted QR of [Eu | Ex | e]
+    Eigen::VectorXd tau;   // ne_max
+    Eigen::VectorXi perm;  // nu: input permutation [dependent (ne); independent (nw)]
+    Eigen::VectorXd hh;    // Householder workspace
+    Eigen::MatrixXd T;     // ne_max x (nu + nx + 1): du_D = T [w; dx; 1]
+    Eigen::MatrixXd HD;    // ne_max x (nu + nx + 1): [R_DI S_D r_D] + 0.5 R_DD T
+    Eigen::MatrixXd HDD;   // ne_max x ne_max
+    Eigen::MatrixXd BD;    // nx x ne_max: dependent columns of B
+    Eigen::MatrixXd Hr;    // (nu + nx + 1)^2: reduced augmented Hessian [w; dx; 1] (lower)
+    Eigen::VectorXd cn;    // nu: QR column norms
+    Eigen::VectorXd gr;    // nu + nx: reduced gradient
+    Eigen::MatrixXd BA;    // nx x (nu + nx + 1): reduced [B A | b]
+    Eigen::MatrixXd M;     // (nu + nx)^2: [L 0; Lxw Lxx] after backward
+    Eigen::VectorXd hm;    // nu + nx; its head(nw) becomes v = L^-1 h_w
+    Eigen::VectorXd pb;    // nx
+    Eigen::MatrixXd P;     // nx x nx (lower triangle valid)
+    Eigen::VectorXd p;     // nx
     Eigen::VectorXd dx, w, du, lam, mult, rho, t;
     mutable Eigen::MatrixXd Kw, KD;  // feedbackGain scratch
   };

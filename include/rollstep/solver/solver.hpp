@@ -40,14 +40,14 @@ enum class SolverMode {
 
 struct SolverSettings {
   SolverMode mode = SolverMode::Converging;
-  int max_iterations = 100;            ///< converging mode
-  double kkt_tolerance = 1e-8;         ///< converging mode: max of the scaled KKT residuals
-  double barrier_initial = 1e-1;       ///< converging mode: first barrier parameter
-  double barrier_min = 1e-10;          ///< converging mode: last barrier parameter
-  double barrier_decrease = 0.2;       ///< mu <- max(barrier_min, min(k mu, mu^1.5))
-  double barrier_realtime = 1e-3;      ///< real-time mode: fixed barrier parameter
+  int max_iterations = 100;        ///< converging mode
+  double kkt_tolerance = 1e-8;     ///< converging mode: max of the scaled KKT residuals
+  double barrier_initial = 1e-1;   ///< converging mode: first barrier parameter
+  double barrier_min = 1e-10;      ///< converging mode: last barrier parameter
+  double barrier_decrease = 0.2;   ///< mu <- max(barrier_min, min(k mu, mu^1.5))
+  double barrier_realtime = 1e-3;  ///< real-time mode: fixed barrier parameter
   double fraction_to_boundary = 0.995;
-  bool line_search = true;             ///< l1-merit backtracking (converging mode)
+  bool line_search = true;  ///< l1-merit backtracking (converging mode)
   int max_line_search_steps = 20;
   double rank_tolerance = 1e-9;        ///< projection: relative pivot below this = rank deficient
   int num_threads = 1;                 ///< node-parallel work (linearisation, condensing,
@@ -61,15 +61,15 @@ struct SolverSettings {
 /// (the duals of the contradicting rows blow up and the reduced Hessian stops being
 /// positive definite), LineSearchFailed or MaxIterations: never Converged.
 enum class SolverStatus {
-  Converged,              ///< KKT tolerance reached (converging mode)
-  IterationDone,          ///< one real-time iteration completed (real-time mode)
-  MaxIterations,          ///< converging mode hit max_iterations
-  LineSearchFailed,       ///< no acceptable step; the previous iterate is kept
-  RankDeficientEqualities,///< equality rows not full row rank in u (failedNode(), message())
-  Diverged,               ///< residuals exploded, a non-finite or non-descent step; the
-                          ///< last good iterate is restored
-  InvalidInput,           ///< NaN/inf or wrong size in x0, or non-finite problem values at
-                          ///< the initial guess
+  Converged,                ///< KKT tolerance reached (converging mode)
+  IterationDone,            ///< one real-time iteration completed (real-time mode)
+  MaxIterations,            ///< converging mode hit max_iterations
+  LineSearchFailed,         ///< no acceptable step; the previous iterate is kept
+  RankDeficientEqualities,  ///< equality rows not full row rank in u (failedNode(), message())
+  Diverged,                 ///< residuals exploded, a non-finite or non-descent step; the
+                            ///< last good iterate is restored
+  InvalidInput,             ///< NaN/inf or wrong size in x0, or non-finite problem values at
+                            ///< the initial guess
 };
 const char* toString(SolverStatus s);
 
@@ -78,9 +78,9 @@ const char* toString(SolverStatus s);
 struct IterationStats {
   int iteration = 0;
   double cost = 0.0;
-  double primal_residual = 0.0;     ///< max |defect|, |e|, |g - s| (inf-norm)
-  double dual_residual = 0.0;       ///< inf-norm of the Lagrangian gradient
-  double complementarity = 0.0;     ///< max |s z - mu|
+  double primal_residual = 0.0;  ///< max |defect|, |e|, |g - s| (inf-norm)
+  double dual_residual = 0.0;    ///< inf-norm of the Lagrangian gradient
+  double complementarity = 0.0;  ///< max |s z - mu|
   double barrier = 0.0;
   double primal_step = 0.0, dual_step = 0.0;
   double time_linearize_ms = 0.0, time_riccati_ms = 0.0, time_update_ms = 0.0;
@@ -105,8 +105,8 @@ class Solver {
   /// barrier_realtime, whatever settings().mode is. Never allocates.
   SolverStatus update(double t0, ConstVecRef x0);
 
-  const std::vector<VectorXd>& states() const;   ///< x_0..x_N
-  const std::vector<VectorXd>& inputs() const;   ///< u_0..u_{N-1}
+  const std::vector<VectorXd>& states() const;  ///< x_0..x_N
+  const std::vector<VectorXd>& inputs() const;  ///< u_0..u_{N-1}
   /// Equality multipliers of node k: entry i belongs to equality row i of
   /// nodeData(k) (first nodeData(k).ne entries; the rest are zero). Sign convention: the
   /// Lagrangian is cost + nu^T e + lambda^T (defects) - z^T g.
@@ -131,7 +131,7 @@ class Solver {
   int iterations() const;
   SolverStatus status() const;
   double cost() const;
-  double barrier() const;        ///< barrier parameter of the last iteration
+  double barrier() const;  ///< barrier parameter of the last iteration
   /// Node where the last solve failed (rank-deficient equalities, factorisation), or -1.
   int failedNode() const;
   /// Human-readable reason of the last non-successful status ("" otherwise).
