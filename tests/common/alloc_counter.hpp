@@ -7,9 +7,12 @@
 //   EXPECT_EQ(guard.count(), 0u);
 //
 // Works by replacing the global operator new/delete of the test executable
-// (alloc_counter.cpp); counting is per thread so worker threads of the code under
-// test do not disturb it, and is off unless a guard is alive.
+// (alloc_counter.cpp) and, outside sanitizer builds, malloc/calloc/realloc (Eigen's
+// aligned allocator calls std::malloc directly; malloc_guard.cpp); counting is per thread so worker
+// threads of the code under test do not disturb it, and is off unless a guard is alive.
 #include <cstddef>
+
+#include "common/malloc_guard.hpp"
 
 namespace rollstep::test {
 
@@ -20,10 +23,12 @@ class AllocationGuard {
   AllocationGuard(const AllocationGuard&) = delete;
   AllocationGuard& operator=(const AllocationGuard&) = delete;
 
-  /// Number of calls to operator new (any form) on this thread since construction.
+  /// Heap allocations (operator new of any form, malloc, calloc, realloc) made on this
+  /// thread since construction.
   std::size_t count() const;
 
  private:
+  MallocGuard malloc_;
   std::size_t start_;
   bool previous_enabled_;
 };

@@ -5,7 +5,7 @@
 #include <random>
 
 #include "common/alloc_counter.hpp"
-#include "malloc_guard.hpp"
+#include "common/malloc_guard.hpp"
 #include "rollstep/lie/so3.hpp"
 #include "rollstep/ocp/cost.hpp"
 #include "rollstep/ocp/problem.hpp"

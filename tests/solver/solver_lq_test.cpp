@@ -5,8 +5,8 @@
 #include <cstring>
 
 #include "common/alloc_counter.hpp"
+#include "common/malloc_guard.hpp"
 #include "lq_problems.hpp"
-#include "malloc_guard.hpp"
 #include "rollstep/solver/solver.hpp"
 
 namespace {

@@ -1,4 +1,4 @@
-#include "malloc_guard.hpp"
+#include "common/malloc_guard.hpp"
 
 #include <cstddef>
 
