@@ -417,8 +417,10 @@ const Vector6d& computeCentroidalMomentum(const Model& model, Data& data, const 
   return data.hg;
 }
 
-const Matrix6Xd& computeCentroidalMomentumDerivatives(const Model& model, Data& data,
-                                                      const ConstVec& q, const ConstVec& v) {
+namespace {
+// The shared passes behind h = A(q) v and dh/dq (kinematics, COM, inertias, A, dh/dq).
+void centroidalMomentumDerivativePasses(const Model& model, Data& data, const ConstVec& q,
+                                        const ConstVec& v) {
   placementPass(model, data, q);
   subspacePass(model, data);
   velocityPass(model, data, v);
@@ -429,6 +431,12 @@ const Matrix6Xd& computeCentroidalMomentumDerivatives(const Model& model, Data& 
   centroidalMapPass(model, data);
   data.hg.noalias() = data.Ag * v;
   centroidalDerivativePass(model, data);
+}
+}  // namespace
+
+const Matrix6Xd& computeCentroidalMomentumDerivatives(const Model& model, Data& data,
+                                                      const ConstVec& q, const ConstVec& v) {
+  centroidalMomentumDerivativePasses(model, data, q, v);
   return data.dhg_dq;
 }
 
@@ -541,16 +549,7 @@ void finishNode(const Model& model, Data& data, const ConstVec& forces, NodeQuan
 
 void computeNodeQuantities(const Model& model, Data& data, const ConstVec& q, const ConstVec& v,
                            const ConstVec& forces, NodeQuantities& out) {
-  placementPass(model, data, q);
-  subspacePass(model, data);
-  velocityPass(model, data, v);
-  comPass(model, data);
-  inertiaPass(model, data);
-  momentumPass(model, data);
-  comJacobianPass(model, data);
-  centroidalMapPass(model, data);
-  data.hg.noalias() = data.Ag * v;
-  centroidalDerivativePass(model, data);
+  centroidalMomentumDerivativePasses(model, data, q, v);
   out.v = v;
   finishNode(model, data, forces, out);
 }

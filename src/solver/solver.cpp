@@ -282,22 +282,24 @@ struct Solver::Impl {
     // Inequalities: hard rows contribute -z grad c; soft rows their barrier gradient.
     double sz_max = 0.0, sz_min = kInf, msum = n.lam.lpNorm<1>() + n.mult.lpNorm<1>();
     int mcount = ndx + d.ne;
-    for (int i = 0; i < d.ni; ++i) {
-      double coef = 0.0;
+    // Derivative of the Lagrangian w.r.t. the value c_i of inequality row i; hard rows
+    // also add to the primal residual, complementarity range and multiplier average.
+    const auto rowCoefficient = [&](int i, double relax) {
       if (n.kind(i) == kHard) {
-        coef = -n.z(i);
         primal = std::max(primal, std::abs(n.c(i) - n.s(i)));
         const double sz = n.s(i) * n.z(i);
         sz_max = std::max(sz_max, sz);
         sz_min = std::min(sz_min, sz);
         msum += n.z(i);
         ++mcount;
-      } else {
-        double d1 = 0.0, d2 = 0.0;
-        relaxedLog(n.c(i), d.relaxation(i), d1, d2);
-        coef = mu * d1;
+        return -n.z(i);
       }
-      n.tmp(i) = coef;
+      double d1 = 0.0, d2 = 0.0;
+      relaxedLog(n.c(i), relax, d1, d2);
+      return mu * d1;
+    };
+    for (int i = 0; i < d.ni; ++i) {
+      n.tmp(i) = rowCoefficient(i, d.relaxation(i));
     }
     if (d.ni > 0) {
       n.rx.noalias() += d.Gx.topRows(d.ni).transpose() * n.tmp.head(d.ni);
@@ -313,20 +315,7 @@ struct Solver::Impl {
       const bool lower = input ? (i - ni_max) < nbu : (i - ni_max - 2 * nbu) < nbx;
       const int idx =
           input ? ub.index[static_cast<std::size_t>(j)] : xb.index[static_cast<std::size_t>(j)];
-      double coef = 0.0;  // derivative of the Lagrangian w.r.t. c_i
-      if (n.kind(i) == kHard) {
-        coef = -n.z(i);
-        primal = std::max(primal, std::abs(n.c(i) - n.s(i)));
-        const double sz = n.s(i) * n.z(i);
-        sz_max = std::max(sz_max, sz);
-        sz_min = std::min(sz_min, sz);
-        msum += n.z(i);
-        ++mcount;
-      } else {
-        double d1 = 0.0, d2 = 0.0;
-        relaxedLog(n.c(i), relaxation(n, i), d1, d2);
-        coef = mu * d1;
-      }
+      const double coef = rowCoefficient(i, relaxation(n, i));
       const double g = lower ? coef : -coef;
       if (input) {
         n.ru(idx) += g;
