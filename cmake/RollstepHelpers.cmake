@@ -17,6 +17,9 @@ function(rollstep_target_defaults target)
     target_compile_options(${target} PRIVATE -fsanitize=${_san} -fno-omit-frame-pointer
       -fno-sanitize-recover=all)
     target_link_options(${target} PUBLIC -fsanitize=${_san})
+    # GCC 12 reports false array-bounds hits in Eigen's AVX code once sanitizer
+    # instrumentation changes inlining; keep them visible, not fatal, in these trees.
+    target_compile_options(${target} PRIVATE -Wno-error=array-bounds)
   endif()
 endfunction()
 
