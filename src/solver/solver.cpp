@@ -64,6 +64,24 @@ double relaxedLog(double c, double delta, double& d1, double& d2) {
   return 0.5 * (t * t - 1.0) - std::log(delta);
 }
 
+/// A simple-bound row of the per-node inequality layout: after the ni_max general rows
+/// come the input bounds (all lower sides, then all upper sides), then the state bounds
+/// likewise.
+struct BoundRow {
+  bool input;  ///< input bound (else state bound)
+  bool lower;  ///< lower side (else upper)
+  int index;   ///< the bounded coordinate of u or of the tangent of x
+};
+BoundRow boundRow(int i, int ni_max, int nbu, int nbx, const ocp::BoundSet& ub,
+                  const ocp::BoundSet& xb) {
+  const bool input = i < ni_max + 2 * nbu;
+  const int j = input ? (i - ni_max) % std::max(nbu, 1) : (i - ni_max - 2 * nbu) % std::max(nbx, 1);
+  const bool lower = input ? (i - ni_max) < nbu : (i - ni_max - 2 * nbu) < nbx;
+  const int idx =
+      input ? ub.index[static_cast<std::size_t>(j)] : xb.index[static_cast<std::size_t>(j)];
+  return {input, lower, idx};
+}
+
 }  // namespace
 
 // ------------------------------------------------------------------------------------------
@@ -309,12 +327,7 @@ struct Solver::Impl {
     const auto& xb = prob->stateBounds();
     for (int i = ni_max; i < nrows; ++i) {
       if (n.kind(i) == kInactive) continue;
-      const bool input = i < ni_max + 2 * nbu;
-      const int j =
-          input ? (i - ni_max) % std::max(nbu, 1) : (i - ni_max - 2 * nbu) % std::max(nbx, 1);
-      const bool lower = input ? (i - ni_max) < nbu : (i - ni_max - 2 * nbu) < nbx;
-      const int idx =
-          input ? ub.index[static_cast<std::size_t>(j)] : xb.index[static_cast<std::size_t>(j)];
+      const auto [input, lower, idx] = boundRow(i, ni_max, nbu, nbx, ub, xb);
       const double coef = rowCoefficient(i, relaxation(n, i));
       const double g = lower ? coef : -coef;
       if (input) {
@@ -391,12 +404,7 @@ struct Solver::Impl {
     const auto& xb = prob->stateBounds();
     for (int i = ni_max; i < nrows; ++i) {
       if (n.kind(i) == kInactive) continue;
-      const bool input = i < ni_max + 2 * nbu;
-      const int j =
-          input ? (i - ni_max) % std::max(nbu, 1) : (i - ni_max - 2 * nbu) % std::max(nbx, 1);
-      const bool lower = input ? (i - ni_max) < nbu : (i - ni_max - 2 * nbu) < nbx;
-      const int idx =
-          input ? ub.index[static_cast<std::size_t>(j)] : xb.index[static_cast<std::size_t>(j)];
+      const auto [input, lower, idx] = boundRow(i, ni_max, nbu, nbx, ub, xb);
       double W = 0.0, gam = 0.0;
       if (n.kind(i) == kHard) {
         W = n.z(i) / n.s(i);
@@ -449,12 +457,7 @@ struct Solver::Impl {
       if (i < ni_max) {
         gdv = n.tmp(i);
       } else {
-        const bool input = i < ni_max + 2 * nbu;
-        const int j =
-            input ? (i - ni_max) % std::max(nbu, 1) : (i - ni_max - 2 * nbu) % std::max(nbx, 1);
-        const bool lower = input ? (i - ni_max) < nbu : (i - ni_max - 2 * nbu) < nbx;
-        const int idx =
-            input ? ub.index[static_cast<std::size_t>(j)] : xb.index[static_cast<std::size_t>(j)];
+        const auto [input, lower, idx] = boundRow(i, ni_max, nbu, nbx, ub, xb);
         gdv = input ? du(idx) : dx(idx);
         if (!lower) gdv = -gdv;
       }
