@@ -352,6 +352,60 @@ bool RiccatiSolver::solve(const Eigen::Ref<const VectorXd>& dx0, double rank_tol
   return true;
 }
 
+void RiccatiSolver::resolveVectors(const Eigen::Ref<const VectorXd>& dx0) {
+  const int nx = nx_;
+  for (int k = 0; k < N_; ++k) {
+    const LqStage& s = stages_[idx(k)];
+    Work& w = work_[idx(k)];
+    const int ne = s.ne, nw = w.nw, nz = nw + nx;
+    const int* pD = w.perm.data();
+    const int* pI = w.perm.data() + ne;
+    // Independent part of the reduced gradient and the reduced defect.
+    for (int j = 0; j < nw; ++j) w.gr(j) = s.r(pI[j]);
+    w.gr.segment(nw, nx) = s.q;
+    w.BA.col(nz) = s.b;
+    if (ne > 0) {
+      // T_1 = -R11^-1 Q^T e (last column of T), then the terms of T^T Y + Y^T T in it:
+      // gr += Y_v^T T_1 + T_v^T Y_1, Y_1 = r_D + 0.5 H_DD T_1.
+      const auto F = w.qr.topRows(ne);
+      auto t1 = w.T.col(nz).head(ne);
+      t1 = s.e.head(ne);
+      for (int j = 0; j < ne; ++j) {
+        t1.segment(j, ne - j).applyHouseholderOnTheLeft(F.col(j).segment(j + 1, ne - j - 1),
+                                                        w.tau(j), w.hh.data());
+      }
+      F.leftCols(ne).triangularView<Eigen::Upper>().solveInPlace(t1);
+      t1 = -t1;
+      auto y1 = w.t.head(ne);
+      for (int i = 0; i < ne; ++i) y1(i) = s.r(pD[i]);
+      y1.noalias() += 0.5 * w.HDD.topLeftCorner(ne, ne) * t1;
+      w.HD.col(nz).head(ne) = y1;
+      w.gr.head(nz).noalias() += w.HD.topLeftCorner(ne, nz).transpose() * t1;
+      w.gr.head(nz).noalias() += w.T.topLeftCorner(ne, nz).transpose() * y1;
+      w.BA.col(nz).noalias() += w.BD.leftCols(ne) * t1;
+    }
+  }
+  work_[idx(N_)].p = stages_[idx(N_)].q;
+  for (int k = N_ - 1; k >= 0; --k) {
+    Work& w = work_[idx(k)];
+    const Work& n = work_[idx(k + 1)];
+    const int nw = w.nw, nz = nw + nx;
+    w.pb = n.p;
+    w.pb.noalias() += n.P.selfadjointView<Eigen::Lower>() * w.BA.col(nz);
+    auto h = w.hm.head(nz);
+    h = w.gr.head(nz);
+    h.noalias() += w.BA.leftCols(nz).transpose() * w.pb;
+    w.p = h.segment(nw, nx);
+    if (nw > 0) {
+      auto v = w.hm.head(nw);
+      w.M.topLeftCorner(nw, nw).triangularView<Eigen::Lower>().solveInPlace(v);
+      w.p.noalias() -= w.M.block(nw, 0, nx, nw) * v;
+    }
+  }
+  forward(dx0);
+  for (int k = 0; k < N_; ++k) recoverStage(k);
+}
+
 void RiccatiSolver::feedbackGain(int k, MatrixXd& K) const {
   const Work& w = work_[idx(k)];
   const int nx = nx_, nw = w.nw, ne = stages_[idx(k)].ne;

@@ -165,3 +165,65 @@ TEST(RiccatiProjection, RankDeficientEqualitiesAreDetected) {
 }
 
 }  // namespace
+
+namespace {
+
+void fillRandomStages(solver::RiccatiSolver& ric, int ne, std::mt19937& rng) {
+  const int nx = ric.nx(), nu = ric.nu(), N = ric.horizon();
+  for (int k = 0; k <= N; ++k) {
+    auto& s = ric.stage(k);
+    const MatrixXd Lh = randn(nx + nu, nx + nu, rng, 1.0 / std::sqrt(nx + nu));
+    const MatrixXd H = Lh * Lh.transpose() + 0.1 * MatrixXd::Identity(nx + nu, nx + nu);
+    s.Q = H.bottomRightCorner(nx, nx);
+    s.R = H.topLeftCorner(nu, nu);
+    s.S = H.topRightCorner(nu, nx);
+    s.A = MatrixXd::Identity(nx, nx) + randn(nx, nx, rng, 0.2 / std::sqrt(nx));
+    s.B = randn(nx, nu, rng, 0.5 / std::sqrt(nu));
+    s.ne = (k < N) ? (k % 4 == 2 ? 0 : ne) : 0;
+    s.Ex.setZero();
+    s.Eu.setZero();
+    if (s.ne > 0) {
+      s.Ex.topRows(s.ne) = randn(s.ne, nx, rng, 0.3);
+      s.Eu.topRows(s.ne) = randn(s.ne, nu, rng, 0.3);
+      s.Eu.topLeftCorner(s.ne, s.ne) += MatrixXd::Identity(s.ne, s.ne);
+    }
+  }
+}
+
+void randomVectors(solver::RiccatiSolver& ric, std::mt19937& rng) {
+  for (int k = 0; k <= ric.horizon(); ++k) {
+    auto& s = ric.stage(k);
+    s.q = randn(ric.nx(), 1, rng, 0.5);
+    s.r = randn(ric.nu(), 1, rng, 0.5);
+    s.b = randn(ric.nx(), 1, rng, 0.3);
+    s.e = randn(ric.maxEqualities(), 1, rng, 0.3);
+  }
+}
+
+}  // namespace
+
+// A second right-hand side through the stored projection and factorisation gives what a
+// full solve from scratch gives.
+TEST(RiccatiProjection, ResolveVectorsMatchesAFreshSolve) {
+  for (const int ne : {0, 3, 7}) {
+    std::mt19937 rng(5u + static_cast<unsigned>(ne));
+    const int nx = 6, nu = 8, N = 9;
+    solver::RiccatiSolver ric(N, nx, nu, 7), ref(N, nx, nu, 7);
+    fillRandomStages(ric, ne, rng);
+    randomVectors(ric, rng);
+    ASSERT_TRUE(ric.solve(randn(nx, 1, rng), 1e-12));
+    randomVectors(ric, rng);
+    const VectorXd dx0 = randn(nx, 1, rng);
+    ric.resolveVectors(dx0);
+    for (int k = 0; k <= N; ++k) ref.stage(k) = ric.stage(k);
+    ASSERT_TRUE(ref.solve(dx0, 1e-12));
+    for (int k = 0; k <= N; ++k) {
+      EXPECT_LT((ric.dx(k) - ref.dx(k)).norm(), 1e-10) << "ne " << ne << " k " << k;
+      EXPECT_LT((ric.costate(k) - ref.costate(k)).norm(), 1e-10) << "ne " << ne << " k " << k;
+      if (k < N) {
+        EXPECT_LT((ric.du(k) - ref.du(k)).norm(), 1e-10) << "ne " << ne << " k " << k;
+        EXPECT_LT((ric.equalityMultipliers(k) - ref.equalityMultipliers(k)).norm(), 1e-10);
+      }
+    }
+  }
+}

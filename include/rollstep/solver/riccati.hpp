@@ -65,6 +65,12 @@ class RiccatiSolver {
   void recoverStage(int k);
   /// Convenience: projectStage for every k, backward, forward, recoverStage for every k.
   bool solve(const Eigen::Ref<const Eigen::VectorXd>& dx0, double rank_tolerance = 1e-9);
+  /// Re-solves with the same matrices (Q, S, R, A, B, Ex, Eu, ne unchanged since the last
+  /// projectStage/backward) and new vectors q, r, b, e of every stage: reuses the
+  /// projection and the factorisation, costs O(N (nu + nx)^2) (vector passes only).
+  /// For second-order corrections and iterative refinement. Then forward and recover
+  /// every stage, as solve() does. Needs a successful backward().
+  void resolveVectors(const Eigen::Ref<const Eigen::VectorXd>& dx0);
 
   // --- results ------------------------------------------------------------------------
   const Eigen::VectorXd& dx(int k) const { return work_[idx(k)].dx; }
