@@ -1,7 +1,6 @@
 #include "rollstep/solver/riccati.hpp"
 
 #include <Eigen/Cholesky>
-#include <Eigen/Householder>
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -34,12 +33,10 @@ RiccatiSolver::RiccatiSolver(int horizon, int nx, int nu, int ne_max)
     s.e = VectorXd::Zero(ne_max);
   }
   for (auto& w : work_) {
-    w.qr = MatrixXd::Zero(ne_max, nz + 1);
-    w.tau = VectorXd::Zero(ne_max);
+    w.lu = MatrixXd::Zero(nu, ne_max);
     w.perm = Eigen::VectorXi::LinSpaced(nu, 0, nu - 1);
-    w.hh = VectorXd::Zero(nz + 2);
-    w.T = MatrixXd::Zero(ne_max, nz + 1);
-    w.HD = MatrixXd::Zero(ne_max, nz + 1);
+    w.V = MatrixXd::Zero(nz + 1, ne_max);
+    w.W = MatrixXd::Zero(nz + 1, ne_max);
     w.HDD = MatrixXd::Zero(ne_max, ne_max);
     w.BD = MatrixXd::Zero(nx, ne_max);
     w.Hr = MatrixXd::Zero(nz + 1, nz + 1);
@@ -56,34 +53,13 @@ RiccatiSolver::RiccatiSolver(int horizon, int nx, int nu, int ne_max)
     w.du = VectorXd::Zero(nu);
     w.lam = VectorXd::Zero(nx);
     w.mult = VectorXd::Zero(ne_max);
-    w.rho = VectorXd::Zero(nu);
     w.t = VectorXd::Zero(nu);
+    w.t1 = VectorXd::Zero(ne_max);
     w.Kw = MatrixXd::Zero(nu, nx);
     w.KD = MatrixXd::Zero(ne_max, nx);
     w.nw = nu;
   }
 }
-
-namespace {
-/// Applies H = I - tau v v^T, v = [1; F(j+1:ne, j)], to F(j:ne, c0:c1) (raw loops: the
-/// blocks are tiny and Eigen's generic path costs more than the arithmetic).
-template <class Mat>
-void applyReflector(Mat& F, int j, int ne, int c0, int c1, double tau) {
-  if (tau == 0.0) return;
-  const Eigen::Index ld = F.outerStride();
-  double* base = F.data();
-  const double* v = base + j * ld + j;  // v[0] is R(j, j); the essential part follows
-  const int m = ne - j;
-  for (int c = c0; c < c1; ++c) {
-    double* col = base + c * ld + j;
-    double dot = col[0];
-    for (int i = 1; i < m; ++i) dot += v[i] * col[i];
-    dot *= tau;
-    col[0] -= dot;
-    for (int i = 1; i < m; ++i) col[i] -= dot * v[i];
-  }
-}
-}  // namespace
 
 bool RiccatiSolver::projectStage(int k, double rank_tolerance, double* pivot_ratio) {
   const LqStage& s = stages_[idx(k)];
@@ -96,80 +72,112 @@ bool RiccatiSolver::projectStage(int k, double rank_tolerance, double* pivot_rat
     return false;
   }
   for (int c = 0; c < nu; ++c) w.perm(c) = c;
+  const int nw = nu - ne, nz = nw + nx;
 
-  // Householder QR with column pivoting of Eu (ne x nu): Eu P = Q [R11 R12], applied to
-  // the augmented [Eu | Ex | e] so that Q^T [Ex e] comes out of the same sweep.
-  auto F = w.qr.topRows(ne);
+  // LU with partial pivoting of Eu^T (nu x ne): P Eu^T = [L1; L2] U. The row pivots pick
+  // the dependent inputs (the first ne of perm), and a pivot that is small against the
+  // largest entry of Eu reveals rank deficiency. Raw column loops: the blocks are tiny
+  // and every inner loop runs down a contiguous column.
+  double* G = w.lu.data();
+  const Eigen::Index ldG = w.lu.outerStride();
   if (ne > 0) {
-    F.leftCols(nu) = s.Eu.topRows(ne);
-    F.middleCols(nu, nx) = s.Ex.topRows(ne);
-    F.col(nu + nx) = s.e.head(ne);
-    double r00 = 0.0, min_ratio = 1.0;
-    auto norms = w.cn.head(nu);
-    norms = F.leftCols(nu).colwise().squaredNorm().transpose();
+    const double* E = s.Eu.data();
+    const Eigen::Index ldE = s.Eu.outerStride();
+    for (int i = 0; i < ne; ++i) {
+      for (int c = 0; c < nu; ++c) G[c + i * ldG] = E[i + c * ldE];
+    }
+    const double scale = s.Eu.topRows(ne).cwiseAbs().maxCoeff();
+    double min_ratio = 1.0;
     for (int j = 0; j < ne; ++j) {
-      if (j > 0) {
-        // Downdate the remaining column norms by the row just eliminated (LAPACK xGEQPF);
-        // recompute exactly when cancellation makes the downdate unreliable.
-        for (int c = j; c < nu; ++c) {
-          norms(c) -= F(j - 1, c) * F(j - 1, c);
-          if (norms(c) < 1e-3 * std::abs(F(j - 1, c) * F(j - 1, c)) || norms(c) < 0.0) {
-            norms(c) = F.col(c).segment(j, ne - j).squaredNorm();
-          }
+      double* gj = G + j * ldG;
+      int p = j;
+      double amax = std::abs(gj[j]);
+      for (int r = j + 1; r < nu; ++r) {
+        const double a = std::abs(gj[r]);
+        if (a > amax) {
+          amax = a;
+          p = r;
         }
       }
-      int best = j;
-      for (int c = j + 1; c < nu; ++c) {
-        if (norms(c) > norms(best)) best = c;
-      }
-      if (best != j) {
-        F.col(j).swap(F.col(best));
-        std::swap(w.perm(j), w.perm(best));
-        std::swap(norms(j), norms(best));
-      }
-      double beta = 0.0;
-      F.col(j).segment(j, ne - j).makeHouseholderInPlace(w.tau(j), beta);
-      F(j, j) = beta;
-      if (j == 0) r00 = std::abs(beta);
-      const double ratio = (r00 > 0.0 && std::isfinite(r00)) ? std::abs(beta) / r00 : 0.0;
+      const double ratio = (scale > 0.0 && std::isfinite(scale)) ? amax / scale : 0.0;
       min_ratio = std::min(min_ratio, ratio);
       if (!(ratio > rank_tolerance)) {
         if (pivot_ratio) *pivot_ratio = ratio;
         return false;
       }
-      applyReflector(F, j, ne, j + 1, nu + nx + 1, w.tau(j));
+      if (p != j) {
+        for (int c = 0; c < ne; ++c) std::swap(G[j + c * ldG], G[p + c * ldG]);
+        std::swap(w.perm(j), w.perm(p));
+      }
+      const double inv = 1.0 / gj[j];
+      for (int r = j + 1; r < nu; ++r) gj[r] *= inv;
+      for (int c = j + 1; c < ne; ++c) {
+        double* gc = G + c * ldG;
+        const double f = gc[j];
+        for (int r = j + 1; r < nu; ++r) gc[r] -= f * gj[r];
+      }
     }
     if (pivot_ratio) *pivot_ratio = min_ratio;
   }
-
-  const int nw = nu - ne, nz = nw + nx;
   w.nw = nw;
   const int* pD = w.perm.data();
   const int* pI = w.perm.data() + ne;
 
-  // Dependent inputs: du_D = T [w; dx; 1] with T = -R11^-1 [R12 | Q^T Ex | Q^T e].
-  auto T = w.T.topLeftCorner(ne, nz + 1);
+  // Dependent inputs du_D = T [w; dx; 1], kept transposed (V = T^T, columns of length
+  // nz + 1): Eu_D = U^T L1^T and Eu_I = U^T L2^T give
+  //   T = -L1^-T [L2^T | U^-T [Ex e]],  i.e.  V L1 = -[L2; [Ex e]^T U^-1].
+  double* V = w.V.data();
+  const Eigen::Index ldV = w.V.outerStride();
   if (ne > 0) {
-    T = F.rightCols(nz + 1);  // [R12 | Q^T Ex | Q^T e]
-    F.leftCols(ne).triangularView<Eigen::Upper>().solveInPlace(T);
-    T = -T;
+    const double* Ex = s.Ex.data();
+    const Eigen::Index ldX = s.Ex.outerStride();
+    for (int i = 0; i < ne; ++i) {
+      double* vi = V + i * ldV;
+      const double* li = G + i * ldG + ne;  // column i of L2
+      for (int j = 0; j < nw; ++j) vi[j] = -li[j];
+      for (int a = 0; a < nx; ++a) vi[nw + a] = -Ex[i + a * ldX];
+      vi[nz] = -s.e(i);
+    }
+    // [Ex e]^T U^-1 (rows nw.. of V): column i -= U(c, i) column c (c < i), / U(i, i).
+    for (int i = 0; i < ne; ++i) {
+      double* vi = V + i * ldV + nw;
+      const double* ui = G + i * ldG;
+      for (int c = 0; c < i; ++c) {
+        const double f = ui[c];
+        const double* vc = V + c * ldV + nw;
+        for (int a = 0; a <= nx; ++a) vi[a] -= f * vc[a];
+      }
+      const double inv = 1.0 / ui[i];
+      for (int a = 0; a <= nx; ++a) vi[a] *= inv;
+    }
+    // V L1 = Z: column i -= L1(c, i) column c (c > i), from the last column.
+    for (int i = ne - 1; i >= 0; --i) {
+      double* vi = V + i * ldV;
+      const double* li = G + i * ldG;
+      for (int c = i + 1; c < ne; ++c) {
+        const double f = li[c];
+        const double* vc = V + c * ldV;
+        for (int a = 0; a <= nz; ++a) vi[a] -= f * vc[a];
+      }
+    }
   }
 
   // Reduced augmented Hessian in [w; dx; 1] (lower triangle): gather the independent
-  // part, then add T^T Y + Y^T T with Y = H_Dv + 0.5 H_DD T.
-  auto H = w.Hr.topLeftCorner(nz + 1, nz + 1);
-  // Raw column-major gathers (contiguous writes, reads within one column of R or S).
+  // part, then add T^T Y + Y^T T with Y = H_Dv + 0.5 H_DD T (kept transposed too,
+  // W = Y^T = H_vD + 0.5 V H_DD). Only the lower triangle of R is read.
   const double* Rp = s.R.data();
   const double* Sp = s.S.data();
   const Eigen::Index ldR = s.R.outerStride(), ldS = s.S.outerStride();
+  const auto Rsym = [Rp, ldR](int a, int b) { return a >= b ? Rp[a + b * ldR] : Rp[b + a * ldR]; };
+  auto H = w.Hr.topLeftCorner(nz + 1, nz + 1);
   double* Hp = w.Hr.data();
   const Eigen::Index ldH = w.Hr.outerStride();
   for (int j = 0; j < nw; ++j) {
-    const double* Rc = Rp + pI[j] * ldR;
     double* Hc = Hp + j * ldH;
-    for (int i = j; i < nw; ++i) Hc[i] = Rc[pI[i]];
-    for (int a = 0; a < nx; ++a) Hc[nw + a] = Sp[pI[j] + a * ldS];
-    Hc[nz] = s.r(pI[j]);
+    const int b = pI[j];
+    for (int i = j; i < nw; ++i) Hc[i] = Rsym(pI[i], b);
+    for (int a = 0; a < nx; ++a) Hc[nw + a] = Sp[b + a * ldS];
+    Hc[nz] = s.r(b);
   }
   H.block(nw, nw, nx, nx).triangularView<Eigen::Lower>() = s.Q;
   H.row(nz).segment(nw, nx) = s.q.transpose();
@@ -179,31 +187,25 @@ bool RiccatiSolver::projectStage(int k, double rank_tolerance, double* pivot_rat
   BA.middleCols(nw, nx) = s.A;
   BA.col(nz) = s.b;
   if (ne > 0) {
-    auto Y = w.HD.topLeftCorner(ne, nz + 1);
+    const auto Vt = w.V.topLeftCorner(nz + 1, ne);
+    auto W = w.W.topLeftCorner(nz + 1, ne);
     auto HDD = w.HDD.topLeftCorner(ne, ne);
-    double* Yp = w.HD.data();
+    double* Wp = w.W.data();
     double* Dp = w.HDD.data();
-    const Eigen::Index ldY = w.HD.outerStride(), ldD = w.HDD.outerStride();
-    for (int j = 0; j < nw; ++j) {
-      const double* Rc = Rp + pI[j] * ldR;
-      double* Yc = Yp + j * ldY;
-      for (int i = 0; i < ne; ++i) Yc[i] = Rc[pD[i]];
+    const Eigen::Index ldW = w.W.outerStride(), ldD = w.HDD.outerStride();
+    for (int i = 0; i < ne; ++i) {
+      double* Wc = Wp + i * ldW;
+      const int d = pD[i];
+      for (int j = 0; j < nw; ++j) Wc[j] = Rsym(pI[j], d);
+      for (int a = 0; a < nx; ++a) Wc[nw + a] = Sp[d + a * ldS];
+      Wc[nz] = s.r(d);
+      double* Dc = Dp + i * ldD;
+      for (int j = 0; j < ne; ++j) Dc[j] = Rsym(pD[j], d);
     }
-    for (int a = 0; a < nx; ++a) {
-      const double* Sc = Sp + a * ldS;
-      double* Yc = Yp + (nw + a) * ldY;
-      for (int i = 0; i < ne; ++i) Yc[i] = Sc[pD[i]];
-    }
-    for (int i = 0; i < ne; ++i) Yp[i + nz * ldY] = s.r(pD[i]);
-    for (int j = 0; j < ne; ++j) {
-      const double* Rc = Rp + pD[j] * ldR;
-      double* Dc = Dp + j * ldD;
-      for (int i = 0; i < ne; ++i) Dc[i] = Rc[pD[i]];
-    }
-    Y.noalias() += 0.5 * HDD * T;
-    // T^T Y goes into M (free until backward(); nz + 1 <= nu + nx when ne > 0).
-    auto TY = w.M.topLeftCorner(nz + 1, nz + 1);
-    TY.noalias() = T.transpose() * Y;
+    W.noalias() += 0.5 * Vt * HDD;
+    // T^T Y = V W^T; its transpose is added too, on the lower triangle only.
+    auto TY = w.M.topLeftCorner(nz + 1, nz + 1);  // free until backward()
+    TY.noalias() = Vt * W.transpose();
     const double* TYp = w.M.data();
     const Eigen::Index ldT = w.M.outerStride();
     for (int j = 0; j <= nz; ++j) {
@@ -213,7 +215,7 @@ bool RiccatiSolver::projectStage(int k, double rank_tolerance, double* pivot_rat
     }
     auto BD = w.BD.leftCols(ne);
     for (int i = 0; i < ne; ++i) BD.col(i) = s.B.col(pD[i]);
-    BA.noalias() += BD * T;
+    BA.noalias() += BD * Vt.transpose();
   }
   w.gr.head(nz) = H.row(nz).head(nz).transpose();
   return true;
@@ -317,26 +319,27 @@ void RiccatiSolver::recoverStage(int k) {
   for (int j = 0; j < nw; ++j) w.du(pI[j]) = w.w(j);
   w.mult.setZero();
   if (ne == 0) return;
-  const auto T = w.T.topLeftCorner(ne, nz + 1);
+  const auto Vt = w.V.topLeftCorner(nz + 1, ne);
   auto t = w.t.head(ne);
-  t = T.col(nz);
-  t.noalias() += T.leftCols(nw) * w.w.head(nw);
-  t.noalias() += T.middleCols(nw, nx) * w.dx;
+  t = Vt.row(nz).transpose();
+  t.noalias() += Vt.topRows(nw).transpose() * w.w.head(nw);
+  t.noalias() += Vt.middleRows(nw, nx).transpose() * w.dx;
   for (int i = 0; i < ne; ++i) w.du(pD[i]) = t(i);
-  // Stationarity in du: rho + Eu^T nu = 0 with rho = R du + S dx + r + B^T lambda_{k+1};
-  // Eu = Q [R11 R12] P^T  =>  nu = -Q R11^-T rho_D.
-  w.rho = s.r;
-  w.rho.noalias() += s.R * w.du;
-  w.rho.noalias() += s.S * w.dx;
-  w.rho.noalias() += s.B.transpose() * work_[idx(k + 1)].lam;
+  // Stationarity in du: rho + Eu^T nu = 0 with rho = R du + S dx + r + B^T lambda_{k+1}.
+  // Its dependent rows come from the projection's own blocks (no pass over R, S, B):
+  // rho_D = H_DD t + H_vD^T [w; dx; 1] + B_D^T lambda = 0.5 H_DD t + W^T [w; dx; 1] + ...
+  // (W = H_vD + 0.5 V H_DD), and Eu_D^T = L1 U gives nu = -U^-1 L1^-1 rho_D.
+  const auto Wt = w.W.topLeftCorner(nz + 1, ne);
   auto y = w.mult.head(ne);
-  for (int i = 0; i < ne; ++i) y(i) = -w.rho(pD[i]);
-  const auto F = w.qr.topRows(ne);
-  F.leftCols(ne).triangularView<Eigen::Upper>().transpose().solveInPlace(y);
-  for (int j = ne - 1; j >= 0; --j) {
-    y.segment(j, ne - j).applyHouseholderOnTheLeft(F.col(j).segment(j + 1, ne - j - 1), w.tau(j),
-                                                   w.hh.data());
-  }
+  y = Wt.row(nz).transpose();
+  y.noalias() += Wt.topRows(nw).transpose() * w.w.head(nw);
+  y.noalias() += Wt.middleRows(nw, nx).transpose() * w.dx;
+  y.noalias() += 0.5 * w.HDD.topLeftCorner(ne, ne) * t;
+  y.noalias() += w.BD.leftCols(ne).transpose() * work_[idx(k + 1)].lam;
+  y = -y;
+  const auto LU = w.lu.topLeftCorner(ne, ne);
+  LU.triangularView<Eigen::UnitLower>().solveInPlace(y);
+  LU.triangularView<Eigen::Upper>().solveInPlace(y);
 }
 
 bool RiccatiSolver::solve(const Eigen::Ref<const VectorXd>& dx0, double rank_tolerance) {
@@ -367,21 +370,19 @@ void RiccatiSolver::resolveVectors(const Eigen::Ref<const VectorXd>& dx0) {
     if (ne > 0) {
       // T_1 = -R11^-1 Q^T e (last column of T), then the terms of T^T Y + Y^T T in it:
       // gr += Y_v^T T_1 + T_v^T Y_1, Y_1 = r_D + 0.5 H_DD T_1.
-      const auto F = w.qr.topRows(ne);
-      auto t1 = w.T.col(nz).head(ne);
-      t1 = s.e.head(ne);
-      for (int j = 0; j < ne; ++j) {
-        t1.segment(j, ne - j).applyHouseholderOnTheLeft(F.col(j).segment(j + 1, ne - j - 1),
-                                                        w.tau(j), w.hh.data());
-      }
-      F.leftCols(ne).triangularView<Eigen::Upper>().solveInPlace(t1);
-      t1 = -t1;
+      // Last row of V: t1 = -L1^-T U^-T e.
+      const auto LU = w.lu.topLeftCorner(ne, ne);
+      auto t1 = w.t1.head(ne);
+      t1 = -s.e.head(ne);
+      LU.triangularView<Eigen::Upper>().transpose().solveInPlace(t1);
+      LU.triangularView<Eigen::UnitLower>().transpose().solveInPlace(t1);
+      w.V.row(nz).head(ne) = t1.transpose();
       auto y1 = w.t.head(ne);
       for (int i = 0; i < ne; ++i) y1(i) = s.r(pD[i]);
       y1.noalias() += 0.5 * w.HDD.topLeftCorner(ne, ne) * t1;
-      w.HD.col(nz).head(ne) = y1;
-      w.gr.head(nz).noalias() += w.HD.topLeftCorner(ne, nz).transpose() * t1;
-      w.gr.head(nz).noalias() += w.T.topLeftCorner(ne, nz).transpose() * y1;
+      w.W.row(nz).head(ne) = y1.transpose();
+      w.gr.head(nz).noalias() += w.W.topLeftCorner(nz, ne) * t1;
+      w.gr.head(nz).noalias() += w.V.topLeftCorner(nz, ne) * y1;
       w.BA.col(nz).noalias() += w.BD.leftCols(ne) * t1;
     }
   }
@@ -419,8 +420,8 @@ void RiccatiSolver::feedbackGain(int k, MatrixXd& K) const {
   for (int j = 0; j < nw; ++j) K.row(pI[j]) = Kw.row(j);
   if (ne > 0) {
     auto KD = w.KD.topRows(ne);
-    KD = w.T.block(0, nw, ne, nx);
-    KD.noalias() += w.T.topLeftCorner(ne, nw) * Kw;
+    KD = w.V.block(nw, 0, nx, ne).transpose();
+    KD.noalias() += w.V.topLeftCorner(nw, ne).transpose() * Kw;
     for (int i = 0; i < ne; ++i) K.row(pD[i]) = KD.row(i);
   }
 }

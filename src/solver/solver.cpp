@@ -1,6 +1,7 @@
 #include "rollstep/solver/solver.hpp"
 
 #include <algorithm>
+#include <cassert>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -103,6 +104,7 @@ struct Solver::Impl {
     bool fresh = true;  // (re)initialise slacks and duals at next linearisation
     bool finite = true;
     bool rank_ok = true;
+    bool hessian_moved = false;  // condenseNode moved the cost Hessians into the LQ stage
     double pivot_ratio = 1.0;
     double primal = 0.0, dual = 0.0, sz_max = 0.0, sz_min = kInf, mult_sum = 0.0;
     int mult_count = 0;
@@ -117,6 +119,7 @@ struct Solver::Impl {
   RiccatiSolver lq;
   detail::ThreadPool pool;
   std::vector<Node> nodes;
+  std::vector<BoundRow> bound_rows;  // decoded layout of rows ni_max.. (fixed at construction)
   std::vector<VectorXd> xs, us, xs_bak, us_bak, xs_trial, us_trial;
   VectorXd x0, dx0, zero_u;
   std::vector<MatrixXd> gains;
@@ -152,6 +155,9 @@ struct Solver::Impl {
         lq(N, ndx, nu, ne_max),
         pool(s.num_threads) {
     nodes.resize(static_cast<std::size_t>(N) + 1);
+    for (int i = ni_max; i < nrows; ++i) {
+      bound_rows.push_back(boundRow(i, ni_max, nbu, nbx, prob->inputBounds(), prob->stateBounds()));
+    }
     for (auto& n : nodes) {
       n.d = prob->createNodeData();
       for (VectorXd* v : {&n.s, &n.z, &n.ds, &n.dz, &n.c, &n.s_bak, &n.z_bak, &n.s_trial}) {
@@ -237,6 +243,7 @@ struct Solver::Impl {
     const VectorXd& x = xs[static_cast<std::size_t>(k)];
     const VectorXd& u = uOf(k);
     prob->linearize(k, x, u, d);
+    n.hessian_moved = false;
     LqStage& st = lq.stage(k);
     if (k < N) {
       const VectorXd& xn = xs[static_cast<std::size_t>(k) + 1];
@@ -323,11 +330,9 @@ struct Solver::Impl {
       n.rx.noalias() += d.Gx.topRows(d.ni).transpose() * n.tmp.head(d.ni);
       if (k < N) n.ru.noalias() += d.Gu.topRows(d.ni).transpose() * n.tmp.head(d.ni);
     }
-    const auto& ub = prob->inputBounds();
-    const auto& xb = prob->stateBounds();
     for (int i = ni_max; i < nrows; ++i) {
       if (n.kind(i) == kInactive) continue;
-      const auto [input, lower, idx] = boundRow(i, ni_max, nbu, nbx, ub, xb);
+      const auto [input, lower, idx] = bound_rows[static_cast<std::size_t>(i - ni_max)];
       const double coef = rowCoefficient(i, relaxation(n, i));
       const double g = lower ? coef : -coef;
       if (input) {
@@ -348,14 +353,19 @@ struct Solver::Impl {
   // ---- phase 2: condensing and projection ------------------------------------------------
   void condenseNode(int k) {
     Node& n = node(k);
-    const NodeData& d = *n.d;
+    NodeData& d = *n.d;
     LqStage& st = lq.stage(k);
     const bool running = k < N;
-    st.Q = d.Lxx;
+    // The cost Hessians move into the LQ stage (pointer swaps, no copy): the next
+    // linearisation overwrites what the node data gets back. Hence one condensing per
+    // linearisation.
+    assert(!n.hessian_moved && "condenseNode twice on one linearisation");
+    n.hessian_moved = true;
+    st.Q.swap(d.Lxx);
     st.q = d.lx;
     if (running) {
-      st.R = d.Luu;
-      st.S = d.Lux;
+      st.R.swap(d.Luu);
+      st.S.swap(d.Lux);
       st.r = d.lu;
       st.ne = d.ne;
       if (d.ne > 0) {
@@ -385,7 +395,7 @@ struct Solver::Impl {
       const auto Gx = d.Gx.topRows(m);
       const auto W = n.W.head(m);
       n.WGx.topRows(m).noalias() = W.asDiagonal() * Gx;
-      st.Q.noalias() += Gx.transpose() * n.WGx.topRows(m);
+      st.Q.triangularView<Eigen::Lower>() += Gx.transpose() * n.WGx.topRows(m);
       st.q.noalias() += Gx.transpose() * n.gam.head(m);
       bool has_u = false;
       if (running) {
@@ -394,17 +404,15 @@ struct Solver::Impl {
       if (has_u) {
         const auto Gu = d.Gu.topRows(m);
         n.WGu.topRows(m).noalias() = W.asDiagonal() * Gu;
-        st.R.noalias() += Gu.transpose() * n.WGu.topRows(m);
+        st.R.triangularView<Eigen::Lower>() += Gu.transpose() * n.WGu.topRows(m);
         st.S.noalias() += Gu.transpose() * n.WGx.topRows(m);
         st.r.noalias() += Gu.transpose() * n.gam.head(m);
       }
     }
     // Bounds: diagonal terms only.
-    const auto& ub = prob->inputBounds();
-    const auto& xb = prob->stateBounds();
     for (int i = ni_max; i < nrows; ++i) {
       if (n.kind(i) == kInactive) continue;
-      const auto [input, lower, idx] = boundRow(i, ni_max, nbu, nbx, ub, xb);
+      const auto [input, lower, idx] = bound_rows[static_cast<std::size_t>(i - ni_max)];
       double W = 0.0, gam = 0.0;
       if (n.kind(i) == kHard) {
         W = n.z(i) / n.s(i);
@@ -443,8 +451,6 @@ struct Solver::Impl {
       t.noalias() = d.Gx.topRows(d.ni) * dx;
       if (running) t.noalias() += d.Gu.topRows(d.ni) * du;
     }
-    const auto& ub = prob->inputBounds();
-    const auto& xb = prob->stateBounds();
     const double tau = set.fraction_to_boundary;
     double ap = 1.0, ad = 1.0, zmax = 0.0;
     for (int i = 0; i < nrows; ++i) {
@@ -457,7 +463,7 @@ struct Solver::Impl {
       if (i < ni_max) {
         gdv = n.tmp(i);
       } else {
-        const auto [input, lower, idx] = boundRow(i, ni_max, nbu, nbx, ub, xb);
+        const auto [input, lower, idx] = bound_rows[static_cast<std::size_t>(i - ni_max)];
         gdv = input ? du(idx) : dx(idx);
         if (!lower) gdv = -gdv;
       }

@@ -36,6 +36,9 @@ TEST_P(RiccatiDense, MatchesDenseKkt) {
     s.Q = H.bottomRightCorner(nx, nx);
     s.R = H.topLeftCorner(nu, nu);
     s.S = H.topRightCorner(nu, nx);
+    // Only the lower triangles are part of the contract: poison the upper ones.
+    s.Q.triangularView<Eigen::StrictlyUpper>().setConstant(std::nan(""));
+    s.R.triangularView<Eigen::StrictlyUpper>().setConstant(std::nan(""));
     s.q = randn(nx, 1, rng, 0.1);
     s.r = randn(nu, 1, rng, 0.1);
     s.A = MatrixXd::Identity(nx, nx) + randn(nx, nx, rng, 0.2 / std::sqrt(nx));
@@ -69,10 +72,10 @@ TEST_P(RiccatiDense, MatchesDenseKkt) {
   for (int k = 0; k <= N; ++k) {
     const auto& s = ric.stage(k);
     const int o = k * (nx + nu);
-    K.block(o, o, nx, nx) = s.Q;
+    K.block(o, o, nx, nx) = s.Q.selfadjointView<Eigen::Lower>();
     rhs.segment(o, nx) = -s.q;
     if (k == N) break;
-    K.block(o + nx, o + nx, nu, nu) = s.R;
+    K.block(o + nx, o + nx, nu, nu) = s.R.selfadjointView<Eigen::Lower>();
     K.block(o + nx, o, nu, nx) = s.S;
     K.block(o, o + nx, nx, nu) = s.S.transpose();
     rhs.segment(o + nx, nu) = -s.r;

@@ -7,12 +7,15 @@
 //   s.t. dx_0 = dx_init,  dx_{k+1} = A_k dx_k + B_k du_k + b_k,
 //        Ex_k dx_k + Eu_k du_k + e_k = 0      (ne_k rows, full row rank in du)
 //
-// Equalities are eliminated by projection (variable reduction): a Householder QR with
-// column pivoting of Eu (rank revealing), Eu P = Q [R11 R12], splits the input into ne
-// dependent entries du_D = -R11^-1 (R12 w + Q^T (Ex dx + e)) and nu - ne independent
-// entries w = du_I, on which the Riccati recursion runs. The null-space basis is
-// Z = P [-R11^-1 R12; I]: cheaper than an orthonormal basis (no dense nu x nu products),
-// and as well conditioned as R11, which the column pivoting keeps away from singular.
+// Equalities are eliminated by projection (variable reduction): an LU factorisation with
+// partial pivoting of Eu^T, P Eu^T = [L1; L2] U, picks ne dependent input entries
+// (the pivot rows) du_D = T [w; dx; 1], T = -L1^-T [L2^T | U^-T [Ex e]], and leaves the
+// nu - ne independent entries w = du_I, on which the Riccati recursion runs. The
+// null-space basis is Z = P^T [-L1^-T L2^T; I]: cheaper than an orthonormal basis (no
+// dense nu x nu products), and well conditioned because the pivoting keeps every entry
+// of L bounded by 1. A pivot below rank_tolerance times the largest |Eu| entry means the
+// rows are rank deficient (after the elimination of the earlier rows, the row has
+// nothing left in u).
 // Multipliers: costates lambda_k (lambda_k = P_k dx_k + p_k, the multiplier of the
 // dynamics constraint that defines dx_k) and nu_k of the equalities, with the
 // Lagrangian sum cost + lambda_{k+1}^T (A dx + B du + b - dx_{k+1}) + nu^T (e + Ex dx + Eu du).
@@ -26,8 +29,8 @@
 namespace rollstep::solver {
 
 /// Data of one stage (sized at the maximum dimensions; rows [0, ne) of the equality
-/// block are used). Q and R must be stored FULL (both triangles). The terminal stage
-/// (k = N) uses Q and q only.
+/// block are used). Only the LOWER triangles of Q and R are read (the upper ones may hold
+/// anything). The terminal stage (k = N) uses Q and q only.
 struct LqStage {
   int ne = 0;
   Eigen::MatrixXd Q, S, R;  ///< nx x nx, nu x nx, nu x nu
@@ -87,12 +90,10 @@ class RiccatiSolver {
  private:
   struct Work {
     int nw = 0;            // reduced input size nu - ne
-    Eigen::MatrixXd qr;    // ne_max x (nu + nx + 1): pivoted QR of [Eu | Ex | e]
-    Eigen::VectorXd tau;   // ne_max
+    Eigen::MatrixXd lu;    // nu x ne_max: [L1\U; L2] of P Eu^T (unit L1 below U)
     Eigen::VectorXi perm;  // nu: input permutation [dependent (ne); independent (nw)]
-    Eigen::VectorXd hh;    // Householder workspace
-    Eigen::MatrixXd T;     // ne_max x (nu + nx + 1): du_D = T [w; dx; 1]
-    Eigen::MatrixXd HD;    // ne_max x (nu + nx + 1): [R_DI S_D r_D] + 0.5 R_DD T
+    Eigen::MatrixXd V;     // (nu + nx + 1) x ne_max: T^T, du_D = T [w; dx; 1]
+    Eigen::MatrixXd W;     // (nu + nx + 1) x ne_max: (H_Dv + 0.5 H_DD T)^T
     Eigen::MatrixXd HDD;   // ne_max x ne_max
     Eigen::MatrixXd BD;    // nx x ne_max: dependent columns of B
     Eigen::MatrixXd Hr;    // (nu + nx + 1)^2: reduced augmented Hessian [w; dx; 1] (lower)
@@ -104,7 +105,7 @@ class RiccatiSolver {
     Eigen::VectorXd pb;    // nx
     Eigen::MatrixXd P;     // nx x nx (lower triangle valid)
     Eigen::VectorXd p;     // nx
-    Eigen::VectorXd dx, w, du, lam, mult, rho, t;
+    Eigen::VectorXd dx, w, du, lam, mult, t, t1;
     mutable Eigen::MatrixXd Kw, KD;  // feedbackGain scratch
   };
   std::size_t idx(int k) const { return static_cast<std::size_t>(k); }
