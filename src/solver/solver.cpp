@@ -1,7 +1,6 @@
 #include "rollstep/solver/solver.hpp"
 
 #include <algorithm>
-#include <cassert>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -104,7 +103,6 @@ struct Solver::Impl {
     bool fresh = true;  // (re)initialise slacks and duals at next linearisation
     bool finite = true;
     bool rank_ok = true;
-    bool hessian_moved = false;  // condenseNode moved the cost Hessians into the LQ stage
     double pivot_ratio = 1.0;
     double primal = 0.0, dual = 0.0, sz_max = 0.0, sz_min = kInf, mult_sum = 0.0;
     int mult_count = 0;
@@ -243,7 +241,6 @@ struct Solver::Impl {
     const VectorXd& x = xs[static_cast<std::size_t>(k)];
     const VectorXd& u = uOf(k);
     prob->linearize(k, x, u, d);
-    n.hessian_moved = false;
     LqStage& st = lq.stage(k);
     if (k < N) {
       const VectorXd& xn = xs[static_cast<std::size_t>(k) + 1];
@@ -353,19 +350,15 @@ struct Solver::Impl {
   // ---- phase 2: condensing and projection ------------------------------------------------
   void condenseNode(int k) {
     Node& n = node(k);
-    NodeData& d = *n.d;
+    const NodeData& d = *n.d;
     LqStage& st = lq.stage(k);
     const bool running = k < N;
-    // The cost Hessians move into the LQ stage (pointer swaps, no copy): the next
-    // linearisation overwrites what the node data gets back. Hence one condensing per
-    // linearisation.
-    assert(!n.hessian_moved && "condenseNode twice on one linearisation");
-    n.hessian_moved = true;
-    st.Q.swap(d.Lxx);
+    // The Riccati solver reads the lower triangles of Q and R only.
+    st.Q.triangularView<Eigen::Lower>() = d.Lxx;
     st.q = d.lx;
     if (running) {
-      st.R.swap(d.Luu);
-      st.S.swap(d.Lux);
+      st.R.triangularView<Eigen::Lower>() = d.Luu;
+      st.S = d.Lux;
       st.r = d.lu;
       st.ne = d.ne;
       if (d.ne > 0) {
