@@ -16,7 +16,7 @@ RiccatiSolver::RiccatiSolver(int horizon, int nx, int nu, int ne_max)
     throw std::invalid_argument("RiccatiSolver: bad dimensions");
   }
   stages_.resize(static_cast<std::size_t>(N_) + 1);
-  PBA_ = MatrixXd::Zero(nx, nu + nx);
+  PBA_ = MatrixXd::Zero(nx, nu + nx + 1);
   work_.resize(static_cast<std::size_t>(N_) + 1);
   const int nz = nu + nx;
   for (auto& s : stages_) {
@@ -221,92 +221,104 @@ bool RiccatiSolver::projectStage(int k, double rank_tolerance, double* pivot_rat
   return true;
 }
 
-bool RiccatiSolver::backward() {
-  const int nx = nx_;
+void RiccatiSolver::beginBackward() {
   failed_stage_ = -1;
   regularization_ = 0.0;
-  {
-    Work& t = work_[idx(N_)];
-    t.P.triangularView<Eigen::Lower>() = stages_[idx(N_)].Q;
-    t.p = stages_[idx(N_)].q;
-  }
-  for (int k = N_ - 1; k >= 0; --k) {
-    Work& w = work_[idx(k)];
-    const Work& n = work_[idx(k + 1)];
-    const int nw = w.nw, nz = nw + nx;
-    const auto BA = w.BA.leftCols(nz);
-    const auto br = w.BA.col(nz);
-    auto PBA = PBA_.leftCols(nz);
-    PBA.noalias() = n.P.selfadjointView<Eigen::Lower>() * BA;
-    auto M = w.M.topLeftCorner(nz, nz);
-    M.triangularView<Eigen::Lower>() = w.Hr.topLeftCorner(nz, nz);
-    M.triangularView<Eigen::Lower>() += BA.transpose() * PBA;
-    w.pb = n.p;
-    w.pb.noalias() += n.P.selfadjointView<Eigen::Lower>() * br;
-    auto h = w.hm.head(nz);
-    h = w.gr.head(nz);
-    h.noalias() += BA.transpose() * w.pb;
+  Work& t = work_[idx(N_)];
+  t.P.triangularView<Eigen::Lower>() = stages_[idx(N_)].Q;
+  t.p = stages_[idx(N_)].q;
+}
 
-    if (nw > 0) {
-      Eigen::Ref<MatrixXd> Mww(w.M.topLeftCorner(nw, nw));
-      bool ok = false;
-      double reg = 0.0;
-      for (int attempt = 0; attempt < 6 && !ok; ++attempt) {
-        if (attempt > 0) {
-          // Rebuild the block and shift it (rare path: singular reduced Hessian).
-          const double scale = 1.0 + w.Hr.topLeftCorner(nw, nw).diagonal().cwiseAbs().maxCoeff();
-          reg = (attempt == 1) ? 1e-12 * scale : reg * 100.0;
-          Mww.triangularView<Eigen::Lower>() = w.Hr.topLeftCorner(nw, nw);
-          Mww.triangularView<Eigen::Lower>() += BA.leftCols(nw).transpose() * PBA.leftCols(nw);
-          Mww.diagonal().array() += reg;
-        }
-        Eigen::LLT<Eigen::Ref<MatrixXd>> llt(Mww);
-        ok = llt.info() == Eigen::Success && std::isfinite(Mww.diagonal().sum());
+bool RiccatiSolver::backwardStage(int k) {
+  const int nx = nx_;
+  Work& w = work_[idx(k)];
+  const Work& n = work_[idx(k + 1)];
+  const int nw = w.nw, nz = nw + nx;
+  const auto BA = w.BA.leftCols(nz);
+  // P [B A b] in one product; its last column gives P b.
+  PBA_.leftCols(nz + 1).noalias() = n.P.selfadjointView<Eigen::Lower>() * w.BA.leftCols(nz + 1);
+  const auto PBA = PBA_.leftCols(nz);
+  auto M = w.M.topLeftCorner(nz, nz);
+  M.triangularView<Eigen::Lower>() = w.Hr.topLeftCorner(nz, nz);
+  M.triangularView<Eigen::Lower>() += BA.transpose() * PBA;
+  w.pb = n.p + PBA_.col(nz);
+  auto h = w.hm.head(nz);
+  h = w.gr.head(nz);
+  h.noalias() += BA.transpose() * w.pb;
+
+  if (nw > 0) {
+    Eigen::Ref<MatrixXd> Mww(w.M.topLeftCorner(nw, nw));
+    bool ok = false;
+    double reg = 0.0;
+    for (int attempt = 0; attempt < 6 && !ok; ++attempt) {
+      if (attempt > 0) {
+        // Rebuild the block and shift it (rare path: singular reduced Hessian).
+        const double scale = 1.0 + w.Hr.topLeftCorner(nw, nw).diagonal().cwiseAbs().maxCoeff();
+        reg = (attempt == 1) ? 1e-12 * scale : reg * 100.0;
+        Mww.triangularView<Eigen::Lower>() = w.Hr.topLeftCorner(nw, nw);
+        Mww.triangularView<Eigen::Lower>() += BA.leftCols(nw).transpose() * PBA.leftCols(nw);
+        Mww.diagonal().array() += reg;
       }
-      if (!ok) {
-        failed_stage_ = k;
-        return false;
-      }
-      regularization_ = std::max(regularization_, reg);
-      auto Lxw = w.M.block(nw, 0, nx, nw);
-      Mww.transpose().triangularView<Eigen::Upper>().solveInPlace<Eigen::OnTheRight>(Lxw);
-      auto v = w.hm.head(nw);
-      Mww.triangularView<Eigen::Lower>().solveInPlace(v);
-      w.P.triangularView<Eigen::Lower>() = w.M.block(nw, nw, nx, nx);
-      w.P.selfadjointView<Eigen::Lower>().rankUpdate(Lxw, -1.0);
-      w.p = w.hm.segment(nw, nx);
-      w.p.noalias() -= Lxw * v;
-    } else {
-      w.P.triangularView<Eigen::Lower>() = w.M.block(0, 0, nx, nx);
-      w.p = w.hm.head(nx);
+      Eigen::LLT<Eigen::Ref<MatrixXd>> llt(Mww);
+      ok = llt.info() == Eigen::Success && std::isfinite(Mww.diagonal().sum());
     }
+    if (!ok) {
+      failed_stage_ = k;
+      return false;
+    }
+    regularization_ = std::max(regularization_, reg);
+    auto Lxw = w.M.block(nw, 0, nx, nw);
+    Mww.transpose().triangularView<Eigen::Upper>().solveInPlace<Eigen::OnTheRight>(Lxw);
+    auto v = w.hm.head(nw);
+    Mww.triangularView<Eigen::Lower>().solveInPlace(v);
+    w.P.triangularView<Eigen::Lower>() = w.M.block(nw, nw, nx, nx);
+    w.P.selfadjointView<Eigen::Lower>().rankUpdate(Lxw, -1.0);
+    w.p = w.hm.segment(nw, nx);
+    w.p.noalias() -= Lxw * v;
+  } else {
+    w.P.triangularView<Eigen::Lower>() = w.M.block(0, 0, nx, nx);
+    w.p = w.hm.head(nx);
   }
   return true;
 }
 
-void RiccatiSolver::forward(const Eigen::Ref<const VectorXd>& dx0) {
-  const int nx = nx_;
-  work_[0].dx = dx0;
-  for (int k = 0; k < N_; ++k) {
-    Work& w = work_[idx(k)];
-    const int nw = w.nw, nz = nw + nx;
-    auto wk = w.w.head(nw);
-    if (nw > 0) {
-      wk = w.hm.head(nw);
-      wk.noalias() += w.M.block(nw, 0, nx, nw).transpose() * w.dx;
-      w.M.topLeftCorner(nw, nw).transpose().triangularView<Eigen::Upper>().solveInPlace(wk);
-      wk = -wk;
-    }
-    w.lam = w.p;
-    w.lam.noalias() += w.P.selfadjointView<Eigen::Lower>() * w.dx;
-    VectorXd& next = work_[idx(k + 1)].dx;
-    next = w.BA.col(nz);
-    next.noalias() += w.BA.leftCols(nw) * wk;
-    next.noalias() += w.BA.middleCols(nw, nx) * w.dx;
+bool RiccatiSolver::backward() {
+  beginBackward();
+  for (int k = N_ - 1; k >= 0; --k) {
+    if (!backwardStage(k)) return false;
   }
-  Work& t = work_[idx(N_)];
-  t.lam = t.p;
-  t.lam.noalias() += t.P.selfadjointView<Eigen::Lower>() * t.dx;
+  return true;
+}
+
+void RiccatiSolver::beginForward(const Eigen::Ref<const VectorXd>& dx0) {
+  Work& w = work_[0];
+  w.dx = dx0;
+  w.lam = w.p;
+  w.lam.noalias() += w.P.selfadjointView<Eigen::Lower>() * w.dx;
+}
+
+void RiccatiSolver::forwardStage(int k) {
+  const int nx = nx_;
+  Work& w = work_[idx(k)];
+  Work& n = work_[idx(k + 1)];
+  const int nw = w.nw, nz = nw + nx;
+  auto wk = w.w.head(nw);
+  if (nw > 0) {
+    wk = w.hm.head(nw);
+    wk.noalias() += w.M.block(nw, 0, nx, nw).transpose() * w.dx;
+    w.M.topLeftCorner(nw, nw).transpose().triangularView<Eigen::Upper>().solveInPlace(wk);
+    wk = -wk;
+  }
+  n.dx = w.BA.col(nz);
+  n.dx.noalias() += w.BA.leftCols(nw) * wk;
+  n.dx.noalias() += w.BA.middleCols(nw, nx) * w.dx;
+  n.lam = n.p;
+  n.lam.noalias() += n.P.selfadjointView<Eigen::Lower>() * n.dx;
+}
+
+void RiccatiSolver::forward(const Eigen::Ref<const VectorXd>& dx0) {
+  beginForward(dx0);
+  for (int k = 0; k < N_; ++k) forwardStage(k);
 }
 
 void RiccatiSolver::recoverStage(int k) {

@@ -430,6 +430,54 @@ struct Solver::Impl {
     if (running) n.rank_ok = lq.projectStage(k, set.rank_tolerance, &n.pivot_ratio);
   }
 
+  enum class Factorization { Ok, RankDeficient, NotPositiveDefinite };
+  /// Condensing + projection of every node and the backward Riccati sweep. With one
+  /// thread, node k is condensed right before its backward step (its data still in
+  /// cache); with more, the nodes are condensed in parallel first. Same arithmetic per
+  /// node either way, so the results do not depend on the thread count. On a rank
+  /// failure, failed_node is the first such node.
+  Factorization condenseAndFactor() {
+    if (pool.size() > 1) {
+      forNodes([this](int k) { condenseNode(k); });
+      for (int k = 0; k < N; ++k) {
+        if (!node(k).rank_ok) {
+          failed_node = k;
+          return Factorization::RankDeficient;
+        }
+      }
+      return lq.backward() ? Factorization::Ok : Factorization::NotPositiveDefinite;
+    }
+    condenseNode(N);
+    lq.beginBackward();
+    int rank_failed = -1;
+    bool pd = true;
+    for (int k = N - 1; k >= 0; --k) {
+      condenseNode(k);
+      if (!node(k).rank_ok) rank_failed = k;
+      if (rank_failed < 0 && pd) pd = lq.backwardStage(k);
+    }
+    if (rank_failed >= 0) {
+      failed_node = rank_failed;
+      return Factorization::RankDeficient;
+    }
+    return pd ? Factorization::Ok : Factorization::NotPositiveDefinite;
+  }
+  /// Forward Riccati sweep and the step recovery of every node (fused per node with one
+  /// thread, like condenseAndFactor).
+  void forwardAndRecover() {
+    if (pool.size() > 1) {
+      lq.forward(dx0);
+      forNodes([this](int k) { recoverNode(k); });
+      return;
+    }
+    lq.beginForward(dx0);
+    for (int k = 0; k < N; ++k) {
+      lq.forwardStage(k);
+      recoverNode(k);
+    }
+    recoverNode(N);
+  }
+
   // ---- phase 3: step recovery --------------------------------------------------------------
   void recoverNode(int k) {
     Node& n = node(k);
@@ -713,20 +761,18 @@ SolverStatus Solver::Impl::run(ConstVecRef x_init, bool realtime) {
 
     // Search direction.
     auto t_ric = Clock::now();
-    forNodes([this](int k) { condenseNode(k); });
-    for (int k = 0; k < N; ++k) {
-      if (!node(k).rank_ok) {
-        failed_node = k;
-        it.time_riccati_ms = msSince(t_ric);
-        stats.push_back(it);
-        std::snprintf(message, sizeof(message),
-                      "equality rows of node %d are not full row rank in u (relative pivot %.3g, "
-                      "%d rows, %d inputs)",
-                      k, node(k).pivot_ratio, node(k).d->ne, nu);
-        return status = SolverStatus::RankDeficientEqualities;
-      }
+    const Factorization fac = condenseAndFactor();
+    if (fac == Factorization::RankDeficient) {
+      const int k = failed_node;
+      it.time_riccati_ms = msSince(t_ric);
+      stats.push_back(it);
+      std::snprintf(message, sizeof(message),
+                    "equality rows of node %d are not full row rank in u (relative pivot %.3g, "
+                    "%d rows, %d inputs)",
+                    k, node(k).pivot_ratio, node(k).d->ne, nu);
+      return status = SolverStatus::RankDeficientEqualities;
     }
-    if (!lq.backward()) {
+    if (fac == Factorization::NotPositiveDefinite) {
       direction_ready = false;
       failed_node = lq.failedStage();
       stats.push_back(it);
@@ -734,9 +780,8 @@ SolverStatus Solver::Impl::run(ConstVecRef x_init, bool realtime) {
                     "the reduced Hessian of node %d is not positive definite", failed_node);
       return status = SolverStatus::Diverged;
     }
-    lq.forward(dx0);
+    forwardAndRecover();
     direction_ready = true;
-    forNodes([this](int k) { recoverNode(k); });
     double ap = 1.0, ad = 1.0, dphi = 0.0, mult_max = 0.0;
     finite = true;
     for (int k = 0; k <= N; ++k) {

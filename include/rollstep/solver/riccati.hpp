@@ -64,6 +64,16 @@ class RiccatiSolver {
   bool backward();
   /// Forward sweep: dx, w, the costates lambda. Call after backward().
   void forward(const Eigen::Ref<const Eigen::VectorXd>& dx0);
+  /// The sweeps one stage at a time, for callers that interleave their own per-node work
+  /// (data still in cache): backward() is beginBackward() then backwardStage(k) for
+  /// k = N-1 .. 0 (false: failedStage() == k); forward(dx0) is beginForward(dx0) then
+  /// forwardStage(k) for k = 0 .. N-1. backwardStage(k) needs projectStage(k) and
+  /// backwardStage(k + 1); forwardStage(k) gives w_k, dx_{k+1} and lambda_{k+1}, so
+  /// recoverStage(k) may follow it at once.
+  void beginBackward();
+  bool backwardStage(int k);
+  void beginForward(const Eigen::Ref<const Eigen::VectorXd>& dx0);
+  void forwardStage(int k);
   /// du_k and the equality multipliers nu_k (needs forward()).
   void recoverStage(int k);
   /// Convenience: projectStage for every k, backward, forward, recoverStage for every k.
@@ -113,7 +123,7 @@ class RiccatiSolver {
   int N_, nx_, nu_, ne_max_;
   std::vector<LqStage> stages_;
   std::vector<Work> work_;
-  Eigen::MatrixXd PBA_;  // nx x (nu + nx): backward scratch P [B A] (sequential)
+  Eigen::MatrixXd PBA_;  // nx x (nu + nx + 1): backward scratch P [B A b] (sequential)
   int failed_stage_ = -1;
   double regularization_ = 0.0;
 };
