@@ -112,6 +112,10 @@ void OptimalControlProblem::addInequality(std::string name,
     throw std::invalid_argument("OptimalControlProblem::addInequality: '" + name +
                                 "' needs a positive relaxation");
   }
+  if (options.soft && !(options.weight > 0.0 && std::isfinite(options.weight))) {
+    throw std::invalid_argument("OptimalControlProblem::addInequality: '" + name +
+                                "' needs a positive finite soft weight");
+  }
   max_ineq_ += residual->maxRows();
   inequalities_.push_back({std::move(residual), stage, options});
   ineq_names_.push_back(std::move(name));
@@ -136,6 +140,10 @@ void OptimalControlProblem::setStateBounds(const VectorXd& lower, const VectorXd
   if (options.soft && !(options.relaxation > 0.0)) {
     throw std::invalid_argument(
         "OptimalControlProblem::setStateBounds: soft bounds need a positive relaxation");
+  }
+  if (options.soft && !(options.weight > 0.0 && std::isfinite(options.weight))) {
+    throw std::invalid_argument(
+        "OptimalControlProblem::setStateBounds: soft bounds need a positive finite weight");
   }
   state_bounds_ = makeBounds(lower, upper, options);
 }
@@ -170,6 +178,7 @@ std::unique_ptr<NodeData> OptimalControlProblem::createNodeData() const {
   d->Gu = MatrixXd::Zero(max_ineq_, m);
   d->soft = Eigen::Matrix<bool, Eigen::Dynamic, 1>::Constant(max_ineq_, false);
   d->relaxation = VectorXd::Zero(max_ineq_);
+  d->soft_weight = VectorXd::Zero(max_ineq_);
   d->zero_input = VectorXd::Zero(m);
   if (pre_) d->cache = pre_->createCache();
   d->dynamics_data = dynamics_->createData();
@@ -254,6 +263,7 @@ void OptimalControlProblem::run(int k, ConstVecRef x, ConstVecRef u_in, NodeData
     d.g.segment(ni, rows) = rd.r.head(rows);
     d.soft.segment(ni, rows).setConstant(entry.options.soft);
     d.relaxation.segment(ni, rows).setConstant(entry.options.relaxation);
+    d.soft_weight.segment(ni, rows).setConstant(entry.options.weight);
     if (derivatives) {
       entry.residual->calcDiff(ctx, x, u, rd);
       d.Gx.middleRows(ni, rows) = rd.Rx.topRows(rows);

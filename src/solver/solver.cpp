@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <limits>
 #include <stdexcept>
+#include <utility>
 
 #include "rollstep/solver/riccati.hpp"
 #include "thread_pool.hpp"
@@ -32,6 +33,8 @@ const char* toString(SolverStatus s) {
       return "Diverged";
     case SolverStatus::InvalidInput:
       return "InvalidInput";
+    case SolverStatus::Infeasible:
+      return "Infeasible";
   }
   return "Unknown";
 }
@@ -98,7 +101,16 @@ struct Solver::Impl {
     VectorXd rx, ru, tmp;     // dual residual pieces, scratch
     MatrixXd WGu, WGx;        // weighted general-row Jacobians
     VectorXd W, gam;
-    VectorXd soft_dual;  // -mu beta'(c) of soft rows (reporting)
+    VectorXd soft_dual;  // -weight beta'(c) of soft rows (reporting)
+    // Constraint curvature (converging mode, Euclidean): central differences of the
+    // constraint part of the Lagrangian gradient, evaluated into dp.
+    std::unique_ptr<NodeData> dp;
+    MatrixXd H2;                     // (ndx + nu)^2, symmetric
+    VectorXd hp, hm, xp, up, hcoef;  // gradients +-, perturbed point, row coefficients
+    VectorXd dxv;                    // tangent perturbation (manifolds)
+    MatrixXd Ap, Bp;                 // dynamics Jacobians at the perturbed point (manifolds)
+    bool h2_added = false;
+    double delta = 0.0;  // diagonal shift of the Hessian (inertia correction)
     int ni_prev = -1;
     bool fresh = true;  // (re)initialise slacks and duals at next linearisation
     bool finite = true;
@@ -127,8 +139,21 @@ struct Solver::Impl {
   int iterations = 0;
   double cost = 0.0;
   double mu = 0.0;
-  double penalty = 1.0;
+  // Filter of the line search: (theta, f) pairs, sized at construction.
+  std::vector<std::pair<double, double>> filter;
+  double filter_mu = -1.0, theta_max = kInf, theta_min = 0.0;
+  void addToFilter(double theta, double f) {
+    // Drop the entries the new one dominates, then append (never beyond the capacity).
+    std::size_t m = 0;
+    for (std::size_t j = 0; j < filter.size(); ++j) {
+      if (!(filter[j].first >= theta && filter[j].second >= f)) filter[m++] = filter[j];
+    }
+    filter.resize(m);
+    if (filter.size() < filter.capacity()) filter.emplace_back(theta, f);
+  }
   bool has_guess = false;
+  bool use_curvature = false;  // this iteration adds the constraint curvature (H2)
+  double last_delta = 0.0;     // last inertia correction
   bool has_solution = false;
   bool direction_ready = false;  // the Riccati workspace holds a valid factorisation
   bool backup_valid = false;     // xs_bak, ... hold the iterate before the last step
@@ -177,6 +202,16 @@ struct Solver::Impl {
       n.W = VectorXd::Zero(ni_max);
       n.gam = VectorXd::Zero(ni_max);
       n.soft_dual = VectorXd::Zero(nrows);
+      n.dp = prob->createNodeData();
+      n.H2 = MatrixXd::Zero(ndx + nu, ndx + nu);
+      n.hp = VectorXd::Zero(ndx + nu);
+      n.hm = VectorXd::Zero(ndx + nu);
+      n.xp = VectorXd::Zero(nx);
+      n.up = VectorXd::Zero(nu);
+      n.hcoef = VectorXd::Zero(std::max(ni_max, 1));
+      n.dxv = VectorXd::Zero(ndx);
+      n.Ap = MatrixXd::Zero(ndx, ndx);
+      n.Bp = MatrixXd::Zero(ndx, nu);
     }
     xs.assign(static_cast<std::size_t>(N) + 1, VectorXd::Zero(nx));
     for (auto& x : xs) prob->stateSpace().neutral(x);
@@ -189,6 +224,7 @@ struct Solver::Impl {
     gains.assign(static_cast<std::size_t>(N), MatrixXd::Zero(nu, ndx));
     gains_valid.assign(static_cast<std::size_t>(N), false);
     stats.reserve(static_cast<std::size_t>(std::max(set.max_iterations, 1)) + 2);
+    filter.reserve(static_cast<std::size_t>(std::max(set.max_iterations, 1)) + 2);
   }
 
   const VectorXd& uOf(int k) const { return k < N ? us[static_cast<std::size_t>(k)] : zero_u; }
@@ -233,6 +269,10 @@ struct Solver::Impl {
   double relaxation(const Node& n, int i) const {
     return i < ni_max ? n.d->relaxation(i) : prob->stateBounds().options.relaxation;
   }
+  /// Fixed weight of a soft row's relaxed barrier (independent of mu).
+  double softWeight(const Node& n, int i) const {
+    return i < ni_max ? n.d->soft_weight(i) : prob->stateBounds().options.weight;
+  }
 
   // ---- phase 1: linearisation and residuals --------------------------------------------------
   void linearizeNode(int k) {
@@ -260,6 +300,122 @@ struct Solver::Impl {
     n.ni_prev = d.ni;
     n.fresh = false;
     residuals(k, n);
+    n.h2_added = false;
+    n.delta = 0.0;
+    if (use_curvature && n.finite) addCurvature(k, n);
+  }
+
+  /// Constraint part of the Lagrangian gradient at the point evaluated in dd, with the
+  /// multipliers of the current iterate: [Fx; Fu]^T lam_{k+1} + E^T nu + G^T hcoef.
+  void constraintGradient(int k, const Node& n, const NodeData& dd, VectorXd& out) const {
+    auto ox = out.head(ndx);
+    auto ou = out.segment(ndx, nu);
+    out.setZero();
+    if (k < N) {
+      const VectorXd& lam_next = nodes[static_cast<std::size_t>(k) + 1].lam;
+      ox.noalias() += dd.Fx.transpose() * lam_next;
+      ou.noalias() += dd.Fu.transpose() * lam_next;
+      if (dd.ne > 0) {
+        ox.noalias() += dd.Ex.topRows(dd.ne).transpose() * n.mult.head(dd.ne);
+        ou.noalias() += dd.Eu.topRows(dd.ne).transpose() * n.mult.head(dd.ne);
+      }
+    }
+    if (dd.ni > 0) {
+      ox.noalias() += dd.Gx.topRows(dd.ni).transpose() * n.hcoef.head(dd.ni);
+      if (k < N) ou.noalias() += dd.Gu.topRows(dd.ni).transpose() * n.hcoef.head(dd.ni);
+    }
+  }
+
+  /// Adds the constraint curvature (second derivatives of dynamics, equalities and
+  /// general inequalities times their multipliers) to the node's Gauss-Newton Hessian:
+  /// the Gauss-Newton Hessian alone converges only linearly when the multipliers are
+  /// large (swing-up: ~900 iterations). Central differences of Jacobians. On manifolds
+  /// the node's Hessian in (x_k, u_k) with x_{k+1} held fixed (the cross terms of the
+  /// difference with x_{k+1} do not fit the stage structure and are left out).
+  void addCurvature(int k, Node& n) {
+    NodeData& d = *n.d;
+    for (int i = 0; i < d.ni; ++i) {
+      double d1 = 0.0, d2 = 0.0;
+      if (n.kind(i) == kSoft) relaxedLog(n.c(i), d.relaxation(i), d1, d2);
+      n.hcoef(i) = n.kind(i) == kHard ? -n.z(i) : d.soft_weight(i) * d1;
+    }
+    const int nv = ndx + (k < N ? nu : 0);
+    const VectorXd& x = xs[static_cast<std::size_t>(k)];
+    const VectorXd& u = uOf(k);
+    for (int j = 0; j < nv; ++j) {
+      const bool in_x = j < ndx;
+      const double v = in_x ? (euclid ? x(j) : 0.0) : u(j - ndx);
+      const double h = 1e-5 * (1.0 + std::abs(v));
+      for (int side = 0; side < 2; ++side) {
+        VectorXd& g = side == 0 ? n.hp : n.hm;
+        const double hs = side == 0 ? h : -h;
+        n.up = u;
+        if (in_x && !euclid) {
+          n.dxv.setZero();
+          n.dxv(j) = hs;
+          prob->stateSpace().integrate(x, n.dxv, n.xp);
+        } else {
+          n.xp = x;
+          (in_x ? n.xp(j) : n.up(j - ndx)) = v + hs;
+        }
+        prob->linearize(k, n.xp, n.up, *n.dp);
+        if (euclid) {
+          constraintGradient(k, n, *n.dp, g);
+          continue;
+        }
+        // Manifold: the whole node gradient (cost included, its Gauss-Newton Hessian is
+        // not exact either), dynamics through the difference Jacobian, pulled back to the
+        // tangent at x by the Jacobian of the retraction.
+        NodeData& dp = *n.dp;
+        if (k < N) {
+          prob->stateSpace().differenceJacobians(xs[static_cast<std::size_t>(k) + 1], dp.xnext,
+                                                 n.J0, n.J1);
+          n.Ap.noalias() = n.J1 * dp.Fx;
+          dp.Fx = n.Ap;
+          n.Bp.noalias() = n.J1 * dp.Fu;
+          dp.Fu = n.Bp;
+        }
+        constraintGradient(k, n, dp, g);
+        g.head(ndx) += dp.lx;
+        if (k < N) g.segment(ndx, nu) += dp.lu;
+        if (in_x) {
+          prob->stateSpace().integrateJacobians(x, n.dxv, n.J0, n.J1);
+          n.dxv.noalias() = n.J1.transpose() * g.head(ndx);
+          g.head(ndx) = n.dxv;
+        }
+      }
+      n.H2.col(j).head(nv) = (n.hp.head(nv) - n.hm.head(nv)) / (2.0 * h);
+    }
+    if (!euclid) {  // H2 holds the full Hessian: keep the difference to Gauss-Newton
+      n.H2.topLeftCorner(ndx, ndx) -= d.Lxx;
+      if (k < N) {
+        n.H2.bottomRightCorner(nu, nu) -= d.Luu;
+        n.H2.bottomLeftCorner(nu, ndx) -= d.Lux;
+        n.H2.topRightCorner(ndx, nu) -= d.Lux.transpose();
+      }
+    }
+    auto H = n.H2.topLeftCorner(nv, nv);
+    for (int i = 0; i < nv; ++i) {
+      for (int j = 0; j < i; ++j) H(i, j) = H(j, i) = 0.5 * (H(i, j) + H(j, i));
+    }
+    if (!H.allFinite()) return;
+    shiftHessian(k, n, 1.0);
+    n.h2_added = true;
+  }
+  /// Sets the diagonal shift of the node's Hessian to delta (inertia correction).
+  void shiftDiagonal(int k, Node& n, double delta) {
+    NodeData& d = *n.d;
+    d.Lxx.diagonal().array() += delta - n.delta;
+    if (k < N) d.Luu.diagonal().array() += delta - n.delta;
+    n.delta = delta;
+  }
+  void shiftHessian(int k, Node& n, double sign) {
+    NodeData& d = *n.d;
+    d.Lxx += sign * n.H2.topLeftCorner(ndx, ndx);
+    if (k < N) {
+      d.Luu += sign * n.H2.bottomRightCorner(nu, nu);
+      d.Lux += sign * n.H2.bottomLeftCorner(nu, ndx);
+    }
   }
 
   void initRows(Node& n) const {
@@ -318,7 +474,7 @@ struct Solver::Impl {
       }
       double d1 = 0.0, d2 = 0.0;
       relaxedLog(n.c(i), relax, d1, d2);
-      return mu * d1;
+      return softWeight(n, i) * d1;
     };
     for (int i = 0; i < d.ni; ++i) {
       n.tmp(i) = rowCoefficient(i, d.relaxation(i));
@@ -378,9 +534,9 @@ struct Solver::Impl {
       } else {
         double d1 = 0.0, d2 = 0.0;
         relaxedLog(n.c(i), d.relaxation(i), d1, d2);
-        n.W(i) = mu * d2;
-        n.gam(i) = mu * d1;
-        n.soft_dual(i) = -mu * d1;
+        n.W(i) = d.soft_weight(i) * d2;
+        n.gam(i) = d.soft_weight(i) * d1;
+        n.soft_dual(i) = -d.soft_weight(i) * d1;
       }
     }
     if (d.ni > 0) {
@@ -413,9 +569,9 @@ struct Solver::Impl {
       } else {
         double d1 = 0.0, d2 = 0.0;
         relaxedLog(n.c(i), relaxation(n, i), d1, d2);
-        W = mu * d2;
-        gam = mu * d1;
-        n.soft_dual(i) = -mu * d1;
+        W = softWeight(n, i) * d2;
+        gam = softWeight(n, i) * d1;
+        n.soft_dual(i) = -softWeight(n, i) * d1;
       }
       if (input) {
         st.R(idx, idx) += W;
@@ -511,7 +667,7 @@ struct Solver::Impl {
       if (n.kind(i) == kSoft) {
         double d1 = 0.0, d2 = 0.0;
         relaxedLog(n.c(i), relaxation(n, i), d1, d2);
-        dphi += mu * d1 * gdv;
+        dphi += softWeight(n, i) * d1 * gdv;
         n.ds(i) = 0.0;
         n.dz(i) = 0.0;
         continue;
@@ -575,7 +731,7 @@ struct Solver::Impl {
         theta += std::abs(n.c(i) - s(i));
       } else if (n.kind(i) == kSoft) {
         double d1 = 0.0, d2 = 0.0;
-        f += mu * relaxedLog(n.c(i), relaxation(n, i), d1, d2);
+        f += softWeight(n, i) * relaxedLog(n.c(i), relaxation(n, i), d1, d2);
       }
     }
     n.merit_f = f;
@@ -661,6 +817,76 @@ struct Solver::Impl {
     }
   }
 
+  /// Infeasibility test at the iteration limit: the violation stays above the tolerance
+  /// and did not halve over the last kStallWindow iterations.
+  static constexpr int kStallWindow = 10;
+  /// Infeasibility test when the direction breaks down (non-finite, not factorisable):
+  /// some dual above kDualBlowUp while the violation is above the tolerance.
+  static constexpr double kDualBlowUp = 1e12;
+  bool dualsBlewUp(double primal) const {
+    if (!(primal > set.infeasibility_tolerance)) return false;
+    for (const Node& n : nodes) {
+      for (int i = 0; i < nrows; ++i) {
+        if (n.kind(i) == kHard && !(n.z(i) <= kDualBlowUp)) return true;
+      }
+    }
+    return false;
+  }
+  bool violationStalled(double primal) const {
+    const auto n = static_cast<int>(stats.size());
+    if (!(primal > set.infeasibility_tolerance) || n <= kStallWindow) return false;
+    return primal >= 0.5 * stats[static_cast<std::size_t>(n - 1 - kStallWindow)].primal_residual;
+  }
+
+  /// Restoration probe at the current iterate: one step of the minimum-norm problem
+  /// (Hessian I, no cost gradient, same linearised constraints and barrier), backtracked
+  /// on the violation alone. Takes the step and returns its length when it reduces the l1
+  /// violation theta0 by at least 0.1 %, else keeps the iterate and returns 0.
+  double feasibilityStep(double theta0) {
+    use_curvature = false;
+    forNodes([this](int k) {
+      linearizeNode(k);
+      NodeData& d = *node(k).d;
+      d.Lxx.setIdentity();
+      d.lx.setZero();
+      if (k < N) {
+        d.Luu.setIdentity();
+        d.Lux.setZero();
+        d.lu.setZero();
+      }
+      condenseNode(k);
+    });
+    prob->stateSpace().difference(xs[0], x0, dx0);
+    if (!lq.backward()) return 0.0;
+    lq.forward(dx0);
+    forNodes([this](int k) { recoverNode(k); });
+    double alpha = 1.0;
+    for (int k = 0; k <= N; ++k) {
+      if (!node(k).finite) return 0.0;
+      alpha = std::min(alpha, node(k).alpha_p);
+    }
+    for (int ls = 0; ls < std::max(set.max_line_search_steps, 1); ++ls) {
+      forNodes([this, alpha](int k) { trialPoint(k, alpha); });
+      forNodes([this](int k) { evaluateTrial(k); });
+      double theta = 0.0;
+      for (int k = 0; k <= N; ++k) theta += node(k).merit_theta;
+      prob->stateSpace().difference(xs_trial[0], x0, dx0);
+      theta += dx0.lpNorm<1>();
+      if (std::isfinite(theta) && theta <= (1.0 - 1e-4 * alpha) * theta0) {
+        if (theta > (1.0 - 1e-3) * theta0) return 0.0;  // stationary for the violation
+        for (int k = 0; k <= N; ++k) {
+          const auto kk = static_cast<std::size_t>(k);
+          xs[kk] = xs_trial[kk];
+          if (k < N) us[kk] = us_trial[kk];
+          node(k).s = node(k).s_trial;
+        }
+        return alpha;
+      }
+      alpha *= 0.5;
+    }
+    return 0.0;
+  }
+
   // ---- one full run --------------------------------------------------------------------------
   SolverStatus run(ConstVecRef x_init, bool realtime);
 };
@@ -688,7 +914,9 @@ SolverStatus Solver::Impl::run(ConstVecRef x_init, bool realtime) {
       n.fresh = true;
       n.lam.setZero();
     }
-    penalty = 1.0;
+    filter.clear();
+    filter_mu = -1.0;
+    last_delta = 0.0;
   }
   const int max_it = realtime ? 1 : std::max(set.max_iterations, 0);
 
@@ -696,6 +924,7 @@ SolverStatus Solver::Impl::run(ConstVecRef x_init, bool realtime) {
     IterationStats it;
     it.iteration = iterations;
     auto t_lin = Clock::now();
+    use_curvature = !realtime && set.exact_hessian;
     forNodes([this](int k) { linearizeNode(k); });
     prob->stateSpace().difference(xs[0], x0, dx0);
     // Residuals (fixed order reduction).
@@ -749,6 +978,13 @@ SolverStatus Solver::Impl::run(ConstVecRef x_init, bool realtime) {
         it.barrier = mu;
         stats.push_back(it);
         has_solution = true;
+        if (violationStalled(primal)) {
+          ROLLSTEP_MSG(
+              "locally infeasible: the constraint violation %.3g did not halve in the last %d "
+              "of %d iterations",
+              primal, kStallWindow, max_it);
+          return status = SolverStatus::Infeasible;
+        }
         ROLLSTEP_MSG("no convergence in %d iterations (KKT error %.3g)", max_it, e0);
         return status = SolverStatus::MaxIterations;
       }
@@ -772,17 +1008,51 @@ SolverStatus Solver::Impl::run(ConstVecRef x_init, bool realtime) {
                     k, node(k).pivot_ratio, node(k).d->ne, nu);
       return status = SolverStatus::RankDeficientEqualities;
     }
-    if (fac == Factorization::NotPositiveDefinite) {
+    bool factored = fac == Factorization::Ok;
+    if (use_curvature && (!factored || lq.regularization() > 0.0)) {
+      // Not convex on the null space with the curvature: inertia correction as in Ipopt
+      // (delta I added to the Hessian, delta grown until the Riccati factorisation
+      // succeeds unregularised); Gauss-Newton if even a large shift fails.
+      double delta = last_delta > 0.0 ? std::max(1e-8, last_delta / 3.0) : 1e-4;
+      factored = false;
+      for (int attempt = 0; attempt < 12 && !factored; ++attempt) {
+        forNodes([this, delta](int k) {
+          shiftDiagonal(k, node(k), delta);
+          condenseNode(k);
+        });
+        factored = lq.backward() && lq.regularization() == 0.0;
+        if (!factored) delta *= last_delta > 0.0 ? 8.0 : 100.0;
+      }
+      last_delta = factored ? delta : 0.0;
+      if (!factored) {
+        forNodes([this](int k) {
+          Node& n = node(k);
+          shiftDiagonal(k, n, 0.0);
+          if (n.h2_added) shiftHessian(k, n, -1.0);
+          n.h2_added = false;
+          condenseNode(k);
+        });
+        factored = lq.backward();
+      }
+    } else if (use_curvature) {
+      last_delta = 0.0;
+    }
+    if (!factored) {
       direction_ready = false;
       failed_node = lq.failedStage();
       stats.push_back(it);
+      if (!realtime && dualsBlewUp(primal)) {
+        ROLLSTEP_MSG("locally infeasible: the duals blew up (> %.3g) with the violation at %.3g",
+                     kDualBlowUp, primal);
+        return status = SolverStatus::Infeasible;
+      }
       std::snprintf(message, sizeof(message),
                     "the reduced Hessian of node %d is not positive definite", failed_node);
       return status = SolverStatus::Diverged;
     }
     forwardAndRecover();
     direction_ready = true;
-    double ap = 1.0, ad = 1.0, dphi = 0.0, mult_max = 0.0;
+    double ap = 1.0, ad = 1.0, dphi = 0.0;
     finite = true;
     for (int k = 0; k <= N; ++k) {
       const Node& n = node(k);
@@ -790,13 +1060,17 @@ SolverStatus Solver::Impl::run(ConstVecRef x_init, bool realtime) {
       ap = std::min(ap, n.alpha_p);
       ad = std::min(ad, n.alpha_d);
       dphi += n.dphi;
-      mult_max = std::max({mult_max, n.zmax, lq.costate(k).lpNorm<Eigen::Infinity>()});
-      if (k < N) mult_max = std::max(mult_max, lq.equalityMultipliers(k).lpNorm<Eigen::Infinity>());
     }
     it.time_riccati_ms = msSince(t_ric);
     if (!finite) {
+      const bool infeasible = !realtime && dualsBlewUp(primal);
       if (backup_valid) restore();
       stats.push_back(it);
+      if (infeasible) {
+        ROLLSTEP_MSG("locally infeasible: the duals blew up (> %.3g) with the violation at %.3g",
+                     kDualBlowUp, primal);
+        return status = SolverStatus::Infeasible;
+      }
       ROLLSTEP_MSG("non-finite search direction; the last good iterate was kept");
       return status = SolverStatus::Diverged;
     }
@@ -816,11 +1090,21 @@ SolverStatus Solver::Impl::run(ConstVecRef x_init, bool realtime) {
         theta0 += n.merit_theta;
       }
       theta0 += dx0.lpNorm<1>();
-      // l1 exact penalty: above the largest multiplier (dynamics, equalities, duals).
-      penalty = std::max(penalty, 1.01 * mult_max + 1e-6);
-      const double phi0 = f0 + penalty * theta0;
-      const double slope = dphi - penalty * theta0;
+      // Filter line search (Waechter and Biegler 2006, Sec. 2.3) on the barrier objective
+      // f and the l1 violation theta. (An l1 merit function rejected most full steps of the
+      // Newton direction near the solution and crawled with alpha ~ 1e-2.)
+      if (mu != filter_mu) {
+        filter.clear();  // a new barrier problem
+        filter_mu = mu;
+      }
+      if (iterations == 0) {
+        theta_max = 1e4 * std::max(1.0, theta0);
+        theta_min = 1e-4 * std::max(1.0, theta0);
+      }
+      constexpr double kGammaTheta = 1e-5, kGammaF = 1e-8, kEta = 1e-4;
+      const double f_tol = 1e-13 * (1.0 + std::abs(f0));  // round-off of the sums
       bool accepted = false;
+      bool f_type = false;
       for (int ls = 0; ls < std::max(set.max_line_search_steps, 1); ++ls) {
         forNodes([this, alpha](int k) { trialPoint(k, alpha); });
         forNodes([this](int k) { evaluateTrial(k); });
@@ -831,22 +1115,56 @@ SolverStatus Solver::Impl::run(ConstVecRef x_init, bool realtime) {
         }
         prob->stateSpace().difference(xs_trial[0], x0, dx0);
         theta += dx0.lpNorm<1>();
-        const double phi = f + penalty * theta;
-        if (std::isfinite(phi) &&
-            phi <= phi0 + 1e-4 * alpha * std::min(slope, 0.0) + 1e-12 * (1.0 + std::abs(phi0))) {
+        bool ok = std::isfinite(f) && std::isfinite(theta) && theta <= theta_max;
+        for (std::size_t j = 0; ok && j < filter.size(); ++j) {
+          ok = theta < filter[j].first || f < filter[j].second;
+        }
+        if (ok) {
+          // Switching condition: the step promises an objective decrease that dominates
+          // the (small) violation: then require Armijo on f, else decrease of theta or f.
+          const bool switching = dphi < 0.0 && alpha * std::pow(-dphi, 2.3) > std::pow(theta0, 1.1);
+          f_type = switching && theta0 <= theta_min;
+          if (f_type) {
+            ok = f <= f0 + kEta * alpha * dphi + f_tol;
+          } else {
+            ok = theta <= (1.0 - kGammaTheta) * theta0 || f <= f0 - kGammaF * theta0 + f_tol;
+          }
+        }
+        if (ok) {
           accepted = true;
           break;
         }
         alpha *= 0.5;
       }
+      if (accepted && !f_type) addToFilter((1.0 - kGammaTheta) * theta0, f0 - kGammaF * theta0);
       if (!accepted) {
         restore();
         it.primal_step = 0.0;
         it.dual_step = 0.0;
         it.time_update_ms = msSince(t_upd);
         stats.push_back(it);
-        ROLLSTEP_MSG("line search failed after %d backtracking steps (merit slope %.3g)",
-                     set.max_line_search_steps, slope);
+        if (primal > set.infeasibility_tolerance) {
+          // Large violation: a restoration step (minimum-norm step towards the linearised
+          // constraints) decides between "continue" and "stuck at an infeasible point".
+          const double alpha_r = feasibilityStep(theta0);
+          if (alpha_r > 0.0) {
+            it.primal_step = alpha_r;
+            it.time_update_ms = msSince(t_upd);
+            stats.push_back(it);
+            ++iterations;
+            continue;
+          }
+          forNodes([this](int k) { linearizeNode(k); });  // outputs of the kept iterate
+          ROLLSTEP_MSG(
+              "locally infeasible: neither the Newton step nor a minimum-norm feasibility "
+              "step reduces the constraint violation (max %.3g, l1 %.3g)",
+              primal, theta0);
+          return status = SolverStatus::Infeasible;
+        }
+        ROLLSTEP_MSG(
+            "line search failed after %d backtracking steps (objective slope %.3g, "
+            "violation %.3g)",
+            set.max_line_search_steps, dphi, theta0);
         return status = SolverStatus::LineSearchFailed;
       }
       for (int k = 0; k <= N; ++k) {
@@ -878,6 +1196,7 @@ SolverStatus Solver::Impl::run(ConstVecRef x_init, bool realtime) {
     }
     it.primal_step = alpha;
     it.dual_step = ad;
+
     it.time_update_ms = msSince(t_upd);
     stats.push_back(it);
     ++iterations;
@@ -1003,6 +1322,7 @@ void Solver::setSettings(const SolverSettings& s) {
   }
   impl_->set = s;
   impl_->stats.reserve(static_cast<std::size_t>(std::max(s.max_iterations, 1)) + 2);
+  impl_->filter.reserve(static_cast<std::size_t>(std::max(s.max_iterations, 1)) + 2);
 }
 ocp::OptimalControlProblem& Solver::problem() { return *impl_->prob; }
 const RiccatiSolver& Solver::riccati() const { return impl_->lq; }

@@ -246,6 +246,7 @@ ProblemInstance makeUnicycle(const UnicycleOptions& o) {
     ocp::InequalityOptions soft;
     soft.soft = true;
     soft.relaxation = o.soft_relaxation;
+    soft.weight = o.soft_weight;
     pb->addInequality("soft_obstacles",
                       std::make_shared<CircleObstacleResidual>(space, 2, o.soft_obstacles),
                       ocp::Stage::Running, soft);

@@ -140,6 +140,7 @@ struct UnicycleOptions {
   std::vector<Circle> hard_obstacles{{2.0, -0.2, 0.5}};
   std::vector<Circle> soft_obstacles{};
   double soft_relaxation = 1e-2;
+  double soft_weight = 1e-3;       ///< fixed weight of the soft obstacles' relaxed barrier
   bool terminal_obstacles = true;  ///< hard obstacles also at the terminal node
   double position_weight = 1.0;    ///< running, on p - goal
   /// Running, on omega. With 0.1 the Gauss-Newton iteration (which drops the curvature

@@ -44,6 +44,10 @@ struct InequalityOptions {
   /// quadratically beyond delta.
   bool soft = false;
   double relaxation = 1e-2;
+  /// Soft rows: fixed weight w of the relaxed barrier, the cost gets w * beta_delta(g)
+  /// in every solver mode (independent of the solver's barrier parameter, so it does not
+  /// fade in Converging mode). The default equals SolverSettings::barrier_realtime.
+  double weight = 1e-3;
 };
 
 /// Everything evaluated at one node, sized once for the problem's capacity.
@@ -63,6 +67,7 @@ struct NodeData {
   MatrixXd Gx, Gu;
   Eigen::Matrix<bool, Eigen::Dynamic, 1> soft;  ///< per inequality row
   VectorXd relaxation;                          ///< per inequality row (soft rows)
+  VectorXd soft_weight;                         ///< per inequality row (soft rows)
   VectorXd zero_input;                          ///< the u passed to terms at the terminal node
 
   // Owned workspaces of the terms (opaque to the solver).
