@@ -131,8 +131,9 @@ double forwardFlops(int nx, int nw) {
   return 2.0 * nw * nx + nw * nw + 2.0 * nx * nx + 2.0 * nx * (nw + nx);
 }
 double recoverFlops(int nx, int nu, int ne) {
-  const int nw = nu - ne;
-  return 2.0 * ne * (nw + nx) + 2.0 * nu * nu + 4.0 * nu * nx + ne * ne + 2.0 * ne * ne;
+  const int nz = nu - ne + nx;
+  // du_D = T [w; dx; 1], rho_D from W, H_DD and B_D, two triangular solves.
+  return 4.0 * ne * (nz + 1) + 2.0 * ne * ne + 2.0 * nx * ne + 2.0 * ne * ne;
 }
 
 void fillStages(solver::RiccatiSolver& r, const Data& d, int ne) {

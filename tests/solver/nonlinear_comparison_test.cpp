@@ -125,6 +125,9 @@ TEST(NonlinearComparison, UnicycleGaussNewtonOnlyStillMatchesIpopt) {
   // converges linearly, ~60 iterations here against ~11 with the curvature.
   SolverSettings set = comparisonSettings();
   set.exact_hessian = false;
+  // Linear convergence: the count moves with rounding (63 here; a reordering of the
+  // condensing arithmetic took it past 100), so leave room.
+  set.max_iterations = 300;
   const auto inst = makeUnicycle();
   const IpoptResult ref = solveWithIpopt(*inst.problem, inst.x0, inst.xs_guess, inst.us_guess);
   ASSERT_TRUE(ref.success) << ref.status_string;

@@ -17,6 +17,15 @@ using solver::Solver;
 using solver::SolverSettings;
 using solver::SolverStatus;
 
+/// Solves from the instance's guess and prints the outcome (label: which test).
+SolverStatus solveFromGuess(Solver& s, const ProblemInstance& inst, const char* label) {
+  s.setInitialGuess(inst.xs_guess, inst.us_guess);
+  const SolverStatus st = s.solve(inst.x0);
+  std::printf("[%s] status %s: %s (node %d, %d iterations)\n", label, solver::toString(st),
+              s.message(), s.failedNode(), s.iterations());
+  return st;
+}
+
 void expectFiniteOutputs(const Solver& s) {
   const auto& pb = const_cast<Solver&>(s).problem();
   for (const auto& x : s.states()) EXPECT_TRUE(x.allFinite());
@@ -65,9 +74,7 @@ TEST(NonlinearFailure, StartInsideHardObstacleIsInfeasible) {
   SolverSettings set;
   set.max_iterations = 60;
   Solver s(inst.problem, set);
-  s.setInitialGuess(inst.xs_guess, inst.us_guess);
-  const SolverStatus st = s.solve(inst.x0);
-  std::printf("[infeasible start] status %s: %s\n", solver::toString(st), s.message());
+  const SolverStatus st = solveFromGuess(s, inst, "infeasible start");
   EXPECT_EQ(st, SolverStatus::Infeasible) << s.message();
   EXPECT_NE(std::string(s.message()).find("infeasible"), std::string::npos) << s.message();
   EXPECT_STRNE(s.message(), "");
@@ -86,9 +93,7 @@ TEST(NonlinearFailure, EqualityContradictingInputBoundsIsInfeasible) {
   SolverSettings set;
   set.max_iterations = 60;
   Solver s(inst.problem, set);
-  s.setInitialGuess(inst.xs_guess, inst.us_guess);
-  const SolverStatus st = s.solve(inst.x0);
-  std::printf("[eq vs bounds] status %s: %s\n", solver::toString(st), s.message());
+  const SolverStatus st = solveFromGuess(s, inst, "eq vs bounds");
   EXPECT_EQ(st, SolverStatus::Infeasible) << s.message();
   EXPECT_STRNE(s.message(), "");
   expectFiniteOutputs(s);
@@ -108,9 +113,7 @@ TEST(NonlinearFailure, InfeasibleWithFullStepsIsInfeasible) {
   set.line_search = false;
   set.max_iterations = 40;
   Solver s(inst.problem, set);
-  s.setInitialGuess(inst.xs_guess, inst.us_guess);
-  const SolverStatus st = s.solve(inst.x0);
-  std::printf("[stalled] status %s: %s\n", solver::toString(st), s.message());
+  const SolverStatus st = solveFromGuess(s, inst, "stalled");
   EXPECT_EQ(st, SolverStatus::Infeasible) << s.message();
   expectFiniteOutputs(s);
 }
@@ -126,10 +129,7 @@ TEST(NonlinearFailure, ContradictoryEqualitiesAreRankDeficient) {
                                            inst.problem->dynamics().spacePtr(), inst.x0,
                                            MatrixXd::Zero(1, 3), D, VectorXd::Constant(1, -5.0)));
   Solver s(inst.problem);
-  s.setInitialGuess(inst.xs_guess, inst.us_guess);
-  const SolverStatus st = s.solve(inst.x0);
-  std::printf("[rank deficient] status %s: %s (node %d)\n", solver::toString(st), s.message(),
-              s.failedNode());
+  const SolverStatus st = solveFromGuess(s, inst, "rank deficient");
   EXPECT_EQ(st, SolverStatus::RankDeficientEqualities);
   EXPECT_GE(s.failedNode(), 0);
   EXPECT_STRNE(s.message(), "");
@@ -146,10 +146,7 @@ TEST(NonlinearFailure, ObstacleCoveringTheTargetStopsOutside) {
   const auto inst = makeUnicycle(o);
   SolverSettings set;
   Solver s(inst.problem, set);  // default limit (100)
-  s.setInitialGuess(inst.xs_guess, inst.us_guess);
-  const SolverStatus st = s.solve(inst.x0);
-  std::printf("[covered target] status %s: %s, iterations %d\n", solver::toString(st), s.message(),
-              s.iterations());
+  const SolverStatus st = solveFromGuess(s, inst, "covered target");
   EXPECT_EQ(st, SolverStatus::Converged) << s.message();
   EXPECT_LE(s.iterations(), 40);
   expectFiniteOutputs(s);

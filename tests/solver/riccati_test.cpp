@@ -16,6 +16,45 @@ using lqtest::randn;
 using ocp::MatrixXd;
 using ocp::VectorXd;
 
+/// Random time-varying stages (positive definite Hessians, stable-ish dynamics, a
+/// well-conditioned Eu = [I 0] + noise) with ne_of(k) equality rows at node k. The upper
+/// triangles of Q and R are poisoned: only the lower ones are part of the contract.
+template <class NeOf>
+void fillRandomStages(solver::RiccatiSolver& ric, NeOf ne_of, std::mt19937& rng) {
+  const int nx = ric.nx(), nu = ric.nu(), N = ric.horizon();
+  for (int k = 0; k <= N; ++k) {
+    auto& s = ric.stage(k);
+    const MatrixXd Lh = randn(nx + nu, nx + nu, rng, 1.0 / std::sqrt(nx + nu));
+    const MatrixXd H = Lh * Lh.transpose() + 0.1 * MatrixXd::Identity(nx + nu, nx + nu);
+    s.Q = H.bottomRightCorner(nx, nx);
+    s.R = H.topLeftCorner(nu, nu);
+    s.S = H.topRightCorner(nu, nx);
+    s.Q.triangularView<Eigen::StrictlyUpper>().setConstant(std::nan(""));
+    s.R.triangularView<Eigen::StrictlyUpper>().setConstant(std::nan(""));
+    s.A = MatrixXd::Identity(nx, nx) + randn(nx, nx, rng, 0.2 / std::sqrt(nx));
+    s.B = randn(nx, nu, rng, 0.5 / std::sqrt(nu));
+    s.ne = (k < N) ? ne_of(k) : 0;
+    s.Ex.setZero();
+    s.Eu.setZero();
+    if (s.ne > 0) {
+      s.Ex.topRows(s.ne) = randn(s.ne, nx, rng, 0.3);
+      s.Eu.topRows(s.ne) = randn(s.ne, nu, rng, 0.3);
+      s.Eu.topLeftCorner(s.ne, s.ne) += MatrixXd::Identity(s.ne, s.ne);
+    }
+  }
+}
+
+/// Random vectors q, r, b, e of every stage.
+void randomVectors(solver::RiccatiSolver& ric, std::mt19937& rng) {
+  for (int k = 0; k <= ric.horizon(); ++k) {
+    auto& s = ric.stage(k);
+    s.q = randn(ric.nx(), 1, rng, 0.5);
+    s.r = randn(ric.nu(), 1, rng, 0.5);
+    s.b = randn(ric.nx(), 1, rng, 0.3);
+    s.e = randn(ric.maxEqualities(), 1, rng, 0.3);
+  }
+}
+
 struct Case {
   int nx, nu, N, ne;
 };
@@ -28,34 +67,11 @@ TEST_P(RiccatiDense, MatchesDenseKkt) {
   std::mt19937 rng(42u + static_cast<unsigned>(c.ne));
   solver::RiccatiSolver ric(N, nx, nu, c.ne);
   // Random time-varying stages; the number of equality rows varies with k.
+  fillRandomStages(
+      ric, [&](int k) { return c.ne == 0 ? 0 : (k % 3 == 1 ? c.ne - 1 : c.ne); }, rng);
+  randomVectors(ric, rng);
   std::vector<int> nes(static_cast<std::size_t>(N));
-  for (int k = 0; k <= N; ++k) {
-    auto& s = ric.stage(k);
-    const MatrixXd Lh = randn(nx + nu, nx + nu, rng, 1.0 / std::sqrt(nx + nu));
-    const MatrixXd H = Lh * Lh.transpose() + 0.1 * MatrixXd::Identity(nx + nu, nx + nu);
-    s.Q = H.bottomRightCorner(nx, nx);
-    s.R = H.topLeftCorner(nu, nu);
-    s.S = H.topRightCorner(nu, nx);
-    // Only the lower triangles are part of the contract: poison the upper ones.
-    s.Q.triangularView<Eigen::StrictlyUpper>().setConstant(std::nan(""));
-    s.R.triangularView<Eigen::StrictlyUpper>().setConstant(std::nan(""));
-    s.q = randn(nx, 1, rng, 0.1);
-    s.r = randn(nu, 1, rng, 0.1);
-    s.A = MatrixXd::Identity(nx, nx) + randn(nx, nx, rng, 0.2 / std::sqrt(nx));
-    s.B = randn(nx, nu, rng, 0.5 / std::sqrt(nu));
-    s.b = randn(nx, 1, rng, 0.3);
-    s.ne = (k < N) ? (c.ne == 0 ? 0 : (k % 3 == 1 ? c.ne - 1 : c.ne)) : 0;
-    s.Ex.setZero();
-    s.Eu.setZero();
-    s.e.setZero();
-    if (s.ne > 0) {
-      s.Ex.topRows(s.ne) = randn(s.ne, nx, rng, 0.3);
-      s.Eu.topRows(s.ne) = randn(s.ne, nu, rng, 0.3);  // well conditioned: [I 0] + noise
-      s.Eu.topLeftCorner(s.ne, s.ne) += MatrixXd::Identity(s.ne, s.ne);
-      s.e.head(s.ne) = randn(s.ne, 1, rng);
-    }
-    if (k < N) nes[static_cast<std::size_t>(k)] = s.ne;
-  }
+  for (int k = 0; k < N; ++k) nes[static_cast<std::size_t>(k)] = ric.stage(k).ne;
   const VectorXd dx0 = randn(nx, 1, rng);
   ASSERT_TRUE(ric.solve(dx0, 1e-12));
 
@@ -169,42 +185,6 @@ TEST(RiccatiProjection, RankDeficientEqualitiesAreDetected) {
 
 }  // namespace
 
-namespace {
-
-void fillRandomStages(solver::RiccatiSolver& ric, int ne, std::mt19937& rng) {
-  const int nx = ric.nx(), nu = ric.nu(), N = ric.horizon();
-  for (int k = 0; k <= N; ++k) {
-    auto& s = ric.stage(k);
-    const MatrixXd Lh = randn(nx + nu, nx + nu, rng, 1.0 / std::sqrt(nx + nu));
-    const MatrixXd H = Lh * Lh.transpose() + 0.1 * MatrixXd::Identity(nx + nu, nx + nu);
-    s.Q = H.bottomRightCorner(nx, nx);
-    s.R = H.topLeftCorner(nu, nu);
-    s.S = H.topRightCorner(nu, nx);
-    s.A = MatrixXd::Identity(nx, nx) + randn(nx, nx, rng, 0.2 / std::sqrt(nx));
-    s.B = randn(nx, nu, rng, 0.5 / std::sqrt(nu));
-    s.ne = (k < N) ? (k % 4 == 2 ? 0 : ne) : 0;
-    s.Ex.setZero();
-    s.Eu.setZero();
-    if (s.ne > 0) {
-      s.Ex.topRows(s.ne) = randn(s.ne, nx, rng, 0.3);
-      s.Eu.topRows(s.ne) = randn(s.ne, nu, rng, 0.3);
-      s.Eu.topLeftCorner(s.ne, s.ne) += MatrixXd::Identity(s.ne, s.ne);
-    }
-  }
-}
-
-void randomVectors(solver::RiccatiSolver& ric, std::mt19937& rng) {
-  for (int k = 0; k <= ric.horizon(); ++k) {
-    auto& s = ric.stage(k);
-    s.q = randn(ric.nx(), 1, rng, 0.5);
-    s.r = randn(ric.nu(), 1, rng, 0.5);
-    s.b = randn(ric.nx(), 1, rng, 0.3);
-    s.e = randn(ric.maxEqualities(), 1, rng, 0.3);
-  }
-}
-
-}  // namespace
-
 // A second right-hand side through the stored projection and factorisation gives what a
 // full solve from scratch gives.
 TEST(RiccatiProjection, ResolveVectorsMatchesAFreshSolve) {
@@ -212,7 +192,8 @@ TEST(RiccatiProjection, ResolveVectorsMatchesAFreshSolve) {
     std::mt19937 rng(5u + static_cast<unsigned>(ne));
     const int nx = 6, nu = 8, N = 9;
     solver::RiccatiSolver ric(N, nx, nu, 7), ref(N, nx, nu, 7);
-    fillRandomStages(ric, ne, rng);
+    fillRandomStages(
+        ric, [ne](int k) { return k % 4 == 2 ? 0 : ne; }, rng);
     randomVectors(ric, rng);
     ASSERT_TRUE(ric.solve(randn(nx, 1, rng), 1e-12));
     randomVectors(ric, rng);
