@@ -144,4 +144,4 @@ BENCHMARK(BM_ContactTorqueDerivatives);
 
 }  // namespace
 
-BENCHMARK_MAIN();
+// main: bench/common/bench_main.cpp

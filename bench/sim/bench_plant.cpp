@@ -80,4 +80,4 @@ BENCHMARK(BM_PlantDriveFlat)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK(BM_PlantDriveStep20)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK(BM_PlantRaycast);
 
-BENCHMARK_MAIN();
+// main: bench/common/bench_main.cpp

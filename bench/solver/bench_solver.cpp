@@ -280,4 +280,4 @@ BENCHMARK(BM_RealTimeIterationN100_2Threads)->Unit(benchmark::kMillisecond)->Use
 
 }  // namespace
 
-BENCHMARK_MAIN();
+// main: bench/common/bench_main.cpp
