@@ -1148,9 +1148,11 @@ SolverStatus Solver::Impl::run(ConstVecRef x_init, bool realtime) {
           // constraints) decides between "continue" and "stuck at an infeasible point".
           const double alpha_r = feasibilityStep(theta0);
           if (alpha_r > 0.0) {
-            it.primal_step = alpha_r;
-            it.time_update_ms = msSince(t_upd);
-            stats.push_back(it);
+            // One entry per iteration (stats is reserved for max_iterations + 2 entries).
+            IterationStats& last = stats.back();
+            last.primal_step = alpha_r;
+            last.restoration = true;
+            last.time_update_ms = msSince(t_upd);
             ++iterations;
             continue;
           }

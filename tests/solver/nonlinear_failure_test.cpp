@@ -6,6 +6,7 @@
 #include <limits>
 #include <string>
 
+#include "common/alloc_counter.hpp"
 #include "nonlinear_problems.hpp"
 #include "rollstep/ocp/residuals.hpp"
 #include "rollstep/solver/solver.hpp"
@@ -81,15 +82,21 @@ TEST(NonlinearFailure, StartInsideHardObstacleIsInfeasible) {
   expectFiniteOutputs(s);
 }
 
-TEST(NonlinearFailure, EqualityContradictingInputBoundsIsInfeasible) {
-  // Cart-pole with F = 50 imposed while |F| <= 20: truly infeasible.
+/// Cart-pole (horizon 20) whose force must equal 50 against the bounds |F| <= 20.
+ProblemInstance makeForceContradictingBounds() {
   CartPoleOptions o;
   o.horizon = 20;
   const auto inst = makeCartPole(o);
-  MatrixXd D = MatrixXd::Ones(1, 1);
-  inst.problem->addEquality("force", std::make_shared<ocp::AffineResidual>(
-                                         inst.problem->dynamics().spacePtr(), inst.x0,
-                                         MatrixXd::Zero(1, 4), D, VectorXd::Constant(1, -50.0)));
+  inst.problem->addEquality(
+      "force", std::make_shared<ocp::AffineResidual>(inst.problem->dynamics().spacePtr(), inst.x0,
+                                                     MatrixXd::Zero(1, 4), MatrixXd::Ones(1, 1),
+                                                     VectorXd::Constant(1, -50.0)));
+  return inst;
+}
+
+TEST(NonlinearFailure, EqualityContradictingInputBoundsIsInfeasible) {
+  // Cart-pole with F = 50 imposed while |F| <= 20: truly infeasible.
+  const auto inst = makeForceContradictingBounds();
   SolverSettings set;
   set.max_iterations = 60;
   Solver s(inst.problem, set);
@@ -102,20 +109,41 @@ TEST(NonlinearFailure, EqualityContradictingInputBoundsIsInfeasible) {
 TEST(NonlinearFailure, InfeasibleWithFullStepsIsInfeasible) {
   // Full steps (line_search = false): no line search can fail; the duals of the
   // contradicting bound rows blow up while the violation stays: Infeasible, not Diverged.
-  CartPoleOptions o;
-  o.horizon = 20;
-  const auto inst = makeCartPole(o);
-  inst.problem->addEquality(
-      "force", std::make_shared<ocp::AffineResidual>(inst.problem->dynamics().spacePtr(), inst.x0,
-                                                     MatrixXd::Zero(1, 4), MatrixXd::Ones(1, 1),
-                                                     VectorXd::Constant(1, -50.0)));
+  const auto inst = makeForceContradictingBounds();
   SolverSettings set;
   set.line_search = false;
   set.max_iterations = 40;
   Solver s(inst.problem, set);
   const SolverStatus st = solveFromGuess(s, inst, "stalled");
   EXPECT_EQ(st, SolverStatus::Infeasible) << s.message();
+  EXPECT_NE(std::string(s.message()).find("duals blew up"), std::string::npos) << s.message();
   expectFiniteOutputs(s);
+}
+
+TEST(NonlinearFailure, ViolationStalledAtIterationLimitIsInfeasible) {
+  // The same problem stopped by the iteration limit before the duals blow up: the
+  // violation did not halve over the last 10 iterations, so Infeasible, not MaxIterations.
+  SolverSettings set;
+  set.line_search = false;
+  set.max_iterations = 12;
+  {
+    const auto inst = makeForceContradictingBounds();
+    Solver s(inst.problem, set);
+    const SolverStatus st = solveFromGuess(s, inst, "limit, infeasible");
+    EXPECT_EQ(st, SolverStatus::Infeasible) << s.message();
+    EXPECT_NE(std::string(s.message()).find("did not halve"), std::string::npos) << s.message();
+    EXPECT_EQ(s.iterations(), 12);
+    expectFiniteOutputs(s);
+  }
+  {
+    // Control: the feasible cart-pole stopped at the same limit is only unfinished.
+    CartPoleOptions o;
+    o.horizon = 20;
+    const auto inst = makeCartPole(o);
+    Solver s(inst.problem, set);
+    EXPECT_EQ(solveFromGuess(s, inst, "limit, feasible"), SolverStatus::MaxIterations)
+        << s.message();
+  }
 }
 
 TEST(NonlinearFailure, ContradictoryEqualitiesAreRankDeficient) {
@@ -154,6 +182,45 @@ TEST(NonlinearFailure, ObstacleCoveringTheTargetStopsOutside) {
   const auto& xN = s.states().back();
   EXPECT_GE(std::hypot(xN[0] - 4.05, xN[1] - 0.1), 0.5 - 1e-8);
   EXPECT_LT(std::hypot(xN[0] - 4.05, xN[1] - 0.1), 0.6);
+}
+
+TEST(NonlinearFailure, RestorationStepKeepsAFeasibleSolveGoing) {
+  // A line search cut to two halvings rejects the cart-pole's early Newton steps while
+  // the violation is large: the minimum-norm restoration step is taken instead, the solve
+  // goes on, and the problem (feasible) is not reported Infeasible. Each iteration leaves
+  // exactly one stats entry (the restoration one marked), and nothing is allocated.
+  const auto inst = makeCartPole();
+  SolverSettings set;
+  set.max_line_search_steps = 2;
+  Solver s(inst.problem, set);
+  s.setInitialGuess(inst.xs_guess, inst.us_guess);
+  SolverStatus st{};
+  {
+    test::AllocationGuard guard;
+    st = s.solve(inst.x0);
+    EXPECT_EQ(guard.count(), 0u);
+  }
+  std::printf("[restoration] status %s: %s (%d iterations)\n", solver::toString(st), s.message(),
+              s.iterations());
+  EXPECT_NE(st, SolverStatus::Infeasible) << s.message();
+  const auto& stats = s.stats();
+  ASSERT_EQ(stats.size(), static_cast<std::size_t>(s.iterations()) + 1);
+  int restorations = 0, first = -1;
+  for (std::size_t i = 0; i < stats.size(); ++i) {
+    EXPECT_EQ(stats[i].iteration, static_cast<int>(i));
+    if (!stats[i].restoration) continue;
+    ++restorations;
+    if (first < 0) first = static_cast<int>(i);
+    EXPECT_GT(stats[i].primal_step, 0.0);
+    EXPECT_EQ(stats[i].dual_step, 0.0);
+    ASSERT_LT(i + 1, stats.size());
+    std::printf("  restoration at %zu: violation %.4g -> %.4g\n", i, stats[i].primal_residual,
+                stats[i + 1].primal_residual);
+    EXPECT_LT(stats[i + 1].primal_residual, stats[i].primal_residual);
+  }
+  ASSERT_GE(restorations, 1);
+  EXPECT_LT(first + 1, s.iterations()) << "the solve stopped at the restoration step";
+  expectFiniteOutputs(s);
 }
 
 }  // namespace

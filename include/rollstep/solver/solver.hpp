@@ -117,6 +117,9 @@ struct IterationStats {
   double complementarity = 0.0;  ///< max |s z - mu|
   double barrier = 0.0;
   double primal_step = 0.0, dual_step = 0.0;
+  /// The Newton step was rejected and a minimum-norm feasibility step was taken instead
+  /// (converging mode, violation above infeasibility_tolerance); primal_step is its length.
+  bool restoration = false;
   double time_linearize_ms = 0.0, time_riccati_ms = 0.0, time_update_ms = 0.0;
 };
 
