@@ -176,7 +176,7 @@ struct Solver::Impl {
         rep_off(nx - ndx),
         euclid(prob->stateSpace().isEuclidean()),
         lq(N, ndx, nu, ne_max),
-        pool(s.num_threads) {
+        pool(s.num_threads, std::chrono::microseconds(s.thread_spin_us)) {
     nodes.resize(static_cast<std::size_t>(N) + 1);
     for (int i = ni_max; i < nrows; ++i) {
       bound_rows.push_back(boundRow(i, ni_max, nbu, nbx, prob->inputBounds(), prob->stateBounds()));
@@ -1222,6 +1222,9 @@ SolverStatus Solver::Impl::run(ConstVecRef x_init, bool realtime) {
 Solver::Solver(std::shared_ptr<ocp::OptimalControlProblem> problem, SolverSettings settings) {
   if (!problem) throw std::invalid_argument("Solver: null problem");
   if (settings.num_threads < 1) throw std::invalid_argument("Solver: num_threads must be >= 1");
+  if (settings.thread_spin_us < 0) {
+    throw std::invalid_argument("Solver: thread_spin_us must be >= 0");
+  }
   impl_ = std::make_unique<Impl>(std::move(problem), settings);
   impl_->scaled.assign(static_cast<std::size_t>(impl_->N) + 1, VectorXd::Zero(impl_->ndx));
 }
@@ -1318,9 +1321,9 @@ int Solver::failedNode() const { return impl_->failed_node; }
 const char* Solver::message() const { return impl_->message; }
 const SolverSettings& Solver::settings() const { return impl_->set; }
 void Solver::setSettings(const SolverSettings& s) {
-  if (s.num_threads != impl_->set.num_threads) {
+  if (s.num_threads != impl_->set.num_threads || s.thread_spin_us != impl_->set.thread_spin_us) {
     throw std::invalid_argument(
-        "Solver::setSettings: num_threads cannot change after construction");
+        "Solver::setSettings: num_threads and thread_spin_us cannot change after construction");
   }
   impl_->set = s;
   impl_->stats.reserve(static_cast<std::size_t>(std::max(s.max_iterations, 1)) + 2);

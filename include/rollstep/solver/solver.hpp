@@ -78,10 +78,17 @@ struct SolverSettings {
   /// Restores fast local convergence when the multipliers are large.
   bool exact_hessian = true;
   int max_line_search_steps = 20;
-  double rank_tolerance = 1e-9;        ///< projection: relative pivot below this = rank deficient
-  int num_threads = 1;                 ///< node-parallel work (linearisation, condensing,
-                                       ///< projection, step recovery); results identical
-                                       ///< for any count
+  double rank_tolerance = 1e-9;  ///< projection: relative pivot below this = rank deficient
+  int num_threads = 1;           ///< node-parallel work (linearisation, condensing,
+                                 ///< projection, step recovery); results identical
+                                 ///< for any count
+  /// With num_threads > 1: how long an idle worker polls for the next node-parallel phase
+  /// before it sleeps. The default spans the sequential sweeps between the phases of one
+  /// iteration, so they are handed out through atomics alone; waking a worker that slept
+  /// (the first phase after a longer pause) takes a mutex and costs tens of microseconds.
+  /// A controller that must never lock sets this above its update period (its workers
+  /// then keep their cores busy); 0: sleep at once. Fixed at construction.
+  int thread_spin_us = 2000;
   double divergence_threshold = 1e12;  ///< primal residual above this = diverged
   /// Converging mode: a failed solve (line search, iteration limit) whose constraint
   /// violation (inf-norm) is above this is reported Infeasible (see the header comment).
