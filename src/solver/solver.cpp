@@ -1,10 +1,12 @@
 #include "rollstep/solver/solver.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <memory>
 #include <stdexcept>
 #include <utility>
 
@@ -128,6 +130,12 @@ struct Solver::Impl {
   bool euclid;
   RiccatiSolver lq;
   detail::ThreadPool pool;
+  // Multi-thread pipelines (condenseAndFactor, forwardAndRecover): node k was condensed
+  // in the pipeline run number ready[k]; claim counters of the nodes still to do.
+  std::unique_ptr<std::atomic<std::uint64_t>[]> ready;
+  std::uint64_t pipeline_run = 0;
+  std::atomic<int> next_node{0};
+  std::atomic<int> forward_done{0};
   std::vector<Node> nodes;
   std::vector<BoundRow> bound_rows;  // decoded layout of rows ni_max.. (fixed at construction)
   std::vector<VectorXd> xs, us, xs_bak, us_bak, xs_trial, us_trial;
@@ -176,7 +184,9 @@ struct Solver::Impl {
         rep_off(nx - ndx),
         euclid(prob->stateSpace().isEuclidean()),
         lq(N, ndx, nu, ne_max),
-        pool(s.num_threads, std::chrono::microseconds(s.thread_spin_us)) {
+        pool(s.num_threads, std::chrono::microseconds(s.thread_spin_us)),
+        ready(new std::atomic<std::uint64_t>[static_cast<std::size_t>(N) + 1]) {
+    for (int k = 0; k <= N; ++k) ready[static_cast<std::size_t>(k)].store(0);
     nodes.resize(static_cast<std::size_t>(N) + 1);
     for (int i = ni_max; i < nrows; ++i) {
       bound_rows.push_back(boundRow(i, ni_max, nbu, nbx, prob->inputBounds(), prob->stateBounds()));
@@ -589,28 +599,56 @@ struct Solver::Impl {
   enum class Factorization { Ok, RankDeficient, NotPositiveDefinite };
   /// Condensing + projection of every node and the backward Riccati sweep. With one
   /// thread, node k is condensed right before its backward step (its data still in
-  /// cache); with more, the nodes are condensed in parallel first. Same arithmetic per
-  /// node either way, so the results do not depend on the thread count. On a rank
-  /// failure, failed_node is the first such node.
+  /// cache). With more, a pipeline: every thread claims nodes N, N-1, ... 0 in turn and
+  /// condenses them, while thread 0 runs the backward sweep as soon as its next node is
+  /// ready (condensing a node itself when it would otherwise wait). Each node is
+  /// condensed by the same arithmetic whichever thread takes it, and the sweep runs in
+  /// one order, so the results do not depend on the thread count. On a rank failure,
+  /// failed_node is the first such node.
   Factorization condenseAndFactor() {
-    if (pool.size() > 1) {
-      forNodes([this](int k) { condenseNode(k); });
-      for (int k = 0; k < N; ++k) {
-        if (!node(k).rank_ok) {
-          failed_node = k;
-          return Factorization::RankDeficient;
-        }
-      }
-      return lq.backward() ? Factorization::Ok : Factorization::NotPositiveDefinite;
-    }
-    condenseNode(N);
-    lq.beginBackward();
     int rank_failed = -1;
     bool pd = true;
-    for (int k = N - 1; k >= 0; --k) {
-      condenseNode(k);
+    const auto sweep = [&](int k) {
       if (!node(k).rank_ok) rank_failed = k;
       if (rank_failed < 0 && pd) pd = lq.backwardStage(k);
+    };
+    if (pool.size() == 1) {
+      condenseNode(N);
+      lq.beginBackward();
+      for (int k = N - 1; k >= 0; --k) {
+        condenseNode(k);
+        sweep(k);
+      }
+    } else {
+      const std::uint64_t run = ++pipeline_run;
+      next_node.store(N, std::memory_order_relaxed);
+      const auto condenseNext = [this, run] {
+        const int j = next_node.fetch_sub(1, std::memory_order_relaxed);
+        if (j < 0) return false;
+        condenseNode(j);
+        ready[static_cast<std::size_t>(j)].store(run, std::memory_order_release);
+        return true;
+      };
+      const auto waitFor = [this, run, &condenseNext](int k) {
+        for (int i = 1; ready[static_cast<std::size_t>(k)].load(std::memory_order_acquire) != run;
+             ++i) {
+          if (!condenseNext()) detail::ThreadPool::pause(i);
+        }
+      };
+      auto body = [&](int id, int) {
+        if (id > 0) {
+          while (condenseNext()) {
+          }
+          return;
+        }
+        waitFor(N);
+        lq.beginBackward();
+        for (int k = N - 1; k >= 0; --k) {
+          waitFor(k);
+          sweep(k);
+        }
+      };
+      pool.run(pool.size(), body);
     }
     if (rank_failed >= 0) {
       failed_node = rank_failed;
@@ -618,20 +656,44 @@ struct Solver::Impl {
     }
     return pd ? Factorization::Ok : Factorization::NotPositiveDefinite;
   }
-  /// Forward Riccati sweep and the step recovery of every node (fused per node with one
-  /// thread, like condenseAndFactor).
+  /// Forward Riccati sweep and the step recovery of every node: fused per node with one
+  /// thread; with more, thread 0 runs the forward sweep while the others recover the
+  /// nodes 0, 1, ... as soon as their forward stage is done (then thread 0 helps).
   void forwardAndRecover() {
-    if (pool.size() > 1) {
-      lq.forward(dx0);
-      forNodes([this](int k) { recoverNode(k); });
+    if (pool.size() == 1) {
+      lq.beginForward(dx0);
+      for (int k = 0; k < N; ++k) {
+        lq.forwardStage(k);
+        recoverNode(k);
+      }
+      recoverNode(N);
       return;
     }
-    lq.beginForward(dx0);
-    for (int k = 0; k < N; ++k) {
-      lq.forwardStage(k);
-      recoverNode(k);
-    }
-    recoverNode(N);
+    next_node.store(0, std::memory_order_relaxed);
+    forward_done.store(0, std::memory_order_relaxed);
+    // recoverNode(j) needs forwardStage(j) (j < N), or the whole sweep (j = N).
+    const auto recoverClaimed = [this] {
+      const int j = next_node.fetch_add(1, std::memory_order_relaxed);
+      if (j > N) return false;
+      const int needed = std::min(j + 1, N);
+      for (int i = 1; forward_done.load(std::memory_order_acquire) < needed; ++i) {
+        detail::ThreadPool::pause(i);
+      }
+      recoverNode(j);
+      return true;
+    };
+    auto body = [&](int id, int) {
+      if (id == 0) {
+        lq.beginForward(dx0);
+        for (int k = 0; k < N; ++k) {
+          lq.forwardStage(k);
+          forward_done.store(k + 1, std::memory_order_release);
+        }
+      }
+      while (recoverClaimed()) {
+      }
+    };
+    pool.run(pool.size(), body);
   }
 
   // ---- phase 3: step recovery --------------------------------------------------------------

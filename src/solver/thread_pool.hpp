@@ -50,6 +50,15 @@ class ThreadPool {
 
   int size() const { return threads_; }
 
+  /// One step of a polling loop: a pause instruction, and every kYieldEvery steps a
+  /// yield, so that on an oversubscribed machine (tests run in parallel, a worker that
+  /// lost its core) the poller hands its core to a runnable thread instead of spinning
+  /// against it; with a core to itself the yield returns at once.
+  static void pause(int i) {
+    cpuRelax();
+    if (i % kYieldEvery == 0) std::this_thread::yield();
+  }
+
   /// Calls f(begin, end) on the static partition of [0, n) into size() contiguous chunks;
   /// chunk 0 runs on the calling thread. Returns when all chunks are done. One caller at
   /// a time.
@@ -76,15 +85,7 @@ class ThreadPool {
   }
 
  private:
-  /// One step of a polling loop: a pause instruction, and every kYieldEvery steps a
-  /// yield, so that on an oversubscribed machine (tests run in parallel, a worker that
-  /// lost its core) the poller hands its core to a runnable thread instead of spinning
-  /// against it; with a core to itself the yield returns at once.
   static constexpr int kYieldEvery = 64;
-  static void pause(int i) {
-    cpuRelax();
-    if (i % kYieldEvery == 0) std::this_thread::yield();
-  }
 
   /// Waits for a generation other than `seen` (or stop); returns it.
   std::uint64_t waitForJob(std::uint64_t seen) {

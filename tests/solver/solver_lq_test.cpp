@@ -294,16 +294,26 @@ TEST(SolverNonlinear, ResultsAreIdenticalForAnyThreadCount) {
   auto d = lqtest::randomLq(7, 4, 3, 20, 1, 2);
   d.ulo = VectorXd::Constant(3, -0.4);
   d.uhi = VectorXd::Constant(3, 0.4);
-  std::vector<VectorXd> ref;
-  for (int threads : {1, 2}) {
+  // Then real-time iterations from a perturbed state (the pipelined multi-thread
+  // condensing / backward and forward / recovery paths of every update).
+  std::vector<VectorXd> ref, ref_rt;
+  for (int threads : {1, 2, 3}) {
     auto set = tight();
     set.num_threads = threads;
     Solver s(lqtest::buildProblem(d), set);
     ASSERT_EQ(s.solve(d.x0), SolverStatus::Converged);
+    const std::vector<VectorXd> converged = s.states();
+    set.mode = solver::SolverMode::RealTime;
+    s.setSettings(set);
+    for (int i = 1; i <= 4; ++i) {
+      ASSERT_EQ(s.update(0.0, 0.9 * s.states()[1]), SolverStatus::IterationDone);
+    }
     if (threads == 1) {
-      ref = s.states();
+      ref = converged;
+      ref_rt = s.states();
     } else {
-      for (std::size_t k = 0; k < ref.size(); ++k) EXPECT_TRUE(s.states()[k] == ref[k]);
+      for (std::size_t k = 0; k < ref.size(); ++k) EXPECT_TRUE(converged[k] == ref[k]) << k;
+      for (std::size_t k = 0; k < ref_rt.size(); ++k) EXPECT_TRUE(s.states()[k] == ref_rt[k]) << k;
     }
   }
 }
