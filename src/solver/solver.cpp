@@ -8,6 +8,7 @@
 #include <limits>
 #include <memory>
 #include <stdexcept>
+#include <string>
 #include <utility>
 
 #include "rollstep/solver/riccati.hpp"
@@ -1281,12 +1282,32 @@ SolverStatus Solver::Impl::run(ConstVecRef x_init, bool realtime) {
 }
 
 // ------------------------------------------------------------------------------------------
+void checkSettings(const SolverSettings& s) {
+  const auto require = [](bool ok, const char* what) {
+    if (!ok) throw std::invalid_argument(std::string("SolverSettings: ") + what);
+  };
+  const auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
+  require(s.max_iterations >= 1, "max_iterations must be >= 1");
+  require(positive(s.kkt_tolerance), "kkt_tolerance must be finite and > 0");
+  require(positive(s.barrier_initial), "barrier_initial must be finite and > 0");
+  require(positive(s.barrier_min), "barrier_min must be finite and > 0");
+  require(s.barrier_min <= s.barrier_initial, "barrier_min must be <= barrier_initial");
+  require(s.barrier_decrease > 0.0 && s.barrier_decrease < 1.0,
+          "barrier_decrease must be in (0, 1)");
+  require(positive(s.barrier_realtime), "barrier_realtime must be finite and > 0");
+  require(s.fraction_to_boundary > 0.0 && s.fraction_to_boundary < 1.0,
+          "fraction_to_boundary must be in (0, 1)");
+  require(s.max_line_search_steps >= 1, "max_line_search_steps must be >= 1");
+  require(s.rank_tolerance >= 0.0 && s.rank_tolerance < 1.0, "rank_tolerance must be in [0, 1)");
+  require(s.num_threads >= 1, "num_threads must be >= 1");
+  require(s.thread_spin_us >= 0, "thread_spin_us must be >= 0");
+  require(s.divergence_threshold > 0.0, "divergence_threshold must be > 0 (inf: never)");
+  require(s.infeasibility_tolerance >= 0.0, "infeasibility_tolerance must be >= 0 (inf: never)");
+}
+
 Solver::Solver(std::shared_ptr<ocp::OptimalControlProblem> problem, SolverSettings settings) {
   if (!problem) throw std::invalid_argument("Solver: null problem");
-  if (settings.num_threads < 1) throw std::invalid_argument("Solver: num_threads must be >= 1");
-  if (settings.thread_spin_us < 0) {
-    throw std::invalid_argument("Solver: thread_spin_us must be >= 0");
-  }
+  checkSettings(settings);
   impl_ = std::make_unique<Impl>(std::move(problem), settings);
   impl_->scaled.assign(static_cast<std::size_t>(impl_->N) + 1, VectorXd::Zero(impl_->ndx));
 }
@@ -1383,6 +1404,7 @@ int Solver::failedNode() const { return impl_->failed_node; }
 const char* Solver::message() const { return impl_->message; }
 const SolverSettings& Solver::settings() const { return impl_->set; }
 void Solver::setSettings(const SolverSettings& s) {
+  checkSettings(s);
   if (s.num_threads != impl_->set.num_threads || s.thread_spin_us != impl_->set.thread_spin_us) {
     throw std::invalid_argument(
         "Solver::setSettings: num_threads and thread_spin_us cannot change after construction");

@@ -233,6 +233,65 @@ TEST(SolverLq, InvalidInitialState) {
   EXPECT_EQ(s.solve(d.x0), SolverStatus::Converged);
 }
 
+TEST(SolverLq, BadSettingsAreRejectedByName) {
+  const auto d = lqtest::randomLq(1, 4, 3, 10, 0, 0);
+  const auto p = lqtest::buildProblem(d);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  struct Case {
+    const char* field;
+    void (*spoil)(SolverSettings&, double nan, double inf);
+  };
+  const Case cases[] = {
+      {"max_iterations", [](SolverSettings& s, double, double) { s.max_iterations = 0; }},
+      {"kkt_tolerance", [](SolverSettings& s, double n, double) { s.kkt_tolerance = n; }},
+      {"kkt_tolerance", [](SolverSettings& s, double, double) { s.kkt_tolerance = 0.0; }},
+      {"barrier_initial", [](SolverSettings& s, double, double i) { s.barrier_initial = i; }},
+      {"barrier_min", [](SolverSettings& s, double, double) { s.barrier_min = -1e-9; }},
+      {"barrier_min", [](SolverSettings& s, double, double) { s.barrier_min = 1.0; }},
+      {"barrier_decrease", [](SolverSettings& s, double, double) { s.barrier_decrease = 1.0; }},
+      {"barrier_decrease", [](SolverSettings& s, double n, double) { s.barrier_decrease = n; }},
+      {"barrier_realtime", [](SolverSettings& s, double, double) { s.barrier_realtime = 0.0; }},
+      {"fraction_to_boundary",
+       [](SolverSettings& s, double, double) { s.fraction_to_boundary = 1.5; }},
+      {"max_line_search_steps",
+       [](SolverSettings& s, double, double) { s.max_line_search_steps = 0; }},
+      {"rank_tolerance", [](SolverSettings& s, double n, double) { s.rank_tolerance = n; }},
+      {"num_threads", [](SolverSettings& s, double, double) { s.num_threads = 0; }},
+      {"thread_spin_us", [](SolverSettings& s, double, double) { s.thread_spin_us = -1; }},
+      {"divergence_threshold",
+       [](SolverSettings& s, double n, double) { s.divergence_threshold = n; }},
+      {"infeasibility_tolerance",
+       [](SolverSettings& s, double, double) { s.infeasibility_tolerance = -1.0; }},
+  };
+  Solver good(p);
+  for (const Case& c : cases) {
+    SolverSettings bad;
+    c.spoil(bad, nan, inf);
+    for (int where = 0; where < 2; ++where) {
+      try {
+        if (where == 0) {
+          Solver s(p, bad);
+        } else {
+          good.setSettings(bad);
+        }
+        ADD_FAILURE() << c.field << ": accepted (" << (where ? "setSettings" : "constructor")
+                      << ")";
+      } catch (const std::invalid_argument& e) {
+        EXPECT_NE(std::strstr(e.what(), c.field), nullptr) << e.what();
+      }
+    }
+  }
+  // The defaults and the limits that mean "never" are valid, and the solver still works
+  // after the rejected calls.
+  SolverSettings never;
+  never.divergence_threshold = inf;
+  never.infeasibility_tolerance = inf;
+  EXPECT_NO_THROW(solver::checkSettings(never));
+  EXPECT_NO_THROW(good.setSettings(tight()));
+  EXPECT_EQ(good.solve(d.x0), SolverStatus::Converged);
+}
+
 // ---- nonlinear (pendulum) and SE(3) problems ----------------------------------------------------
 
 std::shared_ptr<ocp::OptimalControlProblem> pendulumProblem(int N = 40) {

@@ -1,6 +1,4 @@
 #pragma once
-// API change (solver engineer): added Residual::dependsOnState() (default true), so that
-// costs skip the state products of input-only residuals.
 // A vector function r(x, u) of one node with its Jacobians: the building block of
 // least-squares costs, equality constraints (r = 0) and inequality constraints (r >= 0).
 #include <memory>

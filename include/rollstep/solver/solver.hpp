@@ -1,12 +1,4 @@
 #pragma once
-// API change (solver engineer): added slacks(k), nodeData(k), barrier(), failedNode(),
-// message() and riccati() (new header rollstep/solver/riccati.hpp: the projected Riccati
-// recursion on its own); documented the layout of inequalityDuals(k), that hard state
-// bounds are not imposed at node 0 (x_0 is fixed by the initial state) and that update()
-// always runs one real-time iteration.
-// API change (convergence): SolverStatus::Infeasible, SolverSettings::exact_hessian and
-// infeasibility_tolerance; filter line search instead of the l1 merit; soft rows use
-// InequalityOptions::weight instead of the barrier parameter.
 // Multiple-shooting primal-dual interior-point solver with Gauss-Newton Hessian,
 // equality constraints eliminated by projection and a Riccati recursion for the search
 // direction (paper Sec. 3.1-3.2). All memory is sized at construction; solve() and
@@ -94,6 +86,13 @@ struct SolverSettings {
   /// violation (inf-norm) is above this is reported Infeasible (see the header comment).
   double infeasibility_tolerance = 1e-6;
 };
+
+/// Checks every field of s: throws std::invalid_argument naming the first bad one
+/// (a non-finite or non-positive tolerance or barrier, barrier_min above barrier_initial,
+/// barrier_decrease or fraction_to_boundary outside (0, 1), rank_tolerance outside [0, 1),
+/// max_iterations or num_threads below 1, negative step or spin counts). The Solver
+/// constructor and setSettings call it.
+void checkSettings(const SolverSettings& s);
 
 /// How a solve ended. The outputs (states, inputs, duals) are finite after every status;
 /// message() says what went wrong. An infeasible problem ends with Infeasible in converging
