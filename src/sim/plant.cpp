@@ -7,6 +7,8 @@
 #include <cstring>
 #include <fstream>
 #include <sstream>
+#include <stdexcept>
+#include <string>
 
 namespace rollstep::sim {
 
@@ -181,6 +183,9 @@ Plant::~Plant() {
 }
 
 void Plant::reset(double x, double y, double yaw, double lift) {
+  if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(yaw) || !std::isfinite(lift)) {
+    throw std::invalid_argument("Plant::reset: x, y, yaw and lift must be finite");
+  }
   mj_resetDataKeyframe(model_, data_, key_nominal_);
   data_->qpos[base_qpos_ + 0] = x;
   data_->qpos[base_qpos_ + 1] = y;
@@ -195,6 +200,19 @@ void Plant::reset(double x, double y, double yaw, double lift) {
 }
 
 void Plant::setCommand(const PlantCommand& command) {
+  // MuJoCo would zero every control on a NaN and carry on: refuse it here instead.
+  for (std::size_t j = 0; j < kNumJoints; ++j) {
+    if (!std::isfinite(command.joint_position[static_cast<Eigen::Index>(j)])) {
+      throw std::invalid_argument("Plant::setCommand: non-finite joint position target " +
+                                  std::to_string(j) + " (the command is unchanged)");
+    }
+  }
+  for (std::size_t w = 0; w < kNumDriveWheels; ++w) {
+    if (!std::isfinite(command.wheel_velocity[static_cast<Eigen::Index>(w)])) {
+      throw std::invalid_argument("Plant::setCommand: non-finite wheel velocity target " +
+                                  std::to_string(w) + " (the command is unchanged)");
+    }
+  }
   command_ = command;
   for (std::size_t j = 0; j < kNumJoints; ++j) {
     data_->ctrl[joint_ctrl_[j]] = command.joint_position[static_cast<Eigen::Index>(j)];
@@ -205,7 +223,24 @@ void Plant::setCommand(const PlantCommand& command) {
 }
 
 void Plant::step() {
-  for (int i = 0; i < substeps_; ++i) mj_step(model_, data_);
+  // MuJoCo answers a non-finite or exploding state by resetting it with a warning; a
+  // robot teleported back to its initial pose would be silently wrong output.
+  const auto bad = [this] {
+    return data_->warning[mjWARN_BADQPOS].number + data_->warning[mjWARN_BADQVEL].number +
+           data_->warning[mjWARN_BADQACC].number;
+  };
+  const int bad0 = bad();
+  for (int i = 0; i < substeps_; ++i) {
+    const double t = data_->time;
+    mj_step(model_, data_);
+    // The reset also clears the counters, so a time running backwards is checked too.
+    if (bad() != bad0 || !(data_->time > t)) {
+      updateReadings();
+      throw SimError("Plant::step: the simulation diverged at t = " + std::to_string(t) +
+                     " s (MuJoCo found a non-finite or huge position, velocity or " +
+                     "acceleration and reset the state); call reset() to continue");
+    }
+  }
   updateReadings();
 }
 

@@ -6,6 +6,8 @@
 
 #include <cstdio>
 #include <fstream>
+#include <limits>
+#include <stdexcept>
 #include <string>
 
 #include "common/alloc_counter.hpp"
@@ -131,6 +133,56 @@ TEST(Plant, Deterministic) {
   const GroundTruth b = run();
   EXPECT_EQ(a.base_position, b.base_position);
   EXPECT_EQ(a.joint_position, b.joint_position);
+}
+
+TEST(PlantErrors, NonFiniteCommandIsRefused) {
+  Plant plant(scene(SceneKind::kFlat));
+  PlantCommand command = plant.nominalCommand();
+  command.wheel_velocity.setConstant(1.0);
+  plant.setCommand(command);
+  for (int entry = 0; entry < 2; ++entry) {
+    PlantCommand bad = command;
+    if (entry == 0) {
+      bad.joint_position(3) = std::numeric_limits<double>::quiet_NaN();
+    } else {
+      bad.wheel_velocity(2) = std::numeric_limits<double>::infinity();
+    }
+    try {
+      plant.setCommand(bad);
+      FAIL() << "non-finite command accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(entry == 0 ? "joint position target 3"
+                                                      : "wheel velocity target 2"),
+                std::string::npos)
+          << e.what();
+    }
+  }
+  // The previous command still drives the robot: the wheels keep their 1 rad/s target.
+  EXPECT_EQ(plant.command().wheel_velocity, command.wheel_velocity);
+  for (int k = 0; k < 500; ++k) plant.step();
+  EXPECT_NEAR(plant.sensors().wheel_velocity(0), 1.0, 0.1);
+  EXPECT_THROW(plant.reset(std::numeric_limits<double>::quiet_NaN()), std::invalid_argument);
+}
+
+TEST(PlantErrors, DivergenceIsReportedNotHidden) {
+  Plant plant(scene(SceneKind::kFlat));
+  for (int k = 0; k < 100; ++k) plant.step();
+  // A state MuJoCo cannot integrate: it resets the data and warns; step() must say so
+  // instead of returning a robot teleported back to its initial pose.
+  for (int round = 0; round < 2; ++round) {  // the second time without reset() in between
+    plant.mujocoData()->qvel[0] = std::numeric_limits<double>::quiet_NaN();
+    try {
+      plant.step();
+      FAIL() << "divergence not reported (round " << round << ")";
+    } catch (const SimError& e) {
+      EXPECT_NE(std::string(e.what()).find("diverged"), std::string::npos) << e.what();
+    }
+    for (int k = 0; k < 10; ++k) plant.step();
+  }
+  plant.reset();
+  for (int k = 0; k < 100; ++k) plant.step();
+  EXPECT_EQ(plant.warningCount(), 0);
+  EXPECT_TRUE(plant.groundTruth().base_position.allFinite());
 }
 
 std::string writeTemp(const std::string& name, const std::string& text) {

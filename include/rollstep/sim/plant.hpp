@@ -122,12 +122,17 @@ class Plant {
   /// Back to time 0, at rest in the nominal posture (keyframe "nominal" of the MJCF),
   /// base at (x, y) facing `yaw` [rad], wheels touching flat ground at z = 0 (or
   /// `lift` [m] above it), commands = nominal.
+  /// Throws std::invalid_argument if an argument is not finite.
   void reset(double x = 0.0, double y = 0.0, double yaw = 0.0, double lift = 0.0);
 
+  /// Throws std::invalid_argument, naming the entry and keeping the previous command, if
+  /// a target is NaN or infinite (MuJoCo would silently zero every control).
   void setCommand(const PlantCommand& command);
   const PlantCommand& command() const { return command_; }
 
-  /// Advances one control period, then updates sensors() and groundTruth().
+  /// Advances one control period, then updates sensors() and groundTruth(). Throws
+  /// SimError if the simulation diverges (MuJoCo then resets the state; reset() before
+  /// stepping again).
   void step();
 
   double time() const;
