@@ -21,9 +21,10 @@ struct EulerData final : DynamicsData {
 };
 
 struct Rk4Data final : DynamicsData {
-  Rk4Data(std::unique_ptr<DynamicsData> c, int n, int nu)
-      : cont(std::move(c)), xs(VectorXd::Zero(n)) {
+  Rk4Data(const ContinuousDynamics& f, int n, int nu) {
     for (int i = 0; i < 4; ++i) {
+      cont[i] = f.createData();
+      xs[i] = VectorXd::Zero(n);
       k[i] = VectorXd::Zero(n);
       kx[i] = MatrixXd::Zero(n, n);
       ku[i] = MatrixXd::Zero(n, nu);
@@ -32,8 +33,10 @@ struct Rk4Data final : DynamicsData {
     fu = MatrixXd::Zero(n, nu);
     tx = MatrixXd::Zero(n, n);
   }
-  std::unique_ptr<DynamicsData> cont;
-  VectorXd xs;            // stage point
+  // One continuous workspace per stage, so that calcDiff differentiates the stages calc
+  // evaluated instead of evaluating them again.
+  std::unique_ptr<DynamicsData> cont[4];
+  VectorXd xs[4];         // stage points
   VectorXd k[4];          // stage slopes
   MatrixXd kx[4], ku[4];  // stage slope Jacobians
   MatrixXd fx, fu, tx;    // scratch
@@ -88,7 +91,7 @@ RungeKutta4::RungeKutta4(std::shared_ptr<const ContinuousDynamics> f)
 }
 
 std::unique_ptr<DynamicsData> RungeKutta4::createData() const {
-  return std::make_unique<Rk4Data>(f_->createData(), space().ndx(), nu());
+  return std::make_unique<Rk4Data>(*f_, space().ndx(), nu());
 }
 
 void RungeKutta4::calc(const NodeContext& ctx, ConstVecRef x, ConstVecRef u, DynamicsData& d,
@@ -98,33 +101,28 @@ void RungeKutta4::calc(const NodeContext& ctx, ConstVecRef x, ConstVecRef u, Dyn
   static constexpr double c[4] = {0.0, 0.5, 0.5, 1.0};
   for (int i = 0; i < 4; ++i) {
     if (i == 0) {
-      r.xs = x;
+      r.xs[i] = x;
     } else {
-      r.xs = x + (c[i] * h) * r.k[i - 1];
+      r.xs[i] = x + (c[i] * h) * r.k[i - 1];
     }
     NodeContext sctx = ctx;
     sctx.time = ctx.time + c[i] * h;
-    f_->calc(sctx, r.xs, u, *r.cont, r.k[i]);
+    f_->calc(sctx, r.xs[i], u, *r.cont[i], r.k[i]);
   }
   xnext = x + (h / 6.0) * (r.k[0] + 2.0 * r.k[1] + 2.0 * r.k[2] + r.k[3]);
 }
 
-void RungeKutta4::calcDiff(const NodeContext& ctx, ConstVecRef x, ConstVecRef u, DynamicsData& d,
-                           MatRef Fx, MatRef Fu) const {
+void RungeKutta4::calcDiff(const NodeContext& ctx, ConstVecRef /*x*/, ConstVecRef u,
+                           DynamicsData& d, MatRef Fx, MatRef Fu) const {
   auto& r = static_cast<Rk4Data&>(d);
   const double h = ctx.dt;
   static constexpr double c[4] = {0.0, 0.5, 0.5, 1.0};
   // Stage i: k_i = f(x + c_i h k_{i-1}, u); dk_i = f_x (I dx + c_i h dk_{i-1}) + f_u du.
+  // The stage points and workspaces are those of the calc just before (the contract).
   for (int i = 0; i < 4; ++i) {
-    if (i == 0) {
-      r.xs = x;
-    } else {
-      r.xs = x + (c[i] * h) * r.k[i - 1];
-    }
     NodeContext sctx = ctx;
     sctx.time = ctx.time + c[i] * h;
-    f_->calc(sctx, r.xs, u, *r.cont, r.k[i]);
-    f_->calcDiff(sctx, r.xs, u, *r.cont, r.fx, r.fu);
+    f_->calcDiff(sctx, r.xs[i], u, *r.cont[i], r.fx, r.fu);
     if (i == 0) {
       r.kx[0] = r.fx;
       r.ku[0] = r.fu;
