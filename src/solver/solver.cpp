@@ -166,7 +166,8 @@ struct Solver::Impl {
   bool has_solution = false;
   bool direction_ready = false;  // the Riccati workspace holds a valid factorisation
   bool backup_valid = false;     // xs_bak, ... hold the iterate before the last step
-  double solution_t0 = 0.0;
+  double solution_t0 = 0.0;      // start of the node grid of the stored solution
+  int last_shift = 0;            // nodes the last update() shifted the solution by
   int failed_node = -1;
   char message[256] = "";
 
@@ -1345,6 +1346,7 @@ void Solver::setInitialGuess(const std::vector<VectorXd>& xs, const std::vector<
 SolverStatus Solver::solve(ConstVecRef x0) {
   Impl& m = *impl_;
   m.solution_t0 = m.prob->initialTime();
+  m.last_shift = 0;
   return m.run(x0, m.set.mode == SolverMode::RealTime);
 }
 
@@ -1355,15 +1357,23 @@ SolverStatus Solver::update(double t0, ConstVecRef x0) {
     std::snprintf(m.message, sizeof(m.message), "non-finite time");
     return m.status = SolverStatus::InvalidInput;
   }
+  // The stored solution lives on the node grid that starts at solution_t0; it moves by
+  // whole nodes only, so that updates faster than dt add up to a shift when they cover
+  // one (the problem itself starts at t0, less than one node later).
   const double dt = m.prob->dt();
-  if (m.has_solution) {
-    const int shift = static_cast<int>(std::floor((t0 - m.solution_t0) / dt + 1e-6));
+  m.last_shift = 0;
+  const double nodes_moved = (t0 - m.solution_t0) / dt;
+  if (!m.has_solution || !(nodes_moved > -1e-6) || nodes_moved >= 1e9) {
+    m.solution_t0 = t0;  // nothing to shift, time went backwards, or a jump of ages
+  } else {
+    const int shift = static_cast<int>(std::floor(nodes_moved + 1e-6));
     if (shift > 0) {
       m.shiftNodes(std::min(shift, m.N));
+      m.last_shift = shift;
+      m.solution_t0 += shift * dt;
     }
   }
   m.prob->setInitialTime(t0);
-  m.solution_t0 = t0;
   return m.run(x0, true);
 }
 
@@ -1397,6 +1407,7 @@ const ocp::NodeData& Solver::nodeData(int k) const {
 }
 const std::vector<IterationStats>& Solver::stats() const { return impl_->stats; }
 int Solver::iterations() const { return impl_->iterations; }
+int Solver::lastShift() const { return impl_->last_shift; }
 SolverStatus Solver::status() const { return impl_->status; }
 double Solver::cost() const { return impl_->cost; }
 double Solver::barrier() const { return impl_->mu; }

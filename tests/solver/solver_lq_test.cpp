@@ -461,6 +461,40 @@ TEST(SolverRealTime, IterationsConvergeAndShiftWarmStarts) {
   EXPECT_TRUE(s.feedbackGain(0).allFinite());
 }
 
+TEST(SolverRealTime, UpdatesFasterThanTheNodeStepAddUpToShifts) {
+  auto set = tight();
+  set.mode = solver::SolverMode::RealTime;
+  auto p = pendulumProblem(30);
+  const double dt = p->dt();
+  Solver s(p, set);
+  VectorXd x = (VectorXd(2) << 0.5, 0.0).finished();
+  ASSERT_EQ(s.update(0.0, x), SolverStatus::IterationDone);
+  EXPECT_EQ(s.lastShift(), 0);
+  // An MPC updating every 0.4 dt: the solution must have moved floor(t / dt) nodes in
+  // total at every update, not 0 (each update less than a node after the previous one).
+  int total = 0;
+  for (int i = 1; i <= 20; ++i) {
+    const double t = i * 0.4 * dt;
+    x = s.states()[1];
+    ASSERT_EQ(s.update(t, x), SolverStatus::IterationDone) << s.message();
+    EXPECT_GE(s.lastShift(), 0);
+    EXPECT_LE(s.lastShift(), 1);
+    total += s.lastShift();
+    EXPECT_EQ(total, static_cast<int>(std::floor(i * 0.4 + 1e-9))) << "update " << i;
+  }
+  // Time going backwards restarts the grid there without a shift; a whole node later
+  // shifts by one again. solve() never shifts.
+  const double t_back = 3.0 * dt;
+  ASSERT_EQ(s.update(t_back, x), SolverStatus::IterationDone);
+  EXPECT_EQ(s.lastShift(), 0);
+  ASSERT_EQ(s.update(t_back + dt, x), SolverStatus::IterationDone);
+  EXPECT_EQ(s.lastShift(), 1);
+  ASSERT_EQ(s.update(t_back + 3.5 * dt, x), SolverStatus::IterationDone);
+  EXPECT_EQ(s.lastShift(), 2);
+  s.solve(x);
+  EXPECT_EQ(s.lastShift(), 0);
+}
+
 /// Input upper bound that exists only in mode 1: r = 2 - u(0) >= 0 (one row), none otherwise.
 class ModeBound final : public ocp::Residual {
  public:

@@ -142,10 +142,13 @@ class Solver {
   /// iteration (mode RealTime). Never allocates.
   SolverStatus solve(ConstVecRef x0);
   /// Real-time update: sets the problem's initial time to t0, shifts the previous
-  /// solution by the number of whole nodes t0 moved since the last solve/update (the last
+  /// solution by the whole nodes t0 moved along the node grid of the last solve (the last
   /// state and input are repeated; slacks and duals of the new tail nodes are
   /// reinitialised), then runs one Newton iteration from x0 with the fixed barrier
-  /// barrier_realtime, whatever settings().mode is. Never allocates.
+  /// barrier_realtime, whatever settings().mode is. Updates faster than dt add up: the
+  /// grid moves by whole nodes only, so after any sequence of updates the solution has
+  /// been shifted floor((t0 - t_solve) / dt) nodes in total. A t0 earlier than the grid
+  /// start restarts the grid at t0 without a shift. Never allocates.
   SolverStatus update(double t0, ConstVecRef x0);
 
   const std::vector<VectorXd>& states() const;  ///< x_0..x_N
@@ -172,6 +175,8 @@ class Solver {
   const ocp::NodeData& nodeData(int k) const;
   const std::vector<IterationStats>& stats() const;  ///< of the last solve/update
   int iterations() const;
+  /// Nodes the last update() shifted the previous solution by (0 after solve()).
+  int lastShift() const;
   SolverStatus status() const;
   double cost() const;
   double barrier() const;  ///< barrier parameter of the last iteration
