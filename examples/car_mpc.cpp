@@ -26,7 +26,6 @@ namespace {
 
 using rollstep::ocp::ConstVecRef;
 using rollstep::ocp::MatRef;
-using rollstep::ocp::MatrixXd;
 using rollstep::ocp::VecRef;
 using rollstep::ocp::VectorXd;
 namespace ocp = rollstep::ocp;
