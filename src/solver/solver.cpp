@@ -135,8 +135,34 @@ struct Solver::Impl {
   // in the pipeline run number ready[k]; claim counters of the nodes still to do.
   std::unique_ptr<std::atomic<std::uint64_t>[]> ready;
   std::uint64_t pipeline_run = 0;
-  std::atomic<int> next_node{0};
   std::atomic<int> forward_done{0};
+  // Per thread t, the next unclaimed node of its chunk of the linearisation partition
+  // (ThreadPool::run's static split of 0..N): a thread condenses and recovers the nodes it
+  // linearised first (their data is in its cache), then helps with the others.
+  std::unique_ptr<std::atomic<int>[]> chunk_next;
+  int chunkBegin(int t) const { return pool.chunkBegin(N + 1, t); }
+  /// Claims the next node of chunk t (downwards or upwards), or returns -1.
+  int claimInChunk(int t, bool downwards) {
+    auto& next = chunk_next[static_cast<std::size_t>(t)];
+    const int lo = chunkBegin(t), hi = chunkBegin(t + 1);  // [lo, hi)
+    if (downwards ? next.load(std::memory_order_relaxed) < lo
+                  : next.load(std::memory_order_relaxed) >= hi) {
+      return -1;
+    }
+    const int j = downwards ? next.fetch_sub(1, std::memory_order_relaxed)
+                            : next.fetch_add(1, std::memory_order_relaxed);
+    return (j >= lo && j < hi) ? j : -1;
+  }
+  /// Own chunk first, then the others in the order the sweep needs them.
+  int claimNode(int id, bool downwards) {
+    int j = claimInChunk(id, downwards);
+    const int T = pool.size();
+    for (int i = 0; j < 0 && i < T; ++i) {
+      const int t = downwards ? T - 1 - i : i;
+      if (t != id) j = claimInChunk(t, downwards);
+    }
+    return j;
+  }
   std::vector<Node> nodes;
   std::vector<BoundRow> bound_rows;  // decoded layout of rows ni_max.. (fixed at construction)
   std::vector<VectorXd> xs, us, xs_bak, us_bak, xs_trial, us_trial;
@@ -187,7 +213,8 @@ struct Solver::Impl {
         euclid(prob->stateSpace().isEuclidean()),
         lq(N, ndx, nu, ne_max),
         pool(s.num_threads, std::chrono::microseconds(s.thread_spin_us)),
-        ready(new std::atomic<std::uint64_t>[static_cast<std::size_t>(N) + 1]) {
+        ready(new std::atomic<std::uint64_t>[static_cast<std::size_t>(N) + 1]),
+        chunk_next(new std::atomic<int>[static_cast<std::size_t>(pool.size())]) {
     for (int k = 0; k <= N; ++k) ready[static_cast<std::size_t>(k)].store(0);
     nodes.resize(static_cast<std::size_t>(N) + 1);
     for (int i = ni_max; i < nrows; ++i) {
@@ -601,9 +628,10 @@ struct Solver::Impl {
   enum class Factorization { Ok, RankDeficient, NotPositiveDefinite };
   /// Condensing + projection of every node and the backward Riccati sweep. With one
   /// thread, node k is condensed right before its backward step (its data still in
-  /// cache). With more, a pipeline: every thread claims nodes N, N-1, ... 0 in turn and
-  /// condenses them, while thread 0 runs the backward sweep as soon as its next node is
-  /// ready (condensing a node itself when it would otherwise wait). Each node is
+  /// cache). With more, a pipeline: every thread condenses the nodes it linearised (its
+  /// chunk, from the top down), then helps with the highest chunks left, while thread 0
+  /// runs the backward sweep as soon as its next node is ready (condensing a node itself
+  /// when it would otherwise wait). Each node is
   /// condensed by the same arithmetic whichever thread takes it, and the sweep runs in
   /// one order, so the results do not depend on the thread count. On a rank failure,
   /// failed_node is the first such node.
@@ -623,9 +651,12 @@ struct Solver::Impl {
       }
     } else {
       const std::uint64_t run = ++pipeline_run;
-      next_node.store(N, std::memory_order_relaxed);
-      const auto condenseNext = [this, run] {
-        const int j = next_node.fetch_sub(1, std::memory_order_relaxed);
+      for (int t = 0; t < pool.size(); ++t) {
+        chunk_next[static_cast<std::size_t>(t)].store(chunkBegin(t + 1) - 1,
+                                                      std::memory_order_relaxed);
+      }
+      const auto condenseNext = [this, run](int id) {
+        const int j = claimNode(id, true);
         if (j < 0) return false;
         condenseNode(j);
         ready[static_cast<std::size_t>(j)].store(run, std::memory_order_release);
@@ -634,12 +665,12 @@ struct Solver::Impl {
       const auto waitFor = [this, run, &condenseNext](int k) {
         for (int i = 1; ready[static_cast<std::size_t>(k)].load(std::memory_order_acquire) != run;
              ++i) {
-          if (!condenseNext()) detail::ThreadPool::pause(i);
+          if (!condenseNext(0)) detail::ThreadPool::pause(i);
         }
       };
       auto body = [&](int id, int) {
         if (id > 0) {
-          while (condenseNext()) {
+          while (condenseNext(id)) {
           }
           return;
         }
@@ -660,7 +691,8 @@ struct Solver::Impl {
   }
   /// Forward Riccati sweep and the step recovery of every node: fused per node with one
   /// thread; with more, thread 0 runs the forward sweep while the others recover the
-  /// nodes 0, 1, ... as soon as their forward stage is done (then thread 0 helps).
+  /// nodes of their own chunk as soon as their forward stage is done, then help with the
+  /// lowest chunks left (thread 0 joins after the sweep, its own chunk first).
   void forwardAndRecover() {
     if (pool.size() == 1) {
       lq.beginForward(dx0);
@@ -671,12 +703,14 @@ struct Solver::Impl {
       recoverNode(N);
       return;
     }
-    next_node.store(0, std::memory_order_relaxed);
+    for (int t = 0; t < pool.size(); ++t) {
+      chunk_next[static_cast<std::size_t>(t)].store(chunkBegin(t), std::memory_order_relaxed);
+    }
     forward_done.store(0, std::memory_order_relaxed);
     // recoverNode(j) needs forwardStage(j) (j < N), or the whole sweep (j = N).
-    const auto recoverClaimed = [this] {
-      const int j = next_node.fetch_add(1, std::memory_order_relaxed);
-      if (j > N) return false;
+    const auto recoverClaimed = [this](int id) {
+      const int j = claimNode(id, false);
+      if (j < 0) return false;
       const int needed = std::min(j + 1, N);
       for (int i = 1; forward_done.load(std::memory_order_acquire) < needed; ++i) {
         detail::ThreadPool::pause(i);
@@ -692,7 +726,7 @@ struct Solver::Impl {
           forward_done.store(k + 1, std::memory_order_release);
         }
       }
-      while (recoverClaimed()) {
+      while (recoverClaimed(id)) {
       }
     };
     pool.run(pool.size(), body);

@@ -59,6 +59,11 @@ class ThreadPool {
     if (i % kYieldEvery == 0) std::this_thread::yield();
   }
 
+  /// First index of chunk id (0..size()) of the static partition of [0, n) that run uses.
+  int chunkBegin(int n, int id) const {
+    return static_cast<int>(static_cast<long>(n) * id / threads_);
+  }
+
   /// Calls f(begin, end) on the static partition of [0, n) into size() contiguous chunks;
   /// chunk 0 runs on the calling thread. Returns when all chunks are done. One caller at
   /// a time.
@@ -80,7 +85,7 @@ class ThreadPool {
       { std::lock_guard<std::mutex> lock(mutex_); }
       wake_.notify_all();
     }
-    f(0, n / threads_);
+    f(0, chunkBegin(n, 1));
     for (int i = 1; pending_.load(std::memory_order_acquire) != 0; ++i) pause(i);
   }
 
@@ -115,8 +120,7 @@ class ThreadPool {
       seen = waitForJob(seen);
       if (stop_.load()) return;
       const int n = n_;
-      fn_(ctx_, static_cast<int>(static_cast<long>(n) * id / threads_),
-          static_cast<int>(static_cast<long>(n) * (id + 1) / threads_));
+      fn_(ctx_, chunkBegin(n, id), chunkBegin(n, id + 1));
       pending_.fetch_sub(1, std::memory_order_release);
     }
   }
