@@ -52,6 +52,8 @@ enum class SolverMode {
   RealTime,    ///< fixed barrier, one Newton iteration per update() (real-time iteration)
 };
 
+/// Every field has its default here; config/solver.yaml lists them all, and
+/// loadSolverSettings (settings_yaml.hpp) reads them from YAML.
 struct SolverSettings {
   SolverMode mode = SolverMode::Converging;
   int max_iterations = 100;        ///< converging mode
