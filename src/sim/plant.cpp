@@ -201,18 +201,16 @@ void Plant::reset(double x, double y, double yaw, double lift) {
 
 void Plant::setCommand(const PlantCommand& command) {
   // MuJoCo would zero every control on a NaN and carry on: refuse it here instead.
-  for (std::size_t j = 0; j < kNumJoints; ++j) {
-    if (!std::isfinite(command.joint_position[static_cast<Eigen::Index>(j)])) {
-      throw std::invalid_argument("Plant::setCommand: non-finite joint position target " +
-                                  std::to_string(j) + " (the command is unchanged)");
+  const auto requireFinite = [](const auto& targets, const char* what) {
+    for (Eigen::Index i = 0; i < targets.size(); ++i) {
+      if (!std::isfinite(targets[i])) {
+        throw std::invalid_argument(std::string("Plant::setCommand: non-finite ") + what +
+                                    " target " + std::to_string(i) + " (the command is unchanged)");
+      }
     }
-  }
-  for (std::size_t w = 0; w < kNumDriveWheels; ++w) {
-    if (!std::isfinite(command.wheel_velocity[static_cast<Eigen::Index>(w)])) {
-      throw std::invalid_argument("Plant::setCommand: non-finite wheel velocity target " +
-                                  std::to_string(w) + " (the command is unchanged)");
-    }
-  }
+  };
+  requireFinite(command.joint_position, "joint position");
+  requireFinite(command.wheel_velocity, "wheel velocity");
   command_ = command;
   for (std::size_t j = 0; j < kNumJoints; ++j) {
     data_->ctrl[joint_ctrl_[j]] = command.joint_position[static_cast<Eigen::Index>(j)];
