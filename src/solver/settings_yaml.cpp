@@ -6,11 +6,13 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <fstream>
-#include <sstream>
+#include <optional>
 #include <stdexcept>
 #include <type_traits>
 #include <variant>
+#include <vector>
+
+#include "rollstep/common/text_file.hpp"
 
 namespace rollstep::solver {
 namespace {
@@ -64,6 +66,29 @@ std::string numberText(double v) {
   return buf;
 }
 
+/// Sanity ranges of the integer fields, beyond checkSettings's lower bounds: a typo such as
+/// num_threads: 20000 must not reach the solver (it would start 20000 threads).
+struct IntRange {
+  const char* key;
+  int min;
+  int max;
+};
+constexpr std::array<IntRange, 4> kIntRanges{{
+    {"max_iterations", 1, 1000000},
+    {"max_line_search_steps", 1, 1000},
+    {"num_threads", 1, 256},
+    {"thread_spin_us", 0, 1000000},
+}};
+
+std::optional<IntRange> intRange(const std::string& key) {
+  for (const IntRange& r : kIntRanges) {
+    if (key == r.key) return r;
+  }
+  return std::nullopt;
+}
+
+bool isKeyChar(char c) { return (c >= 'a' && c <= 'z') || c == '_'; }
+
 std::string knownKeys() {
   std::string keys;
   for (std::size_t i = 0; i < kNumFields; ++i)
@@ -78,34 +103,44 @@ SolverSettings parseSolverSettings(const std::string& yaml_text, const std::stri
     throw std::runtime_error("solver settings " + source_name + ": " + what);
   };
   SolverSettings settings;
-  YAML::Node root;
+  std::vector<YAML::Node> documents;
   try {
-    root = YAML::Load(yaml_text);
+    documents = YAML::LoadAll(yaml_text);
   } catch (const YAML::Exception& e) {
     fail(std::string("YAML error: ") + e.what());
   }
-  if (root.IsNull()) return settings;
+  // yaml-cpp's Load would read the first document and ignore the rest silently.
+  if (documents.size() > 1) {
+    fail("holds " + std::to_string(documents.size()) +
+         " YAML documents (separated by '---'); expected one mapping of key: value");
+  }
+  if (documents.empty() || documents[0].IsNull()) return settings;
+  const YAML::Node& root = documents[0];
   if (!root.IsMap()) fail("expected a mapping of key: value");
   std::array<bool, kNumFields> seen{};
+  std::array<std::string, kNumFields> given;  // the text of each value read, for messages
   for (const auto& item : root) {
-    const std::string key = item.first.as<std::string>();
+    if (!item.first.IsScalar()) fail("a key is not a plain name (known: " + knownKeys() + ")");
+    const std::string key = item.first.Scalar();
     const YAML::Node& value = item.second;
     const Entry* entry = nullptr;
     for (std::size_t i = 0; i < kNumFields && !entry; ++i) {
       if (key == kFields[i].key) entry = &kFields[i];
     }
     if (!entry) fail("unknown key '" + key + "' (known: " + knownKeys() + ")");
+    const std::size_t index = static_cast<std::size_t>(entry - kFields.data());
     // YAML forbids a repeated key, but yaml-cpp keeps both; the last would win silently.
-    bool& was_seen = seen[static_cast<std::size_t>(entry - kFields.data())];
-    if (was_seen) fail("key '" + key + "' given twice");
-    was_seen = true;
+    if (seen[index]) fail("key '" + key + "' given twice");
+    seen[index] = true;
+    if (value.IsNull()) fail("bad value for '" + key + "': no value given");
     if (!value.IsScalar()) fail("bad value for '" + key + "': expected a single value");
+    given[index] = value.Scalar();
     try {
       std::visit(
           [&](auto member) {
             using T = std::decay_t<decltype(settings.*member)>;
             if constexpr (std::is_same_v<T, SolverMode>) {
-              settings.*member = modeFromString(value.as<std::string>());
+              settings.*member = modeFromString(value.Scalar());
             } else {
               settings.*member = value.as<T>();
             }
@@ -119,21 +154,43 @@ SolverSettings parseSolverSettings(const std::string& yaml_text, const std::stri
     } catch (const std::invalid_argument& e) {
       fail("bad value for '" + key + "': " + e.what());
     }
+    if (const auto range = intRange(key)) {
+      const int v = settings.*std::get<int SolverSettings::*>(entry->field);
+      if (v < range->min || v > range->max) {
+        fail("bad value for '" + key + "': " + std::to_string(v) + " is outside [" +
+             std::to_string(range->min) + ", " + std::to_string(range->max) + "]");
+      }
+    }
   }
   try {
     checkSettings(settings);
   } catch (const std::invalid_argument& e) {
-    fail(e.what());
+    // checkSettings names the keys and the valid range; add the values the file gave them.
+    const std::string message = e.what();
+    std::string values;
+    for (std::size_t i = 0; i < kNumFields; ++i) {
+      const std::string key = kFields[i].key;
+      for (std::size_t at = message.find(key); at != std::string::npos;
+           at = message.find(key, at + 1)) {
+        const std::size_t end = at + key.size();
+        if ((at > 0 && isKeyChar(message[at - 1])) ||
+            (end < message.size() && isKeyChar(message[end]))) {
+          continue;  // part of a longer word
+        }
+        values += (values.empty() ? " (" : ", ") + key + ": " +
+                  (seen[i] ? "'" + given[i] + "' in the file" : "default");
+        break;
+      }
+    }
+    fail(message + (values.empty() ? "" : values + ")"));
   }
   return settings;
 }
 
 SolverSettings loadSolverSettings(const std::string& yaml_file) {
-  std::ifstream in(yaml_file);
-  if (!in) throw std::runtime_error("solver settings " + yaml_file + ": cannot open file");
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  return parseSolverSettings(buffer.str(), yaml_file);
+  // Refuses a directory, a FIFO or device (which would block), a missing or huge file.
+  const std::string text = readTextFile(yaml_file, "solver settings", std::size_t{1} << 20);
+  return parseSolverSettings(text, yaml_file);
 }
 
 std::string toYaml(const SolverSettings& settings) {

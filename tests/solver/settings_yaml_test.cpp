@@ -2,8 +2,12 @@
 #include "rollstep/solver/settings_yaml.hpp"
 
 #include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include <cmath>
+#include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <sstream>
@@ -114,6 +118,127 @@ TEST(SolverSettingsYaml, BadInputIsAnErrorNamingTheKey) {
   EXPECT_TRUE(has(errorOf("- 1\n- 2\n"), "mapping"));
   EXPECT_TRUE(has(errorOf("a: [1, 2\n"), "YAML error"));
   EXPECT_THROW(loadSolverSettings("/nonexistent/solver.yaml"), std::runtime_error);
+}
+
+bool has(const std::string& error, const std::string& part) {
+  return error.find(part) != std::string::npos;
+}
+
+// Failure classes of issue 16, from the classes rather than single examples.
+
+TEST(SolverSettingsYaml, NonFiniteValuesAreRefusedUnlessInfMeansNever) {
+  // Every floating-point key, with NaN and both infinities: an error naming the key, unless
+  // the documented meaning of .inf is "never" (divergence_threshold, infeasibility_tolerance).
+  const std::string keys[] = {
+      "kkt_tolerance",    "barrier_initial",      "barrier_min",
+      "barrier_decrease", "barrier_realtime",     "fraction_to_boundary",
+      "rank_tolerance",   "divergence_threshold", "infeasibility_tolerance"};
+  for (const std::string& key : keys) {
+    for (const std::string value : {".nan", ".NaN", "-.inf", ".inf"}) {
+      const bool allowed =
+          value == ".inf" && (key == "divergence_threshold" || key == "infeasibility_tolerance");
+      const std::string e = errorOf(key + ": " + value + "\n");
+      if (allowed) {
+        EXPECT_EQ(e, "") << key << ": " << value;
+      } else {
+        EXPECT_TRUE(has(e, "test.yaml") && has(e, key) && has(e, "'" + value + "' in the file"))
+            << key << ": " << value << " -> " << e;
+      }
+    }
+  }
+  // barrier_min above the default barrier_initial: both keys named, the one not in the
+  // file as its default.
+  const std::string e = errorOf("barrier_min: 0.5\n");
+  EXPECT_TRUE(has(e, "barrier_min: '0.5' in the file") && has(e, "barrier_initial: default")) << e;
+}
+
+TEST(SolverSettingsYaml, AbsurdIntegersAreRefusedWithTheRange) {
+  struct Case {
+    const char* text;
+    const char* needle;
+  };
+  const Case cases[] = {
+      {"num_threads: 20000\n", "'num_threads': 20000 is outside [1, 256]"},
+      {"num_threads: 0\n", "'num_threads': 0 is outside [1, 256]"},
+      {"max_iterations: -3\n", "'max_iterations': -3 is outside [1, 1000000]"},
+      {"max_line_search_steps: 5000\n", "'max_line_search_steps': 5000 is outside [1, 1000]"},
+      {"thread_spin_us: -1\n", "'thread_spin_us': -1 is outside [0, 1000000]"},
+      {"thread_spin_us: 99999999999\n", "'thread_spin_us': '99999999999' is not an integer"},
+      {"max_iterations: .inf\n", "'max_iterations': '.inf' is not an integer"},
+      {"max_iterations: 1e3\n", "'max_iterations': '1e3' is not an integer"},
+  };
+  for (const Case& c : cases) {
+    const std::string e = errorOf(c.text);
+    EXPECT_TRUE(has(e, "test.yaml") && has(e, c.needle)) << c.text << " -> " << e;
+  }
+  EXPECT_EQ(parseSolverSettings("num_threads: 256\nthread_spin_us: 0\n").num_threads, 256);
+}
+
+TEST(SolverSettingsYaml, StructuralErrorsNameTheFile) {
+  // A second document is not ignored.
+  std::string e = errorOf("num_threads: 2\n---\nnum_threads: 3\n");
+  EXPECT_TRUE(has(e, "test.yaml") && has(e, "2 YAML documents")) << e;
+  e = errorOf("---\n---\n");
+  EXPECT_TRUE(has(e, "2 YAML documents")) << e;
+  // One document with an explicit start marker is fine.
+  EXPECT_EQ(parseSolverSettings("---\nnum_threads: 2\n...\n").num_threads, 2);
+  // Keys that are not plain names (a sequence, a mapping, null) are errors, not a
+  // "bad conversion" from yaml-cpp without the file.
+  for (const std::string text : {"? [a, b]\n: 1\n", "? {a: 1}\n: 2\n", "~: 1\n"}) {
+    e = errorOf(text);
+    EXPECT_TRUE(has(e, "test.yaml") && has(e, "not a plain name")) << text << " -> " << e;
+  }
+  e = errorOf("max_iterations:\n");
+  EXPECT_TRUE(has(e, "'max_iterations'") && has(e, "no value")) << e;
+  e = errorOf("mode: {a: 1}\n");
+  EXPECT_TRUE(has(e, "'mode'") && has(e, "single value")) << e;
+  // Deep nesting is an error, not a stack overflow.
+  e = errorOf("mode: " + std::string(100000, '[') + "\n");
+  EXPECT_TRUE(has(e, "test.yaml")) << e.substr(0, 200);
+  // Anchors and aliases resolve to the scalar they name.
+  EXPECT_EQ(parseSolverSettings("max_iterations: &n 7\nmax_line_search_steps: *n\n")
+                .max_line_search_steps,
+            7);
+  // Every error is a std::runtime_error whose message starts with "solver settings <file>".
+  for (const std::string text : {"a: 1\n", "mode: 3\n", "[\n", "\"x\n", "num_threads: 1\n---\n"}) {
+    e = errorOf(text);
+    EXPECT_EQ(e.rfind("solver settings test.yaml: ", 0), 0u) << text << " -> " << e;
+  }
+}
+
+TEST(SolverSettingsYaml, LoadRefusesWhatIsNotARegularFile) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("rollstep_settings_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const auto loadError = [](const std::string& path) {
+    try {
+      loadSolverSettings(path);
+    } catch (const std::runtime_error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  // A directory used to give the defaults.
+  std::string e = loadError(dir.string());
+  EXPECT_TRUE(has(e, "solver settings '" + dir.string() + "'") && has(e, "directory")) << e;
+  // A FIFO is refused at once instead of blocking until a writer appears.
+  const std::string fifo = (dir / "fifo.yaml").string();
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  e = loadError(fifo);
+  EXPECT_TRUE(has(e, "FIFO")) << e;
+  e = loadError("/dev/zero");  // a device would be read forever
+  EXPECT_TRUE(has(e, "character device")) << e;
+  e = loadError((dir / "missing.yaml").string());
+  EXPECT_TRUE(has(e, "missing.yaml") && has(e, "No such file")) << e;
+  // Errors in a file name the file.
+  const std::string bad = (dir / "bad.yaml").string();
+  {
+    std::ofstream out(bad);
+    out << "num_threads: 2\nnum_threads: 3\n";
+  }
+  e = loadError(bad);
+  EXPECT_TRUE(has(e, "solver settings " + bad + ": key 'num_threads' given twice")) << e;
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

@@ -11,12 +11,17 @@ namespace rollstep::solver {
 /// Reads settings from YAML text: a mapping of field name to value, any subset; a missing
 /// key keeps its default, an empty document gives the defaults. mode is "converging" or
 /// "realtime". Unknown keys, values of the wrong type (2.5 for an integer, "yes please"
-/// for a flag) and values that checkSettings rejects are errors: std::runtime_error
-/// naming source_name and the key. So is a key given twice.
+/// for a flag), integers outside a sanity range (max_iterations [1, 1e6],
+/// max_line_search_steps [1, 1000], num_threads [1, 256], thread_spin_us [0, 1e6]) and
+/// values that checkSettings rejects are errors: std::runtime_error naming source_name, the
+/// key, the value given and the valid range. So are a key given twice, a key that is not a
+/// plain name and a second YAML document ('---').
 SolverSettings parseSolverSettings(const std::string& yaml_text,
                                    const std::string& source_name = "<text>");
 
-/// parseSolverSettings on the contents of a file (a missing file is an error too).
+/// parseSolverSettings on the contents of a file. A missing file, a directory, anything
+/// that is not a regular file (a FIFO is refused, not waited on) and a file above 1 MiB are
+/// errors too (rollstep::InputError, a std::runtime_error, from readTextFile).
 SolverSettings loadSolverSettings(const std::string& yaml_file);
 
 /// Every field, one "key: value" line each, in the order of the struct; doubles are
