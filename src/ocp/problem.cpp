@@ -177,6 +177,7 @@ std::unique_ptr<NodeData> OptimalControlProblem::createNodeData() const {
   d->Gx = MatrixXd::Zero(max_ineq_, n);
   d->Gu = MatrixXd::Zero(max_ineq_, m);
   d->soft = Eigen::Matrix<bool, Eigen::Dynamic, 1>::Constant(max_ineq_, false);
+  d->state_only = Eigen::Matrix<bool, Eigen::Dynamic, 1>::Constant(max_ineq_, false);
   d->relaxation = VectorXd::Zero(max_ineq_);
   d->soft_weight = VectorXd::Zero(max_ineq_);
   d->zero_input = VectorXd::Zero(m);
@@ -189,19 +190,41 @@ std::unique_ptr<NodeData> OptimalControlProblem::createNodeData() const {
 }
 
 void OptimalControlProblem::evaluate(int k, ConstVecRef x, ConstVecRef u, NodeData& d) const {
-  run(k, x, u, d, false);
+  run(k, x, u, d, Pass::Values);
 }
 
 void OptimalControlProblem::linearize(int k, ConstVecRef x, ConstVecRef u, NodeData& d) const {
-  run(k, x, u, d, true);
+  run(k, x, u, d, Pass::Derivatives);
+}
+
+void OptimalControlProblem::linearizeCurvatureTerms(int k, ConstVecRef x, ConstVecRef u,
+                                                    NodeData& d) const {
+  run(k, x, u, d, Pass::Curvature);
+}
+
+bool OptimalControlProblem::hasCurvature() const {
+  if (!stateSpace().isEuclidean() || !dynamics_->isLinear()) return true;
+  for (const auto& c : costs_) {
+    if (!c.term->hessianIsExact()) return true;
+  }
+  for (const auto& e : equalities_) {
+    if (!e->isLinear()) return true;
+  }
+  for (const auto& g : inequalities_) {
+    if (!g.residual->isLinear()) return true;
+  }
+  return false;
 }
 
 void OptimalControlProblem::run(int k, ConstVecRef x, ConstVecRef u_in, NodeData& d,
-                                bool derivatives) const {
+                                Pass pass) const {
   NodeContext ctx = context(k);
   ctx.cache = d.cache.get();
   d.context = ctx;
   const bool terminal = ctx.terminal;
+  const bool derivatives = pass != Pass::Values;
+  // Curvature pass: terms whose derivatives are constant are skipped (zero contribution).
+  const bool curvature = pass == Pass::Curvature;
   const Eigen::Ref<const VectorXd> u = terminal ? Eigen::Ref<const VectorXd>(d.zero_input) : u_in;
   if (pre_ && d.cache) pre_->compute(ctx, x, u, derivatives, *d.cache);
 
@@ -218,6 +241,7 @@ void OptimalControlProblem::run(int k, ConstVecRef x, ConstVecRef u_in, NodeData
   for (std::size_t i = 0; i < costs_.size(); ++i) {
     const auto& c = costs_[i];
     if (!appliesTo(c.stage, terminal) || !c.term->active(ctx)) continue;
+    if (curvature && c.term->hessianIsExact()) continue;
     CostData& cd = *d.cost_data[i];
     d.cost += scale * c.term->calc(ctx, x, u, cd);
     if (derivatives) c.term->calcDiff(ctx, x, u, cd, scale, d.lx, d.lu, d.Lxx, d.Luu, d.Lux);
@@ -226,7 +250,12 @@ void OptimalControlProblem::run(int k, ConstVecRef x, ConstVecRef u_in, NodeData
   // Dynamics.
   if (!terminal) {
     dynamics_->calc(ctx, x, u, *d.dynamics_data, d.xnext);
-    if (derivatives) dynamics_->calcDiff(ctx, x, u, *d.dynamics_data, d.Fx, d.Fu);
+    if (curvature && dynamics_->isLinear() && stateSpace().isEuclidean()) {
+      d.Fx.setZero();
+      d.Fu.setZero();
+    } else if (derivatives) {
+      dynamics_->calcDiff(ctx, x, u, *d.dynamics_data, d.Fx, d.Fu);
+    }
   }
 
   // Equalities (running nodes only), stacked in the order they were added.
@@ -238,6 +267,12 @@ void OptimalControlProblem::run(int k, ConstVecRef x, ConstVecRef u_in, NodeData
       const int rows = r.rows(ctx);
       rd.rows = rows;
       if (rows == 0) continue;
+      if (curvature && r.isLinear()) {
+        d.Ex.middleRows(ne, rows).setZero();
+        d.Eu.middleRows(ne, rows).setZero();
+        ne += rows;
+        continue;
+      }
       r.calc(ctx, x, u, rd);
       d.e.segment(ne, rows) = rd.r.head(rows);
       if (derivatives) {
@@ -259,11 +294,18 @@ void OptimalControlProblem::run(int k, ConstVecRef x, ConstVecRef u_in, NodeData
     const int rows = entry.residual->rows(ctx);
     rd.rows = rows;
     if (rows == 0) continue;
-    entry.residual->calc(ctx, x, u, rd);
-    d.g.segment(ni, rows) = rd.r.head(rows);
     d.soft.segment(ni, rows).setConstant(entry.options.soft);
+    d.state_only.segment(ni, rows).setConstant(terminal || !entry.residual->dependsOnInput());
     d.relaxation.segment(ni, rows).setConstant(entry.options.relaxation);
     d.soft_weight.segment(ni, rows).setConstant(entry.options.weight);
+    if (curvature && entry.residual->isLinear()) {
+      d.Gx.middleRows(ni, rows).setZero();
+      d.Gu.middleRows(ni, rows).setZero();
+      ni += rows;
+      continue;
+    }
+    entry.residual->calc(ctx, x, u, rd);
+    d.g.segment(ni, rows) = rd.r.head(rows);
     if (derivatives) {
       entry.residual->calcDiff(ctx, x, u, rd);
       d.Gx.middleRows(ni, rows) = rd.Rx.topRows(rows);

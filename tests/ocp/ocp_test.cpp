@@ -481,6 +481,60 @@ TEST(Problem, StacksActiveRowsByMode) {
   EXPECT_EQ(p->equalityNames()[1], "mode1");
 }
 
+TEST(Problem, CurvaturePassKeepsOnlyTermsWithSecondDerivatives) {
+  // Pendulum (nonlinear dynamics), quadratic state/input costs (exact Hessians), an
+  // affine inequality (linear) and ModeResidual (linear in fact, but not declared so).
+  auto p = stackingProblem();
+  EXPECT_TRUE(p->hasCurvature());
+  p->modeSchedule().set({0.45}, {0, 1});
+  auto d = p->createNodeData();
+  auto c = p->createNodeData();
+  const VectorXd x = (VectorXd(2) << 0.3, -0.2).finished();
+  const VectorXd u = (VectorXd(1) << 0.7).finished();
+  for (int k : {2, 6, 10}) {
+    p->linearize(k, x, u, *d);
+    p->linearizeCurvatureTerms(k, x, u, *c);
+    // Same rows; exact-Hessian costs contribute nothing.
+    ASSERT_EQ(c->ne, d->ne);
+    ASSERT_EQ(c->ni, d->ni);
+    EXPECT_EQ(c->cost, 0.0);
+    EXPECT_TRUE(c->lx.isZero(0.0));
+    EXPECT_TRUE(c->Lxx.isZero(0.0));
+    if (k < p->horizon()) {
+      EXPECT_TRUE(c->Fx.isApprox(d->Fx));  // the pendulum is nonlinear: kept
+      EXPECT_TRUE(c->Ex.topRows(c->ne).isApprox(d->Ex.topRows(d->ne)));
+    } else {
+      // Terminal: the affine inequality is declared linear: zero rows.
+      EXPECT_TRUE(c->Gx.topRows(c->ni).isZero(0.0));
+      EXPECT_TRUE(c->state_only.head(c->ni).all());
+    }
+  }
+  // Row flags: ModeResidual depends on u (not state-only) at running nodes.
+  p->linearize(6, x, u, *d);
+  EXPECT_FALSE(d->state_only.head(d->ni).any());
+}
+
+TEST(Problem, LinearQuadraticProblemHasNoCurvature) {
+  const MatrixXd A = MatrixXd::Identity(2, 2), B = MatrixXd::Ones(2, 1);
+  auto dyn = std::make_shared<testmodels::LinearDynamics>(A, B, VectorXd::Zero(2));
+  auto p = std::make_shared<ocp::OptimalControlProblem>(dyn, 5, 0.1);
+  auto s = dyn->spacePtr();
+  p->addCost("state", std::make_shared<ocp::LeastSquaresCost>(
+                          std::make_shared<ocp::StateErrorResidual>(s, 1, VectorXd::Zero(2)),
+                          VectorXd::Ones(2)));
+  p->addInequality(
+      "box", std::make_shared<ocp::AffineResidual>(s, VectorXd::Zero(2), MatrixXd::Identity(2, 2),
+                                                   MatrixXd::Ones(2, 1), VectorXd::Ones(2)));
+  EXPECT_FALSE(p->hasCurvature());
+  // A nonlinear residual anywhere brings curvature back.
+  p->addEquality("mode", std::make_shared<ModeResidual>(2, 1, 1, 1.0));
+  EXPECT_TRUE(p->hasCurvature());
+  // Lie-group states always have curvature (the retraction).
+  auto se3 = std::make_shared<ocp::ExplicitEuler>(std::make_shared<testmodels::FloatingBody>());
+  ocp::OptimalControlProblem q(se3, 5, 0.1);
+  EXPECT_TRUE(q.hasCurvature());
+}
+
 TEST(Problem, EvaluateAndLinearizeDoNotAllocate) {
   auto p = stackingProblem();
   p->modeSchedule().set({0.45}, {0, 1});

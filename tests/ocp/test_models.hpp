@@ -26,6 +26,7 @@ class LinearDynamics final : public ocp::Dynamics {
         A_(A),
         B_(B),
         c_(c) {}
+  bool isLinear() const override { return true; }
   std::unique_ptr<ocp::DynamicsData> createData() const override {
     return std::make_unique<ocp::DynamicsData>();
   }

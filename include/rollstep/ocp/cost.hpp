@@ -20,6 +20,13 @@ class CostTerm {
   /// False for state-only costs (required for terminal costs).
   virtual bool dependsOnInput() const { return true; }
   virtual bool active(const NodeContext& /*ctx*/) const { return true; }
+  /// True when the Hessian calcDiff adds is the exact second derivative of l in the
+  /// tangent coordinates (l(x (+) dx, u + du) to second order), not a Gauss-Newton
+  /// approximation. The solver then computes no curvature for this term when it forms
+  /// the Lagrangian's Hessian (SolverSettings::exact_hessian); otherwise the missing
+  /// curvature is found by central differences of calcDiff's gradient. An exact Hessian
+  /// may be indefinite: the solver's inertia correction handles it.
+  virtual bool hessianIsExact() const { return false; }
   virtual std::unique_ptr<CostData> createData() const = 0;
   /// Value l(x, u).
   virtual double calc(const NodeContext& ctx, ConstVecRef x, ConstVecRef u, CostData& d) const = 0;
@@ -42,6 +49,8 @@ class LeastSquaresCost final : public CostTerm {
   LeastSquaresCost(std::shared_ptr<const Residual> residual, const VectorXd& weights);
   bool dependsOnInput() const override { return residual_->dependsOnInput(); }
   bool active(const NodeContext& ctx) const override { return residual_->rows(ctx) > 0; }
+  /// R^T W R is exact when the residual is linear.
+  bool hessianIsExact() const override { return residual_->isLinear(); }
   std::unique_ptr<CostData> createData() const override;
   double calc(const NodeContext& ctx, ConstVecRef x, ConstVecRef u, CostData& d) const override;
   void calcDiff(const NodeContext& ctx, ConstVecRef x, ConstVecRef u, CostData& d, double scale,

@@ -19,6 +19,9 @@ class Dynamics {
   const StateSpace& space() const { return *space_; }
   const std::shared_ptr<const StateSpace>& spacePtr() const { return space_; }
   int nu() const { return nu_; }
+  /// True when F is affine in the tangent coordinates on a Euclidean space
+  /// (F(x + dx, u + du) = F(x, u) + Fx dx + Fu du): no curvature is computed for it.
+  virtual bool isLinear() const { return false; }
   virtual std::unique_ptr<DynamicsData> createData() const = 0;
   /// xnext = F(x, u) over ctx.dt.
   virtual void calc(const NodeContext& ctx, ConstVecRef x, ConstVecRef u, DynamicsData& d,
@@ -41,6 +44,9 @@ class ContinuousDynamics {
   const StateSpace& space() const { return *space_; }
   const std::shared_ptr<const StateSpace>& spacePtr() const { return space_; }
   int nu() const { return nu_; }
+  /// True when f is affine in (x, u) on a Euclidean space; the integrators below are
+  /// then affine too.
+  virtual bool isLinear() const { return false; }
   virtual std::unique_ptr<DynamicsData> createData() const = 0;
   virtual void calc(const NodeContext& ctx, ConstVecRef x, ConstVecRef u, DynamicsData& d,
                     VecRef xdot) const = 0;
@@ -57,6 +63,7 @@ class ContinuousDynamics {
 class ExplicitEuler final : public Dynamics {
  public:
   explicit ExplicitEuler(std::shared_ptr<const ContinuousDynamics> f);
+  bool isLinear() const override { return f_->isLinear() && f_->space().isEuclidean(); }
   std::unique_ptr<DynamicsData> createData() const override;
   void calc(const NodeContext& ctx, ConstVecRef x, ConstVecRef u, DynamicsData& d,
             VecRef xnext) const override;
@@ -73,6 +80,7 @@ class ExplicitEuler final : public Dynamics {
 class RungeKutta4 final : public Dynamics {
  public:
   explicit RungeKutta4(std::shared_ptr<const ContinuousDynamics> f);
+  bool isLinear() const override { return f_->isLinear(); }
   std::unique_ptr<DynamicsData> createData() const override;
   void calc(const NodeContext& ctx, ConstVecRef x, ConstVecRef u, DynamicsData& d,
             VecRef xnext) const override;

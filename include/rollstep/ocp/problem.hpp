@@ -65,10 +65,11 @@ struct NodeData {
   int ni = 0;  ///< general inequality rows in use (bounds are separate)
   VectorXd g;  ///< g(x, u) >= 0
   MatrixXd Gx, Gu;
-  Eigen::Matrix<bool, Eigen::Dynamic, 1> soft;  ///< per inequality row
-  VectorXd relaxation;                          ///< per inequality row (soft rows)
-  VectorXd soft_weight;                         ///< per inequality row (soft rows)
-  VectorXd zero_input;                          ///< the u passed to terms at the terminal node
+  Eigen::Matrix<bool, Eigen::Dynamic, 1> soft;        ///< per inequality row
+  Eigen::Matrix<bool, Eigen::Dynamic, 1> state_only;  ///< per inequality row: Gu == 0
+  VectorXd relaxation;                                ///< per inequality row (soft rows)
+  VectorXd soft_weight;                               ///< per inequality row (soft rows)
+  VectorXd zero_input;  ///< the u passed to terms at the terminal node
 
   // Owned workspaces of the terms (opaque to the solver).
   std::unique_ptr<NodeCache> cache;
@@ -142,6 +143,17 @@ class OptimalControlProblem {
   void evaluate(int k, ConstVecRef x, ConstVecRef u, NodeData& d) const;
   /// Values and first derivatives (Gauss-Newton Hessian of the cost).
   void linearize(int k, ConstVecRef x, ConstVecRef u, NodeData& d) const;
+  /// Like linearize, but only for the terms whose second derivatives the solver must
+  /// find by differences of first derivatives: costs whose Hessian is not exact
+  /// (CostTerm::hessianIsExact), nonlinear dynamics, nonlinear equality and inequality
+  /// residuals (Residual::isLinear). The other terms contribute zero: no cost, zero
+  /// gradient, zero Jacobian rows (row counts and values of the constraints are still
+  /// those of linearize). Differences of two such evaluations give the curvature that
+  /// linearize's Hessian misses, at a fraction of the cost when most terms are linear.
+  void linearizeCurvatureTerms(int k, ConstVecRef x, ConstVecRef u, NodeData& d) const;
+  /// False when every term is exactly described by linearize (a linear-quadratic
+  /// problem on a Euclidean space): the Lagrangian's Hessian is then the Gauss-Newton one.
+  bool hasCurvature() const;
 
   /// Term names, in the order their rows are stacked (for reports and errors).
   const std::vector<std::string>& costNames() const { return cost_names_; }
@@ -149,7 +161,8 @@ class OptimalControlProblem {
   const std::vector<std::string>& inequalityNames() const { return ineq_names_; }
 
  private:
-  void run(int k, ConstVecRef x, ConstVecRef u, NodeData& d, bool derivatives) const;
+  enum class Pass { Values, Derivatives, Curvature };
+  void run(int k, ConstVecRef x, ConstVecRef u, NodeData& d, Pass pass) const;
 
   std::shared_ptr<const Dynamics> dynamics_;
   int horizon_;

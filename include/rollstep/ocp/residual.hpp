@@ -39,6 +39,13 @@ class Residual {
   virtual bool dependsOnInput() const { return true; }
   /// False when the residual depends on the input only (Rx == 0), e.g. input tracking.
   virtual bool dependsOnState() const { return true; }
+  /// True when the residual is affine in the tangent coordinates everywhere:
+  /// r(x (+) dx, u + du) = r(x, u) + Rx dx + Ru du for every x, u, dx, du. Its second
+  /// derivatives are then zero and the solver computes no curvature for it (a cost on it
+  /// is exactly quadratic, a constraint on it adds nothing to the Lagrangian's Hessian).
+  /// Declaring a nonlinear residual linear silently drops curvature: when unsure, keep
+  /// the default.
+  virtual bool isLinear() const { return false; }
 
   virtual std::unique_ptr<ResidualData> createData() const {
     return std::make_unique<ResidualData>(max_rows_, ndx_, nu_);

@@ -13,6 +13,8 @@ class StateErrorResidual : public Residual {
  public:
   StateErrorResidual(std::shared_ptr<const StateSpace> space, int nu, const VectorXd& x_ref);
   bool dependsOnInput() const override { return false; }
+  /// On a Euclidean space x - x_ref is affine; on a Lie group the log is not.
+  bool isLinear() const override { return space_->isEuclidean(); }
   void setReference(const VectorXd& x_ref);  ///< must have size nx; does not allocate
   /// The reference at this node; default: the constant one.
   virtual void reference(const NodeContext& ctx, VecRef x_ref) const;
@@ -32,6 +34,7 @@ class InputErrorResidual : public Residual {
  public:
   InputErrorResidual(int ndx, const VectorXd& u_ref);
   bool dependsOnState() const override { return false; }
+  bool isLinear() const override { return true; }
   void setReference(const VectorXd& u_ref);
   virtual void reference(const NodeContext& ctx, VecRef u_ref) const;
   void calc(const NodeContext& ctx, ConstVecRef x, ConstVecRef u, ResidualData& d) const override;
@@ -50,6 +53,8 @@ class AffineResidual : public Residual {
   AffineResidual(std::shared_ptr<const StateSpace> space, const VectorXd& x_lin, const MatrixXd& C,
                  const MatrixXd& D, const VectorXd& c);
   bool dependsOnInput() const override { return !D_.isZero(0.0); }
+  /// Affine in (x (-) x_lin, u): linear in the tangent coordinates on Euclidean spaces only.
+  bool isLinear() const override { return space_->isEuclidean(); }
   std::unique_ptr<ResidualData> createData() const override;
   void calc(const NodeContext& ctx, ConstVecRef x, ConstVecRef u, ResidualData& d) const override;
   void calcDiff(const NodeContext& ctx, ConstVecRef x, ConstVecRef u,
