@@ -15,7 +15,8 @@ int main(int argc, char** argv) {
       "Examples:\n"
       "  rollstep sim --scene flat --controller stand --duration 10 --out out/stand\n"
       "  rollstep sim --scene flat --controller drive --speed 0.5 --duration 10 --out out/drive\n"
-      "  rollstep sim --scene-config my_step.yaml --controller drive --out out/step\n"
+      "  rollstep sim --scene-config config/scenes/step20_custom.yaml --controller drive --out "
+      "out/step\n"
       "Exit status: 0 on success, non-zero on bad options or a failed run.");
   rollstep::apps::registerSimCommand(app);
   try {

@@ -1,15 +1,28 @@
 // `rollstep sim`: the plant demo. Loads a scene with the Tachyon 3 MJCF, runs a simple
 // controller (stand: hold the nominal posture; drive: hold it and roll on the drive
 // wheels) for a duration, writes DIR/log.csv and DIR/summary.txt, prints the summary.
+//
+// Outputs rule (README "Outputs"): a run that fails on its inputs (options, scene config,
+// robot file) writes nothing. Once the simulation starts, the previous run's log.csv,
+// summary.txt and FAILED are removed; log.csv and summary.txt are written under
+// temporary names with every write checked and renamed into place only when complete
+// and the run succeeded; a run that fails after that point (divergence, full disk)
+// leaves only DIR/FAILED holding the error, and exits non-zero.
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <filesystem>
+#include <limits>
 #include <memory>
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <system_error>
 
 #include "commands.hpp"
+#include "rollstep/common/text_file.hpp"
 #include "rollstep/sim/plant.hpp"
 #include "rollstep/sim/scenario.hpp"
 #include "rollstep/sim/scene.hpp"
@@ -18,6 +31,8 @@
 namespace rollstep::apps {
 
 namespace {
+
+namespace fs = std::filesystem;
 
 struct SimOptions {
   std::string scene = "flat";
@@ -31,7 +46,130 @@ struct SimOptions {
   std::string robot;
 };
 
+/// The shortest decimal text of v that reads back exactly.
+std::string numberText(double v) {
+  char buf[32];
+  if (v == std::floor(v) && std::abs(v) < 1e15) {
+    std::snprintf(buf, sizeof buf, "%.0f", v);
+    return buf;
+  }
+  for (int digits = 1; digits <= 17; ++digits) {
+    std::snprintf(buf, sizeof buf, "%.*g", digits, v);
+    if (std::strtod(buf, nullptr) == v) break;
+  }
+  return buf;
+}
+
+/// Strict decimal number: [+-]digits[.digits][(e|E)[+-]digits] (also ".5", "5."); no
+/// hexadecimal, no spaces, no trailing text. nan/inf are recognised only to be refused.
+bool parseDecimal(const std::string& text, double& value, bool& non_finite) {
+  non_finite = false;
+  std::size_t i = 0;
+  const std::size_t n = text.size();
+  if (i < n && (text[i] == '+' || text[i] == '-')) ++i;
+  std::string rest = text.substr(i);
+  for (char& c : rest) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (rest == "nan" || rest == "inf" || rest == "infinity" || rest == ".nan" || rest == ".inf") {
+    non_finite = true;
+    return true;
+  }
+  std::size_t digits = 0;
+  while (i < n && std::isdigit(static_cast<unsigned char>(text[i]))) ++i, ++digits;
+  if (i < n && text[i] == '.') {
+    ++i;
+    while (i < n && std::isdigit(static_cast<unsigned char>(text[i]))) ++i, ++digits;
+  }
+  if (digits == 0) return false;
+  if (i < n && (text[i] == 'e' || text[i] == 'E')) {
+    ++i;
+    if (i < n && (text[i] == '+' || text[i] == '-')) ++i;
+    std::size_t exponent_digits = 0;
+    while (i < n && std::isdigit(static_cast<unsigned char>(text[i]))) ++i, ++exponent_digits;
+    if (exponent_digits == 0) return false;
+  }
+  if (i != n) return false;
+  value = std::strtod(text.c_str(), nullptr);
+  non_finite = !std::isfinite(value);  // 1e400 overflows
+  return true;
+}
+
+/// A number option: decimal text, finite, in [min, max] (unit for messages).
+CLI::Validator numberIn(double min, double max, const std::string& unit) {
+  const std::string range = "valid range: " + numberText(min) + " to " + numberText(max) +
+                            (unit.empty() ? "" : " " + unit);
+  return CLI::Validator(
+      [=](std::string& text) -> std::string {
+        double v = 0.0;
+        bool non_finite = false;
+        if (!parseDecimal(text, v, non_finite)) return "'" + text + "' is not a number; " + range;
+        if (non_finite) return "'" + text + "' is not a finite number; " + range;
+        if (v < min || v > max) return "'" + text + "' is out of range; " + range;
+        return {};
+      },
+      "NUMBER in [" + numberText(min) + ", " + numberText(max) + "]" +
+          (unit.empty() ? "" : " " + unit));
+}
+
+/// An integer option: digits only, in [min, max].
+CLI::Validator integerIn(long min, long max) {
+  const std::string range =
+      "valid range: " + std::to_string(min) + " to " + std::to_string(max) + " (an integer)";
+  return CLI::Validator(
+      [=](std::string& text) -> std::string {
+        std::size_t i = (!text.empty() && (text[0] == '+' || text[0] == '-')) ? 1 : 0;
+        if (i == text.size()) return "'" + text + "' is not an integer; " + range;
+        for (std::size_t k = i; k < text.size(); ++k) {
+          if (!std::isdigit(static_cast<unsigned char>(text[k]))) {
+            return "'" + text + "' is not an integer; " + range;
+          }
+        }
+        errno = 0;
+        const long v = std::strtol(text.c_str(), nullptr, 10);
+        if (errno == ERANGE || v < min || v > max) {
+          return "'" + text + "' is out of range; " + range;
+        }
+        return {};
+      },
+      "INTEGER in [" + std::to_string(min) + ", " + std::to_string(max) + "]");
+}
+
+/// Result files of a run in the output directory.
+struct OutputFiles {
+  fs::path log, summary, failed;
+  explicit OutputFiles(const fs::path& dir)
+      : log(dir / "log.csv"), summary(dir / "summary.txt"), failed(dir / "FAILED") {}
+};
+
+/// Creates the output directory if needed and removes the previous run's result files.
+void prepareOutputDir(const std::string& dir, const OutputFiles& files) {
+  std::error_code ec;
+  if (fs::exists(dir, ec) && !fs::is_directory(dir, ec)) {
+    throw OutputError("--out '" + dir + "': exists and is not a directory");
+  }
+  fs::create_directories(dir, ec);
+  if (ec) throw OutputError("--out '" + dir + "': cannot create the directory: " + ec.message());
+  for (const fs::path& p : {files.log, files.summary, files.failed}) {
+    fs::remove(p, ec);
+    if (ec) {
+      throw OutputError("cannot remove the previous run's '" + p.string() + "': " + ec.message());
+    }
+  }
+}
+
+/// After a failure: no result files, and DIR/FAILED with the error (best effort).
+void markFailed(const OutputFiles& files, const std::string& error) {
+  std::error_code ec;
+  fs::remove(files.log, ec);
+  fs::remove(files.summary, ec);
+  try {
+    writeFileAtomically(files.failed.string(), "rollstep sim failed: " + error + "\n");
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "rollstep: warning: %s\n", e.what());
+  }
+}
+
 void runSim(const SimOptions& o, bool scene_given) {
+  // Inputs: nothing is written before they have all loaded.
   sim::SceneConfig scene;
   if (!o.scene_config.empty()) scene = sim::loadSceneConfig(o.scene_config);
   if (scene_given || o.scene_config.empty()) scene.kind = sim::sceneKindFromString(o.scene);
@@ -46,6 +184,20 @@ void runSim(const SimOptions& o, bool scene_given) {
     controller = std::make_unique<sim::StandController>(plant.nominalCommand());
     controller_text = "stand (nominal posture, wheels at rest)";
   } else {
+    // Each side's wheels run at speed -+ turn_speed: beyond the servos' limit they would
+    // be clamped and the robot would not do what was asked.
+    const double limit = plant.wheelSpeedLimit() * plant.wheelRadius(0);
+    const double needed = std::abs(o.speed) + std::abs(o.turn_speed);
+    if (needed > limit) {
+      char text[400];
+      std::snprintf(text, sizeof text,
+                    "%g with --turn-speed %g needs a wheel surface speed of %g m/s; the "
+                    "drive wheels of this robot reach %.3f m/s (%g rad/s x %g m): valid range "
+                    "|speed| + |turn-speed| <= %.3f m/s",
+                    o.speed, o.turn_speed, needed, limit, plant.wheelSpeedLimit(),
+                    plant.wheelRadius(0), limit);
+      throw CLI::ValidationError("--speed", text);
+    }
     sim::DriveController::Params p;
     p.speed = o.speed;
     p.turn_speed = o.turn_speed;
@@ -57,42 +209,47 @@ void runSim(const SimOptions& o, bool scene_given) {
     controller_text = s.str();
   }
 
-  std::filesystem::create_directories(o.out);
-  const std::string log_path = (std::filesystem::path(o.out) / "log.csv").string();
-  const std::string summary_path = (std::filesystem::path(o.out) / "summary.txt").string();
-  sim::RunSummary s;
-  {
-    sim::CsvLog log(log_path);
-    s = sim::runScenario(plant, *controller, o.duration, &log, o.log_every);
-  }
+  // Outputs.
+  const OutputFiles files(o.out);
+  prepareOutputDir(o.out, files);
+  std::string text;
+  try {
+    sim::CsvLog log(files.log.string());
+    const sim::RunSummary s = sim::runScenario(plant, *controller, o.duration, &log, o.log_every);
+    log.commit();
 
-  const double deg = 180.0 / M_PI;
-  char text[2048];
-  std::snprintf(
-      text, sizeof text,
-      "rollstep sim: scene %s, controller %s\n"
-      "  robot      %s\n"
-      "  simulated  %.3f s at %.0f Hz in %.3f s wall time (%.1fx real time)\n"
-      "  base       start (%.3f, %.3f, %.3f) m -> end (%.3f, %.3f, %.3f) m, distance %.3f m, "
-      "yaw change %.2f deg\n"
-      "  height     min %.4f m, max %.4f m; mean forward speed %.3f m/s\n"
-      "  contacts   all six wheels on the ground %.1f %% of the time\n"
-      "  MuJoCo     %d warnings\n"
-      "  outputs    %s (CSV, every %d ms), %s\n",
-      std::string(sim::toString(scene.kind)).c_str(), controller_text.c_str(),
-      plant.robotFile().c_str(), s.sim_time, 1.0 / plant.controlPeriod(), s.wall_time,
-      s.real_time_factor, s.start_position.x(), s.start_position.y(), s.start_position.z(),
-      s.end_position.x(), s.end_position.y(), s.end_position.z(),
-      (s.end_position - s.start_position).head<2>().norm(), s.yaw_change * deg, s.min_base_height,
-      s.max_base_height, s.mean_forward_speed, 100.0 * s.all_feet_contact_fraction, s.warnings,
-      log_path.c_str(), static_cast<int>(std::lround(o.log_every * plant.controlPeriod() * 1000.0)),
-      summary_path.c_str());
-  std::fputs(text, stdout);
-  if (std::FILE* f = std::fopen(summary_path.c_str(), "w")) {
-    std::fputs(text, f);
-    std::fclose(f);
-  } else {
-    throw std::runtime_error("cannot write " + summary_path);
+    const double deg = 180.0 / M_PI;
+    char buf[2048];
+    std::snprintf(
+        buf, sizeof buf,
+        "rollstep sim: scene %s, controller %s\n"
+        "  robot      %s\n"
+        "  simulated  %.3f s at %.0f Hz in %.3f s wall time (%.1fx real time)\n"
+        "  base       start (%.3f, %.3f, %.3f) m -> end (%.3f, %.3f, %.3f) m, distance %.3f m, "
+        "yaw change %.2f deg\n"
+        "  height     min %.4f m, max %.4f m; mean forward speed %.3f m/s\n"
+        "  contacts   all six wheels on the ground %.1f %% of the time\n"
+        "  MuJoCo     %d warnings\n"
+        "  outputs    %s (CSV, units in the header, every %d ms), %s\n",
+        std::string(sim::toString(scene.kind)).c_str(), controller_text.c_str(),
+        plant.robotFile().c_str(), s.sim_time, 1.0 / plant.controlPeriod(), s.wall_time,
+        s.real_time_factor, s.start_position.x(), s.start_position.y(), s.start_position.z(),
+        s.end_position.x(), s.end_position.y(), s.end_position.z(),
+        (s.end_position - s.start_position).head<2>().norm(), s.yaw_change * deg, s.min_base_height,
+        s.max_base_height, s.mean_forward_speed, 100.0 * s.all_feet_contact_fraction, s.warnings,
+        files.log.c_str(),
+        static_cast<int>(std::lround(o.log_every * plant.controlPeriod() * 1000.0)),
+        files.summary.c_str());
+    text = buf;
+    writeFileAtomically(files.summary.string(), text);
+  } catch (const std::exception& e) {
+    markFailed(files, e.what());
+    throw;
+  }
+  std::fputs(text.c_str(), stdout);
+  if (std::fflush(stdout) != 0 || std::ferror(stdout)) {
+    throw OutputError(std::string("cannot write the summary to standard output: ") +
+                      std::strerror(errno));
   }
 }
 
@@ -103,8 +260,15 @@ void registerSimCommand(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand(
       "sim",
       "Run the MuJoCo plant (Tachyon 3 in a scene) with a simple controller; write a CSV "
-      "log (time, base pose and twist, joint positions, commands, contacts) and print a "
-      "summary.");
+      "log (time, base pose and twist, joint positions, commands, contacts; units in the "
+      "header) and a summary, and print the summary.");
+  cmd->footer(
+      "Numbers must be finite and within the ranges shown; --speed and --turn-speed only "
+      "apply to --controller drive.\n"
+      "Outputs: DIR/log.csv and DIR/summary.txt appear only complete and only when the run "
+      "succeeds; a run that fails once started removes the previous run's files and leaves "
+      "DIR/FAILED with the error. Exit status: 0 on success, non-zero on any error.\n"
+      "Example scene file: config/scenes/step20_custom.yaml");
   CLI::Option* scene =
       cmd->add_option("--scene", options->scene,
                       "Scene: flat, step20 (0.20 m block 1.0 m ahead) or stairs2 (0.20 m + "
@@ -113,36 +277,53 @@ void registerSimCommand(CLI::App& app) {
           ->capture_default_str();
   cmd->add_option("--scene-config", options->scene_config,
                   "YAML file of scene parameters (keys: scene, friction, start_x, width, "
-                  "step1_height, step1_length, step2_height, step2_length; unknown keys "
-                  "are errors)")
-      ->check(CLI::ExistingFile);
+                  "step1_height, step1_length, step2_height, step2_length; unknown or "
+                  "repeated keys and out-of-range values are errors), e.g. "
+                  "config/scenes/step20_custom.yaml");
   cmd->add_option("--controller", options->controller,
                   "stand: hold the nominal posture; drive: hold it and roll on the four "
                   "drive wheels at --speed (turning with --turn-speed)")
       ->check(CLI::IsMember({"stand", "drive"}))
       ->capture_default_str();
   cmd->add_option("--duration", options->duration, "Simulated time [s]")
-      ->check(CLI::Range(0.001, 3600.0))
+      ->check(numberIn(0.001, 3600.0, "s"))
       ->capture_default_str();
-  cmd->add_option("--out", options->out, "Output directory (created if needed)")
+  cmd->add_option("--out", options->out,
+                  "Output directory (created if needed) for log.csv and summary.txt")
       ->capture_default_str();
-  cmd->add_option("--speed", options->speed,
-                  "drive: forward wheel surface speed [m/s], ramped at 1 m/s^2")
-      ->check(CLI::Range(-1.8, 1.8))
-      ->capture_default_str();
-  cmd->add_option("--turn-speed", options->turn_speed,
-                  "drive: right minus left wheel surface speed, halved [m/s] (turn in place "
-                  "with --speed 0)")
-      ->check(CLI::Range(-1.0, 1.0))
-      ->capture_default_str();
+  CLI::Option* speed =
+      cmd->add_option("--speed", options->speed,
+                      "drive only: forward wheel surface speed [m/s], ramped at 1 m/s^2")
+          ->check(numberIn(-1.8, 1.8, "m/s"))
+          ->capture_default_str();
+  CLI::Option* turn_speed =
+      cmd->add_option("--turn-speed", options->turn_speed,
+                      "drive only: right minus left wheel surface speed, halved [m/s] (turn "
+                      "in place with --speed 0)")
+          ->check(numberIn(-1.0, 1.0, "m/s"))
+          ->capture_default_str();
   cmd->add_option("--log-every", options->log_every,
                   "Write a log row every N control periods (1 ms each)")
-      ->check(CLI::Range(1, 100000))
+      ->check(integerIn(1, 100000))
       ->capture_default_str();
   cmd->add_option("--robot", options->robot,
-                  "Robot MJCF (default: robots/tachyon3/tachyon3.xml of the source tree, "
-                  "or $ROLLSTEP_ROBOTS_DIR/tachyon3/tachyon3.xml)");
-  cmd->final_callback([options, scene] { runSim(*options, scene->count() > 0); });
+                  "Robot MJCF file: the Tachyon 3 structure (joint, actuator, sensor and "
+                  "keyframe names of robots/tachyon3/tachyon3.xml) with your own numbers. "
+                  "Default: robots/tachyon3/tachyon3.xml of the source tree, or "
+                  "$ROLLSTEP_ROBOTS_DIR/tachyon3/tachyon3.xml");
+  cmd->final_callback([options, scene, speed, turn_speed] {
+    if (options->controller != "drive") {
+      for (const CLI::Option* option : {speed, turn_speed}) {
+        if (option->count() > 0) {
+          throw CLI::ValidationError(
+              option->get_name(), "is used only by --controller drive; the " + options->controller +
+                                      " controller holds the wheels at rest (drop the "
+                                      "option or add --controller drive)");
+        }
+      }
+    }
+    runSim(*options, scene->count() > 0);
+  });
 }
 
 }  // namespace rollstep::apps

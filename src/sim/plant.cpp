@@ -2,13 +2,16 @@
 
 #include <mujoco/mujoco.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
-#include <fstream>
-#include <sstream>
+#include <limits>
+#include <memory>
 #include <stdexcept>
 #include <string>
+
+#include "rollstep/common/text_file.hpp"
 
 namespace rollstep::sim {
 
@@ -20,29 +23,84 @@ std::string trimmed(const char* text) {
   return s;
 }
 
-std::string readFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw SimError("robot model " + path + ": cannot open file");
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
+/// Text for an XML attribute value between double quotes.
+std::string xmlAttribute(const std::string& text) {
+  std::string out;
+  for (char c : text) {
+    switch (c) {
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      default:
+        out += c;
+    }
+  }
+  return out;
 }
 
-/// Loads `xml` (the text of a whole MJCF) through MuJoCo's virtual file system.
-mjModel* loadFromString(const std::string& xml, const std::string& vfs_name, std::string& error) {
-  auto vfs = std::make_unique<mjVFS>();  // ~2 MB: never on the stack
-  mj_defaultVFS(vfs.get());
-  if (mj_makeEmptyFileVFS(vfs.get(), vfs_name.c_str(), static_cast<int>(xml.size())) != 0) {
-    error = "cannot create the in-memory scene file";
-    return nullptr;
+/// MuJoCo's virtual file system (~2 MB: never on the stack), emptied on destruction.
+class Vfs {
+ public:
+  Vfs() : vfs_(std::make_unique<mjVFS>()) { mj_defaultVFS(vfs_.get()); }
+  ~Vfs() { mj_deleteVFS(vfs_.get()); }
+  Vfs(const Vfs&) = delete;
+  Vfs& operator=(const Vfs&) = delete;
+  /// Adds a file; MuJoCo finds it by its name without directories.
+  bool add(const std::string& name, const std::string& text) {
+    if (text.size() > static_cast<std::size_t>(std::numeric_limits<int>::max())) return false;
+    if (mj_makeEmptyFileVFS(vfs_.get(), name.c_str(), static_cast<int>(text.size())) != 0) {
+      return false;
+    }
+    const int index = mj_findFileVFS(vfs_.get(), name.c_str());
+    if (index < 0) return false;
+    if (!text.empty()) std::memcpy(vfs_->filedata[index], text.data(), text.size());
+    return true;
   }
-  const int index = mj_findFileVFS(vfs.get(), vfs_name.c_str());
-  std::memcpy(vfs->filedata[index], xml.data(), xml.size());
+  const mjVFS* get() const { return vfs_.get(); }
+
+ private:
+  std::unique_ptr<mjVFS> vfs_;
+};
+
+/// Loads the MJCF `path` with MuJoCo, whose files are taken from `vfs` first and then from
+/// the disk relative to the directory of `path` (assets, meshes, includes).
+mjModel* loadXml(const std::string& path, const Vfs& vfs, std::string& error) {
   char err[1024] = "";
-  mjModel* model = mj_loadXML(vfs_name.c_str(), vfs.get(), err, sizeof err);
-  mj_deleteVFS(vfs.get());
+  mjModel* model = mj_loadXML(path.c_str(), vfs.get(), err, sizeof err);
   error = trimmed(err);
+  if (model == nullptr && error.empty()) error = "cannot load the model";
   return model;
+}
+
+/// Extent [m] of geom g along world +x from its centre (exact for the primitive shapes,
+/// the bounding sphere otherwise).
+double geomExtentX(const mjModel* m, const mjData* d, int g) {
+  const mjtNum* size = m->geom_size + 3 * g;
+  const mjtNum* r = d->geom_xmat + 9 * g;  // row-major; row 0 = world x of the geom axes
+  switch (m->geom_type[g]) {
+    case mjGEOM_SPHERE:
+      return size[0];
+    case mjGEOM_CAPSULE:
+      return size[0] + std::abs(r[2]) * size[1];
+    case mjGEOM_CYLINDER:
+      return std::abs(r[2]) * size[1] + size[0] * std::sqrt(std::max(0.0, 1.0 - r[2] * r[2]));
+    case mjGEOM_ELLIPSOID:
+      return std::sqrt(std::pow(r[0] * size[0], 2) + std::pow(r[1] * size[1], 2) +
+                       std::pow(r[2] * size[2], 2));
+    case mjGEOM_BOX:
+      return std::abs(r[0]) * size[0] + std::abs(r[1]) * size[1] + std::abs(r[2]) * size[2];
+    default:
+      return m->geom_rbound[g];
+  }
 }
 
 }  // namespace
@@ -59,122 +117,225 @@ Plant::Plant(const SceneConfig& scene, const PlantOptions& options)
       robot_file_(options.robot_file.empty() ? defaultRobotFile() : options.robot_file),
       control_period_(options.control_period),
       contact_threshold_(options.contact_threshold) {
+  const std::string scene_name = sceneName();
   try {
     scene_.validate();
   } catch (const std::invalid_argument& e) {
-    throw SimError(std::string("scene ") + std::string(toString(scene_.kind)) + ": " + e.what());
+    throw SimError("scene " + scene_name + ": " + e.what());
   }
-  const std::string robot_xml = readFile(robot_file_);
+  if (!std::isfinite(control_period_) || control_period_ <= 0.0 || control_period_ > 1.0) {
+    throw SimError("PlantOptions::control_period = " + std::to_string(control_period_) +
+                   " s: must be in (0, 1] s and a multiple of the model's timestep");
+  }
+  if (!std::isfinite(contact_threshold_) || contact_threshold_ < 0.0) {
+    throw SimError("PlantOptions::contact_threshold = " + std::to_string(contact_threshold_) +
+                   " N: must be finite and >= 0");
+  }
+  const std::string what = "robot model '" + robot_file_ + "'";
+  std::string robot_xml = options.robot_xml;
+  if (robot_xml.empty()) {
+    try {
+      robot_xml = readTextFile(robot_file_, "robot model");
+    } catch (const InputError& e) {
+      throw SimError(e.what());
+    }
+  }
+
+  // The scene is a second MJCF that includes the robot file and adds the terrain in a
+  // second <worldbody> (MuJoCo merges them; the terrain inherits the robot's defaults).
+  // MuJoCo parses both, so comments, CDATA and any attribute text in the robot file are
+  // what XML says they are. Both files live in a virtual file system named as if they
+  // were in the robot's directory, so that the robot's relative paths (meshdir, assets,
+  // its own includes) resolve as when MuJoCo loads the robot file itself.
+  const std::size_t slash = robot_file_.find_last_of('/');
+  const std::string dir = slash == std::string::npos ? "" : robot_file_.substr(0, slash + 1);
+  const std::string base = slash == std::string::npos ? robot_file_ : robot_file_.substr(slash + 1);
+  if (base.empty()) throw SimError(what + ": not a file name");
+  const std::string scene_file =
+      base == "rollstep_scene.xml" ? "rollstep_scene_0.xml" : "rollstep_scene.xml";
+  const std::string scene_xml = "<mujoco model=\"rollstep_scene\">\n  <include file=\"" +
+                                xmlAttribute(base) + "\"/>\n  <worldbody>\n" + terrainMjcf(scene_) +
+                                "  </worldbody>\n</mujoco>\n";
+  Vfs vfs;
+  if (!vfs.add(base, robot_xml) || !vfs.add(scene_file, scene_xml)) {
+    throw SimError(what + ": cannot place the model in MuJoCo's virtual file system");
+  }
 
   // 1. The robot alone, so that MuJoCo's errors refer to the robot file itself.
-  {
-    char err[1024] = "";
-    mjModel* alone = mj_loadXML(robot_file_.c_str(), nullptr, err, sizeof err);
-    if (alone == nullptr) {
-      throw SimError("robot model " + robot_file_ + ": MuJoCo: " + trimmed(err));
-    }
-    mj_deleteModel(alone);
-  }
-
-  // 2. The scene: the robot file with the terrain appended to its worldbody (after the
-  //    robot's lines, so line numbers in errors still match the robot file).
-  const std::size_t close = robot_xml.rfind("</worldbody>");
-  if (close == std::string::npos) {
-    throw SimError("robot model " + robot_file_ + ": no <worldbody> element");
-  }
-  const std::string scene_xml =
-      robot_xml.substr(0, close) + terrainMjcf(scene_) + robot_xml.substr(close);
   std::string error;
-  const std::string scene_name = "scene_" + std::string(toString(scene_.kind)) + ".xml";
-  model_ = loadFromString(scene_xml, scene_name, error);
-  if (model_ == nullptr) {
-    throw SimError("scene " + std::string(toString(scene_.kind)) + " with robot " + robot_file_ +
-                   ": MuJoCo: " + error);
+  if (mjModel* alone = loadXml(dir + base, vfs, error); alone != nullptr) {
+    mj_deleteModel(alone);
+  } else {
+    throw SimError(what + ": MuJoCo: " + error);
   }
-  data_ = mj_makeData(model_);
-  if (data_ == nullptr) {
-    mj_deleteModel(model_);
-    throw SimError("robot model " + robot_file_ + ": MuJoCo could not allocate its data");
+  // 2. The scene.
+  model_ = loadXml(dir + scene_file, vfs, error);
+  if (model_ == nullptr) {
+    throw SimError("scene " + scene_name + " with " + what + ": MuJoCo: " + error);
   }
 
   // Everything below may throw: free MuJoCo memory on the way out.
   try {
-    const auto id = [&](int type, const std::string& name, const char* what) {
-      const int i = mj_name2id(model_, type, name.c_str());
-      if (i < 0) {
-        throw SimError("robot model " + robot_file_ + ": no " + what + " named '" + name + "'");
-      }
-      return i;
-    };
-    const double ts = model_->opt.timestep;
-    substeps_ = static_cast<int>(std::lround(control_period_ / ts));
-    if (substeps_ < 1 || std::abs(substeps_ * ts - control_period_) > 1e-12) {
-      throw SimError("robot model " + robot_file_ + ": timestep " + std::to_string(ts) +
-                     " s does not divide the control period " + std::to_string(control_period_) +
-                     " s");
+    checkStructure();
+    // mjData holds the stack of nstack numbers; MuJoCo aborts the process when an
+    // allocation fails, so a model asking for absurd sizes is refused here.
+    constexpr double kMaxDataBytes = 2e9;
+    if (static_cast<double>(model_->nstack) * sizeof(mjtNum) + model_->nbuffer > kMaxDataBytes) {
+      throw SimError(what + ": the model needs " +
+                     std::to_string(static_cast<double>(model_->nstack) * sizeof(mjtNum) * 1e-6) +
+                     " MB of simulation data (<size nstack=...>); the limit is 2000 MB");
     }
-    const int base_body = id(mjOBJ_BODY, "base", "body");
-    if (model_->body_jntnum[base_body] != 1 ||
-        model_->jnt_type[model_->body_jntadr[base_body]] != mjJNT_FREE) {
-      throw SimError("robot model " + robot_file_ + ": body 'base' needs one free joint");
-    }
-    base_qpos_ = model_->jnt_qposadr[model_->body_jntadr[base_body]];
-    base_qvel_ = model_->jnt_dofadr[model_->body_jntadr[base_body]];
-    geom_leg_.assign(static_cast<std::size_t>(model_->ngeom), -1);
-
-    int wheel = 0;
-    for (int leg = 0; leg < kNumLegs; ++leg) {
-      const auto l = static_cast<std::size_t>(leg);
-      const std::string name = kLegNames[l];
-      const char* joint_suffix[2] = {"_hip", "_knee"};
-      for (int k = 0; k < 2; ++k) {
-        const auto j = static_cast<std::size_t>(2 * leg + k);
-        const int jid = id(mjOBJ_JOINT, name + joint_suffix[k], "joint");
-        joint_qpos_[j] = model_->jnt_qposadr[jid];
-        joint_qvel_[j] = model_->jnt_dofadr[jid];
-        joint_ctrl_[j] = id(mjOBJ_ACTUATOR, name + joint_suffix[k] + "_servo", "actuator");
-        sensor_jpos_[j] =
-            model_->sensor_adr[id(mjOBJ_SENSOR, name + joint_suffix[k] + "_pos", "sensor")];
-        sensor_jvel_[j] =
-            model_->sensor_adr[id(mjOBJ_SENSOR, name + joint_suffix[k] + "_vel", "sensor")];
-      }
-      const int hip_body = id(mjOBJ_BODY, name + "_hip_link", "body");
-      hip_position_[l] =
-          Eigen::Vector3d(model_->body_pos[3 * hip_body], model_->body_pos[3 * hip_body + 1],
-                          model_->body_pos[3 * hip_body + 2]);
-      wheel_body_[l] = id(mjOBJ_BODY, name + "_wheel", "body");
-      wheel_geom_[l] = id(mjOBJ_GEOM, name + "_wheel_geom", "geom");
-      wheel_radius_[l] = model_->geom_size[3 * wheel_geom_[l]];
-      geom_leg_[static_cast<std::size_t>(wheel_geom_[l])] = leg;
-      sensor_touch_[l] = model_->sensor_adr[id(mjOBJ_SENSOR, name + "_touch", "sensor")];
-      if (wheel < kNumDriveWheels && kDriveWheelLegs[static_cast<std::size_t>(wheel)] == leg) {
-        const auto w = static_cast<std::size_t>(wheel);
-        const int jid = id(mjOBJ_JOINT, name + "_wheel", "joint");
-        wheel_qpos_[w] = model_->jnt_qposadr[jid];
-        wheel_qvel_[w] = model_->jnt_dofadr[jid];
-        wheel_ctrl_[w] = id(mjOBJ_ACTUATOR, name + "_wheel_servo", "actuator");
-        sensor_wpos_[w] = model_->sensor_adr[id(mjOBJ_SENSOR, name + "_wheel_pos", "sensor")];
-        sensor_wvel_[w] = model_->sensor_adr[id(mjOBJ_SENSOR, name + "_wheel_vel", "sensor")];
-        ++wheel;
-      }
-    }
-    sensor_acc_ = model_->sensor_adr[id(mjOBJ_SENSOR, "imu_acc", "sensor")];
-    sensor_gyro_ = model_->sensor_adr[id(mjOBJ_SENSOR, "imu_gyro", "sensor")];
-    sensor_quat_ = model_->sensor_adr[id(mjOBJ_SENSOR, "imu_quat", "sensor")];
-    key_nominal_ = id(mjOBJ_KEY, "nominal", "keyframe");
-    total_mass_ = mj_getTotalmass(model_);
-
-    const mjtNum* key_ctrl = model_->key_ctrl + key_nominal_ * model_->nu;
-    for (std::size_t j = 0; j < kNumJoints; ++j) {
-      nominal_command_.joint_position[static_cast<Eigen::Index>(j)] = key_ctrl[joint_ctrl_[j]];
-    }
-    nominal_command_.wheel_velocity.setZero();
+    data_ = mj_makeData(model_);
+    if (data_ == nullptr) throw SimError(what + ": MuJoCo could not allocate its data");
+    reset();
+    checkStartPosition();
   } catch (...) {
     mj_deleteData(data_);
     mj_deleteModel(model_);
     throw;
   }
-  reset();
+}
+
+void Plant::checkStructure() {
+  const std::string what = "robot model '" + robot_file_ + "'";
+  const auto fail = [&](const std::string& problem) { throw SimError(what + ": " + problem); };
+  const auto id = [&](int type, const std::string& name, const char* kind) {
+    const int i = mj_name2id(model_, type, name.c_str());
+    if (i < 0) fail(std::string("no ") + kind + " named '" + name + "'");
+    return i;
+  };
+  const auto joint = [&](const std::string& name, int type, const char* type_name) {
+    const int j = id(mjOBJ_JOINT, name, "joint");
+    if (model_->jnt_type[j] != type) fail("joint '" + name + "' must be a " + type_name);
+    return j;
+  };
+  // An actuator of the joint, and a scalar joint sensor of it.
+  const auto actuator = [&](const std::string& name, int joint_id) {
+    const int a = id(mjOBJ_ACTUATOR, name, "actuator");
+    if (model_->actuator_trntype[a] != mjTRN_JOINT || model_->actuator_trnid[2 * a] != joint_id) {
+      fail("actuator '" + name + "' must drive joint '" +
+           std::string(mj_id2name(model_, mjOBJ_JOINT, joint_id)) + "'");
+    }
+    return a;
+  };
+  const auto sensor = [&](const std::string& name, int type, int dim, int object,
+                          const char* description) {
+    const int s = id(mjOBJ_SENSOR, name, "sensor");
+    if (model_->sensor_type[s] != type || model_->sensor_dim[s] != dim ||
+        (object >= 0 && model_->sensor_objid[s] != object)) {
+      fail("sensor '" + name + "' must be " + description);
+    }
+    return model_->sensor_adr[s];
+  };
+
+  const double ts = model_->opt.timestep;
+  substeps_ = static_cast<int>(std::lround(control_period_ / ts));
+  if (!(ts > 0.0) || substeps_ < 1 || std::abs(substeps_ * ts - control_period_) > 1e-12) {
+    fail("timestep " + std::to_string(ts) + " s does not divide the control period " +
+         std::to_string(control_period_) + " s");
+  }
+  const int base_body = id(mjOBJ_BODY, "base", "body");
+  if (model_->body_jntnum[base_body] != 1 ||
+      model_->jnt_type[model_->body_jntadr[base_body]] != mjJNT_FREE) {
+    fail("body 'base' needs one free joint");
+  }
+  base_qpos_ = model_->jnt_qposadr[model_->body_jntadr[base_body]];
+  base_qvel_ = model_->jnt_dofadr[model_->body_jntadr[base_body]];
+  geom_leg_.assign(static_cast<std::size_t>(model_->ngeom), -1);
+
+  wheel_speed_limit_ = std::numeric_limits<double>::infinity();
+  int wheel = 0;
+  for (int leg = 0; leg < kNumLegs; ++leg) {
+    const auto l = static_cast<std::size_t>(leg);
+    const std::string name = kLegNames[l];
+    for (int k = 0; k < 2; ++k) {
+      const auto j = static_cast<std::size_t>(2 * leg + k);
+      const std::string joint_name = name + (k == 0 ? "_hip" : "_knee");
+      const int jid = k == 0 ? joint(joint_name, mjJNT_HINGE, "hinge")
+                             : joint(joint_name, mjJNT_SLIDE, "slide joint");
+      joint_qpos_[j] = model_->jnt_qposadr[jid];
+      joint_qvel_[j] = model_->jnt_dofadr[jid];
+      joint_ctrl_[j] = actuator(joint_name + "_servo", jid);
+      sensor_jpos_[j] = sensor(joint_name + "_pos", mjSENS_JOINTPOS, 1, jid,
+                               ("a jointpos sensor of joint '" + joint_name + "'").c_str());
+      sensor_jvel_[j] = sensor(joint_name + "_vel", mjSENS_JOINTVEL, 1, jid,
+                               ("a jointvel sensor of joint '" + joint_name + "'").c_str());
+    }
+    const int hip_body = id(mjOBJ_BODY, name + "_hip_link", "body");
+    hip_position_[l] =
+        Eigen::Vector3d(model_->body_pos[3 * hip_body], model_->body_pos[3 * hip_body + 1],
+                        model_->body_pos[3 * hip_body + 2]);
+    wheel_body_[l] = id(mjOBJ_BODY, name + "_wheel", "body");
+    wheel_geom_[l] = id(mjOBJ_GEOM, name + "_wheel_geom", "geom");
+    if (model_->geom_type[wheel_geom_[l]] != mjGEOM_SPHERE ||
+        model_->geom_bodyid[wheel_geom_[l]] != wheel_body_[l]) {
+      fail("geom '" + name + "_wheel_geom' must be a sphere of body '" + name + "_wheel'");
+    }
+    wheel_radius_[l] = model_->geom_size[3 * wheel_geom_[l]];
+    geom_leg_[static_cast<std::size_t>(wheel_geom_[l])] = leg;
+    sensor_touch_[l] = sensor(name + "_touch", mjSENS_TOUCH, 1, -1, "a touch sensor");
+    if (wheel < kNumDriveWheels && kDriveWheelLegs[static_cast<std::size_t>(wheel)] == leg) {
+      const auto w = static_cast<std::size_t>(wheel);
+      const std::string joint_name = name + "_wheel";
+      const int jid = joint(joint_name, mjJNT_HINGE, "hinge");
+      wheel_qpos_[w] = model_->jnt_qposadr[jid];
+      wheel_qvel_[w] = model_->jnt_dofadr[jid];
+      wheel_ctrl_[w] = actuator(joint_name + "_servo", jid);
+      if (model_->actuator_ctrllimited[wheel_ctrl_[w]]) {
+        const mjtNum* range = model_->actuator_ctrlrange + 2 * wheel_ctrl_[w];
+        wheel_speed_limit_ =
+            std::min(wheel_speed_limit_, std::min(std::abs(range[0]), std::abs(range[1])));
+      }
+      sensor_wpos_[w] = sensor(joint_name + "_pos", mjSENS_JOINTPOS, 1, jid,
+                               ("a jointpos sensor of joint '" + joint_name + "'").c_str());
+      sensor_wvel_[w] = sensor(joint_name + "_vel", mjSENS_JOINTVEL, 1, jid,
+                               ("a jointvel sensor of joint '" + joint_name + "'").c_str());
+      ++wheel;
+    }
+  }
+  sensor_acc_ = sensor("imu_acc", mjSENS_ACCELEROMETER, 3, -1, "an accelerometer");
+  sensor_gyro_ = sensor("imu_gyro", mjSENS_GYRO, 3, -1, "a gyro");
+  sensor_quat_ = sensor("imu_quat", mjSENS_FRAMEQUAT, 4, -1, "a framequat sensor");
+  key_nominal_ = id(mjOBJ_KEY, "nominal", "keyframe");
+  total_mass_ = mj_getTotalmass(model_);
+
+  const mjtNum* key_ctrl = model_->key_ctrl + key_nominal_ * model_->nu;
+  for (std::size_t j = 0; j < kNumJoints; ++j) {
+    nominal_command_.joint_position[static_cast<Eigen::Index>(j)] = key_ctrl[joint_ctrl_[j]];
+  }
+  nominal_command_.wheel_velocity.setZero();
+  if (!nominal_command_.joint_position.allFinite())
+    fail("keyframe 'nominal' has a non-finite ctrl");
+}
+
+void Plant::checkStartPosition() {
+  // Front of the robot at the nominal pose, base at x = 0: the largest world x of its
+  // geoms (the world body's geoms are the terrain).
+  front_extent_ = -std::numeric_limits<double>::infinity();
+  for (int g = 0; g < model_->ngeom; ++g) {
+    if (model_->geom_bodyid[g] == 0) continue;
+    front_extent_ =
+        std::max(front_extent_, data_->geom_xpos[3 * g] + geomExtentX(model_, data_, g));
+  }
+  if (!std::isfinite(front_extent_)) front_extent_ = 0.0;
+  const std::vector<TerrainBox> boxes = terrainBoxes(scene_);
+  if (boxes.empty()) return;
+  const double near_edge = boxes.front().center.x() - boxes.front().half_size.x();
+  const double min_start_x = minStartX();
+  if (near_edge < min_start_x) {
+    char text[512];
+    std::snprintf(text, sizeof text,
+                  "scene %s: start_x = %g m puts block 1 inside, under or against the robot "
+                  "'%s' (its front is at x = %.3f m at the nominal pose); valid range for this "
+                  "robot: start_x >= %.3f m (%.2f m clearance)",
+                  sceneName().c_str(), scene_.start_x, robot_file_.c_str(), front_extent_,
+                  min_start_x, kStartClearance);
+    throw SimError(text);
+  }
+}
+
+std::string Plant::sceneName() const {
+  return std::string(toString(scene_.kind)) + (scene_.source.empty() ? "" : " of " + scene_.source);
 }
 
 Plant::~Plant() {

@@ -3,13 +3,21 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
-#include <fstream>
-#include <sstream>
+#include <cstdlib>
+#include <limits>
+#include <map>
 #include <stdexcept>
 
+#include "rollstep/common/text_file.hpp"
+
 namespace rollstep::sim {
+
+namespace {
+constexpr std::size_t kMaxSceneConfigBytes = std::size_t{1} << 20;
+}  // namespace
 
 std::string_view toString(SceneKind kind) {
   switch (kind) {
@@ -31,63 +39,161 @@ SceneKind sceneKindFromString(std::string_view name) {
                               "' (expected flat, step20 or stairs2)");
 }
 
+namespace {
+
+// The one table of numeric scene parameters (README "Scene parameters" mirrors it).
+// Ranges: what the terrain model and MuJoCo's collision handle well and what a scene of
+// this robot can sensibly be; the robot-dependent lower bound of start_x is the Plant's.
+const std::array<SceneField, kNumSceneFields> kSceneFields{{
+    {"friction", &SceneConfig::friction, "", 0.01, 5.0, "terrain friction coefficient"},
+    {"start_x", &SceneConfig::start_x, "m", 0.0, 50.0,
+     "robot start (base centre at x = 0) to the near edge of block 1"},
+    {"width", &SceneConfig::width, "m", 0.1, 100.0, "lateral extent of the blocks"},
+    {"step1_height", &SceneConfig::step1_height, "m", 0.001, 1.0,
+     "step20 block height / stairs2 first rise"},
+    {"step1_length", &SceneConfig::step1_length, "m", 0.01, 50.0,
+     "step20 block length / stairs2 first landing"},
+    {"step2_height", &SceneConfig::step2_height, "m", 0.001, 1.0, "stairs2 second rise"},
+    {"step2_length", &SceneConfig::step2_length, "m", 0.01, 50.0, "stairs2 top landing"},
+}};
+
+/// The shortest decimal text that reads back as exactly v.
+std::string numberText(double v) {
+  if (std::isnan(v)) return "nan";
+  if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
+  char buf[32];
+  if (v == std::floor(v) && std::abs(v) < 1e15) {
+    std::snprintf(buf, sizeof buf, "%.0f", v);
+    return buf;
+  }
+  for (int digits = 1; digits <= 17; ++digits) {
+    std::snprintf(buf, sizeof buf, "%.*g", digits, v);
+    if (std::strtod(buf, nullptr) == v) break;
+  }
+  return buf;
+}
+
+std::string withUnit(double v, const SceneField& f) {
+  return numberText(v) + (*f.unit ? std::string(" ") + f.unit : std::string());
+}
+
+std::string rangeText(const SceneField& f) {
+  return "valid range [" + numberText(f.min) + ", " + numberText(f.max) + "]" +
+         (*f.unit ? std::string(" ") + f.unit : std::string()) + " (" + f.meaning + ")";
+}
+
+/// Empty if v is a valid value of f, else what is wrong with it.
+std::string problemWith(const SceneField& f, double v) {
+  if (!std::isfinite(v)) return numberText(v) + " is not a finite number; " + rangeText(f);
+  if (v < f.min || v > f.max) return withUnit(v, f) + " is out of range; " + rangeText(f);
+  return {};
+}
+
+std::string knownKeys() {
+  std::string keys = "scene";
+  for (const SceneField& f : kSceneFields) keys += std::string(", ") + f.key;
+  return keys;
+}
+
+/// A YAML plain scalar as a number: decimal or exponent notation, YAML's .inf/.nan.
+/// Returns false if the text is not a number.
+bool parseNumber(const std::string& text, double& value) {
+  std::string lower;
+  for (char c : text) lower += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (lower == ".nan") {
+    value = std::numeric_limits<double>::quiet_NaN();
+    return true;
+  }
+  if (lower == ".inf" || lower == "+.inf" || lower == "-.inf") {
+    value = (lower[0] == '-' ? -1.0 : 1.0) * std::numeric_limits<double>::infinity();
+    return true;
+  }
+  if (text.empty() || std::isspace(static_cast<unsigned char>(text[0]))) return false;
+  char* end = nullptr;
+  value = std::strtod(text.c_str(), &end);
+  return end == text.c_str() + text.size();
+}
+
+}  // namespace
+
+const std::array<SceneField, kNumSceneFields>& sceneFields() { return kSceneFields; }
+
 void SceneConfig::validate() const {
-  const auto check = [](double value, const char* name, bool allow_zero) {
-    if (!std::isfinite(value) || value < 0.0 || (!allow_zero && value == 0.0)) {
-      throw std::invalid_argument(std::string("scene parameter ") + name + " = " +
-                                  std::to_string(value) +
-                                  (allow_zero ? " must be >= 0" : " must be > 0"));
-    }
-  };
-  check(friction, "friction", false);
-  check(start_x, "start_x", true);
-  check(width, "width", false);
-  check(step1_height, "step1_height", false);
-  check(step1_length, "step1_length", false);
-  check(step2_height, "step2_height", false);
-  check(step2_length, "step2_length", false);
+  for (const SceneField& f : kSceneFields) {
+    const std::string problem = problemWith(f, this->*f.member);
+    if (!problem.empty()) throw std::invalid_argument(std::string(f.key) + ": " + problem);
+  }
 }
 
 SceneConfig parseSceneConfig(const std::string& yaml_text, const std::string& source_name) {
+  const std::string where = "scene config '" + source_name + "': ";
   const auto fail = [&](const std::string& what) -> void {
-    throw std::runtime_error("scene config " + source_name + ": " + what);
+    throw std::runtime_error(where + what);
+  };
+  const auto line = [](const YAML::Node& node) {
+    return "line " + std::to_string(node.Mark().line + 1) + ": ";
   };
   SceneConfig config;
-  YAML::Node root;
+  config.source = "scene config '" + source_name + "'";
+  std::vector<YAML::Node> documents;
   try {
-    root = YAML::Load(yaml_text);
+    documents = YAML::LoadAll(yaml_text);
   } catch (const YAML::Exception& e) {
     fail(std::string("YAML error: ") + e.what());
   }
-  if (root.IsNull()) return config;  // empty file: all defaults
-  if (!root.IsMap()) fail("expected a mapping of key: value");
+  if (documents.empty()) return config;  // empty file or comments only: all defaults
+  if (documents.size() > 1) {
+    fail("holds " + std::to_string(documents.size()) +
+         " YAML documents (separated by '---'); a scene config is one mapping of key: value");
+  }
+  const YAML::Node& root = documents.front();
+  if (root.IsNull()) return config;
+  if (!root.IsMap()) fail(line(root) + "expected a mapping of key: value");
+  std::map<std::string, int> seen;  // key -> line (1-based) where it was first given
   for (const auto& item : root) {
-    const std::string key = item.first.as<std::string>();
+    const YAML::Node& key_node = item.first;
     const YAML::Node& value = item.second;
-    try {
-      if (key == "scene") {
-        config.kind = sceneKindFromString(value.as<std::string>());
-        continue;
-      }
-      double* target = nullptr;
-      if (key == "friction") target = &config.friction;
-      if (key == "start_x") target = &config.start_x;
-      if (key == "width") target = &config.width;
-      if (key == "step1_height") target = &config.step1_height;
-      if (key == "step1_length") target = &config.step1_length;
-      if (key == "step2_height") target = &config.step2_height;
-      if (key == "step2_length") target = &config.step2_length;
-      if (target == nullptr) {
-        fail("unknown key '" + key +
-             "' (known: scene, friction, start_x, width, step1_height, step1_length, "
-             "step2_height, step2_length)");
-      }
-      *target = value.as<double>();
-    } catch (const YAML::Exception& e) {
-      fail("bad value for '" + key + "': " + e.what());
-    } catch (const std::invalid_argument& e) {
-      fail("bad value for '" + key + "': " + e.what());
+    if (!key_node.IsScalar()) fail(line(key_node) + "a key must be a plain name");
+    const std::string key = key_node.Scalar();
+    const int key_line = key_node.Mark().line + 1;
+    const std::string at = line(key_node) + key + ": ";
+    const SceneField* field = nullptr;
+    for (const SceneField& f : kSceneFields) {
+      if (key == f.key) field = &f;
     }
+    if (field == nullptr && key != "scene") {
+      fail(line(key_node) + "unknown key '" + key + "' (known: " + knownKeys() + ")");
+    }
+    // YAML forbids a repeated key, but yaml-cpp keeps both; the last would win silently.
+    if (const auto it = seen.find(key); it != seen.end()) {
+      fail(line(key_node) + "key '" + key + "' given twice (first on line " +
+           std::to_string(it->second) + ")");
+    }
+    seen.emplace(key, key_line);
+    if (value.IsNull()) fail(at + "no value");
+    if (!value.IsScalar()) {
+      fail(at + "expected a single value, got a " + (value.IsSequence() ? "list" : "mapping"));
+    }
+    const std::string& text = value.Scalar();
+    if (field == nullptr) {  // scene
+      try {
+        config.kind = sceneKindFromString(text);
+      } catch (const std::invalid_argument& e) {
+        fail(at + e.what());
+      }
+      continue;
+    }
+    double number = 0.0;
+    if (value.Tag() != "?" || !parseNumber(text, number)) {
+      fail(at + "'" + text + "' is not a number" + (value.Tag() == "?" ? "" : " (it is quoted)") +
+           "; " + rangeText(*field));
+    }
+    if (!std::isfinite(number)) {
+      fail(at + "'" + text + "' is not a finite number; " + rangeText(*field));
+    }
+    const std::string problem = problemWith(*field, number);
+    if (!problem.empty()) fail(at + problem);
+    config.*(field->member) = number;
   }
   try {
     config.validate();
@@ -98,11 +204,21 @@ SceneConfig parseSceneConfig(const std::string& yaml_text, const std::string& so
 }
 
 SceneConfig loadSceneConfig(const std::string& yaml_file) {
-  std::ifstream in(yaml_file);
-  if (!in) throw std::runtime_error("scene config " + yaml_file + ": cannot open file");
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  return parseSceneConfig(buffer.str(), yaml_file);
+  std::string text;
+  try {
+    text = readTextFile(yaml_file, "scene config", kMaxSceneConfigBytes);
+  } catch (const InputError& e) {
+    throw std::runtime_error(e.what());
+  }
+  return parseSceneConfig(text, yaml_file);
+}
+
+std::string toYaml(const SceneConfig& config) {
+  std::string out = "scene: " + std::string(toString(config.kind)) + "\n";
+  for (const SceneField& f : kSceneFields) {
+    out += std::string(f.key) + ": " + numberText(config.*f.member) + "\n";
+  }
+  return out;
 }
 
 std::vector<TerrainBox> terrainBoxes(const SceneConfig& c) {

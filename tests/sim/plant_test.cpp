@@ -204,7 +204,7 @@ void expectLoadError(const std::string& robot_file, const std::string& needle) {
   }
 }
 
-TEST(PlantErrors, MissingFile) { expectLoadError("/nonexistent/robot.xml", "cannot open file"); }
+TEST(PlantErrors, MissingFile) { expectLoadError("/nonexistent/robot.xml", "No such file"); }
 
 TEST(PlantErrors, MalformedXml) {
   const std::string path = writeTemp("malformed.xml", "<mujoco><worldbody><body>\n</mujoco>\n");

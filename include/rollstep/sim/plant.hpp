@@ -98,6 +98,9 @@ struct GroundTruth {
 struct PlantOptions {
   /// Robot MJCF; empty = defaultRobotFile().
   std::string robot_file;
+  /// The text of the robot MJCF, if not empty: used instead of reading robot_file, which
+  /// then only names it in messages and gives the directory of its relative paths.
+  std::string robot_xml;
   /// Control period [s]: one step() advances this much time, in physics steps of the
   /// model's timestep (must divide it).
   double control_period = 0.001;
@@ -111,9 +114,14 @@ std::string defaultRobotFile();
 
 class Plant {
  public:
-  /// Loads the robot into the scene and resets to the nominal posture.
-  /// Throws SimError naming the file and MuJoCo's message if the robot file is
-  /// missing, malformed or lacks an element the plant needs.
+  /// Loads the robot into the scene and resets to the nominal posture. The scene is an
+  /// MJCF that <include>s the robot file (parsed by MuJoCo as XML, never edited as
+  /// text) and adds the terrain in its own <worldbody>.
+  /// Throws SimError naming the file and the problem if the robot file is missing, not
+  /// a regular file, malformed (MuJoCo's message), or lacks an element the plant needs
+  /// or has it of the wrong kind (joints, actuators, sensors, wheel geoms, keyframe
+  /// "nominal"); if a scene parameter is invalid; if the first block is not clear of
+  /// the robot's front (start_x < minStartX()); or if an option is not finite.
   explicit Plant(const SceneConfig& scene, const PlantOptions& options = {});
   ~Plant();
   Plant(const Plant&) = delete;
@@ -149,11 +157,22 @@ class Plant {
   const PlantCommand& nominalCommand() const { return nominal_command_; }
   /// Radius [m] of a leg's wheel geom.
   double wheelRadius(int leg) const { return wheel_radius_[static_cast<std::size_t>(leg)]; }
+  /// Largest wheel speed [rad/s] every drive wheel servo can be commanded (the smallest
+  /// bound of their ctrlrange; infinity if unlimited). Faster commands are clamped.
+  double wheelSpeedLimit() const { return wheel_speed_limit_; }
   /// Hip joint origin of a leg in the base frame [m].
   const Eigen::Vector3d& hipPosition(int leg) const {
     return hip_position_[static_cast<std::size_t>(leg)];
   }
   double totalMass() const { return total_mass_; }
+  /// Largest world x [m] of the robot's geoms at the nominal posture with the base at
+  /// x = 0 (the front of its wheels for Tachyon 3).
+  double frontExtent() const { return front_extent_; }
+  /// Clearance [m] between the robot's front and the first block, at the least.
+  static constexpr double kStartClearance = 0.05;
+  /// Smallest valid SceneConfig::start_x [m] for this robot: frontExtent() +
+  /// kStartClearance (the robot starts clear of the first block).
+  double minStartX() const { return front_extent_ + kStartClearance; }
   const SceneConfig& scene() const { return scene_; }
   const std::string& robotFile() const { return robot_file_; }
   double controlPeriod() const { return control_period_; }
@@ -169,6 +188,9 @@ class Plant {
 
  private:
   void updateReadings();
+  void checkStructure();          // resolves and checks the indices below
+  void checkStartPosition();      // sets front_extent_, checks the scene's start_x
+  std::string sceneName() const;  // "step20 of scene config 'FILE'" for messages
 
   SceneConfig scene_;
   std::string robot_file_;
@@ -182,6 +204,8 @@ class Plant {
   SensorReadings sensors_;
   GroundTruth truth_;
   double total_mass_ = 0.0;
+  double front_extent_ = 0.0;
+  double wheel_speed_limit_ = 0.0;
   int key_nominal_ = -1;
 
   // Indices resolved once at load.

@@ -1,32 +1,42 @@
 #pragma once
 // Closed-loop runs of the plant with a controller, with an optional CSV log.
-#include <cstdio>
 #include <string>
 
+#include "rollstep/common/text_file.hpp"
 #include "rollstep/sim/plant.hpp"
 #include "rollstep/sim/simple_controllers.hpp"
 
 namespace rollstep::sim {
 
-/// CSV log of a run, one row per logged control period. Columns:
-///   time, base_x/y/z (world, m), base_qw/qx/qy/qz (base->world), base_vx/vy/vz (world,
-///   m/s), base_wx/wy/wz (base frame, rad/s), q_<joint> (12, URDF order), cmd_<joint>
-///   (12), wheel_vel_<leg> and cmd_wheel_<leg> (4 drive wheels, rad/s),
-///   contact_<leg> (0/1, ground truth) and fz_<leg> (world vertical force, N) for 6 legs.
+/// CSV log of a run, one row per logged control period. Every column name carries its
+/// unit in brackets (csvHeader()):
+///   time[s], base_x/y/z[m] (world), base_qw/qx/qy/qz[-] (base->world), base_vx/vy/vz[m/s]
+///   (world), base_wx/wy/wz[rad/s] (base frame), q_<joint> (12, URDF order: hips [rad],
+///   knees [m]), cmd_<joint> (12, same units), wheel_vel_<leg>[rad/s] and
+///   cmd_wheel_<leg>[rad/s] (4 drive wheels), contact_<leg>[0/1] (ground truth) and
+///   fz_<leg>[N] (world vertical force) for the 6 legs.
+/// The file appears complete or not at all: rows go to a temporary file beside it
+/// (AtomicFileWriter), every write is checked, and commit() renames it to `path`.
+/// Without commit() (an exception left the run) the temporary is removed.
 class CsvLog {
  public:
-  /// Opens (truncates) the file and writes the header; throws SimError on failure.
+  /// Creates the temporary file and writes the header; throws OutputError naming the
+  /// path and the reason on failure.
   explicit CsvLog(const std::string& path);
-  ~CsvLog();
   CsvLog(const CsvLog&) = delete;
   CsvLog& operator=(const CsvLog&) = delete;
+  /// Appends a row; throws OutputError if writing fails (a full disk).
   void write(const GroundTruth& truth, const PlantCommand& command);
-  const std::string& path() const { return path_; }
+  /// Flushes, syncs and renames the file into place; throws OutputError on failure.
+  void commit() { file_.commit(); }
+  const std::string& path() const { return file_.path(); }
 
  private:
-  std::string path_;
-  std::FILE* file_ = nullptr;
+  AtomicFileWriter file_;
 };
+
+/// The header line of CsvLog (column names with units, comma-separated, no newline).
+std::string csvHeader();
 
 struct RunSummary {
   double sim_time = 0.0;   ///< [s]
@@ -34,7 +44,9 @@ struct RunSummary {
   double real_time_factor = 0.0;
   Eigen::Vector3d start_position = Eigen::Vector3d::Zero();
   Eigen::Vector3d end_position = Eigen::Vector3d::Zero();
-  double yaw_change = 0.0;       ///< [rad] end minus start, wrapped to (-pi, pi]
+  /// [rad] total rotation about world z from start to end, unwrapped (the sum of the
+  /// yaw increments of every control period: two turns in place read 4 pi, not 0).
+  double yaw_change = 0.0;
   double min_base_height = 0.0;  ///< [m] world z of the base centre
   double max_base_height = 0.0;
   double mean_forward_speed = 0.0;         ///< [m/s] mean base-frame x velocity
@@ -43,7 +55,10 @@ struct RunSummary {
 };
 
 /// Runs `duration` seconds from the plant's current state; logs every `log_every`
-/// control periods if `log` is not null.
+/// control periods if `log` is not null (the caller commits the log). Throws
+/// std::invalid_argument if duration is not finite, negative or more than 1e6 s, or
+/// log_every < 1; SimError if the simulation diverges; OutputError if the log cannot
+/// be written.
 RunSummary runScenario(Plant& plant, Controller& controller, double duration, CsvLog* log = nullptr,
                        int log_every = 10);
 

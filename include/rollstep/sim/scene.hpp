@@ -14,6 +14,8 @@
 //             step2_height rise (0.165) onto a step2_length top landing (1.50), whose
 //             far end drops back to the floor.
 #include <Eigen/Core>
+#include <array>
+#include <cstddef>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -28,7 +30,8 @@ std::string_view toString(SceneKind kind);
 SceneKind sceneKindFromString(std::string_view name);
 
 /// Scene parameters. Defaults are the spec's values. YAML keys have the same names as
-/// the members (see loadSceneConfig).
+/// the members (see loadSceneConfig); sceneFields() lists each numeric one with its unit
+/// and valid range.
 struct SceneConfig {
   SceneKind kind = SceneKind::kFlat;
   double friction = 0.8;        ///< sliding friction coefficient of the terrain
@@ -38,20 +41,45 @@ struct SceneConfig {
   double step1_length = 1.20;   ///< [m] step20 block length; stairs2 first landing
   double step2_height = 0.165;  ///< [m] stairs2 second rise (top at step1 + step2)
   double step2_length = 1.50;   ///< [m] stairs2 top landing length
+  /// Where the parameters came from, for error messages ("scene config 'FILE'"; set by
+  /// parseSceneConfig/loadSceneConfig), or empty.
+  std::string source;
 
-  /// Throws std::invalid_argument if a value is out of range (non-positive sizes,
-  /// friction <= 0, non-finite values).
+  /// Throws std::invalid_argument naming the first parameter that is not finite or
+  /// outside its range of sceneFields(), with its value and the range. Ranges that
+  /// depend on the robot (start_x must clear the robot's footprint) are checked by the
+  /// Plant, which knows the robot.
   void validate() const;
 };
+
+/// A numeric scene parameter: its YAML key, member, unit, valid range [min, max]
+/// (inclusive) and meaning. The one table behind parsing, validation, toYaml and the
+/// README.
+struct SceneField {
+  const char* key;
+  double SceneConfig::*member;
+  const char* unit;  ///< "m" or "" (dimensionless)
+  double min;
+  double max;
+  const char* meaning;
+};
+inline constexpr std::size_t kNumSceneFields = 7;
+const std::array<SceneField, kNumSceneFields>& sceneFields();
 
 /// Reads a YAML mapping with any subset of the keys
 ///   scene (flat|step20|stairs2), friction, start_x, width, step1_height,
 ///   step1_length, step2_height, step2_length
-/// starting from the defaults above. Unknown keys, wrong types and invalid values are
-/// errors: throws std::runtime_error whose message names the file and the key.
+/// starting from the defaults above. Errors (std::runtime_error, message
+/// "scene config '<file>': line <n>: <key>: <problem>"): the file is missing or not a
+/// regular file (a FIFO or device is refused without reading it) or larger than 1 MiB;
+/// YAML syntax; more than one YAML document; not a mapping; unknown or repeated keys;
+/// a missing value, a list or mapping, or a quoted string where a number is expected;
+/// a number that is not finite or outside its range (sceneFields()).
 SceneConfig loadSceneConfig(const std::string& yaml_file);
 /// Same, from YAML text; `source_name` is used in error messages.
 SceneConfig parseSceneConfig(const std::string& yaml_text, const std::string& source_name);
+/// Every parameter as YAML text that parseSceneConfig reads back exactly.
+std::string toYaml(const SceneConfig& config);
 
 /// An axis-aligned static box of the terrain, world frame.
 struct TerrainBox {
