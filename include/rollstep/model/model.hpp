@@ -102,13 +102,37 @@ struct Model {
   int bodyOfVelocityIndex(int col) const { return col < nvBase ? 0 : col - nvBase + 1; }
 };
 
+/// Sanity bounds of the URDF loader (anything beyond is a typo, not a robot).
+constexpr double kUrdfMaxMass = 1e5;            ///< [kg] mass of one link
+constexpr double kUrdfMaxInertia = 1e5;         ///< [kg m^2] entries of one link's inertia
+constexpr double kUrdfMaxDistance = 1e3;        ///< [m] |xyz| of a joint or inertial origin
+constexpr double kUrdfInertiaTolerance = 1e-6;  ///< relative, of the largest principal moment
+constexpr int kUrdfMaxXmlDepth = 64;            ///< element nesting of the XML text
+
 /// Loads a URDF file (urdfdom). Fixed joints are merged into their parent body.
-/// Throws rollstep::model::ModelError with a message naming the offending element for:
-/// unparsable XML, missing link, unsupported joint type (floating, planar), zero or
-/// non-positive-definite inertia, a link with two parents or not connected to the root
-/// (kinematic loop), several roots.
+/// The file is read with rollstep::readTextFile (a directory, FIFO, device or a file above
+/// 64 MiB is refused before it is opened). Throws rollstep::model::ModelError, its message
+/// starting with "URDF file '<path>': " and naming the element (link or joint), the value and
+/// the valid range, for:
+///  - unparsable XML (urdfdom's own message), elements nested more than kUrdfMaxXmlDepth deep;
+///  - a missing link, an unsupported joint type (floating, planar), a link with two parents
+///    or not connected to the root (kinematic loop), several roots;
+///  - a joint or inertial origin that is not finite or farther than kUrdfMaxDistance;
+///  - a joint axis that is zero or not finite;
+///  - joint limits: lower > upper or not finite (revolute, prismatic), a negative or
+///    non-finite velocity or effort (0 means "no limit", as before); negative or non-finite
+///    <dynamics> damping or friction;
+///  - an <inertial> whose mass is not in (0, kUrdfMaxMass] (NaN included; a massless link
+///    has no <inertial> element: such links, e.g. frames merged by fixed joints, are fine),
+///    or whose inertia is not finite, has an entry above kUrdfMaxInertia, is not positive
+///    semidefinite or breaks the triangle inequality of its principal moments
+///    (A + B >= C; tolerance kUrdfInertiaTolerance of the largest); a point mass (zero
+///    inertia) is a valid link;
+///  - a total mass of zero; with a free-flyer root, a whole-robot rotational inertia about
+///    the centre of mass (neutral configuration) that is not positive definite.
+/// The tree is walked with an explicit stack: a chain of any length is fine.
 Model buildModelFromUrdfFile(const std::string& path, RootJoint root = RootJoint::FreeFlyer);
-/// Same from an XML string.
+/// Same from an XML string (messages without the file name).
 Model buildModelFromUrdfString(const std::string& xml, RootJoint root = RootJoint::FreeFlyer);
 
 /// Error raised while building a Model.
