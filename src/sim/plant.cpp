@@ -54,8 +54,10 @@ class Vfs {
   ~Vfs() { mj_deleteVFS(vfs_.get()); }
   Vfs(const Vfs&) = delete;
   Vfs& operator=(const Vfs&) = delete;
-  /// Adds a file; MuJoCo finds it by its name without directories.
+  /// Adds a file; MuJoCo finds it by its name without directories. (MuJoCo would abort
+  /// the process on an empty file or a name of mjMAXVFSNAME characters or more.)
   bool add(const std::string& name, const std::string& text) {
+    if (text.empty() || name.size() >= mjMAXVFSNAME) return false;
     if (text.size() > static_cast<std::size_t>(std::numeric_limits<int>::max())) return false;
     if (mj_makeEmptyFileVFS(vfs_.get(), name.c_str(), static_cast<int>(text.size())) != 0) {
       return false;
@@ -151,6 +153,7 @@ Plant::Plant(const SceneConfig& scene, const PlantOptions& options)
   const std::string dir = slash == std::string::npos ? "" : robot_file_.substr(0, slash + 1);
   const std::string base = slash == std::string::npos ? robot_file_ : robot_file_.substr(slash + 1);
   if (base.empty()) throw SimError(what + ": not a file name");
+  if (robot_xml.empty()) throw SimError(what + ": the file is empty");
   const std::string scene_file =
       base == "rollstep_scene.xml" ? "rollstep_scene_0.xml" : "rollstep_scene.xml";
   const std::string scene_xml = "<mujoco model=\"rollstep_scene\">\n  <include file=\"" +

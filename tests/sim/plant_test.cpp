@@ -3,12 +3,16 @@
 
 #include <gtest/gtest.h>
 #include <mujoco/mujoco.h>
+#include <sys/stat.h>
 
 #include <cstdio>
 #include <fstream>
 #include <limits>
+#include <sstream>
 #include <stdexcept>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "common/alloc_counter.hpp"
 
@@ -205,6 +209,200 @@ void expectLoadError(const std::string& robot_file, const std::string& needle) {
 }
 
 TEST(PlantErrors, MissingFile) { expectLoadError("/nonexistent/robot.xml", "No such file"); }
+
+TEST(PlantErrors, NotARegularFileIsRefusedWithoutReading) {
+  const std::string fifo = ::testing::TempDir() + "robot_fifo.xml";
+  std::remove(fifo.c_str());
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  expectLoadError(fifo, "FIFO");  // opening it for reading would block forever
+  std::remove(fifo.c_str());
+  expectLoadError(::testing::TempDir(), "");
+  expectLoadError("/dev/zero", "not a regular file");
+}
+
+std::string robotText() {
+  std::ifstream in(defaultRobotFile());
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+/// `text` with the first (or last) occurrence of `from` replaced by `to`; fails the test
+/// if `from` is not there.
+std::string replaced(std::string text, const std::string& from, const std::string& to,
+                     bool last = false) {
+  const std::size_t at = last ? text.rfind(from) : text.find(from);
+  if (at == std::string::npos) {
+    ADD_FAILURE() << "'" << from << "' is not in the robot file";
+    return text;
+  }
+  return text.replace(at, from.size(), to);
+}
+
+/// Loads step20 with the robot file: the floor and the block are there and the robot
+/// stands on the floor at its nominal height.
+void expectSceneIntact(const PlantOptions& options) {
+  Plant plant(scene(SceneKind::kStep20), options);
+  const mjModel* m = plant.mujocoModel();
+  EXPECT_GE(mj_name2id(m, mjOBJ_GEOM, "floor"), 0);
+  EXPECT_GE(mj_name2id(m, mjOBJ_GEOM, "block0"), 0);
+  EXPECT_NEAR(plant.raycast(Eigen::Vector3d(1.5, 0, 2), -Eigen::Vector3d::UnitZ(), 10), 1.8, 1e-9);
+  for (int k = 0; k < 200; ++k) plant.step();
+  EXPECT_NEAR(plant.groundTruth().base_position.z(), 0.375, 0.01);
+  EXPECT_EQ(plant.warningCount(), 0);
+}
+
+// The terrain used to be spliced in before the last "</worldbody>" of the text: anything
+// that looks like that tag without being it lost the terrain (the robot fell through).
+TEST(PlantComposition, TagLookalikesInCommentsCdataAndAttributes) {
+  const std::string text = robotText();
+  const std::vector<std::pair<std::string, std::string>> variants = {
+      {"comment at the end", replaced(text, "</mujoco>", "<!-- </worldbody> -->\n</mujoco>", true)},
+      {"comment in the worldbody",
+       replaced(text, "  </worldbody>", "  <!-- </worldbody><worldbody> -->\n  </worldbody>")},
+      {"CDATA", replaced(text, "</mujoco>", "<![CDATA[ </worldbody> ]]>\n</mujoco>", true)},
+      {"attribute text",
+       replaced(text, "<site name=\"imu\" pos=\"0 0 0\"/>",
+                "<site name=\"imu\" pos=\"0 0 0\"/><site name=\"a>b &lt;/worldbody&gt;\"/>")},
+      {"XML declaration", "<?xml version=\"1.0\" encoding=\"utf-8\"?>\n" + text},
+      {"no worldbody end tag at all",  // <worldbody/> of an empty robot is still XML
+       replaced(text, "</mujoco>", "<worldbody/>\n</mujoco>", true)},
+  };
+  for (const auto& [name, xml] : variants) {
+    SCOPED_TRACE(name);
+    const std::string path = writeTemp("lookalike.xml", xml);
+    PlantOptions from_file;
+    from_file.robot_file = path;
+    expectSceneIntact(from_file);
+    PlantOptions from_text;
+    from_text.robot_file = "/not/read/robot.xml";
+    from_text.robot_xml = xml;
+    expectSceneIntact(from_text);
+  }
+}
+
+// The robot's relative paths (its own includes, assets) resolve from its directory, not
+// from the working directory; odd characters in the path are no problem.
+TEST(PlantComposition, RobotIncludesAndPathsResolveFromItsDirectory) {
+  const std::string dir = ::testing::TempDir() + "robot dir & <x> \"q\"/";
+  ::mkdir(dir.c_str(), 0700);
+  ::mkdir((dir + "parts").c_str(), 0700);
+  const std::string text = robotText();
+  const std::size_t a = text.find("  <actuator>");
+  const std::size_t b = text.find("</actuator>") + std::string("</actuator>").size();
+  ASSERT_NE(a, std::string::npos);
+  std::ofstream(dir + "parts/actuators.xml") << "<mujoco>\n"
+                                             << text.substr(a, b - a) << "\n</mujoco>\n";
+  const std::string robot = dir + "robot & \"main\".xml";
+  std::ofstream(robot) << text.substr(0, a) << "  <include file=\"parts/actuators.xml\"/>"
+                       << text.substr(b);
+  PlantOptions options;
+  options.robot_file = robot;
+  expectSceneIntact(options);
+  Plant plant(SceneConfig{}, options);
+  EXPECT_EQ(plant.mujocoModel()->nu, 16);
+}
+
+TEST(PlantComposition, TerrainNameClashNamesSceneAndRobot) {
+  const std::string path = writeTemp(
+      "clash.xml",
+      replaced(robotText(), "<site name=\"imu\" pos=\"0 0 0\"/>",
+               "<site name=\"imu\" pos=\"0 0 0\"/><geom name=\"block0\" size=\"0.01\"/>"));
+  PlantOptions options;
+  options.robot_file = path;
+  try {
+    Plant plant(scene(SceneKind::kStep20), options);
+    FAIL() << "no error";
+  } catch (const SimError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("scene step20 with robot model '" + path + "'"), std::string::npos) << what;
+    EXPECT_NE(what.find("block0"), std::string::npos) << what;
+  }
+}
+
+// Wrong robot structure: every element the plant reads is checked for kind, not only name.
+TEST(PlantErrors, WrongStructureNamesTheElement) {
+  const std::string text = robotText();
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {replaced(text, "<joint name=\"LF_knee\" class=\"knee\"/>",
+                "<joint name=\"LF_knee\" class=\"knee\" type=\"hinge\"/>"),
+       "joint 'LF_knee' must be a slide joint"},
+      {replaced(text, "<joint name=\"RR_wheel\" class=\"drive\"/>",
+                "<joint name=\"RR_wheel\" class=\"drive\" type=\"slide\"/>"),
+       "joint 'RR_wheel' must be a hinge"},
+      {replaced(text, "name=\"LF_hip_servo\" joint=\"LF_hip\"",
+                "name=\"LF_hip_servo\" joint=\"MF_hip\""),
+       "actuator 'LF_hip_servo' must drive joint 'LF_hip'"},
+      {replaced(text, "<jointpos name=\"LF_hip_pos\" joint=\"LF_hip\"/>",
+                "<jointvel name=\"LF_hip_pos\" joint=\"LF_hip\"/>"),
+       "sensor 'LF_hip_pos' must be a jointpos sensor of joint 'LF_hip'"},
+      {replaced(text, "<jointvel name=\"RR_wheel_vel\" joint=\"RR_wheel\"/>",
+                "<jointvel name=\"RR_wheel_vel\" joint=\"LR_wheel\"/>"),
+       "sensor 'RR_wheel_vel' must be a jointvel sensor of joint 'RR_wheel'"},
+      {replaced(text, "<touch name=\"MF_touch\" site=\"MF_touch\"/>",
+                "<accelerometer name=\"MF_touch\" site=\"MF_touch\"/>"),
+       "sensor 'MF_touch' must be a touch sensor"},
+      {replaced(text, "<gyro name=\"imu_gyro\" site=\"imu\"/>",
+                "<velocimeter name=\"imu_gyro\" site=\"imu\"/>"),
+       "sensor 'imu_gyro' must be a gyro"},
+      {replaced(text, "<geom name=\"LF_wheel_geom\" type=\"sphere\" size=\"0.075\"",
+                "<geom name=\"LF_wheel_geom\" type=\"box\" size=\"0.075 0.075 0.075\""),
+       "geom 'LF_wheel_geom' must be a sphere of body 'LF_wheel'"},
+      {replaced(text, "<key name=\"nominal\"", "<key name=\"other\""),
+       "no keyframe named 'nominal'"},
+      {"<robot name=\"urdf\"/>", "MuJoCo: "},
+      {"", "the file is empty"},
+  };
+  for (const auto& [xml, needle] : cases) {
+    SCOPED_TRACE(needle);
+    expectLoadError(writeTemp("structure.xml", xml), needle);
+  }
+}
+
+TEST(PlantErrors, NonFiniteOrImpossibleOptions) {
+  for (double period : {std::numeric_limits<double>::quiet_NaN(), 0.0, -0.001, 0.0015, 10.0}) {
+    PlantOptions options;
+    options.control_period = period;
+    EXPECT_THROW(Plant plant(SceneConfig{}, options), SimError) << period;
+  }
+  PlantOptions options;
+  options.contact_threshold = std::numeric_limits<double>::infinity();
+  EXPECT_THROW(Plant plant(SceneConfig{}, options), SimError);
+}
+
+// The first block must be clear of the robot, whose front comes from the loaded model.
+TEST(PlantStart, BlockMustClearTheRobotsFront) {
+  const Plant flat(SceneConfig{});
+  EXPECT_NEAR(flat.frontExtent(), 0.45, 1e-9);  // the base box: 0.45 m half length
+  EXPECT_NEAR(flat.minStartX(), 0.45 + Plant::kStartClearance, 1e-9);
+  for (SceneKind kind : {SceneKind::kStep20, SceneKind::kStairs2}) {
+    SceneConfig c = scene(kind);
+    for (double start_x : {0.0, 0.2, flat.minStartX() - 1e-3}) {
+      c.start_x = start_x;
+      try {
+        Plant plant(c);
+        ADD_FAILURE() << "no error for start_x " << start_x;
+      } catch (const SimError& e) {
+        const std::string what = e.what();
+        EXPECT_NE(what.find("start_x"), std::string::npos) << what;
+        EXPECT_NE(what.find("start_x >= 0.500 m"), std::string::npos) << what;
+      }
+    }
+    c.start_x = flat.minStartX() + 1e-3;
+    Plant plant(c);
+    for (int k = 0; k < 200; ++k) plant.step();
+    EXPECT_NEAR(plant.groundTruth().base_position.z(), 0.375, 0.01);
+    for (const Eigen::Vector3d& f : plant.groundTruth().foot_force) EXPECT_GE(f.z(), 0.0);
+  }
+  // A longer robot needs more room: the bound is the model's, not a constant.
+  PlantOptions longer;
+  longer.robot_xml = replaced(robotText(), "size=\"0.45 0.25 0.08\"", "size=\"0.7 0.25 0.08\"");
+  EXPECT_NEAR(Plant(SceneConfig{}, longer).frontExtent(), 0.7, 1e-9);
+  SceneConfig c = scene(SceneKind::kStep20);
+  c.start_x = 0.6;
+  EXPECT_NO_THROW(Plant plant(c));
+  EXPECT_THROW(Plant plant(c, longer), SimError);
+}
 
 TEST(PlantErrors, MalformedXml) {
   const std::string path = writeTemp("malformed.xml", "<mujoco><worldbody><body>\n</mujoco>\n");

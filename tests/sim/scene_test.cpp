@@ -2,8 +2,15 @@
 #include "rollstep/sim/scene.hpp"
 
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <limits>
 #include <stdexcept>
+#include <string>
+#include <vector>
 
 namespace rollstep::sim {
 namespace {
@@ -55,6 +62,118 @@ TEST(SceneConfig, StrictYaml) {
   expectError("[1, 2]\n", "mapping");
   expectError("a: [\n", "YAML");
   EXPECT_THROW(loadSceneConfig("/nonexistent/scene.yaml"), std::runtime_error);
+}
+
+std::string numberText(double v) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.17g", v);
+  return buf;
+}
+
+// Every numeric key, for every way a number can be wrong: the message names the file,
+// the line, the key and the valid range.
+TEST(SceneConfig, EveryNumericKeyRefusesBadValues) {
+  for (const SceneField& f : sceneFields()) {
+    const std::string key = f.key;
+    SCOPED_TRACE(key);
+    for (const char* text : {".nan", ".NaN", ".inf", "-.inf", "1e400", "-1e400"}) {
+      expectError("scene: step20\n" + key + ": " + text + "\n",
+                  "line 2: " + key + ": '" + text + "' is not a finite");
+    }
+    for (const char* text : {"high", "0x10", "1.0.0", "2 m", "true", "1,5"}) {
+      expectError(key + ": " + text + "\n", "line 1: " + key + ": '" + text + "' is not a number");
+    }
+    expectError(key + ": \"0.5\"\n", "is not a number (it is quoted)");
+    expectError(key + ": [1, 2]\n", key + ": expected a single value, got a list");
+    expectError(key + ": {a: 1}\n", key + ": expected a single value, got a mapping");
+    expectError(key + ":\n", key + ": no value");
+    const double below = f.min == 0.0 ? -1e-9 : f.min * (1 - 1e-9);
+    const double above = f.max * (1 + 1e-9);
+    for (double bad : {below, above, -f.max, 1e100, -1e100}) {
+      expectError(key + ": " + numberText(bad) + "\n", key + ": ");
+      expectError(key + ": " + numberText(bad) + "\n", "is out of range; valid range [");
+    }
+    // The bounds themselves are valid and read back exactly.
+    for (double good : {f.min, f.max}) {
+      const SceneConfig c = parseSceneConfig(key + ": " + numberText(good) + "\n", "t");
+      EXPECT_EQ(c.*f.member, good);
+    }
+    // validate() names the key too (configs built in code).
+    SceneConfig c;
+    c.*f.member = std::numeric_limits<double>::quiet_NaN();
+    try {
+      c.validate();
+      ADD_FAILURE() << "validate accepted NaN";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(key + ": nan is not a finite number"), std::string::npos)
+          << e.what();
+    }
+    c.*f.member = f.max * 2 + 1;
+    EXPECT_THROW(c.validate(), std::invalid_argument);
+  }
+}
+
+TEST(SceneConfig, RepeatedKeysAreErrors) {
+  expectError("scene: flat\nscene: step20\n", "line 2: key 'scene' given twice (first on line 1)");
+  for (const SceneField& f : sceneFields()) {
+    const std::string key = f.key;
+    const std::string v = numberText(f.max);
+    expectError(key + ": " + v + "\nscene: flat\n" + key + ": " + v + "\n",
+                "line 3: key '" + key + "' given twice (first on line 1)");
+  }
+}
+
+TEST(SceneConfig, OneDocumentOfKeyValuePairs) {
+  expectError("scene: step20\n---\nfriction: 0.5\n", "2 YAML documents");
+  expectError("---\nscene: step20\n---\n", "2 YAML documents");
+  expectError("scene: step20\n...\n---\nscene: flat\n", "2 YAML documents");
+  expectError("- scene\n", "mapping");
+  expectError("just text\n", "mapping");
+  expectError("? [a, b]\n: 1\n", "a key must be a plain name");
+  expectError("scene: [flat]\n", "scene: expected a single value");
+  expectError("scene: 3\n", "unknown scene '3'");
+  // One document with explicit markers, comments only, or nothing: fine.
+  EXPECT_EQ(parseSceneConfig("---\nscene: stairs2\n...\n", "t").kind, SceneKind::kStairs2);
+  EXPECT_EQ(parseSceneConfig("# nothing\n", "t").kind, SceneKind::kFlat);
+  EXPECT_EQ(parseSceneConfig("---\n", "t").kind, SceneKind::kFlat);
+}
+
+TEST(SceneConfig, ToYamlRoundTripsAndNamesSource) {
+  SceneConfig c;
+  c.kind = SceneKind::kStairs2;
+  c.friction = 0.123456789;
+  c.step2_length = 2.5;
+  const SceneConfig back = parseSceneConfig(toYaml(c), "round trip");
+  EXPECT_EQ(back.kind, c.kind);
+  for (const SceneField& f : sceneFields()) EXPECT_EQ(back.*f.member, c.*f.member) << f.key;
+  EXPECT_EQ(back.source, "scene config 'round trip'");
+}
+
+TEST(SceneConfig, FileThatIsNotARegularFileIsRefusedWithoutReading) {
+  const std::string dir = ::testing::TempDir() + "scene_dir_test";
+  ::mkdir(dir.c_str(), 0700);
+  const std::string fifo = ::testing::TempDir() + "scene_fifo_test";
+  std::remove(fifo.c_str());
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  for (const std::string& path :
+       {dir, fifo, std::string("/dev/zero"), std::string("/nonexistent/scene.yaml")}) {
+    try {
+      loadSceneConfig(path);  // a FIFO would block here if it were opened for reading
+      ADD_FAILURE() << "no error for " << path;
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find("scene config '" + path + "'"), std::string::npos)
+          << e.what();
+    }
+  }
+  std::remove(fifo.c_str());
+}
+
+TEST(SceneConfig, ExampleScenesOfTheRepositoryAreValid) {
+  for (const char* name : {"step20_custom.yaml"}) {
+    const std::string path = std::string(ROLLSTEP_SOURCE_DIR) + "/config/scenes/" + name;
+    const SceneConfig c = loadSceneConfig(path);
+    EXPECT_EQ(c.kind, SceneKind::kStep20) << path;
+  }
 }
 
 TEST(SceneGeometry, Step20Block) {
