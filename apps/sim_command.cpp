@@ -156,15 +156,18 @@ void prepareOutputDir(const std::string& dir, const OutputFiles& files) {
   }
 }
 
-/// After a failure: no result files, and DIR/FAILED with the error (best effort).
-void markFailed(const OutputFiles& files, const std::string& error) {
+/// After a failure: no result files, and DIR/FAILED with the error (best effort: returns
+/// false if FAILED could not be written either).
+bool markFailed(const OutputFiles& files, const std::string& error) {
   std::error_code ec;
   fs::remove(files.log, ec);
   fs::remove(files.summary, ec);
   try {
     writeFileAtomically(files.failed.string(), "rollstep sim failed: " + error + "\n");
+    return true;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "rollstep: warning: %s\n", e.what());
+    return false;
   }
 }
 
@@ -243,8 +246,10 @@ void runSim(const SimOptions& o, bool scene_given) {
     text = buf;
     writeFileAtomically(files.summary.string(), text);
   } catch (const std::exception& e) {
-    markFailed(files, e.what());
-    throw;
+    const bool marked = markFailed(files, e.what());
+    throw std::runtime_error(std::string(e.what()) + "\n  the run failed: no " +
+                             files.log.string() + " or " + files.summary.string() + " is left" +
+                             (marked ? "; the error is in " + files.failed.string() : ""));
   }
   std::fputs(text.c_str(), stdout);
   if (std::fflush(stdout) != 0 || std::ferror(stdout)) {
