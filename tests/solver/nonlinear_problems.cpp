@@ -349,7 +349,382 @@ ProblemInstance makeRigidBody(const RigidBodyOptions& o) {
 }
 
 // =====================================================================================
+// Two-link arm
+
+TwoLinkArmDynamics::TwoLinkArmDynamics(const TwoLinkArmParams& p)
+    : ContinuousDynamics(std::make_shared<ocp::EuclideanSpace>(4), 2), p_(p) {}
+
+std::unique_ptr<ocp::DynamicsData> TwoLinkArmDynamics::createData() const {
+  return std::make_unique<ocp::DynamicsData>();
+}
+
+Eigen::Vector2d TwoLinkArmDynamics::gravityTorque(double q1, double q2) const {
+  const double c1 = std::cos(q1), c12 = std::cos(q1 + q2);
+  const double g = p_.gravity;
+  return {g * ((p_.mass1 + p_.mass2) * p_.length1 * c1 + p_.mass2 * p_.length2 * c12),
+          g * p_.mass2 * p_.length2 * c12};
+}
+
+Eigen::Vector2d TwoLinkArmDynamics::endEffector(double q1, double q2) const {
+  return {p_.length1 * std::cos(q1) + p_.length2 * std::cos(q1 + q2),
+          p_.length1 * std::sin(q1) + p_.length2 * std::sin(q1 + q2)};
+}
+
+namespace {
+
+struct ArmTerms {
+  Eigen::Matrix2d M;
+  Eigen::Vector2d r;  ///< tau - C dq - G - b dq
+};
+
+ArmTerms armTerms(const TwoLinkArmParams& p, ConstVecRef x, ConstVecRef u) {
+  const double m1 = p.mass1, m2 = p.mass2, l1 = p.length1, l2 = p.length2, g = p.gravity;
+  const double q1 = x[0], q2 = x[1], dq1 = x[2], dq2 = x[3];
+  const double c2 = std::cos(q2), s2 = std::sin(q2);
+  const double c1 = std::cos(q1), c12 = std::cos(q1 + q2);
+  ArmTerms t;
+  t.M(0, 0) = m1 * l1 * l1 + m2 * (l1 * l1 + 2.0 * l1 * l2 * c2 + l2 * l2);
+  t.M(0, 1) = m2 * (l1 * l2 * c2 + l2 * l2);
+  t.M(1, 0) = t.M(0, 1);
+  t.M(1, 1) = m2 * l2 * l2;
+  const double h = m2 * l1 * l2 * s2;
+  t.r[0] = u[0] + h * (2.0 * dq1 * dq2 + dq2 * dq2) - g * ((m1 + m2) * l1 * c1 + m2 * l2 * c12) -
+           p.friction * dq1;
+  t.r[1] = u[1] - h * dq1 * dq1 - g * m2 * l2 * c12 - p.friction * dq2;
+  return t;
+}
+
+}  // namespace
+
+void TwoLinkArmDynamics::calc(const ocp::NodeContext&, ConstVecRef x, ConstVecRef u,
+                              ocp::DynamicsData&, VecRef xdot) const {
+  const ArmTerms t = armTerms(p_, x, u);
+  xdot[0] = x[2];
+  xdot[1] = x[3];
+  xdot.segment<2>(2) = t.M.inverse() * t.r;
+}
+
+void TwoLinkArmDynamics::calcDiff(const ocp::NodeContext&, ConstVecRef x, ConstVecRef u,
+                                  ocp::DynamicsData&, MatRef fx, MatRef fu) const {
+  const double m1 = p_.mass1, m2 = p_.mass2, l1 = p_.length1, l2 = p_.length2, g = p_.gravity;
+  const double q1 = x[0], q2 = x[1], dq1 = x[2], dq2 = x[3];
+  const double c2 = std::cos(q2), s2 = std::sin(q2);
+  const double s1 = std::sin(q1), s12 = std::sin(q1 + q2);
+  const ArmTerms t = armTerms(p_, x, u);
+  const Eigen::Matrix2d Minv = t.M.inverse();
+  const Eigen::Vector2d ddq = Minv * t.r;
+  const double h = m2 * l1 * l2 * s2, dh = m2 * l1 * l2 * c2;
+  // dr / d[q1, q2, dq1, dq2]
+  Eigen::Matrix<double, 2, 4> dr;
+  dr(0, 0) = g * ((m1 + m2) * l1 * s1 + m2 * l2 * s12);
+  dr(0, 1) = dh * (2.0 * dq1 * dq2 + dq2 * dq2) + g * m2 * l2 * s12;
+  dr(1, 0) = g * m2 * l2 * s12;
+  dr(1, 1) = -dh * dq1 * dq1 + g * m2 * l2 * s12;
+  dr(0, 2) = 2.0 * h * dq2 - p_.friction;
+  dr(0, 3) = h * (2.0 * dq1 + 2.0 * dq2);
+  dr(1, 2) = -2.0 * h * dq1;
+  dr(1, 3) = -p_.friction;
+  // dM / dq2 (M does not depend on q1).
+  Eigen::Matrix2d dM;
+  dM << -2.0 * m2 * l1 * l2 * s2, -m2 * l1 * l2 * s2, -m2 * l1 * l2 * s2, 0.0;
+  dr.col(1) -= dM * ddq;
+  fx.setZero();
+  fu.setZero();
+  fx(0, 2) = 1.0;
+  fx(1, 3) = 1.0;
+  fx.bottomRows<2>() = Minv * dr;
+  fu.bottomRows<2>() = Minv;
+}
+
+ArmKeepOutResidual::ArmKeepOutResidual(int ndx, int nu, double length1, double length2,
+                                       std::vector<Circle> discs)
+    : Residual(ndx, nu, static_cast<int>(discs.size())),
+      l1_(length1),
+      l2_(length2),
+      discs_(std::move(discs)) {
+  if (ndx < 2) throw std::invalid_argument("ArmKeepOutResidual: needs q1, q2 in the state");
+}
+
+void ArmKeepOutResidual::calc(const ocp::NodeContext&, ConstVecRef x, ConstVecRef,
+                              ocp::ResidualData& d) const {
+  const double px = l1_ * std::cos(x[0]) + l2_ * std::cos(x[0] + x[1]);
+  const double py = l1_ * std::sin(x[0]) + l2_ * std::sin(x[0] + x[1]);
+  for (size_t i = 0; i < discs_.size(); ++i) {
+    const Circle& c = discs_[i];
+    const double dx = px - c.cx, dy = py - c.cy;
+    d.r[static_cast<Eigen::Index>(i)] = dx * dx + dy * dy - c.radius * c.radius;
+  }
+}
+
+void ArmKeepOutResidual::calcDiff(const ocp::NodeContext&, ConstVecRef x, ConstVecRef,
+                                  ocp::ResidualData& d) const {
+  const double c1 = std::cos(x[0]), s1 = std::sin(x[0]);
+  const double c12 = std::cos(x[0] + x[1]), s12 = std::sin(x[0] + x[1]);
+  const double px = l1_ * c1 + l2_ * c12, py = l1_ * s1 + l2_ * s12;
+  Eigen::Matrix2d J;  // d p_ee / d q
+  J << -l1_ * s1 - l2_ * s12, -l2_ * s12, l1_ * c1 + l2_ * c12, l2_ * c12;
+  const int rows = static_cast<int>(discs_.size());
+  d.Rx.topRows(rows).setZero();
+  d.Ru.topRows(rows).setZero();
+  for (int i = 0; i < rows; ++i) {
+    const Circle& c = discs_[static_cast<size_t>(i)];
+    const Eigen::Vector2d e(px - c.cx, py - c.cy);
+    d.Rx.block(i, 0, 1, 2) = 2.0 * e.transpose() * J;
+  }
+}
+
+ProblemInstance makeTwoLinkArm(const TwoLinkArmOptions& o) {
+  auto f = std::make_shared<TwoLinkArmDynamics>(o.params);
+  auto space = f->spacePtr();
+  auto pb = std::make_shared<ocp::OptimalControlProblem>(discretise(f, true), o.horizon, o.dt);
+  ProblemInstance inst;
+  inst.name = "two_link_arm";
+  inst.problem = pb;
+  inst.x0 = VectorXd::Zero(4);
+  inst.x0[0] = o.q_start[0];
+  inst.x0[1] = o.q_start[1];
+  inst.x_goal = VectorXd::Zero(4);
+  inst.x_goal[0] = o.q_goal[0];
+  inst.x_goal[1] = o.q_goal[1];
+
+  auto state_err = std::make_shared<ocp::StateErrorResidual>(space, 2, inst.x_goal);
+  VectorXd wr(4);
+  wr << o.state_weight, o.state_weight, o.velocity_weight, o.velocity_weight;
+  pb->addCost("state", std::make_shared<ocp::LeastSquaresCost>(state_err, wr));
+  // Plain VectorXd copies of the 2-vectors (a fixed-size to dynamic copy trips GCC 12's
+  // -Warray-bounds with AVX).
+  const Eigen::Vector2d hold = f->gravityTorque(o.q_goal[0], o.q_goal[1]);
+  VectorXd u_ref(2), tau_max(2);
+  u_ref << hold[0], hold[1];
+  tau_max << o.torque_limit[0], o.torque_limit[1];
+  pb->addCost("input", std::make_shared<ocp::LeastSquaresCost>(
+                           std::make_shared<ocp::InputErrorResidual>(4, u_ref),
+                           VectorXd::Constant(2, o.input_weight)));
+  pb->addCost(
+      "terminal",
+      std::make_shared<ocp::LeastSquaresCost>(state_err, VectorXd::Constant(4, o.terminal_weight)),
+      ocp::Stage::Terminal);
+  if (!o.keep_out.empty()) {
+    pb->addInequality(
+        "keep_out",
+        std::make_shared<ArmKeepOutResidual>(4, 2, o.params.length1, o.params.length2, o.keep_out),
+        ocp::Stage::All);
+  }
+  pb->setInputBounds(-tau_max, tau_max);
+  VectorXd lo(4), hi(4);
+  lo << o.joint_lower[0], o.joint_lower[1], -o.velocity_limit, -o.velocity_limit;
+  hi << o.joint_upper[0], o.joint_upper[1], o.velocity_limit, o.velocity_limit;
+  pb->setStateBounds(lo, hi);
+  fillGuess(inst);
+  const Eigen::Vector2d hold0 = f->gravityTorque(o.q_start[0], o.q_start[1]);
+  for (auto& u : inst.us_guess) {
+    for (int i = 0; i < 2; ++i) u[i] = std::clamp(hold0[i], -tau_max[i], tau_max[i]);
+  }
+  return inst;
+}
+
+// =====================================================================================
+// Planar quadrotor
+
+PlanarQuadrotorDynamics::PlanarQuadrotorDynamics(const PlanarQuadrotorParams& p)
+    : ContinuousDynamics(std::make_shared<ocp::EuclideanSpace>(6), 2), p_(p) {}
+
+std::unique_ptr<ocp::DynamicsData> PlanarQuadrotorDynamics::createData() const {
+  return std::make_unique<ocp::DynamicsData>();
+}
+
+void PlanarQuadrotorDynamics::calc(const ocp::NodeContext&, ConstVecRef x, ConstVecRef u,
+                                   ocp::DynamicsData&, VecRef xdot) const {
+  const double th = x[2], F = u[0] + u[1];
+  xdot.head<3>() = x.segment<3>(3);
+  xdot[3] = -F * std::sin(th) / p_.mass;
+  xdot[4] = F * std::cos(th) / p_.mass - p_.gravity;
+  xdot[5] = p_.arm * (u[0] - u[1]) / p_.inertia;
+}
+
+void PlanarQuadrotorDynamics::calcDiff(const ocp::NodeContext&, ConstVecRef x, ConstVecRef u,
+                                       ocp::DynamicsData&, MatRef fx, MatRef fu) const {
+  const double th = x[2], F = u[0] + u[1];
+  const double s = std::sin(th), c = std::cos(th);
+  fx.setZero();
+  fu.setZero();
+  fx.topRightCorner<3, 3>().setIdentity();
+  fx(3, 2) = -F * c / p_.mass;
+  fx(4, 2) = -F * s / p_.mass;
+  fu(3, 0) = fu(3, 1) = -s / p_.mass;
+  fu(4, 0) = fu(4, 1) = c / p_.mass;
+  fu(5, 0) = p_.arm / p_.inertia;
+  fu(5, 1) = -p_.arm / p_.inertia;
+}
+
+ProblemInstance makePlanarQuadrotor(const PlanarQuadrotorOptions& o) {
+  auto f = std::make_shared<PlanarQuadrotorDynamics>(o.params);
+  auto space = f->spacePtr();
+  auto pb = std::make_shared<ocp::OptimalControlProblem>(discretise(f, true), o.horizon, o.dt);
+  ProblemInstance inst;
+  inst.name = "planar_quadrotor";
+  inst.problem = pb;
+  inst.x0 = VectorXd::Zero(6);
+  inst.x0[0] = o.start[0];
+  inst.x0[1] = o.start[1];
+  inst.x_goal = VectorXd::Zero(6);
+  inst.x_goal[0] = o.goal[0];
+  inst.x_goal[1] = o.goal[1];
+
+  auto state_err = std::make_shared<ocp::StateErrorResidual>(space, 2, inst.x_goal);
+  VectorXd wr(6);
+  wr << o.position_weight, o.position_weight, VectorXd::Constant(4, o.attitude_weight);
+  pb->addCost("state", std::make_shared<ocp::LeastSquaresCost>(state_err, wr));
+  const double hover = 0.5 * o.params.mass * o.params.gravity;
+  pb->addCost("input",
+              std::make_shared<ocp::LeastSquaresCost>(
+                  std::make_shared<ocp::InputErrorResidual>(6, VectorXd::Constant(2, hover)),
+                  VectorXd::Constant(2, o.input_weight)));
+  pb->addCost(
+      "terminal",
+      std::make_shared<ocp::LeastSquaresCost>(state_err, VectorXd::Constant(6, o.terminal_weight)),
+      ocp::Stage::Terminal);
+  if (!o.keep_out.empty()) {
+    pb->addInequality("keep_out", std::make_shared<CircleObstacleResidual>(space, 2, o.keep_out),
+                      ocp::Stage::All);
+  }
+  pb->setInputBounds(VectorXd::Zero(2), VectorXd::Constant(2, o.thrust_max));
+  VectorXd lo = VectorXd::Constant(6, -ocp::OptimalControlProblem::kInfinity);
+  VectorXd hi = VectorXd::Constant(6, ocp::OptimalControlProblem::kInfinity);
+  lo[1] = o.floor_height;
+  lo[2] = -o.tilt_limit;
+  hi[2] = o.tilt_limit;
+  pb->setStateBounds(lo, hi);
+  fillGuess(inst);
+  for (auto& u : inst.us_guess) u.setConstant(hover);
+  return inst;
+}
+
+// =====================================================================================
+// Kinematic bicycle
+
+BicycleDynamics::BicycleDynamics(double wheelbase)
+    : ContinuousDynamics(std::make_shared<ocp::EuclideanSpace>(4), 2), wheelbase_(wheelbase) {}
+
+std::unique_ptr<ocp::DynamicsData> BicycleDynamics::createData() const {
+  return std::make_unique<ocp::DynamicsData>();
+}
+
+void BicycleDynamics::calc(const ocp::NodeContext&, ConstVecRef x, ConstVecRef u,
+                           ocp::DynamicsData&, VecRef xdot) const {
+  const double th = x[2], v = x[3];
+  xdot[0] = v * std::cos(th);
+  xdot[1] = v * std::sin(th);
+  xdot[2] = v * std::tan(u[1]) / wheelbase_;
+  xdot[3] = u[0];
+}
+
+void BicycleDynamics::calcDiff(const ocp::NodeContext&, ConstVecRef x, ConstVecRef u,
+                               ocp::DynamicsData&, MatRef fx, MatRef fu) const {
+  const double th = x[2], v = x[3];
+  const double c = std::cos(th), s = std::sin(th), cd = std::cos(u[1]);
+  fx.setZero();
+  fu.setZero();
+  fx(0, 2) = -v * s;
+  fx(0, 3) = c;
+  fx(1, 2) = v * c;
+  fx(1, 3) = s;
+  fx(2, 3) = std::tan(u[1]) / wheelbase_;
+  fu(2, 1) = v / (wheelbase_ * cd * cd);
+  fu(3, 0) = 1.0;
+}
+
+ProblemInstance makeBicycle(const BicycleOptions& o) {
+  auto f = std::make_shared<BicycleDynamics>(o.wheelbase);
+  auto space = f->spacePtr();
+  auto pb = std::make_shared<ocp::OptimalControlProblem>(discretise(f, true), o.horizon, o.dt);
+  ProblemInstance inst;
+  inst.name = "bicycle";
+  inst.problem = pb;
+  inst.x0 = VectorXd::Zero(4);
+  inst.x_goal = VectorXd::Zero(4);
+  inst.x_goal << o.goal[0], o.goal[1], o.goal_heading, 0.0;
+
+  MatrixXd C = MatrixXd::Zero(2, 4);
+  C(0, 0) = 1.0;
+  C(1, 1) = 1.0;
+  auto pos_err = std::make_shared<ocp::AffineResidual>(space, inst.x_goal, C, MatrixXd::Zero(2, 2),
+                                                       VectorXd::Zero(2));
+  pb->addCost("position", std::make_shared<ocp::LeastSquaresCost>(
+                              pos_err, VectorXd::Constant(2, o.position_weight)));
+  pb->addCost("input", std::make_shared<ocp::LeastSquaresCost>(
+                           std::make_shared<ocp::InputErrorResidual>(4, VectorXd::Zero(2)),
+                           VectorXd::Constant(2, o.input_weight)));
+  pb->addCost("terminal",
+              std::make_shared<ocp::LeastSquaresCost>(
+                  std::make_shared<ocp::StateErrorResidual>(space, 2, inst.x_goal),
+                  VectorXd::Constant(4, o.terminal_weight)),
+              ocp::Stage::Terminal);
+  if (!o.keep_out.empty()) {
+    pb->addInequality("keep_out", std::make_shared<CircleObstacleResidual>(space, 2, o.keep_out),
+                      ocp::Stage::All);
+  }
+  VectorXd ulim(2);
+  ulim << o.acceleration_limit, o.steering_limit;
+  pb->setInputBounds(-ulim, ulim);
+  VectorXd lo = VectorXd::Constant(4, -ocp::OptimalControlProblem::kInfinity);
+  VectorXd hi = VectorXd::Constant(4, ocp::OptimalControlProblem::kInfinity);
+  lo[3] = -0.5;
+  hi[3] = o.speed_limit;
+  pb->setStateBounds(lo, hi);
+  fillGuess(inst);
+  return inst;
+}
+
+// =====================================================================================
 // Helpers
+
+std::vector<VectorXd> interpolatedStates(const ProblemInstance& inst) {
+  const auto& space = inst.problem->stateSpace();
+  const int N = inst.problem->horizon();
+  VectorXd delta(space.ndx());
+  space.difference(inst.x0, inst.x_goal, delta);
+  std::vector<VectorXd> xs(static_cast<size_t>(N + 1), inst.x0);
+  for (int k = 0; k <= N; ++k)
+    space.integrate(inst.x0, (static_cast<double>(k) / N) * delta, xs[static_cast<size_t>(k)]);
+  return xs;
+}
+
+std::vector<NamedStart> twoStarts(const ProblemInstance& inst) {
+  return {{"default", inst.xs_guess, inst.us_guess},
+          {"interpolated", interpolatedStates(inst), inst.us_guess}};
+}
+
+ActiveSetCount countActive(const ocp::OptimalControlProblem& problem,
+                           const std::vector<VectorXd>& xs, const std::vector<VectorXd>& us,
+                           double tol) {
+  ActiveSetCount n;
+  auto count = [tol](const ocp::BoundSet& b, ConstVecRef v, int offset) {
+    int c = 0;
+    for (int j = 0; j < b.size(); ++j) {
+      const auto jj = static_cast<size_t>(j);
+      if (b.options.soft) continue;
+      const double vj = v[b.index[jj] + offset];
+      if (b.has_lower[jj] && vj - b.lower[j] <= tol) ++c;
+      if (b.has_upper[jj] && b.upper[j] - vj <= tol) ++c;
+    }
+    return c;
+  };
+  const auto& space = problem.stateSpace();
+  const int off = space.nx() - space.ndx();
+  auto d = problem.createNodeData();
+  const VectorXd u0 = VectorXd::Zero(problem.nu());
+  for (int k = 0; k <= problem.horizon(); ++k) {
+    const auto kk = static_cast<size_t>(k);
+    const bool term = k == problem.horizon();
+    if (!term) n.input_bounds += count(problem.inputBounds(), us[kk], 0);
+    if (k >= 1) n.state_bounds += count(problem.stateBounds(), xs[kk], off);
+    problem.evaluate(k, xs[kk], term ? u0 : us[kk], *d);
+    for (int i = 0; i < d->ni; ++i)
+      if (!d->soft[i] && d->g[i] <= tol) ++n.inequalities;
+  }
+  return n;
+}
 
 std::vector<VectorXd> rollout(const ocp::OptimalControlProblem& problem, const VectorXd& x0,
                               const std::vector<VectorXd>& us) {

@@ -5,7 +5,11 @@
 //   - unicycle driving to a goal around circular obstacles, with a speed-profile
 //     state-input equality v = k (goal - p) . heading and input bounds;
 //   - a rigid body on SE(3) x R^6 (pose + body twist, body wrench input, explicit
-//     Euler on the manifold) steered to a target pose.
+//     Euler on the manifold) steered to a target pose;
+//   - many active bounds (issue 17): a planar two-link arm with torque, joint and
+//     velocity limits and an end-effector keep-out disc; a planar quadrotor with rotor
+//     thrust and tilt bounds flying around keep-out discs; a kinematic bicycle with
+//     steering, acceleration and speed bounds around a keep-out disc.
 // Every ContinuousDynamics / Residual here has analytic derivatives (checked against
 // central finite differences on the manifold in nonlinear_problems_test.cpp).
 // The file also holds small helpers shared by the tests: finite differences on a state
@@ -192,7 +196,187 @@ struct RigidBodyOptions {
 ProblemInstance makeRigidBody(const RigidBodyOptions& o = {});
 
 // =====================================================================================
+// Planar two-link arm (issue 17): x = [q1, q2, dq1, dq2], u = [tau1, tau2]. q1 is the
+// angle of link 1 from the world x axis, q2 that of link 2 relative to link 1 (gravity
+// along -y). Point masses m1, m2 at the link tips, viscous joint friction:
+//   M(q) ddq + C(q, dq) dq + G(q) + b dq = tau,
+//   M11 = m1 l1^2 + m2 (l1^2 + 2 l1 l2 cos q2 + l2^2), M12 = m2 (l1 l2 cos q2 + l2^2),
+//   M22 = m2 l2^2, C dq = h [-(2 dq1 dq2 + dq2^2), dq1^2] with h = m2 l1 l2 sin q2,
+//   G = g [(m1 + m2) l1 cos q1 + m2 l2 cos(q1 + q2), m2 l2 cos(q1 + q2)].
+// Derivatives: ddq = M^-1 r(q, dq, tau), d ddq / dq = M^-1 (dr/dq - dM/dq ddq).
+struct TwoLinkArmParams {
+  double mass1 = 1.0, mass2 = 0.5;      ///< [kg] point masses at the link tips
+  double length1 = 0.5, length2 = 0.5;  ///< [m]
+  double friction = 0.1;                ///< [N m s / rad] viscous, both joints
+  double gravity = 9.81;
+};
+
+class TwoLinkArmDynamics final : public ocp::ContinuousDynamics {
+ public:
+  explicit TwoLinkArmDynamics(const TwoLinkArmParams& p = {});
+  std::unique_ptr<ocp::DynamicsData> createData() const override;
+  void calc(const ocp::NodeContext& ctx, ConstVecRef x, ConstVecRef u, ocp::DynamicsData& d,
+            VecRef xdot) const override;
+  void calcDiff(const ocp::NodeContext& ctx, ConstVecRef x, ConstVecRef u, ocp::DynamicsData& d,
+                MatRef fx, MatRef fu) const override;
+  const TwoLinkArmParams& params() const { return p_; }
+  /// G(q): the torque that holds the arm still at q.
+  Eigen::Vector2d gravityTorque(double q1, double q2) const;
+  /// End-effector (tip of link 2) position.
+  Eigen::Vector2d endEffector(double q1, double q2) const;
+
+ private:
+  TwoLinkArmParams p_;
+};
+
+/// Keep-out discs for the arm's end effector: g_i = |p_ee(q) - c_i|^2 - r_i^2 >= 0, one
+/// row per disc. State-only, on x = [q1, q2, ...] (the first two coordinates).
+class ArmKeepOutResidual final : public ocp::Residual {
+ public:
+  ArmKeepOutResidual(int ndx, int nu, double length1, double length2, std::vector<Circle> discs);
+  bool dependsOnInput() const override { return false; }
+  void calc(const ocp::NodeContext& ctx, ConstVecRef x, ConstVecRef u,
+            ocp::ResidualData& d) const override;
+  void calcDiff(const ocp::NodeContext& ctx, ConstVecRef x, ConstVecRef u,
+                ocp::ResidualData& d) const override;
+
+ private:
+  double l1_, l2_;
+  std::vector<Circle> discs_;
+};
+
+struct TwoLinkArmOptions {
+  TwoLinkArmParams params;
+  int horizon = 50;
+  double dt = 0.04;
+  Eigen::Vector2d q_start{-1.2, 0.3};
+  Eigen::Vector2d q_goal{1.7, 1.2};
+  /// |tau_i| <= limit (input bounds). The shoulder cannot hold the arm out horizontally
+  /// (gravity torque up to 9.8 N m): saturated on about a third of the rows.
+  Eigen::Vector2d torque_limit{10.0, 3.0};
+  /// Joint limits: the elbow's lower one is active at the optimum (it would dip to 0.03).
+  Eigen::Vector2d joint_lower{-1.6, 0.1};
+  Eigen::Vector2d joint_upper{2.2, 1.22};
+  double velocity_limit = 2.5;  ///< |dq_i| <= limit (state bounds)
+  /// Centred beyond the arm's reach (1 m) on the unconstrained path: the end effector
+  /// must fold under it. (A disc hit head-on traps the default start in a local minimum
+  /// pressed against it.)
+  std::vector<Circle> keep_out{{0.95, 0.55, 0.2}};
+  double state_weight = 1.0;      ///< running, on q - q_goal
+  double velocity_weight = 1e-2;  ///< running, on dq
+  double input_weight = 1e-2;     ///< running, on tau - G(q_goal)
+  double terminal_weight = 100.0;
+};
+/// Default guess: x_start repeated with the inputs that hold the arm there (clamped to
+/// the torque limits).
+ProblemInstance makeTwoLinkArm(const TwoLinkArmOptions& o = {});
+
+// =====================================================================================
+// Planar quadrotor (issue 17): x = [px, pz, theta, vx, vz, omega], u = [f1, f2] rotor
+// thrusts at +-arm from the centre:
+//   m ax = -(f1 + f2) sin theta, m az = (f1 + f2) cos theta - m g,
+//   I omega' = arm (f1 - f2).
+struct PlanarQuadrotorParams {
+  double mass = 1.0;
+  double inertia = 0.01;  ///< [kg m^2]
+  double arm = 0.15;      ///< [m] rotor to centre
+  double gravity = 9.81;
+};
+
+class PlanarQuadrotorDynamics final : public ocp::ContinuousDynamics {
+ public:
+  explicit PlanarQuadrotorDynamics(const PlanarQuadrotorParams& p = {});
+  std::unique_ptr<ocp::DynamicsData> createData() const override;
+  void calc(const ocp::NodeContext& ctx, ConstVecRef x, ConstVecRef u, ocp::DynamicsData& d,
+            VecRef xdot) const override;
+  void calcDiff(const ocp::NodeContext& ctx, ConstVecRef x, ConstVecRef u, ocp::DynamicsData& d,
+                MatRef fx, MatRef fu) const override;
+  const PlanarQuadrotorParams& params() const { return p_; }
+
+ private:
+  PlanarQuadrotorParams p_;
+};
+
+struct PlanarQuadrotorOptions {
+  PlanarQuadrotorParams params;
+  int horizon = 50;
+  double dt = 0.04;
+  Eigen::Vector2d start{0.0, 0.0};
+  Eigen::Vector2d goal{3.0, 0.5};
+  double thrust_max = 7.0;  ///< 0 <= f_i <= thrust_max (input bounds); hover 4.9
+  /// |theta| <= tilt_limit (state bound). At 0.7 the bound duals of Ipopt's optimum are
+  /// not determined (kktResidual's least-squares fit fails): a degenerate active set.
+  double tilt_limit = 0.8;
+  double floor_height = -0.3;  ///< pz >= floor_height (state bound)
+  /// Across the straight path (passed above) and just above the best path over it.
+  std::vector<Circle> keep_out{{1.5, 0.0, 0.4}, {2.3, 0.8, 0.32}};
+  double position_weight = 1.0;   ///< running, on p - goal
+  double attitude_weight = 1e-2;  ///< running, on theta, v, omega
+  double input_weight = 1e-2;     ///< running, on f - hover thrust
+  double terminal_weight = 100.0;
+};
+/// Default guess: hover at the start.
+ProblemInstance makePlanarQuadrotor(const PlanarQuadrotorOptions& o = {});
+
+// =====================================================================================
+// Kinematic bicycle (issue 17): x = [px, py, theta, v], u = [a, delta] (acceleration,
+// steering angle): p' = v (cos theta, sin theta), theta' = v tan(delta) / L, v' = a.
+class BicycleDynamics final : public ocp::ContinuousDynamics {
+ public:
+  explicit BicycleDynamics(double wheelbase = 0.5);
+  std::unique_ptr<ocp::DynamicsData> createData() const override;
+  void calc(const ocp::NodeContext& ctx, ConstVecRef x, ConstVecRef u, ocp::DynamicsData& d,
+            VecRef xdot) const override;
+  void calcDiff(const ocp::NodeContext& ctx, ConstVecRef x, ConstVecRef u, ocp::DynamicsData& d,
+                MatRef fx, MatRef fu) const override;
+
+ private:
+  double wheelbase_;
+};
+
+struct BicycleOptions {
+  double wheelbase = 0.5;
+  int horizon = 50;
+  double dt = 0.08;
+  Eigen::Vector2d goal{4.0, 1.0};
+  double goal_heading = 0.0;
+  double acceleration_limit = 1.5;  ///< |a| <= limit
+  double steering_limit = 0.5;      ///< |delta| <= limit [rad]
+  double speed_limit = 1.5;         ///< -0.5 <= v <= speed_limit (state bound)
+  std::vector<Circle> keep_out{{2.0, 0.45, 0.5}};
+  double position_weight = 1.0;    ///< running, on p - goal
+  double input_weight = 1e-2;      ///< running, on (a, delta)
+  double terminal_weight = 100.0;  ///< on x - goal (speed 0)
+};
+/// Default guess: standing still at the origin, heading along +x.
+ProblemInstance makeBicycle(const BicycleOptions& o = {});
+
+// =====================================================================================
 // Helpers.
+
+/// A second start for the problems: the states interpolated from x0 to x_goal along the
+/// geodesic of the state space, x_k = x0 (+) (k / N) (x_goal (-) x0), with the instance's
+/// default input guess (not dynamically consistent: multiple shooting allows it).
+std::vector<VectorXd> interpolatedStates(const ProblemInstance& inst);
+
+/// The two starts the robustness tests use: "default" (the instance's guess) and
+/// "interpolated" (interpolatedStates with the default inputs).
+struct NamedStart {
+  std::string name;
+  std::vector<VectorXd> xs, us;
+};
+std::vector<NamedStart> twoStarts(const ProblemInstance& inst);
+
+/// Hard bound and inequality rows within `tol` of their bound along a trajectory: input
+/// bounds at nodes 0..N-1, state bounds at nodes 1..N (x_0 is fixed), general hard
+/// inequality rows with g <= tol at every node.
+struct ActiveSetCount {
+  int input_bounds = 0, state_bounds = 0, inequalities = 0;
+  int total() const { return input_bounds + state_bounds + inequalities; }
+};
+ActiveSetCount countActive(const ocp::OptimalControlProblem& problem,
+                           const std::vector<VectorXd>& xs, const std::vector<VectorXd>& us,
+                           double tol = 1e-6);
 
 /// Rolls the discrete dynamics of the problem out from x0 with the inputs us.
 std::vector<VectorXd> rollout(const ocp::OptimalControlProblem& problem, const VectorXd& x0,

@@ -219,6 +219,79 @@ TEST(NonlinearProblems, SpeedProfileRowRankInInput) {
   EXPECT_NEAR(d->r[0], 0.5 - r.speed(x), 1e-15);
 }
 
+TEST(NonlinearProblems, TwoLinkArmDynamicsDerivatives) {
+  std::mt19937 rng(6);
+  checkContinuous(TwoLinkArmDynamics(), rng, 3.0);
+  TwoLinkArmParams p;
+  p.mass1 = 0.7;
+  p.mass2 = 1.3;
+  p.length1 = 0.4;
+  p.length2 = 0.6;
+  p.friction = 0.5;
+  checkContinuous(TwoLinkArmDynamics(p), rng, 3.0);
+}
+
+TEST(NonlinearProblems, TwoLinkArmHoldsStillWithGravityTorqueAndMatchesEnergy) {
+  const TwoLinkArmDynamics f;
+  auto d = f.createData();
+  VectorXd x(4), u(2), xdot(4);
+  x << 0.4, -1.1, 0.0, 0.0;
+  const Eigen::Vector2d hold = f.gravityTorque(x[0], x[1]);
+  u << hold[0], hold[1];  // element-wise: a Vector2d -> VectorXd copy trips -Warray-bounds
+  f.calc(ocp::NodeContext{}, x, u, *d, xdot);
+  EXPECT_LT(xdot.lpNorm<Eigen::Infinity>(), 1e-12);
+  // Without friction and torque, the energy rate vanishes: d/dt (T + V) = 0, with
+  // T = 1/2 dq^T M dq from the point masses' velocities and V = g sum m_i y_i.
+  TwoLinkArmParams p;
+  p.friction = 0.0;
+  const TwoLinkArmDynamics free(p);
+  x << 0.3, 0.8, 1.5, -2.0;
+  u.setZero();
+  free.calc(ocp::NodeContext{}, x, u, *d, xdot);
+  auto energy = [&](const VectorXd& s) {
+    const double l1 = p.length1, l2 = p.length2;
+    const Eigen::Vector2d v1(-l1 * std::sin(s[0]) * s[2], l1 * std::cos(s[0]) * s[2]);
+    const double w12 = s[2] + s[3];
+    const Eigen::Vector2d v2 =
+        v1 + Eigen::Vector2d(-l2 * std::sin(s[0] + s[1]) * w12, l2 * std::cos(s[0] + s[1]) * w12);
+    const Eigen::Vector2d p2 = free.endEffector(s[0], s[1]);
+    return 0.5 * p.mass1 * v1.squaredNorm() + 0.5 * p.mass2 * v2.squaredNorm() +
+           p.gravity * (p.mass1 * l1 * std::sin(s[0]) + p.mass2 * p2.y());
+  };
+  const double h = 1e-6;
+  const double rate = (energy(x + h * xdot) - energy(x - h * xdot)) / (2.0 * h);
+  EXPECT_NEAR(rate, 0.0, 1e-6);
+}
+
+TEST(NonlinearProblems, PlanarQuadrotorDynamicsDerivativesAndHover) {
+  std::mt19937 rng(7);
+  checkContinuous(PlanarQuadrotorDynamics(), rng, 3.0);
+  const PlanarQuadrotorDynamics f;
+  auto d = f.createData();
+  VectorXd x = VectorXd::Zero(6), u = VectorXd::Constant(2, 0.5 * 9.81), xdot(6);
+  f.calc(ocp::NodeContext{}, x, u, *d, xdot);
+  EXPECT_LT(xdot.lpNorm<Eigen::Infinity>(), 1e-12);
+}
+
+TEST(NonlinearProblems, BicycleDynamicsDerivatives) {
+  std::mt19937 rng(8);
+  checkContinuous(BicycleDynamics(0.5), rng, 1.2);  // |delta| < pi / 2
+}
+
+TEST(NonlinearProblems, ArmKeepOutResidualDerivativesAndValue) {
+  std::mt19937 rng(9);
+  auto space = std::make_shared<ocp::EuclideanSpace>(4);
+  const ArmKeepOutResidual r(4, 2, 0.5, 0.4, {{0.5, 0.3, 0.2}, {-0.2, 0.6, 0.1}});
+  checkResidual(r, *space, rng, 3.0);
+  // Stretched along +x: the end effector is at (0.9, 0).
+  auto d = r.createData();
+  d->rows = 2;
+  VectorXd x = VectorXd::Zero(4), u = VectorXd::Zero(2);
+  r.calc(ocp::NodeContext{}, x, u, *d);
+  EXPECT_NEAR(d->r[0], 0.4 * 0.4 + 0.3 * 0.3 - 0.04, 1e-14);
+  EXPECT_NEAR(d->r[1], 1.1 * 1.1 + 0.6 * 0.6 - 0.01, 1e-14);
+}
+
 TEST(NonlinearProblems, ComposedNodesMatchFiniteDifferences) {
   std::mt19937 rng(5);
   checkProblemNodes(makeCartPole(), rng, 1.0);
@@ -229,10 +302,14 @@ TEST(NonlinearProblems, ComposedNodesMatchFiniteDifferences) {
   uo.soft_obstacles = {{3.0, 0.8, 0.3}};
   checkProblemNodes(makeUnicycle(uo), rng, 1.0);
   checkProblemNodes(makeRigidBody(), rng, 0.8);
+  checkProblemNodes(makeTwoLinkArm(), rng, 1.0);
+  checkProblemNodes(makePlanarQuadrotor(), rng, 1.0);
+  checkProblemNodes(makeBicycle(), rng, 0.5);
 }
 
 TEST(NonlinearProblems, InstancesAreConsistent) {
-  for (const auto& inst : {makeCartPole(), makeUnicycle(), makeRigidBody()}) {
+  for (const auto& inst : {makeCartPole(), makeUnicycle(), makeRigidBody(), makeTwoLinkArm(),
+                           makePlanarQuadrotor(), makeBicycle()}) {
     const auto& pb = *inst.problem;
     EXPECT_EQ(inst.x0.size(), pb.nx()) << inst.name;
     EXPECT_EQ(inst.x_goal.size(), pb.nx()) << inst.name;
@@ -248,7 +325,35 @@ TEST(NonlinearProblems, InstancesAreConsistent) {
     } else {
       EXPECT_LT(viol, 1e-12) << inst.name;
     }
+    // The second start: from x0 to x_goal.
+    const auto xi = interpolatedStates(inst);
+    ASSERT_EQ(static_cast<int>(xi.size()), pb.horizon() + 1) << inst.name;
+    VectorXd err(pb.ndx());
+    pb.stateSpace().difference(inst.x0, xi.front(), err);
+    EXPECT_LT(err.norm(), 1e-12) << inst.name;
+    pb.stateSpace().difference(inst.x_goal, xi.back(), err);
+    EXPECT_LT(err.norm(), 1e-12) << inst.name;
   }
+}
+
+TEST(NonlinearProblems, CountActiveCountsRowsAtTheirBounds) {
+  auto inst = makePlanarQuadrotor();
+  const auto& pb = *inst.problem;
+  auto us = inst.us_guess;
+  auto xs = rollout(pb, inst.x0, us);  // hover: nothing active
+  EXPECT_EQ(countActive(pb, xs, us).total(), 0);
+  us[0].setZero();         // both rotors at the lower bound
+  us[3][1] = 7.0;          // one at the upper bound
+  xs[5][2] = 0.8;          // tilt at its upper bound
+  xs[7][2] = -0.8 + 1e-7;  // within the tolerance
+  xs[9][0] = 1.5 - 0.4;    // on the first keep-out disc's boundary
+  xs[9][1] = 0.0;
+  const ActiveSetCount n = countActive(pb, xs, us);
+  EXPECT_EQ(n.input_bounds, 3);
+  EXPECT_EQ(n.state_bounds, 2);
+  EXPECT_EQ(n.inequalities, 1);
+  xs[0][2] = 0.8;  // node 0 is fixed: not counted
+  EXPECT_EQ(countActive(pb, xs, us).state_bounds, 2);
 }
 
 }  // namespace
