@@ -4,10 +4,12 @@
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <limits>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -166,6 +168,29 @@ TEST(SceneConfig, FileThatIsNotARegularFileIsRefusedWithoutReading) {
     }
   }
   std::remove(fifo.c_str());
+}
+
+// The README's scene block lists every key with the range of the table and its default.
+TEST(SceneConfig, ReadmeDocumentsEveryKeyWithItsRange) {
+  std::ifstream in(std::string(ROLLSTEP_SOURCE_DIR) + "/README.md");
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  const SceneConfig defaults;
+  const auto text = [](double v) {
+    std::ostringstream s;
+    s << v;
+    return s.str();
+  };
+  for (const SceneField& f : sceneFields()) {
+    const std::string key = std::string(f.key) + ": ";
+    const auto it = std::find_if(lines.begin(), lines.end(),
+                                 [&](const std::string& l) { return l.rfind(key, 0) == 0; });
+    ASSERT_NE(it, lines.end()) << "README has no line '" << key << "...'";
+    const std::string range =
+        f.min == 0.0 ? "up to " + text(f.max) : text(f.min) + " to " + text(f.max);
+    EXPECT_NE(it->find(range), std::string::npos) << *it << " (expected " << range << ")";
+    EXPECT_EQ(std::stod(it->substr(key.size())), defaults.*f.member) << *it;
+  }
 }
 
 TEST(SceneConfig, ExampleScenesOfTheRepositoryAreValid) {
