@@ -8,6 +8,8 @@
 // temporary names with every write checked and renamed into place only when complete
 // and the run succeeded; a run that fails after that point (divergence, full disk)
 // leaves only DIR/FAILED holding the error, and exits non-zero.
+#include <mujoco/mujoco.h>
+
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -171,7 +173,14 @@ bool markFailed(const OutputFiles& files, const std::string& error) {
   }
 }
 
+/// MuJoCo's warnings on stderr (its default handler also appends them to MUJOCO_LOG.TXT in
+/// the working directory, a file nobody asked for).
+void printMujocoWarning(const char* message) {
+  std::fprintf(stderr, "rollstep: MuJoCo warning: %s\n", message);
+}
+
 void runSim(const SimOptions& o, bool scene_given) {
+  mju_user_warning = printMujocoWarning;
   // Inputs: nothing is written before they have all loaded.
   sim::SceneConfig scene;
   if (!o.scene_config.empty()) scene = sim::loadSceneConfig(o.scene_config);
