@@ -1,0 +1,193 @@
+// How is the KKT system reduced and factorised? Each node's barrier terms are condensed
+// into its LQ stage and its equality rows projected out (condenseNode), the backward
+// Riccati sweep factorises the result (pipelined over the threads), and an Ipopt-style
+// inertia correction shifts the Hessian when the exact curvature makes it indefinite.
+#include "solver_impl.hpp"
+
+namespace rollstep::solver {
+
+using detail::kHard;
+using detail::kInactive;
+using detail::relaxedLog;
+
+void Solver::Impl::condenseNode(int k) {
+  Node& n = node(k);
+  const NodeData& d = *n.d;
+  LqStage& st = lq.stage(k);
+  const bool running = k < N;
+  // The Riccati solver reads the lower triangles of Q and R only.
+  st.Q.triangularView<Eigen::Lower>() = d.Lxx;
+  st.q = d.lx;
+  if (running) {
+    st.R.triangularView<Eigen::Lower>() = d.Luu;
+    st.S = d.Lux;
+    st.r = d.lu;
+    st.ne = d.ne;
+    if (d.ne > 0) {
+      st.Ex.topRows(d.ne) = d.Ex.topRows(d.ne);
+      st.Eu.topRows(d.ne) = d.Eu.topRows(d.ne);
+      st.e.head(d.ne) = d.e.head(d.ne);
+    }
+  } else {
+    st.ne = 0;
+  }
+  // General rows: Hessian += G^T W G, gradient += G^T gamma.
+  for (int i = 0; i < d.ni; ++i) {
+    if (n.kind(i) == kHard) {
+      n.W(i) = n.z(i) / n.s(i);
+      n.gam(i) = n.W(i) * (n.c(i) - n.s(i)) - mu / n.s(i);
+      n.soft_dual(i) = 0.0;
+    } else {
+      double d1 = 0.0, d2 = 0.0;
+      relaxedLog(n.c(i), d.relaxation(i), d1, d2);
+      n.W(i) = d.soft_weight(i) * d2;
+      n.gam(i) = d.soft_weight(i) * d1;
+      n.soft_dual(i) = -d.soft_weight(i) * d1;
+    }
+  }
+  if (d.ni > 0) {
+    const int m = d.ni;
+    const auto Gx = d.Gx.topRows(m);
+    const auto W = n.W.head(m);
+    n.WGx.topRows(m).noalias() = W.asDiagonal() * Gx;
+    st.Q.triangularView<Eigen::Lower>() += Gx.transpose() * n.WGx.topRows(m);
+    st.q.noalias() += Gx.transpose() * n.gam.head(m);
+    bool has_u = false;
+    if (running) {
+      for (int i = 0; i < m; ++i) has_u = has_u || (n.kind(i) == kHard);
+    }
+    if (has_u) {
+      const auto Gu = d.Gu.topRows(m);
+      n.WGu.topRows(m).noalias() = W.asDiagonal() * Gu;
+      st.R.triangularView<Eigen::Lower>() += Gu.transpose() * n.WGu.topRows(m);
+      st.S.noalias() += Gu.transpose() * n.WGx.topRows(m);
+      st.r.noalias() += Gu.transpose() * n.gam.head(m);
+    }
+  }
+  // Bounds: diagonal terms only.
+  for (int i = ni_max; i < nrows; ++i) {
+    if (n.kind(i) == kInactive) continue;
+    const auto [input, lower, idx] = bound_rows[static_cast<std::size_t>(i - ni_max)];
+    double W = 0.0, gam = 0.0;
+    if (n.kind(i) == kHard) {
+      W = n.z(i) / n.s(i);
+      gam = W * (n.c(i) - n.s(i)) - mu / n.s(i);
+    } else {
+      double d1 = 0.0, d2 = 0.0;
+      relaxedLog(n.c(i), relaxation(n, i), d1, d2);
+      W = softWeight(n, i) * d2;
+      gam = softWeight(n, i) * d1;
+      n.soft_dual(i) = -softWeight(n, i) * d1;
+    }
+    if (input) {
+      st.R(idx, idx) += W;
+      st.r(idx) += lower ? gam : -gam;
+    } else {
+      st.Q(idx, idx) += W;
+      st.q(idx) += lower ? gam : -gam;
+    }
+  }
+  n.rank_ok = true;
+  n.pivot_ratio = 1.0;
+  if (running) n.rank_ok = lq.projectStage(k, set.rank_tolerance, &n.pivot_ratio);
+}
+
+/// Condensing + projection of every node and the backward Riccati sweep. With one
+/// thread, node k is condensed right before its backward step (its data still in
+/// cache). With more, a pipeline: every thread condenses the nodes it linearised (its
+/// chunk, from the top down), then helps with the highest chunks left, while thread 0
+/// runs the backward sweep as soon as its next node is ready (condensing a node itself
+/// when it would otherwise wait). Each node is
+/// condensed by the same arithmetic whichever thread takes it, and the sweep runs in
+/// one order, so the results do not depend on the thread count. On a rank failure,
+/// failed_node is the first such node.
+Solver::Impl::Factorization Solver::Impl::condenseAndFactor() {
+  int rank_failed = -1;
+  bool pd = true;
+  const auto sweep = [&](int k) {
+    if (!node(k).rank_ok) rank_failed = k;
+    if (rank_failed < 0 && pd) pd = lq.backwardStage(k);
+  };
+  if (pool.size() == 1) {
+    condenseNode(N);
+    lq.beginBackward();
+    for (int k = N - 1; k >= 0; --k) {
+      condenseNode(k);
+      sweep(k);
+    }
+  } else {
+    const std::uint64_t run = ++pipeline_run;
+    for (int t = 0; t < pool.size(); ++t) {
+      chunk_next[static_cast<std::size_t>(t)].store(chunkBegin(t + 1) - 1,
+                                                    std::memory_order_relaxed);
+    }
+    const auto condenseNext = [this, run](int id) {
+      const int j = claimNode(id, true);
+      if (j < 0) return false;
+      condenseNode(j);
+      ready[static_cast<std::size_t>(j)].store(run, std::memory_order_release);
+      return true;
+    };
+    const auto waitFor = [this, run, &condenseNext](int k) {
+      for (int i = 1; ready[static_cast<std::size_t>(k)].load(std::memory_order_acquire) != run;
+           ++i) {
+        if (!condenseNext(0)) detail::ThreadPool::pause(i);
+      }
+    };
+    auto body = [&](int id, int) {
+      if (id > 0) {
+        while (condenseNext(id)) {
+        }
+        return;
+      }
+      waitFor(N);
+      lq.beginBackward();
+      for (int k = N - 1; k >= 0; --k) {
+        waitFor(k);
+        sweep(k);
+      }
+    };
+    pool.run(pool.size(), body);
+  }
+  if (rank_failed >= 0) {
+    failed_node = rank_failed;
+    return Factorization::RankDeficient;
+  }
+  return pd ? Factorization::Ok : Factorization::NotPositiveDefinite;
+}
+
+/// With the constraint curvature, when the factorisation failed or needed regularisation:
+/// the inertia correction below. Returns whether the KKT system is factorised.
+bool Solver::Impl::correctInertia(bool factored) {
+  if (use_curvature && (!factored || lq.regularization() > 0.0)) {
+    // Not convex on the null space with the curvature: inertia correction as in Ipopt
+    // (delta I added to the Hessian, delta grown until the Riccati factorisation
+    // succeeds unregularised); Gauss-Newton if even a large shift fails.
+    double delta = last_delta > 0.0 ? std::max(1e-8, last_delta / 3.0) : 1e-4;
+    factored = false;
+    for (int attempt = 0; attempt < 12 && !factored; ++attempt) {
+      forNodes([this, delta](int k) {
+        shiftDiagonal(k, node(k), delta);
+        condenseNode(k);
+      });
+      factored = lq.backward() && lq.regularization() == 0.0;
+      if (!factored) delta *= last_delta > 0.0 ? 8.0 : 100.0;
+    }
+    last_delta = factored ? delta : 0.0;
+    if (!factored) {
+      forNodes([this](int k) {
+        Node& n = node(k);
+        shiftDiagonal(k, n, 0.0);
+        if (n.h2_added) shiftHessian(k, n, -1.0);
+        n.h2_added = false;
+        condenseNode(k);
+      });
+      factored = lq.backward();
+    }
+  } else if (use_curvature) {
+    last_delta = 0.0;
+  }
+  return factored;
+}
+
+}  // namespace rollstep::solver

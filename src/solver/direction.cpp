@@ -1,0 +1,178 @@
+// How is the step found? The Newton direction of the barrier problem: condensing and the
+// backward sweep with inertia correction (condensing.cpp), then the forward sweep and, per
+// node, the slack and dual steps with their fraction-to-boundary step lengths.
+#include "solver_impl.hpp"
+
+namespace rollstep::solver {
+
+using detail::kInactive;
+using detail::kSoft;
+using detail::msSince;
+using detail::relaxedLog;
+
+/// The search direction at the current linearisation (dir: step lengths and slope).
+/// Returns false when the solve ends here (status set): rank-deficient equalities, a
+/// Hessian that is not positive definite, a non-finite direction.
+bool Solver::Impl::searchDirection(bool realtime, double primal, IterationStats& it,
+                                   Direction& dir) {
+  auto t_ric = Clock::now();
+  const Factorization fac = condenseAndFactor();
+  if (fac == Factorization::RankDeficient) {
+    const int k = failed_node;
+    it.time_riccati_ms = msSince(t_ric);
+    stats.push_back(it);
+    std::snprintf(message, sizeof(message),
+                  "equality rows of node %d are not full row rank in u (relative pivot %.3g, "
+                  "%d rows, %d inputs)",
+                  k, node(k).pivot_ratio, node(k).d->ne, nu);
+    status = SolverStatus::RankDeficientEqualities;
+    return false;
+  }
+  const bool factored = correctInertia(fac == Factorization::Ok);
+  if (!factored) {
+    direction_ready = false;
+    failed_node = lq.failedStage();
+    stats.push_back(it);
+    if (!realtime && dualsBlewUp(primal)) {
+      ROLLSTEP_MSG("locally infeasible: the duals blew up (> %.3g) with the violation at %.3g",
+                   kDualBlowUp, primal);
+      status = SolverStatus::Infeasible;
+      return false;
+    }
+    std::snprintf(message, sizeof(message),
+                  "the reduced Hessian of node %d is not positive definite", failed_node);
+    status = SolverStatus::Diverged;
+    return false;
+  }
+  forwardAndRecover();
+  direction_ready = true;
+  double ap = 1.0, ad = 1.0, dphi = 0.0;
+  bool finite = true;
+  for (int k = 0; k <= N; ++k) {
+    const Node& n = node(k);
+    finite = finite && n.finite;
+    ap = std::min(ap, n.alpha_p);
+    ad = std::min(ad, n.alpha_d);
+    dphi += n.dphi;
+  }
+  it.time_riccati_ms = msSince(t_ric);
+  if (!finite) {
+    const bool infeasible = !realtime && dualsBlewUp(primal);
+    if (backup_valid) restore();
+    stats.push_back(it);
+    if (infeasible) {
+      ROLLSTEP_MSG("locally infeasible: the duals blew up (> %.3g) with the violation at %.3g",
+                   kDualBlowUp, primal);
+      status = SolverStatus::Infeasible;
+      return false;
+    }
+    ROLLSTEP_MSG("non-finite search direction; the last good iterate was kept");
+    status = SolverStatus::Diverged;
+    return false;
+  }
+  dir.alpha_p = ap;
+  dir.alpha_d = ad;
+  dir.dphi = dphi;
+  return true;
+}
+
+/// Forward Riccati sweep and the step recovery of every node: fused per node with one
+/// thread; with more, thread 0 runs the forward sweep while the others recover the
+/// nodes of their own chunk as soon as their forward stage is done, then help with the
+/// lowest chunks left (thread 0 joins after the sweep, its own chunk first).
+void Solver::Impl::forwardAndRecover() {
+  if (pool.size() == 1) {
+    lq.beginForward(dx0);
+    for (int k = 0; k < N; ++k) {
+      lq.forwardStage(k);
+      recoverNode(k);
+    }
+    recoverNode(N);
+    return;
+  }
+  for (int t = 0; t < pool.size(); ++t) {
+    chunk_next[static_cast<std::size_t>(t)].store(chunkBegin(t), std::memory_order_relaxed);
+  }
+  forward_done.store(0, std::memory_order_relaxed);
+  // recoverNode(j) needs forwardStage(j) (j < N), or the whole sweep (j = N).
+  const auto recoverClaimed = [this](int id) {
+    const int j = claimNode(id, false);
+    if (j < 0) return false;
+    const int needed = std::min(j + 1, N);
+    for (int i = 1; forward_done.load(std::memory_order_acquire) < needed; ++i) {
+      detail::ThreadPool::pause(i);
+    }
+    recoverNode(j);
+    return true;
+  };
+  auto body = [&](int id, int) {
+    if (id == 0) {
+      lq.beginForward(dx0);
+      for (int k = 0; k < N; ++k) {
+        lq.forwardStage(k);
+        forward_done.store(k + 1, std::memory_order_release);
+      }
+    }
+    while (recoverClaimed(id)) {
+    }
+  };
+  pool.run(pool.size(), body);
+}
+
+void Solver::Impl::recoverNode(int k) {
+  Node& n = node(k);
+  const NodeData& d = *n.d;
+  lq.recoverStage(k);
+  const VectorXd& dx = lq.dx(k);
+  const bool running = k < N;
+  const VectorXd& du = running ? lq.du(k) : zero_u;
+  double dphi = d.lx.dot(dx) + (running ? d.lu.dot(du) : 0.0);
+  if (d.ni > 0) {
+    auto t = n.tmp.head(d.ni);
+    t.noalias() = d.Gx.topRows(d.ni) * dx;
+    if (running) t.noalias() += d.Gu.topRows(d.ni) * du;
+  }
+  const double tau = set.fraction_to_boundary;
+  double ap = 1.0, ad = 1.0, zmax = 0.0;
+  for (int i = 0; i < nrows; ++i) {
+    if (n.kind(i) == kInactive) {
+      n.ds(i) = 0.0;
+      n.dz(i) = 0.0;
+      continue;
+    }
+    double gdv = 0.0;
+    if (i < ni_max) {
+      gdv = n.tmp(i);
+    } else {
+      const auto [input, lower, idx] = bound_rows[static_cast<std::size_t>(i - ni_max)];
+      gdv = input ? du(idx) : dx(idx);
+      if (!lower) gdv = -gdv;
+    }
+    if (n.kind(i) == kSoft) {
+      double d1 = 0.0, d2 = 0.0;
+      relaxedLog(n.c(i), relaxation(n, i), d1, d2);
+      dphi += softWeight(n, i) * d1 * gdv;
+      n.ds(i) = 0.0;
+      n.dz(i) = 0.0;
+      continue;
+    }
+    const double s = n.s(i), z = n.z(i);
+    const double ds = gdv + (n.c(i) - s);
+    const double dz = mu / s - z - (z / s) * ds;
+    n.ds(i) = ds;
+    n.dz(i) = dz;
+    dphi -= mu / s * ds;
+    if (ds < 0.0) ap = std::min(ap, -tau * s / ds);
+    if (dz < 0.0) ad = std::min(ad, -tau * z / dz);
+    zmax = std::max(zmax, std::abs(z + dz));
+  }
+  n.alpha_p = ap;
+  n.alpha_d = ad;
+  n.dphi = dphi;
+  n.zmax = zmax;
+  n.finite = std::isfinite(dphi) && dx.allFinite() && du.allFinite() && n.ds.allFinite() &&
+             n.dz.allFinite() && lq.costate(k).allFinite() &&
+             (!running || lq.equalityMultipliers(k).allFinite());
+}
+
+}  // namespace rollstep::solver

@@ -1,0 +1,293 @@
+// How is a node linearised? The problem's derivatives at the iterate, the defect and its
+// Jacobians, the inequality rows (general rows, input and state bounds), the KKT residuals
+// of every node and, in converging mode, the constraint curvature added to the
+// Gauss-Newton Hessian.
+#include "solver_impl.hpp"
+
+namespace rollstep::solver {
+
+using detail::kHard;
+using detail::kInactive;
+using detail::kInf;
+using detail::kSoft;
+using detail::msSince;
+using detail::relaxedLog;
+
+/// Linearises every node at the current iterate and reduces the KKT measures (in a fixed
+/// order, so that they do not depend on the thread count).
+Solver::Impl::Kkt Solver::Impl::linearize(bool realtime, IterationStats& it) {
+  auto t_lin = Clock::now();
+  use_curvature = !realtime && set.exact_hessian;
+  forNodes([this](int k) { linearizeNode(k); });
+  prob->stateSpace().difference(xs[0], x0, dx0);
+  // Residuals (fixed order reduction).
+  Kkt r;
+  r.finite = dx0.allFinite();
+  r.primal = dx0.lpNorm<Eigen::Infinity>();
+  for (int k = 0; k <= N; ++k) {
+    const Node& n = node(k);
+    r.finite = r.finite && n.finite;
+    r.primal = std::max(r.primal, n.primal);
+    r.dual = std::max(r.dual, n.dual);
+    r.sz_max = std::max(r.sz_max, n.sz_max);
+    r.sz_min = std::min(r.sz_min, n.sz_min);
+    r.msum += n.mult_sum;
+    r.mcount += n.mult_count;
+    r.cost += n.d->cost;
+  }
+  it.time_linearize_ms = msSince(t_lin);
+  const double sd = std::max(100.0, r.msum / std::max(r.mcount, 1)) / 100.0;
+  r.dual_scaled = r.dual / sd;
+  return r;
+}
+
+void Solver::Impl::linearizeNode(int k) {
+  Node& n = node(k);
+  NodeData& d = *n.d;
+  const VectorXd& x = xs[static_cast<std::size_t>(k)];
+  const VectorXd& u = uOf(k);
+  prob->linearize(k, x, u, d);
+  LqStage& st = lq.stage(k);
+  if (k < N) {
+    const VectorXd& xn = xs[static_cast<std::size_t>(k) + 1];
+    prob->stateSpace().difference(xn, d.xnext, n.defect);
+    if (euclid) {
+      st.A = d.Fx;
+      st.B = d.Fu;
+    } else {
+      prob->stateSpace().differenceJacobians(xn, d.xnext, n.J0, n.J1);
+      st.A.noalias() = n.J1 * d.Fx;
+      st.B.noalias() = n.J1 * d.Fu;
+    }
+    st.b = n.defect;
+  }
+  rowValues(k, x, u, n);
+  if (n.fresh || d.ni != n.ni_prev) initRows(n);
+  n.ni_prev = d.ni;
+  n.fresh = false;
+  residuals(k, n);
+  n.h2_added = false;
+  n.delta = 0.0;
+  if (use_curvature && n.finite) addCurvature(k, n);
+}
+
+/// Sets kind and value c of every row of node k from d (general rows) and (x, u).
+void Solver::Impl::rowValues(int k, const VectorXd& x, const VectorXd& u, Node& n) const {
+  const NodeData& d = *n.d;
+  const bool terminal = (k == N);
+  n.kind.setZero();
+  for (int i = 0; i < d.ni; ++i) {
+    n.kind(i) = d.soft(i) ? kSoft : kHard;
+    n.c(i) = d.g(i);
+  }
+  for (int i = d.ni; i < ni_max; ++i) n.c(i) = 0.0;
+  const auto& ub = prob->inputBounds();
+  for (int j = 0; j < nbu; ++j) {
+    const int lo = ni_max + j, hi = ni_max + nbu + j;
+    const double v = terminal ? 0.0 : u(ub.index[static_cast<std::size_t>(j)]);
+    n.c(lo) = v - ub.lower(j);
+    n.c(hi) = ub.upper(j) - v;
+    if (!terminal) {
+      if (ub.has_lower[static_cast<std::size_t>(j)]) n.kind(lo) = kHard;
+      if (ub.has_upper[static_cast<std::size_t>(j)]) n.kind(hi) = kHard;
+    }
+  }
+  const auto& xb = prob->stateBounds();
+  const int sk = xb.options.soft ? kSoft : kHard;
+  for (int j = 0; j < nbx; ++j) {
+    const int lo = ni_max + 2 * nbu + j, hi = lo + nbx;
+    const double v = x(xb.index[static_cast<std::size_t>(j)] + rep_off);
+    n.c(lo) = v - xb.lower(j);
+    n.c(hi) = xb.upper(j) - v;
+    if (k > 0) {  // x_0 is fixed by the initial state: its bounds cannot be acted upon
+      if (xb.has_lower[static_cast<std::size_t>(j)]) n.kind(lo) = sk;
+      if (xb.has_upper[static_cast<std::size_t>(j)]) n.kind(hi) = sk;
+    }
+  }
+}
+
+void Solver::Impl::initRows(Node& n) const {
+  const double floor = std::max(1e-3, std::sqrt(std::max(mu, 1e-16)));
+  for (int i = 0; i < nrows; ++i) {
+    if (n.kind(i) == kHard) {
+      n.s(i) = std::max(n.c(i), floor);
+      n.z(i) = mu / n.s(i);
+    } else {
+      n.s(i) = 1.0;
+      n.z(i) = 0.0;
+    }
+  }
+  n.mult.setZero();
+}
+
+/// KKT residuals of node k at the current linearisation and multipliers.
+void Solver::Impl::residuals(int k, Node& n) {
+  const NodeData& d = *n.d;
+  const LqStage& st = lq.stage(k);
+  // Values are checked here; a non-finite Jacobian or Hessian shows up in the step,
+  // which recoverNode checks.
+  n.finite = std::isfinite(d.cost) && d.lx.allFinite() && n.c.allFinite();
+  double primal = 0.0;
+  n.rx = d.lx;
+  n.rx -= n.lam;
+  if (k < N) {
+    n.finite = n.finite && n.defect.allFinite() && d.lu.allFinite() && d.e.head(d.ne).allFinite();
+    primal = std::max(primal, n.defect.lpNorm<Eigen::Infinity>());
+    if (d.ne > 0) primal = std::max(primal, d.e.head(d.ne).lpNorm<Eigen::Infinity>());
+    const VectorXd& lam_next = node(k + 1).lam;
+    n.rx.noalias() += st.A.transpose() * lam_next;
+    n.ru = d.lu;
+    n.ru.noalias() += st.B.transpose() * lam_next;
+    if (d.ne > 0) {
+      n.rx.noalias() += d.Ex.topRows(d.ne).transpose() * n.mult.head(d.ne);
+      n.ru.noalias() += d.Eu.topRows(d.ne).transpose() * n.mult.head(d.ne);
+    }
+  } else {
+    n.ru.setZero();
+  }
+  // Inequalities: hard rows contribute -z grad c; soft rows their barrier gradient.
+  double sz_max = 0.0, sz_min = kInf, msum = n.lam.lpNorm<1>() + n.mult.lpNorm<1>();
+  int mcount = ndx + d.ne;
+  // Derivative of the Lagrangian w.r.t. the value c_i of inequality row i; hard rows
+  // also add to the primal residual, complementarity range and multiplier average.
+  const auto rowCoefficient = [&](int i, double relax) {
+    if (n.kind(i) == kHard) {
+      primal = std::max(primal, std::abs(n.c(i) - n.s(i)));
+      const double sz = n.s(i) * n.z(i);
+      sz_max = std::max(sz_max, sz);
+      sz_min = std::min(sz_min, sz);
+      msum += n.z(i);
+      ++mcount;
+      return -n.z(i);
+    }
+    double d1 = 0.0, d2 = 0.0;
+    relaxedLog(n.c(i), relax, d1, d2);
+    return softWeight(n, i) * d1;
+  };
+  for (int i = 0; i < d.ni; ++i) {
+    n.tmp(i) = rowCoefficient(i, d.relaxation(i));
+  }
+  if (d.ni > 0) {
+    n.rx.noalias() += d.Gx.topRows(d.ni).transpose() * n.tmp.head(d.ni);
+    if (k < N) n.ru.noalias() += d.Gu.topRows(d.ni).transpose() * n.tmp.head(d.ni);
+  }
+  for (int i = ni_max; i < nrows; ++i) {
+    if (n.kind(i) == kInactive) continue;
+    const auto [input, lower, idx] = bound_rows[static_cast<std::size_t>(i - ni_max)];
+    const double coef = rowCoefficient(i, relaxation(n, i));
+    const double g = lower ? coef : -coef;
+    if (input) {
+      n.ru(idx) += g;
+    } else {
+      n.rx(idx) += g;
+    }
+  }
+  n.finite = n.finite && n.rx.allFinite() && n.ru.allFinite();
+  n.primal = primal;
+  n.dual = std::max(n.rx.lpNorm<Eigen::Infinity>(), n.ru.lpNorm<Eigen::Infinity>());
+  n.sz_max = sz_max;
+  n.sz_min = sz_min;
+  n.mult_sum = msum;
+  n.mult_count = mcount;
+}
+
+/// Constraint part of the Lagrangian gradient at the point evaluated in dd, with the
+/// multipliers of the current iterate: [Fx; Fu]^T lam_{k+1} + E^T nu + G^T hcoef.
+void Solver::Impl::constraintGradient(int k, const Node& n, const NodeData& dd,
+                                      VectorXd& out) const {
+  auto ox = out.head(ndx);
+  auto ou = out.segment(ndx, nu);
+  out.setZero();
+  if (k < N) {
+    const VectorXd& lam_next = nodes[static_cast<std::size_t>(k) + 1].lam;
+    ox.noalias() += dd.Fx.transpose() * lam_next;
+    ou.noalias() += dd.Fu.transpose() * lam_next;
+    if (dd.ne > 0) {
+      ox.noalias() += dd.Ex.topRows(dd.ne).transpose() * n.mult.head(dd.ne);
+      ou.noalias() += dd.Eu.topRows(dd.ne).transpose() * n.mult.head(dd.ne);
+    }
+  }
+  if (dd.ni > 0) {
+    ox.noalias() += dd.Gx.topRows(dd.ni).transpose() * n.hcoef.head(dd.ni);
+    if (k < N) ou.noalias() += dd.Gu.topRows(dd.ni).transpose() * n.hcoef.head(dd.ni);
+  }
+}
+
+/// Adds the constraint curvature (second derivatives of dynamics, equalities and
+/// general inequalities times their multipliers) to the node's Gauss-Newton Hessian:
+/// the Gauss-Newton Hessian alone converges only linearly when the multipliers are
+/// large (swing-up: ~900 iterations). Central differences of Jacobians. On manifolds
+/// the node's Hessian in (x_k, u_k) with x_{k+1} held fixed (the cross terms of the
+/// difference with x_{k+1} do not fit the stage structure and are left out).
+void Solver::Impl::addCurvature(int k, Node& n) {
+  NodeData& d = *n.d;
+  for (int i = 0; i < d.ni; ++i) {
+    double d1 = 0.0, d2 = 0.0;
+    if (n.kind(i) == kSoft) relaxedLog(n.c(i), d.relaxation(i), d1, d2);
+    n.hcoef(i) = n.kind(i) == kHard ? -n.z(i) : d.soft_weight(i) * d1;
+  }
+  const int nv = ndx + (k < N ? nu : 0);
+  const VectorXd& x = xs[static_cast<std::size_t>(k)];
+  const VectorXd& u = uOf(k);
+  for (int j = 0; j < nv; ++j) {
+    const bool in_x = j < ndx;
+    const double v = in_x ? (euclid ? x(j) : 0.0) : u(j - ndx);
+    const double h = 1e-5 * (1.0 + std::abs(v));
+    for (int side = 0; side < 2; ++side) {
+      VectorXd& g = side == 0 ? n.hp : n.hm;
+      const double hs = side == 0 ? h : -h;
+      n.up = u;
+      if (in_x && !euclid) {
+        n.dxv.setZero();
+        n.dxv(j) = hs;
+        prob->stateSpace().integrate(x, n.dxv, n.xp);
+      } else {
+        n.xp = x;
+        (in_x ? n.xp(j) : n.up(j - ndx)) = v + hs;
+      }
+      prob->linearize(k, n.xp, n.up, *n.dp);
+      if (euclid) {
+        constraintGradient(k, n, *n.dp, g);
+        continue;
+      }
+      // Manifold: the whole node gradient (cost included, its Gauss-Newton Hessian is
+      // not exact either), dynamics through the difference Jacobian, pulled back to the
+      // tangent at x by the Jacobian of the retraction.
+      NodeData& dp = *n.dp;
+      if (k < N) {
+        prob->stateSpace().differenceJacobians(xs[static_cast<std::size_t>(k) + 1], dp.xnext, n.J0,
+                                               n.J1);
+        n.Ap.noalias() = n.J1 * dp.Fx;
+        dp.Fx = n.Ap;
+        n.Bp.noalias() = n.J1 * dp.Fu;
+        dp.Fu = n.Bp;
+      }
+      constraintGradient(k, n, dp, g);
+      g.head(ndx) += dp.lx;
+      if (k < N) g.segment(ndx, nu) += dp.lu;
+      if (in_x) {
+        prob->stateSpace().integrateJacobians(x, n.dxv, n.J0, n.J1);
+        n.dxv.noalias() = n.J1.transpose() * g.head(ndx);
+        g.head(ndx) = n.dxv;
+      }
+    }
+    n.H2.col(j).head(nv) = (n.hp.head(nv) - n.hm.head(nv)) / (2.0 * h);
+  }
+  if (!euclid) {  // H2 holds the full Hessian: keep the difference to Gauss-Newton
+    n.H2.topLeftCorner(ndx, ndx) -= d.Lxx;
+    if (k < N) {
+      n.H2.bottomRightCorner(nu, nu) -= d.Luu;
+      n.H2.bottomLeftCorner(nu, ndx) -= d.Lux;
+      n.H2.topRightCorner(ndx, nu) -= d.Lux.transpose();
+    }
+  }
+  auto H = n.H2.topLeftCorner(nv, nv);
+  for (int i = 0; i < nv; ++i) {
+    for (int j = 0; j < i; ++j) H(i, j) = H(j, i) = 0.5 * (H(i, j) + H(j, i));
+  }
+  if (!H.allFinite()) return;
+  shiftHessian(k, n, 1.0);
+  n.h2_added = true;
+}
+
+}  // namespace rollstep::solver

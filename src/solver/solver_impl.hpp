@@ -1,0 +1,291 @@
+#pragma once
+// Private to src/solver: the solver's workspace (Solver::Impl) and the declarations of its
+// phases. Each phase lives in its own file (linearization, condensing, direction,
+// line_search, restoration, barrier, warm_start; workspace.cpp sizes the memory) and
+// solver.cpp holds the public API and the main loop (Impl::run).
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <limits>
+#include <memory>
+#include <utility>
+#include <vector>
+
+#include "rollstep/solver/riccati.hpp"
+#include "rollstep/solver/solver.hpp"
+#include "thread_pool.hpp"
+
+namespace rollstep::solver {
+
+using ocp::MatrixXd;
+using ocp::NodeData;
+using ocp::VectorXd;
+
+#define ROLLSTEP_MSG(...) std::snprintf(message, sizeof(message), __VA_ARGS__)
+
+namespace detail {
+
+using Clock = std::chrono::steady_clock;
+inline double msSince(Clock::time_point t) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
+}
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// Row kinds of the per-node inequality layout.
+enum : int { kInactive = 0, kHard = 1, kSoft = 2 };
+
+/// Relaxed logarithmic barrier (Feller and Jones 2016): -log(c) above delta, the
+/// quadratic extension (C2 at delta) below. Returns the value; d1, d2 the derivatives.
+inline double relaxedLog(double c, double delta, double& d1, double& d2) {
+  if (c > delta) {
+    d1 = -1.0 / c;
+    d2 = 1.0 / (c * c);
+    return -std::log(c);
+  }
+  const double t = (c - 2.0 * delta) / delta;
+  d1 = (c - 2.0 * delta) / (delta * delta);
+  d2 = 1.0 / (delta * delta);
+  return 0.5 * (t * t - 1.0) - std::log(delta);
+}
+
+/// A simple-bound row of the per-node inequality layout: after the ni_max general rows
+/// come the input bounds (all lower sides, then all upper sides), then the state bounds
+/// likewise.
+struct BoundRow {
+  bool input;  ///< input bound (else state bound)
+  bool lower;  ///< lower side (else upper)
+  int index;   ///< the bounded coordinate of u or of the tangent of x
+};
+inline BoundRow boundRow(int i, int ni_max, int nbu, int nbx, const ocp::BoundSet& ub,
+                         const ocp::BoundSet& xb) {
+  const bool input = i < ni_max + 2 * nbu;
+  const int j = input ? (i - ni_max) % std::max(nbu, 1) : (i - ni_max - 2 * nbu) % std::max(nbx, 1);
+  const bool lower = input ? (i - ni_max) < nbu : (i - ni_max - 2 * nbu) < nbx;
+  const int idx =
+      input ? ub.index[static_cast<std::size_t>(j)] : xb.index[static_cast<std::size_t>(j)];
+  return {input, lower, idx};
+}
+
+}  // namespace detail
+
+// ------------------------------------------------------------------------------------------
+struct Solver::Impl {
+  using Clock = detail::Clock;
+
+  struct Node {
+    std::unique_ptr<NodeData> d;
+    VectorXd s, z, ds, dz, c;  // slacks, duals, steps, constraint values (layout rows)
+    VectorXd s_bak, z_bak, s_trial;
+    Eigen::VectorXi kind;     // kInactive / kHard / kSoft per row
+    VectorXd lam, lam_bak;    // costate of the constraint defining x_k (ndx)
+    VectorXd mult, mult_bak;  // equality multipliers (ne_max)
+    VectorXd defect;          // F(x_k, u_k) (-) x_{k+1}, tangent at x_{k+1}
+    MatrixXd J0, J1;          // difference Jacobians
+    VectorXd rx, ru, tmp;     // dual residual pieces, scratch
+    MatrixXd WGu, WGx;        // weighted general-row Jacobians
+    VectorXd W, gam;
+    VectorXd soft_dual;  // -weight beta'(c) of soft rows (reporting)
+    // Constraint curvature (converging mode, Euclidean): central differences of the
+    // constraint part of the Lagrangian gradient, evaluated into dp.
+    std::unique_ptr<NodeData> dp;
+    MatrixXd H2;                     // (ndx + nu)^2, symmetric
+    VectorXd hp, hm, xp, up, hcoef;  // gradients +-, perturbed point, row coefficients
+    VectorXd dxv;                    // tangent perturbation (manifolds)
+    MatrixXd Ap, Bp;                 // dynamics Jacobians at the perturbed point (manifolds)
+    bool h2_added = false;
+    double delta = 0.0;  // diagonal shift of the Hessian (inertia correction)
+    int ni_prev = -1;
+    bool fresh = true;  // (re)initialise slacks and duals at next linearisation
+    bool finite = true;
+    bool rank_ok = true;
+    double pivot_ratio = 1.0;
+    double primal = 0.0, dual = 0.0, sz_max = 0.0, sz_min = detail::kInf, mult_sum = 0.0;
+    int mult_count = 0;
+    double alpha_p = 1.0, alpha_d = 1.0, dphi = 0.0, zmax = 0.0;
+    double merit_f = 0.0, merit_theta = 0.0;
+  };
+
+  /// KKT measures of one linearisation (fixed-order reduction over the nodes).
+  struct Kkt {
+    bool finite = true;
+    double primal = 0.0, dual = 0.0, sz_max = 0.0, sz_min = detail::kInf;
+    double msum = 0.0, cost = 0.0;
+    int mcount = 0;
+    double dual_scaled = 0.0;  ///< dual residual over the multiplier scale
+    /// max |s z - m| over the hard rows (0 without any).
+    double complementarity(double m) const {
+      return sz_min == detail::kInf ? 0.0 : std::max(sz_max - m, m - sz_min);
+    }
+  };
+  /// Search direction summary: fraction-to-boundary step lengths, barrier slope.
+  struct Direction {
+    double alpha_p = 1.0, alpha_d = 1.0, dphi = 0.0;
+  };
+
+  // ---- problem, sizes, workspace (workspace.cpp) --------------------------------------------
+  std::shared_ptr<ocp::OptimalControlProblem> prob;
+  SolverSettings set;
+  int N, nx, ndx, nu, ne_max, ni_max, nbu, nbx, nrows, rep_off;
+  bool euclid;
+  RiccatiSolver lq;
+  detail::ThreadPool pool;
+  // Multi-thread pipelines (condenseAndFactor, forwardAndRecover): node k was condensed
+  // in the pipeline run number ready[k]; claim counters of the nodes still to do.
+  std::unique_ptr<std::atomic<std::uint64_t>[]> ready;
+  std::uint64_t pipeline_run = 0;
+  std::atomic<int> forward_done{0};
+  // Per thread t, the next unclaimed node of its chunk of the linearisation partition
+  // (ThreadPool::run's static split of 0..N): a thread condenses and recovers the nodes it
+  // linearised first (their data is in its cache), then helps with the others.
+  std::unique_ptr<std::atomic<int>[]> chunk_next;
+  std::vector<Node> nodes;
+  std::vector<detail::BoundRow> bound_rows;  // decoded layout of rows ni_max.. (fixed)
+  std::vector<VectorXd> xs, us, xs_bak, us_bak, xs_trial, us_trial;
+  std::vector<VectorXd> scaled;  // per-node scaled tangent steps (manifold states)
+  VectorXd x0, dx0, zero_u;
+  std::vector<MatrixXd> gains;
+  mutable std::vector<bool> gains_valid;
+  std::vector<IterationStats> stats;
+  SolverStatus status = SolverStatus::MaxIterations;
+  int iterations = 0;
+  double cost = 0.0;
+  double mu = 0.0;
+  // Filter of the line search: (theta, f) pairs, sized at construction.
+  std::vector<std::pair<double, double>> filter;
+  double filter_mu = -1.0, theta_max = detail::kInf, theta_min = 0.0;
+  bool has_guess = false;
+  bool use_curvature = false;  // this iteration adds the constraint curvature (H2)
+  double last_delta = 0.0;     // last inertia correction
+  bool has_solution = false;
+  bool direction_ready = false;  // the Riccati workspace holds a valid factorisation
+  bool backup_valid = false;     // xs_bak, ... hold the iterate before the last step
+  double solution_t0 = 0.0;      // start of the node grid of the stored solution
+  int last_shift = 0;            // nodes the last update() shifted the solution by
+  int failed_node = -1;
+  char message[256] = "";
+
+  Impl(std::shared_ptr<ocp::OptimalControlProblem> p, SolverSettings s);
+
+  // ---- small helpers -------------------------------------------------------------------------
+  const VectorXd& uOf(int k) const { return k < N ? us[static_cast<std::size_t>(k)] : zero_u; }
+  Node& node(int k) { return nodes[static_cast<std::size_t>(k)]; }
+  double relaxation(const Node& n, int i) const {
+    return i < ni_max ? n.d->relaxation(i) : prob->stateBounds().options.relaxation;
+  }
+  /// Fixed weight of a soft row's relaxed barrier (independent of mu).
+  double softWeight(const Node& n, int i) const {
+    return i < ni_max ? n.d->soft_weight(i) : prob->stateBounds().options.weight;
+  }
+  /// f(k) for every node k = 0..N, split over the threads (static partition).
+  template <class F>
+  void forNodes(F&& f) {
+    auto body = [&](int b, int e) {
+      for (int k = b; k < e; ++k) f(k);
+    };
+    pool.run(N + 1, body);
+  }
+  int chunkBegin(int t) const { return pool.chunkBegin(N + 1, t); }
+  /// Claims the next node of chunk t (downwards or upwards), or returns -1.
+  int claimInChunk(int t, bool downwards) {
+    auto& next = chunk_next[static_cast<std::size_t>(t)];
+    const int lo = chunkBegin(t), hi = chunkBegin(t + 1);  // [lo, hi)
+    if (downwards ? next.load(std::memory_order_relaxed) < lo
+                  : next.load(std::memory_order_relaxed) >= hi) {
+      return -1;
+    }
+    const int j = downwards ? next.fetch_sub(1, std::memory_order_relaxed)
+                            : next.fetch_add(1, std::memory_order_relaxed);
+    return (j >= lo && j < hi) ? j : -1;
+  }
+  /// Own chunk first, then the others in the order the sweep needs them.
+  int claimNode(int id, bool downwards) {
+    int j = claimInChunk(id, downwards);
+    const int T = pool.size();
+    for (int i = 0; j < 0 && i < T; ++i) {
+      const int t = downwards ? T - 1 - i : i;
+      if (t != id) j = claimInChunk(t, downwards);
+    }
+    return j;
+  }
+  /// Sets the diagonal shift of the node's Hessian to delta (inertia correction).
+  void shiftDiagonal(int k, Node& n, double delta) {
+    NodeData& d = *n.d;
+    d.Lxx.diagonal().array() += delta - n.delta;
+    if (k < N) d.Luu.diagonal().array() += delta - n.delta;
+    n.delta = delta;
+  }
+  /// Adds sign * the constraint curvature H2 to the node's Hessian.
+  void shiftHessian(int k, Node& n, double sign) {
+    NodeData& d = *n.d;
+    d.Lxx += sign * n.H2.topLeftCorner(ndx, ndx);
+    if (k < N) {
+      d.Luu += sign * n.H2.bottomRightCorner(nu, nu);
+      d.Lux += sign * n.H2.bottomLeftCorner(nu, ndx);
+    }
+  }
+
+  // ---- the main loop (solver.cpp) ------------------------------------------------------------
+  SolverStatus run(ConstVecRef x_init, bool realtime);
+  bool begin(ConstVecRef x_init, bool realtime);
+
+  // ---- linearisation and KKT residuals (linearization.cpp) ------------------------------------
+  Kkt linearize(bool realtime, IterationStats& it);
+  void linearizeNode(int k);
+  void rowValues(int k, const VectorXd& x, const VectorXd& u, Node& n) const;
+  void initRows(Node& n) const;
+  void residuals(int k, Node& n);
+  void constraintGradient(int k, const Node& n, const NodeData& dd, VectorXd& out) const;
+  void addCurvature(int k, Node& n);
+
+  // ---- condensing, projection, factorisation (condensing.cpp) --------------------------------
+  enum class Factorization { Ok, RankDeficient, NotPositiveDefinite };
+  void condenseNode(int k);
+  Factorization condenseAndFactor();
+  bool correctInertia(bool factored);
+
+  // ---- search direction (direction.cpp) ------------------------------------------------------
+  bool searchDirection(bool realtime, double primal, IterationStats& it, Direction& dir);
+  void forwardAndRecover();
+  void recoverNode(int k);
+
+  // ---- step length: filter line search (line_search.cpp) -------------------------------------
+  bool filterLineSearch(double dphi, double& alpha, double& theta0);
+  void takeFullStep(double alpha);
+  void updateDuals(double alpha, double alpha_d);
+  void trialPoint(int k, double alpha);
+  void evaluateTrial(int k);
+  void meritNode(int k, Node& n, const VectorXd& s) const;
+  void addToFilter(double theta, double f);
+
+  // ---- restoration and infeasibility (restoration.cpp) ---------------------------------------
+  /// Infeasibility test at the iteration limit: the violation stays above the tolerance
+  /// and did not halve over the last kStallWindow iterations.
+  static constexpr int kStallWindow = 10;
+  /// Infeasibility test when the direction breaks down (non-finite, not factorisable):
+  /// some dual above kDualBlowUp while the violation is above the tolerance.
+  static constexpr double kDualBlowUp = 1e12;
+  bool dualsBlewUp(double primal) const;
+  bool violationStalled(double primal) const;
+  bool stepRejected(double primal, double theta0, double dphi, Clock::time_point t_upd,
+                    IterationStats& it);
+  double feasibilityStep(double theta0);
+
+  // ---- termination and barrier (barrier.cpp) -------------------------------------------------
+  bool diverged(const Kkt& kkt);
+  void recordResiduals(const Kkt& kkt, IterationStats& it);
+  bool terminated(const Kkt& kkt, int max_it, IterationStats& it);
+  void updateBarrier(const Kkt& kkt);
+  SolverStatus endRealTimeIteration();
+
+  // ---- warm start, shift, backup (warm_start.cpp) --------------------------------------------
+  void shiftToTime(double t0);
+  void shiftNodes(int n);
+  void backup();
+  void restore();
+};
+
+}  // namespace rollstep::solver
