@@ -1,5 +1,6 @@
 # Nonlinear proof-of-correctness tests of the solver (issue 4): cart-pole, unicycle with
-# obstacles and a speed-profile equality, rigid body on SE(3); Ipopt reference on the same
+# obstacles and a speed-profile equality, rigid body on SE(3); problems with many active
+# bounds (issue 17): two-link arm, planar quadrotor, bicycle; Ipopt reference on the same
 # multiple-shooting transcription. Included from tests/solver/CMakeLists.txt:
 #   include(${CMAKE_CURRENT_SOURCE_DIR}/nonlinear.cmake OPTIONAL)
 
@@ -33,6 +34,12 @@ if(TARGET rollstep_nltest_problems AND IPOPT_FOUND AND NOT TARGET rollstep_nltes
   if(TARGET rollstep::solver)
     rollstep_add_test(nonlinear_comparison_test
       SOURCES ${_nl_dir}/nonlinear_comparison_test.cpp
+      LIBS rollstep::solver rollstep_nltest_ipopt
+      LABELS solver)
+    # Issue 17: problems with many active bounds, two starts, default settings and
+    # Gauss-Newton, against Ipopt from the same start.
+    rollstep_add_test(nonlinear_robustness_test
+      SOURCES ${_nl_dir}/nonlinear_robustness_test.cpp
       LIBS rollstep::solver rollstep_nltest_ipopt
       LABELS solver)
     rollstep_add_test(nonlinear_realtime_test
