@@ -173,6 +173,19 @@ TEST_P(NonlinearRobustness, ConvergesToIpoptsCost) {
       viol, kkt.stationarity, kkt.complementarity, kkt.dual_sign, last_primal, last_dual,
       succeeded(st) ? "" : " | ", succeeded(st) ? "" : s.message());
 
+  if (!succeeded(st)) {
+    // The iterations of a failed solve, for the record (at most every few: ~25 lines).
+    const auto& stats = s.stats();
+    const size_t every = std::max<size_t>(1, stats.size() / 25);
+    for (size_t i = 0; i < stats.size(); ++i) {
+      if (i % every != 0 && i + 1 != stats.size()) continue;
+      const auto& it = stats[i];
+      std::printf(
+          "    it %3d cost %.9g primal %.2e dual %.2e compl %.2e mu %.1e step %.2e/%.2e%s\n",
+          it.iteration, it.cost, it.primal_residual, it.dual_residual, it.complementarity,
+          it.barrier, it.primal_step, it.dual_step, it.restoration ? " restoration" : "");
+    }
+  }
   EXPECT_TRUE(succeeded(st)) << what << ": " << solver::toString(st) << " after " << s.iterations()
                              << " iterations: " << s.message();
   EXPECT_LE(std::abs(cost - ref.cost), 1e-6 * std::max(1.0, std::abs(ref.cost)))
