@@ -1,5 +1,6 @@
 #include "rollstep/sim/scene.hpp"
 
+#include <yaml-cpp/eventhandler.h>
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -9,6 +10,7 @@
 #include <cstdlib>
 #include <limits>
 #include <map>
+#include <sstream>
 #include <stdexcept>
 
 #include "rollstep/common/text_file.hpp"
@@ -89,29 +91,64 @@ std::string problemWith(const SceneField& f, double v) {
   return {};
 }
 
+/// Counts nothing but remembers where the last document started.
+struct DocumentCounter final : YAML::EventHandler {
+  int last_start_line = 0;
+  void OnDocumentStart(const YAML::Mark& mark) override { last_start_line = mark.line; }
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnAlias(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnScalar(const YAML::Mark&, const std::string&, YAML::anchor_t,
+                const std::string&) override {}
+  void OnSequenceStart(const YAML::Mark&, const std::string&, YAML::anchor_t,
+                       YAML::EmitterStyle::value) override {}
+  void OnSequenceEnd() override {}
+  void OnMapStart(const YAML::Mark&, const std::string&, YAML::anchor_t,
+                  YAML::EmitterStyle::value) override {}
+  void OnMapEnd() override {}
+};
+
 std::string knownKeys() {
   std::string keys = "scene";
   for (const SceneField& f : kSceneFields) keys += std::string(", ") + f.key;
   return keys;
 }
 
-/// A YAML plain scalar as a number: decimal or exponent notation, YAML's .inf/.nan.
-/// Returns false if the text is not a number.
+/// A YAML plain scalar as a number: [+-]digits[.digits][(e|E)[+-]digits] (no hexadecimal,
+/// octal or trailing text), or YAML's .inf/.nan (and nan/inf), which parse to be refused
+/// as not finite. Returns false if the text is not a number.
 bool parseNumber(const std::string& text, double& value) {
   std::string lower;
   for (char c : text) lower += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  if (lower == ".nan") {
+  const std::size_t sign = (!lower.empty() && (lower[0] == '+' || lower[0] == '-')) ? 1 : 0;
+  const std::string unsigned_text = lower.substr(sign);
+  if (unsigned_text == ".nan" || unsigned_text == "nan") {
     value = std::numeric_limits<double>::quiet_NaN();
     return true;
   }
-  if (lower == ".inf" || lower == "+.inf" || lower == "-.inf") {
+  if (unsigned_text == ".inf" || unsigned_text == "inf" || unsigned_text == "infinity") {
     value = (lower[0] == '-' ? -1.0 : 1.0) * std::numeric_limits<double>::infinity();
     return true;
   }
-  if (text.empty() || std::isspace(static_cast<unsigned char>(text[0]))) return false;
-  char* end = nullptr;
-  value = std::strtod(text.c_str(), &end);
-  return end == text.c_str() + text.size();
+  const auto digit = [&](std::size_t i) {
+    return i < lower.size() && std::isdigit(static_cast<unsigned char>(lower[i]));
+  };
+  std::size_t i = sign, digits = 0;
+  while (digit(i)) ++i, ++digits;
+  if (i < lower.size() && lower[i] == '.') {
+    ++i;
+    while (digit(i)) ++i, ++digits;
+  }
+  if (digits == 0) return false;
+  if (i < lower.size() && lower[i] == 'e') {
+    ++i;
+    if (i < lower.size() && (lower[i] == '+' || lower[i] == '-')) ++i;
+    if (!digit(i)) return false;
+    while (digit(i)) ++i;
+  }
+  if (i != lower.size()) return false;
+  value = std::strtod(text.c_str(), nullptr);  // 1e400 overflows to inf: refused as such
+  return true;
 }
 
 }  // namespace
@@ -135,18 +172,26 @@ SceneConfig parseSceneConfig(const std::string& yaml_text, const std::string& so
   };
   SceneConfig config;
   config.source = "scene config '" + source_name + "'";
-  std::vector<YAML::Node> documents;
+  // Count the documents with the event parser, reading at most two: yaml-cpp 0.7's
+  // LoadAll loops forever on some malformed input (it keeps reporting empty documents;
+  // fixed upstream in yaml-cpp PR 1319), and one is all a scene config may hold.
+  YAML::Node root;
   try {
-    documents = YAML::LoadAll(yaml_text);
+    std::istringstream stream(yaml_text);
+    YAML::Parser parser(stream);
+    DocumentCounter counter;
+    int documents = 0;
+    while (documents < 2 && parser.HandleNextDocument(counter)) ++documents;
+    if (documents == 0) return config;  // empty file or comments only: all defaults
+    if (documents > 1) {
+      fail("holds more than one YAML document (the second starts on line " +
+           std::to_string(counter.last_start_line + 1) +
+           "); a scene config is one mapping of key: value");
+    }
+    root = YAML::Load(yaml_text);
   } catch (const YAML::Exception& e) {
     fail(std::string("YAML error: ") + e.what());
   }
-  if (documents.empty()) return config;  // empty file or comments only: all defaults
-  if (documents.size() > 1) {
-    fail("holds " + std::to_string(documents.size()) +
-         " YAML documents (separated by '---'); a scene config is one mapping of key: value");
-  }
-  const YAML::Node& root = documents.front();
   if (root.IsNull()) return config;
   if (!root.IsMap()) fail(line(root) + "expected a mapping of key: value");
   std::map<std::string, int> seen;  // key -> line (1-based) where it was first given
