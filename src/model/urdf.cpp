@@ -158,6 +158,57 @@ void checkInertialText(const TiXmlDocument& doc) {
   }
 }
 
+/// The tree as the text declares it, before urdfdom links it: a link that is the child of
+/// two joints, or a chain of joints that comes back to where it started, is refused here.
+/// (On some later error urdfdom drops a partly built tree whose shared pointers form such
+/// a loop, and leaks it.) Joints without a parent or child name are left to urdfdom.
+void checkTreeText(const TiXmlDocument& doc) {
+  const TiXmlElement* robot = doc.RootElement();
+  if (robot == nullptr) return;
+  struct Edge {
+    std::string parent;
+    std::string joint;
+  };
+  std::map<std::string, Edge> parentOf;  // child link -> (parent link, joint)
+  for (const TiXmlElement* joint = robot->FirstChildElement("joint"); joint != nullptr;
+       joint = joint->NextSiblingElement("joint")) {
+    const TiXmlElement* p = joint->FirstChildElement("parent");
+    const TiXmlElement* c = joint->FirstChildElement("child");
+    const char* parent = p != nullptr ? p->Attribute("link") : nullptr;
+    const char* child = c != nullptr ? c->Attribute("link") : nullptr;
+    const char* name = joint->Attribute("name");
+    if (parent == nullptr || child == nullptr) continue;
+    const std::string joint_name = name != nullptr ? name : "?";
+    const auto [it, inserted] = parentOf.emplace(child, Edge{parent, joint_name});
+    if (!inserted) {
+      throw ModelError("link '" + std::string(child) + "' is the child of two joints ('" +
+                       it->second.joint + "' and '" + joint_name +
+                       "'): kinematic loops are not supported");
+    }
+  }
+  // Walk up from every link; a walk that meets itself is a loop. Each link is finished once.
+  std::map<std::string, int> state;  // 1: on the current walk, 2: finished
+  for (const auto& start : parentOf) {
+    std::vector<const std::string*> walk;
+    const std::string* link = &start.first;
+    for (;;) {
+      int& st = state[*link];
+      if (st == 2) break;
+      if (st == 1) {
+        throw ModelError("link '" + *link + "' is its own ancestor through joint '" +
+                         parentOf.at(*link).joint +
+                         "': a kinematic loop, not connected to the root");
+      }
+      st = 1;
+      walk.push_back(link);
+      const auto up = parentOf.find(*link);
+      if (up == parentOf.end()) break;
+      link = &up->second.parent;
+    }
+    for (const std::string* l : walk) state[*l] = 2;
+  }
+}
+
 /// An origin (joint placement, inertial frame): finite, within kUrdfMaxDistance of its
 /// parent frame, a usable rotation.
 void checkPose(const std::string& element, const char* which, const urdf::Pose& pose) {
@@ -519,7 +570,10 @@ Model buildModelFromUrdfString(const std::string& xml, RootJoint root) {
   {
     TiXmlDocument doc;
     doc.Parse(xml.c_str());
-    if (!doc.Error()) checkInertialText(doc);  // else urdfdom reports the syntax error
+    if (!doc.Error()) {  // else urdfdom reports the syntax error
+      checkTreeText(doc);
+      checkInertialText(doc);
+    }
   }
   CaptureHandler handler;
   console_bridge::useOutputHandler(&handler);

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "rollstep/common/text_file.hpp"
+#include "rollstep/common/yaml_text.hpp"
 
 namespace rollstep::solver {
 namespace {
@@ -103,6 +104,8 @@ SolverSettings parseSolverSettings(const std::string& yaml_text, const std::stri
     throw std::runtime_error("solver settings " + source_name + ": " + what);
   };
   SolverSettings settings;
+  // Text yaml-cpp 0.7 would loop forever on (a document starting with ',').
+  if (const std::string hazard = yamlTextHazard(yaml_text); !hazard.empty()) fail(hazard);
   std::vector<YAML::Node> documents;
   try {
     documents = YAML::LoadAll(yaml_text);

@@ -1,0 +1,74 @@
+#include "rollstep/common/yaml_text.hpp"
+
+#include <cstddef>
+
+namespace rollstep {
+namespace {
+
+bool isBlank(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\n'; }
+
+/// Is there a document marker ("---" or "...") at `i` (line start), followed by a blank or
+/// the end of the text?
+bool markerAt(std::string_view t, std::size_t i) {
+  if (i + 3 > t.size()) return false;
+  const std::string_view m = t.substr(i, 3);
+  if (m != "---" && m != "...") return false;
+  return i + 3 == t.size() || isBlank(t[i + 3]);
+}
+
+}  // namespace
+
+std::string yamlTextHazard(std::string_view t) {
+  const std::size_t n = t.size();
+  std::size_t i = 0;
+  std::size_t line = 1;
+  // Scan the start of each document: blanks, comments, directives, document markers and
+  // node properties (&anchor, !tag) until the first real token.
+  bool at_document_start = true;
+  bool line_start = true;
+  while (i < n) {
+    const char c = t[i];
+    if (at_document_start) {
+      if (c == '\n') {
+        ++line;
+        ++i;
+        line_start = true;
+        continue;
+      }
+      if (isBlank(c)) {
+        ++i;
+        continue;
+      }
+      if (c == '#' || (line_start && c == '%')) {  // comment or directive: skip the line
+        while (i < n && t[i] != '\n') ++i;
+        continue;
+      }
+      if (line_start && markerAt(t, i)) {
+        i += 3;
+        line_start = false;
+        continue;
+      }
+      if (c == '&' || c == '!') {  // a property of the first node
+        while (i < n && !isBlank(t[i])) ++i;
+        line_start = false;
+        continue;
+      }
+      if (c == ',') {
+        return "line " + std::to_string(line) +
+               ": a document starts with ',' (not valid YAML; yaml-cpp would loop forever)";
+      }
+      at_document_start = false;
+    }
+    // Inside a document: find the next line that starts with a document marker.
+    while (i < n && t[i] != '\n') ++i;
+    if (i < n) {
+      ++i;
+      ++line;
+      if (markerAt(t, i)) at_document_start = true;
+      line_start = true;
+    }
+  }
+  return "";
+}
+
+}  // namespace rollstep
