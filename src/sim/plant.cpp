@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <limits>
@@ -16,6 +17,16 @@
 namespace rollstep::sim {
 
 namespace {
+
+constexpr int kMaxSubsteps = 1000;        // physics steps per control period
+constexpr double kMaxGeomRadius = 100.0;  // [m] bounding radius of a robot geom
+
+/// A number for messages: %g (0.001, 1e+30).
+std::string num(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
+}
 
 std::string trimmed(const char* text) {
   std::string s(text);
@@ -126,11 +137,11 @@ Plant::Plant(const SceneConfig& scene, const PlantOptions& options)
     throw SimError("scene " + scene_name + ": " + e.what());
   }
   if (!std::isfinite(control_period_) || control_period_ <= 0.0 || control_period_ > 1.0) {
-    throw SimError("PlantOptions::control_period = " + std::to_string(control_period_) +
+    throw SimError("PlantOptions::control_period = " + num(control_period_) +
                    " s: must be in (0, 1] s and a multiple of the model's timestep");
   }
   if (!std::isfinite(contact_threshold_) || contact_threshold_ < 0.0) {
-    throw SimError("PlantOptions::contact_threshold = " + std::to_string(contact_threshold_) +
+    throw SimError("PlantOptions::contact_threshold = " + num(contact_threshold_) +
                    " N: must be finite and >= 0");
   }
   const std::string what = "robot model '" + robot_file_ + "'";
@@ -185,7 +196,7 @@ Plant::Plant(const SceneConfig& scene, const PlantOptions& options)
     constexpr double kMaxDataBytes = 2e9;
     if (static_cast<double>(model_->nstack) * sizeof(mjtNum) + model_->nbuffer > kMaxDataBytes) {
       throw SimError(what + ": the model needs " +
-                     std::to_string(static_cast<double>(model_->nstack) * sizeof(mjtNum) * 1e-6) +
+                     num(static_cast<double>(model_->nstack) * sizeof(mjtNum) * 1e-6) +
                      " MB of simulation data (<size nstack=...>); the limit is 2000 MB");
     }
     data_ = mj_makeData(model_);
@@ -234,8 +245,13 @@ void Plant::checkStructure() {
   const double ts = model_->opt.timestep;
   substeps_ = static_cast<int>(std::lround(control_period_ / ts));
   if (!(ts > 0.0) || substeps_ < 1 || std::abs(substeps_ * ts - control_period_) > 1e-12) {
-    fail("timestep " + std::to_string(ts) + " s does not divide the control period " +
-         std::to_string(control_period_) + " s");
+    fail("timestep " + num(ts) + " s does not divide the control period " + num(control_period_) +
+         " s");
+  }
+  if (substeps_ > kMaxSubsteps) {
+    fail("timestep " + num(ts) + " s is too small: " + std::to_string(substeps_) +
+         " physics steps per control period of " + num(control_period_) + " s; valid range: 1 to " +
+         std::to_string(kMaxSubsteps));
   }
   const int base_body = id(mjOBJ_BODY, "base", "body");
   if (model_->body_jntnum[base_body] != 1 ||
@@ -302,16 +318,47 @@ void Plant::checkStructure() {
   key_nominal_ = id(mjOBJ_KEY, "nominal", "keyframe");
   total_mass_ = mj_getTotalmass(model_);
 
+  const auto allFinite = [](const mjtNum* v, int n) {
+    return std::all_of(v, v + n, [](mjtNum x) { return std::isfinite(x); });
+  };
+  if (!allFinite(model_->key_qpos + key_nominal_ * model_->nq, model_->nq) ||
+      !allFinite(model_->key_qvel + key_nominal_ * model_->nv, model_->nv) ||
+      !allFinite(model_->key_ctrl + key_nominal_ * model_->nu, model_->nu)) {
+    fail("keyframe 'nominal' holds a non-finite qpos, qvel or ctrl");
+  }
+  if (!std::isfinite(total_mass_) || !(total_mass_ > 0.0)) {
+    fail("total mass " + num(total_mass_) + " kg: must be finite and positive");
+  }
+  // Robot geoms beyond this size break collision detection (and are no robot).
+  for (int g = 0; g < model_->ngeom; ++g) {
+    if (model_->geom_bodyid[g] == 0) continue;
+    if (!allFinite(model_->geom_size + 3 * g, 3) || !(model_->geom_rbound[g] <= kMaxGeomRadius)) {
+      const char* name = mj_id2name(model_, mjOBJ_GEOM, g);
+      fail("geom " + (name ? "'" + std::string(name) + "'" : "#" + std::to_string(g)) +
+           " has a bounding radius of " + num(model_->geom_rbound[g]) + " m; valid range: up to " +
+           num(kMaxGeomRadius) + " m");
+    }
+  }
   const mjtNum* key_ctrl = model_->key_ctrl + key_nominal_ * model_->nu;
   for (std::size_t j = 0; j < kNumJoints; ++j) {
     nominal_command_.joint_position[static_cast<Eigen::Index>(j)] = key_ctrl[joint_ctrl_[j]];
   }
   nominal_command_.wheel_velocity.setZero();
-  if (!nominal_command_.joint_position.allFinite())
-    fail("keyframe 'nominal' has a non-finite ctrl");
 }
 
 void Plant::checkStartPosition() {
+  // The nominal pose must be a real place (a finite keyframe can still put a body at
+  // 1e300 m).
+  for (int b = 1; b < model_->nbody; ++b) {
+    const mjtNum* x = data_->xpos + 3 * b;
+    if (!std::isfinite(x[0]) || !std::isfinite(x[1]) || !std::isfinite(x[2]) ||
+        std::abs(x[0]) + std::abs(x[1]) + std::abs(x[2]) > 1e3) {
+      const char* name = mj_id2name(model_, mjOBJ_BODY, b);
+      throw SimError("robot model '" + robot_file_ + "': body " +
+                     (name ? "'" + std::string(name) + "'" : "#" + std::to_string(b)) +
+                     " is not within 1 km of the origin at the nominal pose");
+    }
+  }
   // Front of the robot at the nominal pose, base at x = 0: the largest world x of its
   // geoms (the world body's geoms are the terrain).
   front_extent_ = -std::numeric_limits<double>::infinity();
@@ -398,7 +445,7 @@ void Plant::step() {
     // The reset also clears the counters, so a time running backwards is checked too.
     if (bad() != bad0 || !(data_->time > t)) {
       updateReadings();
-      throw SimError("Plant::step: the simulation diverged at t = " + std::to_string(t) +
+      throw SimError("Plant::step: the simulation diverged at t = " + num(t) +
                      " s (MuJoCo found a non-finite or huge position, velocity or " +
                      "acceleration and reset the state); call reset() to continue");
     }

@@ -350,6 +350,17 @@ TEST(PlantErrors, WrongStructureNamesTheElement) {
        "geom 'LF_wheel_geom' must be a sphere of body 'LF_wheel'"},
       {replaced(text, "<key name=\"nominal\"", "<key name=\"other\""),
        "no keyframe named 'nominal'"},
+      {replaced(text, "timestep=\"0.001\"", "timestep=\"0.0000001\""),
+       "timestep 1e-07 s is too small: 10000 physics steps per control period of 0.001 s; "
+       "valid range: 1 to 1000"},
+      {replaced(text, "<key name=\"nominal\" qpos=\"0 0 0.375",
+                "<key name=\"nominal\" qpos=\"0 0 nan"),
+       "keyframe 'nominal' holds a non-finite qpos"},
+      {replaced(text, "<key name=\"nominal\" qpos=\"0 0 0.375",
+                "<key name=\"nominal\" qpos=\"0 0 1e300"),
+       "body 'base' is not within 1 km of the origin at the nominal pose"},
+      {replaced(text, "size=\"0.45 0.25 0.08\"", "size=\"1e30 0.25 0.08\""),
+       "geom 'base_box' has a bounding radius of 1e+30 m; valid range: up to 100 m"},
       {"<robot name=\"urdf\"/>", "MuJoCo: "},
       {"", "the file is empty"},
   };
