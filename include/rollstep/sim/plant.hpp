@@ -122,6 +122,9 @@ class Plant {
   /// or has it of the wrong kind (joints, actuators, sensors, wheel geoms, keyframe
   /// "nominal"); if a scene parameter is invalid; if the first block is not clear of
   /// the robot's front (start_x < minStartX()); or if an option is not finite.
+  /// MuJoCo's virtual file system finds files by name without directories: a robot file
+  /// that includes a file of its own name from another directory is refused ("already
+  /// included").
   explicit Plant(const SceneConfig& scene, const PlantOptions& options = {});
   ~Plant();
   Plant(const Plant&) = delete;
