@@ -135,6 +135,13 @@ CLI::Validator integerIn(long min, long max) {
       "INTEGER in [" + std::to_string(min) + ", " + std::to_string(max) + "]");
 }
 
+/// A file or directory name option: not empty.
+const CLI::Validator kNotEmpty(
+    [](std::string& text) -> std::string {
+      return text.empty() ? std::string("an empty name; give a file or directory") : "";
+    },
+    "NAME");
+
 /// Result files of a run in the output directory.
 struct OutputFiles {
   fs::path log, summary, failed;
@@ -293,7 +300,8 @@ void registerSimCommand(CLI::App& app) {
                   "YAML file of scene parameters (keys: scene, friction, start_x, width, "
                   "step1_height, step1_length, step2_height, step2_length; unknown or "
                   "repeated keys and out-of-range values are errors), e.g. "
-                  "config/scenes/step20_custom.yaml");
+                  "config/scenes/step20_custom.yaml")
+      ->check(kNotEmpty);
   cmd->add_option("--controller", options->controller,
                   "stand: hold the nominal posture; drive: hold it and roll on the four "
                   "drive wheels at --speed (turning with --turn-speed)")
@@ -304,6 +312,7 @@ void registerSimCommand(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--out", options->out,
                   "Output directory (created if needed) for log.csv and summary.txt")
+      ->check(kNotEmpty)
       ->capture_default_str();
   CLI::Option* speed =
       cmd->add_option("--speed", options->speed,
@@ -324,7 +333,8 @@ void registerSimCommand(CLI::App& app) {
                   "Robot MJCF file: the Tachyon 3 structure (joint, actuator, sensor and "
                   "keyframe names of robots/tachyon3/tachyon3.xml) with your own numbers. "
                   "Default: robots/tachyon3/tachyon3.xml of the source tree, or "
-                  "$ROLLSTEP_ROBOTS_DIR/tachyon3/tachyon3.xml");
+                  "$ROLLSTEP_ROBOTS_DIR/tachyon3/tachyon3.xml")
+      ->check(kNotEmpty);
   cmd->final_callback([options, scene, speed, turn_speed] {
     if (options->controller != "drive") {
       for (const CLI::Option* option : {speed, turn_speed}) {
