@@ -5,6 +5,7 @@
 #include <mujoco/mujoco.h>
 #include <sys/stat.h>
 
+#include <cstdint>
 #include <cstdio>
 #include <fstream>
 #include <limits>
@@ -293,14 +294,40 @@ TEST(PlantComposition, RobotIncludesAndPathsResolveFromItsDirectory) {
   ASSERT_NE(a, std::string::npos);
   std::ofstream(dir + "parts/actuators.xml") << "<mujoco>\n"
                                              << text.substr(a, b - a) << "\n</mujoco>\n";
+  // A mesh asset under the robot's meshdir: a binary STL tetrahedron of 5 cm.
+  ::mkdir((dir + "meshes").c_str(), 0700);
+  {
+    std::ofstream stl(dir + "meshes/tetra.stl", std::ios::binary);
+    const std::string header(80, ' ');
+    stl.write(header.data(), 80);
+    const std::uint32_t count = 4;
+    stl.write(reinterpret_cast<const char*>(&count), 4);
+    const float v[4][3] = {{0, 0, 0}, {0.05f, 0, 0}, {0, 0.05f, 0}, {0, 0, 0.05f}};
+    const int faces[4][3] = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
+    for (const auto& f : faces) {
+      const float normal[3] = {0, 0, 0};
+      stl.write(reinterpret_cast<const char*>(normal), 12);
+      for (int k : f) stl.write(reinterpret_cast<const char*>(v[k]), 12);
+      const std::uint16_t attribute = 0;
+      stl.write(reinterpret_cast<const char*>(&attribute), 2);
+    }
+  }
+  std::string main_text =
+      text.substr(0, a) + "  <include file=\"parts/actuators.xml\"/>" + text.substr(b);
+  main_text = replaced(main_text, "<compiler ", "<compiler meshdir=\"meshes\" ");
+  main_text = replaced(main_text, "  <worldbody>",
+                       "  <asset><mesh name=\"tetra\" file=\"tetra.stl\"/></asset>\n  <worldbody>");
+  main_text = replaced(main_text, "<site name=\"imu\" pos=\"0 0 0\"/>",
+                       "<site name=\"imu\" pos=\"0 0 0\"/><geom name=\"tetra\" type=\"mesh\" "
+                       "mesh=\"tetra\" contype=\"0\"/>");
   const std::string robot = dir + "robot & \"main\".xml";
-  std::ofstream(robot) << text.substr(0, a) << "  <include file=\"parts/actuators.xml\"/>"
-                       << text.substr(b);
+  std::ofstream(robot) << main_text;
   PlantOptions options;
   options.robot_file = robot;
   expectSceneIntact(options);
   Plant plant(SceneConfig{}, options);
   EXPECT_EQ(plant.mujocoModel()->nu, 16);
+  EXPECT_EQ(plant.mujocoModel()->nmesh, 1);
 }
 
 TEST(PlantComposition, TerrainNameClashNamesSceneAndRobot) {
