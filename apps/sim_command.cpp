@@ -12,6 +12,7 @@
 
 #include <cerrno>
 #include <cmath>
+#include <cstdarg>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -135,6 +136,21 @@ CLI::Validator integerIn(long min, long max) {
       "INTEGER in [" + std::to_string(min) + ", " + std::to_string(max) + "]");
 }
 
+/// printf into a std::string of any length.
+std::string format(const char* fmt, ...) __attribute__((format(printf, 1, 2)));
+std::string format(const char* fmt, ...) {
+  va_list args;
+  va_start(args, fmt);
+  va_list copy;
+  va_copy(copy, args);
+  const int n = std::vsnprintf(nullptr, 0, fmt, copy);
+  va_end(copy);
+  std::string out(n > 0 ? static_cast<std::size_t>(n) : 0, '\0');
+  if (n > 0) std::vsnprintf(out.data(), out.size() + 1, fmt, args);
+  va_end(args);
+  return out;
+}
+
 /// A file or directory name option: not empty.
 const CLI::Validator kNotEmpty(
     [](std::string& text) -> std::string {
@@ -238,9 +254,7 @@ void runSim(const SimOptions& o, bool scene_given) {
     log.commit();
 
     const double deg = 180.0 / M_PI;
-    char buf[2048];
-    std::snprintf(
-        buf, sizeof buf,
+    text = format(
         "rollstep sim: scene %s, controller %s\n"
         "  robot      %s\n"
         "  simulated  %.3f s at %.0f Hz in %.3f s wall time (%.1fx real time)\n"
@@ -259,7 +273,6 @@ void runSim(const SimOptions& o, bool scene_given) {
         files.log.c_str(),
         static_cast<int>(std::lround(o.log_every * plant.controlPeriod() * 1000.0)),
         files.summary.c_str());
-    text = buf;
     writeFileAtomically(files.summary.string(), text);
   } catch (const std::exception& e) {
     const bool marked = markFailed(files, e.what());
