@@ -1,11 +1,15 @@
 #include "rollstep/common/yaml_text.hpp"
 
+#include <yaml.h>
+
 #include <cstddef>
 
 namespace rollstep {
+
 namespace {
 
 bool isBlank(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\n'; }
+bool isFlowIndicator(char c) { return c == ',' || c == '[' || c == ']' || c == '{' || c == '}'; }
 
 /// Is there a document marker ("---" or "...") at `i` (line start), followed by a blank or
 /// the end of the text?
@@ -16,9 +20,9 @@ bool markerAt(std::string_view t, std::size_t i) {
   return i + 3 == t.size() || isBlank(t[i + 3]);
 }
 
-}  // namespace
-
-std::string yamlTextHazard(std::string_view t) {
+/// A document whose first token is ',' (yaml-cpp reads an anchor or tag up to a blank or a
+/// flow indicator; libyaml differs, so it passes some of these).
+std::string commaStartsDocument(std::string_view t) {
   const std::size_t n = t.size();
   std::size_t i = 0;
   std::size_t line = 1;
@@ -49,7 +53,8 @@ std::string yamlTextHazard(std::string_view t) {
         continue;
       }
       if (c == '&' || c == '!') {  // a property of the first node
-        while (i < n && !isBlank(t[i])) ++i;
+        ++i;
+        while (i < n && !isBlank(t[i]) && !isFlowIndicator(t[i])) ++i;
         line_start = false;
         continue;
       }
@@ -69,6 +74,31 @@ std::string yamlTextHazard(std::string_view t) {
     }
   }
   return "";
+}
+
+}  // namespace
+
+std::string yamlTextHazard(std::string_view text) {
+  if (std::string comma = commaStartsDocument(text); !comma.empty()) return comma;
+  yaml_parser_t parser;
+  if (yaml_parser_initialize(&parser) == 0) return "cannot initialise the YAML syntax check";
+  yaml_parser_set_input_string(&parser, reinterpret_cast<const unsigned char*>(text.data()),
+                               text.size());
+  std::string error;
+  for (bool done = false; !done;) {
+    yaml_event_t event;
+    if (yaml_parser_parse(&parser, &event) == 0) {
+      error = "line " + std::to_string(parser.problem_mark.line + 1) + ", column " +
+              std::to_string(parser.problem_mark.column + 1) + ": " +
+              (parser.problem != nullptr ? parser.problem : "malformed YAML");
+      if (parser.context != nullptr) error += std::string(" ") + parser.context;
+      break;
+    }
+    done = event.type == YAML_STREAM_END_EVENT;
+    yaml_event_delete(&event);
+  }
+  yaml_parser_delete(&parser);
+  return error;
 }
 
 }  // namespace rollstep

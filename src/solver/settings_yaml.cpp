@@ -104,8 +104,10 @@ SolverSettings parseSolverSettings(const std::string& yaml_text, const std::stri
     throw std::runtime_error("solver settings " + source_name + ": " + what);
   };
   SolverSettings settings;
-  // Text yaml-cpp 0.7 would loop forever on (a document starting with ',').
-  if (const std::string hazard = yamlTextHazard(yaml_text); !hazard.empty()) fail(hazard);
+  // Malformed text first: yaml-cpp 0.7 loops forever on some of it (yaml_text.hpp).
+  if (const std::string hazard = yamlTextHazard(yaml_text); !hazard.empty()) {
+    fail("YAML error: " + hazard);
+  }
   std::vector<YAML::Node> documents;
   try {
     documents = YAML::LoadAll(yaml_text);

@@ -1,15 +1,16 @@
 #pragma once
-// Text checks for YAML inputs that the YAML library itself gets wrong (no YAML dependency:
-// run them on the text before handing it to yaml-cpp).
+// Syntax check of YAML text before it reaches yaml-cpp (the library the loaders use).
 #include <string>
 #include <string_view>
 
 namespace rollstep {
 
-/// Empty if `text` is safe to give to yaml-cpp 0.7 (Debian 12), else why it is not. Today:
-/// a document whose first token is ',' (e.g. ",a: 1", "--- ,"), on which yaml-cpp 0.7's
-/// parser loops forever allocating memory (found by fuzz/harness_settings). Such text is
-/// not valid YAML anyway, so refusing it loses nothing. Linear in the text size.
+/// Empty if `text` is well-formed YAML, else "line L, column C: <problem>". Checked with
+/// libyaml's event parser (linear time, bounded memory, no tree, no alias expansion), because
+/// yaml-cpp 0.7 (Debian 12) loops forever, allocating memory, on some malformed text: a ','
+/// where a document's top-level node or the token after it should be (",a: 1", "'',",
+/// ">\n,", "!,"; found by fuzz/harness_settings). Loaders call this first and refuse the
+/// text with the message.
 std::string yamlTextHazard(std::string_view text);
 
 }  // namespace rollstep
