@@ -14,6 +14,7 @@
 #include <stdexcept>
 
 #include "rollstep/common/text_file.hpp"
+#include "rollstep/common/yaml_text.hpp"
 
 namespace rollstep::sim {
 
@@ -175,6 +176,10 @@ SceneConfig parseSceneConfig(const std::string& yaml_text, const std::string& so
   // Count the documents with the event parser, reading at most two: yaml-cpp 0.7's
   // LoadAll loops forever on some malformed input (it keeps reporting empty documents;
   // fixed upstream in yaml-cpp PR 1319), and one is all a scene config may hold.
+  // The same text check as every YAML loader, for what yaml-cpp 0.7 gets wrong.
+  if (const std::string hazard = yamlTextHazard(yaml_text); !hazard.empty()) {
+    fail("YAML error: " + hazard);
+  }
   YAML::Node root;
   try {
     std::istringstream stream(yaml_text);
