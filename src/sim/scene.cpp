@@ -173,13 +173,13 @@ SceneConfig parseSceneConfig(const std::string& yaml_text, const std::string& so
   };
   SceneConfig config;
   config.source = "scene config '" + source_name + "'";
-  // Count the documents with the event parser, reading at most two: yaml-cpp 0.7's
-  // LoadAll loops forever on some malformed input (it keeps reporting empty documents;
-  // fixed upstream in yaml-cpp PR 1319), and one is all a scene config may hold.
   // The same text check as every YAML loader, for what yaml-cpp 0.7 gets wrong.
   if (const std::string hazard = yamlTextHazard(yaml_text); !hazard.empty()) {
     fail("YAML error: " + hazard);
   }
+  // Count the documents with the event parser, reading at most two: yaml-cpp 0.7's
+  // LoadAll loops forever on some malformed input (it keeps reporting empty documents;
+  // fixed upstream in yaml-cpp PR 1319), and one is all a scene config may hold.
   YAML::Node root;
   try {
     std::istringstream stream(yaml_text);
@@ -235,8 +235,10 @@ SceneConfig parseSceneConfig(const std::string& yaml_text, const std::string& so
     }
     double number = 0.0;
     if (value.Tag() != "?" || !parseNumber(text, number)) {
-      fail(at + "'" + text + "' is not a number" + (value.Tag() == "?" ? "" : " (it is quoted)") +
-           "; " + rangeText(*field));
+      const std::string why = value.Tag() == "?"   ? ""
+                              : value.Tag() == "!" ? " (it is quoted)"
+                                                   : " (it has the tag " + value.Tag() + ")";
+      fail(at + "'" + text + "' is not a number" + why + "; " + rangeText(*field));
     }
     if (!std::isfinite(number)) {
       fail(at + "'" + text + "' is not a finite number; " + rangeText(*field));

@@ -87,6 +87,7 @@ TEST(SceneConfig, EveryNumericKeyRefusesBadValues) {
       expectError(key + ": " + text + "\n", "line 1: " + key + ": '" + text + "' is not a number");
     }
     expectError(key + ": \"0.5\"\n", "is not a number (it is quoted)");
+    expectError(key + ": !!str 0.5\n", "is not a number (it has the tag tag:yaml.org,2002:str)");
     expectError(key + ": [1, 2]\n", key + ": expected a single value, got a list");
     expectError(key + ": {a: 1}\n", key + ": expected a single value, got a mapping");
     expectError(key + ":\n", key + ": no value");
