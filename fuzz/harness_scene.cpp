@@ -1,0 +1,53 @@
+// Fuzz harness: YAML text -> SceneConfig (rollstep::sim::parseSceneConfig).
+// Fine: a config that validate() accepts, whose terrain is finite and inside the documented
+// ranges and that survives a toYaml round trip exactly; or a std::runtime_error whose
+// message starts with "scene config 'fuzz.yaml': " (the documented error). Anything else
+// fails: a crash, a sanitizer report, a leaked yaml-cpp exception ("bad conversion" names
+// no file), another exception type, a hang.
+#include <yaml-cpp/exceptions.h>
+
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <stdexcept>
+#include <string>
+
+#include "rollstep/sim/scene.hpp"
+
+namespace {
+[[noreturn]] void failure(const std::string& what) {
+  std::fprintf(stderr, "harness_scene: %s\n", what.c_str());
+  std::abort();
+}
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  using namespace rollstep::sim;
+  const std::string text(reinterpret_cast<const char*>(data), size);
+  try {
+    const SceneConfig c = parseSceneConfig(text, "fuzz.yaml");
+    c.validate();  // throws std::invalid_argument: not a runtime_error, so it fails
+    for (const SceneField& f : sceneFields()) {
+      const double v = c.*f.member;
+      if (!std::isfinite(v) || v < f.min || v > f.max) failure(std::string("accepted ") + f.key);
+    }
+    for (const TerrainBox& b : terrainBoxes(c)) {
+      if (!b.center.allFinite() || !b.half_size.allFinite() || (b.half_size.array() <= 0).any()) {
+        failure("terrain box not finite or empty");
+      }
+    }
+    if (terrainMjcf(c).find("nan") != std::string::npos) failure("nan in the terrain MJCF");
+    const std::string yaml = toYaml(c);
+    if (toYaml(parseSceneConfig(yaml, "round-trip")) != yaml) failure("round trip differs");
+  } catch (const YAML::Exception& e) {
+    failure(std::string("yaml-cpp exception escaped: ") + e.what());
+  } catch (const std::runtime_error& e) {
+    const std::string message = e.what();
+    if (message.rfind("scene config 'fuzz.yaml': ", 0) != 0) {
+      failure("error message does not name the source: " + message);
+    }
+  }
+  return 0;
+}
