@@ -16,15 +16,17 @@
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
+#include <chrono>
 #include <memory>
 #include <random>
+#include <vector>
 
+#include "robot_size_lq.hpp"
 #include "rollstep/ocp/cost.hpp"
 #include "rollstep/ocp/problem.hpp"
 #include "rollstep/ocp/residuals.hpp"
 #include "rollstep/solver/riccati.hpp"
 #include "rollstep/solver/solver.hpp"
-#include "test_models.hpp"
 
 namespace {
 
@@ -32,76 +34,7 @@ using namespace rollstep;
 using ocp::MatrixXd;
 using ocp::VectorXd;
 
-constexpr int kNx = 24, kNu = 30, kN = 100, kNe = 15, kNbu = 30, kNbx = 12, kNg = 16;
-
-MatrixXd randn(int r, int c, std::mt19937& rng, double s) {
-  std::normal_distribution<double> n(0.0, s);
-  MatrixXd m(r, c);
-  for (int j = 0; j < c; ++j)
-    for (int i = 0; i < r; ++i) m(i, j) = n(rng);
-  return m;
-}
-
-struct Data {
-  MatrixXd A, B, Cx, Cu, Ex, Eu, Gx, Gu;
-  VectorXd c, cr, e, g, x0;
-};
-
-Data makeData() {
-  std::mt19937 rng(2026);
-  Data d;
-  d.A = MatrixXd::Identity(kNx, kNx) + randn(kNx, kNx, rng, 0.02);
-  d.B = randn(kNx, kNu, rng, 0.05);
-  d.c = randn(kNx, 1, rng, 0.01);
-  const int nr = kNx + kNu;
-  d.Cx = randn(nr, kNx, rng, 0.2);
-  d.Cx.topRows(kNx) += MatrixXd::Identity(kNx, kNx);
-  d.Cu = randn(nr, kNu, rng, 0.2);
-  d.Cu.bottomRows(kNu) += MatrixXd::Identity(kNu, kNu);
-  d.cr = randn(nr, 1, rng, 0.3);
-  d.Ex = randn(kNe, kNx, rng, 0.1);
-  d.Eu = randn(kNe, kNu, rng, 0.3);
-  d.Eu.leftCols(kNe) += MatrixXd::Identity(kNe, kNe);
-  d.e = randn(kNe, 1, rng, 0.05);
-  d.Gx = randn(kNg, kNx, rng, 0.1);
-  d.Gu = randn(kNg, kNu, rng, 0.1);
-  d.g = VectorXd::Constant(kNg, 2.0);
-  d.x0 = randn(kNx, 1, rng, 0.1);
-  return d;
-}
-
-std::shared_ptr<ocp::OptimalControlProblem> makeProblem(const Data& d) {
-  auto dyn = std::make_shared<testmodels::LinearDynamics>(d.A, d.B, d.c);
-  auto p = std::make_shared<ocp::OptimalControlProblem>(dyn, kN, 0.015);
-  auto s = dyn->spacePtr();
-  const VectorXd zx = VectorXd::Zero(kNx);
-  // Like the Tachyon 3 OCP: state and input tracking (identity Jacobians) plus a small
-  // dense residual (the base-velocity tracking, 6 rows).
-  p->addCost("state", std::make_shared<ocp::LeastSquaresCost>(
-                          std::make_shared<ocp::StateErrorResidual>(s, kNu, zx),
-                          VectorXd::Constant(kNx, 1.0)));
-  p->addCost("input", std::make_shared<ocp::LeastSquaresCost>(
-                          std::make_shared<ocp::InputErrorResidual>(kNx, VectorXd::Zero(kNu)),
-                          VectorXd::Constant(kNu, 0.1)));
-  p->addCost("velocity", std::make_shared<ocp::LeastSquaresCost>(
-                             std::make_shared<ocp::AffineResidual>(s, zx, d.Cx.topRows(6),
-                                                                   d.Cu.topRows(6), d.cr.head(6)),
-                             VectorXd::Constant(6, 5.0)));
-  p->addCost(
-      "terminal",
-      std::make_shared<ocp::LeastSquaresCost>(std::make_shared<ocp::StateErrorResidual>(s, kNu, zx),
-                                              VectorXd::Constant(kNx, 10.0)),
-      ocp::Stage::Terminal);
-  p->addEquality("eq", std::make_shared<ocp::AffineResidual>(s, zx, d.Ex, d.Eu, d.e));
-  p->addInequality("general", std::make_shared<ocp::AffineResidual>(s, zx, d.Gx, d.Gu, d.g));
-  p->setInputBounds(VectorXd::Constant(kNu, -1.0), VectorXd::Constant(kNu, 1.0));
-  VectorXd lo = VectorXd::Constant(kNx, -ocp::OptimalControlProblem::kInfinity);
-  VectorXd hi = VectorXd::Constant(kNx, ocp::OptimalControlProblem::kInfinity);
-  lo.head(kNbx).setConstant(-1.0);
-  hi.head(kNbx).setConstant(1.0);
-  p->setStateBounds(lo, hi);
-  return p;
-}
+using namespace robotlq;
 
 /// Flops of one running stage (multiply and add counted separately).
 double projectionFlops(int nx, int nu, int ne) {
@@ -268,6 +201,7 @@ void realTimeIteration(benchmark::State& state, int threads, bool newton_only) {
   state.counters["riccati_ms"] = ric / n;
   state.counters["update_ms"] = upd / n;
   state.counters["primal_res"] = s.stats()[0].primal_residual;
+  state.counters["inertia_shift"] = s.stats()[0].inertia_shift;
 }
 void BM_NewtonStepN100(benchmark::State& state) { realTimeIteration(state, 1, true); }
 BENCHMARK(BM_NewtonStepN100)->Unit(benchmark::kMillisecond)->UseManualTime();
@@ -277,6 +211,43 @@ void BM_RealTimeIterationN100_2Threads(benchmark::State& state) {
   realTimeIteration(state, 2, false);
 }
 BENCHMARK(BM_RealTimeIterationN100_2Threads)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// A converging solve of the robot-size LQ problem from a cold start (default settings, or
+// the Gauss-Newton Hessian with exact_hessian = false): iterations and time per iteration.
+void convergingSolve(benchmark::State& state, bool exact_hessian, bool predictor_corrector) {
+  const Data d = makeData();
+  solver::SolverSettings set;
+  set.exact_hessian = exact_hessian;
+  set.predictor_corrector = predictor_corrector;
+  auto problem = makeProblem(d);
+  solver::Solver s(problem, set);
+  const std::vector<VectorXd> xs(kN + 1, VectorXd::Zero(kNx));
+  const std::vector<VectorXd> us(kN, VectorXd::Zero(kNu));
+  int iterations = 0;
+  bool converged = true;
+  double ms = 0.0;
+  for (auto _ : state) {
+    s.setInitialGuess(xs, us);
+    const auto t = std::chrono::steady_clock::now();
+    converged = converged && s.solve(d.x0) == solver::SolverStatus::Converged;
+    ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t).count();
+    iterations = s.iterations();
+  }
+  state.counters["iterations"] = iterations;
+  state.counters["ms_per_iteration"] =
+      ms / static_cast<double>(state.iterations()) / std::max(iterations, 1);
+  state.counters["converged"] = converged ? 1 : 0;
+}
+void BM_ConvergingSolveLqN100(benchmark::State& state) { convergingSolve(state, true, true); }
+BENCHMARK(BM_ConvergingSolveLqN100)->Unit(benchmark::kMillisecond);
+void BM_ConvergingSolveLqN100_GaussNewton(benchmark::State& state) {
+  convergingSolve(state, false, true);
+}
+BENCHMARK(BM_ConvergingSolveLqN100_GaussNewton)->Unit(benchmark::kMillisecond);
+void BM_ConvergingSolveLqN100_MonotoneBarrier(benchmark::State& state) {
+  convergingSolve(state, true, false);
+}
+BENCHMARK(BM_ConvergingSolveLqN100_MonotoneBarrier)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

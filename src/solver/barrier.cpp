@@ -34,44 +34,52 @@ void Solver::Impl::recordResiduals(const Kkt& kkt, IterationStats& it) {
   it.complementarity = kkt.complementarity(mu);
 }
 
-/// Converging mode: KKT error below kkt_tolerance (Converged), or the iteration limit
-/// (Infeasible if the violation stalled, else MaxIterations). Returns true when the solve
-/// ends here (status set, the iteration's stats recorded).
+/// Converging mode: the scaled KKT error below kkt_tolerance (Converged), below
+/// acceptable_tolerance for acceptable_iterations iterations in a row (Acceptable), or the
+/// iteration limit (Acceptable at an acceptable point, else MaxIterations: a violation left
+/// at the limit is no evidence of infeasibility). Returns true when the solve ends here
+/// (status set, the iteration's stats recorded).
 bool Solver::Impl::terminated(const Kkt& kkt, int max_it, IterationStats& it) {
-  const double primal = kkt.primal;
-  const double e0 = std::max({primal, kkt.dual_scaled, kkt.sz_max});
-  if (e0 <= set.kkt_tolerance) {
-    it.barrier = mu;
-    stats.push_back(it);
-    has_solution = true;
+  const double e0 = kkt.error();
+  it.kkt_error = e0;
+  acceptable_count = e0 <= set.acceptable_tolerance ? acceptable_count + 1 : 0;
+  const bool converged = e0 <= set.kkt_tolerance;
+  const bool acceptable = acceptable_count >= set.acceptable_iterations;
+  if (!converged && !acceptable && iterations < max_it) return false;
+  it.barrier = mu;
+  stats.push_back(it);
+  has_solution = true;
+  if (converged) {
     status = SolverStatus::Converged;
-    return true;
-  }
-  if (iterations >= max_it) {
-    it.barrier = mu;
-    stats.push_back(it);
-    has_solution = true;
-    if (violationStalled(primal)) {
-      ROLLSTEP_MSG(
-          "locally infeasible: the constraint violation %.3g did not halve in the last %d "
-          "of %d iterations",
-          primal, kStallWindow, max_it);
-      status = SolverStatus::Infeasible;
-      return true;
-    }
-    ROLLSTEP_MSG("no convergence in %d iterations (KKT error %.3g)", max_it, e0);
+  } else if (acceptable || e0 <= set.acceptable_tolerance) {
+    ROLLSTEP_MSG(
+        "stopped at an acceptable point (KKT error %.3g, tolerance %.3g) after %d "
+        "iterations",
+        e0, set.kkt_tolerance, iterations);
+    status = SolverStatus::Acceptable;
+  } else {
+    ROLLSTEP_MSG(
+        "no convergence in %d iterations (KKT error %.3g: violation %.3g, dual %.3g, "
+        "complementarity %.3g)",
+        max_it, e0, kkt.primal, kkt.dual_scaled, kkt.sz_scaled);
     status = SolverStatus::MaxIterations;
-    return true;
   }
-  return false;
+  return true;
 }
 
 /// Monotone (Fiacco-McCormick) barrier update: mu decreases while the barrier problem of
 /// the current mu is solved to 10 mu.
 void Solver::Impl::updateBarrier(const Kkt& kkt) {
+  const auto decrease = [this](double m) {
+    return std::max(set.barrier_min, std::min(set.barrier_decrease * m, std::pow(m, 1.5)));
+  };
+  if (tiny_step) {  // the barrier problem cannot be improved further: next one
+    tiny_step = false;
+    mu = decrease(mu);
+  }
   while (mu > set.barrier_min &&
          std::max({kkt.primal, kkt.dual_scaled, kkt.complementarity(mu)}) <= 10.0 * mu) {
-    mu = std::max(set.barrier_min, std::min(set.barrier_decrease * mu, std::pow(mu, 1.5)));
+    mu = decrease(mu);
   }
 }
 

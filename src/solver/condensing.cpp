@@ -35,7 +35,11 @@ void Solver::Impl::condenseNode(int k) {
   for (int i = 0; i < d.ni; ++i) {
     if (n.kind(i) == kHard) {
       n.W(i) = n.z(i) / n.s(i);
-      n.gam(i) = n.W(i) * (n.c(i) - n.s(i)) - mu / n.s(i);
+      n.gam(i) = n.W(i) * (n.c(i) - n.s(i)) - target(n, i) / n.s(i);
+      n.soft_dual(i) = 0.0;
+    } else if (n.kind(i) == kInactive) {  // state-only row at node 0
+      n.W(i) = 0.0;
+      n.gam(i) = 0.0;
       n.soft_dual(i) = 0.0;
     } else {
       double d1 = 0.0, d2 = 0.0;
@@ -71,7 +75,7 @@ void Solver::Impl::condenseNode(int k) {
     double W = 0.0, gam = 0.0;
     if (n.kind(i) == kHard) {
       W = n.z(i) / n.s(i);
-      gam = W * (n.c(i) - n.s(i)) - mu / n.s(i);
+      gam = W * (n.c(i) - n.s(i)) - target(n, i) / n.s(i);
     } else {
       double d1 = 0.0, d2 = 0.0;
       relaxedLog(n.c(i), relaxation(n, i), d1, d2);
@@ -90,6 +94,32 @@ void Solver::Impl::condenseNode(int k) {
   n.rank_ok = true;
   n.pivot_ratio = 1.0;
   if (running) n.rank_ok = lq.projectStage(k, set.rank_tolerance, &n.pivot_ratio);
+}
+
+/// The gradient part of condenseNode alone, for a new complementarity target with the
+/// same Hessian (Mehrotra's corrector): st.q and st.r of node k. Hard rows only (the
+/// predictor-corrector runs on problems without soft rows).
+void Solver::Impl::condenseGradient(int k) {
+  Node& n = node(k);
+  const NodeData& d = *n.d;
+  LqStage& st = lq.stage(k);
+  const bool running = k < N;
+  st.q = d.lx;
+  if (running) st.r = d.lu;
+  for (int i = 0; i < d.ni; ++i) {
+    n.gam(i) = n.kind(i) == kHard ? n.W(i) * (n.c(i) - n.s(i)) - target(n, i) / n.s(i) : 0.0;
+  }
+  if (d.ni > 0) {
+    st.q.noalias() += d.Gx.topRows(d.ni).transpose() * n.gam.head(d.ni);
+    if (running) st.r.noalias() += d.Gu.topRows(d.ni).transpose() * n.gam.head(d.ni);
+  }
+  for (int i = ni_max; i < nrows; ++i) {
+    if (n.kind(i) != kHard) continue;
+    const auto [input, lower, idx] = bound_rows[static_cast<std::size_t>(i - ni_max)];
+    const double W = n.z(i) / n.s(i);
+    const double gam = W * (n.c(i) - n.s(i)) - target(n, i) / n.s(i);
+    (input ? st.r(idx) : st.q(idx)) += lower ? gam : -gam;
+  }
 }
 
 /// Condensing + projection of every node and the backward Riccati sweep. With one
@@ -156,36 +186,39 @@ Solver::Impl::Factorization Solver::Impl::condenseAndFactor() {
   return pd ? Factorization::Ok : Factorization::NotPositiveDefinite;
 }
 
-/// With the constraint curvature, when the factorisation failed or needed regularisation:
-/// the inertia correction below. Returns whether the KKT system is factorised.
+/// Inertia correction (Ipopt), in every mode: when the factorisation failed or needed
+/// regularisation, the reduced Hessian is not positive definite (an exact Hessian with
+/// negative curvature, a non-convex cost): delta I is added to the Hessian, delta grown
+/// until the Riccati factorisation succeeds unregularised. If even a large shift fails
+/// and the curvature was added, Gauss-Newton as a last resort. Returns whether the KKT
+/// system is factorised; corrected tells whether a shift was needed.
 bool Solver::Impl::correctInertia(bool factored) {
-  if (use_curvature && (!factored || lq.regularization() > 0.0)) {
-    // Not convex on the null space with the curvature: inertia correction as in Ipopt
-    // (delta I added to the Hessian, delta grown until the Riccati factorisation
-    // succeeds unregularised); Gauss-Newton if even a large shift fails.
-    double delta = last_delta > 0.0 ? std::max(1e-8, last_delta / 3.0) : 1e-4;
-    factored = false;
-    for (int attempt = 0; attempt < 12 && !factored; ++attempt) {
-      forNodes([this, delta](int k) {
-        shiftDiagonal(k, node(k), delta);
-        condenseNode(k);
-      });
-      factored = lq.backward() && lq.regularization() == 0.0;
-      if (!factored) delta *= last_delta > 0.0 ? 8.0 : 100.0;
-    }
-    last_delta = factored ? delta : 0.0;
-    if (!factored) {
-      forNodes([this](int k) {
-        Node& n = node(k);
-        shiftDiagonal(k, n, 0.0);
-        if (n.h2_added) shiftHessian(k, n, -1.0);
-        n.h2_added = false;
-        condenseNode(k);
-      });
-      factored = lq.backward();
-    }
-  } else if (use_curvature) {
+  corrected = false;
+  if (factored && lq.regularization() == 0.0) {
     last_delta = 0.0;
+    return true;
+  }
+  corrected = true;
+  double delta = last_delta > 0.0 ? std::max(1e-8, last_delta / 3.0) : 1e-4;
+  factored = false;
+  for (int attempt = 0; attempt < 12 && !factored; ++attempt) {
+    forNodes([this, delta](int k) {
+      shiftDiagonal(k, node(k), delta);
+      condenseNode(k);
+    });
+    factored = lq.backward() && lq.regularization() == 0.0;
+    if (!factored) delta *= last_delta > 0.0 ? 8.0 : 100.0;
+  }
+  last_delta = factored ? delta : 0.0;
+  if (!factored && use_curvature) {
+    forNodes([this](int k) {
+      Node& n = node(k);
+      shiftDiagonal(k, n, 0.0);
+      if (n.h2_added) shiftHessian(k, n, -1.0);
+      n.h2_added = false;
+      condenseNode(k);
+    });
+    factored = lq.backward();
   }
   return factored;
 }

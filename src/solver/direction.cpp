@@ -5,6 +5,7 @@
 
 namespace rollstep::solver {
 
+using detail::kHard;
 using detail::kInactive;
 using detail::kSoft;
 using detail::msSince;
@@ -16,6 +17,9 @@ using detail::relaxedLog;
 bool Solver::Impl::searchDirection(bool realtime, double primal, IterationStats& it,
                                    Direction& dir) {
   auto t_ric = Clock::now();
+  // Mehrotra: the predictor aims at complementarity 0 (affine scaling).
+  target_mu = pc_active ? 0.0 : mu;
+  corrector = false;
   const Factorization fac = condenseAndFactor();
   if (fac == Factorization::RankDeficient) {
     const int k = failed_node;
@@ -29,6 +33,7 @@ bool Solver::Impl::searchDirection(bool realtime, double primal, IterationStats&
     return false;
   }
   const bool factored = correctInertia(fac == Factorization::Ok);
+  it.inertia_shift = corrected ? last_delta : 0.0;
   if (!factored) {
     direction_ready = false;
     failed_node = lq.failedStage();
@@ -44,9 +49,18 @@ bool Solver::Impl::searchDirection(bool realtime, double primal, IterationStats&
     status = SolverStatus::Diverged;
     return false;
   }
+  if (pc_active && corrected) {
+    // Not convex: the predictor-corrector is for convex QPs; the monotone barrier and the
+    // line search from here on, this direction re-solved for the barrier mu.
+    pc_active = false;
+    target_mu = mu;
+    forNodes([this](int k) { condenseGradient(k); });
+    lq.resolveVectors(dx0);
+  }
   forwardAndRecover();
+  if (pc_active) predictorCorrector();
   direction_ready = true;
-  double ap = 1.0, ad = 1.0, dphi = 0.0;
+  double ap = 1.0, ad = 1.0, dphi = 0.0, step_rel = 0.0;
   bool finite = true;
   for (int k = 0; k <= N; ++k) {
     const Node& n = node(k);
@@ -54,7 +68,9 @@ bool Solver::Impl::searchDirection(bool realtime, double primal, IterationStats&
     ap = std::min(ap, n.alpha_p);
     ad = std::min(ad, n.alpha_d);
     dphi += n.dphi;
+    step_rel = std::max(step_rel, n.step_rel);
   }
+  dir.tiny = step_rel < 10.0 * std::numeric_limits<double>::epsilon();
   it.time_riccati_ms = msSince(t_ric);
   if (!finite) {
     const bool infeasible = !realtime && dualsBlewUp(primal);
@@ -74,6 +90,45 @@ bool Solver::Impl::searchDirection(bool realtime, double primal, IterationStats&
   dir.alpha_d = ad;
   dir.dphi = dphi;
   return true;
+}
+
+/// Mehrotra's corrector, after the predictor (the affine-scaling direction, target 0) is in
+/// the nodes: its step lengths give the complementarity mu_aff it would reach, the barrier
+/// becomes sigma mu with sigma = (mu_aff / mu)^3 (mu = s^T z / m), and the direction is
+/// re-solved through the same factorisation for the target sigma mu - ds_aff dz_aff.
+void Solver::Impl::predictorCorrector() {
+  double ap = 1.0, ad = 1.0, sz = 0.0;
+  int m = 0;
+  for (int k = 0; k <= N; ++k) {
+    const Node& n = node(k);
+    ap = std::min(ap, n.alpha_p);
+    ad = std::min(ad, n.alpha_d);
+    for (int i = 0; i < nrows; ++i) {
+      if (n.kind(i) != kHard) continue;
+      sz += n.s(i) * n.z(i);
+      ++m;
+    }
+  }
+  if (m == 0) return;  // no inequalities: the predictor is the Newton step
+  double sz_aff = 0.0;
+  for (int k = 0; k <= N; ++k) {
+    Node& n = node(k);
+    for (int i = 0; i < nrows; ++i) {
+      if (n.kind(i) != kHard) continue;
+      sz_aff += (n.s(i) + ap * n.ds(i)) * (n.z(i) + ad * n.dz(i));
+    }
+    n.ds_aff = n.ds;
+    n.dz_aff = n.dz;
+  }
+  const double mu_now = sz / m;
+  const double sigma = std::min(1.0, std::pow(std::max(sz_aff, 0.0) / sz, 3));
+  mu = std::max(sigma * mu_now, 0.1 * set.barrier_min);
+  target_mu = mu;
+  corrector = true;
+  forNodes([this](int k) { condenseGradient(k); });
+  lq.resolveVectors(dx0);
+  forNodes([this](int k) { recoverNode(k); });
+  corrector = false;
 }
 
 /// Forward Riccati sweep and the step recovery of every node: fused per node with one
@@ -158,7 +213,7 @@ void Solver::Impl::recoverNode(int k) {
     }
     const double s = n.s(i), z = n.z(i);
     const double ds = gdv + (n.c(i) - s);
-    const double dz = mu / s - z - (z / s) * ds;
+    const double dz = target(n, i) / s - z - (z / s) * ds;
     n.ds(i) = ds;
     n.dz(i) = dz;
     dphi -= mu / s * ds;
@@ -170,6 +225,14 @@ void Solver::Impl::recoverNode(int k) {
   n.alpha_d = ad;
   n.dphi = dphi;
   n.zmax = zmax;
+  // Step size relative to the iterate (Ipopt's tiny-step test).
+  const VectorXd& x = xs[static_cast<std::size_t>(k)];
+  n.step_rel = dx.lpNorm<Eigen::Infinity>() / (1.0 + x.lpNorm<Eigen::Infinity>());
+  if (running) {
+    const VectorXd& u = us[static_cast<std::size_t>(k)];
+    n.step_rel =
+        std::max(n.step_rel, du.lpNorm<Eigen::Infinity>() / (1.0 + u.lpNorm<Eigen::Infinity>()));
+  }
   n.finite = std::isfinite(dphi) && dx.allFinite() && du.allFinite() && n.ds.allFinite() &&
              n.dz.allFinite() && lq.costate(k).allFinite() &&
              (!running || lq.equalityMultipliers(k).allFinite());

@@ -17,7 +17,7 @@ using detail::relaxedLog;
 /// order, so that they do not depend on the thread count).
 Solver::Impl::Kkt Solver::Impl::linearize(bool realtime, IterationStats& it) {
   auto t_lin = Clock::now();
-  use_curvature = !realtime && set.exact_hessian;
+  use_curvature = !realtime && set.exact_hessian && has_curvature;
   forNodes([this](int k) { linearizeNode(k); });
   prob->stateSpace().difference(xs[0], x0, dx0);
   // Residuals (fixed order reduction).
@@ -33,11 +33,16 @@ Solver::Impl::Kkt Solver::Impl::linearize(bool realtime, IterationStats& it) {
     r.sz_min = std::min(r.sz_min, n.sz_min);
     r.msum += n.mult_sum;
     r.mcount += n.mult_count;
+    r.zsum += n.z_sum;
+    r.zcount += n.z_count;
+    r.soft_rows = r.soft_rows || n.soft_rows;
     r.cost += n.d->cost;
   }
   it.time_linearize_ms = msSince(t_lin);
   const double sd = std::max(100.0, r.msum / std::max(r.mcount, 1)) / 100.0;
   r.dual_scaled = r.dual / sd;
+  const double sc = std::max(100.0, r.zsum / std::max(r.zcount, 1)) / 100.0;
+  r.sz_scaled = r.sz_max / sc;
   return r;
 }
 
@@ -77,7 +82,8 @@ void Solver::Impl::rowValues(int k, const VectorXd& x, const VectorXd& u, Node& 
   const bool terminal = (k == N);
   n.kind.setZero();
   for (int i = 0; i < d.ni; ++i) {
-    n.kind(i) = d.soft(i) ? kSoft : kHard;
+    // x_0 is data (fixed by x_init): state-only rows cannot be acted upon at node 0.
+    n.kind(i) = (k == 0 && d.state_only(i)) ? kInactive : d.soft(i) ? kSoft : kHard;
     n.c(i) = d.g(i);
   }
   for (int i = d.ni; i < ni_max; ++i) n.c(i) = 0.0;
@@ -150,7 +156,10 @@ void Solver::Impl::residuals(int k, Node& n) {
   int mcount = ndx + d.ne;
   // Derivative of the Lagrangian w.r.t. the value c_i of inequality row i; hard rows
   // also add to the primal residual, complementarity range and multiplier average.
+  double zsum = 0.0;
+  int zcount = 0;
   const auto rowCoefficient = [&](int i, double relax) {
+    if (n.kind(i) == kInactive) return 0.0;
     if (n.kind(i) == kHard) {
       primal = std::max(primal, std::abs(n.c(i) - n.s(i)));
       const double sz = n.s(i) * n.z(i);
@@ -158,6 +167,8 @@ void Solver::Impl::residuals(int k, Node& n) {
       sz_min = std::min(sz_min, sz);
       msum += n.z(i);
       ++mcount;
+      zsum += n.z(i);
+      ++zcount;
       return -n.z(i);
     }
     double d1 = 0.0, d2 = 0.0;
@@ -189,6 +200,9 @@ void Solver::Impl::residuals(int k, Node& n) {
   n.sz_min = sz_min;
   n.mult_sum = msum;
   n.mult_count = mcount;
+  n.z_sum = zsum;
+  n.z_count = zcount;
+  n.soft_rows = (n.kind.array() == kSoft).any();
 }
 
 /// Constraint part of the Lagrangian gradient at the point evaluated in dd, with the
@@ -213,18 +227,22 @@ void Solver::Impl::constraintGradient(int k, const Node& n, const NodeData& dd,
   }
 }
 
-/// Adds the constraint curvature (second derivatives of dynamics, equalities and
-/// general inequalities times their multipliers) to the node's Gauss-Newton Hessian:
-/// the Gauss-Newton Hessian alone converges only linearly when the multipliers are
-/// large (swing-up: ~900 iterations). Central differences of Jacobians. On manifolds
-/// the node's Hessian in (x_k, u_k) with x_{k+1} held fixed (the cross terms of the
+/// Adds the curvature the Gauss-Newton Hessian misses to the node's Hessian, so that it
+/// becomes the Hessian of the Lagrangian: second derivatives of the dynamics, equalities
+/// and general inequalities times their multipliers, and of the costs whose calcDiff
+/// Hessian is not exact (the Gauss-Newton Hessian alone converges only linearly when the
+/// multipliers are large: swing-up ~900 iterations; with a nonlinear cost residual it
+/// stalls). Central differences of the gradient of the terms that have curvature
+/// (linearizeCurvatureTerms: linear terms and exact-Hessian costs are not evaluated),
+/// minus the Gauss-Newton Hessian of those terms. On manifolds the Hessian of
+/// (dx, du) -> L(x (+) dx, u + du) with x_{k+1} held fixed (the cross terms of the
 /// difference with x_{k+1} do not fit the stage structure and are left out).
 void Solver::Impl::addCurvature(int k, Node& n) {
   NodeData& d = *n.d;
   for (int i = 0; i < d.ni; ++i) {
     double d1 = 0.0, d2 = 0.0;
     if (n.kind(i) == kSoft) relaxedLog(n.c(i), d.relaxation(i), d1, d2);
-    n.hcoef(i) = n.kind(i) == kHard ? -n.z(i) : d.soft_weight(i) * d1;
+    n.hcoef(i) = n.kind(i) == kHard ? -n.z(i) : n.kind(i) == kSoft ? d.soft_weight(i) * d1 : 0.0;
   }
   const int nv = ndx + (k < N ? nu : 0);
   const VectorXd& x = xs[static_cast<std::size_t>(k)];
@@ -245,27 +263,10 @@ void Solver::Impl::addCurvature(int k, Node& n) {
         n.xp = x;
         (in_x ? n.xp(j) : n.up(j - ndx)) = v + hs;
       }
-      prob->linearize(k, n.xp, n.up, *n.dp);
-      if (euclid) {
-        constraintGradient(k, n, *n.dp, g);
-        continue;
-      }
-      // Manifold: the whole node gradient (cost included, its Gauss-Newton Hessian is
-      // not exact either), dynamics through the difference Jacobian, pulled back to the
-      // tangent at x by the Jacobian of the retraction.
-      NodeData& dp = *n.dp;
-      if (k < N) {
-        prob->stateSpace().differenceJacobians(xs[static_cast<std::size_t>(k) + 1], dp.xnext, n.J0,
-                                               n.J1);
-        n.Ap.noalias() = n.J1 * dp.Fx;
-        dp.Fx = n.Ap;
-        n.Bp.noalias() = n.J1 * dp.Fu;
-        dp.Fu = n.Bp;
-      }
-      constraintGradient(k, n, dp, g);
-      g.head(ndx) += dp.lx;
-      if (k < N) g.segment(ndx, nu) += dp.lu;
-      if (in_x) {
+      prob->linearizeCurvatureTerms(k, n.xp, n.up, *n.dp);
+      curvatureGradient(k, n, g);
+      if (in_x && !euclid) {
+        // Pulled back to the tangent at x by the Jacobian of the retraction.
         prob->stateSpace().integrateJacobians(x, n.dxv, n.J0, n.J1);
         n.dxv.noalias() = n.J1.transpose() * g.head(ndx);
         g.head(ndx) = n.dxv;
@@ -273,13 +274,14 @@ void Solver::Impl::addCurvature(int k, Node& n) {
     }
     n.H2.col(j).head(nv) = (n.hp.head(nv) - n.hm.head(nv)) / (2.0 * h);
   }
-  if (!euclid) {  // H2 holds the full Hessian: keep the difference to Gauss-Newton
-    n.H2.topLeftCorner(ndx, ndx) -= d.Lxx;
-    if (k < N) {
-      n.H2.bottomRightCorner(nu, nu) -= d.Luu;
-      n.H2.bottomLeftCorner(nu, ndx) -= d.Lux;
-      n.H2.topRightCorner(ndx, nu) -= d.Lux.transpose();
-    }
+  // The differenced costs' Gauss-Newton Hessians are already in d: keep the difference.
+  prob->linearizeCurvatureTerms(k, x, u, *n.dp);
+  const NodeData& c = *n.dp;
+  n.H2.topLeftCorner(ndx, ndx) -= c.Lxx;
+  if (k < N) {
+    n.H2.bottomRightCorner(nu, nu) -= c.Luu;
+    n.H2.bottomLeftCorner(nu, ndx) -= c.Lux;
+    n.H2.topRightCorner(ndx, nu) -= c.Lux.transpose();
   }
   auto H = n.H2.topLeftCorner(nv, nv);
   for (int i = 0; i < nv; ++i) {
@@ -288,6 +290,24 @@ void Solver::Impl::addCurvature(int k, Node& n) {
   if (!H.allFinite()) return;
   shiftHessian(k, n, 1.0);
   n.h2_added = true;
+}
+
+/// Gradient of the node's Lagrangian (terms with curvature only) at the point evaluated
+/// into n.dp, with the multipliers of the current iterate; on manifolds the dynamics
+/// through the difference Jacobian at x_{k+1}.
+void Solver::Impl::curvatureGradient(int k, Node& n, VectorXd& g) {
+  NodeData& dp = *n.dp;
+  if (!euclid && k < N) {
+    prob->stateSpace().differenceJacobians(xs[static_cast<std::size_t>(k) + 1], dp.xnext, n.J0,
+                                           n.J1);
+    n.Ap.noalias() = n.J1 * dp.Fx;
+    dp.Fx = n.Ap;
+    n.Bp.noalias() = n.J1 * dp.Fu;
+    dp.Fu = n.Bp;
+  }
+  constraintGradient(k, n, dp, g);
+  g.head(ndx) += dp.lx;
+  if (k < N) g.segment(ndx, nu) += dp.lu;
 }
 
 }  // namespace rollstep::solver

@@ -12,8 +12,9 @@ using detail::msSince;
 /// After the filter line search rejected the Newton step: restores the iterate and, when
 /// the violation is large, tries a restoration step. Returns true when that step was taken
 /// (the iteration is done, the loop continues), false when the solve ends (status set).
-bool Solver::Impl::stepRejected(double primal, double theta0, double dphi, Clock::time_point t_upd,
+bool Solver::Impl::stepRejected(const Kkt& kkt, double theta0, double dphi, Clock::time_point t_upd,
                                 IterationStats& it) {
+  const double primal = kkt.primal;
   restore();
   it.primal_step = 0.0;
   it.dual_step = 0.0;
@@ -38,6 +39,15 @@ bool Solver::Impl::stepRejected(double primal, double theta0, double dphi, Clock
         "step reduces the constraint violation (max %.3g, l1 %.3g)",
         primal, theta0);
     status = SolverStatus::Infeasible;
+    return false;
+  }
+  if (kkt.error() <= set.acceptable_tolerance) {
+    // The line search cannot improve on an acceptable point (rounding in the merit).
+    ROLLSTEP_MSG(
+        "stopped at an acceptable point: the line search found no better one (KKT error "
+        "%.3g, tolerance %.3g)",
+        kkt.error(), set.kkt_tolerance);
+    status = SolverStatus::Acceptable;
     return false;
   }
   ROLLSTEP_MSG(
@@ -105,12 +115,6 @@ bool Solver::Impl::dualsBlewUp(double primal) const {
     }
   }
   return false;
-}
-
-bool Solver::Impl::violationStalled(double primal) const {
-  const auto n = static_cast<int>(stats.size());
-  if (!(primal > set.infeasibility_tolerance) || n <= kStallWindow) return false;
-  return primal >= 0.5 * stats[static_cast<std::size_t>(n - 1 - kStallWindow)].primal_residual;
 }
 
 }  // namespace rollstep::solver

@@ -26,7 +26,7 @@ struct Entry {
   Field field;
 };
 // A new SolverSettings field goes here and into config/solver.yaml.
-const std::array<Entry, 16> kFields{{
+const std::array<Entry, 19> kFields{{
     {"mode", &SolverSettings::mode},
     {"max_iterations", &SolverSettings::max_iterations},
     {"kkt_tolerance", &SolverSettings::kkt_tolerance},
@@ -43,6 +43,9 @@ const std::array<Entry, 16> kFields{{
     {"thread_spin_us", &SolverSettings::thread_spin_us},
     {"divergence_threshold", &SolverSettings::divergence_threshold},
     {"infeasibility_tolerance", &SolverSettings::infeasibility_tolerance},
+    {"acceptable_tolerance", &SolverSettings::acceptable_tolerance},
+    {"acceptable_iterations", &SolverSettings::acceptable_iterations},
+    {"predictor_corrector", &SolverSettings::predictor_corrector},
 }};
 constexpr std::size_t kNumFields = kFields.size();
 
@@ -74,8 +77,9 @@ struct IntRange {
   int min;
   int max;
 };
-constexpr std::array<IntRange, 4> kIntRanges{{
+constexpr std::array<IntRange, 5> kIntRanges{{
     {"max_iterations", 1, 1000000},
+    {"acceptable_iterations", 1, 1000000},
     {"max_line_search_steps", 1, 1000},
     {"num_threads", 1, 256},
     {"thread_spin_us", 0, 1000000},

@@ -18,6 +18,8 @@ const char* toString(SolverStatus s) {
   switch (s) {
     case SolverStatus::Converged:
       return "Converged";
+    case SolverStatus::Acceptable:
+      return "Acceptable";
     case SolverStatus::IterationDone:
       return "IterationDone";
     case SolverStatus::MaxIterations:
@@ -66,6 +68,11 @@ bool Solver::Impl::begin(ConstVecRef x_init, bool realtime) {
     filter_mu = -1.0;
     last_delta = 0.0;
   }
+  // Mehrotra's predictor-corrector on convex QPs (no curvature; soft rows are checked at
+  // the first linearisation).
+  pc_active = !realtime && set.predictor_corrector && !has_curvature;
+  tiny_step = false;
+  acceptable_count = 0;
   return true;
 }
 
@@ -80,10 +87,12 @@ SolverStatus Solver::Impl::run(ConstVecRef x_init, bool realtime) {
     const Kkt kkt = linearize(realtime, it);
     if (diverged(kkt)) return status;
     recordResiduals(kkt, it);
-    // Converging mode: stop when converged or out of iterations, else update the barrier.
+    if (pc_active && kkt.soft_rows) pc_active = false;  // not a QP: monotone barrier
+    // Converging mode: stop when converged or out of iterations, else update the barrier
+    // (the predictor-corrector chooses it with the direction).
     if (!realtime) {
       if (terminated(kkt, max_it, it)) return status;
-      updateBarrier(kkt);
+      if (!pc_active) updateBarrier(kkt);
     }
     it.barrier = mu;
     // Newton direction (condensing, Riccati with inertia correction, step recovery).
@@ -94,19 +103,26 @@ SolverStatus Solver::Impl::run(ConstVecRef x_init, bool realtime) {
     const auto t_upd = Clock::now();
     backup();
     backup_valid = true;
-    double alpha = dir.alpha_p;
-    if (!realtime && set.line_search) {
+    double alpha = dir.alpha_p, alpha_d = dir.alpha_d;
+    if (pc_active) {
+      // Convex QP: one step length for primal and dual variables, no line search.
+      alpha = alpha_d = std::min(dir.alpha_p, dir.alpha_d);
+      takeFullStep(alpha);
+    } else if (!realtime && set.line_search && !dir.tiny) {
       double theta0 = 0.0;
       if (!filterLineSearch(dir.dphi, alpha, theta0)) {
-        if (stepRejected(kkt.primal, theta0, dir.dphi, t_upd, it)) continue;
+        if (stepRejected(kkt, theta0, dir.dphi, t_upd, it)) continue;
         return status;
       }
     } else {
+      // Real-time mode, no line search, or a step too small for the line search to tell
+      // apart from rounding (taken whole; the barrier decreases next).
+      tiny_step = dir.tiny && !realtime;
       takeFullStep(alpha);
     }
-    updateDuals(alpha, dir.alpha_d);
+    updateDuals(alpha, alpha_d);
     it.primal_step = alpha;
-    it.dual_step = dir.alpha_d;
+    it.dual_step = alpha_d;
     it.time_update_ms = msSince(t_upd);
     stats.push_back(it);
     ++iterations;
@@ -137,6 +153,8 @@ void checkSettings(const SolverSettings& s) {
   require(s.thread_spin_us >= 0, "thread_spin_us must be >= 0");
   require(s.divergence_threshold > 0.0, "divergence_threshold must be > 0 (inf: never)");
   require(s.infeasibility_tolerance >= 0.0, "infeasibility_tolerance must be >= 0 (inf: never)");
+  require(positive(s.acceptable_tolerance), "acceptable_tolerance must be finite and > 0");
+  require(s.acceptable_iterations >= 1, "acceptable_iterations must be >= 1");
 }
 
 Solver::Solver(std::shared_ptr<ocp::OptimalControlProblem> problem, SolverSettings settings) {

@@ -80,6 +80,7 @@ struct Solver::Impl {
     std::unique_ptr<NodeData> d;
     VectorXd s, z, ds, dz, c;  // slacks, duals, steps, constraint values (layout rows)
     VectorXd s_bak, z_bak, s_trial;
+    VectorXd ds_aff, dz_aff;  // Mehrotra's affine-scaling (predictor) steps
     Eigen::VectorXi kind;     // kInactive / kHard / kSoft per row
     VectorXd lam, lam_bak;    // costate of the constraint defining x_k (ndx)
     VectorXd mult, mult_bak;  // equality multipliers (ne_max)
@@ -105,7 +106,10 @@ struct Solver::Impl {
     double pivot_ratio = 1.0;
     double primal = 0.0, dual = 0.0, sz_max = 0.0, sz_min = detail::kInf, mult_sum = 0.0;
     int mult_count = 0;
-    double alpha_p = 1.0, alpha_d = 1.0, dphi = 0.0, zmax = 0.0;
+    double z_sum = 0.0;  // duals of the hard rows (complementarity scale)
+    int z_count = 0;
+    bool soft_rows = false;  // some row of this node is soft
+    double alpha_p = 1.0, alpha_d = 1.0, dphi = 0.0, zmax = 0.0, step_rel = 0.0;
     double merit_f = 0.0, merit_theta = 0.0;
   };
 
@@ -113,9 +117,13 @@ struct Solver::Impl {
   struct Kkt {
     bool finite = true;
     double primal = 0.0, dual = 0.0, sz_max = 0.0, sz_min = detail::kInf;
-    double msum = 0.0, cost = 0.0;
-    int mcount = 0;
-    double dual_scaled = 0.0;  ///< dual residual over the multiplier scale
+    double msum = 0.0, cost = 0.0, zsum = 0.0;
+    int mcount = 0, zcount = 0;
+    double dual_scaled = 0.0;  ///< dual residual over the multiplier scale s_d
+    double sz_scaled = 0.0;    ///< max s z over the dual scale s_c
+    bool soft_rows = false;    ///< some node has a soft (relaxed-barrier) row
+    /// The scaled KKT error of the termination tests (barrier 0).
+    double error() const { return std::max({primal, dual_scaled, sz_scaled}); }
     /// max |s z - m| over the hard rows (0 without any).
     double complementarity(double m) const {
       return sz_min == detail::kInf ? 0.0 : std::max(sz_max - m, m - sz_min);
@@ -124,6 +132,7 @@ struct Solver::Impl {
   /// Search direction summary: fraction-to-boundary step lengths, barrier slope.
   struct Direction {
     double alpha_p = 1.0, alpha_d = 1.0, dphi = 0.0;
+    bool tiny = false;  ///< tiny relative to the iterate (Ipopt): taken without line search
   };
 
   // ---- problem, sizes, workspace (workspace.cpp) --------------------------------------------
@@ -158,8 +167,20 @@ struct Solver::Impl {
   std::vector<std::pair<double, double>> filter;
   double filter_mu = -1.0, theta_max = detail::kInf, theta_min = 0.0;
   bool has_guess = false;
+  bool has_curvature = true;   // the problem has terms with curvature (hasCurvature())
   bool use_curvature = false;  // this iteration adds the constraint curvature (H2)
   double last_delta = 0.0;     // last inertia correction
+  bool corrected = false;      // the last direction needed an inertia correction
+  bool pc_active = false;      // this solve uses Mehrotra's predictor-corrector
+  bool tiny_step = false;      // the last step was tiny: decrease the barrier
+  int acceptable_count = 0;    // consecutive acceptable iterations
+  // Complementarity target of the Newton step: s_i z_i -> target_mu (the barrier), minus
+  // ds_aff_i dz_aff_i in Mehrotra's corrector.
+  double target_mu = 0.0;
+  bool corrector = false;
+  double target(const Node& n, int i) const {
+    return corrector ? target_mu - n.ds_aff(i) * n.dz_aff(i) : target_mu;
+  }
   bool has_solution = false;
   bool direction_ready = false;  // the Riccati workspace holds a valid factorisation
   bool backup_valid = false;     // xs_bak, ... hold the iterate before the last step
@@ -240,10 +261,12 @@ struct Solver::Impl {
   void residuals(int k, Node& n);
   void constraintGradient(int k, const Node& n, const NodeData& dd, VectorXd& out) const;
   void addCurvature(int k, Node& n);
+  void curvatureGradient(int k, Node& n, VectorXd& g);
 
   // ---- condensing, projection, factorisation (condensing.cpp) --------------------------------
   enum class Factorization { Ok, RankDeficient, NotPositiveDefinite };
   void condenseNode(int k);
+  void condenseGradient(int k);
   Factorization condenseAndFactor();
   bool correctInertia(bool factored);
 
@@ -251,6 +274,7 @@ struct Solver::Impl {
   bool searchDirection(bool realtime, double primal, IterationStats& it, Direction& dir);
   void forwardAndRecover();
   void recoverNode(int k);
+  void predictorCorrector();
 
   // ---- step length: filter line search (line_search.cpp) -------------------------------------
   bool filterLineSearch(double dphi, double& alpha, double& theta0);
@@ -262,15 +286,11 @@ struct Solver::Impl {
   void addToFilter(double theta, double f);
 
   // ---- restoration and infeasibility (restoration.cpp) ---------------------------------------
-  /// Infeasibility test at the iteration limit: the violation stays above the tolerance
-  /// and did not halve over the last kStallWindow iterations.
-  static constexpr int kStallWindow = 10;
   /// Infeasibility test when the direction breaks down (non-finite, not factorisable):
   /// some dual above kDualBlowUp while the violation is above the tolerance.
   static constexpr double kDualBlowUp = 1e12;
   bool dualsBlewUp(double primal) const;
-  bool violationStalled(double primal) const;
-  bool stepRejected(double primal, double theta0, double dphi, Clock::time_point t_upd,
+  bool stepRejected(const Kkt& kkt, double theta0, double dphi, Clock::time_point t_upd,
                     IterationStats& it);
   double feasibilityStep(double theta0);
 

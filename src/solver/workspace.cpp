@@ -23,6 +23,7 @@ Solver::Impl::Impl(std::shared_ptr<ocp::OptimalControlProblem> p, SolverSettings
       pool(s.num_threads, std::chrono::microseconds(s.thread_spin_us)),
       ready(new std::atomic<std::uint64_t>[static_cast<std::size_t>(N) + 1]),
       chunk_next(new std::atomic<int>[static_cast<std::size_t>(pool.size())]) {
+  has_curvature = prob->hasCurvature();
   for (int k = 0; k <= N; ++k) ready[static_cast<std::size_t>(k)].store(0);
   nodes.resize(static_cast<std::size_t>(N) + 1);
   for (int i = ni_max; i < nrows; ++i) {
@@ -31,7 +32,8 @@ Solver::Impl::Impl(std::shared_ptr<ocp::OptimalControlProblem> p, SolverSettings
   }
   for (auto& n : nodes) {
     n.d = prob->createNodeData();
-    for (VectorXd* v : {&n.s, &n.z, &n.ds, &n.dz, &n.c, &n.s_bak, &n.z_bak, &n.s_trial}) {
+    for (VectorXd* v :
+         {&n.s, &n.z, &n.ds, &n.dz, &n.c, &n.s_bak, &n.z_bak, &n.s_trial, &n.ds_aff, &n.dz_aff}) {
       *v = VectorXd::Zero(nrows);
     }
     n.kind = Eigen::VectorXi::Zero(nrows);

@@ -133,7 +133,10 @@ TEST(NonlinearComparison, UnicycleGaussNewtonOnlyStillMatchesIpopt) {
   ASSERT_TRUE(ref.success) << ref.status_string;
   Solver s(inst.problem, set);
   s.setInitialGuess(inst.xs_guess, inst.us_guess);
-  EXPECT_EQ(s.solve(inst.x0), SolverStatus::Converged) << s.message();
+  // Linear convergence: it may stop at the acceptable level (KKT error below 1e-6 for 15
+  // iterations in a row), reported as such.
+  const SolverStatus st = s.solve(inst.x0);
+  EXPECT_TRUE(st == SolverStatus::Converged || st == SolverStatus::Acceptable) << s.message();
   const double ours = totalCost(*inst.problem, s.states(), s.inputs());
   std::printf("[unicycle GN] iters %d cost %.12g ipopt %.12g\n", s.iterations(), ours, ref.cost);
   EXPECT_NEAR(ours, ref.cost, 1e-6 * std::abs(ref.cost));

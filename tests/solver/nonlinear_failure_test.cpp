@@ -120,9 +120,10 @@ TEST(NonlinearFailure, InfeasibleWithFullStepsIsInfeasible) {
   expectFiniteOutputs(s);
 }
 
-TEST(NonlinearFailure, ViolationStalledAtIterationLimitIsInfeasible) {
-  // The same problem stopped by the iteration limit before the duals blow up: the
-  // violation did not halve over the last 10 iterations, so Infeasible, not MaxIterations.
+TEST(NonlinearFailure, ViolationLeftAtIterationLimitIsMaxIterationsNotInfeasible) {
+  // The same problem stopped by the iteration limit before the duals blow up: a violation
+  // left at the limit is no evidence of infeasibility (a feasible problem converging
+  // slowly looks the same), so MaxIterations with the residuals in the message.
   SolverSettings set;
   set.line_search = false;
   set.max_iterations = 12;
@@ -130,8 +131,8 @@ TEST(NonlinearFailure, ViolationStalledAtIterationLimitIsInfeasible) {
     const auto inst = makeForceContradictingBounds();
     Solver s(inst.problem, set);
     const SolverStatus st = solveFromGuess(s, inst, "limit, infeasible");
-    EXPECT_EQ(st, SolverStatus::Infeasible) << s.message();
-    EXPECT_NE(std::string(s.message()).find("did not halve"), std::string::npos) << s.message();
+    EXPECT_EQ(st, SolverStatus::MaxIterations) << s.message();
+    EXPECT_NE(std::string(s.message()).find("violation 44.9"), std::string::npos) << s.message();
     EXPECT_EQ(s.iterations(), 12);
     expectFiniteOutputs(s);
   }

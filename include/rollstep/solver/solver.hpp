@@ -1,8 +1,7 @@
 #pragma once
-// Multiple-shooting primal-dual interior-point solver with Gauss-Newton Hessian,
-// equality constraints eliminated by projection and a Riccati recursion for the search
-// direction (paper Sec. 3.1-3.2). All memory is sized at construction; solve() and
-// update() never allocate.
+// Multiple-shooting primal-dual interior-point solver, equality constraints eliminated by
+// projection and a Riccati recursion for the search direction (paper Sec. 3.1-3.2). All
+// memory is sized at construction; solve() and update() never allocate.
 //
 // Method, per iteration: linearise every node (in parallel), defects on the manifold
 // b_k = F(x_k, u_k) (-) x_{k+1} with A = J Fx, B = J Fu (J: Jacobian of the difference at
@@ -12,28 +11,47 @@
 // below delta) times their own fixed weight (InequalityOptions::weight, not mu) to the
 // cost; equalities are projected (RiccatiSolver); the Riccati recursion gives dx, du, the
 // costates and the equality multipliers; ds and dz follow; fraction to boundary separately
-// for s and z. Real-time mode: fixed barrier, Gauss-Newton Hessian, one full
-// (fraction-to-boundary) step per call.
-// Converging mode: Fiacco-McCormick barrier decrease; Hessian = Gauss-Newton plus the
-// curvature of the constraints (and, on manifolds, of the cost) times their multipliers,
-// by central differences of the Jacobians (exact_hessian), with Ipopt's inertia
-// correction (delta I, grown until the Riccati factorisation succeeds; Gauss-Newton as a
-// last resort): the Gauss-Newton Hessian alone converges only linearly when the costates
-// are large (cart-pole swing-up: 879 iterations instead of 46). Backtracking filter line
-// search (Waechter and Biegler 2006) on the barrier objective f and the l1 violation
-// theta: a trial point is accepted when the filter accepts it and it either sufficiently
-// reduces theta or f, or (switching condition, small theta) satisfies Armijo on f; the
-// filter is reset when mu changes. Stop when max(primal, scaled dual, max s z) <=
-// kkt_tolerance. When the line search fails while the violation (inf-norm) is above
-// infeasibility_tolerance, a restoration probe runs: one minimum-norm step towards the
-// linearised constraints (Hessian I, no cost), backtracked on the violation alone; if it
-// reduces the l1 violation by >= 0.1 % it is taken (counts as an iteration), else the
-// iterate is a stationary point of the violation: Infeasible. Infeasible also when
-// max_iterations is reached with the violation above infeasibility_tolerance and not
-// halved over the last 10 iterations, or when the direction breaks down (not factorisable,
-// non-finite) with the violation above it and a dual above 1e12 (the duals of contradicting
-// rows blow up). LineSearchFailed: the line search fails with a violation below
-// infeasibility_tolerance.
+// for s and z.
+//
+// Hessian. Gauss-Newton (what the terms' calcDiff give) in real-time mode and with
+// exact_hessian = false. With exact_hessian (converging mode) the Hessian of the
+// Lagrangian, on the manifold: the costs' exact Hessians (CostTerm::hessianIsExact) plus,
+// for every term that has curvature (nonlinear dynamics and residuals, costs whose
+// Hessian is Gauss-Newton), central differences of the Lagrangian's gradient
+// (OptimalControlProblem::linearizeCurvatureTerms); terms declared linear cost nothing, and
+// a problem without curvature (hasCurvature() false) is solved with the Gauss-Newton
+// Hessian, which is then exact. In every mode, when the reduced Hessian is not positive
+// definite (the Riccati factorisation fails or needs regularisation), Ipopt's inertia
+// correction: delta I is added, delta grown until the factorisation succeeds unregularised
+// (with the curvature, Gauss-Newton as a last resort).
+//
+// Node 0. The state x_0 is data (fixed by x_init), not a decision variable: hard state
+// bounds and state-only inequality rows (general rows whose residual does not depend on
+// the input, soft or hard) are not imposed at node 0. Rows that depend on u_0 are.
+//
+// Barrier and globalisation (converging mode). Problems without curvature and without
+// soft rows (convex QPs) use Mehrotra's predictor-corrector (predictor_corrector): an
+// affine-scaling predictor, the barrier sigma mu with sigma = (mu_aff / mu)^3, a corrector
+// through the same factorisation, one step length for primal and dual variables and no
+// line search. Other problems: Fiacco-McCormick barrier decrease and a backtracking filter
+// line search (Waechter and Biegler 2006) on the barrier objective f and the l1 violation
+// theta; the filter is reset when mu changes. A step that is tiny relative to the iterate
+// is taken whole (rounding cannot be line-searched).
+//
+// Termination (converging mode), Ipopt's scaled tests: with s_d = max(100, mean |multiplier|)
+// / 100 and s_c = max(100, mean z) / 100, Converged when max(primal, dual / s_d,
+// max(s z) / s_c) <= kkt_tolerance; Acceptable when it stays below acceptable_tolerance for
+// acceptable_iterations consecutive iterations, or when the iteration limit or a failed
+// line search stops the solve at such a point. Infeasible only with evidence: when the
+// line search fails with the violation above infeasibility_tolerance a restoration step
+// runs (the minimum-norm step towards the linearised constraints, Hessian I, no cost,
+// backtracked on the violation alone); it is taken when it reduces the l1 violation by at
+// least 0.1 %, otherwise the iterate is a stationary point of the violation with a non-zero
+// violation: Infeasible. Infeasible also when the direction breaks down (not factorisable,
+// non-finite) with the violation above the tolerance and a dual above 1e12 (the duals of
+// contradicting rows blow up). An iteration limit with a violation left is MaxIterations
+// (the residuals are in stats()), not Infeasible. LineSearchFailed: the line search fails
+// with a violation below infeasibility_tolerance at a point that is not acceptable.
 #include <cstdint>
 #include <memory>
 #include <vector>
@@ -84,9 +102,18 @@ struct SolverSettings {
   /// then keep their cores busy); 0: sleep at once. Fixed at construction.
   int thread_spin_us = 2000;
   double divergence_threshold = 1e12;  ///< primal residual above this = diverged
-  /// Converging mode: a failed solve (line search, iteration limit) whose constraint
-  /// violation (inf-norm) is above this is reported Infeasible (see the header comment).
+  /// Converging mode: a line search failure with a constraint violation (inf-norm) above
+  /// this starts the restoration step that decides Infeasible (see the header comment).
   double infeasibility_tolerance = 1e-6;
+  /// Converging mode: the KKT error (scaled as for kkt_tolerance) below which an iterate is
+  /// acceptable: Acceptable after acceptable_iterations such iterations in a row, or when a
+  /// failed line search or the iteration limit stops the solve at such a point.
+  double acceptable_tolerance = 1e-6;
+  int acceptable_iterations = 15;
+  /// Converging mode, problems without curvature and soft rows (convex QPs): Mehrotra's
+  /// predictor-corrector with an adaptive barrier instead of the monotone barrier and the
+  /// filter line search.
+  bool predictor_corrector = true;
 };
 
 /// Checks every field of s: throws std::invalid_argument naming the first bad one
@@ -101,6 +128,8 @@ void checkSettings(const SolverSettings& s);
 /// mode (criterion in the header comment), never Converged.
 enum class SolverStatus {
   Converged,                ///< KKT tolerance reached (converging mode)
+  Acceptable,               ///< converging mode: stopped at a point within
+                            ///< acceptable_tolerance but not kkt_tolerance (header comment)
   IterationDone,            ///< one real-time iteration completed (real-time mode)
   MaxIterations,            ///< converging mode hit max_iterations
   LineSearchFailed,         ///< no acceptable step, violation small; the previous iterate is kept
@@ -110,8 +139,8 @@ enum class SolverStatus {
   InvalidInput,             ///< NaN/inf or wrong size in x0, or non-finite problem values at
                             ///< the initial guess
   Infeasible,               ///< converging mode: stuck at a locally infeasible point (no
-                            ///< Newton or restoration step reduces the violation, or it
-                            ///< stalled at the iteration limit); the iterate is kept
+                            ///< Newton or restoration step reduces the violation, or the
+                            ///< duals of contradicting rows blew up); the iterate is kept
 };
 const char* toString(SolverStatus s);
 
@@ -123,6 +152,10 @@ struct IterationStats {
   double primal_residual = 0.0;  ///< max |defect|, |e|, |g - s| (inf-norm)
   double dual_residual = 0.0;    ///< inf-norm of the Lagrangian gradient
   double complementarity = 0.0;  ///< max |s z - mu|
+  double kkt_error = 0.0;        ///< converging mode: the scaled KKT error tested for termination
+  /// Diagonal shift delta of the inertia correction (0: the Hessian was positive definite
+  /// on the null space as it was).
+  double inertia_shift = 0.0;
   double barrier = 0.0;
   double primal_step = 0.0, dual_step = 0.0;
   /// The Newton step was rejected and a minimum-norm feasibility step was taken instead
