@@ -200,6 +200,7 @@ bool Solver::Impl::correctInertia(bool factored) {
   }
   corrected = true;
   double delta = last_delta > 0.0 ? std::max(1e-8, last_delta / 3.0) : 1e-4;
+  delta = std::max(delta, 2.0 * prox);
   factored = false;
   for (int attempt = 0; attempt < 12 && !factored; ++attempt) {
     forNodes([this, delta](int k) {

@@ -20,6 +20,8 @@ bool Solver::Impl::searchDirection(bool realtime, double primal, IterationStats&
   // Mehrotra: the predictor aims at complementarity 0 (affine scaling).
   target_mu = pc_active ? 0.0 : mu;
   corrector = false;
+  // Converging mode after short steps: the proximal shift (line_search.cpp).
+  if (prox > 0.0 && !realtime) forNodes([this](int k) { shiftDiagonal(k, node(k), prox); });
   const Factorization fac = condenseAndFactor();
   if (fac == Factorization::RankDeficient) {
     const int k = failed_node;

@@ -73,6 +73,7 @@ bool Solver::Impl::begin(ConstVecRef x_init, bool realtime) {
   pc_active = !realtime && set.predictor_corrector && !has_curvature;
   tiny_step = false;
   acceptable_count = 0;
+  prox = 0.0;
   return true;
 }
 
@@ -114,6 +115,7 @@ SolverStatus Solver::Impl::run(ConstVecRef x_init, bool realtime) {
         if (stepRejected(kkt, theta0, dir.dphi, t_upd, it)) continue;
         return status;
       }
+      adaptProximalShift(alpha);
     } else {
       // Real-time mode, no line search, or a step too small for the line search to tell
       // apart from rounding (taken whole; the barrier decreases next).

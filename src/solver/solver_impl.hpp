@@ -174,6 +174,7 @@ struct Solver::Impl {
   bool pc_active = false;      // this solve uses Mehrotra's predictor-corrector
   bool tiny_step = false;      // the last step was tiny: decrease the barrier
   int acceptable_count = 0;    // consecutive acceptable iterations
+  double prox = 0.0;           // proximal shift of the Hessian after short steps (line_search.cpp)
   // Complementarity target of the Newton step: s_i z_i -> target_mu (the barrier), minus
   // ds_aff_i dz_aff_i in Mehrotra's corrector.
   double target_mu = 0.0;
@@ -284,6 +285,7 @@ struct Solver::Impl {
   void evaluateTrial(int k);
   void meritNode(int k, Node& n, const VectorXd& s) const;
   void addToFilter(double theta, double f);
+  void adaptProximalShift(double alpha);
 
   // ---- restoration and infeasibility (restoration.cpp) ---------------------------------------
   /// Infeasibility test when the direction breaks down (non-finite, not factorisable):
