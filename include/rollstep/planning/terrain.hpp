@@ -1,0 +1,89 @@
+#pragma once
+// Terrain model: planar convex foothold regions (paper eq. convexRegionConstraint).
+//
+// A region is a convex polygon in the world (x, y) plane, the plane of its surface
+// (height at the polygon's centroid and unit normal, n_z > 0) and the half-planes
+// A [x y]^T + b >= 0 of the polygon, one row per edge, rows of unit length pointing
+// inwards, so that A p + b is the distance of p to each edge line (positive inside).
+// The model is a list of regions, built once (from a scene's ground-truth geometry now,
+// from perception later through the same constructor) and queried without allocation.
+#include <Eigen/Core>
+#include <vector>
+
+#include "rollstep/planning/swing_trajectory.hpp"
+
+namespace rollstep::planning {
+
+struct ConvexRegion {
+  std::vector<Eigen::Vector2d> vertices;       ///< counter-clockwise, no repeats [m]
+  Eigen::Matrix<double, Eigen::Dynamic, 2> A;  ///< one unit inward row per edge
+  Eigen::VectorXd b;                           ///< A p + b >= 0 inside [m]
+  Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
+  double height = 0.0;                                ///< z of the surface at the centroid [m]
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  ///< unit surface normal, z > 0
+
+  /// Vertices in either orientation (stored counter-clockwise). Throws
+  /// std::invalid_argument naming the parameter and value: fewer than 3 vertices (an
+  /// empty polygon), non-finite or repeated vertices, zero area, a non-convex polygon, a
+  /// non-finite height, a zero, non-finite or horizontal-or-downward (n_z <= 0) normal.
+  static ConvexRegion fromPolygon(const std::vector<Eigen::Vector2d>& vertices, double height,
+                                  const Eigen::Vector3d& normal = Eigen::Vector3d::UnitZ());
+
+  /// min over edges of A p + b: >= 0 inside, the distance to the nearest edge line.
+  double margin(const Eigen::Vector2d& p) const;
+  bool contains(const Eigen::Vector2d& p, double tolerance = 1e-9) const {
+    return margin(p) >= -tolerance;
+  }
+  /// Euclidean distance from p to the polygon (0 inside).
+  double distance(const Eigen::Vector2d& p) const;
+  /// z of the region's plane above (x, y) = p.
+  double heightAt(const Eigen::Vector2d& p) const;
+};
+
+/// An axis-aligned box on the floor, seen from above: its footprint and top height [m].
+struct TerrainBox {
+  double x_min = 0.0, x_max = 0.0;
+  double y_min = 0.0, y_max = 0.0;
+  double top = 0.0;
+};
+
+class TerrainModel {
+ public:
+  TerrainModel() = default;
+  explicit TerrainModel(std::vector<ConvexRegion> regions);
+
+  int size() const { return static_cast<int>(regions_.size()); }
+  const ConvexRegion& region(int i) const { return regions_[static_cast<std::size_t>(i)]; }
+  const std::vector<ConvexRegion>& regions() const { return regions_; }
+
+  /// The region a foot at (x, y) = p should use: among the regions containing p, the one
+  /// whose surface is highest at p; if none contains p (a gap, a shrunk edge), the
+  /// nearest. -1 for an empty model.
+  int regionAt(const Eigen::Vector2d& p) const;
+  /// Surface height at p from regionAt(p); `fallback` for an empty model.
+  double heightAt(const Eigen::Vector2d& p, double fallback = 0.0) const;
+  /// Up, down or level, from the surface heights at the lift-off and touch-down points.
+  SwingDirection classifySwing(const Eigen::Vector2d& p_liftoff, const Eigen::Vector2d& p_touchdown,
+                               double tolerance = 1e-3) const;
+  /// The region that constrains a swing for collision avoidance: the lower one, i.e.
+  /// the lift-off region when ascending (applied on the first half of the swing) and the
+  /// touch-down region when descending (second half); -1 on the level.
+  int swingRegion(const Eigen::Vector2d& p_liftoff, const Eigen::Vector2d& p_touchdown,
+                  double tolerance = 1e-3) const;
+
+ private:
+  std::vector<ConvexRegion> regions_;
+};
+
+/// Terrain from ground-truth geometry: a flat floor at `floor_height` over the rectangle
+/// [x_min, x_max] x [y_min, y_max] of `floor`, with boxes standing on it (a box's top is
+/// its height; where boxes overlap the highest top wins, so stairs are boxes of growing
+/// height). The floor is cut into axis-aligned rectangles of constant height, merged
+/// where possible, each shrunk by `margin` [m] on every side (keeps feet off edges; a
+/// point in the gap gets the nearest region). Boxes are clipped to the floor. Throws
+/// std::invalid_argument naming the bad field (e.g. "boxes[1].x_max = ...") for
+/// non-finite values, empty ranges, a negative margin or one that empties a region.
+TerrainModel terrainFromBoxes(const TerrainBox& floor, double floor_height,
+                              const std::vector<TerrainBox>& boxes, double margin = 0.0);
+
+}  // namespace rollstep::planning

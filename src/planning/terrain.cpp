@@ -1,0 +1,271 @@
+#include "rollstep/planning/terrain.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+#include "check.hpp"
+
+namespace rollstep::planning {
+
+namespace {
+
+double cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+  return a.x() * b.y() - a.y() * b.x();
+}
+
+double segmentDistance(const Eigen::Vector2d& p, const Eigen::Vector2d& a,
+                       const Eigen::Vector2d& b) {
+  const Eigen::Vector2d e = b - a;
+  const double s = std::clamp((p - a).dot(e) / e.squaredNorm(), 0.0, 1.0);
+  return (p - (a + s * e)).norm();
+}
+
+std::string str(const Eigen::Vector2d& v) {
+  std::ostringstream os;
+  os << "(" << v.x() << ", " << v.y() << ")";
+  return os.str();
+}
+
+}  // namespace
+
+ConvexRegion ConvexRegion::fromPolygon(const std::vector<Eigen::Vector2d>& vertices, double height,
+                                       const Eigen::Vector3d& normal) {
+  const char* where = "ConvexRegion::fromPolygon";
+  const std::size_t n = vertices.size();
+  if (n < 3) {
+    detail::fail(where, "vertices.size()", n, "a polygon needs at least 3 vertices");
+  }
+  for (std::size_t k = 0; k < n; ++k) {
+    if (!vertices[k].allFinite()) {
+      detail::fail(where, ("vertices[" + std::to_string(k) + "]").c_str(), str(vertices[k]),
+                   "must be finite");
+    }
+    if ((vertices[(k + 1) % n] - vertices[k]).norm() < 1e-12) {
+      detail::fail(where, ("vertices[" + std::to_string((k + 1) % n) + "]").c_str(),
+                   str(vertices[(k + 1) % n]), "repeats the previous vertex");
+    }
+  }
+  detail::checkFinite(where, "height", height);
+  if (!normal.allFinite() || normal.norm() < 1e-12 || normal.z() <= 1e-9 * normal.norm()) {
+    std::ostringstream os;
+    os << "(" << normal.x() << ", " << normal.y() << ", " << normal.z() << ")";
+    detail::fail(where, "normal", os.str(), "must be finite, non-zero, with z > 0");
+  }
+  double area2 = 0.0;
+  for (std::size_t k = 0; k < n; ++k) area2 += cross(vertices[k], vertices[(k + 1) % n]);
+  if (std::abs(area2) < 1e-12) detail::fail(where, "vertices", "(zero area)", "degenerate polygon");
+  ConvexRegion r;
+  r.vertices = vertices;
+  if (area2 < 0.0) std::reverse(r.vertices.begin(), r.vertices.end());
+  const auto& v = r.vertices;
+  for (std::size_t k = 0; k < n; ++k) {
+    const Eigen::Vector2d e0 = v[(k + 1) % n] - v[k];
+    const Eigen::Vector2d e1 = v[(k + 2) % n] - v[(k + 1) % n];
+    if (cross(e0, e1) < -1e-12 * e0.norm() * e1.norm()) {
+      detail::fail(where, ("vertices[" + std::to_string((k + 1) % n) + "]").c_str(),
+                   str(v[(k + 1) % n]), "the polygon is not convex there");
+    }
+  }
+  // Convex with consistent turns can still wind twice (a star): the turning angles must
+  // sum to 2 pi.
+  double turn = 0.0;
+  for (std::size_t k = 0; k < n; ++k) {
+    const Eigen::Vector2d e0 = v[(k + 1) % n] - v[k];
+    const Eigen::Vector2d e1 = v[(k + 2) % n] - v[(k + 1) % n];
+    turn += std::atan2(cross(e0, e1), e0.dot(e1));
+  }
+  if (std::abs(turn - 2.0 * M_PI) > 1e-6) {
+    detail::fail(where, "vertices", "(self-intersecting)", "the polygon is not convex");
+  }
+  r.A.resize(static_cast<Eigen::Index>(n), 2);
+  r.b.resize(static_cast<Eigen::Index>(n));
+  Eigen::Vector2d c = Eigen::Vector2d::Zero();
+  double a6 = 0.0;
+  for (std::size_t k = 0; k < n; ++k) {
+    const Eigen::Vector2d e = v[(k + 1) % n] - v[k];
+    const Eigen::Vector2d in = Eigen::Vector2d(-e.y(), e.x()).normalized();
+    r.A.row(static_cast<Eigen::Index>(k)) = in.transpose();
+    r.b(static_cast<Eigen::Index>(k)) = -in.dot(v[k]);
+    const double w = cross(v[k], v[(k + 1) % n]);
+    c += w * (v[k] + v[(k + 1) % n]);
+    a6 += 3.0 * w;
+  }
+  r.centroid = c / a6;
+  r.height = height;
+  r.normal = normal.normalized();
+  return r;
+}
+
+double ConvexRegion::margin(const Eigen::Vector2d& p) const {
+  // Row by row: A * p + b as an expression would evaluate the product into a heap
+  // temporary.
+  double m = std::numeric_limits<double>::infinity();
+  for (Eigen::Index k = 0; k < A.rows(); ++k) {
+    m = std::min(m, A(k, 0) * p.x() + A(k, 1) * p.y() + b(k));
+  }
+  return m;
+}
+
+double ConvexRegion::distance(const Eigen::Vector2d& p) const {
+  if (margin(p) >= 0.0) return 0.0;
+  double d = std::numeric_limits<double>::infinity();
+  const std::size_t n = vertices.size();
+  for (std::size_t k = 0; k < n; ++k) {
+    d = std::min(d, segmentDistance(p, vertices[k], vertices[(k + 1) % n]));
+  }
+  return d;
+}
+
+double ConvexRegion::heightAt(const Eigen::Vector2d& p) const {
+  const Eigen::Vector2d d = p - centroid;
+  return height - (normal.x() * d.x() + normal.y() * d.y()) / normal.z();
+}
+
+TerrainModel::TerrainModel(std::vector<ConvexRegion> regions) : regions_(std::move(regions)) {}
+
+int TerrainModel::regionAt(const Eigen::Vector2d& p) const {
+  int best = -1;
+  double best_height = -std::numeric_limits<double>::infinity();
+  for (int i = 0; i < size(); ++i) {
+    const ConvexRegion& r = region(i);
+    if (!r.contains(p)) continue;
+    const double h = r.heightAt(p);
+    if (best < 0 || h > best_height) {
+      best = i;
+      best_height = h;
+    }
+  }
+  if (best >= 0) return best;
+  double best_distance = std::numeric_limits<double>::infinity();
+  for (int i = 0; i < size(); ++i) {
+    const double d = region(i).distance(p);
+    if (d < best_distance) {
+      best = i;
+      best_distance = d;
+    }
+  }
+  return best;
+}
+
+double TerrainModel::heightAt(const Eigen::Vector2d& p, double fallback) const {
+  const int i = regionAt(p);
+  return i < 0 ? fallback : region(i).heightAt(p);
+}
+
+SwingDirection TerrainModel::classifySwing(const Eigen::Vector2d& p_liftoff,
+                                           const Eigen::Vector2d& p_touchdown,
+                                           double tolerance) const {
+  return planning::classifySwing(heightAt(p_liftoff), heightAt(p_touchdown), tolerance);
+}
+
+int TerrainModel::swingRegion(const Eigen::Vector2d& p_liftoff, const Eigen::Vector2d& p_touchdown,
+                              double tolerance) const {
+  switch (classifySwing(p_liftoff, p_touchdown, tolerance)) {
+    case SwingDirection::Ascending:
+      return regionAt(p_liftoff);
+    case SwingDirection::Descending:
+      return regionAt(p_touchdown);
+    case SwingDirection::Level:
+      break;
+  }
+  return -1;
+}
+
+namespace {
+
+void checkBox(const std::string& name, const TerrainBox& b) {
+  const char* where = "terrainFromBoxes";
+  const std::pair<const char*, double> fields[] = {{".x_min", b.x_min},
+                                                   {".x_max", b.x_max},
+                                                   {".y_min", b.y_min},
+                                                   {".y_max", b.y_max},
+                                                   {".top", b.top}};
+  for (const auto& f : fields) detail::checkFinite(where, (name + f.first).c_str(), f.second);
+  if (!(b.x_max > b.x_min))
+    detail::fail(where, (name + ".x_max").c_str(), b.x_max, "must be > x_min");
+  if (!(b.y_max > b.y_min))
+    detail::fail(where, (name + ".y_max").c_str(), b.y_max, "must be > y_min");
+}
+
+std::vector<double> cuts(double lo, double hi, const std::vector<TerrainBox>& boxes, bool x) {
+  std::vector<double> c{lo, hi};
+  for (const TerrainBox& b : boxes) {
+    for (double v : {x ? b.x_min : b.y_min, x ? b.x_max : b.y_max}) {
+      if (v > lo && v < hi) c.push_back(v);
+    }
+  }
+  std::sort(c.begin(), c.end());
+  c.erase(std::unique(c.begin(), c.end()), c.end());
+  return c;
+}
+
+}  // namespace
+
+TerrainModel terrainFromBoxes(const TerrainBox& floor, double floor_height,
+                              const std::vector<TerrainBox>& boxes, double margin) {
+  const char* where = "terrainFromBoxes";
+  TerrainBox f = floor;
+  f.top = floor_height;
+  checkBox("floor", f);
+  for (std::size_t k = 0; k < boxes.size(); ++k) {
+    checkBox("boxes[" + std::to_string(k) + "]", boxes[k]);
+  }
+  detail::checkNonNegative(where, "margin", margin);
+  const std::vector<double> xs = cuts(f.x_min, f.x_max, boxes, true);
+  const std::vector<double> ys = cuts(f.y_min, f.y_max, boxes, false);
+  // Rows of strips (constant height along x), then strips merged across rows.
+  std::vector<TerrainBox> rects;
+  std::vector<std::size_t> open;  // indices of rects ending at the current row's y_min
+  for (std::size_t j = 0; j + 1 < ys.size(); ++j) {
+    const double ym = 0.5 * (ys[j] + ys[j + 1]);
+    std::vector<TerrainBox> row;
+    for (std::size_t i = 0; i + 1 < xs.size(); ++i) {
+      const double xm = 0.5 * (xs[i] + xs[i + 1]);
+      double h = floor_height;
+      for (const TerrainBox& b : boxes) {
+        if (xm > b.x_min && xm < b.x_max && ym > b.y_min && ym < b.y_max) h = std::max(h, b.top);
+      }
+      if (!row.empty() && row.back().top == h) {
+        row.back().x_max = xs[i + 1];
+      } else {
+        row.push_back({xs[i], xs[i + 1], ys[j], ys[j + 1], h});
+      }
+    }
+    std::vector<std::size_t> next;
+    for (const TerrainBox& s : row) {
+      bool merged = false;
+      for (std::size_t o : open) {
+        TerrainBox& r = rects[o];
+        if (r.x_min == s.x_min && r.x_max == s.x_max && r.top == s.top) {
+          r.y_max = s.y_max;
+          next.push_back(o);
+          merged = true;
+          break;
+        }
+      }
+      if (!merged) {
+        rects.push_back(s);
+        next.push_back(rects.size() - 1);
+      }
+    }
+    open = std::move(next);
+  }
+  std::vector<ConvexRegion> regions;
+  for (const TerrainBox& r : rects) {
+    const double x0 = r.x_min + margin, x1 = r.x_max - margin;
+    const double y0 = r.y_min + margin, y1 = r.y_max - margin;
+    if (!(x1 > x0) || !(y1 > y0)) {
+      detail::fail(where, "margin", margin, "empties a region of the terrain");
+    }
+    regions.push_back(ConvexRegion::fromPolygon({{x0, y0}, {x1, y0}, {x1, y1}, {x0, y1}}, r.top,
+                                                Eigen::Vector3d::UnitZ()));
+  }
+  return TerrainModel(std::move(regions));
+}
+
+}  // namespace rollstep::planning

@@ -1,0 +1,225 @@
+// Terrain model: convex regions (half-planes, containment, heights on tilted planes),
+// a flat floor and the step20 / stairs2 geometry built from boxes (region lookup on the
+// floor, on the block, near the edges; ascending / descending swings; normals), bad
+// input, allocation-free queries.
+#include "rollstep/planning/terrain.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "common/alloc_counter.hpp"
+
+namespace {
+
+using Eigen::Vector2d;
+using Eigen::Vector3d;
+using rollstep::planning::ConvexRegion;
+using rollstep::planning::SwingDirection;
+using rollstep::planning::TerrainBox;
+using rollstep::planning::terrainFromBoxes;
+using rollstep::planning::TerrainModel;
+
+template <class F>
+void expectThrowsNaming(F&& f, const std::string& what) {
+  try {
+    f();
+    ADD_FAILURE() << "no exception, expected one naming " << what;
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
+  }
+}
+
+// Scene numbers of the reference scenes (robot/tachyon3.md), given as plain geometry.
+const TerrainBox kFloor{-5.0, 10.0, -1.5, 1.5, 0.0};
+const TerrainBox kStep20{1.0, 2.2, -1.5, 1.5, 0.20};
+
+TEST(ConvexRegion, HalfPlanesOfASquareEitherOrientation) {
+  const std::vector<Vector2d> ccw{{0, 0}, {2, 0}, {2, 1}, {0, 1}};
+  const std::vector<Vector2d> cw(ccw.rbegin(), ccw.rend());
+  for (const auto& v : {ccw, cw}) {
+    const ConvexRegion r = ConvexRegion::fromPolygon(v, 0.3);
+    ASSERT_EQ(r.A.rows(), 4);
+    for (int k = 0; k < 4; ++k) EXPECT_NEAR(r.A.row(k).norm(), 1.0, 1e-15);
+    EXPECT_NEAR(r.margin({1.0, 0.5}), 0.5, 1e-12);
+    EXPECT_NEAR(r.margin({1.9, 0.5}), 0.1, 1e-12);
+    EXPECT_NEAR(r.margin({2.5, 0.5}), -0.5, 1e-12);
+    EXPECT_TRUE(r.contains({0.0, 0.0}));
+    EXPECT_FALSE(r.contains({-0.01, 0.5}));
+    EXPECT_NEAR(r.distance({3.0, 2.0}), std::sqrt(2.0), 1e-12);
+    EXPECT_EQ(r.distance({1.0, 0.5}), 0.0);
+    EXPECT_TRUE(r.centroid.isApprox(Vector2d(1.0, 0.5)));
+    // A p + b >= 0 row by row.
+    const Eigen::VectorXd in = r.A * Vector2d(1.0, 0.5) + r.b;
+    EXPECT_GT(in.minCoeff(), 0.0);
+  }
+}
+
+TEST(ConvexRegion, TiltedPlaneHeight) {
+  // A 10 degree ramp rising along +x.
+  const double a = 10.0 * M_PI / 180.0;
+  const Vector3d n(-std::sin(a), 0.0, std::cos(a));
+  const ConvexRegion r =
+      ConvexRegion::fromPolygon({{0, -1}, {2, -1}, {2, 1}, {0, 1}}, 0.5, 2.0 * n);
+  EXPECT_NEAR(r.normal.norm(), 1.0, 1e-15);
+  EXPECT_NEAR(r.heightAt({1.0, 0.3}), 0.5, 1e-12);
+  EXPECT_NEAR(r.heightAt({2.0, 0.0}), 0.5 + std::tan(a), 1e-12);
+  EXPECT_NEAR(r.heightAt({0.0, 0.0}), 0.5 - std::tan(a), 1e-12);
+}
+
+TEST(ConvexRegion, BadPolygonsThrow) {
+  expectThrowsNaming([] { ConvexRegion::fromPolygon({}, 0.0); }, "vertices.size() = 0");
+  expectThrowsNaming(
+      [] {
+        ConvexRegion::fromPolygon({{0, 0}, {1, 0}}, 0.0);
+      },
+      "vertices.size() = 2");
+  // An L shape: non-convex at the reflex corner (1, 1).
+  expectThrowsNaming(
+      [] {
+        ConvexRegion::fromPolygon({{0, 0}, {2, 0}, {2, 1}, {1, 1}, {1, 2}, {0, 2}}, 0.0);
+      },
+      "not convex");
+  // A pentagram winds twice.
+  std::vector<Vector2d> star;
+  for (int k = 0; k < 5; ++k) {
+    const double t = 2.0 * M_PI * (2 * k) / 5.0;
+    star.emplace_back(std::cos(t), std::sin(t));
+  }
+  expectThrowsNaming([&] { ConvexRegion::fromPolygon(star, 0.0); }, "not convex");
+  const std::vector<Vector2d> sq{{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+  expectThrowsNaming([&] { ConvexRegion::fromPolygon(sq, 0.0, Vector3d::Zero()); },
+                     "normal = (0, 0, 0)");
+  expectThrowsNaming([&] { ConvexRegion::fromPolygon(sq, 0.0, Vector3d(1, 0, 0)); }, "normal");
+  expectThrowsNaming([&] { ConvexRegion::fromPolygon(sq, std::nan("")); }, "height = nan");
+  expectThrowsNaming(
+      [] {
+        ConvexRegion::fromPolygon({{0, 0}, {1, 0}, {NAN, 1}}, 0.0);
+      },
+      "vertices[2]");
+  expectThrowsNaming(
+      [] {
+        ConvexRegion::fromPolygon({{0, 0}, {1, 0}, {1, 0}, {0, 1}}, 0.0);
+      },
+      "vertices[2]");
+  expectThrowsNaming([] { ConvexRegion::fromPolygon({{0, 0}, {1, 0}, {2, 0}}, 0.0); }, "zero area");
+}
+
+TEST(TerrainModel, FlatFloorIsOneRegion) {
+  const TerrainModel t = terrainFromBoxes(kFloor, 0.0, {});
+  ASSERT_EQ(t.size(), 1);
+  EXPECT_EQ(t.regionAt({0.0, 0.0}), 0);
+  EXPECT_EQ(t.heightAt({3.0, -1.0}), 0.0);
+  EXPECT_TRUE(t.region(0).normal.isApprox(Vector3d::UnitZ()));
+  EXPECT_EQ(t.classifySwing({0, 0}, {0.3, 0}), SwingDirection::Level);
+  EXPECT_EQ(t.swingRegion({0, 0}, {0.3, 0}), -1);
+  // Outside the floor: the nearest region.
+  EXPECT_EQ(t.regionAt({20.0, 0.0}), 0);
+  EXPECT_EQ(TerrainModel().regionAt({0, 0}), -1);
+  EXPECT_EQ(TerrainModel().heightAt({0, 0}, -7.0), -7.0);
+}
+
+TEST(TerrainModel, Step20Block) {
+  const TerrainModel t = terrainFromBoxes(kFloor, 0.0, {kStep20});
+  ASSERT_EQ(t.size(), 3);  // floor before, block top, floor after
+  const int before = t.regionAt({0.0, 0.0});
+  const int block = t.regionAt({1.6, 0.5});
+  const int after = t.regionAt({3.0, -0.5});
+  EXPECT_NE(before, block);
+  EXPECT_NE(after, block);
+  EXPECT_NE(before, after);
+  EXPECT_DOUBLE_EQ(t.region(block).height, 0.20);
+  EXPECT_DOUBLE_EQ(t.heightAt({1.6, 0.5}), 0.20);
+  EXPECT_DOUBLE_EQ(t.heightAt({0.5, 0.5}), 0.0);
+  // Near the edge at x = 1.0: each side gets its own region.
+  EXPECT_EQ(t.regionAt({0.99, 0.0}), before);
+  EXPECT_EQ(t.regionAt({1.01, 0.0}), block);
+  EXPECT_EQ(t.regionAt({2.19, 0.0}), block);
+  EXPECT_EQ(t.regionAt({2.21, 0.0}), after);
+  // On the edge itself both contain the point: the higher surface wins.
+  EXPECT_EQ(t.regionAt({1.0, 0.0}), block);
+  // The block region's half-planes: its front edge row is x >= 1.0.
+  EXPECT_NEAR(t.region(block).margin({1.05, 0.0}), 0.05, 1e-12);
+  for (const auto& r : t.regions()) EXPECT_TRUE(r.normal.isApprox(Vector3d::UnitZ()));
+  // Up the front edge, down the back edge, level on top.
+  EXPECT_EQ(t.classifySwing({0.85, 0.2}, {1.15, 0.2}), SwingDirection::Ascending);
+  EXPECT_EQ(t.swingRegion({0.85, 0.2}, {1.15, 0.2}), before);
+  EXPECT_EQ(t.classifySwing({2.05, 0.2}, {2.35, 0.2}), SwingDirection::Descending);
+  EXPECT_EQ(t.swingRegion({2.05, 0.2}, {2.35, 0.2}), after);
+  EXPECT_EQ(t.classifySwing({1.2, 0.2}, {1.5, 0.2}), SwingDirection::Level);
+}
+
+TEST(TerrainModel, MarginKeepsFeetOffTheEdgeAndGapsGoToTheNearest) {
+  const TerrainModel t = terrainFromBoxes(kFloor, 0.0, {kStep20}, 0.05);
+  const int block = t.regionAt({1.6, 0.0});
+  EXPECT_NEAR(t.region(block).margin({1.05, 0.0}), 0.0, 1e-12);
+  // 2 cm before the edge: in the gap of the floor's shrunk region (3 cm away) and the
+  // block's (7 cm): the floor.
+  const int near = t.regionAt({0.98, 0.0});
+  EXPECT_DOUBLE_EQ(t.region(near).height, 0.0);
+  EXPECT_FALSE(t.region(near).contains({0.98, 0.0}));
+  EXPECT_EQ(t.regionAt({1.04, 0.0}), block);
+  expectThrowsNaming([] { terrainFromBoxes(kFloor, 0.0, {kStep20}, 0.7); }, "margin = 0.7");
+}
+
+TEST(TerrainModel, Stairs2AndPartialWidthBoxes) {
+  // stairs2: 0.20 m rise at x = 1, 1.2 m landing, 0.165 m rise onto a 1.5 m top.
+  const TerrainModel t =
+      terrainFromBoxes(kFloor, 0.0, {{1.0, 4.7, -1.5, 1.5, 0.20}, {2.2, 3.7, -1.5, 1.5, 0.365}});
+  EXPECT_EQ(t.size(), 5);  // floor, 0.20, 0.365, 0.20, floor
+  EXPECT_DOUBLE_EQ(t.heightAt({0.5, 0}), 0.0);
+  EXPECT_DOUBLE_EQ(t.heightAt({1.5, 0}), 0.20);
+  EXPECT_DOUBLE_EQ(t.heightAt({3.0, 0}), 0.365);
+  EXPECT_DOUBLE_EQ(t.heightAt({4.0, 0}), 0.20);
+  EXPECT_EQ(t.classifySwing({2.1, 0}, {2.3, 0}), SwingDirection::Ascending);
+  EXPECT_EQ(t.classifySwing({3.6, 0}, {3.8, 0}), SwingDirection::Descending);
+  // A box narrower than the floor: the floor around it is cut into convex pieces that
+  // cover every floor point exactly once.
+  const TerrainModel u = terrainFromBoxes(kFloor, 0.0, {{1.0, 2.0, -0.5, 0.5, 0.1}});
+  EXPECT_EQ(u.size(), 5);
+  // A grid that avoids the cut lines (points on them belong to both sides).
+  for (int i = 0; i < 150; ++i) {
+    for (int j = 0; j < 30; ++j) {
+      const double x = -4.95 + 0.1 * i, y = -1.45 + 0.1 * j;
+      int containing = 0;
+      for (const auto& r : u.regions()) containing += r.margin({x, y}) > 1e-9 ? 1 : 0;
+      const bool on_box = x > 1.0 && x < 2.0 && y > -0.5 && y < 0.5;
+      EXPECT_LE(containing, 1);
+      EXPECT_DOUBLE_EQ(u.heightAt({x, y}), on_box ? 0.1 : 0.0) << x << " " << y;
+    }
+  }
+}
+
+TEST(TerrainModel, BadBoxesThrow) {
+  expectThrowsNaming([] { terrainFromBoxes({0, 0, -1, 1, 0}, 0.0, {}); }, "floor.x_max = 0");
+  expectThrowsNaming([] { terrainFromBoxes(kFloor, NAN, {}); }, "floor.top = nan");
+  expectThrowsNaming(
+      [] {
+        terrainFromBoxes(kFloor, 0.0, {kStep20, {1, 2, 1, -1, 0.1}});
+      },
+      "boxes[1].y_max = -1");
+  expectThrowsNaming(
+      [] {
+        terrainFromBoxes(kFloor, 0.0, {{1, 2, -1, 1, INFINITY}});
+      },
+      "boxes[0].top = inf");
+  expectThrowsNaming([] { terrainFromBoxes(kFloor, 0.0, {}, -0.1); }, "margin = -0.1");
+}
+
+TEST(TerrainModel, QueriesDoNotAllocate) {
+  const TerrainModel t = terrainFromBoxes(kFloor, 0.0, {kStep20}, 0.02);
+  rollstep::test::AllocationGuard guard;
+  double sum = 0.0;
+  for (double x = -1.0; x < 4.0; x += 0.01) {
+    sum += t.heightAt({x, 0.1});
+    sum += t.swingRegion({x, 0.0}, {x + 0.3, 0.0});
+    sum += static_cast<int>(t.classifySwing({x, 0.0}, {x + 0.3, 0.0}));
+  }
+  EXPECT_EQ(guard.count(), 0u);
+  EXPECT_NE(sum, 0.0);  // the queries ran
+}
+
+}  // namespace
