@@ -1,0 +1,151 @@
+// Base reference: straight, turning and climbing; the pose on SE(3) against the
+// integrated body-frame command; heights following the terrain; bad input; no
+// allocation.
+#include "rollstep/planning/base_reference.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include "common/alloc_counter.hpp"
+#include "rollstep/lie/se3.hpp"
+
+namespace {
+
+using Eigen::Vector2d;
+using Eigen::Vector3d;
+using namespace rollstep;
+using planning::BaseReference;
+using planning::BaseReferenceConfig;
+using planning::BaseVelocityCommand;
+
+const planning::TerrainBox kFloor{-5.0, 10.0, -3.0, 3.0, 0.0};
+
+double yawOf(const lie::SE3& x) {
+  const Eigen::Matrix3d r = x.rotation.toRotationMatrix();
+  return std::atan2(r(1, 0), r(0, 0));
+}
+
+lie::SE3 startPose(double x, double y, double yaw) {
+  return lie::SE3(Vector3d(x, y, 0.9),
+                  Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Vector3d::UnitZ())) *
+                      Eigen::Quaterniond(Eigen::AngleAxisd(0.2, Vector3d::UnitX())));
+}
+
+TEST(BaseReference, StraightAlongTheHeading) {
+  const planning::TerrainModel flat = planning::terrainFromBoxes(kFloor, 0.05, {});
+  BaseReference ref(flat, {0.375, {Vector2d::Zero()}});
+  const double yaw = 0.4;
+  ref.reset(2.0, startPose(1.0, -0.5, yaw), {0.5, 0.0, 0.0});
+  for (double t : {2.0, 2.7, 4.0}) {
+    const lie::SE3 p = ref.poseAt(t);
+    const double s = 0.5 * (t - 2.0);
+    EXPECT_NEAR(p.translation.x(), 1.0 + s * std::cos(yaw), 1e-12);
+    EXPECT_NEAR(p.translation.y(), -0.5 + s * std::sin(yaw), 1e-12);
+    EXPECT_NEAR(p.translation.z(), 0.05 + 0.375, 1e-12);
+    // Roll and pitch of the start are dropped; the yaw is kept.
+    EXPECT_TRUE(
+        p.rotation.isApprox(Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Vector3d::UnitZ())), 1e-12));
+  }
+  // Lateral command: moves along the body's y.
+  ref.reset(0.0, startPose(0.0, 0.0, M_PI / 2), {0.0, 0.2, 0.0});
+  EXPECT_TRUE(ref.poseAt(1.0).translation.head<2>().isApprox(Vector2d(-0.2, 0.0), 1e-12));
+  EXPECT_TRUE(ref.twist().isApprox((lie::Vector6d() << 0, 0.2, 0, 0, 0, 0).finished()));
+}
+
+TEST(BaseReference, TurningFollowsACircleAndMatchesIntegration) {
+  const planning::TerrainModel flat = planning::terrainFromBoxes(kFloor, 0.0, {});
+  BaseReference ref(flat, {0.375, {Vector2d::Zero()}});
+  const double v = 0.4, w = 0.5;
+  ref.reset(0.0, startPose(0.0, 0.0, 0.0), {v, 0.0, w});
+  // Circle of radius v / w centred at (0, v / w).
+  const double radius = v / w;
+  for (double t = 0.0; t < 10.0; t += 0.37) {
+    const lie::SE3 p = ref.poseAt(t);
+    EXPECT_NEAR(p.translation.x(), radius * std::sin(w * t), 1e-12);
+    EXPECT_NEAR(p.translation.y(), radius * (1.0 - std::cos(w * t)), 1e-12);
+    EXPECT_NEAR(std::remainder(yawOf(p) - w * t, 2 * M_PI), 0.0, 1e-12);
+  }
+  // Against explicit integration of the body-frame command in small steps on SE(3).
+  lie::SE3 x = ref.planarPoseAt(0.0);
+  const double h = 1e-3;
+  for (int k = 0; k < 3000; ++k) x = lie::plus(x, h * ref.twist());
+  EXPECT_TRUE(x.isApprox(ref.planarPoseAt(3.0), 1e-9));
+  // The world velocity is the body command rotated by the yaw.
+  const double t = 2.3, e = 1e-6;
+  const Vector3d vel = (ref.poseAt(t + e).translation - ref.poseAt(t - e).translation) / (2 * e);
+  const Vector3d body = ref.poseAt(t).rotation.conjugate() * vel;
+  EXPECT_NEAR(body.x(), v, 1e-7);
+  EXPECT_NEAR(body.y(), 0.0, 1e-7);
+}
+
+TEST(BaseReference, ClimbingFollowsTheTerrain) {
+  const planning::TerrainModel step =
+      planning::terrainFromBoxes(kFloor, 0.0, {{1.0, 2.2, -3.0, 3.0, 0.20}});
+  // Under the base only: the height steps at the edge.
+  BaseReference centre(step, {0.375, {Vector2d::Zero()}});
+  centre.reset(0.0, startPose(0.0, 0.0, 0.0), {0.5, 0.0, 0.0});
+  EXPECT_NEAR(centre.poseAt(1.9).translation.z(), 0.375, 1e-12);  // x = 0.95
+  EXPECT_NEAR(centre.poseAt(2.1).translation.z(), 0.575, 1e-12);  // x = 1.05
+  EXPECT_NEAR(centre.poseAt(4.5).translation.z(), 0.375, 1e-12);  // x = 2.25, off the block
+  // Under six nominal feet (the test plays the robot: rows at x = +-0.33, y = 0, +-0.22):
+  // the height rises by half the step per row that crosses the edge.
+  BaseReferenceConfig feet{
+      0.375,
+      {{0.33, 0.22}, {0.33, 0.0}, {0.33, -0.22}, {-0.33, 0.22}, {-0.33, 0.0}, {-0.33, -0.22}}};
+  BaseReference avg(step, feet);
+  avg.reset(0.0, startPose(0.0, 0.0, 0.0), {0.5, 0.0, 0.0});
+  EXPECT_NEAR(avg.poseAt(1.0).translation.z(), 0.375, 1e-12);        // x = 0.5: none on it
+  EXPECT_NEAR(avg.poseAt(1.6).translation.z(), 0.375 + 0.1, 1e-12);  // x = 0.8: front row
+  EXPECT_NEAR(avg.poseAt(3.0).translation.z(), 0.575, 1e-12);        // x = 1.5: all
+  EXPECT_NEAR(avg.poseAt(3.8).translation.z(), 0.375 + 0.1, 1e-12);  // x = 1.9: rear row
+  // Monotone up while climbing.
+  double prev = -1.0;
+  for (double t = 0.0; t < 3.0; t += 0.01) {
+    const double z = avg.poseAt(t).translation.z();
+    EXPECT_GE(z, prev);
+    prev = z;
+  }
+  EXPECT_TRUE(avg.worldPoint({0.33, 0.22}, 2.0).isApprox(Vector2d(1.33, 0.22), 1e-12));
+}
+
+TEST(BaseReference, BadInputThrowsNamingTheParameter) {
+  const planning::TerrainModel flat = planning::terrainFromBoxes(kFloor, 0.0, {});
+  auto expectNaming = [](auto f, const std::string& what) {
+    try {
+      f();
+      ADD_FAILURE() << "no exception, expected " << what;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
+    }
+  };
+  expectNaming([&] { BaseReference(flat, {NAN, {Vector2d::Zero()}}); }, "nominal_height = nan");
+  expectNaming([&] { BaseReference(flat, {0.3, {}}); }, "height_samples.size() = 0");
+  expectNaming(
+      [&] {
+        BaseReference(flat, {0.3, {Vector2d(0, INFINITY)}});
+      },
+      "height_samples[0].y = inf");
+  BaseReference ref(flat, {0.3, {Vector2d::Zero()}});
+  expectNaming([&] { ref.reset(0.0, lie::SE3(), {NAN, 0, 0}); }, "command.v_x = nan");
+  expectNaming([&] { ref.reset(0.0, lie::SE3(), {0, 0, INFINITY}); }, "command.yaw_rate = inf");
+  expectNaming([&] { ref.reset(NAN, lie::SE3(), {}); }, "t0 = nan");
+}
+
+TEST(BaseReference, QueriesDoNotAllocate) {
+  const planning::TerrainModel step =
+      planning::terrainFromBoxes(kFloor, 0.0, {{1.0, 2.2, -3.0, 3.0, 0.20}});
+  BaseReference ref(step, {0.375, {{0.33, 0.0}, {-0.33, 0.0}}});
+  test::AllocationGuard guard;
+  double sum = 0.0;
+  for (int k = 0; k <= 100; ++k) {
+    ref.reset(0.01 * k, startPose(0.0, 0.0, 0.1), {0.5, 0.0, 0.1});
+    sum += ref.poseAt(0.015 * k).translation.z() + ref.worldPoint({0.3, 0.2}, 0.1).x();
+  }
+  EXPECT_EQ(guard.count(), 0u);
+  EXPECT_GT(sum, 0.0);
+}
+
+}  // namespace
