@@ -1,0 +1,75 @@
+#pragma once
+// Everything an OCP term asks about one foot at one node, in one query: stance or swing
+// (from the node's ModeSchedule, mode id = contact mask), the swing's lift-off and
+// touch-down times and phase, the swing height reference z_ref(t), z_dot_ref(t), the
+// convex region constraining a stance foot, and for a swing whether it ascends or
+// descends, which region avoids collisions and whether that constraint is on at t.
+//
+// Footholds are nominal: the robot-specific body-frame foot positions (an argument)
+// placed by the base reference at the time in question; heights come from the terrain
+// under them. Built once (allocates); query() allocates nothing. The terrain and base
+// reference are held by pointer and must outlive the planner.
+#include <Eigen/Core>
+#include <vector>
+
+#include "rollstep/ocp/mode_schedule.hpp"
+#include "rollstep/planning/base_reference.hpp"
+#include "rollstep/planning/contact_schedule.hpp"
+#include "rollstep/planning/swing_trajectory.hpp"
+#include "rollstep/planning/terrain.hpp"
+
+namespace rollstep::planning {
+
+struct FootReferenceConfig {
+  /// Body-frame (x, y) of each foot's nominal contact point [m], in the contact order
+  /// of the mode masks.
+  std::vector<Eigen::Vector2d> nominal_feet;
+  /// Swing apex above the higher end [m].
+  double swing_clearance = 0.0;
+  /// Height of the constrained foot point above the ground contact [m] (e.g. the wheel
+  /// radius when the foot frame is the wheel centre).
+  double foot_height_offset = 0.0;
+  /// Height difference [m] below which a swing counts as level.
+  double level_tolerance = 1e-3;
+};
+
+struct FootReference {
+  FootPhase timing;  ///< stance / swing, lift-off, touch-down, phase
+  /// Stance: the region under the nominal foothold at t. Swing: the touch-down region.
+  int region = -1;
+  SwingDirection direction = SwingDirection::Level;  ///< swing only
+  /// Swing only: the collision-avoidance region (the lower one: lift-off region when
+  /// ascending, touch-down region when descending), -1 on the level.
+  int swing_region = -1;
+  /// Swing only: first half of an ascending swing, second half of a descending one.
+  bool swing_region_active = false;
+  /// Foot point height reference [m] and its rate [m/s] (stance: ground + offset, 0).
+  double z_ref = 0.0;
+  double z_dot_ref = 0.0;
+};
+
+class FootReferencePlanner {
+ public:
+  /// Throws std::invalid_argument naming the bad field (no feet, more than kMaxFeet,
+  /// non-finite positions, negative clearance or tolerance, non-finite offset).
+  FootReferencePlanner(const TerrainModel& terrain, const BaseReference& base,
+                       FootReferenceConfig config);
+
+  int numFeet() const { return static_cast<int>(config_.nominal_feet.size()); }
+  const FootReferenceConfig& config() const { return config_; }
+  /// World (x, y) of foot `foot`'s nominal contact at time t.
+  Eigen::Vector2d nominalFoothold(int foot, double t) const;
+  /// The swing height spline of a swing of `foot` between the given times.
+  SwingHeightSpline swingSpline(int foot, double t_liftoff, double t_touchdown) const;
+  /// Everything about `foot` at time t under `schedule`. A swing whose lift-off or
+  /// touch-down the schedule does not contain holds z_ref at the apex over the current
+  /// nominal foothold, with no swing region.
+  FootReference query(const ocp::ModeSchedule& schedule, int foot, double t) const;
+
+ private:
+  const TerrainModel* terrain_;
+  const BaseReference* base_;
+  FootReferenceConfig config_;
+};
+
+}  // namespace rollstep::planning

@@ -1,0 +1,169 @@
+// The per-node foot query: a paper trot at 0.5 m/s over the step20 block. Stance feet
+// get the region under their nominal foothold; swings crossing the front edge ascend
+// (constrained by the floor region on their first half), swings crossing the back edge
+// descend (floor region on their second half); z_ref / z_dot_ref follow the spline.
+#include "rollstep/planning/foot_reference.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "common/alloc_counter.hpp"
+#include "rollstep/planning/gait.hpp"
+
+namespace {
+
+using Eigen::Vector2d;
+using Eigen::Vector3d;
+using namespace rollstep;
+using planning::SwingDirection;
+
+// The test plays the robot: contact order, nominal feet, heights (robot/tachyon3.md).
+const std::vector<std::string> kFeet{"LF", "MF", "RF", "LR", "MR", "RR"};
+const std::vector<Vector2d> kNominal{{0.33, 0.22},  {0.33, 0.0},  {0.33, -0.22},
+                                     {-0.33, 0.22}, {-0.33, 0.0}, {-0.33, -0.22}};
+constexpr double kWheelRadius = 0.075, kClearance = 0.08;
+
+struct Scene {
+  planning::TerrainModel terrain =
+      planning::terrainFromBoxes({-5.0, 10.0, -1.5, 1.5, 0.0}, 0.0, {{1.0, 2.2, -1.5, 1.5, 0.20}});
+  planning::BaseReference base{terrain, {0.375, kNominal}};
+  planning::FootReferencePlanner feet{terrain, base, {kNominal, kClearance, kWheelRadius}};
+  planning::GaitScheduler scheduler{
+      planning::Gait::trot(6, 0.8, 0.6, planning::contactMask(kFeet, {"LF", "RF", "MR"}),
+                           planning::contactMask(kFeet, {"MF", "LR", "RR"})),
+      1.5};
+  ocp::ModeSchedule schedule{scheduler.requiredCapacity()};
+  Scene() { base.reset(0.0, lie::SE3(), {0.5, 0.0, 0.0}); }
+};
+
+TEST(FootReference, TrotOverTheStep) {
+  Scene s;
+  const int floor_before = s.terrain.regionAt({0.0, 0.0});
+  const int floor_after = s.terrain.regionAt({3.0, 0.0});
+  std::vector<int> ascending(6, 0), descending(6, 0);
+  const double dt = 0.005;
+  for (double t0 = 0.0; t0 < 7.0; t0 += 1.5) {
+    s.scheduler.fill(t0, 1.5, s.schedule);
+    for (double t = t0; t < t0 + 1.5; t += dt) {
+      for (int f = 0; f < 6; ++f) {
+        const planning::FootReference r = s.feet.query(s.schedule, f, t);
+        EXPECT_EQ(r.timing.stance, s.scheduler.gait().inStance(f, t));
+        const Vector2d p = s.feet.nominalFoothold(f, t);
+        if (r.timing.stance) {
+          EXPECT_EQ(r.region, s.terrain.regionAt(p));
+          EXPECT_DOUBLE_EQ(r.z_ref, s.terrain.heightAt(p) + kWheelRadius);
+          EXPECT_EQ(r.z_dot_ref, 0.0);
+          continue;
+        }
+        ASSERT_TRUE(r.timing.bounded());
+        EXPECT_NEAR(r.timing.touchdown - r.timing.liftoff, 0.32, 1e-9);
+        const Vector2d p_lo = s.feet.nominalFoothold(f, r.timing.liftoff);
+        const Vector2d p_td = s.feet.nominalFoothold(f, r.timing.touchdown);
+        const double z_lo = s.terrain.heightAt(p_lo), z_td = s.terrain.heightAt(p_td);
+        EXPECT_LE(r.z_ref, std::max(z_lo, z_td) + kWheelRadius + kClearance + 1e-12);
+        EXPECT_GE(r.z_ref, std::min(z_lo, z_td) + kWheelRadius - 1e-12);
+        // z_dot_ref is the rate of z_ref (same swing, away from its ends).
+        if (r.timing.phase > 0.05 && r.timing.phase < 0.95) {
+          const double e = 1e-7;  // small: z'' jumps at the apex
+          const double zp = s.feet.query(s.schedule, f, t + e).z_ref;
+          const double zm = s.feet.query(s.schedule, f, t - e).z_ref;
+          EXPECT_NEAR(r.z_dot_ref, (zp - zm) / (2 * e), 1e-5);
+        }
+        if (p_lo.x() < 1.0 && p_td.x() > 1.0) {
+          ++ascending[static_cast<std::size_t>(f)];
+          EXPECT_EQ(r.direction, SwingDirection::Ascending);
+          EXPECT_EQ(r.swing_region, floor_before);
+          EXPECT_EQ(r.swing_region_active, r.timing.phase <= 0.5);
+          EXPECT_EQ(r.region, s.terrain.regionAt({1.6, 0.0}));  // lands on the block
+        } else if (p_lo.x() < 2.2 && p_td.x() > 2.2) {
+          ++descending[static_cast<std::size_t>(f)];
+          EXPECT_EQ(r.direction, SwingDirection::Descending);
+          EXPECT_EQ(r.swing_region, floor_after);
+          EXPECT_EQ(r.swing_region_active, r.timing.phase >= 0.5);
+          EXPECT_EQ(r.region, floor_after);
+        } else {
+          EXPECT_EQ(r.direction, SwingDirection::Level);
+          EXPECT_EQ(r.swing_region, -1);
+          EXPECT_FALSE(r.swing_region_active);
+        }
+      }
+    }
+  }
+  // Some swings crossed each edge (others roll over it in stance at this phase/speed).
+  int up = 0, down = 0;
+  for (int f = 0; f < 6; ++f) {
+    up += ascending[static_cast<std::size_t>(f)];
+    down += descending[static_cast<std::size_t>(f)];
+  }
+  EXPECT_GT(up, 20);
+  EXPECT_GT(down, 20);
+}
+
+TEST(FootReference, SwingEndsAndApex) {
+  Scene s;
+  s.scheduler.fill(0.0, 1.5, s.schedule);
+  // LF swings on [0.48, 0.8) over flat floor: ends at ground + wheel radius, apex above.
+  const planning::FootReference lo = s.feet.query(s.schedule, 0, 0.48 + 1e-9);
+  const planning::FootReference mid = s.feet.query(s.schedule, 0, 0.64);
+  EXPECT_NEAR(lo.z_ref, kWheelRadius, 1e-6);
+  EXPECT_NEAR(mid.z_ref, kWheelRadius + kClearance, 1e-12);
+  EXPECT_NEAR(mid.timing.phase, 0.5, 1e-12);
+  const planning::SwingHeightSpline sp = s.feet.swingSpline(0, 0.48, 0.8);
+  EXPECT_NEAR(sp.position(0.7), s.feet.query(s.schedule, 0, 0.7).z_ref, 1e-12);
+}
+
+TEST(FootReference, UnknownSwingEndsHoldTheApex) {
+  Scene s;
+  ocp::ModeSchedule ms(4);
+  ms.set({1.0}, {62, 63});  // LF swinging before t = 1 with no known lift-off
+  const planning::FootReference r = s.feet.query(ms, 0, 0.5);
+  EXPECT_FALSE(r.timing.stance);
+  EXPECT_FALSE(r.timing.bounded());
+  EXPECT_DOUBLE_EQ(r.z_ref, kWheelRadius + kClearance);
+  EXPECT_EQ(r.swing_region, -1);
+}
+
+TEST(FootReference, QueriesDoNotAllocate) {
+  Scene s;
+  s.scheduler.fill(1.2, 1.5, s.schedule);
+  test::AllocationGuard guard;
+  double sum = 0.0;
+  for (int k = 0; k <= 100; ++k) {
+    for (int f = 0; f < 6; ++f) sum += s.feet.query(s.schedule, f, 1.2 + 0.015 * k).z_ref;
+  }
+  EXPECT_EQ(guard.count(), 0u);
+  EXPECT_GT(sum, 0.0);
+}
+
+TEST(FootReference, BadConfigThrows) {
+  Scene s;
+  auto expectNaming = [](auto f, const std::string& what) {
+    try {
+      f();
+      ADD_FAILURE() << "no exception, expected " << what;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
+    }
+  };
+  expectNaming(
+      [&] {
+        planning::FootReferencePlanner(s.terrain, s.base, {{}, 0.1, 0.0});
+      },
+      "nominal_feet.size() = 0");
+  expectNaming(
+      [&] {
+        planning::FootReferencePlanner(s.terrain, s.base, {{Vector2d(NAN, 0)}, 0.1, 0.0});
+      },
+      "nominal_feet[0].x = nan");
+  expectNaming(
+      [&] {
+        planning::FootReferencePlanner(s.terrain, s.base, {kNominal, -0.1, 0.0});
+      },
+      "swing_clearance = -0.1");
+}
+
+}  // namespace
