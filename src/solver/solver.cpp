@@ -139,7 +139,9 @@ void checkSettings(const SolverSettings& s) {
     if (!ok) throw std::invalid_argument(std::string("SolverSettings: ") + what);
   };
   const auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
-  require(s.max_iterations >= 1, "max_iterations must be >= 1");
+  // Upper bounds: a typo must not reach the solver (20000 threads, a 1e9-entry reserve).
+  require(s.max_iterations >= 1 && s.max_iterations <= 1000000,
+          "max_iterations must be in [1, 1000000]");
   require(positive(s.kkt_tolerance), "kkt_tolerance must be finite and > 0");
   require(positive(s.barrier_initial), "barrier_initial must be finite and > 0");
   require(positive(s.barrier_min), "barrier_min must be finite and > 0");
@@ -149,14 +151,17 @@ void checkSettings(const SolverSettings& s) {
   require(positive(s.barrier_realtime), "barrier_realtime must be finite and > 0");
   require(s.fraction_to_boundary > 0.0 && s.fraction_to_boundary < 1.0,
           "fraction_to_boundary must be in (0, 1)");
-  require(s.max_line_search_steps >= 1, "max_line_search_steps must be >= 1");
+  require(s.max_line_search_steps >= 1 && s.max_line_search_steps <= 1000,
+          "max_line_search_steps must be in [1, 1000]");
   require(s.rank_tolerance >= 0.0 && s.rank_tolerance < 1.0, "rank_tolerance must be in [0, 1)");
-  require(s.num_threads >= 1, "num_threads must be >= 1");
-  require(s.thread_spin_us >= 0, "thread_spin_us must be >= 0");
+  require(s.num_threads >= 1 && s.num_threads <= 256, "num_threads must be in [1, 256]");
+  require(s.thread_spin_us >= 0 && s.thread_spin_us <= 1000000,
+          "thread_spin_us must be in [0, 1000000]");
   require(s.divergence_threshold > 0.0, "divergence_threshold must be > 0 (inf: never)");
   require(s.infeasibility_tolerance >= 0.0, "infeasibility_tolerance must be >= 0 (inf: never)");
   require(positive(s.acceptable_tolerance), "acceptable_tolerance must be finite and > 0");
-  require(s.acceptable_iterations >= 1, "acceptable_iterations must be >= 1");
+  require(s.acceptable_iterations >= 1 && s.acceptable_iterations <= 1000000,
+          "acceptable_iterations must be in [1, 1000000]");
 }
 
 Solver::Solver(std::shared_ptr<ocp::OptimalControlProblem> problem, SolverSettings settings) {
