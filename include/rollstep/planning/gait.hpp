@@ -3,8 +3,8 @@
 //
 // Mode convention (binding for the planning and centroidal layers): a contact mode id is
 // a contact mask, bit i set <=> foot i is in stance. Foot indices are the order of the
-// robot's contact list given by the caller (for Tachyon 3, robots/tachyon3 lists
-// LF MF RF LR MR RR -> bits 0..5, so "all six in stance" is mode 63); the library never
+// robot's contact list given by the caller (for Tachyon 3 in the order LF MF RF LR MR RR
+// of robot/tachyon3.md, bits 0..5, "all six in stance" is mode 63); the library never
 // assumes a robot. The same id is what ocp::ModeSchedule stores and what the OCP's
 // NodeContext.mode carries, so a term reads its contact flags with inContact(mode, i).
 //
