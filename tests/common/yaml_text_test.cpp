@@ -69,5 +69,19 @@ TEST(YamlTextHazard, LeavesWellFormedYamlAlone) {
   EXPECT_GE(files, 1);
 }
 
+TEST(YamlTextHazard, FlowNestingDeeperThan64LevelsIsRefusedInLinearTime) {
+  // 100,000 '[' took libyaml 30 s (quadratic); refused at once, naming the line.
+  const std::string deep = "a: 1\nb: " + std::string(100000, '[') + "\n";
+  EXPECT_EQ(yamlTextHazard(deep).rfind("line 2: flow collections nested deeper than 64", 0), 0u)
+      << yamlTextHazard(deep);
+  // 64 levels are fine (the YAML is then judged by libyaml: unclosed here).
+  const std::string ok = "a: " + std::string(64, '[') + std::string(64, ']') + "\n";
+  EXPECT_EQ(yamlTextHazard(ok), "");
+  // Brackets inside quoted scalars and comments do not count.
+  const std::string quoted = "a: '" + std::string(100, '[') + "'\nb: \"" + std::string(100, '{') +
+                             "\"  # " + std::string(100, '[') + "\n";
+  EXPECT_EQ(yamlTextHazard(quoted), "");
+}
+
 }  // namespace
 }  // namespace rollstep
