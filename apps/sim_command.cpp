@@ -25,6 +25,7 @@
 #include <system_error>
 
 #include "commands.hpp"
+#include "rollstep/common/number_text.hpp"
 #include "rollstep/common/text_file.hpp"
 #include "rollstep/sim/plant.hpp"
 #include "rollstep/sim/scenario.hpp"
@@ -49,19 +50,7 @@ struct SimOptions {
   std::string robot;
 };
 
-/// The shortest decimal text of v that reads back exactly.
-std::string numberText(double v) {
-  char buf[32];
-  if (v == std::floor(v) && std::abs(v) < 1e15) {
-    std::snprintf(buf, sizeof buf, "%.0f", v);
-    return buf;
-  }
-  for (int digits = 1; digits <= 17; ++digits) {
-    std::snprintf(buf, sizeof buf, "%.*g", digits, v);
-    if (std::strtod(buf, nullptr) == v) break;
-  }
-  return buf;
-}
+std::string numberText(double v) { return shortestNumberText(v); }
 
 /// Strict decimal number: [+-]digits[.digits][(e|E)[+-]digits] (also ".5", "5."); no
 /// hexadecimal, no spaces, no trailing text. nan/inf are recognised only to be refused.

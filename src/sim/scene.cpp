@@ -13,6 +13,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "rollstep/common/number_text.hpp"
 #include "rollstep/common/text_file.hpp"
 #include "rollstep/common/yaml_text.hpp"
 
@@ -60,21 +61,7 @@ const std::array<SceneField, kNumSceneFields> kSceneFields{{
     {"step2_length", &SceneConfig::step2_length, "m", 0.01, 50.0, "stairs2 top landing"},
 }};
 
-/// The shortest decimal text that reads back as exactly v.
-std::string numberText(double v) {
-  if (std::isnan(v)) return "nan";
-  if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
-  char buf[32];
-  if (v == std::floor(v) && std::abs(v) < 1e15) {
-    std::snprintf(buf, sizeof buf, "%.0f", v);
-    return buf;
-  }
-  for (int digits = 1; digits <= 17; ++digits) {
-    std::snprintf(buf, sizeof buf, "%.*g", digits, v);
-    if (std::strtod(buf, nullptr) == v) break;
-  }
-  return buf;
-}
+std::string numberText(double v) { return shortestNumberText(v); }
 
 std::string withUnit(double v, const SceneField& f) {
   return numberText(v) + (*f.unit ? std::string(" ") + f.unit : std::string());

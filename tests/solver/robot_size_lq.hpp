@@ -6,6 +6,7 @@
 #include <memory>
 #include <random>
 
+#include "lq_problems.hpp"
 #include "rollstep/ocp/cost.hpp"
 #include "rollstep/ocp/problem.hpp"
 #include "rollstep/ocp/residuals.hpp"
@@ -18,13 +19,7 @@ using ocp::VectorXd;
 
 constexpr int kNx = 24, kNu = 30, kN = 100, kNe = 15, kNbu = 30, kNbx = 12, kNg = 16;
 
-inline MatrixXd randn(int r, int c, std::mt19937& rng, double s) {
-  std::normal_distribution<double> n(0.0, s);
-  MatrixXd m(r, c);
-  for (int j = 0; j < c; ++j)
-    for (int i = 0; i < r; ++i) m(i, j) = n(rng);
-  return m;
-}
+using lqtest::randn;
 
 struct Data {
   MatrixXd A, B, Cx, Cu, Ex, Eu, Gx, Gu;
