@@ -37,12 +37,12 @@ if(TARGET rollstep_nltest_problems AND IPOPT_FOUND AND NOT TARGET rollstep_nltes
       LIBS rollstep::solver rollstep_nltest_ipopt
       LABELS solver)
     # Issue 17: problems with many active bounds, two starts, default settings and
-    # Gauss-Newton, against Ipopt from the same start. Label `ipopt` as well: single-threaded
-    # solves, so the ThreadSanitizer tree leaves them out (scripts/sanitize).
+    # Gauss-Newton, against Ipopt from the same start (single-threaded solves: the
+    # ThreadSanitizer tree leaves them out, scripts/sanitize).
     rollstep_add_test(nonlinear_robustness_test
       SOURCES ${_nl_dir}/nonlinear_robustness_test.cpp
       LIBS rollstep::solver rollstep_nltest_ipopt
-      LABELS solver ipopt)
+      LABELS solver)
     rollstep_add_test(nonlinear_realtime_test
       SOURCES ${_nl_dir}/nonlinear_realtime_test.cpp
       LIBS rollstep::solver rollstep_nltest_problems
