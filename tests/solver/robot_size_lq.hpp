@@ -44,8 +44,8 @@ inline Data makeData() {
   d.Eu = randn(kNe, kNu, rng, 0.3);
   d.Eu.leftCols(kNe) += MatrixXd::Identity(kNe, kNe);
   d.e = randn(kNe, 1, rng, 0.05);
-  d.Gx = randn(kNg, kNx, rng, 0.3);
-  d.Gu = randn(kNg, kNu, rng, 0.3);
+  d.Gx = randn(kNg, kNx, rng, 0.1);
+  d.Gu = randn(kNg, kNu, rng, 0.1);
   d.g = VectorXd::Constant(kNg, 2.0);
   d.x0 = randn(kNx, 1, rng, 0.1);
   return d;
