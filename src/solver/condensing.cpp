@@ -35,7 +35,7 @@ void Solver::Impl::condenseNode(int k) {
   for (int i = 0; i < d.ni; ++i) {
     if (n.kind(i) == kHard) {
       n.W(i) = n.z(i) / n.s(i);
-      n.gam(i) = n.W(i) * (n.c(i) - n.s(i)) - target(n, i) / n.s(i);
+      n.gam(i) = hardRowGradient(n, i, n.W(i));
       n.soft_dual(i) = 0.0;
     } else if (n.kind(i) == kInactive) {  // state-only row at node 0
       n.W(i) = 0.0;
@@ -75,7 +75,7 @@ void Solver::Impl::condenseNode(int k) {
     double W = 0.0, gam = 0.0;
     if (n.kind(i) == kHard) {
       W = n.z(i) / n.s(i);
-      gam = W * (n.c(i) - n.s(i)) - target(n, i) / n.s(i);
+      gam = hardRowGradient(n, i, W);
     } else {
       double d1 = 0.0, d2 = 0.0;
       relaxedLog(n.c(i), relaxation(n, i), d1, d2);
@@ -107,7 +107,7 @@ void Solver::Impl::condenseGradient(int k) {
   st.q = d.lx;
   if (running) st.r = d.lu;
   for (int i = 0; i < d.ni; ++i) {
-    n.gam(i) = n.kind(i) == kHard ? n.W(i) * (n.c(i) - n.s(i)) - target(n, i) / n.s(i) : 0.0;
+    n.gam(i) = n.kind(i) == kHard ? hardRowGradient(n, i, n.W(i)) : 0.0;
   }
   if (d.ni > 0) {
     st.q.noalias() += d.Gx.topRows(d.ni).transpose() * n.gam.head(d.ni);
@@ -117,7 +117,7 @@ void Solver::Impl::condenseGradient(int k) {
     if (n.kind(i) != kHard) continue;
     const auto [input, lower, idx] = bound_rows[static_cast<std::size_t>(i - ni_max)];
     const double W = n.z(i) / n.s(i);
-    const double gam = W * (n.c(i) - n.s(i)) - target(n, i) / n.s(i);
+    const double gam = hardRowGradient(n, i, W);
     (input ? st.r(idx) : st.q(idx)) += lower ? gam : -gam;
   }
 }
@@ -191,14 +191,14 @@ Solver::Impl::Factorization Solver::Impl::condenseAndFactor() {
 /// negative curvature, a non-convex cost): delta I is added to the Hessian, delta grown
 /// until the Riccati factorisation succeeds unregularised. If even a large shift fails
 /// and the curvature was added, Gauss-Newton as a last resort. Returns whether the KKT
-/// system is factorised; corrected tells whether a shift was needed.
-bool Solver::Impl::correctInertia(bool factored) {
-  corrected = false;
+/// system is factorised; `shifted` tells whether a shift was needed.
+bool Solver::Impl::correctInertia(bool factored, bool& shifted) {
+  shifted = false;
   if (factored && lq.regularization() == 0.0) {
     last_delta = 0.0;
     return true;
   }
-  corrected = true;
+  shifted = true;
   double delta = last_delta > 0.0 ? std::max(1e-8, last_delta / 3.0) : 1e-4;
   delta = std::max(delta, 2.0 * prox);
   factored = false;

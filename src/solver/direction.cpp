@@ -34,8 +34,9 @@ bool Solver::Impl::searchDirection(bool realtime, double primal, IterationStats&
     status = SolverStatus::RankDeficientEqualities;
     return false;
   }
-  const bool factored = correctInertia(fac == Factorization::Ok);
-  it.inertia_shift = corrected ? last_delta : 0.0;
+  bool shifted = false;
+  const bool factored = correctInertia(fac == Factorization::Ok, shifted);
+  it.inertia_shift = shifted ? last_delta : 0.0;
   if (!factored) {
     direction_ready = false;
     failed_node = lq.failedStage();
@@ -51,7 +52,7 @@ bool Solver::Impl::searchDirection(bool realtime, double primal, IterationStats&
     status = SolverStatus::Diverged;
     return false;
   }
-  if (pc_active && corrected) {
+  if (pc_active && shifted) {
     // Not convex: the predictor-corrector is for convex QPs; the monotone barrier and the
     // line search from here on, this direction re-solved for the barrier mu.
     pc_active = false;

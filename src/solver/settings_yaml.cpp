@@ -70,24 +70,23 @@ std::string numberText(double v) {
   return buf;
 }
 
-/// Sanity ranges of the integer fields, beyond checkSettings's lower bounds: a typo such as
-/// num_threads: 20000 must not reach the solver (it would start 20000 threads).
+/// The ranges checkSettings enforces on the integer fields (solver.hpp), by key, so that a
+/// refusal names the value the file gave and the range.
 struct IntRange {
   const char* key;
-  int min;
-  int max;
+  IntSettingRange range;
 };
 constexpr std::array<IntRange, 5> kIntRanges{{
-    {"max_iterations", 1, 1000000},
-    {"acceptable_iterations", 1, 1000000},
-    {"max_line_search_steps", 1, 1000},
-    {"num_threads", 1, 256},
-    {"thread_spin_us", 0, 1000000},
+    {"max_iterations", kIterationCountRange},
+    {"acceptable_iterations", kIterationCountRange},
+    {"max_line_search_steps", kLineSearchStepsRange},
+    {"num_threads", kThreadCountRange},
+    {"thread_spin_us", kThreadSpinRange},
 }};
 
-std::optional<IntRange> intRange(const std::string& key) {
+std::optional<IntSettingRange> intRange(const std::string& key) {
   for (const IntRange& r : kIntRanges) {
-    if (key == r.key) return r;
+    if (key == r.key) return r.range;
   }
   return std::nullopt;
 }

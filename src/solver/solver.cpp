@@ -139,9 +139,13 @@ void checkSettings(const SolverSettings& s) {
     if (!ok) throw std::invalid_argument(std::string("SolverSettings: ") + what);
   };
   const auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
-  // Upper bounds: a typo must not reach the solver (20000 threads, a 1e9-entry reserve).
-  require(s.max_iterations >= 1 && s.max_iterations <= 1000000,
-          "max_iterations must be in [1, 1000000]");
+  const auto requireIn = [](int v, IntSettingRange r, const char* name) {
+    if (v < r.min || v > r.max) {
+      throw std::invalid_argument(std::string("SolverSettings: ") + name + " must be in [" +
+                                  std::to_string(r.min) + ", " + std::to_string(r.max) + "]");
+    }
+  };
+  requireIn(s.max_iterations, kIterationCountRange, "max_iterations");
   require(positive(s.kkt_tolerance), "kkt_tolerance must be finite and > 0");
   require(positive(s.barrier_initial), "barrier_initial must be finite and > 0");
   require(positive(s.barrier_min), "barrier_min must be finite and > 0");
@@ -151,17 +155,14 @@ void checkSettings(const SolverSettings& s) {
   require(positive(s.barrier_realtime), "barrier_realtime must be finite and > 0");
   require(s.fraction_to_boundary > 0.0 && s.fraction_to_boundary < 1.0,
           "fraction_to_boundary must be in (0, 1)");
-  require(s.max_line_search_steps >= 1 && s.max_line_search_steps <= 1000,
-          "max_line_search_steps must be in [1, 1000]");
+  requireIn(s.max_line_search_steps, kLineSearchStepsRange, "max_line_search_steps");
   require(s.rank_tolerance >= 0.0 && s.rank_tolerance < 1.0, "rank_tolerance must be in [0, 1)");
-  require(s.num_threads >= 1 && s.num_threads <= 256, "num_threads must be in [1, 256]");
-  require(s.thread_spin_us >= 0 && s.thread_spin_us <= 1000000,
-          "thread_spin_us must be in [0, 1000000]");
+  requireIn(s.num_threads, kThreadCountRange, "num_threads");
+  requireIn(s.thread_spin_us, kThreadSpinRange, "thread_spin_us");
   require(s.divergence_threshold > 0.0, "divergence_threshold must be > 0 (inf: never)");
   require(s.infeasibility_tolerance >= 0.0, "infeasibility_tolerance must be >= 0 (inf: never)");
   require(positive(s.acceptable_tolerance), "acceptable_tolerance must be finite and > 0");
-  require(s.acceptable_iterations >= 1 && s.acceptable_iterations <= 1000000,
-          "acceptable_iterations must be in [1, 1000000]");
+  requireIn(s.acceptable_iterations, kIterationCountRange, "acceptable_iterations");
 }
 
 Solver::Solver(std::shared_ptr<ocp::OptimalControlProblem> problem, SolverSettings settings) {

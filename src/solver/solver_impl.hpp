@@ -170,7 +170,6 @@ struct Solver::Impl {
   bool has_curvature = true;   // the problem has terms with curvature (hasCurvature())
   bool use_curvature = false;  // this iteration adds the constraint curvature (H2)
   double last_delta = 0.0;     // last inertia correction
-  bool corrected = false;      // the last direction needed an inertia correction
   bool pc_active = false;      // this solve uses Mehrotra's predictor-corrector
   bool tiny_step = false;      // the last step was tiny: decrease the barrier
   int acceptable_count = 0;    // consecutive acceptable iterations
@@ -181,6 +180,11 @@ struct Solver::Impl {
   bool corrector = false;
   double target(const Node& n, int i) const {
     return corrector ? target_mu - n.ds_aff(i) * n.dz_aff(i) : target_mu;
+  }
+  /// Condensed gradient of hard row i (W = z / s): with the slack and dual steps
+  /// eliminated, the row adds G^T (W (c - s) - target / s) to the node's gradient.
+  double hardRowGradient(const Node& n, int i, double W) const {
+    return W * (n.c(i) - n.s(i)) - target(n, i) / n.s(i);
   }
   bool has_solution = false;
   bool direction_ready = false;  // the Riccati workspace holds a valid factorisation
@@ -269,7 +273,7 @@ struct Solver::Impl {
   void condenseNode(int k);
   void condenseGradient(int k);
   Factorization condenseAndFactor();
-  bool correctInertia(bool factored);
+  bool correctInertia(bool factored, bool& shifted);
 
   // ---- search direction (direction.cpp) ------------------------------------------------------
   bool searchDirection(bool realtime, double primal, IterationStats& it, Direction& dir);

@@ -20,7 +20,6 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
 #include <map>
 #include <ostream>
 #include <string>
@@ -62,8 +61,7 @@ ProblemInstance makeProblem(const std::string& name) {
 }
 
 /// Success statuses of a converging solve: Converged (the target), or Acceptable (stopped
-/// within acceptable_tolerance; issue 17 adds it). Compared by name so that this file
-/// builds with and without that status.
+/// within acceptable_tolerance, reported as such).
 bool succeeded(SolverStatus s) {
   return s == SolverStatus::Converged || s == SolverStatus::Acceptable;
 }

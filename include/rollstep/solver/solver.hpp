@@ -116,11 +116,20 @@ struct SolverSettings {
   bool predictor_corrector = true;
 };
 
+/// Valid range [min, max] of an integer setting. The upper ends keep a typo from reaching
+/// the solver (20000 threads, a reserve of 1e9 iteration records).
+struct IntSettingRange {
+  int min, max;
+};
+inline constexpr IntSettingRange kIterationCountRange{1, 1000000};  ///< max_/acceptable_iterations
+inline constexpr IntSettingRange kLineSearchStepsRange{1, 1000};    ///< max_line_search_steps
+inline constexpr IntSettingRange kThreadCountRange{1, 256};         ///< num_threads
+inline constexpr IntSettingRange kThreadSpinRange{0, 1000000};      ///< thread_spin_us
+
 /// Checks every field of s: throws std::invalid_argument naming the first bad one
 /// (a non-finite or non-positive tolerance or barrier, barrier_min above barrier_initial,
 /// barrier_decrease or fraction_to_boundary outside (0, 1), rank_tolerance outside [0, 1),
-/// max_iterations or num_threads below 1, negative step or spin counts). The Solver
-/// constructor and setSettings call it.
+/// an integer outside its range above). The Solver constructor and setSettings call it.
 void checkSettings(const SolverSettings& s);
 
 /// How a solve ended. The outputs (states, inputs, duals) are finite after every status;
