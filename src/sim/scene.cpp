@@ -1,8 +1,5 @@
 #include "rollstep/sim/scene.hpp"
 
-#include <yaml-cpp/eventhandler.h>
-#include <yaml-cpp/yaml.h>
-
 #include <algorithm>
 #include <cctype>
 #include <cmath>
@@ -15,7 +12,7 @@
 
 #include "rollstep/common/number_text.hpp"
 #include "rollstep/common/text_file.hpp"
-#include "rollstep/common/yaml_text.hpp"
+#include "rollstep/common/yaml_tree.hpp"
 
 namespace rollstep::sim {
 
@@ -79,23 +76,6 @@ std::string problemWith(const SceneField& f, double v) {
   return {};
 }
 
-/// Counts nothing but remembers where the last document started.
-struct DocumentCounter final : YAML::EventHandler {
-  int last_start_line = 0;
-  void OnDocumentStart(const YAML::Mark& mark) override { last_start_line = mark.line; }
-  void OnDocumentEnd() override {}
-  void OnNull(const YAML::Mark&, YAML::anchor_t) override {}
-  void OnAlias(const YAML::Mark&, YAML::anchor_t) override {}
-  void OnScalar(const YAML::Mark&, const std::string&, YAML::anchor_t,
-                const std::string&) override {}
-  void OnSequenceStart(const YAML::Mark&, const std::string&, YAML::anchor_t,
-                       YAML::EmitterStyle::value) override {}
-  void OnSequenceEnd() override {}
-  void OnMapStart(const YAML::Mark&, const std::string&, YAML::anchor_t,
-                  YAML::EmitterStyle::value) override {}
-  void OnMapEnd() override {}
-};
-
 std::string knownKeys() {
   std::string keys = "scene";
   for (const SceneField& f : kSceneFields) keys += std::string(", ") + f.key;
@@ -155,44 +135,34 @@ SceneConfig parseSceneConfig(const std::string& yaml_text, const std::string& so
   const auto fail = [&](const std::string& what) -> void {
     throw std::runtime_error(where + what);
   };
-  const auto line = [](const YAML::Node& node) {
-    return "line " + std::to_string(node.Mark().line + 1) + ": ";
+  const auto line = [](const yaml::Node& node) {
+    return "line " + std::to_string(node.line()) + ": ";
   };
   SceneConfig config;
   config.source = "scene config '" + source_name + "'";
-  // The same text check as every YAML loader, for what yaml-cpp 0.7 gets wrong.
-  if (const std::string hazard = yamlTextHazard(yaml_text); !hazard.empty()) {
-    fail("YAML error: " + hazard);
-  }
-  // Count the documents with the event parser, reading at most two: yaml-cpp 0.7's
-  // LoadAll loops forever on some malformed input (it keeps reporting empty documents;
-  // fixed upstream in yaml-cpp PR 1319), and one is all a scene config may hold.
-  YAML::Node root;
-  try {
-    std::istringstream stream(yaml_text);
-    YAML::Parser parser(stream);
-    DocumentCounter counter;
-    int documents = 0;
-    while (documents < 2 && parser.HandleNextDocument(counter)) ++documents;
-    if (documents == 0) return config;  // empty file or comments only: all defaults
-    if (documents > 1) {
-      fail("holds more than one YAML document (the second starts on line " +
-           std::to_string(counter.last_start_line + 1) +
-           "); a scene config is one mapping of key: value");
+  // libyaml's parse (yaml_tree.hpp): malformed text and a second document are errors.
+  yaml::Document document = [&]() {
+    try {
+      return yaml::Document::parse(yaml_text);
+    } catch (const yaml::YamlError& e) {
+      const std::string what = e.what();
+      if (what.rfind("holds more than one", 0) == 0) {
+        fail(what + "; a scene config is one mapping of key: value");
+      }
+      fail("YAML error: " + what);
+      throw;  // unreachable: fail throws
     }
-    root = YAML::Load(yaml_text);
-  } catch (const YAML::Exception& e) {
-    fail(std::string("YAML error: ") + e.what());
-  }
-  if (root.IsNull()) return config;
-  if (!root.IsMap()) fail(line(root) + "expected a mapping of key: value");
+  }();
+  const yaml::Node root = document.root();
+  if (root.isNull()) return config;  // empty file or comments only: all defaults
+  if (!root.isMapping()) fail(line(root) + "expected a mapping of key: value");
   std::map<std::string, int> seen;  // key -> line (1-based) where it was first given
-  for (const auto& item : root) {
-    const YAML::Node& key_node = item.first;
-    const YAML::Node& value = item.second;
-    if (!key_node.IsScalar()) fail(line(key_node) + "a key must be a plain name");
-    const std::string key = key_node.Scalar();
-    const int key_line = key_node.Mark().line + 1;
+  for (std::size_t item = 0; item < root.size(); ++item) {
+    const yaml::Node key_node = root.key(item);
+    const yaml::Node value = root.value(item);
+    if (!key_node.isScalar()) fail(line(key_node) + "a key must be a plain name");
+    const std::string key = key_node.scalar();
+    const int key_line = key_node.line();
     const std::string at = line(key_node) + key + ": ";
     const SceneField* field = nullptr;
     for (const SceneField& f : kSceneFields) {
@@ -201,17 +171,15 @@ SceneConfig parseSceneConfig(const std::string& yaml_text, const std::string& so
     if (field == nullptr && key != "scene") {
       fail(line(key_node) + "unknown key '" + key + "' (known: " + knownKeys() + ")");
     }
-    // YAML forbids a repeated key, but yaml-cpp keeps both; the last would win silently.
+    // YAML forbids a repeated key; the last would otherwise win silently.
     if (const auto it = seen.find(key); it != seen.end()) {
       fail(line(key_node) + "key '" + key + "' given twice (first on line " +
            std::to_string(it->second) + ")");
     }
     seen.emplace(key, key_line);
-    if (value.IsNull()) fail(at + "no value");
-    if (!value.IsScalar()) {
-      fail(at + "expected a single value, got a " + (value.IsSequence() ? "list" : "mapping"));
-    }
-    const std::string& text = value.Scalar();
+    if (value.isNull()) fail(at + "no value");
+    if (!value.isScalar()) fail(at + "expected a single value, got " + value.kindName());
+    const std::string& text = value.scalar();
     if (field == nullptr) {  // scene
       try {
         config.kind = sceneKindFromString(text);
@@ -221,10 +189,10 @@ SceneConfig parseSceneConfig(const std::string& yaml_text, const std::string& so
       continue;
     }
     double number = 0.0;
-    if (value.Tag() != "?" || !parseNumber(text, number)) {
-      const std::string why = value.Tag() == "?"   ? ""
-                              : value.Tag() == "!" ? " (it is quoted)"
-                                                   : " (it has the tag " + value.Tag() + ")";
+    if (!value.plain() || !parseNumber(text, number)) {
+      const std::string why = value.plain()         ? ""
+                              : value.tag().empty() ? " (it is quoted)"
+                                                    : " (it has the tag " + value.tag() + ")";
       fail(at + "'" + text + "' is not a number" + why + "; " + rangeText(*field));
     }
     if (!std::isfinite(number)) {

@@ -1,7 +1,5 @@
 #include "rollstep/solver/settings_yaml.hpp"
 
-#include <yaml-cpp/yaml.h>
-
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -13,7 +11,7 @@
 #include <vector>
 
 #include "rollstep/common/text_file.hpp"
-#include "rollstep/common/yaml_text.hpp"
+#include "rollstep/common/yaml_tree.hpp"
 
 namespace rollstep::solver {
 namespace {
@@ -107,58 +105,58 @@ SolverSettings parseSolverSettings(const std::string& yaml_text, const std::stri
     throw std::runtime_error("solver settings " + source_name + ": " + what);
   };
   SolverSettings settings;
-  // Malformed text first: yaml-cpp 0.7 loops forever on some of it (yaml_text.hpp).
-  if (const std::string hazard = yamlTextHazard(yaml_text); !hazard.empty()) {
-    fail("YAML error: " + hazard);
-  }
-  std::vector<YAML::Node> documents;
-  try {
-    documents = YAML::LoadAll(yaml_text);
-  } catch (const YAML::Exception& e) {
-    fail(std::string("YAML error: ") + e.what());
-  }
-  // yaml-cpp's Load would read the first document and ignore the rest silently.
-  if (documents.size() > 1) {
-    fail("holds " + std::to_string(documents.size()) +
-         " YAML documents (separated by '---'); expected one mapping of key: value");
-  }
-  if (documents.empty() || documents[0].IsNull()) return settings;
-  const YAML::Node& root = documents[0];
-  if (!root.IsMap()) fail("expected a mapping of key: value");
+  yaml::Document document = [&]() {
+    try {
+      return yaml::Document::parse(yaml_text);
+    } catch (const yaml::YamlError& e) {
+      fail(std::string("YAML error: ") + e.what());
+      throw;  // unreachable: fail throws
+    }
+  }();
+  const yaml::Node root = document.root();
+  if (root.isNull()) return settings;
+  if (!root.isMapping()) fail("expected a mapping of key: value");
   std::array<bool, kNumFields> seen{};
   std::array<std::string, kNumFields> given;  // the text of each value read, for messages
-  for (const auto& item : root) {
-    if (!item.first.IsScalar()) fail("a key is not a plain name (known: " + knownKeys() + ")");
-    const std::string key = item.first.Scalar();
-    const YAML::Node& value = item.second;
+  for (std::size_t item = 0; item < root.size(); ++item) {
+    const yaml::Node key_node = root.key(item);
+    if (!key_node.isScalar()) fail("a key is not a plain name (known: " + knownKeys() + ")");
+    const std::string key = key_node.scalar();
+    const yaml::Node value = root.value(item);
     const Entry* entry = nullptr;
     for (std::size_t i = 0; i < kNumFields && !entry; ++i) {
       if (key == kFields[i].key) entry = &kFields[i];
     }
     if (!entry) fail("unknown key '" + key + "' (known: " + knownKeys() + ")");
     const std::size_t index = static_cast<std::size_t>(entry - kFields.data());
-    // YAML forbids a repeated key, but yaml-cpp keeps both; the last would win silently.
+    // YAML forbids a repeated key; the last would otherwise win silently.
     if (seen[index]) fail("key '" + key + "' given twice");
     seen[index] = true;
-    if (value.IsNull()) fail("bad value for '" + key + "': no value given");
-    if (!value.IsScalar()) fail("bad value for '" + key + "': expected a single value");
-    given[index] = value.Scalar();
+    if (value.isNull()) fail("bad value for '" + key + "': no value given");
+    if (!value.isScalar()) fail("bad value for '" + key + "': expected a single value");
+    given[index] = value.scalar();
     try {
-      std::visit(
+      const bool read = std::visit(
           [&](auto member) {
             using T = std::decay_t<decltype(settings.*member)>;
             if constexpr (std::is_same_v<T, SolverMode>) {
-              settings.*member = modeFromString(value.Scalar());
+              settings.*member = modeFromString(value.scalar());
+              return true;
+            } else if constexpr (std::is_same_v<T, double>) {
+              return value.toDouble(settings.*member);
+            } else if constexpr (std::is_same_v<T, int>) {
+              return value.toInt(settings.*member);
             } else {
-              settings.*member = value.as<T>();
+              return value.toBool(settings.*member);
             }
           },
           entry->field);
-    } catch (const YAML::Exception&) {
-      fail("bad value for '" + key + "': '" + value.Scalar() + "' is not " +
-           (std::holds_alternative<int SolverSettings::*>(entry->field)    ? "an integer"
-            : std::holds_alternative<bool SolverSettings::*>(entry->field) ? "true or false"
-                                                                           : "a number"));
+      if (!read) {
+        fail("bad value for '" + key + "': '" + value.scalar() + "' is not " +
+             (std::holds_alternative<int SolverSettings::*>(entry->field)    ? "an integer"
+              : std::holds_alternative<bool SolverSettings::*>(entry->field) ? "true or false"
+                                                                             : "a number"));
+      }
     } catch (const std::invalid_argument& e) {
       fail("bad value for '" + key + "': " + e.what());
     }
