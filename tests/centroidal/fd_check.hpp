@@ -1,0 +1,356 @@
+#pragma once
+// Test helpers of the centroidal layer: the Tachyon 3 robot, random states and inputs,
+// node contexts, and central finite-difference checks ON THE MANIFOLD (x perturbed by
+// space.integrate(x, eps e_i)) of residuals, continuous and discrete dynamics and costs.
+// The node cache is recomputed by the precomputation at every perturbed point, so terms
+// that read ctx.cache are checked through it.
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <Eigen/SVD>
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <random>
+#include <sstream>
+#include <string>
+
+#include "rollstep/centroidal/precomputation.hpp"
+#include "rollstep/centroidal/robot.hpp"
+#include "rollstep/model/model.hpp"
+#include "rollstep/ocp/cost.hpp"
+#include "rollstep/ocp/dynamics.hpp"
+#include "rollstep/ocp/mode_schedule.hpp"
+#include "rollstep/ocp/residual.hpp"
+
+namespace rollstep::centroidal::test {
+
+// ---- Tachyon 3 -------------------------------------------------------------------------
+
+/// Contact order LF MF RF LR MR RR (mode bits 0..5).
+enum Tachyon3Foot { LF = 0, MF = 1, RF = 2, LR = 3, MR = 4, RR = 5 };
+inline constexpr double kTachyon3WheelRadius = 0.075;
+inline constexpr int kAllStance = 63;
+
+inline int maskOf(std::initializer_list<int> stance) {
+  int m = 0;
+  for (int i : stance) m |= 1 << i;
+  return m;
+}
+
+inline std::shared_ptr<const model::Model> tachyon3Model() {
+  static const auto model = std::make_shared<const model::Model>(
+      model::buildModelFromUrdfFile(std::string(ROLLSTEP_ROBOTS_DIR) + "/tachyon3/tachyon3.urdf"));
+  return model;
+}
+
+/// Contacts at the wheel centres (LF_wheel ...), drive wheels LF RF LR RR, side pairs
+/// {LF, RF} and {LR, RR}, contact offset = wheel radius.
+inline std::shared_ptr<const CentroidalRobot> tachyon3Robot() {
+  std::vector<ContactDescription> contacts{{"LF_wheel", true},  {"MF_wheel", false},
+                                           {"RF_wheel", true},  {"LR_wheel", true},
+                                           {"MR_wheel", false}, {"RR_wheel", true}};
+  return std::make_shared<const CentroidalRobot>(
+      tachyon3Model(), contacts, std::vector<std::array<int, 2>>{{LF, RF}, {LR, RR}},
+      kTachyon3WheelRadius);
+}
+
+/// Nominal posture (hips 0, knees 0.05 m), base at `height`, zero momentum.
+inline Eigen::VectorXd nominalState(const CentroidalRobot& robot, double height = 0.375) {
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(robot.nx());
+  x[2] = height;
+  x[6] = 1.0;  // quaternion w
+  const model::Model& m = robot.model();
+  for (int j = 0; j < robot.nj(); ++j) {
+    const std::string& name = m.jointNames[static_cast<size_t>(j)];
+    if (name.find("knee") != std::string::npos) x[7 + j] = 0.05;
+  }
+  return x;
+}
+
+/// Random state: base position ~ N(0, 1) (z around 0.4), yaw uniform, roll and pitch
+/// within +-max_tilt, joints uniform inside their limits (5% margin), momentum ~ N(0, s).
+inline Eigen::VectorXd randomState(const CentroidalRobot& robot, std::mt19937& rng,
+                                   double max_tilt = 0.5, double momentum_scale = 5.0) {
+  std::normal_distribution<double> n(0.0, 1.0);
+  std::uniform_real_distribution<double> uni(-1.0, 1.0);
+  Eigen::VectorXd x(robot.nx());
+  x.head<3>() = Eigen::Vector3d(n(rng), n(rng), 0.4 + 0.1 * n(rng));
+  const Eigen::Quaterniond qr = Eigen::AngleAxisd(M_PI * uni(rng), Eigen::Vector3d::UnitZ()) *
+                                Eigen::AngleAxisd(max_tilt * uni(rng), Eigen::Vector3d::UnitY()) *
+                                Eigen::AngleAxisd(max_tilt * uni(rng), Eigen::Vector3d::UnitX());
+  x.segment<4>(3) = qr.normalized().coeffs();
+  const model::Model& m = robot.model();
+  for (int j = 0; j < robot.nj(); ++j) {
+    const double lo = m.lowerPositionLimit[j], hi = m.upperPositionLimit[j];
+    const double mid = 0.5 * (lo + hi), half = 0.45 * (hi - lo);
+    x[7 + j] = mid + half * uni(rng);
+  }
+  for (int k = 0; k < 6; ++k) x[robot.stateMomentumIndex() + k] = momentum_scale * n(rng);
+  return x;
+}
+
+/// Random input: v_J ~ N(0, 0.5), forces ~ weight / nc + N(0, 30) in z, N(0, 30) in x, y.
+inline Eigen::VectorXd randomInput(const CentroidalRobot& robot, std::mt19937& rng) {
+  std::normal_distribution<double> n(0.0, 1.0);
+  Eigen::VectorXd u(robot.nu());
+  for (int j = 0; j < robot.nj(); ++j) u[j] = 0.5 * n(rng);
+  const double fz = robot.mass() * 9.81 / robot.nc();
+  for (int i = 0; i < robot.nc(); ++i) {
+    u.segment<3>(robot.inputForceIndex(i)) =
+        Eigen::Vector3d(30.0 * n(rng), 30.0 * n(rng), fz + 30.0 * n(rng));
+  }
+  return u;
+}
+
+/// A running node context in `mode` at `time` (dt 0.015), reading `schedule` and `cache`.
+inline ocp::NodeContext makeContext(int mode, double time, const ocp::ModeSchedule* schedule,
+                                    ocp::NodeCache* cache, double dt = 0.015) {
+  ocp::NodeContext ctx;
+  ctx.node = 0;
+  ctx.terminal = false;
+  ctx.time = time;
+  ctx.dt = dt;
+  ctx.mode = mode;
+  ctx.schedule = schedule;
+  ctx.cache = cache;
+  return ctx;
+}
+
+// ---- Finite differences ---------------------------------------------------------------
+
+struct FdTolerance {
+  double eps = 1e-6;   ///< perturbation
+  double rtol = 1e-5;  ///< relative to max(|analytic|, |numeric|)
+  double atol = 1e-6;  ///< absolute
+};
+
+/// Compares two matrices entry by entry: |a - b| <= atol + rtol * max(|a|, |b|).
+inline ::testing::AssertionResult matricesClose(const Eigen::MatrixXd& analytic,
+                                                const Eigen::MatrixXd& numeric,
+                                                const FdTolerance& tol, const std::string& what) {
+  if (analytic.rows() != numeric.rows() || analytic.cols() != numeric.cols()) {
+    return ::testing::AssertionFailure()
+           << what << ": size " << analytic.rows() << "x" << analytic.cols() << " vs "
+           << numeric.rows() << "x" << numeric.cols();
+  }
+  for (int i = 0; i < analytic.rows(); ++i) {
+    for (int j = 0; j < analytic.cols(); ++j) {
+      const double a = analytic(i, j), b = numeric(i, j);
+      const double bound = tol.atol + tol.rtol * std::max(std::abs(a), std::abs(b));
+      if (!(std::abs(a - b) <= bound)) {
+        return ::testing::AssertionFailure()
+               << what << "(" << i << ", " << j << "): analytic " << a << " vs finite "
+               << "difference " << b << " (difference " << a - b << ", bound " << bound << ")";
+      }
+    }
+  }
+  return ::testing::AssertionSuccess();
+}
+
+/// Evaluation hook: recomputes the cache (if any) at (x, u) and returns the context to use.
+struct NodeEvaluator {
+  const ocp::NodePrecomputation* pre = nullptr;  ///< may be null (terms then use no cache)
+  ocp::NodeCache* cache = nullptr;
+  ocp::NodeContext ctx;
+
+  ocp::NodeContext at(ocp::ConstVecRef x, ocp::ConstVecRef u, bool derivatives) const {
+    ocp::NodeContext c = ctx;
+    c.cache = (pre != nullptr) ? cache : nullptr;
+    if (pre != nullptr && cache != nullptr) pre->compute(c, x, u, derivatives, *cache);
+    return c;
+  }
+};
+
+/// Perturbs x along tangent direction i by `step`.
+inline Eigen::VectorXd perturbState(const ocp::StateSpace& space, const Eigen::VectorXd& x, int i,
+                                    double step) {
+  Eigen::VectorXd dx = Eigen::VectorXd::Zero(space.ndx());
+  dx[i] = step;
+  Eigen::VectorXd out(space.nx());
+  space.integrate(x, dx, out);
+  return out;
+}
+
+/// Residual value at (x, u) (cache recomputed there), rows from `rows`.
+inline Eigen::VectorXd residualValue(const ocp::Residual& res, const NodeEvaluator& ev,
+                                     const Eigen::VectorXd& x, const Eigen::VectorXd& u,
+                                     ocp::ResidualData& d) {
+  const ocp::NodeContext c = ev.at(x, u, false);
+  d.rows = res.rows(c);
+  res.calc(c, x, u, d);
+  return d.r.head(d.rows);
+}
+
+/// Checks res.calcDiff (Rx, Ru) against central differences on the manifold at (x, u).
+/// Also checks that rows(ctx) fits in maxRows and that Ru == 0 when !dependsOnInput().
+inline ::testing::AssertionResult checkResidualDerivatives(
+    const ocp::Residual& res, const ocp::StateSpace& space, const NodeEvaluator& ev,
+    const Eigen::VectorXd& x, const Eigen::VectorXd& u, const FdTolerance& tol = {}) {
+  auto d = res.createData();
+  const ocp::NodeContext c = ev.at(x, u, true);
+  const int rows = res.rows(c);
+  if (rows < 0 || rows > res.maxRows()) {
+    return ::testing::AssertionFailure()
+           << "rows " << rows << " outside [0, " << res.maxRows() << "]";
+  }
+  d->rows = rows;
+  res.calc(c, x, u, *d);
+  res.calcDiff(c, x, u, *d);
+  const Eigen::MatrixXd Rx = d->Rx.topRows(rows);
+  const Eigen::MatrixXd Ru = d->Ru.topRows(rows);
+  const Eigen::VectorXd r0 = d->r.head(rows);
+
+  auto dn = res.createData();
+  Eigen::MatrixXd Nx(rows, space.ndx()), Nu(rows, u.size());
+  for (int i = 0; i < space.ndx(); ++i) {
+    const Eigen::VectorXd rp = residualValue(res, ev, perturbState(space, x, i, tol.eps), u, *dn);
+    const Eigen::VectorXd rm = residualValue(res, ev, perturbState(space, x, i, -tol.eps), u, *dn);
+    Nx.col(i) = (rp - rm) / (2.0 * tol.eps);
+  }
+  for (int i = 0; i < u.size(); ++i) {
+    Eigen::VectorXd up = u, um = u;
+    up[i] += tol.eps;
+    um[i] -= tol.eps;
+    Nu.col(i) =
+        (residualValue(res, ev, x, up, *dn) - residualValue(res, ev, x, um, *dn)) / (2.0 * tol.eps);
+  }
+  // Leave the cache consistent with (x, u) for the caller.
+  ev.at(x, u, true);
+  const Eigen::VectorXd r1 = residualValue(res, ev, x, u, *dn);
+  if (!(r1 - r0).isZero(0.0)) {
+    return ::testing::AssertionFailure() << "calc is not repeatable";
+  }
+  auto rx = matricesClose(Rx, Nx, tol, "Rx");
+  if (!rx) return rx;
+  if (!res.dependsOnInput() && !Ru.isZero(0.0)) {
+    return ::testing::AssertionFailure() << "dependsOnInput() is false but Ru != 0";
+  }
+  if (!res.dependsOnState() && !Rx.isZero(0.0)) {
+    return ::testing::AssertionFailure() << "dependsOnState() is false but Rx != 0";
+  }
+  return matricesClose(Ru, Nu, tol, "Ru");
+}
+
+/// Checks ContinuousDynamics::calcDiff (fx, fu) against central differences.
+inline ::testing::AssertionResult checkContinuousDynamicsDerivatives(
+    const ocp::ContinuousDynamics& f, const NodeEvaluator& ev, const Eigen::VectorXd& x,
+    const Eigen::VectorXd& u, const FdTolerance& tol = {}) {
+  const ocp::StateSpace& space = f.space();
+  const int ndx = space.ndx(), nu = f.nu();
+  auto d = f.createData();
+  Eigen::VectorXd xdot(ndx);
+  Eigen::MatrixXd fx(ndx, ndx), fu(ndx, nu);
+  ocp::NodeContext c = ev.at(x, u, true);
+  f.calc(c, x, u, *d, xdot);
+  f.calcDiff(c, x, u, *d, fx, fu);
+  auto value = [&](const Eigen::VectorXd& xx, const Eigen::VectorXd& uu) {
+    Eigen::VectorXd out(ndx);
+    const ocp::NodeContext cc = ev.at(xx, uu, false);
+    f.calc(cc, xx, uu, *d, out);
+    return out;
+  };
+  Eigen::MatrixXd Nx(ndx, ndx), Nu(ndx, nu);
+  for (int i = 0; i < ndx; ++i) {
+    Nx.col(i) = (value(perturbState(space, x, i, tol.eps), u) -
+                 value(perturbState(space, x, i, -tol.eps), u)) /
+                (2.0 * tol.eps);
+  }
+  for (int i = 0; i < nu; ++i) {
+    Eigen::VectorXd up = u, um = u;
+    up[i] += tol.eps;
+    um[i] -= tol.eps;
+    Nu.col(i) = (value(x, up) - value(x, um)) / (2.0 * tol.eps);
+  }
+  ev.at(x, u, true);
+  auto rx = matricesClose(fx, Nx, tol, "fx");
+  if (!rx) return rx;
+  return matricesClose(fu, Nu, tol, "fu");
+}
+
+/// Checks discrete Dynamics::calcDiff: F(x (+) dx, u + du) ~= F(x, u) (+) (Fx dx + Fu du),
+/// the columns found as (F(x, u) (-) F(x (+) eps e_i)) - (... - eps e_i), over 2 eps.
+inline ::testing::AssertionResult checkDynamicsDerivatives(const ocp::Dynamics& F,
+                                                           const NodeEvaluator& ev,
+                                                           const Eigen::VectorXd& x,
+                                                           const Eigen::VectorXd& u,
+                                                           const FdTolerance& tol = {}) {
+  const ocp::StateSpace& space = F.space();
+  const int ndx = space.ndx(), nx = space.nx(), nu = F.nu();
+  auto d = F.createData();
+  Eigen::VectorXd x1(nx);
+  Eigen::MatrixXd Fx(ndx, ndx), Fu(ndx, nu);
+  ocp::NodeContext c = ev.at(x, u, true);
+  F.calc(c, x, u, *d, x1);
+  F.calcDiff(c, x, u, *d, Fx, Fu);
+  auto tangent = [&](const Eigen::VectorXd& xx, const Eigen::VectorXd& uu) {
+    Eigen::VectorXd out(nx), dv(ndx);
+    const ocp::NodeContext cc = ev.at(xx, uu, false);
+    F.calc(cc, xx, uu, *d, out);
+    space.difference(x1, out, dv);
+    return dv;
+  };
+  Eigen::MatrixXd Nx(ndx, ndx), Nu(ndx, nu);
+  for (int i = 0; i < ndx; ++i) {
+    Nx.col(i) = (tangent(perturbState(space, x, i, tol.eps), u) -
+                 tangent(perturbState(space, x, i, -tol.eps), u)) /
+                (2.0 * tol.eps);
+  }
+  for (int i = 0; i < nu; ++i) {
+    Eigen::VectorXd up = u, um = u;
+    up[i] += tol.eps;
+    um[i] -= tol.eps;
+    Nu.col(i) = (tangent(x, up) - tangent(x, um)) / (2.0 * tol.eps);
+  }
+  ev.at(x, u, true);
+  auto rx = matricesClose(Fx, Nx, tol, "Fx");
+  if (!rx) return rx;
+  return matricesClose(Fu, Nu, tol, "Fu");
+}
+
+/// Checks a cost's gradient (lx, lu, with scale 1) against central differences of calc.
+inline ::testing::AssertionResult checkCostGradient(
+    const ocp::CostTerm& cost, const ocp::StateSpace& space, const NodeEvaluator& ev,
+    const Eigen::VectorXd& x, const Eigen::VectorXd& u, const FdTolerance& tol = {}) {
+  const int ndx = space.ndx(), nu = cost.nu();
+  auto d = cost.createData();
+  Eigen::VectorXd lx = Eigen::VectorXd::Zero(ndx), lu = Eigen::VectorXd::Zero(nu);
+  Eigen::MatrixXd Lxx = Eigen::MatrixXd::Zero(ndx, ndx), Luu = Eigen::MatrixXd::Zero(nu, nu),
+                  Lux = Eigen::MatrixXd::Zero(nu, ndx);
+  ocp::NodeContext c = ev.at(x, u, true);
+  cost.calc(c, x, u, *d);
+  cost.calcDiff(c, x, u, *d, 1.0, lx, lu, Lxx, Luu, Lux);
+  auto value = [&](const Eigen::VectorXd& xx, const Eigen::VectorXd& uu) {
+    const ocp::NodeContext cc = ev.at(xx, uu, false);
+    return cost.calc(cc, xx, uu, *d);
+  };
+  Eigen::VectorXd nlx(ndx), nlu(nu);
+  for (int i = 0; i < ndx; ++i) {
+    nlx[i] = (value(perturbState(space, x, i, tol.eps), u) -
+              value(perturbState(space, x, i, -tol.eps), u)) /
+             (2.0 * tol.eps);
+  }
+  for (int i = 0; i < nu; ++i) {
+    Eigen::VectorXd up = u, um = u;
+    up[i] += tol.eps;
+    um[i] -= tol.eps;
+    nlu[i] = (value(x, up) - value(x, um)) / (2.0 * tol.eps);
+  }
+  ev.at(x, u, true);
+  auto rx = matricesClose(lx, nlx, tol, "lx");
+  if (!rx) return rx;
+  return matricesClose(lu, nlu, tol, "lu");
+}
+
+/// Rank of a matrix (SVD, singular values above rel times the largest).
+inline int numericalRank(const Eigen::MatrixXd& m, double rel = 1e-9) {
+  if (m.size() == 0) return 0;
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(m);
+  const auto& s = svd.singularValues();
+  int r = 0;
+  for (int i = 0; i < s.size(); ++i) {
+    if (s[i] > rel * s[0]) ++r;
+  }
+  return r;
+}
+}  // namespace rollstep::centroidal::test
