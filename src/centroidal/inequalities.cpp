@@ -1,0 +1,372 @@
+#include "rollstep/centroidal/inequalities.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+#include "rollstep/centroidal/precomputation.hpp"
+
+namespace rollstep::centroidal {
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+/// Residual workspace of the terms that read the robot's kinematics: a cache of their own
+/// for when the node has no shared one (ctx.cache == nullptr, e.g. a term evaluated alone).
+struct KinematicResidualData final : ocp::ResidualData {
+  KinematicResidualData(int max_rows, const CentroidalRobot& robot)
+      : ocp::ResidualData(max_rows, robot.ndx(), robot.nu()), fallback(robot) {}
+  CentroidalCache fallback;
+};
+
+std::shared_ptr<const CentroidalRobot> checked(std::shared_ptr<const CentroidalRobot> robot,
+                                               const char* who) {
+  if (!robot) throw std::invalid_argument(std::string(who) + ": null robot");
+  return robot;
+}
+
+int robotRows(const std::shared_ptr<const CentroidalRobot>& robot, int per_foot) {
+  return robot ? robot->nc() * per_foot : 0;
+}
+
+std::string number(double v) {
+  if (std::isnan(v)) return "nan";
+  if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
+  return std::to_string(v);
+}
+
+}  // namespace
+
+// ---- TerrainReferences -----------------------------------------------------------------------
+
+int TerrainReferences::stanceRegion(const ocp::NodeContext& ctx, int foot) const {
+  if (!CentroidalRobot::inStance(ctx.mode, foot)) return -1;
+  if (terrain == nullptr || planner == nullptr || ctx.schedule == nullptr) return -1;
+  return planner->query(*ctx.schedule, foot, ctx.time).region;
+}
+
+int TerrainReferences::swingRegion(const ocp::NodeContext& ctx, int foot) const {
+  if (CentroidalRobot::inStance(ctx.mode, foot)) return -1;
+  if (terrain == nullptr || planner == nullptr || ctx.schedule == nullptr) return -1;
+  const planning::FootReference ref = planner->query(*ctx.schedule, foot, ctx.time);
+  return ref.swing_region_active ? ref.swing_region : -1;
+}
+
+Eigen::Vector3d TerrainReferences::normal(const ocp::NodeContext& ctx, int foot) const {
+  const int region = stanceRegion(ctx, foot);
+  if (region < 0) return Eigen::Vector3d::UnitZ();
+  return terrain->region(region).normal;
+}
+
+int TerrainReferences::maxRegionEdges() const {
+  if (terrain == nullptr) return 0;
+  int edges = 0;
+  for (const planning::ConvexRegion& r : terrain->regions()) {
+    edges = std::max(edges, static_cast<int>(r.A.rows()));
+  }
+  return edges;
+}
+
+// ---- StaticTorqueLimitResidual -----------------------------------------------------------------
+
+StaticTorqueLimitResidual::StaticTorqueLimitResidual(std::shared_ptr<const CentroidalRobot> robot,
+                                                     const TorqueLimitOptions& options)
+    : ocp::Residual(robot ? robot->ndx() : 0, robot ? robot->nu() : 0, robot ? 2 * robot->nj() : 0),
+      robot_(checked(std::move(robot), "StaticTorqueLimitResidual")),
+      pre_(robot_) {
+  const int nj = robot_->nj();
+  const model::Model& model = robot_->model();
+  const char* who = "StaticTorqueLimitResidual: ";
+  if (options.lower.size() != 0 || options.upper.size() != 0) {
+    if (options.lower.size() != nj || options.upper.size() != nj) {
+      throw std::invalid_argument(std::string(who) + "options.lower/upper have sizes " +
+                                  std::to_string(options.lower.size()) + "/" +
+                                  std::to_string(options.upper.size()) +
+                                  ", expected nj = " + std::to_string(nj));
+    }
+    lower_ = options.lower;
+    upper_ = options.upper;
+  } else {
+    if (!(options.scale > 0.0 && options.scale <= 1.0)) {
+      throw std::invalid_argument(std::string(who) + "options.scale = " + number(options.scale) +
+                                  ", expected in (0, 1]");
+    }
+    upper_.resize(nj);
+    for (int j = 0; j < nj; ++j) {
+      const double e = model.effortLimit[j];
+      upper_[j] = (std::isfinite(e) && e > 0.0) ? options.scale * e : kInf;
+    }
+    lower_ = -upper_;
+  }
+  for (int j = 0; j < nj; ++j) {
+    const std::string joint = model.jointNames[static_cast<size_t>(j)];
+    if (std::isnan(lower_[j]) || std::isnan(upper_[j]) || lower_[j] > upper_[j] ||
+        lower_[j] == kInf || upper_[j] == -kInf) {
+      throw std::invalid_argument(std::string(who) + "torque limits of joint '" + joint +
+                                  "' are [" + number(lower_[j]) + ", " + number(upper_[j]) +
+                                  "], expected lower <= upper, not NaN");
+    }
+    if (std::isfinite(upper_[j])) upper_rows_.push_back(j);
+    if (std::isfinite(lower_[j])) lower_rows_.push_back(j);
+  }
+}
+
+int StaticTorqueLimitResidual::rows(const ocp::NodeContext& /*ctx*/) const {
+  return static_cast<int>(upper_rows_.size() + lower_rows_.size());
+}
+
+std::unique_ptr<ocp::ResidualData> StaticTorqueLimitResidual::createData() const {
+  return std::make_unique<KinematicResidualData>(maxRows(), *robot_);
+}
+
+void StaticTorqueLimitResidual::calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x,
+                                     ocp::ConstVecRef u, ocp::ResidualData& d) const {
+  auto& kd = static_cast<KinematicResidualData&>(d);
+  const CentroidalCache& c = nodeCache(ctx, x, u, false, pre_, kd.fallback);
+  const int base = robot_->model().nvBase;
+  int row = 0;
+  // tau_j = g_j - (J^T f)_j on the actuated rows (model::computeStaticTorque).
+  for (int j : upper_rows_) {
+    d.r[row++] = upper_[j] - (c.nq.g[base + j] - c.nq.contactTorque[base + j]);
+  }
+  for (int j : lower_rows_) {
+    d.r[row++] = (c.nq.g[base + j] - c.nq.contactTorque[base + j]) - lower_[j];
+  }
+}
+
+void StaticTorqueLimitResidual::calcDiff(const ocp::NodeContext& ctx, ocp::ConstVecRef x,
+                                         ocp::ConstVecRef u, ocp::ResidualData& d) const {
+  auto& kd = static_cast<KinematicResidualData&>(d);
+  const CentroidalCache& c = nodeCache(ctx, x, u, true, pre_, kd.fallback);
+  const int base = robot_->model().nvBase;
+  const int nv = robot_->nv();
+  const int nj = robot_->nj();
+  const int nc = robot_->nc();
+  const int rows = static_cast<int>(upper_rows_.size() + lower_rows_.size());
+  d.Rx.topRows(rows).setZero();
+  d.Ru.topRows(rows).setZero();
+  auto write = [&](int row, int j, double sign) {
+    // d tau_j / dq = dg_dq - d(J^T f)/dq at fixed f; d tau_j / df_i = -J_i(:, j)^T.
+    d.Rx.row(row).head(nv) =
+        sign * (c.nq.dg_dq.row(base + j) - c.nq.dContactTorque_dq.row(base + j));
+    for (int i = 0; i < nc; ++i) {
+      d.Ru.row(row).segment<3>(nj + 3 * i) =
+          -sign * c.nq.contactJacobians.block<3, 1>(3 * i, base + j).transpose();
+    }
+  };
+  int row = 0;
+  for (int j : upper_rows_) write(row++, j, -1.0);
+  for (int j : lower_rows_) write(row++, j, 1.0);
+}
+
+// ---- FrictionPyramidResidual -------------------------------------------------------------------
+
+FrictionPyramidResidual::FrictionPyramidResidual(std::shared_ptr<const CentroidalRobot> robot,
+                                                 TerrainReferences terrain,
+                                                 const FrictionPyramidOptions& options)
+    : ocp::Residual(robot ? robot->ndx() : 0, robot ? robot->nu() : 0,
+                    robotRows(robot, kRowsPerFoot)),
+      robot_(checked(std::move(robot), "FrictionPyramidResidual")),
+      terrain_(terrain),
+      options_(options) {
+  if (!(std::isfinite(options.mu) && options.mu > 0.0)) {
+    throw std::invalid_argument("FrictionPyramidResidual: options.mu = " + number(options.mu) +
+                                ", expected finite and > 0");
+  }
+  if (!(std::isfinite(options.min_normal_force) && options.min_normal_force >= 0.0)) {
+    throw std::invalid_argument("FrictionPyramidResidual: options.min_normal_force = " +
+                                number(options.min_normal_force) + ", expected finite and >= 0");
+  }
+}
+
+int FrictionPyramidResidual::rows(const ocp::NodeContext& ctx) const {
+  int feet = 0;
+  for (int i = 0; i < robot_->nc(); ++i) feet += CentroidalRobot::inStance(ctx.mode, i) ? 1 : 0;
+  return kRowsPerFoot * feet;
+}
+
+Eigen::Matrix3d FrictionPyramidResidual::terrainFrame(const Eigen::Vector3d& normal) {
+  const Eigen::Vector3d n = normal.normalized();
+  // t1: world x projected onto the plane (world y if the plane is nearly vertical in x).
+  Eigen::Vector3d t1 = Eigen::Vector3d::UnitX() - n.x() * n;
+  if (t1.squaredNorm() < 1e-12) t1 = Eigen::Vector3d::UnitY() - n.y() * n;
+  t1.normalize();
+  Eigen::Matrix3d R;
+  R.col(0) = t1;
+  R.col(1) = n.cross(t1);
+  R.col(2) = n;
+  return R;
+}
+
+Eigen::Matrix<double, FrictionPyramidResidual::kRowsPerFoot, 3> FrictionPyramidResidual::block(
+    const ocp::NodeContext& ctx, int foot) const {
+  const Eigen::Matrix3d R = terrainFrame(terrain_.normal(ctx, foot));
+  const double m = options_.inscribed ? options_.mu / std::sqrt(2.0) : options_.mu;
+  const Eigen::RowVector3d t1 = R.col(0).transpose();
+  const Eigen::RowVector3d t2 = R.col(1).transpose();
+  const Eigen::RowVector3d n = R.col(2).transpose();
+  Eigen::Matrix<double, kRowsPerFoot, 3> B;
+  B.row(0) = m * n - t1;
+  B.row(1) = m * n + t1;
+  B.row(2) = m * n - t2;
+  B.row(3) = m * n + t2;
+  B.row(4) = n;
+  return B;
+}
+
+void FrictionPyramidResidual::calc(const ocp::NodeContext& ctx, ocp::ConstVecRef /*x*/,
+                                   ocp::ConstVecRef u, ocp::ResidualData& d) const {
+  int row = 0;
+  for (int i = 0; i < robot_->nc(); ++i) {
+    if (!CentroidalRobot::inStance(ctx.mode, i)) continue;
+    const Eigen::Vector3d f = u.segment<3>(robot_->inputForceIndex(i));
+    d.r.segment<kRowsPerFoot>(row) = block(ctx, i) * f;
+    d.r[row + kRowsPerFoot - 1] -= options_.min_normal_force;
+    row += kRowsPerFoot;
+  }
+}
+
+void FrictionPyramidResidual::calcDiff(const ocp::NodeContext& ctx, ocp::ConstVecRef /*x*/,
+                                       ocp::ConstVecRef /*u*/, ocp::ResidualData& d) const {
+  const int rows = this->rows(ctx);
+  d.Rx.topRows(rows).setZero();
+  d.Ru.topRows(rows).setZero();
+  int row = 0;
+  for (int i = 0; i < robot_->nc(); ++i) {
+    if (!CentroidalRobot::inStance(ctx.mode, i)) continue;
+    d.Ru.block<kRowsPerFoot, 3>(row, robot_->inputForceIndex(i)) = block(ctx, i);
+    row += kRowsPerFoot;
+  }
+}
+
+// ---- FootRegionResidual ------------------------------------------------------------------------
+
+namespace {
+int regionCapacity(const TerrainReferences& terrain, int max_edges) {
+  return max_edges > 0 ? max_edges : terrain.maxRegionEdges();
+}
+}  // namespace
+
+FootRegionResidual::FootRegionResidual(std::shared_ptr<const CentroidalRobot> robot,
+                                       TerrainReferences terrain, RegionUse use, int max_edges)
+    : ocp::Residual(robot ? robot->ndx() : 0, robot ? robot->nu() : 0,
+                    robotRows(robot, std::max(0, regionCapacity(terrain, max_edges)))),
+      robot_(checked(std::move(robot), "FootRegionResidual")),
+      pre_(robot_),
+      terrain_(terrain),
+      use_(use),
+      max_edges_(std::max(0, regionCapacity(terrain, max_edges))) {
+  if (max_edges < 0) {
+    throw std::invalid_argument("FootRegionResidual: max_edges = " + std::to_string(max_edges) +
+                                ", expected >= 0 (0: from the terrain model)");
+  }
+}
+
+int FootRegionResidual::regionOf(const ocp::NodeContext& ctx, int foot) const {
+  return use_ == RegionUse::Stance ? terrain_.stanceRegion(ctx, foot)
+                                   : terrain_.swingRegion(ctx, foot);
+}
+
+int FootRegionResidual::rows(const ocp::NodeContext& ctx) const {
+  int rows = 0;
+  for (int i = 0; i < robot_->nc(); ++i) {
+    const int region = regionOf(ctx, i);
+    if (region < 0) continue;
+    const int edges = static_cast<int>(terrain_.terrain->region(region).A.rows());
+    if (edges > max_edges_) {
+      throw std::length_error(
+          "FootRegionResidual: region " + std::to_string(region) + " has " + std::to_string(edges) +
+          " edges, more than max_edges = " + std::to_string(max_edges_) + " given at construction");
+    }
+    rows += edges;
+  }
+  return rows;
+}
+
+std::unique_ptr<ocp::ResidualData> FootRegionResidual::createData() const {
+  return std::make_unique<KinematicResidualData>(maxRows(), *robot_);
+}
+
+void FootRegionResidual::calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
+                              ocp::ResidualData& d) const {
+  auto& kd = static_cast<KinematicResidualData&>(d);
+  const CentroidalCache* c = nullptr;
+  int row = 0;
+  for (int i = 0; i < robot_->nc(); ++i) {
+    const int region = regionOf(ctx, i);
+    if (region < 0) continue;
+    if (c == nullptr) c = &nodeCache(ctx, x, u, false, pre_, kd.fallback);
+    const planning::ConvexRegion& reg = terrain_.terrain->region(region);
+    const Eigen::Vector2d p = c->footPosition(i).head<2>();
+    for (int k = 0; k < reg.A.rows(); ++k) {
+      d.r[row++] = reg.A(k, 0) * p.x() + reg.A(k, 1) * p.y() + reg.b[k];
+    }
+  }
+}
+
+void FootRegionResidual::calcDiff(const ocp::NodeContext& ctx, ocp::ConstVecRef x,
+                                  ocp::ConstVecRef u, ocp::ResidualData& d) const {
+  auto& kd = static_cast<KinematicResidualData&>(d);
+  const CentroidalCache* c = nullptr;
+  int row = 0;
+  for (int i = 0; i < robot_->nc(); ++i) {
+    const int region = regionOf(ctx, i);
+    if (region < 0) continue;
+    if (c == nullptr) c = &nodeCache(ctx, x, u, true, pre_, kd.fallback);
+    const planning::ConvexRegion& reg = terrain_.terrain->region(region);
+    const auto px = c->footPosition_dx.row(3 * i);
+    const auto py = c->footPosition_dx.row(3 * i + 1);
+    for (int k = 0; k < reg.A.rows(); ++k) {
+      d.Rx.row(row) = reg.A(k, 0) * px + reg.A(k, 1) * py;
+      d.Ru.row(row).setZero();
+      ++row;
+    }
+  }
+}
+
+// ---- jointLimitBounds -------------------------------------------------------------------------
+
+JointLimitBounds jointLimitBounds(const CentroidalRobot& robot,
+                                  const JointLimitBoundOptions& options) {
+  if (!(std::isfinite(options.position_margin) && options.position_margin >= 0.0)) {
+    throw std::invalid_argument("jointLimitBounds: options.position_margin = " +
+                                number(options.position_margin) + ", expected finite and >= 0");
+  }
+  if (!(options.velocity_scale > 0.0 && options.velocity_scale <= 1.0)) {
+    throw std::invalid_argument("jointLimitBounds: options.velocity_scale = " +
+                                number(options.velocity_scale) + ", expected in (0, 1]");
+  }
+  const model::Model& model = robot.model();
+  const int nj = robot.nj();
+  JointLimitBounds out;
+  out.state_lower = Eigen::VectorXd::Constant(robot.ndx(), -kInf);
+  out.state_upper = Eigen::VectorXd::Constant(robot.ndx(), kInf);
+  out.input_lower = Eigen::VectorXd::Constant(robot.nu(), -kInf);
+  out.input_upper = Eigen::VectorXd::Constant(robot.nu(), kInf);
+  const double margin = options.position_margin;
+  for (int j = 0; j < nj; ++j) {
+    double lo = model.lowerPositionLimit[j];
+    double hi = model.upperPositionLimit[j];
+    if (std::isfinite(lo)) lo += margin;
+    if (std::isfinite(hi)) hi -= margin;
+    if (lo > hi) {
+      throw std::invalid_argument(
+          "jointLimitBounds: options.position_margin = " + number(margin) +
+          " empties the range of joint '" + model.jointNames[static_cast<size_t>(j)] + "' [" +
+          number(model.lowerPositionLimit[j]) + ", " + number(model.upperPositionLimit[j]) + "]");
+    }
+    out.state_lower[robot.tangentJointIndex() + j] = lo;
+    out.state_upper[robot.tangentJointIndex() + j] = hi;
+    const double v = model.velocityLimit[j];
+    if (std::isfinite(v) && v > 0.0) {
+      out.input_lower[robot.inputJointVelocityIndex() + j] = -options.velocity_scale * v;
+      out.input_upper[robot.inputJointVelocityIndex() + j] = options.velocity_scale * v;
+    }
+  }
+  return out;
+}
+
+}  // namespace rollstep::centroidal
