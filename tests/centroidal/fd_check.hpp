@@ -22,6 +22,17 @@
 #include "rollstep/ocp/dynamics.hpp"
 #include "rollstep/ocp/mode_schedule.hpp"
 #include "rollstep/ocp/residual.hpp"
+#include "rollstep/planning/base_reference.hpp"
+#include "rollstep/planning/contact_schedule.hpp"
+#include "rollstep/planning/foot_reference.hpp"
+#include "rollstep/planning/gait.hpp"
+#include "rollstep/planning/terrain.hpp"
+
+// GCC 12 at -O2 reports false "potential null pointer dereference" on element writes into
+// freshly sized Eigen dynamic vectors in these helpers (as in tests/solver/ipopt_reference.cpp).
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic ignored "-Wnull-dereference"
+#endif
 
 namespace rollstep::centroidal::test {
 
@@ -115,6 +126,63 @@ inline ocp::NodeContext makeContext(int mode, double time, const ocp::ModeSchedu
   ctx.schedule = schedule;
   ctx.cache = cache;
   return ctx;
+}
+
+/// Body-frame (x, y) of the Tachyon 3 wheels (robot/tachyon3.md), contact order.
+inline std::vector<Eigen::Vector2d> tachyon3NominalFeet() {
+  return {{0.33, 0.22}, {0.33, 0.0}, {0.33, -0.22}, {-0.33, 0.22}, {-0.33, 0.0}, {-0.33, -0.22}};
+}
+
+/// Planning objects of a test scene: flat ground (optionally with a block), a base
+/// reference moving at `speed`, the foot reference planner (foot point = wheel centre) and
+/// a gait scheduler writing `schedule`. Owned through shared_ptr so that the pointers the
+/// planners keep stay valid; build with makeTachyon3Scene().
+struct Tachyon3Scene {
+  std::shared_ptr<planning::TerrainModel> terrain;
+  std::shared_ptr<planning::BaseReference> base;
+  std::shared_ptr<const planning::FootReferencePlanner> feet;
+  std::shared_ptr<planning::GaitScheduler> scheduler;
+  std::shared_ptr<ocp::ModeSchedule> schedule;
+
+  /// A time in [t0, t0 + span) whose mode is `mode` (the middle of its first phase), NaN
+  /// if none.
+  double timeInMode(int mode, double t0 = 0.0, double span = 3.0) const {
+    const double step = 1e-3;
+    for (double t = t0; t < t0 + span; t += step) {
+      if (schedule->modeAt(t) != mode) continue;
+      double end = t;
+      while (end + step < t0 + span && schedule->modeAt(end + step) == mode) end += step;
+      return 0.5 * (t + end);
+    }
+    return std::nan("");
+  }
+};
+
+/// Gaits: "trot" (the paper's: [LF RF MR] / [MF LR RR], period 0.8 s, duty 0.6),
+/// "walk" (static walk LF MF RF LR MR RR, period 3 s, duty 5/6), "stand".
+inline Tachyon3Scene makeTachyon3Scene(const std::string& gait, double speed = 0.3,
+                                       double block_height = 0.0) {
+  Tachyon3Scene s;
+  std::vector<planning::TerrainBox> blocks;
+  if (block_height > 0.0) blocks.push_back({1.0, 2.2, -1.5, 1.5, block_height});
+  s.terrain = std::make_shared<planning::TerrainModel>(
+      planning::terrainFromBoxes({-5.0, 10.0, -1.5, 1.5, 0.0}, 0.0, blocks));
+  s.base = std::make_shared<planning::BaseReference>(
+      *s.terrain, planning::BaseReferenceConfig{0.375, tachyon3NominalFeet()});
+  s.base->reset(0.0, lie::SE3(), {speed, 0.0, 0.1});
+  s.feet = std::make_shared<const planning::FootReferencePlanner>(
+      *s.terrain, *s.base,
+      planning::FootReferenceConfig{tachyon3NominalFeet(), 0.08, kTachyon3WheelRadius});
+  planning::Gait g = planning::Gait::standing(6);
+  if (gait == "trot") {
+    g = planning::Gait::trot(6, 0.8, 0.6, maskOf({LF, RF, MR}), maskOf({MF, LR, RR}));
+  } else if (gait == "walk") {
+    g = planning::Gait::staticWalk(6, 3.0, 5.0 / 6.0, {LF, MF, RF, LR, MR, RR});
+  }
+  s.scheduler = std::make_shared<planning::GaitScheduler>(g, 1.5);
+  s.schedule = std::make_shared<ocp::ModeSchedule>(s.scheduler->requiredCapacity());
+  s.scheduler->fill(0.0, 1.5, *s.schedule);
+  return s;
 }
 
 // ---- Finite differences ---------------------------------------------------------------
