@@ -1,0 +1,92 @@
+#pragma once
+// Equality constraints of the centroidal OCP (paper Sec. 2.3, DESIGN.md section 3), one
+// residual per family; each stacks the rows of the feet it applies to in the node's mode
+// (mode = contact mask, bit i = contact i in stance), in contact order. Each is full row
+// rank in u on its own, and so is their stack in the modes of Tachyon 3's gaits (the
+// side-by-side rule of robot.hpp removes the dependent stance rows), which the projection
+// of the equalities needs.
+//
+//  - SwingForceResidual: r = [f_i] for every swing contact i (3 rows each; affine).
+//  - StanceVelocityResidual: for every stance contact that keeps its velocity
+//    constraints (CentroidalRobot::keepsVelocityConstraints), the world z velocity of its
+//    frame origin, and for a drive wheel then its lateral velocity in the yaw frame of the
+//    contact frame: e_lat^T v_i, e_lat = (-sin yaw_i, cos yaw_i, 0), yaw_i the yaw of the
+//    contact frame's x axis (for Tachyon 3, whose legs only pitch, the base yaw). Rows
+//    ordered per contact: z, then lateral.
+//  - SwingHeightResidual: for every swing contact, v_z,i - z_dot_ref(t) + Kp (p_z,i - z_ref(t))
+//    with z_ref from planning::FootReferencePlanner::query (its foot_height_offset must
+//    match the contact frames: the wheel radius for wheel-centre frames).
+//
+// The contact velocities are total derivatives through v_b(q, h, v_J) (precomputation.hpp).
+// calc/calcDiff read the node cache (ctx.cache) when present and compute their own
+// otherwise; they never allocate.
+#include <memory>
+
+#include "rollstep/centroidal/precomputation.hpp"
+#include "rollstep/ocp/residual.hpp"
+#include "rollstep/planning/foot_reference.hpp"
+
+namespace rollstep::centroidal {
+
+/// Workspace of the centroidal residuals: a fallback cache for nodes without one.
+struct CentroidalResidualData : ocp::ResidualData {
+  CentroidalResidualData(const CentroidalRobot& robot, int max_rows)
+      : ocp::ResidualData(max_rows, robot.ndx(), robot.nu()), fallback(robot) {}
+  CentroidalCache fallback;
+};
+
+/// f_i = 0 for every swing contact. Affine, input only.
+class SwingForceResidual final : public ocp::Residual {
+ public:
+  explicit SwingForceResidual(std::shared_ptr<const CentroidalRobot> robot);
+  int rows(const ocp::NodeContext& ctx) const override;
+  bool dependsOnState() const override { return false; }
+  bool isLinear() const override { return true; }
+  void calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
+            ocp::ResidualData& d) const override;
+  void calcDiff(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
+                ocp::ResidualData& d) const override;
+
+ private:
+  std::shared_ptr<const CentroidalRobot> robot_;
+};
+
+/// Stance contacts: zero world z velocity, zero lateral velocity for drive wheels, with the
+/// side-by-side rule.
+class StanceVelocityResidual final : public ocp::Residual {
+ public:
+  explicit StanceVelocityResidual(std::shared_ptr<const CentroidalPrecomputation> pre);
+  int rows(const ocp::NodeContext& ctx) const override;
+  std::unique_ptr<ocp::ResidualData> createData() const override;
+  void calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
+            ocp::ResidualData& d) const override;
+  void calcDiff(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
+                ocp::ResidualData& d) const override;
+
+ private:
+  std::shared_ptr<const CentroidalPrecomputation> pre_;
+};
+
+/// Swing contacts: v_z - z_dot_ref(t) + Kp (p_z - z_ref(t)) = 0. Needs ctx.schedule.
+class SwingHeightResidual final : public ocp::Residual {
+ public:
+  /// @param kp position-error gain [1/s], finite and >= 0 (std::invalid_argument otherwise,
+  /// also for a null argument or a planner with a different number of feet).
+  SwingHeightResidual(std::shared_ptr<const CentroidalPrecomputation> pre,
+                      std::shared_ptr<const planning::FootReferencePlanner> planner, double kp);
+  int rows(const ocp::NodeContext& ctx) const override;
+  double kp() const { return kp_; }
+  std::unique_ptr<ocp::ResidualData> createData() const override;
+  /// Throws std::invalid_argument if ctx.schedule is null and some contact swings.
+  void calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
+            ocp::ResidualData& d) const override;
+  void calcDiff(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
+                ocp::ResidualData& d) const override;
+
+ private:
+  std::shared_ptr<const CentroidalPrecomputation> pre_;
+  std::shared_ptr<const planning::FootReferencePlanner> planner_;
+  double kp_;
+};
+
+}  // namespace rollstep::centroidal

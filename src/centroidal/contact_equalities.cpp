@@ -1,0 +1,128 @@
+// SwingForceResidual and StanceVelocityResidual (equalities.hpp).
+#include <cmath>
+#include <stdexcept>
+
+#include "rollstep/centroidal/equalities.hpp"
+
+namespace rollstep::centroidal {
+
+namespace {
+int stanceVelocityMaxRows(const CentroidalRobot& r) {
+  int n = 0;
+  for (int i = 0; i < r.nc(); ++i) n += r.contact(i).drive_wheel ? 2 : 1;
+  return n;
+}
+const CentroidalRobot& robotOf(const std::shared_ptr<const CentroidalPrecomputation>& pre,
+                               const char* who) {
+  if (!pre) throw std::invalid_argument(std::string(who) + ": null precomputation");
+  return pre->robot();
+}
+}  // namespace
+
+// ---- SwingForceResidual ---------------------------------------------------------------
+
+SwingForceResidual::SwingForceResidual(std::shared_ptr<const CentroidalRobot> robot)
+    : ocp::Residual(robot ? robot->ndx() : 0, robot ? robot->nu() : 0, robot ? 3 * robot->nc() : 0),
+      robot_(std::move(robot)) {
+  if (!robot_) throw std::invalid_argument("SwingForceResidual: null robot");
+}
+
+int SwingForceResidual::rows(const ocp::NodeContext& ctx) const {
+  int n = 0;
+  for (int i = 0; i < robot_->nc(); ++i) n += CentroidalRobot::inStance(ctx.mode, i) ? 0 : 3;
+  return n;
+}
+
+void SwingForceResidual::calc(const ocp::NodeContext& ctx, ocp::ConstVecRef /*x*/,
+                              ocp::ConstVecRef u, ocp::ResidualData& d) const {
+  int row = 0;
+  for (int i = 0; i < robot_->nc(); ++i) {
+    if (CentroidalRobot::inStance(ctx.mode, i)) continue;
+    d.r.segment<3>(row) = u.segment<3>(robot_->inputForceIndex(i));
+    row += 3;
+  }
+}
+
+void SwingForceResidual::calcDiff(const ocp::NodeContext& ctx, ocp::ConstVecRef /*x*/,
+                                  ocp::ConstVecRef /*u*/, ocp::ResidualData& d) const {
+  const int n = rows(ctx);
+  d.Rx.topRows(n).setZero();
+  d.Ru.topRows(n).setZero();
+  int row = 0;
+  for (int i = 0; i < robot_->nc(); ++i) {
+    if (CentroidalRobot::inStance(ctx.mode, i)) continue;
+    d.Ru.block<3, 3>(row, robot_->inputForceIndex(i)).setIdentity();
+    row += 3;
+  }
+}
+
+// ---- StanceVelocityResidual -----------------------------------------------------------
+
+StanceVelocityResidual::StanceVelocityResidual(std::shared_ptr<const CentroidalPrecomputation> pre)
+    : ocp::Residual(robotOf(pre, "StanceVelocityResidual").ndx(), pre ? pre->robot().nu() : 0,
+                    pre ? stanceVelocityMaxRows(pre->robot()) : 0),
+      pre_(std::move(pre)) {}
+
+int StanceVelocityResidual::rows(const ocp::NodeContext& ctx) const {
+  const CentroidalRobot& r = pre_->robot();
+  int n = 0;
+  for (int i = 0; i < r.nc(); ++i) {
+    if (r.keepsVelocityConstraints(ctx.mode, i)) n += r.contact(i).drive_wheel ? 2 : 1;
+  }
+  return n;
+}
+
+std::unique_ptr<ocp::ResidualData> StanceVelocityResidual::createData() const {
+  return std::make_unique<CentroidalResidualData>(pre_->robot(), maxRows());
+}
+
+void StanceVelocityResidual::calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x,
+                                  ocp::ConstVecRef u, ocp::ResidualData& d) const {
+  const CentroidalRobot& r = pre_->robot();
+  if (rows(ctx) == 0) return;
+  auto& data = static_cast<CentroidalResidualData&>(d);
+  const CentroidalCache& c = nodeCache(ctx, x, u, false, *pre_, data.fallback);
+  int row = 0;
+  for (int i = 0; i < r.nc(); ++i) {
+    if (!r.keepsVelocityConstraints(ctx.mode, i)) continue;
+    const auto v = c.footVelocity(i);
+    d.r[row++] = v.z();
+    if (r.contact(i).drive_wheel) {
+      const double yaw = c.footYaw[i];
+      d.r[row++] = -std::sin(yaw) * v.x() + std::cos(yaw) * v.y();
+    }
+  }
+}
+
+void StanceVelocityResidual::calcDiff(const ocp::NodeContext& ctx, ocp::ConstVecRef x,
+                                      ocp::ConstVecRef u, ocp::ResidualData& d) const {
+  const CentroidalRobot& r = pre_->robot();
+  if (rows(ctx) == 0) return;
+  auto& data = static_cast<CentroidalResidualData&>(d);
+  const CentroidalCache& c = nodeCache(ctx, x, u, true, *pre_, data.fallback);
+  const int nj = r.nj();
+  const int nf = 3 * r.nc();
+  int row = 0;
+  for (int i = 0; i < r.nc(); ++i) {
+    if (!r.keepsVelocityConstraints(ctx.mode, i)) continue;
+    const int k = 3 * i;
+    d.Rx.row(row) = c.footVelocity_dx.row(k + 2);
+    d.Ru.row(row).head(nj) = c.footVelocity_du.row(k + 2).head(nj);
+    d.Ru.row(row).tail(nf).setZero();
+    ++row;
+    if (r.contact(i).drive_wheel) {
+      // r = e_lat . v, e_lat = (-sin yaw, cos yaw, 0); d r / d yaw = -(e_fwd . v).
+      const double s = std::sin(c.footYaw[i]), co = std::cos(c.footYaw[i]);
+      const auto v = c.footVelocity(i);
+      const double dyaw = -(co * v.x() + s * v.y());
+      d.Rx.row(row) = -s * c.footVelocity_dx.row(k) + co * c.footVelocity_dx.row(k + 1) +
+                      dyaw * c.footYaw_dx.row(i);
+      d.Ru.row(row).head(nj) =
+          -s * c.footVelocity_du.row(k).head(nj) + co * c.footVelocity_du.row(k + 1).head(nj);
+      d.Ru.row(row).tail(nf).setZero();
+      ++row;
+    }
+  }
+}
+
+}  // namespace rollstep::centroidal

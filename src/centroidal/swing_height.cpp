@@ -1,0 +1,76 @@
+// SwingHeightResidual (equalities.hpp).
+#include <cmath>
+#include <stdexcept>
+
+#include "rollstep/centroidal/equalities.hpp"
+
+namespace rollstep::centroidal {
+
+SwingHeightResidual::SwingHeightResidual(
+    std::shared_ptr<const CentroidalPrecomputation> pre,
+    std::shared_ptr<const planning::FootReferencePlanner> planner, double kp)
+    : ocp::Residual(pre ? pre->robot().ndx() : 0, pre ? pre->robot().nu() : 0,
+                    pre ? pre->robot().nc() : 0),
+      pre_(std::move(pre)),
+      planner_(std::move(planner)),
+      kp_(kp) {
+  if (!pre_) throw std::invalid_argument("SwingHeightResidual: null precomputation");
+  if (!planner_) throw std::invalid_argument("SwingHeightResidual: null foot reference planner");
+  if (planner_->numFeet() != pre_->robot().nc()) {
+    throw std::invalid_argument("SwingHeightResidual: the planner has " +
+                                std::to_string(planner_->numFeet()) + " feet, the robot " +
+                                std::to_string(pre_->robot().nc()) + " contacts");
+  }
+  if (!std::isfinite(kp_) || kp_ < 0.0) {
+    throw std::invalid_argument("SwingHeightResidual: kp = " + std::to_string(kp_) +
+                                ", expected a finite value >= 0");
+  }
+}
+
+int SwingHeightResidual::rows(const ocp::NodeContext& ctx) const {
+  int n = 0;
+  for (int i = 0; i < pre_->robot().nc(); ++i) n += CentroidalRobot::inStance(ctx.mode, i) ? 0 : 1;
+  return n;
+}
+
+std::unique_ptr<ocp::ResidualData> SwingHeightResidual::createData() const {
+  return std::make_unique<CentroidalResidualData>(pre_->robot(), maxRows());
+}
+
+void SwingHeightResidual::calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
+                               ocp::ResidualData& d) const {
+  if (rows(ctx) == 0) return;
+  if (ctx.schedule == nullptr) {
+    throw std::invalid_argument("SwingHeightResidual: the node context has no mode schedule");
+  }
+  const CentroidalRobot& r = pre_->robot();
+  auto& data = static_cast<CentroidalResidualData&>(d);
+  const CentroidalCache& c = nodeCache(ctx, x, u, false, *pre_, data.fallback);
+  int row = 0;
+  for (int i = 0; i < r.nc(); ++i) {
+    if (CentroidalRobot::inStance(ctx.mode, i)) continue;
+    const planning::FootReference ref = planner_->query(*ctx.schedule, i, ctx.time);
+    d.r[row++] = c.footVelocity(i).z() - ref.z_dot_ref + kp_ * (c.footPosition(i).z() - ref.z_ref);
+  }
+}
+
+void SwingHeightResidual::calcDiff(const ocp::NodeContext& ctx, ocp::ConstVecRef x,
+                                   ocp::ConstVecRef u, ocp::ResidualData& d) const {
+  if (rows(ctx) == 0) return;
+  const CentroidalRobot& r = pre_->robot();
+  auto& data = static_cast<CentroidalResidualData&>(d);
+  const CentroidalCache& c = nodeCache(ctx, x, u, true, *pre_, data.fallback);
+  const int nj = r.nj();
+  const int nf = 3 * r.nc();
+  int row = 0;
+  for (int i = 0; i < r.nc(); ++i) {
+    if (CentroidalRobot::inStance(ctx.mode, i)) continue;
+    const int k = 3 * i + 2;
+    d.Rx.row(row) = c.footVelocity_dx.row(k) + kp_ * c.footPosition_dx.row(k);
+    d.Ru.row(row).head(nj) = c.footVelocity_du.row(k).head(nj);
+    d.Ru.row(row).tail(nf).setZero();
+    ++row;
+  }
+}
+
+}  // namespace rollstep::centroidal
