@@ -101,19 +101,19 @@ std::string knownKeys() {
 }  // namespace
 
 SolverSettings parseSolverSettings(const std::string& yaml_text, const std::string& source_name) {
+  try {
+    const yaml::Document document = yaml::Document::parse(yaml_text);
+    return parseSolverSettings(document.root(), source_name);
+  } catch (const yaml::YamlError& e) {
+    throw std::runtime_error("solver settings " + source_name + ": YAML error: " + e.what());
+  }
+}
+
+SolverSettings parseSolverSettings(const yaml::Node& root, const std::string& source_name) {
   const auto fail = [&](const std::string& what) {
     throw std::runtime_error("solver settings " + source_name + ": " + what);
   };
   SolverSettings settings;
-  yaml::Document document = [&]() {
-    try {
-      return yaml::Document::parse(yaml_text);
-    } catch (const yaml::YamlError& e) {
-      fail(std::string("YAML error: ") + e.what());
-      throw;  // unreachable: fail throws
-    }
-  }();
-  const yaml::Node root = document.root();
   if (root.isNull()) return settings;
   if (!root.isMapping()) fail("expected a mapping of key: value");
   std::array<bool, kNumFields> seen{};

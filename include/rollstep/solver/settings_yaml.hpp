@@ -4,6 +4,7 @@
 
 #include <string>
 
+#include "rollstep/common/yaml_tree.hpp"
 #include "rollstep/solver/solver.hpp"
 
 namespace rollstep::solver {
@@ -18,6 +19,10 @@ namespace rollstep::solver {
 /// plain name and a second YAML document ('---').
 SolverSettings parseSolverSettings(const std::string& yaml_text,
                                    const std::string& source_name = "<text>");
+
+/// The same from a node of a parsed document (a `solver:` mapping nested in another
+/// configuration file; a null node gives the defaults). Errors name source_name.
+SolverSettings parseSolverSettings(const yaml::Node& node, const std::string& source_name);
 
 /// parseSolverSettings on the contents of a file. A missing file, a directory, anything
 /// that is not a regular file (a FIFO is refused, not waited on) and a file above 1 MiB are

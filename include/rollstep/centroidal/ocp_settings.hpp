@@ -1,0 +1,97 @@
+#pragma once
+// Settings of the full-centroidal OCP (weights, gains, limits, horizon) and the robot's
+// description for it, both read from YAML.
+//
+// Two files, two owners: the OCP settings (config/ocp.yaml lists every key with its
+// default and meaning) are the controller's tuning and are generic; the robot description
+// (robots/<robot>/centroidal.yaml) holds what is specific to one robot: its URDF, contact
+// frames, drive wheels, side-by-side pairs, the contact offset, the nominal posture and
+// the foot groups of its gaits. Robot-specific numbers never appear in code.
+#include <Eigen/Core>
+#include <array>
+#include <string>
+#include <vector>
+
+#include "rollstep/common/yaml_tree.hpp"
+#include "rollstep/solver/solver.hpp"
+
+namespace rollstep::centroidal {
+
+/// Every weight is a diagonal entry of a least-squares cost 0.5 r^T W r (running costs are
+/// integrated over dt). Defaults are the values of config/ocp.yaml.
+struct OcpSettings {
+  // --- horizon ---------------------------------------------------------------------------
+  int horizon = 100;  ///< N, nodes of the horizon (1..10000)
+  double dt = 0.015;  ///< [s] node step (> 0); horizon length = N dt (1.5 s)
+  // --- costs -----------------------------------------------------------------------------
+  /// Base local velocity tracking v_b(x, u) - v_ref: [vx vy vz wx wy wz].
+  Eigen::Matrix<double, 6, 1> base_velocity_weight =
+      (Eigen::Matrix<double, 6, 1>() << 10.0, 10.0, 10.0, 5.0, 5.0, 5.0).finished();
+  /// State tracking x (-) x_ref(t): base position (world-aligned, local tangent), base
+  /// orientation, every joint position, centroidal momentum [linear; angular].
+  Eigen::Vector3d base_position_weight = Eigen::Vector3d(100.0, 100.0, 200.0);
+  Eigen::Vector3d base_orientation_weight = Eigen::Vector3d(100.0, 100.0, 100.0);
+  double joint_position_weight = 20.0;
+  Eigen::Matrix<double, 6, 1> momentum_weight =
+      (Eigen::Matrix<double, 6, 1>() << 0.1, 0.1, 0.1, 0.1, 0.1, 0.1).finished();
+  /// Input tracking u - u_ref(t): joint velocities and contact forces (u_ref: stance
+  /// normal forces carry the weight equally).
+  double joint_velocity_weight = 0.1;
+  double force_weight = 0.001;
+  /// The terminal cost is the state tracking cost times this factor (>= 0).
+  double terminal_weight_scale = 10.0;
+  // --- equalities ------------------------------------------------------------------------
+  double swing_height_gain = 20.0;  ///< [1/s] Kp of the swing height equality (>= 0)
+  // --- inequalities ----------------------------------------------------------------------
+  double friction_coefficient = 0.6;  ///< mu of the friction pyramid (> 0), below the scene's
+  double min_normal_force = 0.0;      ///< [N] lower bound on a stance normal force (>= 0)
+  double torque_limit_scale = 1.0;    ///< share of the effort limits used, in (0, 1]
+  double joint_limit_margin = 0.0;    ///< [rad or m] kept from each joint position limit (>= 0)
+  double velocity_limit_scale = 1.0;  ///< share of the joint velocity limits used, in (0, 1]
+  /// State-only inequalities (joint positions, foothold and swing regions) as soft
+  /// (relaxed barrier) rows: they may be violated where the horizon starts infeasible.
+  bool soft_state_constraints = true;
+  double soft_relaxation = 1e-3;  ///< relaxed barrier delta (> 0)
+  double soft_weight = 1e2;       ///< relaxed barrier weight (> 0)
+  // --- planning inputs -------------------------------------------------------------------
+  double swing_clearance = 0.08;  ///< [m] swing apex above the higher end (>= 0)
+  double gait_period = 0.8;       ///< [s] one gait cycle (> 0)
+  double trot_duty = 0.6;         ///< stance share of a trot cycle, in (0, 1)
+  double walk_duty = 0.85;        ///< stance share of a static-walk cycle, in (0, 1)
+  // --- the solver ------------------------------------------------------------------------
+  solver::SolverSettings solver;  ///< nested `solver:` mapping (config/solver.yaml's keys)
+};
+
+/// Reads OcpSettings from YAML text: a mapping of the keys above, any subset; `solver:` a
+/// nested mapping of solver settings. Unknown or repeated keys, wrong types, vectors of the
+/// wrong length and values out of range are errors: std::runtime_error
+/// "OCP settings <source>: line L: <key>: <what>".
+OcpSettings parseOcpSettings(const std::string& yaml_text, const std::string& source_name);
+OcpSettings loadOcpSettings(const std::string& yaml_file);
+/// Every key, one "key: value" line each (vectors as flow lists), `solver:` nested; read
+/// back by parseOcpSettings exactly.
+std::string toYaml(const OcpSettings& settings);
+
+/// What the OCP needs to know about one robot besides its URDF's rigid bodies.
+struct RobotOcpDescription {
+  std::string urdf;  ///< path; relative paths are relative to the description file
+  std::vector<std::string> contact_frames;             ///< in mode-mask bit order
+  std::vector<std::string> drive_wheels;               ///< subset of contact_frames
+  std::vector<std::array<std::string, 2>> side_pairs;  ///< first keeps the velocity rows
+  double contact_offset = 0.0;              ///< [m] wheel radius if the frames are centres
+  Eigen::VectorXd nominal_joint_positions;  ///< q_J,ref (nj, URDF joint order)
+  std::vector<std::string> trot_group_a, trot_group_b;  ///< the two trot groups
+  std::vector<std::string> walk_order;                  ///< static walk: one foot at a time
+};
+
+/// Reads a robot description (keys: urdf, contact_frames, drive_wheels, side_pairs,
+/// contact_offset, nominal_joint_positions, trot_groups, walk_order; all required but
+/// drive_wheels, side_pairs, contact_offset, trot_groups and walk_order). Names are checked
+/// against each other here and against the URDF when the OCP is built. Errors:
+/// std::runtime_error "robot description <source>: line L: <key>: <what>".
+RobotOcpDescription parseRobotOcpDescription(const std::string& yaml_text,
+                                             const std::string& source_name,
+                                             const std::string& base_directory = "");
+RobotOcpDescription loadRobotOcpDescription(const std::string& yaml_file);
+
+}  // namespace rollstep::centroidal
