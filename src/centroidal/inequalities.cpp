@@ -16,10 +16,21 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 
 /// Residual workspace of the terms that read the robot's kinematics: a cache of their own
 /// for when the node has no shared one (ctx.cache == nullptr, e.g. a term evaluated alone).
-struct KinematicResidualData final : ocp::ResidualData {
+struct KinematicResidualData : ocp::ResidualData {
   KinematicResidualData(int max_rows, const CentroidalRobot& robot)
       : ocp::ResidualData(max_rows, robot.ndx(), robot.nu()), fallback(robot) {}
   CentroidalCache fallback;
+};
+
+/// The torque term's workspace: the joint torques and their Jacobians before row selection.
+struct TorqueResidualData final : KinematicResidualData {
+  TorqueResidualData(int max_rows, const CentroidalRobot& robot)
+      : KinematicResidualData(max_rows, robot),
+        tau(Eigen::VectorXd::Zero(robot.nj())),
+        tau_dx(Eigen::MatrixXd::Zero(robot.nj(), robot.ndx())),
+        tau_du(Eigen::MatrixXd::Zero(robot.nj(), robot.nu())) {}
+  Eigen::VectorXd tau;
+  Eigen::MatrixXd tau_dx, tau_du;
 };
 
 std::shared_ptr<const CentroidalRobot> checked(std::shared_ptr<const CentroidalRobot> robot,
@@ -76,7 +87,8 @@ StaticTorqueLimitResidual::StaticTorqueLimitResidual(std::shared_ptr<const Centr
                                                      const TorqueLimitOptions& options)
     : ocp::Residual(robot ? robot->ndx() : 0, robot ? robot->nu() : 0, robot ? 2 * robot->nj() : 0),
       robot_(checked(std::move(robot), "StaticTorqueLimitResidual")),
-      pre_(robot_) {
+      pre_(robot_),
+      at_contact_point_(options.force_at_contact_point) {
   const int nj = robot_->nj();
   const model::Model& model = robot_->model();
   const char* who = "StaticTorqueLimitResidual: ";
@@ -119,47 +131,89 @@ int StaticTorqueLimitResidual::rows(const ocp::NodeContext& /*ctx*/) const {
 }
 
 std::unique_ptr<ocp::ResidualData> StaticTorqueLimitResidual::createData() const {
-  return std::make_unique<KinematicResidualData>(maxRows(), *robot_);
+  return std::make_unique<TorqueResidualData>(maxRows(), *robot_);
+}
+
+// The force f_i at the contact point p_i - r e_z, seen as a point of contact i's body:
+// its Jacobian is J_i + r [e_z]x J_w,i, so -J_pc^T f_i = -J_i^T f_i + r J_w,i^T (e_z x f_i).
+// Column m of J_w,i is a_m, the world angular motion of a unit dq_m (the joint's world axis
+// for a revolute joint, 0 for a prismatic one, R e_k for the base's angular coordinates),
+// for m in the support of contact i. Derivatives: a_m turns with every support coordinate
+// n before it (d a_m = a_n x a_m dq_n; the support columns are in tree order), so
+// d (a_m . w) / dq_n = (a_m x w) . a_n with w = r e_z x f_i constant in q, and
+// d (a_m . w) / df_i = r (a_m x e_z)^T.
+void StaticTorqueLimitResidual::staticTorques(const CentroidalCache& c,
+                                              Eigen::VectorXd& tau) const {
+  const int base = robot_->model().nvBase;
+  const int nj = robot_->nj();
+  tau = c.nq.g.tail(nj) - c.nq.contactTorque.tail(nj);
+  if (!at_contact_point_) return;
+  const double r = robot_->contactOffset();
+  for (int i = 0; i < robot_->nc(); ++i) {
+    const Eigen::Vector3d w = r * Eigen::Vector3d::UnitZ().cross(c.force(i));
+    for (int m : robot_->supportColumns(i)) {
+      if (m >= base) tau[m - base] += c.data.J.block<3, 1>(3, m).dot(w);
+    }
+  }
+}
+
+Eigen::VectorXd StaticTorqueLimitResidual::torques(const ocp::NodeContext& ctx, ocp::ConstVecRef x,
+                                                   ocp::ConstVecRef u, ocp::ResidualData& d) const {
+  auto& td = static_cast<TorqueResidualData&>(d);
+  staticTorques(nodeCache(ctx, x, u, false, pre_, td.fallback), td.tau);
+  return td.tau;
 }
 
 void StaticTorqueLimitResidual::calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x,
                                      ocp::ConstVecRef u, ocp::ResidualData& d) const {
-  auto& kd = static_cast<KinematicResidualData&>(d);
-  const CentroidalCache& c = nodeCache(ctx, x, u, false, pre_, kd.fallback);
-  const int base = robot_->model().nvBase;
+  auto& td = static_cast<TorqueResidualData&>(d);
+  staticTorques(nodeCache(ctx, x, u, false, pre_, td.fallback), td.tau);
   int row = 0;
-  // tau_j = g_j - (J^T f)_j on the actuated rows (model::computeStaticTorque).
-  for (int j : upper_rows_) {
-    d.r[row++] = upper_[j] - (c.nq.g[base + j] - c.nq.contactTorque[base + j]);
-  }
-  for (int j : lower_rows_) {
-    d.r[row++] = (c.nq.g[base + j] - c.nq.contactTorque[base + j]) - lower_[j];
-  }
+  for (int j : upper_rows_) d.r[row++] = upper_[j] - td.tau[j];
+  for (int j : lower_rows_) d.r[row++] = td.tau[j] - lower_[j];
 }
 
 void StaticTorqueLimitResidual::calcDiff(const ocp::NodeContext& ctx, ocp::ConstVecRef x,
                                          ocp::ConstVecRef u, ocp::ResidualData& d) const {
-  auto& kd = static_cast<KinematicResidualData&>(d);
-  const CentroidalCache& c = nodeCache(ctx, x, u, true, pre_, kd.fallback);
+  auto& td = static_cast<TorqueResidualData&>(d);
+  const CentroidalCache& c = nodeCache(ctx, x, u, true, pre_, td.fallback);
   const int base = robot_->model().nvBase;
   const int nv = robot_->nv();
   const int nj = robot_->nj();
   const int nc = robot_->nc();
-  const int rows = static_cast<int>(upper_rows_.size() + lower_rows_.size());
-  d.Rx.topRows(rows).setZero();
-  d.Ru.topRows(rows).setZero();
-  auto write = [&](int row, int j, double sign) {
-    // d tau_j / dq = dg_dq - d(J^T f)/dq at fixed f; d tau_j / df_i = -J_i(:, j)^T.
-    d.Rx.row(row).head(nv) =
-        sign * (c.nq.dg_dq.row(base + j) - c.nq.dContactTorque_dq.row(base + j));
+  // d tau / dq = dg_dq - d(J^T f)/dq at fixed f; d tau / df_i = -J_i^T (actuated rows).
+  td.tau_dx.leftCols(nv) = c.nq.dg_dq.bottomRows(nj) - c.nq.dContactTorque_dq.bottomRows(nj);
+  for (int i = 0; i < nc; ++i) {
+    td.tau_du.middleCols<3>(nj + 3 * i) =
+        -c.nq.contactJacobians.block(3 * i, base, 3, nj).transpose();
+  }
+  if (at_contact_point_) {
+    const double r = robot_->contactOffset();
+    const Eigen::Vector3d ez = Eigen::Vector3d::UnitZ();
     for (int i = 0; i < nc; ++i) {
-      d.Ru.row(row).segment<3>(nj + 3 * i) =
-          -sign * c.nq.contactJacobians.block<3, 1>(3 * i, base + j).transpose();
+      const Eigen::Vector3d w = r * ez.cross(c.force(i));
+      const std::vector<int>& support = robot_->supportColumns(i);
+      for (std::size_t k = 0; k < support.size(); ++k) {
+        const int m = support[k];
+        if (m < base) continue;
+        const Eigen::Vector3d a = c.data.J.block<3, 1>(3, m);
+        const Eigen::Vector3d axw = a.cross(w);
+        for (std::size_t l = 0; l < k; ++l) {
+          td.tau_dx(m - base, support[l]) += axw.dot(c.data.J.block<3, 1>(3, support[l]));
+        }
+        td.tau_du.block<1, 3>(m - base, nj + 3 * i) += r * a.cross(ez).transpose();
+      }
     }
-  };
+  }
   int row = 0;
-  for (int j : upper_rows_) write(row++, j, -1.0);
-  for (int j : lower_rows_) write(row++, j, 1.0);
+  for (int j : upper_rows_) {
+    d.Rx.row(row) = -td.tau_dx.row(j);
+    d.Ru.row(row++) = -td.tau_du.row(j);
+  }
+  for (int j : lower_rows_) {
+    d.Rx.row(row) = td.tau_dx.row(j);
+    d.Ru.row(row++) = td.tau_du.row(j);
+  }
 }
 
 // ---- FrictionPyramidResidual -------------------------------------------------------------------

@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -86,7 +87,9 @@ int stanceCount(int mode) {
 // ---- static torque limits ----------------------------------------------------------------
 
 TEST_F(Fixture, TorqueRowsAreTheModelsStaticTorqueAgainstTheEffortLimits) {
-  const StaticTorqueLimitResidual res(robot);
+  TorqueLimitOptions at_frames;
+  at_frames.force_at_contact_point = false;
+  const StaticTorqueLimitResidual res(robot, at_frames);
   const model::Model& m = robot->model();
   ASSERT_EQ(res.maxRows(), 2 * robot->nj());
   model::Data data(m);
@@ -118,6 +121,7 @@ TEST_F(Fixture, TorqueLimitsFromOptions) {
 
   // Explicit limits: infinite sides give no rows; rows are uppers then lowers.
   TorqueLimitOptions o;
+  o.force_at_contact_point = false;
   o.upper = VectorXd::Constant(robot->nj(), 50.0);
   o.lower = VectorXd::Constant(robot->nj(), -kInf);
   o.upper[3] = kInf;
@@ -154,16 +158,63 @@ TEST_F(Fixture, TorqueLimitsFromOptions) {
   EXPECT_THROW(StaticTorqueLimitResidual(nullptr), std::invalid_argument);
 }
 
-TEST_F(Fixture, TorqueJacobiansMatchFiniteDifferences) {
+TEST_F(Fixture, TorqueWithTheForcesAtTheGroundContactPoints) {
+  // With the base level and the hips at 0 every shank is vertical, so the ground contact
+  // point p_i - r e_z is the URDF's <leg>_contact frame: the default term must give
+  // model::computeStaticTorque at those frames.
   const StaticTorqueLimitResidual res(robot);
+  TorqueLimitOptions at_frames;
+  at_frames.force_at_contact_point = false;
+  const StaticTorqueLimitResidual centres(robot, at_frames);
+  const model::Model& m = robot->model();
+  std::vector<model::FrameIndex> ground;
+  for (const std::string& f : kFeet) ground.push_back(m.getFrameId(f + "_contact"));
+  model::Data data(m);
+  auto d = res.createData();
+  auto dc = centres.createData();
+  const NodeEvaluator ev = evaluator(kAllStance, 0.0, nullptr);
+  std::uniform_real_distribution<double> uni(-1.0, 1.0);
+  for (int trial = 0; trial < 10; ++trial) {
+    VectorXd x = randomState(*robot, rng);
+    const VectorXd u = randomInput(*robot, rng);
+    x.segment<4>(3) =
+        Eigen::Quaterniond(Eigen::AngleAxisd(M_PI * uni(rng), Vector3d::UnitZ())).coeffs();
+    for (int j = 0; j < m.nj; ++j) {
+      if (m.jointNames[static_cast<size_t>(j)].find("hip") != std::string::npos) x[7 + j] = 0.0;
+    }
+    ev.at(x, u, false);
+    const VectorXd tau = res.torques(ev.ctx, x, u, *d);
+    const VectorXd expected =
+        model::computeStaticTorque(m, data, x.head(m.nq), ground, u.tail(18)).tail(m.nj);
+    EXPECT_LE((tau - expected).cwiseAbs().maxCoeff(), 1e-9) << tau.transpose() << "\n"
+                                                            << expected.transpose();
+    // The hips see the moment of the traction force about the wheel centre; the
+    // prismatic knees see no moment.
+    const VectorXd at_centres = centres.torques(ev.ctx, x, u, *dc);
+    EXPECT_GT((tau - at_centres).cwiseAbs().maxCoeff(), 0.1);
+    for (int j = 0; j < m.nj; ++j) {
+      if (m.jointNames[static_cast<size_t>(j)].find("knee") != std::string::npos) {
+        EXPECT_NEAR(tau[j], at_centres[j], 1e-9);
+      }
+    }
+  }
+}
+
+TEST_F(Fixture, TorqueJacobiansMatchFiniteDifferences) {
+  TorqueLimitOptions at_frames;
+  at_frames.force_at_contact_point = false;
+  const StaticTorqueLimitResidual res(robot);
+  const StaticTorqueLimitResidual centres(robot, at_frames);
   EXPECT_TRUE(res.dependsOnInput());
   EXPECT_FALSE(res.isLinear());
   for (int trial = 0; trial < 5; ++trial) {
     const VectorXd x = randomState(*robot, rng), u = randomInput(*robot, rng);
     for (int mode : {kAllStance, maskOf({LF, RF, MR}), maskOf({MF, LR, RR})}) {
-      EXPECT_TRUE(
-          checkResidualDerivatives(res, *robot->space(), evaluator(mode, 0.0, nullptr), x, u))
-          << "trial " << trial << " mode " << mode;
+      for (const StaticTorqueLimitResidual* term : {&res, &centres}) {
+        EXPECT_TRUE(
+            checkResidualDerivatives(*term, *robot->space(), evaluator(mode, 0.0, nullptr), x, u))
+            << "trial " << trial << " mode " << mode;
+      }
     }
   }
   // Without a shared cache the term computes its own: same Jacobians.

@@ -53,21 +53,32 @@ struct TorqueLimitOptions {
   Eigen::VectorXd lower, upper;
   /// Fraction of the model's effort limit used (in (0, 1]; ignored with explicit limits).
   double scale = 1.0;
+  /// true: each force acts at the robot's contact point p_i - contact_offset e_z (the
+  /// point robot.hpp defines, the lever arm of the momentum dynamics), i.e. J is the
+  /// Jacobian of that point moving with contact i's body: tau gains the moment of the
+  /// offset, + contact_offset J_w,i^T (e_z x f_i) (J_w,i the body's world angular
+  /// Jacobian). For Tachyon 3 this is r f_x at each hip (the traction force's moment about
+  /// the wheel centre, reacted by the wheel motor on the shank). false: the forces act at
+  /// the frame origins, exactly model::computeStaticTorque with the robot's frames.
+  bool force_at_contact_point = true;
 };
 
-/// tau = S (g(q) - J(q)^T f) (model::computeStaticTorque with the robot's contact frames,
-/// every contact's force included: swing forces are zero by their equality anyway), rows
-/// tau_max - tau_j >= 0 for every joint with a finite upper limit, then tau_j - tau_min >= 0
-/// for every joint with a finite lower limit (joint order within each block). J is the
-/// Jacobian of each contact frame's origin (the wheel centre for Tachyon 3): the moment
-/// r e_z x f of the force about the wheel centre is not included (see the .cpp note).
-/// The row count is the same at every node.
+/// tau = S (g(q) - J(q)^T f) (model::computeStaticTorque: f acting ON the robot, every
+/// contact's force included, swing forces being zero by their equality anyway; J at the
+/// contact points or the frame origins, see TorqueLimitOptions::force_at_contact_point),
+/// rows tau_max - tau_j >= 0 for every joint with a finite upper limit, then
+/// tau_j - tau_min >= 0 for every joint with a finite lower limit (joint order within each
+/// block). The row count is the same at every node.
 class StaticTorqueLimitResidual final : public ocp::Residual {
  public:
   /// Throws std::invalid_argument naming the option: null robot, limits of the wrong size,
   /// NaN limits, lower > upper, scale outside (0, 1].
   StaticTorqueLimitResidual(std::shared_ptr<const CentroidalRobot> robot,
                             const TorqueLimitOptions& options = {});
+  /// The static joint torques (size nj) at (x, u), the values the rows bound, in a new
+  /// vector (allocates: for reports and tests). `d` from createData().
+  Eigen::VectorXd torques(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
+                          ocp::ResidualData& d) const;
   /// The upper limits (size nj, +inf where none) and lower ones (-inf where none).
   const Eigen::VectorXd& upperLimits() const { return upper_; }
   const Eigen::VectorXd& lowerLimits() const { return lower_; }
@@ -79,9 +90,11 @@ class StaticTorqueLimitResidual final : public ocp::Residual {
                 ocp::ResidualData& d) const override;
 
  private:
+  void staticTorques(const CentroidalCache& c, Eigen::VectorXd& tau) const;
   std::shared_ptr<const CentroidalRobot> robot_;
   CentroidalPrecomputation pre_;  // for nodes without a shared cache
   Eigen::VectorXd lower_, upper_;
+  bool at_contact_point_;
   std::vector<int> upper_rows_, lower_rows_;  // joints with a finite upper / lower limit
 };
 
