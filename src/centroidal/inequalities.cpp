@@ -1,6 +1,7 @@
 #include "rollstep/centroidal/inequalities.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -20,6 +21,26 @@ struct KinematicResidualData : ocp::ResidualData {
   KinematicResidualData(int max_rows, const CentroidalRobot& robot)
       : ocp::ResidualData(max_rows, robot.ndx(), robot.nu()), fallback(robot) {}
   CentroidalCache fallback;
+};
+
+/// The region term's workspace: the region of each foot found by calc, reused by calcDiff
+/// (called right after calc with the same arguments, ocp::Residual), -1 for none.
+struct RegionResidualData final : KinematicResidualData {
+  RegionResidualData(int max_rows, const CentroidalRobot& robot)
+      : KinematicResidualData(max_rows, robot) {
+    region.fill(-1);
+  }
+  std::array<int, kMaxContacts> region{};
+};
+
+/// The friction term's workspace: the 5 x 3 block of each stance foot (stacked in row
+/// order), found by calc, reused by calcDiff.
+struct FrictionResidualData final : ocp::ResidualData {
+  FrictionResidualData(int max_rows, int ndx, int nu)
+      : ocp::ResidualData(max_rows, ndx, nu), blocks(max_rows, 3) {
+    blocks.setZero();
+  }
+  Eigen::Matrix<double, Eigen::Dynamic, 3> blocks;
 };
 
 /// The torque term's workspace: the joint torques and their Jacobians before row selection.
@@ -271,13 +292,20 @@ Eigen::Matrix<double, FrictionPyramidResidual::kRowsPerFoot, 3> FrictionPyramidR
   return B;
 }
 
+std::unique_ptr<ocp::ResidualData> FrictionPyramidResidual::createData() const {
+  return std::make_unique<FrictionResidualData>(maxRows(), ndx(), nu());
+}
+
 void FrictionPyramidResidual::calc(const ocp::NodeContext& ctx, ocp::ConstVecRef /*x*/,
                                    ocp::ConstVecRef u, ocp::ResidualData& d) const {
+  auto& fd = static_cast<FrictionResidualData&>(d);
   int row = 0;
   for (int i = 0; i < robot_->nc(); ++i) {
     if (!CentroidalRobot::inStance(ctx.mode, i)) continue;
     const Eigen::Vector3d f = u.segment<3>(robot_->inputForceIndex(i));
-    d.r.segment<kRowsPerFoot>(row) = block(ctx, i) * f;
+    auto B = fd.blocks.middleRows<kRowsPerFoot>(row);
+    B = block(ctx, i);
+    d.r.segment<kRowsPerFoot>(row).noalias() = B * f;
     d.r[row + kRowsPerFoot - 1] -= options_.min_normal_force;
     row += kRowsPerFoot;
   }
@@ -285,13 +313,15 @@ void FrictionPyramidResidual::calc(const ocp::NodeContext& ctx, ocp::ConstVecRef
 
 void FrictionPyramidResidual::calcDiff(const ocp::NodeContext& ctx, ocp::ConstVecRef /*x*/,
                                        ocp::ConstVecRef /*u*/, ocp::ResidualData& d) const {
+  const auto& fd = static_cast<const FrictionResidualData&>(d);
   const int rows = this->rows(ctx);
   d.Rx.topRows(rows).setZero();
   d.Ru.topRows(rows).setZero();
   int row = 0;
   for (int i = 0; i < robot_->nc(); ++i) {
     if (!CentroidalRobot::inStance(ctx.mode, i)) continue;
-    d.Ru.block<kRowsPerFoot, 3>(row, robot_->inputForceIndex(i)) = block(ctx, i);
+    d.Ru.block<kRowsPerFoot, 3>(row, robot_->inputForceIndex(i)) =
+        fd.blocks.middleRows<kRowsPerFoot>(row);
     row += kRowsPerFoot;
   }
 }
@@ -341,16 +371,17 @@ int FootRegionResidual::rows(const ocp::NodeContext& ctx) const {
 }
 
 std::unique_ptr<ocp::ResidualData> FootRegionResidual::createData() const {
-  return std::make_unique<KinematicResidualData>(maxRows(), *robot_);
+  return std::make_unique<RegionResidualData>(maxRows(), *robot_);
 }
 
 void FootRegionResidual::calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
                               ocp::ResidualData& d) const {
-  auto& kd = static_cast<KinematicResidualData&>(d);
+  auto& kd = static_cast<RegionResidualData&>(d);
   const CentroidalCache* c = nullptr;
   int row = 0;
   for (int i = 0; i < robot_->nc(); ++i) {
     const int region = regionOf(ctx, i);
+    kd.region[static_cast<std::size_t>(i)] = region;
     if (region < 0) continue;
     if (c == nullptr) c = &nodeCache(ctx, x, u, false, pre_, kd.fallback);
     const planning::ConvexRegion& reg = terrain_.terrain->region(region);
@@ -363,11 +394,11 @@ void FootRegionResidual::calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x, o
 
 void FootRegionResidual::calcDiff(const ocp::NodeContext& ctx, ocp::ConstVecRef x,
                                   ocp::ConstVecRef u, ocp::ResidualData& d) const {
-  auto& kd = static_cast<KinematicResidualData&>(d);
+  auto& kd = static_cast<RegionResidualData&>(d);
   const CentroidalCache* c = nullptr;
   int row = 0;
   for (int i = 0; i < robot_->nc(); ++i) {
-    const int region = regionOf(ctx, i);
+    const int region = kd.region[static_cast<std::size_t>(i)];  // found by calc
     if (region < 0) continue;
     if (c == nullptr) c = &nodeCache(ctx, x, u, true, pre_, kd.fallback);
     const planning::ConvexRegion& reg = terrain_.terrain->region(region);

@@ -15,7 +15,9 @@
 // CentroidalPrecomputation with derivatives when calcDiff follows); they throw
 // std::invalid_argument if it is missing. Regions and terrain normals come from a
 // TerrainReferences (terrain model + foot reference planner, both optional, both must
-// outlive the terms). Construction allocates; rows/calc/calcDiff never do.
+// outlive the terms). Construction allocates; rows/calc/calcDiff never do. The terrain
+// terms ask the planner once per foot in rows() and once in calc(); calcDiff reuses what
+// calc found, so it must follow calc with the same arguments (as ocp::Residual specifies).
 #include <memory>
 
 #include "rollstep/centroidal/precomputation.hpp"
@@ -127,6 +129,7 @@ class FrictionPyramidResidual final : public ocp::Residual {
   bool dependsOnState() const override { return false; }
   bool isLinear() const override { return true; }
   const FrictionPyramidOptions& options() const { return options_; }
+  std::unique_ptr<ocp::ResidualData> createData() const override;
   /// The terrain frame of the file comment as the columns (t1, t2, n) of a rotation.
   static Eigen::Matrix3d terrainFrame(const Eigen::Vector3d& normal);
   void calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
