@@ -1,5 +1,6 @@
 #include "rollstep/control/dense_qp.hpp"
 
+#include <Eigen/Jacobi>
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -15,17 +16,8 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 // Templates, not Eigen::Ref: a Ref<const MatrixXd> of a row-major block would be a copy.
 template <typename Mat>
 bool allFinite(const Mat& m) {
-  for (Eigen::Index j = 0; j < m.cols(); ++j)
-    for (Eigen::Index i = 0; i < m.rows(); ++i)
-      if (!std::isfinite(m(i, j))) return false;
-  return true;
-}
-
-template <typename Vec>
-bool allFiniteVec(const Vec& v) {
-  for (Eigen::Index i = 0; i < v.size(); ++i)
-    if (!std::isfinite(v(i))) return false;
-  return true;
+  // inf * 0 and NaN * 0 are NaN: one vectorised sum instead of an element-wise test.
+  return m.size() == 0 || (m.array() * 0.0).sum() == 0.0;
 }
 
 /// A two-sided range: no NaN, lower <= upper, and neither side at the infinity that would
@@ -116,7 +108,9 @@ DenseQpSolver::DenseQpSolver(const DenseQpDims& max, const DenseQpSettings& sett
   checkDims(max, "DenseQpSolver");
   const int n = max.n;
   const auto ni = static_cast<std::size_t>(2 * (max.n_ineq + max.n));
-  L_.setZero(n, n);
+  U_.setZero(n, n);
+  H_cache_.setZero(n, n);
+  J0_.setZero(n, n);
   J_.setZero(n, n);
   R_.setZero(n, n);
   d_.setZero(n);
@@ -153,54 +147,53 @@ bool DenseQpSolver::validate(const DenseQpProblem& qp) const {
     return false;
   if (qp.n() > max_.n || qp.nEq() > max_.n_eq || qp.nIneq() > max_.n_ineq) return false;
   const auto H = qp.H();
-  if (!allFinite(H) || !allFiniteVec(qp.g()) || !allFinite(qp.Aeq()) || !allFiniteVec(qp.beq()) ||
-      !allFinite(qp.C()))
+  const bool cached = hessian_cached_;  // identical to the last factorised H, checked then
+  if ((!cached && !allFinite(H)) || !allFinite(qp.g()) || !allFinite(qp.Aeq()) ||
+      !allFinite(qp.beq()) || !allFinite(qp.C()))
     return false;
   if (!validRange(qp.l(), qp.u()) || !validRange(qp.lb(), qp.ub())) return false;
-  // H must be symmetric (only its lower triangle is factorised; an asymmetric H is a bug
+  // H must be symmetric (only its upper triangle is factorised; an asymmetric H is a bug
   // of the caller, not something to hide).
-  double hmax = 0.0;
-  for (Eigen::Index j = 0; j < H.cols(); ++j)
-    for (Eigen::Index i = 0; i < H.rows(); ++i) hmax = std::max(hmax, std::abs(H(i, j)));
-  for (Eigen::Index j = 0; j < H.cols(); ++j)
-    for (Eigen::Index i = j + 1; i < H.rows(); ++i)
-      if (std::abs(H(i, j) - H(j, i)) > 1e-10 * hmax) return false;
+  if (H.size() > 0 && (H - H.transpose()).cwiseAbs().maxCoeff() > 1e-10 * H.cwiseAbs().maxCoeff())
+    return false;
   return true;
 }
 
 bool DenseQpSolver::factorize(const DenseQpProblem& qp) {
   const int n = n_;
   const auto H = qp.H();
-  double max_diag = 0.0;
-  for (int j = 0; j < n; ++j) max_diag = std::max(max_diag, H(j, j));
-  max_diag += settings_.hessian_regularization;
-  for (int j = 0; j < n; ++j) {
-    for (int i = j; i < n; ++i) L_(i, j) = H(i, j);
-    L_(j, j) += settings_.hessian_regularization;
+  const double reg = settings_.hessian_regularization;
+  if (hessian_cached_) {
+    J_.topLeftCorner(n, n) = J0_.topLeftCorner(n, n);
+    return true;
   }
-  // Cholesky H = L L^T in place (lower triangle), refusing tiny pivots.
+  cached_n_ = -1;
+  const double max_diag = (n > 0 ? H.diagonal().maxCoeff() : 0.0) + reg;
   const double pivot_min = settings_.definiteness_tolerance * max_diag;
+  // H = U^T U with U = L^T upper triangular, column by column (up-looking), so that every
+  // inner product runs along contiguous columns of U.
   for (int j = 0; j < n; ++j) {
-    double djj = L_(j, j);
-    for (int k = 0; k < j; ++k) djj -= L_(j, k) * L_(j, k);
+    auto uj = U_.col(j);
+    for (int i = 0; i < j; ++i) uj(i) = (H(i, j) - U_.col(i).head(i).dot(uj.head(i))) / U_(i, i);
+    const double djj = H(j, j) + reg - uj.head(j).squaredNorm();
     if (!(djj > pivot_min) || !(djj > 0.0)) return false;
-    const double ljj = std::sqrt(djj);
-    L_(j, j) = ljj;
-    for (int i = j + 1; i < n; ++i) {
-      double v = L_(i, j);
-      for (int k = 0; k < j; ++k) v -= L_(i, k) * L_(j, k);
-      L_(i, j) = v / ljj;
-    }
+    uj(j) = std::sqrt(djj);
   }
-  // J = L^-T (upper triangular): the active-set factorisation with no constraint.
+  // J = L^-T = U^-1 (upper triangular): the active-set factorisation with no constraint.
+  // Column c solves U J_c = e_c by column-oriented back substitution (axpy on U's columns).
   for (int c = 0; c < n; ++c) {
-    for (int i = n - 1; i > c; --i) J_(i, c) = 0.0;
+    auto jc = J_.col(c).head(n);
+    jc.setZero();
+    jc(c) = 1.0;
     for (int i = c; i >= 0; --i) {
-      double v = (i == c) ? 1.0 : 0.0;
-      for (int k = i + 1; k <= c; ++k) v -= L_(k, i) * J_(k, c);
-      J_(i, c) = v / L_(i, i);
+      jc(i) /= U_(i, i);
+      jc.head(i) -= jc(i) * U_.col(i).head(i);
     }
   }
+  H_cache_.topLeftCorner(n, n) = H;
+  J0_.topLeftCorner(n, n) = J_.topLeftCorner(n, n);
+  cached_n_ = n;
+  cached_reg_ = reg;
   return true;
 }
 
@@ -251,36 +244,25 @@ bool DenseQpSolver::isDependent() const {
 
 // Rotates d(q..n-1) into d(q) (and J's columns with it) and appends d(0..q) to R.
 void DenseQpSolver::addToFactorization() {
-  const int n = n_;
-  for (int j = n - 1; j > q_; --j) {
-    double cc = d_(j - 1), ss = d_(j);
-    const double h = std::hypot(cc, ss);
+  auto J = J_.topLeftCorner(n_, n_);
+  for (int j = n_ - 1; j > q_; --j) {
+    // sqrt, not std::hypot (15 % of a warm solve): |d| < 1e150 for any sane QP.
+    const double h = std::sqrt(d_(j - 1) * d_(j - 1) + d_(j) * d_(j));
     if (h == 0.0) continue;
+    const double c = d_(j - 1) / h, s = d_(j) / h;
+    d_(j - 1) = h;
     d_(j) = 0.0;
-    cc /= h;
-    ss /= h;
-    if (cc < 0.0) {  // keep 1 + cc >= 1 in the fast update below
-      cc = -cc;
-      ss = -ss;
-      d_(j - 1) = -h;
-    } else {
-      d_(j - 1) = h;
-    }
-    const double xny = ss / (1.0 + cc);
-    for (int k = 0; k < n; ++k) {
-      const double t1 = J_(k, j - 1), t2 = J_(k, j);
-      J_(k, j - 1) = t1 * cc + t2 * ss;
-      J_(k, j) = xny * (t1 + J_(k, j - 1)) - t2;
-    }
+    // Columns (j-1, j) of J times [c -s; s c]; Eigen's rotation kernel is vectorised.
+    J.applyOnTheRight(j - 1, j, Eigen::JacobiRotation<double>(c, -s));
   }
   for (int i = 0; i <= q_; ++i) R_(i, q_) = d_(i);
   ++q_;
 }
 
 // Removes the working-set entry at `position`: R loses a column (Hessenberg), restored
-// to triangular by rotations applied to J's columns too.
+// to triangular by rotations of its rows, applied to J's columns too (J R unchanged).
 void DenseQpSolver::dropFromFactorization(int position) {
-  const int n = n_;
+  auto J = J_.topLeftCorner(n_, n_);
   for (int i = position; i < q_ - 1; ++i) {
     active_[static_cast<std::size_t>(i)] = active_[static_cast<std::size_t>(i + 1)];
     u_(i) = u_(i + 1);
@@ -289,30 +271,17 @@ void DenseQpSolver::dropFromFactorization(int position) {
   --q_;
   for (int k = 0; k <= q_; ++k) R_(k, q_) = 0.0;
   for (int j = position; j < q_; ++j) {
-    double cc = R_(j, j), ss = R_(j + 1, j);
-    const double h = std::hypot(cc, ss);
+    const double h = std::sqrt(R_(j, j) * R_(j, j) + R_(j + 1, j) * R_(j + 1, j));
     if (h == 0.0) continue;
-    cc /= h;
-    ss /= h;
+    const double c = R_(j, j) / h, s = R_(j + 1, j) / h;
+    R_(j, j) = h;
     R_(j + 1, j) = 0.0;
-    if (cc < 0.0) {
-      R_(j, j) = -h;
-      cc = -cc;
-      ss = -ss;
-    } else {
-      R_(j, j) = h;
-    }
-    const double xny = ss / (1.0 + cc);
     for (int k = j + 1; k < q_; ++k) {
       const double t1 = R_(j, k), t2 = R_(j + 1, k);
-      R_(j, k) = t1 * cc + t2 * ss;
-      R_(j + 1, k) = xny * (t1 + R_(j, k)) - t2;
+      R_(j, k) = c * t1 + s * t2;
+      R_(j + 1, k) = -s * t1 + c * t2;
     }
-    for (int k = 0; k < n; ++k) {
-      const double t1 = J_(k, j), t2 = J_(k, j + 1);
-      J_(k, j) = t1 * cc + t2 * ss;
-      J_(k, j + 1) = xny * (J_(k, j) + t1) - t2;
-    }
+    J.applyOnTheRight(j, j + 1, Eigen::JacobiRotation<double>(c, -s));
   }
 }
 
@@ -417,6 +386,11 @@ DenseQpStatus DenseQpSolver::solve(const DenseQpProblem& qp) noexcept {
   n_ = std::min(qp.n(), max_.n);
   me_ = std::min(qp.nEq(), max_.n_eq);
   mi_ = std::min(qp.nIneq(), max_.n_ineq);
+  // The filter's H is often the same every tick (constant weights): then its checks and
+  // factors are reused.
+  hessian_cached_ = n_ == qp.n() && n_ == cached_n_ &&
+                    settings_.hessian_regularization == cached_reg_ &&
+                    qp.H() == H_cache_.topLeftCorner(n_, n_);
   if (!validate(qp)) return fail(DenseQpStatus::InvalidInput);
   if (!factorize(qp)) return fail(DenseQpStatus::NotConvex);
   const int n = n_, me = me_, mi = mi_;

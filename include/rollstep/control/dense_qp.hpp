@@ -33,6 +33,8 @@
 // Memory (HPIPM-style): dimensions first (DenseQpDims, the largest problem), then the
 // problem and the solver sized from them; solve() never allocates, locks or throws. The
 // problem's actual sizes may change between solves (setDimensions, up to the maxima).
+// H is factorised once per solve (O(n^3)), or not at all when it is bit for bit the H of
+// the previous factorisation (the filter's constant weights): the factors are kept.
 //
 // Multiplier convention (every multiplier of an inequality side is >= 0):
 //   H x + g = A_eq^T y + C^T (z_lower - z_upper) + (w_lower - w_upper)
@@ -210,9 +212,13 @@ class DenseQpSolver {
   int q_ = 0;   ///< working set size (equalities first)
   int qe_ = 0;  ///< equalities in the working set
 
-  Eigen::MatrixXd L_;  ///< Cholesky factor of H (lower)
-  Eigen::MatrixXd J_;  ///< L^-T Q
-  Eigen::MatrixXd R_;  ///< upper triangular, q x q used
+  Eigen::MatrixXd U_;             ///< Cholesky factor of H = U^T U (upper)
+  Eigen::MatrixXd H_cache_, J0_;  ///< H and U^-1 of the last factorisation
+  int cached_n_ = -1;             ///< size of the cached factorisation, -1: none
+  double cached_reg_ = 0.0;
+  bool hessian_cached_ = false;  ///< this solve's H is the cached one
+  Eigen::MatrixXd J_;            ///< L^-T Q
+  Eigen::MatrixXd R_;            ///< upper triangular, q x q used
   Eigen::VectorXd d_, z_, r_, x0_, work_, a_;
   Eigen::VectorXd u_;             ///< multipliers of the working set, by position
   std::vector<int> active_;       ///< ids of the working set, by position
