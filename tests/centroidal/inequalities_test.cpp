@@ -17,7 +17,9 @@
 
 #include "common/alloc_counter.hpp"
 #include "fd_check.hpp"
+#include "rollstep/centroidal/dynamics.hpp"
 #include "rollstep/model/gravity.hpp"
+#include "rollstep/ocp/problem.hpp"
 #include "rollstep/planning/gait.hpp"
 
 namespace {
@@ -527,6 +529,59 @@ TEST_F(Fixture, JointLimitBoundsFromTheModel) {
   EXPECT_THROW(jointLimitBounds(*robot, {0.2, 1.0}), std::invalid_argument);  // empties knees
   EXPECT_THROW(jointLimitBounds(*robot, {0.0, 0.0}), std::invalid_argument);
   EXPECT_THROW(jointLimitBounds(*robot, {0.0, 1.1}), std::invalid_argument);
+}
+
+// ---- composed into the problem ------------------------------------------------------------
+
+TEST_F(Fixture, ComposedIntoTheProblemOverTheStep) {
+  StepScene s;
+  auto pre_ptr = std::make_shared<const CentroidalPrecomputation>(robot);
+  auto F =
+      std::make_shared<const ocp::ExplicitEuler>(std::make_shared<CentroidalDynamics>(pre_ptr));
+  const int N = 100;
+  ocp::OptimalControlProblem problem(F, N, 0.015, s.scheduler.requiredCapacity());
+  problem.setPrecomputation(pre_ptr);
+  auto torque = std::make_shared<const StaticTorqueLimitResidual>(robot);
+  auto friction = std::make_shared<const FrictionPyramidResidual>(robot, s.references());
+  auto stance =
+      std::make_shared<const FootRegionResidual>(robot, s.references(), RegionUse::Stance);
+  auto swing = std::make_shared<const FootRegionResidual>(robot, s.references(), RegionUse::Swing);
+  ocp::InequalityOptions soft;
+  soft.soft = true;
+  problem.addInequality("torque", torque);
+  problem.addInequality("friction", friction);
+  // State-only: accepted as soft rows and on the terminal node.
+  problem.addInequality("stance_region", stance, ocp::Stage::All, soft);
+  problem.addInequality("swing_region", swing, ocp::Stage::All, soft);
+  const JointLimitBounds b = jointLimitBounds(*robot, {0.01, 0.9});
+  problem.setStateBounds(b.state_lower, b.state_upper, soft);
+  problem.setInputBounds(b.input_lower, b.input_upper);
+  EXPECT_EQ(problem.stateBounds().size(), robot->nj());
+  EXPECT_EQ(problem.inputBounds().size(), robot->nj());
+  EXPECT_EQ(problem.maxInequalities(), 24 + 30 + 24 + 24);
+
+  // Linearise every node of horizons sliding over the climb: the rows are the terms' rows,
+  // the soft flags follow the state-only terms, and nothing allocates.
+  auto nd = problem.createNodeData();
+  const VectorXd x = nominalState(*robot), u = randomInput(*robot, rng);
+  int swing_nodes = 0;
+  for (double t0 = 0.0; t0 < 4.0; t0 += 0.5) {
+    s.scheduler.fill(t0, N * 0.015, problem.modeSchedule());
+    problem.setInitialTime(t0);
+    for (int k = 0; k <= N; ++k) {
+      const ocp::NodeContext ctx = problem.context(k);
+      rollstep::test::AllocationGuard guard;
+      problem.linearize(k, x, u, *nd);
+      EXPECT_EQ(guard.count(), 0u) << "t0 " << t0 << " k " << k;
+      const int rt = k < N ? torque->rows(ctx) : 0;
+      const int rf = k < N ? friction->rows(ctx) : 0;
+      const int rs = stance->rows(ctx), rw = swing->rows(ctx);
+      ASSERT_EQ(nd->ni, rt + rf + rs + rw) << "t0 " << t0 << " k " << k;
+      for (int r = 0; r < nd->ni; ++r) EXPECT_EQ(nd->soft[r], r >= rt + rf) << r;
+      swing_nodes += rw > 0 ? 1 : 0;
+    }
+  }
+  EXPECT_GT(swing_nodes, 0);
 }
 
 }  // namespace
