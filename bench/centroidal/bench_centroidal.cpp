@@ -1,0 +1,161 @@
+// Centroidal layer benchmarks on Tachyon 3: the node precomputation, the dynamics (explicit
+// Euler), the equalities and costs of one node, a whole node linearisation, and one
+// real-time iteration of the problem (no inequalities) at N = 100 during a trot.
+//   build-*/bench/centroidal/bench_centroidal
+#include <benchmark/benchmark.h>
+
+#include "centroidal/assembly.hpp"
+#include "rollstep/solver/solver.hpp"
+
+namespace {
+
+using namespace rollstep;
+using namespace rollstep::centroidal;
+using namespace rollstep::centroidal::test;
+
+struct NodeFixture {
+  std::shared_ptr<const CentroidalRobot> robot = tachyon3Robot();
+  std::shared_ptr<const CentroidalPrecomputation> pre =
+      std::make_shared<const CentroidalPrecomputation>(robot);
+  std::unique_ptr<ocp::NodeCache> cache = pre->createCache();
+  Tachyon3Scene scene = makeTachyon3Scene("trot");
+  Eigen::VectorXd x, u;
+  int mode = maskOf({LF, RF, MR});
+  ocp::NodeContext ctx;
+  NodeFixture() {
+    std::mt19937 rng(1);
+    x = randomState(*robot, rng);
+    u = randomInput(*robot, rng);
+    ctx = makeContext(mode, scene.timeInMode(mode), scene.schedule.get(), cache.get());
+  }
+};
+
+NodeFixture& node() {
+  static NodeFixture f;
+  return f;
+}
+
+void BM_Precompute(benchmark::State& state) {
+  NodeFixture& f = node();
+  const bool derivatives = state.range(0) != 0;
+  for (auto _ : state) {
+    f.pre->compute(f.ctx, f.x, f.u, derivatives, *f.cache);
+    benchmark::DoNotOptimize(f.cache.get());
+  }
+}
+BENCHMARK(BM_Precompute)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
+
+void BM_ContinuousDynamics(benchmark::State& state) {
+  NodeFixture& f = node();
+  const CentroidalDynamics dyn(f.pre);
+  auto d = dyn.createData();
+  Eigen::VectorXd xdot(f.robot->ndx());
+  Eigen::MatrixXd fx(f.robot->ndx(), f.robot->ndx()), fu(f.robot->ndx(), f.robot->nu());
+  f.pre->compute(f.ctx, f.x, f.u, true, *f.cache);
+  for (auto _ : state) {
+    dyn.calc(f.ctx, f.x, f.u, *d, xdot);
+    dyn.calcDiff(f.ctx, f.x, f.u, *d, fx, fu);
+    benchmark::DoNotOptimize(fx.data());
+  }
+}
+BENCHMARK(BM_ContinuousDynamics)->Unit(benchmark::kMicrosecond);
+
+void BM_DynamicsEuler(benchmark::State& state) {
+  NodeFixture& f = node();
+  const ocp::ExplicitEuler F(std::make_shared<const CentroidalDynamics>(f.pre));
+  auto d = F.createData();
+  Eigen::VectorXd xn(f.robot->nx());
+  Eigen::MatrixXd Fx(f.robot->ndx(), f.robot->ndx()), Fu(f.robot->ndx(), f.robot->nu());
+  f.pre->compute(f.ctx, f.x, f.u, true, *f.cache);
+  for (auto _ : state) {
+    F.calc(f.ctx, f.x, f.u, *d, xn);
+    F.calcDiff(f.ctx, f.x, f.u, *d, Fx, Fu);
+    benchmark::DoNotOptimize(Fx.data());
+  }
+}
+BENCHMARK(BM_DynamicsEuler)->Unit(benchmark::kMicrosecond);
+
+void BM_Equalities(benchmark::State& state) {
+  NodeFixture& f = node();
+  const SwingForceResidual force(f.robot);
+  const StanceVelocityResidual velocity(f.pre);
+  const SwingHeightResidual height(f.pre, f.scene.feet, 10.0);
+  const std::vector<const ocp::Residual*> terms{&force, &velocity, &height};
+  std::vector<std::unique_ptr<ocp::ResidualData>> data;
+  for (const auto* t : terms) data.push_back(t->createData());
+  f.pre->compute(f.ctx, f.x, f.u, true, *f.cache);
+  for (auto _ : state) {
+    for (std::size_t k = 0; k < terms.size(); ++k) {
+      data[k]->rows = terms[k]->rows(f.ctx);
+      terms[k]->calc(f.ctx, f.x, f.u, *data[k]);
+      terms[k]->calcDiff(f.ctx, f.x, f.u, *data[k]);
+    }
+    benchmark::DoNotOptimize(data[1]->Rx.data());
+  }
+}
+BENCHMARK(BM_Equalities)->Unit(benchmark::kMicrosecond);
+
+void BM_Costs(benchmark::State& state) {
+  NodeFixture& f = node();
+  const Eigen::VectorXd q_j_ref = nominalState(*f.robot).segment(7, f.robot->nj());
+  const ocp::LeastSquaresCost velocity(
+      std::make_shared<const BaseVelocityResidual>(f.pre, f.scene.base), Eigen::VectorXd::Ones(6));
+  const ocp::LeastSquaresCost tracking(
+      std::make_shared<const StateTrackingResidual>(f.robot, q_j_ref, f.scene.base),
+      Eigen::VectorXd::Ones(f.robot->ndx()));
+  const ocp::LeastSquaresCost input(std::make_shared<const InputTrackingResidual>(f.robot),
+                                    Eigen::VectorXd::Ones(f.robot->nu()));
+  const std::vector<const ocp::CostTerm*> costs{&velocity, &tracking, &input};
+  std::vector<std::unique_ptr<ocp::CostData>> data;
+  for (const auto* c : costs) data.push_back(c->createData());
+  const int ndx = f.robot->ndx(), nu = f.robot->nu();
+  Eigen::VectorXd lx = Eigen::VectorXd::Zero(ndx), lu = Eigen::VectorXd::Zero(nu);
+  Eigen::MatrixXd Lxx = Eigen::MatrixXd::Zero(ndx, ndx), Luu = Eigen::MatrixXd::Zero(nu, nu),
+                  Lux = Eigen::MatrixXd::Zero(nu, ndx);
+  f.pre->compute(f.ctx, f.x, f.u, true, *f.cache);
+  for (auto _ : state) {
+    for (std::size_t k = 0; k < costs.size(); ++k) {
+      costs[k]->calc(f.ctx, f.x, f.u, *data[k]);
+      costs[k]->calcDiff(f.ctx, f.x, f.u, *data[k], 0.015, lx, lu, Lxx, Luu, Lux);
+    }
+    benchmark::DoNotOptimize(Lxx.data());
+  }
+}
+BENCHMARK(BM_Costs)->Unit(benchmark::kMicrosecond);
+
+struct ProblemFixture {
+  Assembly a{"trot", 0.3, 100};
+  solver::Solver solver;
+  std::vector<Eigen::VectorXd> xs, us;
+  ProblemFixture() : solver(a.problem, realTime()) {
+    nominalGuess(*a.robot, 100, xs, us);
+    solver.setInitialGuess(xs, us);
+  }
+  static solver::SolverSettings realTime() {
+    solver::SolverSettings s;
+    s.mode = solver::SolverMode::RealTime;
+    return s;
+  }
+};
+
+void BM_NodeLinearize(benchmark::State& state) {
+  static ProblemFixture p;
+  auto d = p.a.problem->createNodeData();
+  for (auto _ : state) {
+    p.a.problem->linearize(10, p.xs[10], p.us[10], *d);
+    benchmark::DoNotOptimize(d->Fx.data());
+  }
+}
+BENCHMARK(BM_NodeLinearize)->Unit(benchmark::kMicrosecond);
+
+void BM_RealTimeIterationN100(benchmark::State& state) {
+  static ProblemFixture p;
+  const Eigen::VectorXd x0 = p.xs[0];
+  for (auto _ : state) {
+    const auto status = p.solver.update(0.0, x0);
+    benchmark::DoNotOptimize(status);
+  }
+}
+BENCHMARK(BM_RealTimeIterationN100)->Unit(benchmark::kMillisecond);
+
+}  // namespace
