@@ -123,7 +123,8 @@ OcpSettings parseOcpSettings(const std::string& yaml_text, const std::string& so
           fail(value, at + "expected a mapping of solver settings, got " + value.kindName());
         }
         settings.solver = solver::parseSolverSettings(
-            value, source_name + " (key 'solver', line " + std::to_string(value.line()) + ")");
+            value, source_name + " (key 'solver', line " + std::to_string(value.line()) + ")",
+            OcpSettings::defaultSolverSettings());
         continue;
       }
       if (value.isNull()) fail(value, at + "no value");

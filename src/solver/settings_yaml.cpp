@@ -109,11 +109,12 @@ SolverSettings parseSolverSettings(const std::string& yaml_text, const std::stri
   }
 }
 
-SolverSettings parseSolverSettings(const yaml::Node& root, const std::string& source_name) {
+SolverSettings parseSolverSettings(const yaml::Node& root, const std::string& source_name,
+                                   const SolverSettings& defaults) {
   const auto fail = [&](const std::string& what) {
     throw std::runtime_error("solver settings " + source_name + ": " + what);
   };
-  SolverSettings settings;
+  SolverSettings settings = defaults;
   if (root.isNull()) return settings;
   if (!root.isMapping()) fail("expected a mapping of key: value");
   std::array<bool, kNumFields> seen{};

@@ -50,16 +50,28 @@ struct OcpSettings {
   double velocity_limit_scale = 1.0;  ///< share of the joint velocity limits used, in (0, 1]
   /// State-only inequalities (joint positions, foothold and swing regions) as soft
   /// (relaxed barrier) rows: they may be violated where the horizon starts infeasible.
-  bool soft_state_constraints = true;
+  /// Off by default: a soft row's fixed-weight barrier keeps pushing at the solution (the
+  /// knees work 5 cm from their stop: standing moved 2 % of the weight between feet).
+  bool soft_state_constraints = false;
   double soft_relaxation = 1e-3;  ///< relaxed barrier delta (> 0)
-  double soft_weight = 1e2;       ///< relaxed barrier weight (> 0)
+  double soft_weight = 1e-3;      ///< relaxed barrier weight (> 0)
   // --- planning inputs -------------------------------------------------------------------
   double swing_clearance = 0.08;  ///< [m] swing apex above the higher end (>= 0)
   double gait_period = 0.8;       ///< [s] one gait cycle (> 0)
   double trot_duty = 0.6;         ///< stance share of a trot cycle, in (0, 1)
   double walk_duty = 0.85;        ///< stance share of a static-walk cycle, in (0, 1)
   // --- the solver ------------------------------------------------------------------------
-  solver::SolverSettings solver;  ///< nested `solver:` mapping (config/solver.yaml's keys)
+  /// Nested `solver:` mapping (config/solver.yaml's keys). Defaults: the solver's, but a
+  /// Gauss-Newton Hessian (exact_hessian false) as in the paper: on Tachyon 3 standing it
+  /// converges in the same 9 iterations as the exact one, 15x faster (finite differences
+  /// of 54 gradient columns per node).
+  solver::SolverSettings solver = defaultSolverSettings();
+
+  static solver::SolverSettings defaultSolverSettings() {
+    solver::SolverSettings s;
+    s.exact_hessian = false;
+    return s;
+  }
 };
 
 /// Reads OcpSettings from YAML text: a mapping of the keys above, any subset; `solver:` a

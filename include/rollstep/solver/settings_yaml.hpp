@@ -21,8 +21,10 @@ SolverSettings parseSolverSettings(const std::string& yaml_text,
                                    const std::string& source_name = "<text>");
 
 /// The same from a node of a parsed document (a `solver:` mapping nested in another
-/// configuration file; a null node gives the defaults). Errors name source_name.
-SolverSettings parseSolverSettings(const yaml::Node& node, const std::string& source_name);
+/// configuration file; a null node gives `defaults`): keys not given keep their value in
+/// `defaults`. Errors name source_name.
+SolverSettings parseSolverSettings(const yaml::Node& node, const std::string& source_name,
+                                   const SolverSettings& defaults = SolverSettings{});
 
 /// parseSolverSettings on the contents of a file. A missing file, a directory, anything
 /// that is not a regular file (a FIFO is refused, not waited on) and a file above 1 MiB are

@@ -1,0 +1,104 @@
+#pragma once
+// The whole full-centroidal OCP of the paper, composed once from a robot description, the
+// OCP settings, a terrain model and a gait: the model and its node precomputation, the
+// dynamics (explicit Euler on SE(3) x R^(nj+6)), every equality, inequality and cost of
+// DESIGN.md section 3, and the planning inputs they read (gait schedule, base reference,
+// foot references). What the `rollstep plan` command and the control pipeline build on.
+//
+//   costs        base_velocity (v_b - v_ref), state (x (-) x_ref(t), running and terminal),
+//                input (u - u_ref(t))
+//   equalities   swing_force, stance_velocity (z, drive-wheel lateral; side-by-side rule),
+//                swing_height (spline z_ref, Kp)
+//   inequalities torque (static joint torque limits), friction (pyramid per stance foot),
+//                stance_region, swing_region (state-only: soft when configured),
+//                joint positions (state bounds, soft when configured), joint velocities
+//                (input bounds)
+//
+// Construction allocates and may throw (std::invalid_argument / std::runtime_error naming
+// what is wrong); reset() and advance() do not allocate. Not copyable or movable: the
+// planning objects point at the terrain and at each other.
+#include <Eigen/Core>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "rollstep/centroidal/ocp_settings.hpp"
+#include "rollstep/centroidal/precomputation.hpp"
+#include "rollstep/centroidal/robot.hpp"
+#include "rollstep/lie/se3.hpp"
+#include "rollstep/ocp/problem.hpp"
+#include "rollstep/planning/base_reference.hpp"
+#include "rollstep/planning/contact_schedule.hpp"
+#include "rollstep/planning/foot_reference.hpp"
+#include "rollstep/planning/gait.hpp"
+#include "rollstep/planning/terrain.hpp"
+
+namespace rollstep::centroidal {
+
+/// "standing", "rolling", "trot", "static_walk" <-> GaitKind (Custom has no name here).
+planning::GaitKind gaitKindFromString(const std::string& name);
+const char* toString(planning::GaitKind kind);
+
+class CentroidalOcp {
+ public:
+  /// Loads the URDF of `robot`, checks the description against it (frames, joint count of
+  /// the nominal posture, gait groups the gait needs) and composes the problem.
+  CentroidalOcp(const RobotOcpDescription& robot, const OcpSettings& settings,
+                planning::TerrainModel terrain, planning::GaitKind gait);
+  CentroidalOcp(const CentroidalOcp&) = delete;
+  CentroidalOcp& operator=(const CentroidalOcp&) = delete;
+
+  /// Starts the references at t0 from `start` (its x, y and yaw) with `command`, and fills
+  /// the mode schedule for the horizon starting at t0.
+  void reset(double t0, const lie::SE3& start, const planning::BaseVelocityCommand& command);
+  /// Moves the horizon to start at t0 (same references): the problem's initial time and
+  /// mode schedule.
+  void advance(double t0);
+
+  /// The nominal standing state at the planar pose (x, y, yaw): base at the nominal height
+  /// above the terrain under the feet, level, nominal joints, zero momentum.
+  Eigen::VectorXd standingState(double x, double y, double yaw) const;
+  /// A cold-start guess over the horizon: the standing state along the base reference at
+  /// each node time, and u_ref (zero joint velocities, stance feet sharing the weight).
+  void initialGuess(std::vector<Eigen::VectorXd>& xs, std::vector<Eigen::VectorXd>& us) const;
+  /// World positions (3 x nc) of the contact frames at state x.
+  Eigen::Matrix3Xd footPositions(const Eigen::VectorXd& x) const;
+  /// Base twist v_b (local) at state x and input u.
+  lie::Vector6d baseTwist(const Eigen::VectorXd& x, const Eigen::VectorXd& u) const;
+  /// Static joint torques S (g - J^T f) at x, u (forces at the contact points).
+  Eigen::VectorXd jointTorques(const Eigen::VectorXd& x, const Eigen::VectorXd& u) const;
+
+  const std::shared_ptr<ocp::OptimalControlProblem>& problem() const { return problem_; }
+  const CentroidalRobot& robot() const { return *robot_; }
+  const std::shared_ptr<const CentroidalRobot>& robotPtr() const { return robot_; }
+  const CentroidalPrecomputation& precomputation() const { return *pre_; }
+  const OcpSettings& settings() const { return settings_; }
+  const planning::TerrainModel& terrain() const { return *terrain_; }
+  const planning::BaseReference& baseReference() const { return *base_; }
+  const planning::FootReferencePlanner& footPlanner() const { return *feet_; }
+  const planning::Gait& gait() const { return scheduler_->gait(); }
+  /// Body-frame (x, y) of each foot at the nominal posture, and the base height above
+  /// the ground there [m] (from the URDF and the contact offset).
+  const std::vector<Eigen::Vector2d>& nominalFeet() const { return nominal_feet_; }
+  double nominalHeight() const { return nominal_height_; }
+  const Eigen::VectorXd& nominalJointPositions() const { return q_joint_ref_; }
+  /// Contact frame names in mode-mask order.
+  const std::vector<std::string>& contactNames() const { return contact_names_; }
+
+ private:
+  OcpSettings settings_;
+  std::shared_ptr<const CentroidalRobot> robot_;
+  std::shared_ptr<const CentroidalPrecomputation> pre_;
+  std::unique_ptr<planning::TerrainModel> terrain_;
+  std::shared_ptr<planning::BaseReference> base_;
+  std::shared_ptr<planning::FootReferencePlanner> feet_;
+  std::unique_ptr<planning::GaitScheduler> scheduler_;
+  std::shared_ptr<ocp::OptimalControlProblem> problem_;
+  std::vector<Eigen::Vector2d> nominal_feet_;
+  double nominal_height_ = 0.0;
+  Eigen::VectorXd q_joint_ref_;
+  std::vector<std::string> contact_names_;
+  std::unique_ptr<CentroidalCache> scratch_;  // for the non-real-time helpers above
+};
+
+}  // namespace rollstep::centroidal

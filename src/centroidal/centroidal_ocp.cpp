@@ -1,0 +1,270 @@
+#include "rollstep/centroidal/centroidal_ocp.hpp"
+
+#include <cmath>
+#include <stdexcept>
+
+#include "rollstep/centroidal/costs.hpp"
+#include "rollstep/centroidal/dynamics.hpp"
+#include "rollstep/centroidal/equalities.hpp"
+#include "rollstep/centroidal/inequalities.hpp"
+#include "rollstep/ocp/cost.hpp"
+#include "rollstep/ocp/dynamics.hpp"
+
+namespace rollstep::centroidal {
+
+planning::GaitKind gaitKindFromString(const std::string& name) {
+  if (name == "standing") return planning::GaitKind::Standing;
+  if (name == "rolling") return planning::GaitKind::Rolling;
+  if (name == "trot") return planning::GaitKind::Trot;
+  if (name == "static_walk") return planning::GaitKind::StaticWalk;
+  throw std::invalid_argument("unknown gait '" + name +
+                              "' (expected standing, rolling, trot or static_walk)");
+}
+
+const char* toString(planning::GaitKind kind) {
+  switch (kind) {
+    case planning::GaitKind::Standing:
+      return "standing";
+    case planning::GaitKind::Rolling:
+      return "rolling";
+    case planning::GaitKind::Trot:
+      return "trot";
+    case planning::GaitKind::StaticWalk:
+      return "static_walk";
+    case planning::GaitKind::Custom:
+      return "custom";
+  }
+  return "?";
+}
+
+namespace {
+
+int indexOf(const std::vector<std::string>& names, const std::string& name) {
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    if (names[i] == name) return static_cast<int>(i);
+  }
+  throw std::invalid_argument("'" + name + "' is not a contact frame");
+}
+
+planning::Gait makeGait(planning::GaitKind kind, const RobotOcpDescription& d,
+                        const OcpSettings& s) {
+  const int nc = static_cast<int>(d.contact_frames.size());
+  switch (kind) {
+    case planning::GaitKind::Standing:
+      return planning::Gait::standing(nc, s.gait_period);
+    case planning::GaitKind::Rolling:
+      return planning::Gait::rolling(nc, s.gait_period);
+    case planning::GaitKind::Trot:
+      if (d.trot_group_a.empty() || d.trot_group_b.empty()) {
+        throw std::invalid_argument("the robot description gives no trot_groups: cannot trot");
+      }
+      return planning::Gait::trot(nc, s.gait_period, s.trot_duty,
+                                  planning::contactMask(d.contact_frames, d.trot_group_a),
+                                  planning::contactMask(d.contact_frames, d.trot_group_b));
+    case planning::GaitKind::StaticWalk: {
+      if (d.walk_order.empty()) {
+        throw std::invalid_argument("the robot description gives no walk_order: cannot walk");
+      }
+      std::vector<int> order;
+      for (const std::string& name : d.walk_order) order.push_back(indexOf(d.contact_frames, name));
+      return planning::Gait::staticWalk(nc, s.gait_period, s.walk_duty, order);
+    }
+    case planning::GaitKind::Custom:
+      break;
+  }
+  throw std::invalid_argument("CentroidalOcp: a custom gait needs its table (not supported here)");
+}
+
+Eigen::VectorXd repeat(double value, int n) { return Eigen::VectorXd::Constant(n, value); }
+
+}  // namespace
+
+CentroidalOcp::CentroidalOcp(const RobotOcpDescription& description, const OcpSettings& settings,
+                             planning::TerrainModel terrain, planning::GaitKind gait)
+    : settings_(settings), contact_names_(description.contact_frames) {
+  // --- the robot --------------------------------------------------------------------------
+  auto model =
+      std::make_shared<const model::Model>(model::buildModelFromUrdfFile(description.urdf));
+  std::vector<ContactDescription> contacts;
+  for (const std::string& frame : description.contact_frames) {
+    bool drive = false;
+    for (const std::string& w : description.drive_wheels) drive = drive || w == frame;
+    contacts.push_back({frame, drive});
+  }
+  std::vector<std::array<int, 2>> pairs;
+  for (const auto& p : description.side_pairs) {
+    pairs.push_back(
+        {indexOf(description.contact_frames, p[0]), indexOf(description.contact_frames, p[1])});
+  }
+  robot_ =
+      std::make_shared<const CentroidalRobot>(model, contacts, pairs, description.contact_offset);
+  const int nj = robot_->nj(), nc = robot_->nc(), ndx = robot_->ndx(), nu = robot_->nu();
+  if (description.nominal_joint_positions.size() != nj) {
+    throw std::invalid_argument("robot description: nominal_joint_positions has " +
+                                std::to_string(description.nominal_joint_positions.size()) +
+                                " entries, the URDF " + description.urdf + " has " +
+                                std::to_string(nj) + " joints");
+  }
+  q_joint_ref_ = description.nominal_joint_positions;
+  pre_ = std::make_shared<const CentroidalPrecomputation>(robot_);
+  scratch_ = std::make_unique<CentroidalCache>(*robot_);
+
+  // --- nominal footholds and height, from the URDF at the nominal posture -------------------
+  {
+    Eigen::VectorXd x = Eigen::VectorXd::Zero(robot_->nx());
+    x[6] = 1.0;  // identity quaternion (x, y, z, w)
+    x.segment(robot_->stateJointIndex(), nj) = q_joint_ref_;
+    pre_->compute(x, Eigen::VectorXd::Zero(nu), false, *scratch_);
+    double height = 0.0;
+    for (int i = 0; i < nc; ++i) {
+      const Eigen::Vector3d p = scratch_->footPosition(i);
+      nominal_feet_.emplace_back(p.x(), p.y());
+      height += -p.z() + robot_->contactOffset();
+    }
+    nominal_height_ = height / nc;
+  }
+
+  // --- planning inputs ------------------------------------------------------------------------
+  terrain_ = std::make_unique<planning::TerrainModel>(std::move(terrain));
+  planning::BaseReferenceConfig base_config;
+  base_config.nominal_height = nominal_height_;
+  base_config.height_samples = nominal_feet_;  // the body rises as the feet climb
+  base_ = std::make_shared<planning::BaseReference>(*terrain_, base_config);
+  planning::FootReferenceConfig foot_config;
+  foot_config.nominal_feet = nominal_feet_;
+  foot_config.swing_clearance = settings.swing_clearance;
+  foot_config.foot_height_offset = robot_->contactOffset();
+  feet_ = std::make_shared<planning::FootReferencePlanner>(*terrain_, *base_, foot_config);
+  const double horizon_time = settings.horizon * settings.dt;
+  scheduler_ = std::make_unique<planning::GaitScheduler>(makeGait(gait, description, settings),
+                                                         horizon_time);
+
+  // --- the problem -----------------------------------------------------------------------------
+  auto dynamics = std::make_shared<ocp::ExplicitEuler>(std::make_shared<CentroidalDynamics>(pre_));
+  problem_ = std::make_shared<ocp::OptimalControlProblem>(dynamics, settings.horizon, settings.dt,
+                                                          scheduler_->requiredCapacity());
+  problem_->setPrecomputation(pre_);
+
+  // Costs.
+  problem_->addCost("base_velocity", std::make_shared<ocp::LeastSquaresCost>(
+                                         std::make_shared<BaseVelocityResidual>(pre_, base_),
+                                         Eigen::VectorXd(settings.base_velocity_weight)));
+  Eigen::VectorXd w_state(ndx);
+  w_state << settings.base_position_weight, settings.base_orientation_weight,
+      repeat(settings.joint_position_weight, nj), settings.momentum_weight;
+  auto state_residual = std::make_shared<StateTrackingResidual>(robot_, q_joint_ref_, base_);
+  problem_->addCost("state", std::make_shared<ocp::LeastSquaresCost>(state_residual, w_state));
+  problem_->addCost("terminal_state",
+                    std::make_shared<ocp::LeastSquaresCost>(
+                        state_residual, settings.terminal_weight_scale * w_state),
+                    ocp::Stage::Terminal);
+  Eigen::VectorXd w_input(nu);
+  w_input << repeat(settings.joint_velocity_weight, nj), repeat(settings.force_weight, 3 * nc);
+  problem_->addCost("input", std::make_shared<ocp::LeastSquaresCost>(
+                                 std::make_shared<InputTrackingResidual>(robot_), w_input));
+
+  // Equalities.
+  problem_->addEquality("swing_force", std::make_shared<SwingForceResidual>(robot_));
+  problem_->addEquality("stance_velocity", std::make_shared<StanceVelocityResidual>(pre_));
+  problem_->addEquality("swing_height", std::make_shared<SwingHeightResidual>(
+                                            pre_, feet_, settings.swing_height_gain));
+
+  // Inequalities.
+  ocp::InequalityOptions state_only;
+  state_only.soft = settings.soft_state_constraints;
+  state_only.relaxation = settings.soft_relaxation;
+  state_only.weight = settings.soft_weight;
+  TorqueLimitOptions torque;
+  torque.scale = settings.torque_limit_scale;
+  problem_->addInequality("torque", std::make_shared<StaticTorqueLimitResidual>(robot_, torque));
+  const TerrainReferences refs{terrain_.get(), feet_.get()};
+  FrictionPyramidOptions friction;
+  friction.mu = settings.friction_coefficient;
+  friction.min_normal_force = settings.min_normal_force;
+  problem_->addInequality("friction",
+                          std::make_shared<FrictionPyramidResidual>(robot_, refs, friction));
+  if (terrain_->size() > 0) {
+    problem_->addInequality("stance_region",
+                            std::make_shared<FootRegionResidual>(robot_, refs, RegionUse::Stance),
+                            ocp::Stage::Running, state_only);
+    problem_->addInequality("swing_region",
+                            std::make_shared<FootRegionResidual>(robot_, refs, RegionUse::Swing),
+                            ocp::Stage::Running, state_only);
+  }
+  JointLimitBoundOptions limits;
+  limits.position_margin = settings.joint_limit_margin;
+  limits.velocity_scale = settings.velocity_limit_scale;
+  const JointLimitBounds bounds = jointLimitBounds(*robot_, limits);
+  problem_->setStateBounds(bounds.state_lower, bounds.state_upper, state_only);
+  problem_->setInputBounds(bounds.input_lower, bounds.input_upper);
+
+  reset(0.0, lie::SE3::Identity(), planning::BaseVelocityCommand{});
+}
+
+void CentroidalOcp::reset(double t0, const lie::SE3& start,
+                          const planning::BaseVelocityCommand& command) {
+  base_->reset(t0, start, command);
+  advance(t0);
+}
+
+void CentroidalOcp::advance(double t0) {
+  problem_->setInitialTime(t0);
+  scheduler_->fill(t0, settings_.horizon * settings_.dt, problem_->modeSchedule());
+}
+
+Eigen::VectorXd CentroidalOcp::standingState(double x, double y, double yaw) const {
+  Eigen::VectorXd state = Eigen::VectorXd::Zero(robot_->nx());
+  const Eigen::Quaterniond q(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()));
+  // Terrain height under the nominal feet at this pose, like the base reference.
+  const Eigen::Rotation2Dd R(yaw);
+  double ground = 0.0;
+  for (const Eigen::Vector2d& foot : nominal_feet_) {
+    ground += terrain_->heightAt(Eigen::Vector2d(x, y) + R * foot, 0.0);
+  }
+  ground /= static_cast<double>(nominal_feet_.size());
+  state.head<3>() = Eigen::Vector3d(x, y, ground + nominal_height_);
+  state.segment<4>(3) = q.coeffs();
+  state.segment(robot_->stateJointIndex(), robot_->nj()) = q_joint_ref_;
+  return state;
+}
+
+void CentroidalOcp::initialGuess(std::vector<Eigen::VectorXd>& xs,
+                                 std::vector<Eigen::VectorXd>& us) const {
+  const int N = problem_->horizon();
+  xs.assign(static_cast<std::size_t>(N + 1), Eigen::VectorXd());
+  us.assign(static_cast<std::size_t>(N), Eigen::VectorXd());
+  InputTrackingResidual input(robot_);
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(robot_->nx());
+  x.segment(robot_->stateJointIndex(), robot_->nj()) = q_joint_ref_;
+  for (int k = 0; k <= N; ++k) {
+    const ocp::NodeContext ctx = problem_->context(k);
+    const lie::Vector7d pose = base_->poseAt(ctx.time).coeffs();
+    for (int i = 0; i < 7; ++i) x[i] = pose[i];
+    xs[static_cast<std::size_t>(k)] = x;
+    if (k < N) {
+      Eigen::VectorXd u(robot_->nu());
+      input.reference(ctx, u);
+      us[static_cast<std::size_t>(k)] = u;
+    }
+  }
+}
+
+Eigen::Matrix3Xd CentroidalOcp::footPositions(const Eigen::VectorXd& x) const {
+  pre_->compute(x, Eigen::VectorXd::Zero(robot_->nu()), false, *scratch_);
+  return scratch_->nq.contactPositions;
+}
+
+lie::Vector6d CentroidalOcp::baseTwist(const Eigen::VectorXd& x, const Eigen::VectorXd& u) const {
+  pre_->compute(x, u, false, *scratch_);
+  return scratch_->vb;
+}
+
+Eigen::VectorXd CentroidalOcp::jointTorques(const Eigen::VectorXd& x,
+                                            const Eigen::VectorXd& u) const {
+  StaticTorqueLimitResidual torque(robot_);
+  auto data = torque.createData();
+  ocp::NodeContext ctx;  // no cache: the term computes its own
+  return torque.torques(ctx, x, u, *data);
+}
+
+}  // namespace rollstep::centroidal
