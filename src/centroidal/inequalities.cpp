@@ -226,6 +226,14 @@ void StaticTorqueLimitResidual::calcDiff(const ocp::NodeContext& ctx, ocp::Const
       }
     }
   }
+  if (static_cast<int>(upper_rows_.size()) == nj && static_cast<int>(lower_rows_.size()) == nj) {
+    // Every joint limited on both sides (Tachyon 3): two block copies, no row gathering.
+    d.Rx.topRows(nj) = -td.tau_dx;
+    d.Ru.topRows(nj) = -td.tau_du;
+    d.Rx.middleRows(nj, nj) = td.tau_dx;
+    d.Ru.middleRows(nj, nj) = td.tau_du;
+    return;
+  }
   int row = 0;
   for (int j : upper_rows_) {
     d.Rx.row(row) = -td.tau_dx.row(j);

@@ -140,6 +140,9 @@ TEST_F(Fixture, TorqueLimitsFromOptions) {
   EXPECT_NEAR(r[2], 50.0 - tau[2], 1e-9);
   EXPECT_NEAR(r[3], 50.0 - tau[4], 1e-9);  // joint 3 has no upper row
   EXPECT_NEAR(r[11], tau[1] + 10.0, 1e-9);
+  // The row-gathering path (not every side limited) has the right Jacobians too.
+  EXPECT_TRUE(
+      checkResidualDerivatives(res, *robot->space(), evaluator(kAllStance, 0.0, nullptr), x, u));
 
   // Bad options name themselves.
   TorqueLimitOptions bad;
