@@ -12,13 +12,14 @@
 // Conventions: the robot layout of robot.hpp (x, dx, u; f_i world forces acting ON the
 // robot); contact i is in stance at a node iff bit i of NodeContext::mode is set. Terms
 // that need the robot's kinematics read the node's CentroidalCache (ctx.cache, filled by
-// CentroidalPrecomputation with derivatives when calcDiff follows); they throw
-// std::invalid_argument if it is missing. Regions and terrain normals come from a
-// TerrainReferences (terrain model + foot reference planner, both optional, both must
-// outlive the terms). Construction allocates; rows/calc/calcDiff never do. The terrain
+// CentroidalPrecomputation with derivatives when calcDiff follows, see nodeCache); without
+// one (ctx.cache null) they compute their own into a cache held by their data. Regions and terrain
+// normals come from a TerrainReferences (terrain model + foot reference planner, both optional,
+// both must outlive the terms). Construction allocates; rows/calc/calcDiff never do. The terrain
 // terms ask the planner once per foot in rows() and once in calc(); calcDiff reuses what
 // calc found, so it must follow calc with the same arguments (as ocp::Residual specifies).
 #include <memory>
+#include <vector>
 
 #include "rollstep/centroidal/precomputation.hpp"
 #include "rollstep/centroidal/robot.hpp"
@@ -59,7 +60,7 @@ struct TorqueLimitOptions {
   /// point robot.hpp defines, the lever arm of the momentum dynamics), i.e. J is the
   /// Jacobian of that point moving with contact i's body: tau gains the moment of the
   /// offset, + contact_offset J_w,i^T (e_z x f_i) (J_w,i the body's world angular
-  /// Jacobian). For Tachyon 3 this is r f_x at each hip (the traction force's moment about
+  /// Jacobian). For Tachyon 3 this is about r f_x at each hip (the traction force's moment about
   /// the wheel centre, reacted by the wheel motor on the shank). false: the forces act at
   /// the frame origins, exactly model::computeStaticTorque with the robot's frames.
   bool force_at_contact_point = true;
