@@ -8,6 +8,7 @@
 #include <Eigen/Dense>
 #include <cmath>
 #include <limits>
+#include <random>
 #include <vector>
 
 #include "common/alloc_counter.hpp"
@@ -283,6 +284,41 @@ TEST(DenseQp, RedundantRowsAndEqualSides) {
   base.u().head(2).setConstant(kInf);
   ASSERT_EQ(solver.solve(base), DenseQpStatus::Optimal);
   EXPECT_LE((solver.x() - x_eqsides).lpNorm<Eigen::Infinity>(), 1e-10);
+}
+
+TEST(DenseQp, ManyRowsThroughTheOptimum) {
+  // Rows added through the optimum x* of a problem keep x* optimal (x* is still feasible
+  // and the feasible set only shrank), but make it heavily degenerate: 20 more sides with
+  // zero slack at x*, and a duplicate and a scaled copy of each original row.
+  qptest::RandomQpSpec spec{30, 12, 20};
+  DenseQpProblem qp({30, 12, 80});
+  DenseQpSolver solver({30, 12, 80});
+  std::mt19937 rng(42);
+  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  for (unsigned seed = 1; seed <= 10; ++seed) {
+    qptest::makeRandomQp(spec, seed, qp);
+    ASSERT_EQ(solver.solve(qp), DenseQpStatus::Optimal);
+    const VectorXd x_star = solver.x();
+    qp.setDimensions(30, 12, 80);
+    for (int i = 0; i < 20; ++i) {
+      for (int c = 1; c <= 2; ++c) {
+        const double s = c == 1 ? 1.0 : 0.5 + 2.5 * std::abs(U(rng));
+        qp.C().row(20 * c + i) = s * qp.C().row(i);
+        qp.l()(20 * c + i) = s * qp.l()(i);
+        qp.u()(20 * c + i) = s * qp.u()(i);
+      }
+      for (int j = 0; j < 30; ++j) qp.C()(60 + i, j) = U(rng);
+      const double v = qp.C().row(60 + i).dot(x_star);
+      qp.l()(60 + i) = i % 2 == 0 ? v : -kInf;  // through x*, on either side
+      qp.u()(60 + i) = i % 2 == 0 ? kInf : v;
+    }
+    for (bool warm : {false, true}) {
+      solver.settings().warm_start = warm;
+      ASSERT_EQ(solver.solve(qp), DenseQpStatus::Optimal) << seed;
+      EXPECT_LE((solver.x() - x_star).lpNorm<Eigen::Infinity>(), 1e-9) << seed;
+      expectKkt(qp, solver);
+    }
+  }
 }
 
 TEST(DenseQp, RankDeficientEqualities) {
