@@ -159,9 +159,10 @@ class DenseQpSolver {
   /// same optimum as a cold start (the QP is strictly convex), usually in fewer iterations.
   ///
   /// Outputs after a non-Optimal status:
-  /// - Infeasible, MaxIterations: x and the multipliers are the last iterate: the minimiser
-  ///   of the cost on the equalities and the sides in the working set (dual feasible, not
-  ///   primal feasible), so not a safe command by itself; the caller must fall back.
+  /// - Infeasible, MaxIterations: x is the last iterate of the dual method, with the
+  ///   multipliers of its working set: it satisfies the (independent) equalities and the
+  ///   working set's sides, and may violate any other side (the dual method is primal
+  ///   infeasible until it ends), so it is not a safe command by itself: fall back.
   /// - NotConvex, InvalidInput: x = 0, every multiplier 0, no active side, 0 iterations.
   /// The warm-start set is only replaced by an Optimal solve.
   DenseQpStatus solve(const DenseQpProblem& qp) noexcept;
