@@ -60,6 +60,42 @@ TEST(DenseQp, RandomProblemsSatisfyKkt) {
   EXPECT_GT(total_active, 500);  // the problems are constrained, not trivially interior
 }
 
+TEST(DenseQp, RowAndCostScalingDoNotChangeTheSolution) {
+  // Rows scaled by 10^-4 .. 10^4 (sides with them) and the cost by 10^3 describe the same
+  // problem: the same x, and multipliers scaled inversely.
+  qptest::RandomQpSpec spec{30, 12, 60};
+  DenseQpProblem qp({30, 12, 60});
+  DenseQpSolver solver({30, 12, 60});
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> E(-4.0, 4.0);
+  for (unsigned seed = 1; seed <= 5; ++seed) {
+    qptest::makeRandomQp(spec, seed, qp);
+    ASSERT_EQ(solver.solve(qp), DenseQpStatus::Optimal);
+    const VectorXd x_ref = solver.x(), zl_ref = solver.zLower(), zu_ref = solver.zUpper();
+    VectorXd scale(60);
+    for (int i = 0; i < 60; ++i) {
+      scale(i) = std::pow(10.0, E(rng));
+      qp.C().row(i) *= scale(i);
+      qp.l()(i) *= scale(i);
+      qp.u()(i) *= scale(i);
+    }
+    for (int i = 0; i < 12; ++i) {
+      const double s = std::pow(10.0, E(rng));
+      qp.Aeq().row(i) *= s;
+      qp.beq()(i) *= s;
+    }
+    qp.H() *= 1e3;
+    qp.g() *= 1e3;
+    solver.resetWarmStart();
+    ASSERT_EQ(solver.solve(qp), DenseQpStatus::Optimal) << seed;
+    EXPECT_LE((solver.x() - x_ref).lpNorm<Eigen::Infinity>(), 1e-8) << seed;
+    for (int i = 0; i < 60; ++i) {
+      EXPECT_NEAR(solver.zLower()(i) * scale(i), 1e3 * zl_ref(i), 1e-6 * (1.0 + 1e3 * zl_ref(i)));
+      EXPECT_NEAR(solver.zUpper()(i) * scale(i), 1e3 * zu_ref(i), 1e-6 * (1.0 + 1e3 * zu_ref(i)));
+    }
+  }
+}
+
 TEST(DenseQp, IllConditionedHessian) {
   qptest::RandomQpSpec spec{30, 12, 60};
   spec.h_condition = 1e4;
