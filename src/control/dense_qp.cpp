@@ -118,6 +118,7 @@ DenseQpSolver::DenseQpSolver(const DenseQpDims& max, const DenseQpSettings& sett
   r_.setZero(n);
   x0_.setZero(n);
   work_.setZero(n);
+  hh_.setZero(n);
   a_.setZero(n);
   u_.setZero(n);
   active_.assign(static_cast<std::size_t>(n), 0);
@@ -234,7 +235,7 @@ double DenseQpSolver::rhs(const DenseQpProblem& qp, int id) const {
 }
 
 // ---------------------------------------------------------------------------------------
-// Factorisation updates (Givens), after Goldfarb-Idnani / Powell
+// Factorisation updates (a reflection to add, rotations to drop), after Goldfarb-Idnani
 
 bool DenseQpSolver::isDependent() const {
   if (q_ >= n_) return true;
@@ -244,16 +245,23 @@ bool DenseQpSolver::isDependent() const {
 
 // Rotates d(q..n-1) into d(q) (and J's columns with it) and appends d(0..q) to R.
 void DenseQpSolver::addToFactorization() {
-  auto J = J_.topLeftCorner(n_, n_);
-  for (int j = n_ - 1; j > q_; --j) {
-    // sqrt, not std::hypot (15 % of a warm solve): |d| < 1e150 for any sane QP.
-    const double h = std::sqrt(d_(j - 1) * d_(j - 1) + d_(j) * d_(j));
-    if (h == 0.0) continue;
-    const double c = d_(j - 1) / h, s = d_(j) / h;
-    d_(j - 1) = h;
-    d_(j) = 0.0;
-    // Columns (j-1, j) of J times [c -s; s c]; Eigen's rotation kernel is vectorised.
-    J.applyOnTheRight(j - 1, j, Eigen::JacobiRotation<double>(c, -s));
+  const int m = n_ - q_;  // d(q..n-1) is reduced to its first entry
+  if (m > 1) {
+    // One Householder reflection P = I - beta v v^T of J's columns q..n-1: a matrix-vector
+    // product and a rank-1 update (vectorised passes) instead of n - q - 1 rotations.
+    auto d2 = d_.segment(q_, m);
+    const double norm = d2.norm();
+    const double alpha = d2(0) >= 0.0 ? -norm : norm;  // P d2 = alpha e1, no cancellation
+    auto v = hh_.head(m);
+    v = d2;
+    v(0) -= alpha;
+    const double beta = 1.0 / (norm * (norm + std::abs(d2(0))));  // 2 / |v|^2
+    auto J2 = J_.block(0, q_, n_, m);
+    auto w = work_.head(n_);
+    w.noalias() = J2 * v;
+    J2.noalias() -= (beta * w) * v.transpose();
+    d2.setZero();
+    d2(0) = alpha;
   }
   for (int i = 0; i <= q_; ++i) R_(i, q_) = d_(i);
   ++q_;

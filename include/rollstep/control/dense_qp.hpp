@@ -23,12 +23,12 @@
 //   of the identity (this changes the problem; the CBF-QP's H is a weighted sum of
 //   squares plus a small damping, so it is definite by construction).
 // Numerics: the active set is held as the factorisation L^-1 N = Q [R; 0] through
-// J = L^-T Q, updated by Givens rotations when a constraint is added or dropped (O(n^2)),
-// never refactorised. A constraint whose normal is (numerically) in the span of the active
-// ones is never added: an equality row of that kind is checked for consistency (then
-// skipped, its multiplier 0) or makes the problem Infeasible; an inequality takes the
-// dual-only step of the method. Violations are measured in units of x (row divided by its
-// norm), so the scaling of a row does not change which constraint enters.
+// J = L^-T Q, updated by a Householder reflection when a constraint is added and by Givens
+// rotations when one is dropped (O(n^2) each), never refactorised. A constraint whose normal is
+// (numerically) in the span of the active ones is never added: an equality row of that kind is
+// checked for consistency (then skipped, its multiplier 0) or makes the problem Infeasible; an
+// inequality takes the dual-only step of the method. Violations are measured in units of x (row
+// divided by its norm), so the scaling of a row does not change which constraint enters.
 //
 // Memory (HPIPM-style): dimensions first (DenseQpDims, the largest problem), then the
 // problem and the solver sized from them; solve() never allocates, locks or throws. The
@@ -220,7 +220,7 @@ class DenseQpSolver {
   bool hessian_cached_ = false;  ///< this solve's H is the cached one
   Eigen::MatrixXd J_;            ///< L^-T Q
   Eigen::MatrixXd R_;            ///< upper triangular, q x q used
-  Eigen::VectorXd d_, z_, r_, x0_, work_, a_;
+  Eigen::VectorXd d_, z_, r_, x0_, work_, a_, hh_;
   Eigen::VectorXd u_;             ///< multipliers of the working set, by position
   std::vector<int> active_;       ///< ids of the working set, by position
   std::vector<char> in_work_;     ///< per inequality id
