@@ -195,6 +195,7 @@ bool DenseQpSolver::factorize(const DenseQpProblem& qp) {
   J0_.topLeftCorner(n, n) = J_.topLeftCorner(n, n);
   cached_n_ = n;
   cached_reg_ = reg;
+  cached_definiteness_ = settings_.definiteness_tolerance;
   return true;
 }
 
@@ -398,6 +399,7 @@ DenseQpStatus DenseQpSolver::solve(const DenseQpProblem& qp) noexcept {
   // factors are reused.
   hessian_cached_ = n_ == qp.n() && n_ == cached_n_ &&
                     settings_.hessian_regularization == cached_reg_ &&
+                    settings_.definiteness_tolerance == cached_definiteness_ &&
                     qp.H() == H_cache_.topLeftCorner(n_, n_);
   if (!validate(qp)) return fail(DenseQpStatus::InvalidInput);
   if (!factorize(qp)) return fail(DenseQpStatus::NotConvex);

@@ -552,6 +552,15 @@ TEST(DenseQp, SemidefiniteHessianIsNotConvexUnlessRegularised) {
   ASSERT_EQ(solver.solve(qp), DenseQpStatus::Optimal);
   EXPECT_NEAR(solver.x()(0), 1.0 / (1.0 + 1e-6), 1e-12);
   EXPECT_NEAR(solver.x()(2), 0.0, 1e-12);
+
+  // Nearly singular H: accepted at the default tolerance, refused at a stricter one even
+  // though the same H was factorised just before (the kept factors do not hide it).
+  solver.settings() = {};
+  qp.H()(2, 2) = 1e-9;
+  ASSERT_EQ(solver.solve(qp), DenseQpStatus::Optimal);
+  ASSERT_EQ(solver.solve(qp), DenseQpStatus::Optimal);
+  solver.settings().definiteness_tolerance = 1e-6;
+  EXPECT_EQ(solver.solve(qp), DenseQpStatus::NotConvex);
 }
 
 // ---------------------------------------------------------------------------------------

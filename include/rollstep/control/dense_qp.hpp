@@ -216,7 +216,8 @@ class DenseQpSolver {
   Eigen::MatrixXd U_;             ///< Cholesky factor of H = U^T U (upper)
   Eigen::MatrixXd H_cache_, J0_;  ///< H and U^-1 of the last factorisation
   int cached_n_ = -1;             ///< size of the cached factorisation, -1: none
-  double cached_reg_ = 0.0;
+  double cached_reg_ = 0.0;       ///< settings the cached factors were made with
+  double cached_definiteness_ = 0.0;
   bool hessian_cached_ = false;  ///< this solve's H is the cached one
   Eigen::MatrixXd J_;            ///< L^-T Q
   Eigen::MatrixXd R_;            ///< upper triangular, q x q used
