@@ -19,6 +19,8 @@ CentroidalCache::CentroidalCache(const CentroidalRobot& robot)
       footPosition_dx(Eigen::MatrixXd::Zero(3 * robot.nc(), robot.ndx())),
       footAngular_dx(Eigen::MatrixXd::Zero(3 * robot.nc(), robot.ndx())),
       footYaw_dx(Eigen::MatrixXd::Zero(robot.nc(), robot.ndx())),
+      Rdvb_dx(Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, robot.ndx())),
+      Rdvb_du(Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, robot.nj())),
       nq_(robot.nq()),
       nj_(robot.nj()),
       nc_(robot.nc()) {}
@@ -60,23 +62,38 @@ void CentroidalPrecomputation::compute(ocp::ConstVecRef x, ocp::ConstVecRef u, b
   c.has_derivatives = derivatives;
   if (!derivatives) return;
 
-  const int dh = robot.tangentMomentumIndex();
   const model::NodeQuantities& nq = c.nq;
   c.dvb_dx.leftCols(nv) = nq.dvb_dq;
   c.dvb_dx.rightCols<6>() = nq.AbInverse;
   c.dvb_du.leftCols(nj) = nq.dvb_dvJ;  // force columns stay zero
+  // Total derivatives of the contact velocities through v_b: d v_i = (partial) + J_i,b dv_b
+  // with the base columns of the (LOCAL_WORLD_ALIGNED) contact Jacobian
+  // J_i,b = [R, -hat(p_i - p_b) R], so J_i,b M = R M_lin + (R M_ang) x (p_i - p_b) column by
+  // column: R M is formed once for all contacts, then one cross product per column.
+  const int nf = 3 * nc;
+  const Eigen::Matrix3d& R = c.data.oRb[0];
+  c.Rdvb_dx.topRows<3>().noalias() = R * c.dvb_dx.topRows<3>();
+  c.Rdvb_dx.bottomRows<3>().noalias() = R * c.dvb_dx.bottomRows<3>();
+  c.Rdvb_du.topRows<3>().noalias() = R * c.dvb_du.leftCols(nj).topRows<3>();
+  c.Rdvb_du.bottomRows<3>().noalias() = R * c.dvb_du.leftCols(nj).bottomRows<3>();
+  c.footVelocity_dx.leftCols(nv) = nq.contactVelocityDerivatives;
+  c.footVelocity_dx.rightCols<6>().setZero();
+  c.footVelocity_du.leftCols(nj) = nq.contactJacobians.rightCols(nj);
+  const int ndx = robot.ndx();
+  for (int i = 0; i < nc; ++i) {
+    const Eigen::Vector3d r = c.footPosition(i) - c.data.opb[0];
+    auto vdx = c.footVelocity_dx.middleRows<3>(3 * i);
+    for (int col = 0; col < ndx; ++col) {
+      vdx.col(col) += c.Rdvb_dx.col(col).head<3>() + c.Rdvb_dx.col(col).tail<3>().cross(r);
+    }
+    auto vdu = c.footVelocity_du.middleRows<3>(3 * i);
+    for (int col = 0; col < nj; ++col) {
+      vdu.col(col) += c.Rdvb_du.col(col).head<3>() + c.Rdvb_du.col(col).tail<3>().cross(r);
+    }
+  }
+  c.footPosition_dx.topLeftCorner(nf, nv) = nq.contactJacobians;
   for (int i = 0; i < nc; ++i) {
     const int r = 3 * i;
-    const auto Jb = nq.contactJacobians.block<3, 6>(r, 0);
-    // d v_i / dq at fixed (h, v_J) = partial + J_b dvb_dq.
-    auto vdx = c.footVelocity_dx.middleRows<3>(r);
-    vdx.leftCols(nv) = nq.contactVelocityDerivatives.middleRows<3>(r);
-    vdx.leftCols(nv).noalias() += Jb * nq.dvb_dq;
-    vdx.middleCols<6>(dh).noalias() = Jb * nq.AbInverse;
-    auto vdu = c.footVelocity_du.middleRows<3>(r);
-    vdu.leftCols(nj) = nq.contactJacobians.block(r, 6, 3, nj);
-    vdu.leftCols(nj).noalias() += Jb * nq.dvb_dvJ;
-    c.footPosition_dx.block(r, 0, 3, nv) = nq.contactJacobians.middleRows<3>(r);
     // Angular Jacobian of the frame's body: only its support columns are non-zero (the
     // others were zeroed at construction and are never written).
     auto wdx = c.footAngular_dx.middleRows<3>(r);

@@ -28,6 +28,10 @@ TEST(CentroidalRobot, Tachyon3Dimensions) {
   EXPECT_NEAR(robot->mass(), 60.4, 0.5);
   EXPECT_EQ(robot->supportColumns(LF).size(), 8u);
   EXPECT_EQ(robot->inputForceIndex(2), 18);
+  for (int i = 0; i < 6; ++i) {
+    EXPECT_EQ(robot->contact(i).drive_wheel, i != MF && i != MR) << i;
+    EXPECT_EQ(robot->contact(i).frame, tachyonContacts()[static_cast<size_t>(i)].frame);
+  }
 }
 
 TEST(CentroidalRobot, SideBySideRule) {

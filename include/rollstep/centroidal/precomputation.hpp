@@ -49,6 +49,8 @@ struct CentroidalCache : ocp::NodeCache {
   /// 3nc x ndx: world angular Jacobian of each contact frame (dR_i = hat(w) R_i), 0 in dh.
   Eigen::MatrixXd footAngular_dx;
   Eigen::MatrixXd footYaw_dx;  ///< nc x ndx
+  /// Scratch: the world-axes base twist derivatives [R dv_lin; R dw] (6 x ndx, 6 x nj).
+  Eigen::Matrix<double, 6, Eigen::Dynamic> Rdvb_dx, Rdvb_du;
 
   // ---- Views of the node's variables.
   Eigen::VectorBlock<const Eigen::VectorXd> q() const { return x.head(nq_); }
