@@ -152,8 +152,9 @@ class DenseQpSolver {
 
   /// Solves `qp`. Never allocates, locks or throws.
   ///
-  /// Warm start (settings().warm_start): the active set of the last Optimal solve, for the
-  /// rows and bounds that still exist and are still finite, is made the first working set;
+  /// Warm start (settings().warm_start): the active set of the last Optimal solve (with the
+  /// same number of variables; rows and bounds by index, those that still exist and whose
+  /// side is still finite, independent ones only) is made the first working set;
   /// its equality-constrained minimiser is computed, and sides with negative multipliers are
   /// dropped until the start is dual feasible; then the usual iterations. The result is the
   /// same optimum as a cold start (the QP is strictly convex), usually in fewer iterations.
