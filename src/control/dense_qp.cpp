@@ -244,7 +244,7 @@ bool DenseQpSolver::isDependent() const {
   return !(outside > settings_.dependency_tolerance * d_.head(n_).norm());
 }
 
-// Rotates d(q..n-1) into d(q) (and J's columns with it) and appends d(0..q) to R.
+// Reflects d(q..n-1) onto d(q) (and J's columns with it) and appends d(0..q) to R.
 void DenseQpSolver::addToFactorization() {
   const int m = n_ - q_;  // d(q..n-1) is reduced to its first entry
   if (m > 1) {
