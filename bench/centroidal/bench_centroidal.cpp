@@ -4,6 +4,8 @@
 //   build-*/bench/centroidal/bench_centroidal
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
+
 #include "centroidal/assembly.hpp"
 #include "rollstep/solver/solver.hpp"
 
@@ -151,10 +153,21 @@ BENCHMARK(BM_NodeLinearize)->Unit(benchmark::kMicrosecond);
 void BM_RealTimeIterationN100(benchmark::State& state) {
   static ProblemFixture p;
   const Eigen::VectorXd x0 = p.xs[0];
+  double lin = 0.0, ric = 0.0, upd = 0.0, shift = 0.0;
   for (auto _ : state) {
     const auto status = p.solver.update(0.0, x0);
     benchmark::DoNotOptimize(status);
+    const solver::IterationStats& it = p.solver.stats().back();
+    lin += it.time_linearize_ms;
+    ric += it.time_riccati_ms;
+    upd += it.time_update_ms;
+    shift = std::max(shift, it.inertia_shift);
   }
+  const auto n = static_cast<double>(state.iterations());
+  state.counters["linearize_ms"] = lin / n;
+  state.counters["riccati_ms"] = ric / n;
+  state.counters["update_ms"] = upd / n;
+  state.counters["max_inertia_shift"] = shift;
 }
 BENCHMARK(BM_RealTimeIterationN100)->Unit(benchmark::kMillisecond);
 
