@@ -34,7 +34,9 @@ struct CentroidalCache : ocp::NodeCache {
   lie::Vector6d vb = lie::Vector6d::Zero();  ///< base twist, base LOCAL frame [lin; ang]
   /// World rotation of each contact frame.
   std::vector<Eigen::Matrix3d> footRotation;
-  /// Yaw of each contact frame [rad]: atan2 of its x axis projected on the world xy plane.
+  /// Yaw of each contact frame [rad]: atan2 of its x axis projected on the world xy plane
+  /// (undefined, and its derivative unbounded, when that axis is vertical: a frame pitched
+  /// by 90 deg; Tachyon 3's shanks stay within about 45 deg plus the base tilt).
   Eigen::VectorXd footYaw;
 
   // ---- Filled only when compute() is called with derivatives = true.
