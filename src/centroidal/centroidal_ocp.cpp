@@ -7,6 +7,7 @@
 #include "rollstep/centroidal/dynamics.hpp"
 #include "rollstep/centroidal/equalities.hpp"
 #include "rollstep/centroidal/inequalities.hpp"
+#include "rollstep/centroidal/stance_slip.hpp"
 #include "rollstep/ocp/cost.hpp"
 #include "rollstep/ocp/dynamics.hpp"
 
@@ -67,7 +68,7 @@ planning::Gait makeGait(planning::GaitKind kind, const RobotOcpDescription& d,
       }
       std::vector<int> order;
       for (const std::string& name : d.walk_order) order.push_back(indexOf(d.contact_frames, name));
-      return planning::Gait::staticWalk(nc, s.gait_period, s.walk_duty, order);
+      return planning::Gait::staticWalk(nc, s.walk_period, s.walk_duty, order);
     }
     case planning::GaitKind::Custom:
       break;
@@ -163,6 +164,12 @@ CentroidalOcp::CentroidalOcp(const RobotOcpDescription& description, const OcpSe
   problem_->addCost("input", std::make_shared<ocp::LeastSquaresCost>(
                                  std::make_shared<InputTrackingResidual>(robot_), w_input));
 
+  const int nfreed = FreedStanceVelocityResidual(pre_).maxRows();
+  problem_->addCost("freed_stance_velocity",
+                    std::make_shared<ocp::LeastSquaresCost>(
+                        std::make_shared<FreedStanceVelocityResidual>(pre_),
+                        repeat(settings.freed_stance_velocity_weight, nfreed)));
+
   // Equalities.
   problem_->addEquality("swing_force", std::make_shared<SwingForceResidual>(robot_));
   problem_->addEquality("stance_velocity", std::make_shared<StanceVelocityResidual>(pre_));
@@ -254,6 +261,12 @@ Eigen::Matrix3Xd CentroidalOcp::footPositions(const Eigen::VectorXd& x) const {
   return scratch_->nq.contactPositions;
 }
 
+Eigen::Matrix3Xd CentroidalOcp::footVelocities(const Eigen::VectorXd& x,
+                                               const Eigen::VectorXd& u) const {
+  pre_->compute(x, u, false, *scratch_);
+  return scratch_->nq.contactVelocities;
+}
+
 lie::Vector6d CentroidalOcp::baseTwist(const Eigen::VectorXd& x, const Eigen::VectorXd& u) const {
   pre_->compute(x, u, false, *scratch_);
   return scratch_->vb;
@@ -265,6 +278,86 @@ Eigen::VectorXd CentroidalOcp::jointTorques(const Eigen::VectorXd& x,
   auto data = torque.createData();
   ocp::NodeContext ctx;  // no cache: the term computes its own
   return torque.torques(ctx, x, u, *data);
+}
+
+std::vector<ConstraintViolation> constraintViolations(const ocp::OptimalControlProblem& problem,
+                                                      const std::vector<Eigen::VectorXd>& xs,
+                                                      const std::vector<Eigen::VectorXd>& us) {
+  const int N = problem.horizon();
+  if (static_cast<int>(xs.size()) != N + 1 || static_cast<int>(us.size()) != N) {
+    throw std::invalid_argument("constraintViolations: expected N+1 states and N inputs");
+  }
+  std::vector<ConstraintViolation> out;
+  const auto slot = [&](const std::string& group) -> ConstraintViolation& {
+    for (ConstraintViolation& v : out) {
+      if (v.group == group) return v;
+    }
+    out.push_back({group, 0.0, -1});
+    return out.back();
+  };
+  slot("dynamics");
+  for (const std::string& name : problem.equalityNames()) slot(name);
+  for (const std::string& name : problem.inequalityNames()) slot(name);
+  slot("state_bounds");
+  slot("input_bounds");
+  const auto note = [&](const std::string& group, double value, int k) {
+    ConstraintViolation& v = slot(group);
+    if (!(value <= v.value)) {  // NaN counts as the worst
+      v.value = value;
+      v.node = k;
+    }
+  };
+  auto running = problem.createNodeData();
+  auto terminal = problem.createNodeData();  // fresh: running terms keep rows = 0 there
+  const ocp::StateSpace& space = problem.stateSpace();
+  Eigen::VectorXd defect(problem.ndx());
+  const Eigen::VectorXd zero_u = Eigen::VectorXd::Zero(problem.nu());
+  for (int k = 0; k <= N; ++k) {
+    const Eigen::VectorXd& x = xs[static_cast<std::size_t>(k)];
+    const Eigen::VectorXd& u = k < N ? us[static_cast<std::size_t>(k)] : zero_u;
+    ocp::NodeData* data = k < N ? running.get() : terminal.get();
+    problem.evaluate(k, x, u, *data);
+    if (k < N) {
+      space.difference(data->xnext, xs[static_cast<std::size_t>(k + 1)], defect);
+      note("dynamics", defect.lpNorm<Eigen::Infinity>(), k);
+      for (std::size_t j = 0; j < data->equality_data.size(); ++j) {
+        const ocp::ResidualData& r = *data->equality_data[j];
+        if (r.rows > 0)
+          note(problem.equalityNames()[j], r.r.head(r.rows).lpNorm<Eigen::Infinity>(), k);
+      }
+      const ocp::BoundSet& ub = problem.inputBounds();
+      for (int b = 0; b < ub.size(); ++b) {
+        const double v = u[ub.index[static_cast<std::size_t>(b)]];
+        double excess = 0.0;
+        if (ub.has_lower[static_cast<std::size_t>(b)]) excess = std::max(excess, ub.lower[b] - v);
+        if (ub.has_upper[static_cast<std::size_t>(b)]) excess = std::max(excess, v - ub.upper[b]);
+        note("input_bounds", excess, k);
+      }
+    }
+    int offset = 0;  // of the term's rows in the stacked inequality block
+    for (std::size_t j = 0; j < data->inequality_data.size(); ++j) {
+      const ocp::ResidualData& r = *data->inequality_data[j];
+      if (r.rows <= 0) continue;
+      // x_0 is data: the solver does not impose state-only rows there.
+      const bool skip = k == 0 && data->state_only[offset];
+      offset += r.rows;
+      if (!skip) {
+        note(problem.inequalityNames()[j], std::max(0.0, -r.r.head(r.rows).minCoeff()), k);
+      }
+    }
+    if (k > 0) {  // x_0 is data: its bounds are not imposed
+      const ocp::BoundSet& sb = problem.stateBounds();
+      const int rep = problem.nx() - problem.ndx();  // representation index offset
+      for (int b = 0; b < sb.size(); ++b) {
+        const double v = x[sb.index[static_cast<std::size_t>(b)] + rep];
+        double excess = 0.0;
+        if (sb.has_lower[static_cast<std::size_t>(b)]) excess = std::max(excess, sb.lower[b] - v);
+        if (sb.has_upper[static_cast<std::size_t>(b)]) excess = std::max(excess, v - sb.upper[b]);
+        note("state_bounds", excess, k);
+      }
+    }
+  }
+  return out;
 }
 
 }  // namespace rollstep::centroidal

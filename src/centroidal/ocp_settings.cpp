@@ -32,7 +32,7 @@ struct Field {
 };
 
 // The one table of keys (config/ocp.yaml documents each, in this order).
-const std::array<Field, 24> kFields{{
+const std::array<Field, 26> kFields{{
     {"horizon", &OcpSettings::horizon, 1, 10000, false, false},
     {"dt", &OcpSettings::dt, 0, 10, true, false},
     {"base_velocity_weight", &OcpSettings::base_velocity_weight, 0, 1e12, false, false},
@@ -42,6 +42,8 @@ const std::array<Field, 24> kFields{{
     {"momentum_weight", &OcpSettings::momentum_weight, 0, 1e12, false, false},
     {"joint_velocity_weight", &OcpSettings::joint_velocity_weight, 0, 1e12, false, false},
     {"force_weight", &OcpSettings::force_weight, 0, 1e12, false, false},
+    {"freed_stance_velocity_weight", &OcpSettings::freed_stance_velocity_weight, 0, 1e12, false,
+     false},
     {"terminal_weight_scale", &OcpSettings::terminal_weight_scale, 0, 1e12, false, false},
     {"swing_height_gain", &OcpSettings::swing_height_gain, 0, 1e6, false, false},
     {"friction_coefficient", &OcpSettings::friction_coefficient, 0, 10, true, false},
@@ -56,6 +58,7 @@ const std::array<Field, 24> kFields{{
     {"gait_period", &OcpSettings::gait_period, 0, 100, true, false},
     {"trot_duty", &OcpSettings::trot_duty, 0, 1, true, true},
     {"walk_duty", &OcpSettings::walk_duty, 0, 1, true, true},
+    {"walk_period", &OcpSettings::walk_period, 0, 100, true, false},
     {"solver", Member{}, 0, 0, false, false},  // nested mapping, read by the solver layer
 }};
 

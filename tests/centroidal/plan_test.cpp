@@ -1,66 +1,173 @@
-// The proof of issue 11: the full-centroidal OCP solved in converging mode from a cold
-// start, on flat ground and over the 20 cm step, and the physical outcome checked.
+// The proof of issue 11: the full-centroidal OCP of Tachyon 3 solved in converging mode from
+// a cold start (the standing posture along the base reference), on flat ground (the 20 cm
+// step is still open: see issue 11's notes); each test checks convergence, that every constraint
+// group holds to 1e-4 at the solution (evaluated afresh) and the physical outcome.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdio>
 
 #include "rollstep/centroidal/centroidal_ocp.hpp"
+#include "rollstep/planning/swing_trajectory.hpp"
 #include "rollstep/solver/solver.hpp"
 
 namespace rollstep::centroidal {
 namespace {
+
+constexpr double kTolerance = 1e-4;
 
 RobotOcpDescription tachyon3() {
   return loadRobotOcpDescription(std::string(ROLLSTEP_ROBOTS_DIR) + "/tachyon3/centroidal.yaml");
 }
 
 planning::TerrainModel flatTerrain() {
-  planning::TerrainBox floor{-20.0, 20.0, -5.0, 5.0, 0.0};
-  return planning::terrainFromBoxes(floor, 0.0, {});
+  return planning::terrainFromBoxes({-20.0, 20.0, -5.0, 5.0, 0.0}, 0.0, {});
 }
 
-struct Outcome {
-  solver::SolverStatus status;
-  int iterations;
-  double kkt;
-};
-
-Outcome solve(CentroidalOcp& ocp, solver::Solver& s, const Eigen::VectorXd& x0) {
+/// Solves from the cold start and checks convergence and every constraint group.
+void solveAndCheck(CentroidalOcp& ocp, solver::Solver& s, const Eigen::VectorXd& x0) {
   std::vector<Eigen::VectorXd> xs, us;
   ocp.initialGuess(xs, us);
   xs[0] = x0;
   s.setInitialGuess(xs, us);
   const solver::SolverStatus status = s.solve(x0);
-  const auto& stats = s.stats();
-  for (const auto& st : stats) {
-    std::printf(
-        "it %2d cost %.6e primal %.2e dual %.2e compl %.2e kkt %.2e mu %.1e step %.3f shift "
-        "%.1e%s\n",
-        st.iteration, st.cost, st.primal_residual, st.dual_residual, st.complementarity,
-        st.kkt_error, st.barrier, st.primal_step, st.inertia_shift, st.restoration ? " R" : "");
+  ASSERT_FALSE(s.stats().empty());
+  std::printf("status %s after %d iterations, KKT error %.2e\n",
+              status == solver::SolverStatus::Converged ? "Converged" : s.message(), s.iterations(),
+              s.stats().back().kkt_error);
+  EXPECT_EQ(status, solver::SolverStatus::Converged) << s.message();
+  EXPECT_LE(s.stats().back().kkt_error, s.settings().kkt_tolerance);
+  for (const ConstraintViolation& v :
+       constraintViolations(*ocp.problem(), s.states(), s.inputs())) {
+    EXPECT_LE(v.value, kTolerance) << v.group << " at node " << v.node;
   }
-  std::printf("status %d (%s) iterations %d\n", static_cast<int>(status), s.message(),
-              s.iterations());
-  return {status, s.iterations(), stats.empty() ? 0.0 : stats.back().kkt_error};
 }
 
-TEST(Plan, StandingOnFlat) {
+struct PlanRun {
+  RobotOcpDescription robot = tachyon3();
   OcpSettings settings;
-  CentroidalOcp ocp(tachyon3(), settings, flatTerrain(), planning::GaitKind::Standing);
-  const Eigen::VectorXd x0 = ocp.standingState(0.0, 0.0, 0.0);
-  ocp.reset(0.0, lie::SE3::Identity(), {});
-  solver::Solver s(ocp.problem(), settings.solver);
-  const Outcome out = solve(ocp, s, x0);
-  EXPECT_EQ(out.status, solver::SolverStatus::Converged);
-  const double weight = ocp.robot().mass() * 9.81;
-  for (int k = 0; k < ocp.problem()->horizon(); k += 10) {
-    const Eigen::VectorXd& u = s.inputs()[static_cast<std::size_t>(k)];
-    for (int i = 0; i < ocp.robot().nc(); ++i) {
-      EXPECT_NEAR(u[ocp.robot().inputForceIndex(i) + 2], weight / 6.0, 0.01 * weight / 6.0)
+  std::unique_ptr<CentroidalOcp> ocp;
+  std::unique_ptr<solver::Solver> solver;
+
+  PlanRun(planning::TerrainModel terrain, planning::GaitKind gait, double vx,
+          double x_start = 0.0) {
+    ocp = std::make_unique<CentroidalOcp>(robot, settings, std::move(terrain), gait);
+    lie::SE3 start = lie::SE3::Identity();
+    start.translation.x() = x_start;
+    ocp->reset(0.0, start, planning::BaseVelocityCommand{vx, 0.0, 0.0});
+    solver = std::make_unique<solver::Solver>(ocp->problem(), settings.solver);
+    solveAndCheck(*ocp, *solver, ocp->standingState(x_start, 0.0, 0.0));
+  }
+  const Eigen::VectorXd& x(int k) const { return solver->states()[static_cast<std::size_t>(k)]; }
+  const Eigen::VectorXd& u(int k) const { return solver->inputs()[static_cast<std::size_t>(k)]; }
+  int N() const { return ocp->problem()->horizon(); }
+  int mode(int k) const { return ocp->problem()->context(k).mode; }
+  double force(int k, int foot, int axis) const {
+    return u(k)[ocp->robot().inputForceIndex(foot) + axis];
+  }
+};
+
+bool isDrive(const PlanRun& r, int foot) { return r.ocp->robot().contact(foot).drive_wheel; }
+
+/// Velocity of foot i across its wheel: in the base's yaw frame (the feet only pitch).
+double lateral(const PlanRun& r, int k, const Eigen::Matrix3Xd& v, int i) {
+  const Eigen::Quaterniond q(r.x(k)[6], r.x(k)[3], r.x(k)[4], r.x(k)[5]);
+  const Eigen::Vector3d forward = q * Eigen::Vector3d::UnitX();
+  const double yaw = std::atan2(forward.y(), forward.x());
+  return -std::sin(yaw) * v(0, i) + std::cos(yaw) * v(1, i);
+}
+
+/// Stance velocity tolerance [m/s]: 1e-3 where the equality holds it (to 1e-4, in the
+/// contact frame's yaw, which differs slightly from the base yaw used here when the base
+/// rolls), 5e-3 where the side-by-side rule leaves it to the freed-velocity cost.
+double slipTolerance(const PlanRun& r, int k, int foot) {
+  return r.ocp->robot().keepsVelocityConstraints(r.mode(k), foot) ? 1e-3 : 5e-3;
+}
+
+TEST(Plan, StandingOnFlatHoldsThePostureWithEqualNormalForces) {
+  PlanRun r(flatTerrain(), planning::GaitKind::Standing, 0.0);
+  const double weight = r.ocp->robot().mass() * 9.81;
+  for (int k = 0; k < r.N(); ++k) {
+    for (int i = 0; i < r.ocp->robot().nc(); ++i) {
+      EXPECT_NEAR(r.force(k, i, 2), weight / 6.0, 0.01 * weight / 6.0)
           << "node " << k << " foot " << i;
     }
   }
+  // The nominal posture: the base stays where it started, joints at the reference.
+  const Eigen::VectorXd x0 = r.x(0);
+  EXPECT_LT((r.x(r.N()).head<3>() - x0.head<3>()).norm(), 1e-3);
+  EXPECT_LT((r.x(r.N()).segment(7, 12) - r.ocp->nominalJointPositions()).lpNorm<Eigen::Infinity>(),
+            1e-3);
+}
+
+TEST(Plan, RollingForwardOnFlatRollsTheWheels) {
+  PlanRun r(flatTerrain(), planning::GaitKind::Rolling, 0.5);
+  // From rest, the robot catches up with a reference that starts at 0.5 m/s: the wheels
+  // roll at 0.5 m/s on average over the horizon, none backwards, none sideways.
+  int checked = 0;
+  Eigen::VectorXd mean_vx = Eigen::VectorXd::Zero(r.ocp->robot().nc());
+  for (int k = 0; k < r.N(); ++k) {
+    const Eigen::Matrix3Xd v = r.ocp->footVelocities(r.x(k), r.u(k));
+    mean_vx += v.row(0).transpose() / r.N();
+    for (int i = 0; i < r.ocp->robot().nc(); ++i) {
+      EXPECT_NEAR(v(2, i), 0.0, slipTolerance(r, k, i))
+          << "foot z velocity, node " << k << " foot " << i;
+      if (isDrive(r, i)) {
+        EXPECT_NEAR(lateral(r, k, v, i), 0.0, slipTolerance(r, k, i))
+            << "drive wheel lateral, foot " << i;
+      }
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 0);
+  for (int i = 0; i < mean_vx.size(); ++i) EXPECT_NEAR(mean_vx[i], 0.5, 0.05) << "foot " << i;
+  // The base advanced at about the commanded speed.
+  EXPECT_NEAR(r.x(r.N())[0] - r.x(0)[0], 0.5 * r.N() * r.ocp->settings().dt, 0.15);
+}
+
+/// Swing feet follow the spline and carry no force; stance feet do not slide: no vertical
+/// velocity, no lateral one at a drive wheel (rolling along the wheel is free).
+void checkGait(const PlanRun& r) {
+  int swings = 0;
+  for (int k = 0; k < r.N(); ++k) {
+    const ocp::NodeContext ctx = r.ocp->problem()->context(k);
+    const Eigen::Matrix3Xd p = r.ocp->footPositions(r.x(k));
+    const Eigen::Matrix3Xd v = r.ocp->footVelocities(r.x(k), r.u(k));
+    for (int i = 0; i < r.ocp->robot().nc(); ++i) {
+      const planning::FootReference ref =
+          r.ocp->footPlanner().query(r.ocp->problem()->modeSchedule(), i, ctx.time);
+      if (CentroidalRobot::inStance(ctx.mode, i)) {
+        EXPECT_NEAR(v(2, i), 0.0, slipTolerance(r, k, i))
+            << "stance foot moves vertically, node " << k;
+        if (isDrive(r, i)) {
+          EXPECT_NEAR(lateral(r, k, v, i), 0.0, slipTolerance(r, k, i))
+              << "stance drive wheel slides";
+        }
+      } else {
+        ++swings;
+        for (int a = 0; a < 3; ++a) EXPECT_NEAR(r.force(k, i, a), 0.0, 1e-6) << "swing force";
+        EXPECT_NEAR(p(2, i), ref.z_ref, 5e-3) << "swing height, node " << k << " foot " << i;
+      }
+    }
+  }
+  EXPECT_GT(swings, 0) << "the gait never lifted a foot";
+}
+
+TEST(Plan, TrotInPlaceOnFlat) {
+  PlanRun r(flatTerrain(), planning::GaitKind::Trot, 0.0);
+  checkGait(r);
+  EXPECT_LT((r.x(r.N()).head<2>() - r.x(0).head<2>()).norm(), 0.05);  // in place
+}
+
+TEST(Plan, TrotForwardOnFlat) {
+  PlanRun r(flatTerrain(), planning::GaitKind::Trot, 0.15);
+  checkGait(r);
+  EXPECT_GT(r.x(r.N())[0] - r.x(0)[0], 0.5 * 0.15 * r.N() * r.ocp->settings().dt);
+}
+
+TEST(Plan, StaticWalkOnFlat) {
+  PlanRun r(flatTerrain(), planning::GaitKind::StaticWalk, 0.0);
+  checkGait(r);
 }
 
 }  // namespace

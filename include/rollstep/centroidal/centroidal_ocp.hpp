@@ -39,6 +39,18 @@ namespace rollstep::centroidal {
 planning::GaitKind gaitKindFromString(const std::string& name);
 const char* toString(planning::GaitKind kind);
 
+/// The largest violation of each constraint group of a trajectory (xs: N+1 states, us: N
+/// inputs), evaluated afresh: "dynamics" (defects, tangent inf-norm), every equality by
+/// name (|e|), every inequality by name (max(0, -g)), "state_bounds" and "input_bounds".
+struct ConstraintViolation {
+  std::string group;
+  double value = 0.0;  ///< >= 0; 0 when satisfied
+  int node = -1;       ///< where the largest one is (-1: none)
+};
+std::vector<ConstraintViolation> constraintViolations(const ocp::OptimalControlProblem& problem,
+                                                      const std::vector<Eigen::VectorXd>& xs,
+                                                      const std::vector<Eigen::VectorXd>& us);
+
 class CentroidalOcp {
  public:
   /// Loads the URDF of `robot`, checks the description against it (frames, joint count of
@@ -63,6 +75,8 @@ class CentroidalOcp {
   void initialGuess(std::vector<Eigen::VectorXd>& xs, std::vector<Eigen::VectorXd>& us) const;
   /// World positions (3 x nc) of the contact frames at state x.
   Eigen::Matrix3Xd footPositions(const Eigen::VectorXd& x) const;
+  /// World linear velocities (3 x nc) of the contact frames at state x and input u.
+  Eigen::Matrix3Xd footVelocities(const Eigen::VectorXd& x, const Eigen::VectorXd& u) const;
   /// Base twist v_b (local) at state x and input u.
   lie::Vector6d baseTwist(const Eigen::VectorXd& x, const Eigen::VectorXd& u) const;
   /// Static joint torques S (g - J^T f) at x, u (forces at the contact points).

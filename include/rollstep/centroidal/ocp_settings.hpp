@@ -33,11 +33,14 @@ struct OcpSettings {
   Eigen::Vector3d base_orientation_weight = Eigen::Vector3d(100.0, 100.0, 100.0);
   double joint_position_weight = 20.0;
   Eigen::Matrix<double, 6, 1> momentum_weight =
-      (Eigen::Matrix<double, 6, 1>() << 0.1, 0.1, 0.1, 0.1, 0.1, 0.1).finished();
+      (Eigen::Matrix<double, 6, 1>() << 1e-3, 1e-3, 1e-3, 1e-3, 1e-3, 1e-3).finished();
   /// Input tracking u - u_ref(t): joint velocities and contact forces (u_ref: stance
   /// normal forces carry the weight equally).
   double joint_velocity_weight = 0.1;
   double force_weight = 0.001;
+  /// Stance velocities the side-by-side rule frees from the equalities (z, drive-wheel
+  /// lateral) as a cost: [(m/s)^-2] (stance_slip.hpp says why).
+  double freed_stance_velocity_weight = 1e5;
   /// The terminal cost is the state tracking cost times this factor (>= 0).
   double terminal_weight_scale = 10.0;
   // --- equalities ------------------------------------------------------------------------
@@ -56,10 +59,15 @@ struct OcpSettings {
   double soft_relaxation = 1e-3;  ///< relaxed barrier delta (> 0)
   double soft_weight = 1e-3;      ///< relaxed barrier weight (> 0)
   // --- planning inputs -------------------------------------------------------------------
-  double swing_clearance = 0.08;  ///< [m] swing apex above the higher end (>= 0)
-  double gait_period = 0.8;       ///< [s] one gait cycle (> 0)
-  double trot_duty = 0.6;         ///< stance share of a trot cycle, in (0, 1)
-  double walk_duty = 0.85;        ///< stance share of a static-walk cycle, in (0, 1)
+  /// [m] swing apex above the higher end (>= 0). The knees stand 5 cm off their stop: a
+  /// swing higher than that needs the hips or the body (0.08 left a static walk infeasible).
+  double swing_clearance = 0.04;
+  double gait_period = 0.8;  ///< [s] one gait cycle (> 0)
+  double trot_duty = 0.6;    ///< stance share of a trot cycle, in (0, 1)
+  double walk_duty = 0.85;   ///< stance share of a static-walk cycle, in (0, 1)
+  /// [s] one static-walk cycle (> 0): each foot swings (1 - walk_duty) of it, 0.36 s here;
+  /// with gait_period's 0.8 s a 0.12 s swing would need knee speeds above the limit.
+  double walk_period = 2.4;
   // --- the solver ------------------------------------------------------------------------
   /// Nested `solver:` mapping (config/solver.yaml's keys). Defaults: the solver's, but a
   /// Gauss-Newton Hessian (exact_hessian false) as in the paper: on Tachyon 3 standing it
