@@ -10,4 +10,8 @@ namespace rollstep::apps {
 /// `rollstep sim`: run the MuJoCo plant with a simple controller, write a CSV log.
 void registerSimCommand(CLI::App& app);
 
+/// `rollstep plan`: solve the full-centroidal OCP once, write the trajectory and a summary.
+/// Sets exit_status (0 converged, 3 not converged) when it ran.
+void registerPlanCommand(CLI::App& app, int& exit_status);
+
 }  // namespace rollstep::apps

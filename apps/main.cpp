@@ -17,8 +17,11 @@ int main(int argc, char** argv) {
       "  rollstep sim --scene flat --controller drive --speed 0.5 --duration 10 --out out/drive\n"
       "  rollstep sim --scene-config config/scenes/step20_custom.yaml --controller drive --out "
       "out/step\n"
+      "  rollstep plan --scene flat --gait trot --vx 0.15 --duration 1.5 --out out/plan\n"
       "Exit status: 0 on success, non-zero on bad options or a failed run.");
   rollstep::apps::registerSimCommand(app);
+  int exit_status = 0;
+  rollstep::apps::registerPlanCommand(app, exit_status);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -27,5 +30,5 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "rollstep: error: %s\n", e.what());
     return 1;
   }
-  return 0;
+  return exit_status;
 }

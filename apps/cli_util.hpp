@@ -1,0 +1,22 @@
+#pragma once
+// Option validators and text helpers shared by the subcommands: every number option is
+// decimal text, finite and in range, and a refusal names the text and the valid range.
+#include <CLI/CLI.hpp>
+#include <string>
+
+namespace rollstep::apps {
+
+std::string numberText(double v);
+/// Strict decimal number: [+-]digits[.digits][(e|E)[+-]digits]; nan/inf recognised only to
+/// be refused (non_finite).
+bool parseDecimal(const std::string& text, double& value, bool& non_finite);
+/// A number option: decimal text, finite, in [min, max] (unit for messages).
+CLI::Validator numberIn(double min, double max, const std::string& unit);
+/// An integer option: digits only, in [min, max].
+CLI::Validator integerIn(long min, long max);
+/// printf into a std::string of any length.
+std::string format(const char* fmt, ...) __attribute__((format(printf, 1, 2)));
+/// A file or directory name option: not empty.
+extern const CLI::Validator kNotEmpty;
+
+}  // namespace rollstep::apps
