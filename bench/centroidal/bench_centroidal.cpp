@@ -7,6 +7,7 @@
 #include <algorithm>
 
 #include "centroidal/assembly.hpp"
+#include "rollstep/centroidal/centroidal_ocp.hpp"
 #include "rollstep/solver/solver.hpp"
 
 namespace {
@@ -170,5 +171,40 @@ void BM_RealTimeIterationN100(benchmark::State& state) {
   state.counters["max_inertia_shift"] = shift;
 }
 BENCHMARK(BM_RealTimeIterationN100)->Unit(benchmark::kMillisecond);
+
+/// The whole OCP of issue 11 as `rollstep plan` builds it (every cost, equality and
+/// inequality, joint bounds; config defaults) on flat ground, trotting at 0.15 m/s, solved
+/// to convergence once; then one real-time iteration per benchmark iteration (linearise
+/// every node and term, condense, project, Riccati, update), from the same x0 and time so
+/// that every iteration does the same work. Arg: solver threads.
+void BM_Tachyon3RtiUpdateN100(benchmark::State& state) {
+  OcpSettings settings;
+  settings.solver.num_threads = static_cast<int>(state.range(0));
+  const RobotOcpDescription robot =
+      loadRobotOcpDescription(std::string(ROLLSTEP_ROBOTS_DIR) + "/tachyon3/centroidal.yaml");
+  CentroidalOcp ocp(robot, settings, planning::terrainFromBoxes({-20, 20, -5, 5, 0}, 0.0, {}),
+                    planning::GaitKind::Trot);
+  ocp.reset(0.0, lie::SE3::Identity(), planning::BaseVelocityCommand{0.15, 0.0, 0.0});
+  solver::Solver solver(ocp.problem(), settings.solver);
+  const Eigen::VectorXd x0 = ocp.standingState(0.0, 0.0, 0.0);
+  std::vector<Eigen::VectorXd> xs, us;
+  ocp.initialGuess(xs, us);
+  solver.setInitialGuess(xs, us);
+  solver.solve(x0);
+  double lin = 0.0, ric = 0.0, upd = 0.0;
+  for (auto _ : state) {
+    const auto status = solver.update(0.0, x0);
+    benchmark::DoNotOptimize(status);
+    const solver::IterationStats& it = solver.stats().back();
+    lin += it.time_linearize_ms;
+    ric += it.time_riccati_ms;
+    upd += it.time_update_ms;
+  }
+  const auto n = static_cast<double>(state.iterations());
+  state.counters["linearize_ms"] = lin / n;
+  state.counters["riccati_ms"] = ric / n;
+  state.counters["update_ms"] = upd / n;
+}
+BENCHMARK(BM_Tachyon3RtiUpdateN100)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace
