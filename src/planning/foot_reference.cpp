@@ -1,11 +1,27 @@
 #include "rollstep/planning/foot_reference.hpp"
 
+#include <cmath>
+#include <limits>
 #include <string>
 #include <utility>
 
 #include "check.hpp"
 
 namespace rollstep::planning {
+
+namespace {
+
+/// Start time of the stance phase of `foot` with phase index `phase` of `schedule` (the
+/// touch-down that began it), or -inf when it began before the schedule's first switch.
+double stanceStart(const ocp::ModeSchedule& schedule, int foot, int phase) {
+  const std::vector<int>& modes = schedule.modes();
+  int j = phase;
+  while (j > 0 && inContact(modes[static_cast<std::size_t>(j) - 1], foot)) --j;
+  return j > 0 ? schedule.switchingTimes()[static_cast<std::size_t>(j) - 1]
+               : -std::numeric_limits<double>::infinity();
+}
+
+}  // namespace
 
 FootReferencePlanner::FootReferencePlanner(const TerrainModel& terrain, const BaseReference& base,
                                            FootReferenceConfig config)
@@ -37,22 +53,35 @@ SwingHeightSpline FootReferencePlanner::swingSpline(int foot, double t_liftoff,
                            z_td + config_.foot_height_offset, config_.swing_clearance);
 }
 
+Eigen::Vector2d FootReferencePlanner::stanceFoothold(const ocp::ModeSchedule& schedule, int foot,
+                                                     double t) const {
+  const int phase = schedule.phaseAt(t);
+  if (!inContact(schedule.modes()[static_cast<std::size_t>(phase)], foot)) {
+    return nominalFoothold(foot, t);
+  }
+  const double start = stanceStart(schedule, foot, phase);
+  return nominalFoothold(foot, start > -1e300 ? start : t);
+}
+
 FootReference FootReferencePlanner::query(const ocp::ModeSchedule& schedule, int foot,
                                           double t) const {
   FootReference r;
   r.timing = footPhase(schedule, foot, t);
-  const Eigen::Vector2d p = nominalFoothold(foot, t);
   if (r.timing.stance) {
+    const Eigen::Vector2d p = stanceFoothold(schedule, foot, t);
     r.region = terrain_->regionAt(p);
     r.z_ref = terrain_->heightAt(p) + config_.foot_height_offset;
     return r;
   }
+  const Eigen::Vector2d p = nominalFoothold(foot, t);
   if (!r.timing.bounded()) {
     r.region = terrain_->regionAt(p);
     r.z_ref = terrain_->heightAt(p) + config_.foot_height_offset + config_.swing_clearance;
     return r;
   }
-  const Eigen::Vector2d p_lo = nominalFoothold(foot, r.timing.liftoff);
+  // Where the foot stands before lift-off: the foothold of the stance that ends there.
+  const Eigen::Vector2d p_lo =
+      stanceFoothold(schedule, foot, std::nextafter(r.timing.liftoff, -1e300));
   const Eigen::Vector2d p_td = nominalFoothold(foot, r.timing.touchdown);
   r.region = terrain_->regionAt(p_td);
   r.direction = terrain_->classifySwing(p_lo, p_td, config_.level_tolerance);

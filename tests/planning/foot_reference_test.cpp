@@ -1,6 +1,6 @@
 // The per-node foot query: a paper trot at 0.5 m/s over the step20 block. Stance feet
-// get the region under their nominal foothold; swings crossing the front edge ascend
-// (constrained by the floor region on their first half), swings crossing the back edge
+// get the region under the nominal foothold of their touch-down; swings crossing the front edge
+// ascend (constrained by the floor region on their first half), swings crossing the back edge
 // descend (floor region on their second half); z_ref / z_dot_ref follow the spline.
 #include "rollstep/planning/foot_reference.hpp"
 
@@ -40,6 +40,21 @@ struct Scene {
   Scene() { base.reset(0.0, lie::SE3(), {0.5, 0.0, 0.0}); }
 };
 
+/// Start of the stance of `foot` containing (or, for a swing, ending just before) t, from
+/// the gait itself: searched back, then bisected.
+double stanceStart(const Scene& s, int foot, double t) {
+  const planning::Gait& g = s.scheduler.gait();
+  double hi = t;
+  while (!g.inStance(foot, hi)) hi -= 1e-3;  // a swing: back into the stance before it
+  double lo = hi;
+  while (g.inStance(foot, lo)) lo -= 1e-3;
+  for (int k = 0; k < 60; ++k) {
+    const double mid = 0.5 * (lo + hi);
+    (g.inStance(foot, mid) ? hi : lo) = mid;
+  }
+  return hi;
+}
+
 TEST(FootReference, TrotOverTheStep) {
   Scene s;
   const int floor_before = s.terrain.regionAt({0.0, 0.0});
@@ -52,7 +67,8 @@ TEST(FootReference, TrotOverTheStep) {
       for (int f = 0; f < 6; ++f) {
         const planning::FootReference r = s.feet.query(s.schedule, f, t);
         EXPECT_EQ(r.timing.stance, s.scheduler.gait().inStance(f, t));
-        const Vector2d p = s.feet.nominalFoothold(f, t);
+        // A stance keeps the foothold of its touch-down (the wheel cannot roll up a step).
+        const Vector2d p = s.feet.nominalFoothold(f, stanceStart(s, f, t));
         if (r.timing.stance) {
           EXPECT_EQ(r.region, s.terrain.regionAt(p));
           EXPECT_DOUBLE_EQ(r.z_ref, s.terrain.heightAt(p) + kWheelRadius);
@@ -61,7 +77,7 @@ TEST(FootReference, TrotOverTheStep) {
         }
         ASSERT_TRUE(r.timing.bounded());
         EXPECT_NEAR(r.timing.touchdown - r.timing.liftoff, 0.32, 1e-9);
-        const Vector2d p_lo = s.feet.nominalFoothold(f, r.timing.liftoff);
+        const Vector2d p_lo = s.feet.nominalFoothold(f, stanceStart(s, f, r.timing.liftoff - 1e-9));
         const Vector2d p_td = s.feet.nominalFoothold(f, r.timing.touchdown);
         const double z_lo = s.terrain.heightAt(p_lo), z_td = s.terrain.heightAt(p_td);
         EXPECT_LE(r.z_ref, std::max(z_lo, z_td) + kWheelRadius + kClearance + 1e-12);
@@ -93,7 +109,7 @@ TEST(FootReference, TrotOverTheStep) {
       }
     }
   }
-  // Some swings crossed each edge (others roll over it in stance at this phase/speed).
+  // Some swings crossed each edge.
   int up = 0, down = 0;
   for (int f = 0; f < 6; ++f) {
     up += ascending[static_cast<std::size_t>(f)];

@@ -7,8 +7,13 @@
 //
 // Footholds are nominal: the robot-specific body-frame foot positions (an argument)
 // placed by the base reference at the time in question; heights come from the terrain
-// under them. Built once (allocates); query() allocates nothing. The terrain and base
-// reference are held by pointer and must outlive the planner.
+// under them. A stance foot keeps the foothold of its touch-down for the whole stance
+// (stanceFoothold): its wheel may roll, but not up or down a step, so the region (and
+// height) of a stance, and the lift-off end of the next swing, are those under the
+// nominal foothold at the touch-down that began the stance, not under the one at t
+// (which moves on with the base and would switch region mid-stance at an edge). Built once
+// (allocates); query() allocates nothing. The terrain and base reference are held by pointer and
+// must outlive the planner.
 #include <Eigen/Core>
 #include <vector>
 
@@ -59,7 +64,14 @@ class FootReferencePlanner {
   const FootReferenceConfig& config() const { return config_; }
   /// World (x, y) of foot `foot`'s nominal contact at time t.
   Eigen::Vector2d nominalFoothold(int foot, double t) const;
-  /// The swing height spline of a swing of `foot` between the given times.
+  /// World (x, y) of the foothold of the stance of `foot` that contains t: the nominal
+  /// foothold at the touch-down that began it, or at t when the stance began before the
+  /// schedule's first switch (GaitScheduler fills one period before t0, so only a gait
+  /// without switches, standing or rolling, falls back). For a t in a swing: the foothold
+  /// at t.
+  Eigen::Vector2d stanceFoothold(const ocp::ModeSchedule& schedule, int foot, double t) const;
+  /// The swing height spline of a swing of `foot` between the given times, from the
+  /// nominal footholds at those times (query() takes the lift-off end from stanceFoothold).
   SwingHeightSpline swingSpline(int foot, double t_liftoff, double t_touchdown) const;
   /// Everything about `foot` at time t under `schedule`. A swing whose lift-off or
   /// touch-down the schedule does not contain holds z_ref at the apex over the current
