@@ -7,7 +7,6 @@
 #include "rollstep/centroidal/dynamics.hpp"
 #include "rollstep/centroidal/equalities.hpp"
 #include "rollstep/centroidal/inequalities.hpp"
-#include "rollstep/centroidal/stance_slip.hpp"
 #include "rollstep/ocp/cost.hpp"
 #include "rollstep/ocp/dynamics.hpp"
 
@@ -164,11 +163,10 @@ CentroidalOcp::CentroidalOcp(const RobotOcpDescription& description, const OcpSe
   problem_->addCost("input", std::make_shared<ocp::LeastSquaresCost>(
                                  std::make_shared<InputTrackingResidual>(robot_), w_input));
 
-  const int nfreed = FreedStanceVelocityResidual(pre_).maxRows();
+  auto freed = std::make_shared<StanceVelocityResidual>(pre_, StanceRows::Freed);
   problem_->addCost("freed_stance_velocity",
                     std::make_shared<ocp::LeastSquaresCost>(
-                        std::make_shared<FreedStanceVelocityResidual>(pre_),
-                        repeat(settings.freed_stance_velocity_weight, nfreed)));
+                        freed, repeat(settings.freed_stance_velocity_weight, freed->maxRows())));
 
   // Equalities.
   problem_->addEquality("swing_force", std::make_shared<SwingForceResidual>(robot_));

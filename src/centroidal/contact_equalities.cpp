@@ -58,16 +58,23 @@ void SwingForceResidual::calcDiff(const ocp::NodeContext& ctx, ocp::ConstVecRef 
 
 // ---- StanceVelocityResidual -----------------------------------------------------------
 
-StanceVelocityResidual::StanceVelocityResidual(std::shared_ptr<const CentroidalPrecomputation> pre)
+StanceVelocityResidual::StanceVelocityResidual(std::shared_ptr<const CentroidalPrecomputation> pre,
+                                               StanceRows rows)
     : ocp::Residual(robotOf(pre, "StanceVelocityResidual").ndx(), pre ? pre->robot().nu() : 0,
                     pre ? stanceVelocityMaxRows(pre->robot()) : 0),
-      pre_(std::move(pre)) {}
+      pre_(std::move(pre)),
+      which_(rows) {}
+
+bool StanceVelocityResidual::selected(int mode, int i) const {
+  const bool kept = pre_->robot().keepsVelocityConstraints(mode, i);
+  return which_ == StanceRows::Kept ? kept : CentroidalRobot::inStance(mode, i) && !kept;
+}
 
 int StanceVelocityResidual::rows(const ocp::NodeContext& ctx) const {
   const CentroidalRobot& r = pre_->robot();
   int n = 0;
   for (int i = 0; i < r.nc(); ++i) {
-    if (r.keepsVelocityConstraints(ctx.mode, i)) n += r.contact(i).drive_wheel ? 2 : 1;
+    if (selected(ctx.mode, i)) n += r.contact(i).drive_wheel ? 2 : 1;
   }
   return n;
 }
@@ -84,7 +91,7 @@ void StanceVelocityResidual::calc(const ocp::NodeContext& ctx, ocp::ConstVecRef 
   const CentroidalCache& c = nodeCache(ctx, x, u, false, *pre_, data.fallback);
   int row = 0;
   for (int i = 0; i < r.nc(); ++i) {
-    if (!r.keepsVelocityConstraints(ctx.mode, i)) continue;
+    if (!selected(ctx.mode, i)) continue;
     const auto v = c.footVelocity(i);
     d.r[row++] = v.z();
     if (r.contact(i).drive_wheel) {
@@ -104,7 +111,7 @@ void StanceVelocityResidual::calcDiff(const ocp::NodeContext& ctx, ocp::ConstVec
   const int nf = 3 * r.nc();
   int row = 0;
   for (int i = 0; i < r.nc(); ++i) {
-    if (!r.keepsVelocityConstraints(ctx.mode, i)) continue;
+    if (!selected(ctx.mode, i)) continue;
     const int k = 3 * i;
     d.Rx.row(row) = c.footVelocity_dx.row(k + 2);
     d.Ru.row(row).head(nj) = c.footVelocity_du.row(k + 2).head(nj);

@@ -25,8 +25,11 @@ struct Fixture {
   Tachyon3Scene scene;
   SwingForceResidual force{robot};
   StanceVelocityResidual velocity{pre};
+  StanceVelocityResidual freed{pre, StanceRows::Freed};
   SwingHeightResidual height{pre, scene.feet, kKp};
-  std::vector<const ocp::Residual*> all() const { return {&force, &velocity, &height}; }
+  /// The equality constraints (the freed rows are a cost, not stacked with them).
+  std::vector<const ocp::Residual*> constraints() const { return {&force, &velocity, &height}; }
+  std::vector<const ocp::Residual*> all() const { return {&force, &velocity, &freed, &height}; }
 };
 
 const int kTrotA = maskOf({LF, RF, MR});
@@ -76,6 +79,20 @@ TEST(Equalities, RowsPerMode) {
   EXPECT_TRUE(s.force.isLinear());
   EXPECT_FALSE(s.velocity.isLinear());
   EXPECT_FALSE(s.force.dependsOnState());
+}
+
+TEST(Equalities, TheFreedRowsAreTheStanceRowsTheRuleDrops) {
+  Fixture s;
+  for (const ModeCase& mc : modeClasses()) {
+    const auto ctx = makeContext(mc.mode, 0.0, s.scene.schedule.get(), nullptr);
+    int all = 0;  // every stance row: z, and lateral for a drive wheel
+    for (int i = 0; i < s.robot->nc(); ++i) {
+      if (CentroidalRobot::inStance(mc.mode, i)) all += s.robot->contact(i).drive_wheel ? 2 : 1;
+    }
+    EXPECT_EQ(s.velocity.rows(ctx) + s.freed.rows(ctx), all) << "mode " << mc.mode;
+  }
+  // All stance: RF and RR are freed (z + lateral each).
+  EXPECT_EQ(s.freed.rows(makeContext(kAllStance, 0.0, s.scene.schedule.get(), nullptr)), 4);
 }
 
 TEST(Equalities, JacobiansMatchFiniteDifferencesInEveryModeClass) {
@@ -193,10 +210,10 @@ Eigen::MatrixXd stackedRu(const Fixture& s, int mode, double t, const Eigen::Vec
                           const Eigen::VectorXd& u) {
   const auto ctx = makeContext(mode, t, s.scene.schedule.get(), nullptr);
   int rows = 0;
-  for (const ocp::Residual* r : s.all()) rows += r->rows(ctx);
+  for (const ocp::Residual* r : s.constraints()) rows += r->rows(ctx);
   Eigen::MatrixXd Ru(rows, s.robot->nu());
   int at = 0;
-  for (const ocp::Residual* r : s.all()) {
+  for (const ocp::Residual* r : s.constraints()) {
     auto d = r->createData();
     d->rows = r->rows(ctx);
     r->calc(ctx, x, u, *d);

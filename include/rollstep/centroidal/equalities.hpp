@@ -51,11 +51,22 @@ class SwingForceResidual final : public ocp::Residual {
   std::shared_ptr<const CentroidalRobot> robot_;
 };
 
+/// Which stance velocity rows a StanceVelocityResidual carries.
+enum class StanceRows {
+  /// The rows the side-by-side rule keeps: the equality constraints.
+  Kept,
+  /// The rows it frees (a stance foot whose pair partner keeps them): not full rank with
+  /// the kept ones, so no constraint, but a least-squares cost. Without it the optimum
+  /// moves the freed foot freely (a stance wheel rose at 0.9 m/s in a trot on flat ground).
+  Freed,
+};
+
 /// Stance contacts: zero world z velocity, zero lateral velocity for drive wheels, with the
-/// side-by-side rule.
+/// side-by-side rule (`rows` selects the kept or the freed ones).
 class StanceVelocityResidual final : public ocp::Residual {
  public:
-  explicit StanceVelocityResidual(std::shared_ptr<const CentroidalPrecomputation> pre);
+  explicit StanceVelocityResidual(std::shared_ptr<const CentroidalPrecomputation> pre,
+                                  StanceRows rows = StanceRows::Kept);
   int rows(const ocp::NodeContext& ctx) const override;
   std::unique_ptr<ocp::ResidualData> createData() const override;
   void calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
@@ -64,7 +75,10 @@ class StanceVelocityResidual final : public ocp::Residual {
                 ocp::ResidualData& d) const override;
 
  private:
+  /// Contact i has rows at `mode`.
+  bool selected(int mode, int i) const;
   std::shared_ptr<const CentroidalPrecomputation> pre_;
+  StanceRows which_;
 };
 
 /// Swing contacts: v_z - z_dot_ref(t) + Kp (p_z - z_ref(t)) = 0. Needs ctx.schedule.

@@ -39,7 +39,7 @@ struct OcpSettings {
   double joint_velocity_weight = 0.1;
   double force_weight = 0.001;
   /// Stance velocities the side-by-side rule frees from the equalities (z, drive-wheel
-  /// lateral) as a cost: [(m/s)^-2] (stance_slip.hpp says why).
+  /// lateral) as a cost: [(m/s)^-2] (StanceRows::Freed in equalities.hpp says why).
   double freed_stance_velocity_weight = 1e5;
   /// The terminal cost is the state tracking cost times this factor (>= 0).
   double terminal_weight_scale = 10.0;
