@@ -16,7 +16,6 @@ namespace rollstep::centroidal {
 namespace {
 
 constexpr std::size_t kMaxConfigBytes = std::size_t{1} << 20;
-constexpr double kInf = std::numeric_limits<double>::infinity();
 
 using Vector6 = Eigen::Matrix<double, 6, 1>;
 using Member = std::variant<int OcpSettings::*, double OcpSettings::*, bool OcpSettings::*,

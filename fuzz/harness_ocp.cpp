@@ -1,0 +1,59 @@
+// Fuzz harness: YAML text -> OcpSettings and RobotOcpDescription
+// (rollstep::centroidal::parseOcpSettings / parseRobotOcpDescription).
+// Fine: settings that survive a toYaml round trip exactly and a description whose names
+// are contacts, or a std::runtime_error whose message starts with the documented prefix
+// naming the source. Anything else fails: a crash, a sanitizer report, an escaped parser
+// error (YamlError names no file), another exception type, a hang.
+#include <cstddef>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <stdexcept>
+#include <string>
+
+#include "rollstep/centroidal/ocp_settings.hpp"
+
+namespace {
+[[noreturn]] void failure(const std::string& what) {
+  std::fprintf(stderr, "harness_ocp: %s\n", what.c_str());
+  std::abort();
+}
+
+bool isContact(const rollstep::centroidal::RobotOcpDescription& d, const std::string& name) {
+  for (const std::string& c : d.contact_frames) {
+    if (c == name) return true;
+  }
+  return false;
+}
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  using namespace rollstep::centroidal;
+  const std::string text(reinterpret_cast<const char*>(data), size);
+  try {
+    const OcpSettings s = parseOcpSettings(text, "fuzz.yaml");
+    const std::string yaml = toYaml(s);
+    if (toYaml(parseOcpSettings(yaml, "round-trip")) != yaml) failure("round trip differs");
+  } catch (const std::runtime_error& e) {
+    if (std::string(e.what()).rfind("OCP settings fuzz.yaml: ", 0) != 0 &&
+        std::string(e.what()).rfind("solver settings fuzz.yaml", 0) != 0) {
+      failure(std::string("error message does not name the source: ") + e.what());
+    }
+  }
+  try {
+    const RobotOcpDescription d = parseRobotOcpDescription(text, "fuzz.yaml");
+    for (const auto* names : {&d.drive_wheels, &d.walk_order, &d.trot_group_a, &d.trot_group_b}) {
+      for (const std::string& n : *names) {
+        if (!isContact(d, n)) failure("accepted a name that is not a contact: " + n);
+      }
+    }
+    if (d.contact_frames.empty() || d.nominal_joint_positions.size() == 0) {
+      failure("accepted a description without contacts or posture");
+    }
+  } catch (const std::runtime_error& e) {
+    if (std::string(e.what()).rfind("robot description fuzz.yaml: ", 0) != 0) {
+      failure(std::string("error message does not name the source: ") + e.what());
+    }
+  }
+  return 0;
+}
