@@ -367,7 +367,9 @@ TEST_F(Fixture, StanceRegionRowsAreTheSignedEdgeDistances) {
       if (!CentroidalRobot::inStance(mode, i)) continue;
       const int region = s.planner.query(s.schedule, i, t).region;
       ASSERT_GE(region, 0);
-      EXPECT_EQ(region, s.terrain.regionAt(s.planner.nominalFoothold(i, t)));
+      // The region under the foothold where this stance began (the wheel may roll, not
+      // climb): FootReferencePlanner::stanceFoothold.
+      EXPECT_EQ(region, s.terrain.regionAt(s.planner.stanceFoothold(s.schedule, i, t)));
       const planning::ConvexRegion& reg = s.terrain.region(region);
       const Vector2d p = c.footPosition(i).head<2>();
       ASSERT_LE(row + reg.A.rows(), r.size());
@@ -421,7 +423,9 @@ TEST_F(Fixture, SwingRegionOnlyInTheColliderHalfOfAStepSwing) {
       const planning::FootReference ref = s.planner.query(s.schedule, i, t);
       EXPECT_EQ(ref.timing.stance, CentroidalRobot::inStance(mode, i));
       if (ref.timing.stance) continue;
-      const Vector2d p_lo = s.planner.nominalFoothold(i, ref.timing.liftoff);
+      // Lift-off end: the foothold of the stance that ends there.
+      const Vector2d p_lo =
+          s.planner.stanceFoothold(s.schedule, i, std::nextafter(ref.timing.liftoff, -1e300));
       const Vector2d p_td = s.planner.nominalFoothold(i, ref.timing.touchdown);
       bool active = false;
       if (p_lo.x() < 1.0 && p_td.x() > 1.0) {  // up the front edge: first half, floor before
