@@ -41,8 +41,9 @@ struct PlanOptions {
   std::string out = "out/plan";
 };
 
-/// Foothold regions are shrunk this much [m] so that wheels keep off the block edges.
-constexpr double kRegionMargin = 0.03;
+/// Foothold regions are shrunk by the contact offset (the wheel radius: the regions bound
+/// the wheel centre) plus this clearance [m], so that wheels keep off the block edges.
+constexpr double kEdgeClearance = 0.01;
 
 std::string defaultRobotDescription() {
   if (const char* dir = std::getenv("ROLLSTEP_ROBOTS_DIR"); dir != nullptr && *dir != '\0') {
@@ -150,7 +151,8 @@ int runPlan(const PlanOptions& o, bool scene_given) {
   }
   settings.horizon = static_cast<int>(steps);
   settings.solver.mode = solver::SolverMode::Converging;
-  centroidal::CentroidalOcp ocp(robot, settings, sim::terrainFromScene(scene, kRegionMargin),
+  centroidal::CentroidalOcp ocp(robot, settings,
+                                sim::terrainFromScene(scene, robot.contact_offset + kEdgeClearance),
                                 centroidal::gaitKindFromString(o.gait));
   lie::SE3 start = lie::SE3::Identity();
   start.translation.x() = o.start_x;

@@ -72,19 +72,15 @@ struct PlanRun {
   int mode(int k) const { return ocp->problem()->context(k).mode; }
 };
 
-/// The step scenarios' settings: the defaults but for
-/// - joint_velocity_weight 2.5 instead of 0.1: with 0.1 a stance wheel, free to roll along
-///   x, chatters (+-2 m/s from node to node) and explicit Euler turns the chatter into a
-///   vertical drift the stance velocity equality does not see (a stance wheel rose 4 cm in
-///   0.6 s); the solver then stalls at a KKT error of 1e-3..1e-1;
-/// - swing_height_gain 50 instead of 20 (1 - Kp dt = 0.25): with 20 the Euler-integrated
-///   swing lags its spline on the 0.2 m descent and a wheel touched down 7.5 mm below
-///   the floor (the stance then holds it there);
-/// - the trot cycle `gait_period` (0.8 s by default; a longer swing here).
+/// The step scenarios' settings: the defaults (config/ocp.yaml) with a longer trot cycle
+/// `gait_period` (0.8 s by default; a longer swing here). Two defaults come from these
+/// scenarios: joint_velocity_weight 2.5 (with 0.1 a stance wheel, free to roll along x,
+/// chattered at +-2 m/s node to node and explicit Euler turned it into a vertical drift the
+/// stance velocity equality does not see; the solver stalled at a KKT error of 1e-3..1e-1)
+/// and swing_height_gain 50 (with 20 the Euler-integrated swing lagged its spline on the
+/// 0.2 m descent and a wheel touched down 7.5 mm below the floor).
 OcpSettings stepSettings(double gait_period) {
   OcpSettings s;
-  s.joint_velocity_weight = 2.5;
-  s.swing_height_gain = 50.0;
   s.gait_period = gait_period;
   return s;
 }

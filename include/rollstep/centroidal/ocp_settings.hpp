@@ -36,7 +36,9 @@ struct OcpSettings {
       (Eigen::Matrix<double, 6, 1>() << 1e-3, 1e-3, 1e-3, 1e-3, 1e-3, 1e-3).finished();
   /// Input tracking u - u_ref(t): joint velocities and contact forces (u_ref: stance
   /// normal forces carry the weight equally).
-  double joint_velocity_weight = 0.1;
+  /// 2.5: with 0.1 a stance wheel, free to roll along, chattered at +-2 m/s node to node and
+  /// the Euler integration drifted it up by centimetres (the step20 traverse).
+  double joint_velocity_weight = 2.5;
   double force_weight = 0.001;
   /// Stance velocities the side-by-side rule frees from the equalities (z, drive-wheel
   /// lateral) as a cost: [(m/s)^-2] (StanceRows::Freed in equalities.hpp says why).
@@ -44,7 +46,9 @@ struct OcpSettings {
   /// The terminal cost is the state tracking cost times this factor (>= 0).
   double terminal_weight_scale = 10.0;
   // --- equalities ------------------------------------------------------------------------
-  double swing_height_gain = 20.0;  ///< [1/s] Kp of the swing height equality (>= 0)
+  /// [1/s] Kp of the swing height equality (>= 0); 50 (1 - Kp dt = 0.25): with 20 the
+  /// Euler-integrated swing lagged its spline and a wheel touched down 7.5 mm low.
+  double swing_height_gain = 50.0;
   // --- inequalities ----------------------------------------------------------------------
   double friction_coefficient = 0.6;  ///< mu of the friction pyramid (> 0), below the scene's
   double min_normal_force = 0.0;      ///< [N] lower bound on a stance normal force (>= 0)
