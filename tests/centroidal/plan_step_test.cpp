@@ -1,6 +1,6 @@
 // The proof of issue 11, item 4: trotting up onto and down from the 20 cm block of step20
-// (its convex regions shrunk by 3 cm), the full-centroidal OCP of Tachyon 3 solved in
-// converging mode from a cold start (the standing posture along the base reference). Each
+// (its convex regions shrunk by the wheel radius + 1 cm), the full-centroidal OCP of Tachyon 3
+// solved in converging mode from a cold start (the standing posture along the base reference). Each
 // test checks convergence, that every constraint group holds to 1e-4 at the solution
 // (evaluated afresh) and the physical outcome.
 #include <gtest/gtest.h>
@@ -9,36 +9,12 @@
 #include <cmath>
 #include <cstdio>
 
-#include "rollstep/centroidal/centroidal_ocp.hpp"
-#include "rollstep/solver/solver.hpp"
+#include "centroidal/plan_fixture.hpp"
 
 namespace rollstep::centroidal {
 namespace {
 
-constexpr double kTolerance = 1e-4;
-
-RobotOcpDescription tachyon3() {
-  return loadRobotOcpDescription(std::string(ROLLSTEP_ROBOTS_DIR) + "/tachyon3/centroidal.yaml");
-}
-
-/// Solves from the cold start and checks convergence and every constraint group.
-void solveAndCheck(CentroidalOcp& ocp, solver::Solver& s, const Eigen::VectorXd& x0) {
-  std::vector<Eigen::VectorXd> xs, us;
-  ocp.initialGuess(xs, us);
-  xs[0] = x0;
-  s.setInitialGuess(xs, us);
-  const solver::SolverStatus status = s.solve(x0);
-  ASSERT_FALSE(s.stats().empty());
-  std::printf("status %s after %d iterations, KKT error %.2e\n",
-              status == solver::SolverStatus::Converged ? "Converged" : s.message(), s.iterations(),
-              s.stats().back().kkt_error);
-  EXPECT_EQ(status, solver::SolverStatus::Converged) << s.message();
-  EXPECT_LE(s.stats().back().kkt_error, s.settings().kkt_tolerance);
-  for (const ConstraintViolation& v :
-       constraintViolations(*ocp.problem(), s.states(), s.inputs())) {
-    EXPECT_LE(v.value, kTolerance) << v.group << " at node " << v.node;
-  }
-}
+using test::PlanRun;
 
 /// robot/tachyon3.md's step20: a 0.20 m block, 1.20 m long, 3 m wide, its near edge 1.0 m
 /// ahead of the start. The regions constrain the wheel centres: shrunk by the wheel radius
@@ -49,28 +25,6 @@ planning::TerrainModel step20Terrain() {
   return planning::terrainFromBoxes({-20.0, 20.0, -5.0, 5.0, 0.0}, 0.0,
                                     {{kEdgeUp, kEdgeDown, -1.5, 1.5, kTop}}, 0.085);
 }
-
-struct PlanRun {
-  RobotOcpDescription robot = tachyon3();
-  OcpSettings settings;
-  std::unique_ptr<CentroidalOcp> ocp;
-  std::unique_ptr<solver::Solver> solver;
-
-  PlanRun(planning::TerrainModel terrain, planning::GaitKind gait, double vx, double x_start,
-          const OcpSettings& custom)
-      : settings(custom) {
-    ocp = std::make_unique<CentroidalOcp>(robot, settings, std::move(terrain), gait);
-    lie::SE3 start = lie::SE3::Identity();
-    start.translation.x() = x_start;
-    ocp->reset(0.0, start, planning::BaseVelocityCommand{vx, 0.0, 0.0});
-    solver = std::make_unique<solver::Solver>(ocp->problem(), settings.solver);
-    solveAndCheck(*ocp, *solver, ocp->standingState(x_start, 0.0, 0.0));
-  }
-  const Eigen::VectorXd& x(int k) const { return solver->states()[static_cast<std::size_t>(k)]; }
-  const Eigen::VectorXd& u(int k) const { return solver->inputs()[static_cast<std::size_t>(k)]; }
-  int N() const { return ocp->problem()->horizon(); }
-  int mode(int k) const { return ocp->problem()->context(k).mode; }
-};
 
 /// The step scenarios' settings: the defaults (config/ocp.yaml) with a longer trot cycle
 /// `gait_period` (0.8 s by default; a longer swing here). Two defaults come from these

@@ -1,71 +1,23 @@
 // The proof of issue 11: the full-centroidal OCP of Tachyon 3 solved in converging mode from
 // a cold start (the standing posture along the base reference), on flat ground (the 20 cm
-// step is still open: see issue 11's notes); each test checks convergence, that every constraint
-// group holds to 1e-4 at the solution (evaluated afresh) and the physical outcome.
+// step: plan_step_test.cpp); each test checks convergence, that every constraint group
+// holds to 1e-4 at the solution (evaluated afresh) and the physical outcome.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdio>
 
-#include "rollstep/centroidal/centroidal_ocp.hpp"
+#include "centroidal/plan_fixture.hpp"
 #include "rollstep/planning/swing_trajectory.hpp"
-#include "rollstep/solver/solver.hpp"
 
 namespace rollstep::centroidal {
 namespace {
 
-constexpr double kTolerance = 1e-4;
-
-RobotOcpDescription tachyon3() {
-  return loadRobotOcpDescription(std::string(ROLLSTEP_ROBOTS_DIR) + "/tachyon3/centroidal.yaml");
-}
+using test::PlanRun;
 
 planning::TerrainModel flatTerrain() {
   return planning::terrainFromBoxes({-20.0, 20.0, -5.0, 5.0, 0.0}, 0.0, {});
 }
-
-/// Solves from the cold start and checks convergence and every constraint group.
-void solveAndCheck(CentroidalOcp& ocp, solver::Solver& s, const Eigen::VectorXd& x0) {
-  std::vector<Eigen::VectorXd> xs, us;
-  ocp.initialGuess(xs, us);
-  xs[0] = x0;
-  s.setInitialGuess(xs, us);
-  const solver::SolverStatus status = s.solve(x0);
-  ASSERT_FALSE(s.stats().empty());
-  std::printf("status %s after %d iterations, KKT error %.2e\n",
-              status == solver::SolverStatus::Converged ? "Converged" : s.message(), s.iterations(),
-              s.stats().back().kkt_error);
-  EXPECT_EQ(status, solver::SolverStatus::Converged) << s.message();
-  EXPECT_LE(s.stats().back().kkt_error, s.settings().kkt_tolerance);
-  for (const ConstraintViolation& v :
-       constraintViolations(*ocp.problem(), s.states(), s.inputs())) {
-    EXPECT_LE(v.value, kTolerance) << v.group << " at node " << v.node;
-  }
-}
-
-struct PlanRun {
-  RobotOcpDescription robot = tachyon3();
-  OcpSettings settings;
-  std::unique_ptr<CentroidalOcp> ocp;
-  std::unique_ptr<solver::Solver> solver;
-
-  PlanRun(planning::TerrainModel terrain, planning::GaitKind gait, double vx,
-          double x_start = 0.0) {
-    ocp = std::make_unique<CentroidalOcp>(robot, settings, std::move(terrain), gait);
-    lie::SE3 start = lie::SE3::Identity();
-    start.translation.x() = x_start;
-    ocp->reset(0.0, start, planning::BaseVelocityCommand{vx, 0.0, 0.0});
-    solver = std::make_unique<solver::Solver>(ocp->problem(), settings.solver);
-    solveAndCheck(*ocp, *solver, ocp->standingState(x_start, 0.0, 0.0));
-  }
-  const Eigen::VectorXd& x(int k) const { return solver->states()[static_cast<std::size_t>(k)]; }
-  const Eigen::VectorXd& u(int k) const { return solver->inputs()[static_cast<std::size_t>(k)]; }
-  int N() const { return ocp->problem()->horizon(); }
-  int mode(int k) const { return ocp->problem()->context(k).mode; }
-  double force(int k, int foot, int axis) const {
-    return u(k)[ocp->robot().inputForceIndex(foot) + axis];
-  }
-};
 
 bool isDrive(const PlanRun& r, int foot) { return r.ocp->robot().contact(foot).drive_wheel; }
 

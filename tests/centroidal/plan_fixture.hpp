@@ -1,0 +1,70 @@
+#pragma once
+// Shared by the proof tests of issue 11 (plan_test.cpp, plan_step_test.cpp): the Tachyon 3
+// OCP built by CentroidalOcp, solved in converging mode from a cold start (the standing
+// posture along the base reference), with convergence and every constraint group checked.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "rollstep/centroidal/centroidal_ocp.hpp"
+#include "rollstep/solver/solver.hpp"
+
+namespace rollstep::centroidal::test {
+
+/// Every constraint group must hold to this at the solution.
+constexpr double kConstraintTolerance = 1e-4;
+
+inline RobotOcpDescription tachyon3Description() {
+  return loadRobotOcpDescription(std::string(ROLLSTEP_ROBOTS_DIR) + "/tachyon3/centroidal.yaml");
+}
+
+/// Solves from the cold start and checks convergence and every constraint group.
+inline void solveAndCheck(CentroidalOcp& ocp, solver::Solver& s, const Eigen::VectorXd& x0) {
+  std::vector<Eigen::VectorXd> xs, us;
+  ocp.initialGuess(xs, us);
+  xs[0] = x0;
+  s.setInitialGuess(xs, us);
+  const solver::SolverStatus status = s.solve(x0);
+  ASSERT_FALSE(s.stats().empty());
+  std::printf("status %s after %d iterations, KKT error %.2e\n",
+              status == solver::SolverStatus::Converged ? "Converged" : s.message(), s.iterations(),
+              s.stats().back().kkt_error);
+  EXPECT_EQ(status, solver::SolverStatus::Converged) << s.message();
+  EXPECT_LE(s.stats().back().kkt_error, s.settings().kkt_tolerance);
+  for (const ConstraintViolation& v :
+       constraintViolations(*ocp.problem(), s.states(), s.inputs())) {
+    EXPECT_LE(v.value, kConstraintTolerance) << v.group << " at node " << v.node;
+  }
+}
+
+/// One solved plan: the OCP on `terrain` with `gait` and forward command vx, from the
+/// standing posture at x = x_start.
+struct PlanRun {
+  RobotOcpDescription robot = tachyon3Description();
+  OcpSettings settings;
+  std::unique_ptr<CentroidalOcp> ocp;
+  std::unique_ptr<solver::Solver> solver;
+
+  PlanRun(planning::TerrainModel terrain, planning::GaitKind gait, double vx, double x_start = 0.0,
+          const OcpSettings& custom = OcpSettings{})
+      : settings(custom) {
+    ocp = std::make_unique<CentroidalOcp>(robot, settings, std::move(terrain), gait);
+    lie::SE3 start = lie::SE3::Identity();
+    start.translation.x() = x_start;
+    ocp->reset(0.0, start, planning::BaseVelocityCommand{vx, 0.0, 0.0});
+    solver = std::make_unique<solver::Solver>(ocp->problem(), settings.solver);
+    solveAndCheck(*ocp, *solver, ocp->standingState(x_start, 0.0, 0.0));
+  }
+  const Eigen::VectorXd& x(int k) const { return solver->states()[static_cast<std::size_t>(k)]; }
+  const Eigen::VectorXd& u(int k) const { return solver->inputs()[static_cast<std::size_t>(k)]; }
+  int N() const { return ocp->problem()->horizon(); }
+  int mode(int k) const { return ocp->problem()->context(k).mode; }
+  double force(int k, int foot, int axis) const {
+    return u(k)[ocp->robot().inputForceIndex(foot) + axis];
+  }
+};
+
+}  // namespace rollstep::centroidal::test
