@@ -4,8 +4,9 @@
 //
 // Outputs (README "Outputs"): DIR/trajectory.csv, DIR/iterations.csv and DIR/summary.txt,
 // each written under a temporary name and renamed into place complete. Inputs are all
-// loaded before anything is written. Exit status 0 when the solve converged, 3 when it
-// ended otherwise (the files are written all the same: the summary says why), 1 on errors.
+// loaded before anything is written. Exit status 0 when the solve converged (or stopped at
+// an acceptable point: KKT error below acceptable_tolerance), 3 when it ended otherwise (the
+// files are written all the same: the summary says why), 1 on errors.
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -207,7 +208,9 @@ int runPlan(const PlanOptions& o, bool scene_given) {
   writeFileAtomically((dir / "summary.txt").string(), summary);
   std::fputs(summary.c_str(), stdout);
   std::fflush(stdout);
-  return status == solver::SolverStatus::Converged ? 0 : 3;
+  return status == solver::SolverStatus::Converged || status == solver::SolverStatus::Acceptable
+             ? 0
+             : 3;
 }
 
 }  // namespace
@@ -222,8 +225,9 @@ void registerPlanCommand(CLI::App& app, int& exit_status) {
       "DIR/iterations.csv (the solver's statistics) and DIR/summary.txt (status, KKT error, "
       "largest violation of each constraint group, solve time).");
   cmd->footer(
-      "Exit status: 0 converged, 3 solved but not converged (files written, the summary "
-      "says why), 1 on bad options or inputs.\n"
+      "Exit status: 0 converged (or acceptable: KKT error below the solver's "
+      "acceptable_tolerance), 3 not converged (files written, the summary says why), 1 on "
+      "bad options or inputs.\n"
       "Example: rollstep plan --scene step20 --gait trot --vx 0.15 --duration 1.5 --out out/plan");
   CLI::Option* scene =
       cmd->add_option("--scene", options->scene, "Scene: flat, step20 or stairs2 (as for sim)")
