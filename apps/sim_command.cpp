@@ -1,6 +1,8 @@
-// `rollstep sim`: the plant demo. Loads a scene with the Tachyon 3 MJCF, runs a simple
-// controller (stand: hold the nominal posture; drive: hold it and roll on the drive
-// wheels) for a duration, writes DIR/log.csv and DIR/summary.txt, prints the summary.
+// `rollstep sim`: the plant demo. Loads a scene with the Tachyon 3 MJCF, runs a controller
+// (stand: hold the nominal posture; drive: hold it and roll on the drive wheels; nmpc: the
+// full control pipeline, NMPC + CBF-QP + internal state integrator, on the ground-truth
+// state) for a duration, writes DIR/log.csv and DIR/summary.txt (nmpc also DIR/mpc.csv),
+// prints the summary.
 //
 // Outputs rule (README "Outputs"): a run that fails on its inputs (options, scene config,
 // robot file) writes nothing. Once the simulation starts, the previous run's log.csv,
@@ -26,11 +28,15 @@
 
 #include "cli_util.hpp"
 #include "commands.hpp"
+#include "rollstep/centroidal/centroidal_ocp.hpp"
 #include "rollstep/common/number_text.hpp"
 #include "rollstep/common/text_file.hpp"
+#include "rollstep/control/control_settings.hpp"
+#include "rollstep/sim/nmpc_controller.hpp"
 #include "rollstep/sim/plant.hpp"
 #include "rollstep/sim/scenario.hpp"
 #include "rollstep/sim/scene.hpp"
+#include "rollstep/sim/scene_terrain.hpp"
 #include "rollstep/sim/simple_controllers.hpp"
 
 namespace rollstep::apps {
@@ -49,13 +55,34 @@ struct SimOptions {
   double turn_speed = 0.0;
   int log_every = 10;
   std::string robot;
+  // nmpc only
+  std::string gait = "standing";
+  double vx = 0.0, vy = 0.0, yaw_rate = 0.0;
+  std::string control_config;
+  std::string robot_description;
+  std::string mpc_timing;  // "" = the config's
+  std::string integrator;  // "" = the config's
 };
+
+/// Foothold regions are shrunk by the contact offset (the wheel radius: the regions bound
+/// the wheel centre) plus this clearance [m] (as `rollstep plan`).
+constexpr double kEdgeClearance = 0.01;
+
+std::string defaultRobotDescription() {
+  if (const char* dir = std::getenv("ROLLSTEP_ROBOTS_DIR"); dir != nullptr && *dir != '\0') {
+    return std::string(dir) + "/tachyon3/centroidal.yaml";
+  }
+  return std::string(ROLLSTEP_ROBOTS_DIR) + "/tachyon3/centroidal.yaml";
+}
 
 /// Result files of a run in the output directory.
 struct OutputFiles {
-  fs::path log, summary, failed;
+  fs::path log, summary, failed, mpc;
   explicit OutputFiles(const fs::path& dir)
-      : log(dir / "log.csv"), summary(dir / "summary.txt"), failed(dir / "FAILED") {}
+      : log(dir / "log.csv"),
+        summary(dir / "summary.txt"),
+        failed(dir / "FAILED"),
+        mpc(dir / "mpc.csv") {}
 };
 
 /// Creates the output directory if needed and removes the previous run's result files.
@@ -66,7 +93,7 @@ void prepareOutputDir(const std::string& dir, const OutputFiles& files) {
   }
   fs::create_directories(dir, ec);
   if (ec) throw OutputError("--out '" + dir + "': cannot create the directory: " + ec.message());
-  for (const fs::path& p : {files.log, files.summary, files.failed}) {
+  for (const fs::path& p : {files.log, files.summary, files.failed, files.mpc}) {
     fs::remove(p, ec);
     if (ec) {
       throw OutputError("cannot remove the previous run's '" + p.string() + "': " + ec.message());
@@ -80,6 +107,7 @@ bool markFailed(const OutputFiles& files, const std::string& error) {
   std::error_code ec;
   fs::remove(files.log, ec);
   fs::remove(files.summary, ec);
+  fs::remove(files.mpc, ec);
   try {
     writeFileAtomically(files.failed.string(), "rollstep sim failed: " + error + "\n");
     return true;
@@ -107,10 +135,35 @@ void runSim(const SimOptions& o, bool scene_given) {
   sim::Plant plant(scene, plant_options);
 
   std::unique_ptr<sim::Controller> controller;
+  sim::NmpcController* nmpc_controller = nullptr;
   std::string controller_text;
   if (o.controller == "stand") {
     controller = std::make_unique<sim::StandController>(plant.nominalCommand());
     controller_text = "stand (nominal posture, wheels at rest)";
+  } else if (o.controller == "nmpc") {
+    const std::string description =
+        o.robot_description.empty() ? defaultRobotDescription() : o.robot_description;
+    const centroidal::RobotOcpDescription robot = centroidal::loadRobotOcpDescription(description);
+    control::ControlSettings settings;
+    if (!o.control_config.empty()) settings = control::loadControlSettings(o.control_config);
+    if (o.mpc_timing == "deterministic") settings.mpc.timing = control::MpcTiming::Deterministic;
+    if (o.mpc_timing == "asynchronous") settings.mpc.timing = control::MpcTiming::Asynchronous;
+    if (o.integrator == "internal") settings.integrator.mode = control::IntegratorMode::Internal;
+    if (o.integrator == "naive") settings.integrator.mode = control::IntegratorMode::Naive;
+    const planning::BaseVelocityCommand command{o.vx, o.vy, o.yaw_rate};
+    auto nmpc = std::make_unique<sim::NmpcController>(
+        plant, robot, settings, sim::terrainFromScene(scene, robot.contact_offset + kEdgeClearance),
+        centroidal::gaitKindFromString(o.gait), command);
+    nmpc_controller = nmpc.get();
+    controller = std::move(nmpc);
+    controller_text = format(
+        "nmpc (gait %s, command (%s m/s, %s m/s, %s rad/s), MPC every %s s %s, N = %d, "
+        "integrator %s; first solve %s)",
+        o.gait.c_str(), numberText(o.vx).c_str(), numberText(o.vy).c_str(),
+        numberText(o.yaw_rate).c_str(), numberText(settings.mpc.period).c_str(),
+        control::toString(settings.mpc.timing), settings.ocp.horizon,
+        control::toString(settings.integrator.mode),
+        solver::toString(nmpc_controller->initialStatus()));
   } else {
     // Each side's wheels run at speed -+ turn_speed: beyond the servos' limit they would
     // be clamped and the robot would not do what was asked.
@@ -142,9 +195,36 @@ void runSim(const SimOptions& o, bool scene_given) {
   prepareOutputDir(o.out, files);
   std::string text;
   try {
-    sim::CsvLog log(files.log.string());
-    const sim::RunSummary s = sim::runScenario(plant, *controller, o.duration, &log, o.log_every);
+    sim::CsvLog log(files.log.string(), controller->logColumns());
+    // A progress line on stderr for runs that take more than a few seconds.
+    const auto progress = [](const sim::Progress& p) {
+      if (p.wall_time < 3.0) return;
+      std::fprintf(stderr, "rollstep sim: %.1f of %.1f s simulated (%.0f %%), %.1fx real time\n",
+                   p.sim_time, p.duration, 100.0 * p.sim_time / p.duration,
+                   p.sim_time / p.wall_time);
+    };
+    const sim::RunSummary s =
+        sim::runScenario(plant, *controller, o.duration, &log, o.log_every, progress);
     log.commit();
+    std::string mpc_text;
+    if (nmpc_controller != nullptr) {
+      writeFileAtomically(files.mpc.string(), nmpc_controller->mpcUpdatesCsv());
+      const control::PipelineCounters& c = nmpc_controller->pipeline().counters();
+      double solve_sum = 0.0, solve_max = 0.0;
+      const auto& updates = nmpc_controller->mpcUpdates();
+      for (size_t k = 1; k < updates.size(); ++k) {  // the first is the initial cold solve
+        solve_sum += updates[k].solve_time_ms;
+        solve_max = std::max(solve_max, updates[k].solve_time_ms);
+      }
+      const double updates_n = updates.size() > 1 ? static_cast<double>(updates.size() - 1) : 1.0;
+      mpc_text = format(
+          "  MPC        %zu solutions (%llu rejected), solve time mean %.2f ms, max %.2f ms; %s\n"
+          "  CBF-QP     %llu fallbacks in %llu ticks\n",
+          updates.size(), static_cast<unsigned long long>(c.solutions_rejected),
+          solve_sum / updates_n, solve_max, files.mpc.c_str(),
+          static_cast<unsigned long long>(c.qp_fallbacks),
+          static_cast<unsigned long long>(c.ticks));
+    }
 
     const double deg = 180.0 / M_PI;
     text = format(
@@ -156,6 +236,7 @@ void runSim(const SimOptions& o, bool scene_given) {
         "  height     min %.4f m, max %.4f m; mean forward speed %.3f m/s\n"
         "  contacts   all six wheels on the ground %.1f %% of the time\n"
         "  MuJoCo     %d warnings\n"
+        "%s"
         "  outputs    %s (CSV, units in the header, every %d ms), %s\n",
         std::string(sim::toString(scene.kind)).c_str(), controller_text.c_str(),
         plant.robotFile().c_str(), s.sim_time, 1.0 / plant.controlPeriod(), s.wall_time,
@@ -163,7 +244,7 @@ void runSim(const SimOptions& o, bool scene_given) {
         s.end_position.x(), s.end_position.y(), s.end_position.z(),
         (s.end_position - s.start_position).head<2>().norm(), s.yaw_change * deg, s.min_base_height,
         s.max_base_height, s.mean_forward_speed, 100.0 * s.all_feet_contact_fraction, s.warnings,
-        files.log.c_str(),
+        mpc_text.c_str(), files.log.c_str(),
         static_cast<int>(std::lround(o.log_every * plant.controlPeriod() * 1000.0)),
         files.summary.c_str());
     writeFileAtomically(files.summary.string(), text);
@@ -191,7 +272,8 @@ void registerSimCommand(CLI::App& app) {
       "header) and a summary, and print the summary.");
   cmd->footer(
       "Numbers must be finite and within the ranges shown; --speed and --turn-speed only "
-      "apply to --controller drive.\n"
+      "apply to --controller drive, --gait, --vx, --vy, --yaw-rate, --control-config, "
+      "--robot-description, --mpc-timing and --integrator only to --controller nmpc.\n"
       "Outputs: DIR/log.csv and DIR/summary.txt appear only complete and only when the run "
       "succeeds; a run that fails once started removes the previous run's files and leaves "
       "DIR/FAILED with the error. Exit status: 0 on success, non-zero on any error.\n"
@@ -210,9 +292,47 @@ void registerSimCommand(CLI::App& app) {
       ->check(kNotEmpty);
   cmd->add_option("--controller", options->controller,
                   "stand: hold the nominal posture; drive: hold it and roll on the four "
-                  "drive wheels at --speed (turning with --turn-speed)")
-      ->check(CLI::IsMember({"stand", "drive"}))
+                  "drive wheels at --speed (turning with --turn-speed); nmpc: the control "
+                  "pipeline (NMPC + CBF-QP + internal state integrator) on the ground-truth "
+                  "state, with --gait and the base velocity command --vx, --vy, --yaw-rate")
+      ->check(CLI::IsMember({"stand", "drive", "nmpc"}))
       ->capture_default_str();
+  std::vector<CLI::Option*> nmpc_only;
+  nmpc_only.push_back(
+      cmd->add_option("--gait", options->gait, "nmpc only: standing, rolling, trot or static_walk")
+          ->check(CLI::IsMember({"standing", "rolling", "trot", "static_walk"}))
+          ->capture_default_str());
+  nmpc_only.push_back(cmd->add_option("--vx", options->vx,
+                                      "nmpc only: forward base velocity command [m/s] (base frame)")
+                          ->check(numberIn(-1.0, 1.0, "m/s"))
+                          ->capture_default_str());
+  nmpc_only.push_back(cmd->add_option("--vy", options->vy,
+                                      "nmpc only: lateral base velocity command [m/s] (base frame)")
+                          ->check(numberIn(-0.5, 0.5, "m/s"))
+                          ->capture_default_str());
+  nmpc_only.push_back(
+      cmd->add_option("--yaw-rate", options->yaw_rate, "nmpc only: yaw rate command [rad/s]")
+          ->check(numberIn(-1.0, 1.0, "rad/s"))
+          ->capture_default_str());
+  nmpc_only.push_back(
+      cmd->add_option("--control-config", options->control_config,
+                      "nmpc only: YAML control settings (config/control.yaml lists every key "
+                      "and its default; the OCP's and the solver's keys nest in it)")
+          ->check(kNotEmpty));
+  nmpc_only.push_back(cmd->add_option("--robot-description", options->robot_description,
+                                      "nmpc only: the robot's OCP description (default "
+                                      "robots/tachyon3/centroidal.yaml)")
+                          ->check(kNotEmpty));
+  nmpc_only.push_back(cmd->add_option("--mpc-timing", options->mpc_timing,
+                                      "nmpc only: deterministic (a solve every MPC period of "
+                                      "simulated time, reproducible) or asynchronous (a real "
+                                      "MPC thread); default: the control settings'")
+                          ->check(CLI::IsMember({"deterministic", "asynchronous"})));
+  nmpc_only.push_back(cmd->add_option("--integrator", options->integrator,
+                                      "nmpc only: internal (the internal state integrator) or "
+                                      "naive (naive state feedback); default: the control "
+                                      "settings'")
+                          ->check(CLI::IsMember({"internal", "naive"})));
   cmd->add_option("--duration", options->duration, "Simulated time [s]")
       ->check(numberIn(0.001, 3600.0, "s"))
       ->capture_default_str();
@@ -241,7 +361,16 @@ void registerSimCommand(CLI::App& app) {
                   "Default: robots/tachyon3/tachyon3.xml of the source tree, or "
                   "$ROLLSTEP_ROBOTS_DIR/tachyon3/tachyon3.xml")
       ->check(kNotEmpty);
-  cmd->final_callback([options, scene, speed, turn_speed] {
+  cmd->final_callback([options, scene, speed, turn_speed, nmpc_only] {
+    if (options->controller != "nmpc") {
+      for (const CLI::Option* option : nmpc_only) {
+        if (option->count() > 0) {
+          throw CLI::ValidationError(option->get_name(),
+                                     "is used only by --controller nmpc (drop the option or add "
+                                     "--controller nmpc)");
+        }
+      }
+    }
     if (options->controller != "drive") {
       for (const CLI::Option* option : {speed, turn_speed}) {
         if (option->count() > 0) {

@@ -163,14 +163,29 @@ CentroidalOcp::CentroidalOcp(const RobotOcpDescription& description, const OcpSe
   problem_->addCost("input", std::make_shared<ocp::LeastSquaresCost>(
                                  std::make_shared<InputTrackingResidual>(robot_), w_input));
 
-  auto freed = std::make_shared<StanceVelocityResidual>(pre_, StanceRows::Freed);
+  // Skid steering: the drive wheels' lateral rows leave the equalities (and the freed-row
+  // cost) for a cost of their own on every stance drive wheel.
+  const bool skid = settings.lateral_slip_weight > 0.0;
+  auto freed = std::make_shared<StanceVelocityResidual>(
+      pre_, StanceRows::Freed, skid ? StanceComponents::VerticalOnly : StanceComponents::All);
   problem_->addCost("freed_stance_velocity",
                     std::make_shared<ocp::LeastSquaresCost>(
                         freed, repeat(settings.freed_stance_velocity_weight, freed->maxRows())));
 
+  if (skid) {
+    auto slip = std::make_shared<StanceVelocityResidual>(pre_, StanceRows::All,
+                                                         StanceComponents::LateralOnly);
+    problem_->addCost("lateral_slip",
+                      std::make_shared<ocp::LeastSquaresCost>(
+                          slip, repeat(settings.lateral_slip_weight, slip->maxRows())));
+  }
+
   // Equalities.
   problem_->addEquality("swing_force", std::make_shared<SwingForceResidual>(robot_));
-  problem_->addEquality("stance_velocity", std::make_shared<StanceVelocityResidual>(pre_));
+  problem_->addEquality(
+      "stance_velocity",
+      std::make_shared<StanceVelocityResidual>(
+          pre_, StanceRows::Kept, skid ? StanceComponents::VerticalOnly : StanceComponents::All));
   problem_->addEquality("swing_height", std::make_shared<SwingHeightResidual>(
                                             pre_, feet_, settings.swing_height_gain));
 

@@ -59,13 +59,19 @@ void SwingForceResidual::calcDiff(const ocp::NodeContext& ctx, ocp::ConstVecRef 
 // ---- StanceVelocityResidual -----------------------------------------------------------
 
 StanceVelocityResidual::StanceVelocityResidual(std::shared_ptr<const CentroidalPrecomputation> pre,
-                                               StanceRows rows)
+                                               StanceRows rows, StanceComponents components)
     : ocp::Residual(robotOf(pre, "StanceVelocityResidual").ndx(), pre ? pre->robot().nu() : 0,
                     pre ? stanceVelocityMaxRows(pre->robot()) : 0),
       pre_(std::move(pre)),
-      which_(rows) {}
+      which_(rows),
+      components_(components) {}
+
+bool StanceVelocityResidual::lateral(int i) const {
+  return components_ != StanceComponents::VerticalOnly && pre_->robot().contact(i).drive_wheel;
+}
 
 bool StanceVelocityResidual::selected(int mode, int i) const {
+  if (which_ == StanceRows::All) return CentroidalRobot::inStance(mode, i);
   const bool kept = pre_->robot().keepsVelocityConstraints(mode, i);
   return which_ == StanceRows::Kept ? kept : CentroidalRobot::inStance(mode, i) && !kept;
 }
@@ -74,7 +80,7 @@ int StanceVelocityResidual::rows(const ocp::NodeContext& ctx) const {
   const CentroidalRobot& r = pre_->robot();
   int n = 0;
   for (int i = 0; i < r.nc(); ++i) {
-    if (selected(ctx.mode, i)) n += r.contact(i).drive_wheel ? 2 : 1;
+    if (selected(ctx.mode, i)) n += (vertical() ? 1 : 0) + (lateral(i) ? 1 : 0);
   }
   return n;
 }
@@ -93,8 +99,8 @@ void StanceVelocityResidual::calc(const ocp::NodeContext& ctx, ocp::ConstVecRef 
   for (int i = 0; i < r.nc(); ++i) {
     if (!selected(ctx.mode, i)) continue;
     const auto v = c.footVelocity(i);
-    d.r[row++] = v.z();
-    if (r.contact(i).drive_wheel) {
+    if (vertical()) d.r[row++] = v.z();
+    if (lateral(i)) {
       const double yaw = c.footYaw[i];
       d.r[row++] = -std::sin(yaw) * v.x() + std::cos(yaw) * v.y();
     }
@@ -113,11 +119,13 @@ void StanceVelocityResidual::calcDiff(const ocp::NodeContext& ctx, ocp::ConstVec
   for (int i = 0; i < r.nc(); ++i) {
     if (!selected(ctx.mode, i)) continue;
     const int k = 3 * i;
-    d.Rx.row(row) = c.footVelocity_dx.row(k + 2);
-    d.Ru.row(row).head(nj) = c.footVelocity_du.row(k + 2).head(nj);
-    d.Ru.row(row).tail(nf).setZero();
-    ++row;
-    if (r.contact(i).drive_wheel) {
+    if (vertical()) {
+      d.Rx.row(row) = c.footVelocity_dx.row(k + 2);
+      d.Ru.row(row).head(nj) = c.footVelocity_du.row(k + 2).head(nj);
+      d.Ru.row(row).tail(nf).setZero();
+      ++row;
+    }
+    if (lateral(i)) {
       // r = e_lat . v, e_lat = (-sin yaw, cos yaw, 0); d r / d yaw = -(e_fwd . v).
       const double s = std::sin(c.footYaw[i]), co = std::cos(c.footYaw[i]);
       const auto v = c.footVelocity(i);

@@ -31,7 +31,7 @@ struct Field {
 };
 
 // The one table of keys (config/ocp.yaml documents each, in this order).
-const std::array<Field, 26> kFields{{
+const std::array<Field, 27> kFields{{
     {"horizon", &OcpSettings::horizon, 1, 10000, false, false},
     {"dt", &OcpSettings::dt, 0, 10, true, false},
     {"base_velocity_weight", &OcpSettings::base_velocity_weight, 0, 1e12, false, false},
@@ -43,6 +43,7 @@ const std::array<Field, 26> kFields{{
     {"force_weight", &OcpSettings::force_weight, 0, 1e12, false, false},
     {"freed_stance_velocity_weight", &OcpSettings::freed_stance_velocity_weight, 0, 1e12, false,
      false},
+    {"lateral_slip_weight", &OcpSettings::lateral_slip_weight, 0, 1e12, false, false},
     {"terminal_weight_scale", &OcpSettings::terminal_weight_scale, 0, 1e12, false, false},
     {"swing_height_gain", &OcpSettings::swing_height_gain, 0, 1e6, false, false},
     {"friction_coefficient", &OcpSettings::friction_coefficient, 0, 10, true, false},
@@ -95,91 +96,100 @@ void parseDocument(const std::string& text, const std::string& prefix, Read read
 }  // namespace
 
 OcpSettings parseOcpSettings(const std::string& yaml_text, const std::string& source_name) {
-  const std::string prefix = "OCP settings " + source_name + ": ";
   OcpSettings settings;
-  parseDocument(yaml_text, prefix, [&](const yaml::Node& root) {
-    const auto fail = [&](const yaml::Node& at, const std::string& what) {
-      throw std::runtime_error(prefix + lineOf(at) + what);
-    };
-    if (root.isNull()) return;
-    if (!root.isMapping()) fail(root, "expected a mapping of key: value");
-    std::map<std::string, int> seen;
-    for (std::size_t item = 0; item < root.size(); ++item) {
-      const yaml::Node key_node = root.key(item);
-      const yaml::Node value = root.value(item);
-      if (!key_node.isScalar()) fail(key_node, "a key must be a plain name");
-      const std::string key = key_node.scalar();
-      const Field* field = nullptr;
-      for (const Field& f : kFields) {
-        if (key == f.key) field = &f;
-      }
-      if (field == nullptr)
-        fail(key_node, "unknown key '" + key + "' (known: " + knownKeys() + ")");
-      if (const auto it = seen.find(key); it != seen.end()) {
-        fail(key_node, key + ": given twice (first on line " + std::to_string(it->second) + ")");
-      }
-      seen.emplace(key, key_node.line());
-      const std::string at = key + ": ";
-      if (key == "solver") {
-        if (!value.isMapping() && !value.isNull()) {
-          fail(value, at + "expected a mapping of solver settings, got " + value.kindName());
-        }
-        settings.solver = solver::parseSolverSettings(
-            value, source_name + " (key 'solver', line " + std::to_string(value.line()) + ")",
-            OcpSettings::defaultSolverSettings());
-        continue;
-      }
-      if (value.isNull()) fail(value, at + "no value");
-      // A number within the field's range, or an error naming the key, value and range.
-      const auto number = [&](const yaml::Node& node) {
-        double v = 0.0;
-        if (!node.isScalar() || !node.toDouble(v)) {
-          fail(node, at + "'" + node.scalar() + "' is not a number" +
-                         (node.isScalar() && !node.plain() ? " (it is quoted or tagged)" : ""));
-        }
-        if (!inRange(*field, v)) {
-          fail(node, at + node.scalar() + " is outside " + rangeText(*field));
-        }
-        return v;
-      };
-      std::visit(
-          [&](auto member) {
-            using T = std::decay_t<decltype(settings.*member)>;
-            if constexpr (std::is_same_v<T, bool>) {
-              if (!value.isScalar() || !value.toBool(settings.*member)) {
-                fail(value, at + "expected true or false, got " +
-                                (value.isScalar() ? "'" + value.scalar() + "'" : value.kindName()));
-              }
-            } else if constexpr (std::is_same_v<T, int>) {
-              int v = 0;
-              if (!value.isScalar() || !value.toInt(v)) {
-                fail(value, at + "expected an integer, got " +
-                                (value.isScalar() ? "'" + value.scalar() + "'" : value.kindName()));
-              }
-              if (!inRange(*field, v)) {
-                fail(value, at + std::to_string(v) + " is outside " + rangeText(*field));
-              }
-              settings.*member = v;
-            } else if constexpr (std::is_same_v<T, double>) {
-              if (!value.isScalar()) {
-                fail(value, at + "expected a single number, got " + value.kindName());
-              }
-              settings.*member = number(value);
-            } else {
-              constexpr int n = T::RowsAtCompileTime;
-              if (!value.isSequence() || value.size() != static_cast<std::size_t>(n)) {
-                fail(value, at + "expected a list of " + std::to_string(n) + " numbers, got " +
-                                (value.isSequence() ? "a list of " + std::to_string(value.size())
-                                                    : std::string(value.kindName())));
-              }
-              T v;
-              for (int i = 0; i < n; ++i) v[i] = number(value.item(static_cast<std::size_t>(i)));
-              settings.*member = v;
-            }
-          },
-          field->member);
+  parseDocument(yaml_text, "OCP settings " + source_name + ": ",
+                [&](const yaml::Node& root) { settings = parseOcpSettings(root, source_name); });
+  return settings;
+}
+
+OcpSettings parseOcpSettings(const yaml::Node& root, const std::string& source_name,
+                             const std::string& key_path, const std::string& description) {
+  const std::string prefix = description + " " + source_name + ": ";
+  OcpSettings settings;
+  const auto fail = [&](const yaml::Node& at, const std::string& what) {
+    throw std::runtime_error(prefix + lineOf(at) + what);
+  };
+  if (root.isNull()) return settings;
+  if (!root.isMapping()) fail(root, "expected a mapping of key: value");
+  std::map<std::string, int> seen;
+  for (std::size_t item = 0; item < root.size(); ++item) {
+    const yaml::Node key_node = root.key(item);
+    const yaml::Node value = root.value(item);
+    if (!key_node.isScalar()) fail(key_node, "a key must be a plain name");
+    const std::string key = key_node.scalar();
+    const Field* field = nullptr;
+    for (const Field& f : kFields) {
+      if (key == f.key) field = &f;
     }
-  });
+    if (field == nullptr)
+      fail(key_node, "unknown key '" + key_path + key + "' (known: " + knownKeys() + ")");
+    if (const auto it = seen.find(key); it != seen.end()) {
+      fail(key_node,
+           key_path + key + ": given twice (first on line " + std::to_string(it->second) + ")");
+    }
+    seen.emplace(key, key_node.line());
+    const std::string at = key_path + key + ": ";
+    if (key == "solver") {
+      if (!value.isMapping() && !value.isNull()) {
+        fail(value, at + "expected a mapping of solver settings, got " + value.kindName());
+      }
+      settings.solver =
+          solver::parseSolverSettings(value,
+                                      source_name + " (key '" + key_path + "solver', line " +
+                                          std::to_string(value.line()) + ")",
+                                      OcpSettings::defaultSolverSettings());
+      continue;
+    }
+    if (value.isNull()) fail(value, at + "no value");
+    // A number within the field's range, or an error naming the key, value and range.
+    const auto number = [&](const yaml::Node& node) {
+      double v = 0.0;
+      if (!node.isScalar() || !node.toDouble(v)) {
+        fail(node, at + "'" + node.scalar() + "' is not a number" +
+                       (node.isScalar() && !node.plain() ? " (it is quoted or tagged)" : ""));
+      }
+      if (!inRange(*field, v)) {
+        fail(node, at + node.scalar() + " is outside " + rangeText(*field));
+      }
+      return v;
+    };
+    std::visit(
+        [&](auto member) {
+          using T = std::decay_t<decltype(settings.*member)>;
+          if constexpr (std::is_same_v<T, bool>) {
+            if (!value.isScalar() || !value.toBool(settings.*member)) {
+              fail(value, at + "expected true or false, got " +
+                              (value.isScalar() ? "'" + value.scalar() + "'" : value.kindName()));
+            }
+          } else if constexpr (std::is_same_v<T, int>) {
+            int v = 0;
+            if (!value.isScalar() || !value.toInt(v)) {
+              fail(value, at + "expected an integer, got " +
+                              (value.isScalar() ? "'" + value.scalar() + "'" : value.kindName()));
+            }
+            if (!inRange(*field, v)) {
+              fail(value, at + std::to_string(v) + " is outside " + rangeText(*field));
+            }
+            settings.*member = v;
+          } else if constexpr (std::is_same_v<T, double>) {
+            if (!value.isScalar()) {
+              fail(value, at + "expected a single number, got " + value.kindName());
+            }
+            settings.*member = number(value);
+          } else {
+            constexpr int n = T::RowsAtCompileTime;
+            if (!value.isSequence() || value.size() != static_cast<std::size_t>(n)) {
+              fail(value, at + "expected a list of " + std::to_string(n) + " numbers, got " +
+                              (value.isSequence() ? "a list of " + std::to_string(value.size())
+                                                  : std::string(value.kindName())));
+            }
+            T v;
+            for (int i = 0; i < n; ++i) v[i] = number(value.item(static_cast<std::size_t>(i)));
+            settings.*member = v;
+          }
+        },
+        field->member);
+  }
   return settings;
 }
 

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <thread>
 
 namespace rollstep::sim {
 
@@ -27,12 +28,13 @@ std::string csvHeader() {
   return h;
 }
 
-CsvLog::CsvLog(const std::string& path) : file_(path) {
+CsvLog::CsvLog(const std::string& path, const std::string& extra_columns) : file_(path) {
   file_.write(csvHeader());
+  file_.write(extra_columns);
   file_.write("\n");
 }
 
-void CsvLog::write(const GroundTruth& t, const PlantCommand& c) {
+void CsvLog::write(const GroundTruth& t, const PlantCommand& c, const std::string& extra) {
   file_.printf("%.4f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f", t.time,
                t.base_position.x(), t.base_position.y(), t.base_position.z(),
                t.base_orientation.w(), t.base_orientation.x(), t.base_orientation.y(),
@@ -45,6 +47,7 @@ void CsvLog::write(const GroundTruth& t, const PlantCommand& c) {
   for (int w = 0; w < kNumDriveWheels; ++w) file_.printf(",%.4f", c.wheel_velocity[w]);
   for (bool contact : t.foot_contact) file_.write(contact ? ",1" : ",0");
   for (const Eigen::Vector3d& f : t.foot_force) file_.printf(",%.3f", f.z());
+  file_.write(extra);
   file_.write("\n");
 }
 
@@ -54,7 +57,7 @@ double yawOf(const Eigen::Quaterniond& q) {
 }
 
 RunSummary runScenario(Plant& plant, Controller& controller, double duration, CsvLog* log,
-                       int log_every) {
+                       int log_every, const ProgressCallback& progress) {
   if (!std::isfinite(duration) || duration < 0.0 || duration > 1e6) {
     throw std::invalid_argument("runScenario: duration = " + std::to_string(duration) +
                                 " s: must be finite and in [0, 1e6] s");
@@ -74,9 +77,21 @@ RunSummary runScenario(Plant& plant, Controller& controller, double duration, Cs
   PlantCommand command = plant.command();
   double speed_sum = 0.0;
   long all_contact = 0;
-  if (log != nullptr) log->write(truth, command);
+  std::string extra;
+  if (log != nullptr) {
+    controller.logValues(extra);
+    log->write(truth, command, extra);
+  }
   const auto wall0 = std::chrono::steady_clock::now();
+  auto next_report = wall0 + std::chrono::seconds(1);
+  const bool paced = controller.paceToWallClock();
+  const auto period = std::chrono::duration<double>(plant.controlPeriod());
   for (long k = 1; k <= steps; ++k) {
+    if (paced) {
+      std::this_thread::sleep_until(wall0 +
+                                    std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                        static_cast<double>(k - 1) * period));
+    }
     controller.compute(plant.time(), plant.sensors(), command);
     plant.setCommand(command);
     plant.step();
@@ -91,7 +106,18 @@ RunSummary runScenario(Plant& plant, Controller& controller, double duration, Cs
         std::all_of(truth.foot_contact.begin(), truth.foot_contact.end(), [](bool c) { return c; })
             ? 1
             : 0;
-    if (log != nullptr && k % log_every == 0) log->write(truth, command);
+    if (log != nullptr && k % log_every == 0) {
+      controller.logValues(extra);
+      log->write(truth, command, extra);
+    }
+    if (progress && k % 100 == 0) {
+      const auto now = std::chrono::steady_clock::now();
+      if (now >= next_report) {
+        next_report = now + std::chrono::seconds(1);
+        progress(Progress{static_cast<double>(k) * plant.controlPeriod(), duration,
+                          std::chrono::duration<double>(now - wall0).count()});
+      }
+    }
   }
   s.wall_time = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
   s.sim_time = static_cast<double>(steps) * plant.controlPeriod();

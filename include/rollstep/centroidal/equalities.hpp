@@ -59,14 +59,25 @@ enum class StanceRows {
   /// the kept ones, so no constraint, but a least-squares cost. Without it the optimum
   /// moves the freed foot freely (a stance wheel rose at 0.9 m/s in a trot on flat ground).
   Freed,
+  /// Every stance foot's rows (for costs: the lateral slip of skid steering).
+  All,
+};
+
+/// Which components of a selected stance foot's velocity a StanceVelocityResidual carries.
+enum class StanceComponents {
+  All,           ///< vertical, and lateral for a drive wheel
+  VerticalOnly,  ///< the world z velocity only
+  LateralOnly,   ///< a drive wheel's lateral velocity only (none for other feet)
 };
 
 /// Stance contacts: zero world z velocity, zero lateral velocity for drive wheels, with the
-/// side-by-side rule (`rows` selects the kept or the freed ones).
+/// side-by-side rule (`rows` selects the kept or the freed ones, `components` which rows of
+/// each of them).
 class StanceVelocityResidual final : public ocp::Residual {
  public:
   explicit StanceVelocityResidual(std::shared_ptr<const CentroidalPrecomputation> pre,
-                                  StanceRows rows = StanceRows::Kept);
+                                  StanceRows rows = StanceRows::Kept,
+                                  StanceComponents components = StanceComponents::All);
   int rows(const ocp::NodeContext& ctx) const override;
   std::unique_ptr<ocp::ResidualData> createData() const override;
   void calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
@@ -79,6 +90,9 @@ class StanceVelocityResidual final : public ocp::Residual {
   bool selected(int mode, int i) const;
   std::shared_ptr<const CentroidalPrecomputation> pre_;
   StanceRows which_;
+  StanceComponents components_;
+  bool vertical() const { return components_ != StanceComponents::LateralOnly; }
+  bool lateral(int i) const;  // drive wheel and lateral rows wanted
 };
 
 /// Swing contacts: v_z - z_dot_ref(t) + Kp (p_z - z_ref(t)) = 0. Needs ctx.schedule.

@@ -43,6 +43,13 @@ struct OcpSettings {
   /// Stance velocities the side-by-side rule frees from the equalities (z, drive-wheel
   /// lateral) as a cost: [(m/s)^-2] (StanceRows::Freed in equalities.hpp says why).
   double freed_stance_velocity_weight = 1e5;
+  /// Lateral velocity of the stance drive wheels [(m/s)^-2]. 0 (the paper): a drive wheel
+  /// cannot slide sideways, an equality of the side-by-side rule. > 0: every stance drive
+  /// wheel's lateral velocity is a least-squares cost of this weight instead, so the wheels
+  /// may slide sideways: skid steering. Four drive wheels with fixed headings at the corners
+  /// (Tachyon 3) can only turn on the spot that way: with no sideways slip the front and
+  /// rear axles would need two centres of rotation.
+  double lateral_slip_weight = 0.0;
   /// The terminal cost is the state tracking cost times this factor (>= 0).
   double terminal_weight_scale = 10.0;
   // --- equalities ------------------------------------------------------------------------
@@ -92,6 +99,16 @@ struct OcpSettings {
 /// "OCP settings <source>: line L: <key>: <what>".
 OcpSettings parseOcpSettings(const std::string& yaml_text, const std::string& source_name);
 OcpSettings loadOcpSettings(const std::string& yaml_file);
+/// The same from a node of a parsed document: an `ocp:` mapping nested in another
+/// configuration file (a null node gives the defaults). Keys are named with `key_path` in
+/// front ("ocp." names ocp.horizon); errors: std::runtime_error
+/// "<description> <source_name>: line L: <key_path><key>: <what>", except those of the
+/// nested `solver:` mapping, which are the solver layer's naming
+/// "<source_name> (key '<key_path>solver', line L)". The defaults of the last two
+/// arguments give the messages of parseOcpSettings(text, source_name).
+OcpSettings parseOcpSettings(const yaml::Node& node, const std::string& source_name,
+                             const std::string& key_path = "",
+                             const std::string& description = "OCP settings");
 /// Every key, one "key: value" line each (vectors as flow lists), `solver:` nested; read
 /// back by parseOcpSettings exactly.
 std::string toYaml(const OcpSettings& settings);

@@ -1,5 +1,6 @@
 #pragma once
 // Closed-loop runs of the plant with a controller, with an optional CSV log.
+#include <functional>
 #include <string>
 
 #include "rollstep/common/text_file.hpp"
@@ -20,13 +21,15 @@ namespace rollstep::sim {
 /// Without commit() (an exception left the run) the temporary is removed.
 class CsvLog {
  public:
-  /// Creates the temporary file and writes the header; throws OutputError naming the
-  /// path and the reason on failure.
-  explicit CsvLog(const std::string& path);
+  /// Creates the temporary file and writes the header (csvHeader() then `extra_columns`, a
+  /// controller's Controller::logColumns()); throws OutputError naming the path and the
+  /// reason on failure.
+  explicit CsvLog(const std::string& path, const std::string& extra_columns = "");
   CsvLog(const CsvLog&) = delete;
   CsvLog& operator=(const CsvLog&) = delete;
-  /// Appends a row; throws OutputError if writing fails (a full disk).
-  void write(const GroundTruth& truth, const PlantCommand& command);
+  /// Appends a row (`extra`: the controller's Controller::logValues()); throws OutputError
+  /// if writing fails (a full disk).
+  void write(const GroundTruth& truth, const PlantCommand& command, const std::string& extra = "");
   /// Flushes, syncs and renames the file into place; throws OutputError on failure.
   void commit() { file_.commit(); }
   const std::string& path() const { return file_.path(); }
@@ -54,13 +57,23 @@ struct RunSummary {
   int warnings = 0;                        ///< MuJoCo warnings during the run
 };
 
+/// Progress of a run, reported about once per second of wall time.
+struct Progress {
+  double sim_time = 0.0;   ///< [s] simulated so far
+  double duration = 0.0;   ///< [s] of the whole run
+  double wall_time = 0.0;  ///< [s] so far
+};
+using ProgressCallback = std::function<void(const Progress&)>;
+
 /// Runs `duration` seconds from the plant's current state; logs every `log_every`
-/// control periods if `log` is not null (the caller commits the log). Throws
+/// control periods if `log` is not null (the caller commits the log), with the
+/// controller's extra columns; calls `progress` (if set) about once per wall second; runs in
+/// step with the wall clock if the controller asks for it (Controller::paceToWallClock). Throws
 /// std::invalid_argument if duration is not finite, negative or more than 1e6 s, or
 /// log_every < 1; SimError if the simulation diverges; OutputError if the log cannot
 /// be written.
 RunSummary runScenario(Plant& plant, Controller& controller, double duration, CsvLog* log = nullptr,
-                       int log_every = 10);
+                       int log_every = 10, const ProgressCallback& progress = {});
 
 /// Yaw [rad] of a base orientation (rotation about world z of the base x axis).
 double yawOf(const Eigen::Quaterniond& q);

@@ -3,6 +3,7 @@
 // They use no model and no estimator: hips and knees hold a posture, the drive wheels
 // get velocity targets. Real controllers (MPC, CBF-QP) live in the control layer.
 #include <algorithm>
+#include <string>
 #include <string_view>
 
 #include "rollstep/sim/plant.hpp"
@@ -16,6 +17,15 @@ class Controller {
   /// Writes the command for time t [s] from the sensor readings.
   virtual void compute(double t, const SensorReadings& sensors, PlantCommand& command) = 0;
   virtual std::string_view name() const = 0;
+  /// True if the simulation must run in step with the wall clock (a controller with a
+  /// thread of its own, such as the asynchronous MPC): runScenario then waits until the wall
+  /// clock reaches the simulated time before each period.
+  virtual bool paceToWallClock() const { return false; }
+  /// Extra CSV log columns of this controller, each as ",name[unit]" (none by default).
+  virtual std::string logColumns() const { return {}; }
+  /// The values of those columns after the last compute(), each as ",value" (the string
+  /// keeps its capacity from call to call).
+  virtual void logValues(std::string& out) const { out.clear(); }
 };
 
 /// Holds a joint posture (default: the plant's nominal posture), wheels at rest.

@@ -1,0 +1,137 @@
+#pragma once
+// Settings of the 1 kHz control pipeline (paper Sec. 3.3, DESIGN.md section 5): the MPC
+// runner's timing, the time-lag refinement, the acceleration feedback gains, the CBF-QP
+// safety filter and the internal state integrator, with the OCP's settings (which nest
+// the solver's) inside. config/control.yaml lists every key with its default and meaning;
+// loadControlSettings reads it (any subset; unknown or repeated keys, wrong types and
+// values out of range are errors naming the file, line and key).
+//
+// Robot-specific numbers (limits, posture, contacts) are not here: they come from the
+// URDF and the robot description (robots/<robot>/centroidal.yaml).
+#include <Eigen/Core>
+#include <string>
+
+#include "rollstep/centroidal/ocp_settings.hpp"
+
+namespace rollstep::control {
+
+using Vector6 = Eigen::Matrix<double, 6, 1>;
+
+/// How the MPC is run next to the real-time loop.
+enum class MpcTiming {
+  /// A solve every MpcSettings::period of the loop's own (simulated) time, started from the
+  /// state of that tick and made available MpcSettings::latency later: bit-for-bit
+  /// reproducible, what the tests use.
+  Deterministic,
+  /// A real thread solving as fast as it can on the latest state (wall clock), as on the
+  /// robot; results are not reproducible.
+  Asynchronous,
+};
+const char* toString(MpcTiming timing);
+
+/// How the joint commands are made from the filtered accelerations.
+enum class IntegratorMode {
+  /// The internal state integrator: integrates the filtered accelerations into its own
+  /// state and blends the measured state in every tick with the time constants below
+  /// (paper Fig. 8).
+  Internal,
+  /// Naive state feedback, for the comparison of the paper's Fig. 8: the commanded state
+  /// restarts from the measured state whenever a new MPC solution is taken (as a controller
+  /// that commands the MPC's plan from the latest measurement does) and is integrated
+  /// open-loop in between; the time constants are not used.
+  Naive,
+};
+const char* toString(IntegratorMode mode);
+
+struct MpcSettings {
+  MpcTiming timing = MpcTiming::Deterministic;
+  /// [s] Deterministic: a solve every period of loop time. Asynchronous: the least time
+  /// between the starts of two solves (0: back to back).
+  double period = 0.02;
+  /// [s] Deterministic: a solve's result is used from this long after the state it started
+  /// from (the modelled solve time); a multiple of the control period is exact.
+  double latency = 0.01;
+  /// Iteration limit of the converging solve from a cold start that gives the first
+  /// solution (at initialisation, not real-time).
+  int initial_iterations = 100;
+};
+
+struct RefinementSettings {
+  /// [s] Span of a new solution re-integrated from the latest state with its optimal inputs
+  /// (paper Fig. 7); beyond it the solution's own states are used, shifted by the offset at
+  /// the end of the span. At least the MPC period plus latency is sensible.
+  double horizon = 0.12;
+  /// Explicit Euler steps per node interval of the solution (1: the OCP's own transcription).
+  int substeps = 1;
+};
+
+/// Acceleration command = feedforward (from the refined solution) + kp (reference -
+/// internal state) + kd (reference velocity - internal velocity), per task.
+struct FeedbackSettings {
+  Vector6 base_kp = (Vector6() << 100, 100, 100, 100, 100, 100).finished();  ///< [1/s^2]
+  Vector6 base_kd = (Vector6() << 20, 20, 20, 20, 20, 20).finished();        ///< [1/s]
+  double foot_kp = 400.0;  ///< [1/s^2], every axis
+  double foot_kd = 40.0;   ///< [1/s]
+  double joint_kp = 100.0;
+  double joint_kd = 20.0;
+};
+
+/// The CBF-QP safety filter (cbf_qp.hpp). Second-order barriers h(q) >= 0 are imposed as
+/// h'' + 2 gamma h' + gamma^2 h >= 0 (a critically damped exponential CBF), first-order ones
+/// as h' + gamma h >= 0.
+struct CbfQpSettings {
+  // Task weights of the cost (diagonal, on the squared acceleration errors).
+  Vector6 base_weight = (Vector6() << 1, 1, 1, 1, 1, 1).finished();
+  double foot_weight = 1.0;
+  double joint_weight = 0.01;
+  /// Added to every variable's diagonal (keeps the Hessian definite) [-].
+  double damping = 1e-6;
+  /// [1/s] Contact consistency: a stance foot's kept velocity rows (vertical, drive-wheel
+  /// lateral; the OCP's side-by-side rule) are equalities a_row = -contact_gain v_row.
+  double contact_gain = 20.0;
+  /// Weight of the stance rows the side-by-side rule frees (a cost instead of a row).
+  double freed_contact_weight = 100.0;
+  double joint_position_gamma = 20.0;  ///< [1/s] second-order, URDF position limits
+  double joint_position_margin = 0.0;  ///< [rad or m] kept from each position limit
+  double joint_velocity_gamma = 50.0;  ///< [1/s] first-order, URDF velocity limits
+  double velocity_limit_scale = 1.0;   ///< share of the URDF velocity limits, (0, 1]
+  double region_gamma = 10.0;          ///< [1/s] second-order, foothold and swing regions
+  double clearance_gamma = 20.0;       ///< [1/s] second-order, swing wheel above the terrain
+  double clearance = 0.0;              ///< [m] least height of a swing wheel's bottom
+  int max_iterations = 100;            ///< active-set changes per solve
+  /// [s] Fallback when the QP fails: joint accelerations -v_J / fallback_brake_time (the
+  /// commanded joints brake to rest where they are), base acceleration 0.
+  double fallback_brake_time = 0.1;
+};
+
+struct IntegratorSettings {
+  IntegratorMode mode = IntegratorMode::Internal;
+  /// [s] Time constants of the blend of the measured state into the internal one: each tick
+  /// moves the internal position (velocity) by dt / tau of its difference to the measured one.
+  double position_time_constant = 0.1;
+  double velocity_time_constant = 0.02;
+};
+
+struct ControlSettings {
+  double control_period = 0.001;  ///< [s] the real-time tick (1 kHz)
+  MpcSettings mpc;
+  RefinementSettings refinement;
+  FeedbackSettings feedback;
+  CbfQpSettings cbf_qp;
+  IntegratorSettings integrator;
+  /// Nested `ocp:` mapping (config/ocp.yaml's keys, its `solver:` nested in turn). The
+  /// pipeline runs the solver in real-time mode whatever ocp.solver.mode says.
+  centroidal::OcpSettings ocp;
+};
+
+/// Throws std::invalid_argument naming the first bad field (what the YAML loader checks).
+void checkSettings(const ControlSettings& settings);
+
+/// Reads ControlSettings from YAML text (a mapping of the sections above, any subset of
+/// keys). Errors: std::runtime_error "control settings <source>: line L: <key>: <what>".
+ControlSettings parseControlSettings(const std::string& yaml_text, const std::string& source_name);
+ControlSettings loadControlSettings(const std::string& yaml_file);
+/// Every key with its value, read back by parseControlSettings exactly.
+std::string toYaml(const ControlSettings& settings);
+
+}  // namespace rollstep::control

@@ -1,0 +1,97 @@
+#pragma once
+// The NMPC control pipeline (control/pipeline.hpp) as a controller of the MuJoCo plant.
+// The state comes from a StateSource: the simulator's ground truth for now; the state
+// estimator (issue 13) plugs in through the same interface. Joints are matched between the
+// plant (its leg order) and the model (the URDF's order) by name, drive wheels by their
+// leg's name prefix of the contact frame ("LF" -> "LF_wheel").
+#include <cstdint>
+#include <memory>
+#include <string_view>
+#include <vector>
+
+#include "rollstep/control/pipeline.hpp"
+#include "rollstep/sim/plant.hpp"
+#include "rollstep/sim/simple_controllers.hpp"
+
+namespace rollstep::sim {
+
+/// Where the pipeline's state comes from.
+class StateSource {
+ public:
+  virtual ~StateSource() = default;
+  /// Fills `state` (sized, model joint order) for time t from the sensors; false if no
+  /// state is available (the pipeline then keeps its previous command).
+  virtual bool read(double t, const SensorReadings& sensors, control::RobotState& state) = 0;
+};
+
+/// The plant's exact state (no estimator).
+class GroundTruthSource final : public StateSource {
+ public:
+  /// `joint_map[j]`: the plant joint index of model joint j.
+  GroundTruthSource(const Plant& plant, std::vector<int> joint_map)
+      : plant_(&plant), joint_map_(std::move(joint_map)) {}
+  bool read(double t, const SensorReadings& sensors, control::RobotState& state) override;
+
+ private:
+  const Plant* plant_;
+  std::vector<int> joint_map_;
+};
+
+/// One MPC solution as the real-time loop received it (the log's mpc.csv rows).
+struct MpcUpdateRecord {
+  double time = 0.0;        ///< [s] loop time it arrived
+  double state_time = 0.0;  ///< [s] time of the state it was solved from (its t0)
+  std::uint64_t sequence = 0;
+  solver::SolverStatus status = solver::SolverStatus::InvalidInput;
+  int iterations = 0;
+  double kkt_error = 0.0;
+  double primal_residual = 0.0;
+  double solve_time_ms = 0.0;  ///< wall time (not reproducible)
+  bool adopted = false;        ///< refined into the reference (false: unusable, rejected)
+};
+
+class NmpcController final : public Controller {
+ public:
+  /// Builds the pipeline and initialises it at the plant's current ground-truth state
+  /// (a cold converging solve). Throws std::invalid_argument / std::runtime_error naming
+  /// what is wrong (a joint or wheel of the plant the model lacks, bad settings).
+  NmpcController(const Plant& plant, const centroidal::RobotOcpDescription& robot,
+                 const control::ControlSettings& settings, const planning::TerrainModel& terrain,
+                 planning::GaitKind gait, const planning::BaseVelocityCommand& command);
+  ~NmpcController() override;
+
+  void compute(double t, const SensorReadings& sensors, PlantCommand& command) override;
+  std::string_view name() const override { return "nmpc"; }
+  /// True in asynchronous MPC mode: the MPC thread solves on the wall clock.
+  bool paceToWallClock() const override {
+    return pipeline_->settings().mpc.timing == control::MpcTiming::Asynchronous;
+  }
+  /// mode[-] (contact mask), mpc_sequence[-] (solution in use), qp_status (optimal,
+  /// fallback, invalid_input), qp_iterations[-], qp_active[-] (active barrier sides),
+  /// qp_correction[m/s^2] (CbfQpFilter::correction).
+  std::string logColumns() const override;
+  void logValues(std::string& out) const override;
+  /// Every solution received so far, in order (the first one is the initial solve's).
+  const std::vector<MpcUpdateRecord>& mpcUpdates() const { return updates_; }
+  /// The mpc.csv text of mpcUpdates() (header with units, one row per update).
+  std::string mpcUpdatesCsv() const;
+
+  control::ControlPipeline& pipeline() { return *pipeline_; }
+  const control::ControlPipeline& pipeline() const { return *pipeline_; }
+  /// Status of the first (converging) solve.
+  solver::SolverStatus initialStatus() const { return initial_status_; }
+
+ private:
+  void record(double t, bool adopted);
+
+  std::unique_ptr<control::ControlPipeline> pipeline_;
+  std::unique_ptr<StateSource> source_;
+  std::vector<int> joint_map_;  // model joint -> plant joint
+  std::vector<int> wheel_map_;  // plant drive wheel -> pipeline wheel command index
+  control::RobotState state_;
+  control::JointCommand command_;
+  solver::SolverStatus initial_status_ = solver::SolverStatus::InvalidInput;
+  std::vector<MpcUpdateRecord> updates_;
+};
+
+}  // namespace rollstep::sim

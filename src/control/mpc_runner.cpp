@@ -1,0 +1,366 @@
+#include "rollstep/control/mpc_runner.hpp"
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <utility>
+#include <vector>
+
+namespace rollstep::control {
+namespace {
+
+/// Loop times closer than this count as equal (t = k * 0.001 against a grid of periods).
+constexpr double kTimeTolerance = 1e-9;
+/// How long the asynchronous thread sleeps when it has nothing to do.
+constexpr std::chrono::microseconds kIdleSleep{200};
+
+/// Lock-free triple buffer indices: the producer owns one slot, the consumer one, and the
+/// third ("middle") is exchanged through an atomic, kDirty marking it as newer than what
+/// the consumer holds. Neither side ever waits for the other.
+constexpr int kIndexMask = 3;
+constexpr int kDirty = 4;
+
+class TripleBufferIndices {
+ public:
+  /// Producer: the slot it may write.
+  int writeSlot() const { return write_; }
+  /// Producer: publishes the slot just written, takes another one to write next.
+  void publish() {
+    write_ = middle_.exchange(write_ | kDirty, std::memory_order_acq_rel) & kIndexMask;
+  }
+  /// Consumer: takes the newest published slot if one was published since the last take
+  /// (then true); readSlot() is the slot it holds.
+  bool take() {
+    if ((middle_.load(std::memory_order_acquire) & kDirty) == 0) return false;
+    read_ = middle_.exchange(read_, std::memory_order_acq_rel) & kIndexMask;
+    return true;
+  }
+  int readSlot() const { return read_; }
+  /// Not concurrent with the others: back to the start.
+  void reset() {
+    write_ = 0;
+    middle_.store(1, std::memory_order_relaxed);
+    read_ = 2;
+  }
+
+ private:
+  int write_ = 0;               // producer's
+  std::atomic<int> middle_{1};  // shared
+  int read_ = 2;                // consumer's
+};
+
+double millisecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+      .count();
+}
+
+}  // namespace
+
+bool MpcSolution::usable() const {
+  switch (status) {
+    case solver::SolverStatus::IterationDone:
+    case solver::SolverStatus::Converged:
+    case solver::SolverStatus::Acceptable:
+    case solver::SolverStatus::MaxIterations:
+      break;
+    default:
+      return false;
+  }
+  if (xs.empty() || xs.size() != us.size() + 1) return false;
+  for (const Eigen::VectorXd& x : xs) {
+    if (!x.allFinite()) return false;
+  }
+  for (const Eigen::VectorXd& u : us) {
+    if (!u.allFinite()) return false;
+  }
+  return true;
+}
+
+struct MpcRunner::Impl {
+  /// A state handed from post() to the asynchronous thread.
+  struct PostedState {
+    double t = 0.0;
+    Eigen::VectorXd x;
+  };
+
+  Impl(const ControlSettings& s, centroidal::CentroidalOcp& o) : settings(s), ocp(o) {
+    solver::SolverSettings realtime = settings.ocp.solver;
+    realtime.mode = solver::SolverMode::RealTime;
+    realtime_settings = realtime;
+    solver = std::make_unique<solver::Solver>(ocp.problem(), realtime);
+    const ocp::OptimalControlProblem& problem = *ocp.problem();
+    nx = problem.nx();
+    for (MpcSolution& slot : solutions) slot = makeSolution();
+    for (PostedState& slot : states) slot.x = Eigen::VectorXd::Zero(nx);
+  }
+
+  MpcSolution makeSolution() const {
+    const ocp::OptimalControlProblem& problem = *ocp.problem();
+    const int n = problem.horizon();
+    MpcSolution s;
+    s.dt = problem.dt();
+    s.xs.assign(static_cast<std::size_t>(n + 1), Eigen::VectorXd::Zero(problem.nx()));
+    s.us.assign(static_cast<std::size_t>(n), Eigen::VectorXd::Zero(problem.nu()));
+    s.modes.assign(static_cast<std::size_t>(n + 1), 0);
+    return s;
+  }
+
+  /// Copies the solver's result of a solve from the state at t into `out` (no allocation:
+  /// same sizes).
+  void fill(MpcSolution& out, double t, double release_time, solver::SolverStatus status,
+            double solve_time_ms) {
+    const ocp::OptimalControlProblem& problem = *ocp.problem();
+    out.sequence = ++sequence;
+    out.t0 = t;
+    out.dt = problem.dt();
+    const std::vector<Eigen::VectorXd>& xs = solver->states();
+    const std::vector<Eigen::VectorXd>& us = solver->inputs();
+    for (std::size_t k = 0; k < out.xs.size(); ++k) out.xs[k] = xs[k];
+    for (std::size_t k = 0; k < out.us.size(); ++k) out.us[k] = us[k];
+    for (std::size_t k = 0; k < out.modes.size(); ++k) {
+      out.modes[k] = problem.context(static_cast<int>(k)).mode;
+    }
+    out.status = status;
+    out.iterations = solver->iterations();
+    const std::vector<solver::IterationStats>& stats = solver->stats();
+    out.kkt_error = stats.empty() ? 0.0 : stats.back().kkt_error;
+    out.primal_residual = stats.empty() ? 0.0 : stats.back().primal_residual;
+    out.primal_step = stats.empty() ? 0.0 : stats.back().primal_step;
+    out.solve_time_ms = solve_time_ms;
+    out.release_time = release_time;
+  }
+
+  /// One real-time iteration from x at t (never allocates).
+  solver::SolverStatus solveRealTime(double t, const Eigen::VectorXd& x) {
+    solves_started.fetch_add(1, std::memory_order_relaxed);
+    ocp.advance(t);
+    return solver->update(t, x);
+  }
+
+  // --- deterministic timing (the caller's thread only) -----------------------------------
+  /// Publishes the solver's result of a solve at t: the pending one, released at
+  /// release_time; a pending solution already released becomes the released one first.
+  void publishDeterministic(double t, double release_time, solver::SolverStatus status,
+                            double solve_time_ms) {
+    if (pending >= 0) {
+      // Released by now: kept for poll(); otherwise superseded (latency above the period,
+      // which checkSettings refuses).
+      if (t >= solutions[static_cast<std::size_t>(pending)].release_time - kTimeTolerance) {
+        released = pending;
+      }
+      pending = -1;
+    }
+    int slot = 0;
+    while (slot == released) ++slot;
+    fill(solutions[static_cast<std::size_t>(slot)], t, release_time, status, solve_time_ms);
+    pending = slot;
+  }
+
+  void postDeterministic(double t, const Eigen::VectorXd& x) {
+    const double period = settings.mpc.period;
+    if (t < grid_start + static_cast<double>(next_index) * period - kTimeTolerance) return;
+    const auto start = std::chrono::steady_clock::now();
+    const solver::SolverStatus status = solveRealTime(t, x);
+    publishDeterministic(t, t + settings.mpc.latency, status, millisecondsSince(start));
+    // The next solve time: the first point of the grid t_init + k period after t (one
+    // period on when on time, further when more than a period behind).
+    const double periods = std::floor((t - grid_start) / period + kTimeTolerance);
+    next_index = static_cast<std::int64_t>(periods) + 1;
+  }
+
+  bool pollDeterministic(double t, MpcSolution& out) {
+    if (pending >= 0 &&
+        t >= solutions[static_cast<std::size_t>(pending)].release_time - kTimeTolerance) {
+      released = pending;
+      pending = -1;
+    }
+    if (released < 0) return false;
+    const MpcSolution& s = solutions[static_cast<std::size_t>(released)];
+    if (s.sequence <= out.sequence) return false;
+    out = s;  // same sizes: element-wise copies, no allocation
+    return true;
+  }
+
+  // --- asynchronous timing --------------------------------------------------------------
+  void run() {
+    using Clock = std::chrono::steady_clock;
+    Clock::time_point last_start = Clock::now();
+    bool first = true;
+    const auto min_gap = std::chrono::duration_cast<Clock::duration>(
+        std::chrono::duration<double>(settings.mpc.period));
+    while (!stop_requested.load(std::memory_order_acquire)) {
+      if (!first && Clock::now() < last_start + min_gap) {
+        std::this_thread::sleep_for(
+            std::min<Clock::duration>(kIdleSleep, last_start + min_gap - Clock::now()));
+        continue;
+      }
+      // The newest posted state, if there is one the thread has not solved from yet.
+      if (!state_buffer.take()) {
+        std::this_thread::sleep_for(kIdleSleep);
+        continue;
+      }
+      const PostedState& state = states[static_cast<std::size_t>(state_buffer.readSlot())];
+      first = false;
+      last_start = Clock::now();
+      const solver::SolverStatus status = solveRealTime(state.t, state.x);
+      MpcSolution& slot = solutions[static_cast<std::size_t>(solution_buffer.writeSlot())];
+      fill(slot, state.t, state.t, status, millisecondsSince(last_start));
+      solution_buffer.publish();
+    }
+  }
+
+  void postAsynchronous(double t, const Eigen::VectorXd& x) {
+    PostedState& slot = states[static_cast<std::size_t>(state_buffer.writeSlot())];
+    slot.t = t;
+    slot.x = x;  // same size: no allocation
+    state_buffer.publish();
+  }
+
+  bool pollAsynchronous(MpcSolution& out) {
+    solution_buffer.take();
+    const MpcSolution& s = solutions[static_cast<std::size_t>(solution_buffer.readSlot())];
+    if (s.sequence <= out.sequence) return false;
+    out = s;
+    return true;
+  }
+
+  void stopThread() {
+    stop_requested.store(true, std::memory_order_release);
+    if (thread.joinable()) thread.join();
+  }
+
+  const ControlSettings& settings;
+  centroidal::CentroidalOcp& ocp;
+  solver::SolverSettings realtime_settings;
+  std::unique_ptr<solver::Solver> solver;
+  int nx = 0;
+  std::vector<Eigen::VectorXd> guess_xs, guess_us;
+
+  /// Written by the solving side only (the caller in deterministic mode, the thread in
+  /// asynchronous mode, initialize() before the thread starts).
+  std::uint64_t sequence = 0;
+  std::array<MpcSolution, 3> solutions;
+  // Deterministic: the released and pending slots (-1: none); solves on the grid
+  // grid_start + k period, the next one at k = next_index.
+  int released = -1, pending = -1;
+  double grid_start = 0.0;
+  std::int64_t next_index = 1;
+  // Asynchronous: triple buffers of posted states (post() -> thread) and of solutions
+  // (thread -> poll()).
+  std::array<PostedState, 3> states;
+  TripleBufferIndices state_buffer, solution_buffer;
+  std::thread thread;
+  std::atomic<bool> stop_requested{false};
+
+  bool initialized = false;
+  std::atomic<bool> stopped{false};
+  std::atomic<std::uint64_t> solves_started{0};
+  std::atomic<std::uint64_t> rejected{0};
+};
+
+MpcRunner::MpcRunner(const centroidal::RobotOcpDescription& robot, const ControlSettings& settings,
+                     planning::TerrainModel terrain, planning::GaitKind gait)
+    : settings_(settings) {
+  checkSettings(settings_);
+  ocp_ =
+      std::make_unique<centroidal::CentroidalOcp>(robot, settings_.ocp, std::move(terrain), gait);
+  impl_ = std::make_unique<Impl>(settings_, *ocp_);
+}
+
+MpcRunner::~MpcRunner() { stop(); }
+
+solver::SolverStatus MpcRunner::initialize(double t0, const lie::SE3& start,
+                                           const planning::BaseVelocityCommand& command,
+                                           const Eigen::VectorXd& x0) {
+  Impl& m = *impl_;
+  if (x0.size() != m.nx) {
+    throw std::invalid_argument("MpcRunner::initialize: x0 has size " + std::to_string(x0.size()) +
+                                ", expected " + std::to_string(m.nx) + " (the centroidal state)");
+  }
+  if (!x0.allFinite()) throw std::invalid_argument("MpcRunner::initialize: x0 is not finite");
+  if (!std::isfinite(t0)) throw std::invalid_argument("MpcRunner::initialize: t0 is not finite");
+  m.stopThread();  // a second initialize() restarts from scratch
+  m.stop_requested.store(false, std::memory_order_relaxed);
+  m.stopped.store(false, std::memory_order_relaxed);
+  m.initialized = false;
+
+  // The converging solve from a cold start (as `rollstep plan` does).
+  ocp_->reset(t0, start, command);
+  solver::SolverSettings converging = m.realtime_settings;
+  converging.mode = solver::SolverMode::Converging;
+  converging.max_iterations = settings_.mpc.initial_iterations;
+  m.solver->setSettings(converging);
+  ocp_->initialGuess(m.guess_xs, m.guess_us);
+  m.guess_xs[0] = x0;
+  m.solver->setInitialGuess(m.guess_xs, m.guess_us);
+  const auto start_time = std::chrono::steady_clock::now();
+  const solver::SolverStatus status = m.solver->solve(x0);
+  const double solve_ms = millisecondsSince(start_time);
+  m.solver->setSettings(m.realtime_settings);
+
+  // Publish it, released at once, as sequence 1.
+  m.sequence = 0;
+  m.solves_started.store(0, std::memory_order_relaxed);
+  m.rejected.store(0, std::memory_order_relaxed);
+  m.released = -1;
+  m.pending = -1;
+  for (MpcSolution& slot : m.solutions) slot.sequence = 0;
+  if (settings_.mpc.timing == MpcTiming::Deterministic) {
+    m.publishDeterministic(t0, t0, status, solve_ms);
+    m.grid_start = t0;
+    m.next_index = 1;
+  } else {
+    m.state_buffer.reset();
+    m.solution_buffer.reset();
+    m.fill(m.solutions[static_cast<std::size_t>(m.solution_buffer.writeSlot())], t0, t0, status,
+           solve_ms);
+    m.solution_buffer.publish();
+    m.thread = std::thread([&m] { m.run(); });
+  }
+  m.initialized = true;
+  return status;
+}
+
+void MpcRunner::post(double t, const Eigen::VectorXd& x) noexcept {
+  Impl& m = *impl_;
+  if (!m.initialized || m.stopped.load(std::memory_order_relaxed)) return;
+  if (x.size() != m.nx || !x.allFinite() || !std::isfinite(t)) {
+    m.rejected.fetch_add(1, std::memory_order_relaxed);
+    return;
+  }
+  if (settings_.mpc.timing == MpcTiming::Deterministic) {
+    m.postDeterministic(t, x);
+  } else {
+    m.postAsynchronous(t, x);
+  }
+}
+
+bool MpcRunner::poll(double t, MpcSolution& out) noexcept {
+  Impl& m = *impl_;
+  if (!m.initialized) return false;
+  return settings_.mpc.timing == MpcTiming::Deterministic ? m.pollDeterministic(t, out)
+                                                          : m.pollAsynchronous(out);
+}
+
+MpcSolution MpcRunner::makeSolution() const { return impl_->makeSolution(); }
+
+void MpcRunner::stop() {
+  if (!impl_) return;
+  impl_->stopped.store(true, std::memory_order_relaxed);
+  impl_->stopThread();
+}
+
+std::uint64_t MpcRunner::solvesStarted() const {
+  return impl_->solves_started.load(std::memory_order_relaxed);
+}
+
+std::uint64_t MpcRunner::rejectedStates() const {
+  return impl_->rejected.load(std::memory_order_relaxed);
+}
+
+}  // namespace rollstep::control

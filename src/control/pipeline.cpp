@@ -1,0 +1,200 @@
+#include "rollstep/control/pipeline.hpp"
+
+#include <cmath>
+#include <stdexcept>
+
+#include "rollstep/model/centroidal.hpp"
+#include "rollstep/model/kinematics.hpp"
+
+namespace rollstep::control {
+
+ControlPipeline::ControlPipeline(const centroidal::RobotOcpDescription& robot,
+                                 const ControlSettings& settings,
+                                 const planning::TerrainModel& terrain, planning::GaitKind gait)
+    : settings_(settings) {
+  checkSettings(settings_);
+  runner_ = std::make_unique<MpcRunner>(robot, settings_, terrain, gait);
+  rt_ocp_ = std::make_unique<centroidal::CentroidalOcp>(robot, settings_.ocp, terrain, gait);
+  const centroidal::CentroidalRobot& r = rt_ocp_->robot();
+  schedule_horizon_ = settings_.ocp.dt;
+  scheduler_ = std::make_unique<planning::GaitScheduler>(rt_ocp_->gait(), schedule_horizon_);
+  schedule_ = ocp::ModeSchedule(scheduler_->requiredCapacity());
+  reference_ = std::make_unique<ReferenceTrajectory>(
+      std::make_shared<const centroidal::CentroidalPrecomputation>(rt_ocp_->robotPtr()),
+      settings_.refinement, settings_.ocp.horizon);
+  filter_ = std::make_unique<CbfQpFilter>(rt_ocp_->robotPtr(), rt_ocp_->terrain(), settings_.cbf_qp,
+                                          settings_.ocp.lateral_slip_weight);
+  integrator_ = std::make_unique<StateIntegrator>(r.modelPtr(), settings_.integrator,
+                                                  settings_.control_period);
+  data_ = std::make_unique<model::Data>(r.model());
+  for (int i = 0; i < r.nc(); ++i) {
+    if (r.contact(i).drive_wheel) drive_wheels_.push_back(i);
+  }
+  regions_.assign(static_cast<size_t>(r.nc()), FootRegionPlan{});
+  solution_ = runner_->makeSolution();
+  sample_ = reference_->makeSample();
+  targets_ = filter_->makeTargets();
+  q_meas_ = Eigen::VectorXd::Zero(r.nq());
+  v_meas_ = Eigen::VectorXd::Zero(r.nv());
+  x_meas_ = Eigen::VectorXd::Zero(r.nx());
+  a_ = Eigen::VectorXd::Zero(r.nv());
+  dq_ = Eigen::VectorXd::Zero(r.nv());
+  foot_p_ = Eigen::Matrix3Xd::Zero(3, r.nc());
+  foot_v_ = Eigen::Matrix3Xd::Zero(3, r.nc());
+}
+
+ControlPipeline::~ControlPipeline() { stop(); }
+
+void ControlPipeline::stop() {
+  if (runner_) runner_->stop();
+}
+
+JointCommand ControlPipeline::makeCommand() const {
+  const centroidal::CentroidalRobot& r = robot();
+  JointCommand c;
+  c.joint_position = rt_ocp_->nominalJointPositions();
+  c.joint_velocity = Eigen::VectorXd::Zero(r.nj());
+  c.wheel_velocity = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(drive_wheels_.size()));
+  return c;
+}
+
+solver::SolverStatus ControlPipeline::initialize(const RobotState& state,
+                                                 const planning::BaseVelocityCommand& command) {
+  const centroidal::CentroidalRobot& r = robot();
+  if (!state.valid(r.nj())) {
+    throw std::invalid_argument(
+        "ControlPipeline::initialize: the state is not valid (non-finite values, a quaternion "
+        "that is not unit, or joint vectors of the wrong size)");
+  }
+  toModelState(state, q_meas_, v_meas_);
+  x_meas_.head(r.nq()) = q_meas_;
+  x_meas_.tail<6>() = model::computeCentroidalMomentum(r.model(), *data_, q_meas_, v_meas_);
+  // The references start at the planar pose of the state (x, y, yaw).
+  const Eigen::Vector3d x_axis = state.base_orientation * Eigen::Vector3d::UnitX();
+  const double yaw = std::atan2(x_axis.y(), x_axis.x());
+  lie::SE3 start = lie::SE3::Identity();
+  start.translation = Eigen::Vector3d(state.base_position.x(), state.base_position.y(), 0.0);
+  start.rotation = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  rt_ocp_->reset(state.time, start, command);
+  const solver::SolverStatus status = runner_->initialize(state.time, start, command, x_meas_);
+  integrator_->reset(q_meas_, v_meas_);
+  solution_.sequence = 0;
+  if (runner_->poll(state.time, solution_)) {
+    reference_->refine(solution_, state.time, x_meas_);
+  }
+  counters_ = PipelineCounters{};
+  initialized_ = true;
+  return status;
+}
+
+void ControlPipeline::computeTargets() noexcept {
+  const centroidal::CentroidalRobot& r = robot();
+  const model::Model& m = r.model();
+  const FeedbackSettings& fb = settings_.feedback;
+  const Eigen::VectorXd& q = integrator_->q();
+  const Eigen::VectorXd& v = integrator_->v();
+  const int nj = r.nj();
+  // Configuration error reference (-) internal, in the internal state's tangent (LOCAL).
+  model::difference(m, q, sample_.q, dq_);
+  targets_.base = sample_.a.head<6>() + fb.base_kp.cwiseProduct(dq_.head<6>()) +
+                  fb.base_kd.cwiseProduct(sample_.v.head<6>() - v.head<6>());
+  targets_.joints = sample_.a.tail(nj) + fb.joint_kp * dq_.tail(nj) +
+                    fb.joint_kd * (sample_.v.tail(nj) - v.tail(nj));
+  // Feet at the internal state.
+  model::forwardKinematics(m, *data_, q, v);
+  for (int i = 0; i < r.nc(); ++i) {
+    const model::FrameIndex f = r.frameIds()[static_cast<size_t>(i)];
+    model::updateFramePlacement(m, *data_, f);
+    foot_p_.col(i) = data_->opf[static_cast<size_t>(f)];
+    foot_v_.col(i) =
+        model::getFrameVelocity(m, *data_, f, model::ReferenceFrame::LOCAL_WORLD_ALIGNED).head<3>();
+  }
+  targets_.feet = sample_.foot_acceleration + fb.foot_kp * (sample_.foot_position - foot_p_) +
+                  fb.foot_kd * (sample_.foot_velocity - foot_v_);
+}
+
+void ControlPipeline::computeWheelCommands(JointCommand& command) noexcept {
+  const centroidal::CentroidalRobot& r = robot();
+  const model::Model& m = r.model();
+  model::forwardKinematics(m, *data_, integrator_->q(), integrator_->v());
+  const double radius = r.contactOffset();
+  for (size_t w = 0; w < drive_wheels_.size(); ++w) {
+    const int i = drive_wheels_[w];
+    const model::FrameIndex f = r.frameIds()[static_cast<size_t>(i)];
+    model::updateFramePlacement(m, *data_, f);
+    const Eigen::Matrix3d& R = data_->oRf[static_cast<size_t>(f)];
+    Eigen::Vector3d heading(R(0, 0), R(1, 0), 0.0);
+    const double norm = heading.norm();
+    double speed = 0.0;
+    if (norm > 1e-6 && radius > 0.0) {
+      heading /= norm;
+      const lie::Vector6d local =
+          model::getFrameVelocity(m, *data_, f, model::ReferenceFrame::LOCAL);
+      const Eigen::Vector3d v_world = R * local.head<3>();
+      speed = heading.dot(v_world) / radius - local[4];
+    }
+    command.wheel_velocity[static_cast<Eigen::Index>(w)] = std::isfinite(speed) ? speed : 0.0;
+  }
+}
+
+void ControlPipeline::tick(const RobotState& state, JointCommand& command) noexcept {
+  const centroidal::CentroidalRobot& r = robot();
+  const double t = state.time;
+  record_ = TickRecord{};
+  record_.time = t;
+  ++counters_.ticks;
+  if (!initialized_ || !state.valid(r.nj())) {
+    record_.state_valid = false;
+    ++counters_.invalid_states;
+    return;
+  }
+  toModelState(state, q_meas_, v_meas_);
+  x_meas_.head(r.nq()) = q_meas_;
+  x_meas_.tail<6>() = model::computeCentroidalMomentum(r.model(), *data_, q_meas_, v_meas_);
+
+  // MPC: post the state, take a newer solution, refine it from this state.
+  runner_->post(t, x_meas_);
+  if (runner_->poll(t, solution_)) {
+    record_.new_solution = true;
+    ++counters_.solutions_received;
+    if (reference_->refine(solution_, t, x_meas_)) {
+      record_.solution_adopted = true;
+      adopted_sequence_ = solution_.sequence;
+      // Naive state feedback: the commands restart from the measurement with each plan.
+      if (settings_.integrator.mode == IntegratorMode::Naive) integrator_->reset(q_meas_, v_meas_);
+    } else {
+      ++counters_.solutions_rejected;
+    }
+  }
+  record_.solution_sequence = adopted_sequence_;
+
+  // Contact planner: the gait at t and each foot's regions.
+  scheduler_->fill(t, schedule_horizon_, schedule_);
+  record_.mode = schedule_.modeAt(t);
+  for (int i = 0; i < r.nc(); ++i) {
+    const planning::FootReference ref = rt_ocp_->footPlanner().query(schedule_, i, t);
+    FootRegionPlan& plan = regions_[static_cast<size_t>(i)];
+    plan.region = ref.region;
+    plan.swing_region = ref.swing_region;
+    plan.swing_region_active = ref.swing_region_active;
+  }
+
+  // Reference at t, acceleration commands, safety filter, integrator.
+  reference_->sample(t, sample_);
+  computeTargets();
+  record_.cbf_status = filter_->filter(integrator_->q(), integrator_->v(), record_.mode,
+                                       regions_.data(), targets_, a_);
+  record_.qp_status = filter_->qpStatus();
+  record_.qp_iterations = filter_->qpIterations();
+  record_.active_barriers = filter_->activeBarriers();
+  record_.correction = filter_->correction();
+  if (record_.cbf_status != CbfQpStatus::Optimal) ++counters_.qp_fallbacks;
+  integrator_->step(a_, q_meas_, v_meas_);
+
+  // Commands.
+  command.joint_position = integrator_->q().tail(r.nj());
+  command.joint_velocity = integrator_->v().tail(r.nj());
+  computeWheelCommands(command);
+}
+
+}  // namespace rollstep::control

@@ -1,0 +1,145 @@
+#include "rollstep/sim/nmpc_controller.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+#include <string>
+
+namespace rollstep::sim {
+
+bool GroundTruthSource::read(double t, const SensorReadings&, control::RobotState& state) {
+  const GroundTruth& g = plant_->groundTruth();
+  state.time = t;
+  state.base_position = g.base_position;
+  state.base_orientation = g.base_orientation;
+  state.base_linear_velocity = g.base_linear_velocity;
+  state.base_angular_velocity = g.base_angular_velocity;
+  for (size_t j = 0; j < joint_map_.size(); ++j) {
+    const int p = joint_map_[j];
+    state.joint_position[static_cast<Eigen::Index>(j)] = g.joint_position[p];
+    state.joint_velocity[static_cast<Eigen::Index>(j)] = g.joint_velocity[p];
+  }
+  return true;
+}
+
+NmpcController::NmpcController(const Plant& plant, const centroidal::RobotOcpDescription& robot,
+                               const control::ControlSettings& settings,
+                               const planning::TerrainModel& terrain, planning::GaitKind gait,
+                               const planning::BaseVelocityCommand& command) {
+  if (std::abs(settings.control_period - plant.controlPeriod()) > 1e-12) {
+    throw std::invalid_argument("nmpc: control_period " + std::to_string(settings.control_period) +
+                                " s differs from the plant's control period " +
+                                std::to_string(plant.controlPeriod()) + " s");
+  }
+  pipeline_ = std::make_unique<control::ControlPipeline>(robot, settings, terrain, gait);
+  const centroidal::CentroidalRobot& r = pipeline_->robot();
+  const model::Model& m = r.model();
+  if (r.nj() != kNumJoints) {
+    throw std::invalid_argument("nmpc: the model has " + std::to_string(r.nj()) +
+                                " joints, the plant " + std::to_string(kNumJoints));
+  }
+  joint_map_.assign(static_cast<size_t>(r.nj()), -1);
+  for (int j = 0; j < r.nj(); ++j) {
+    const std::string& name = m.jointNames[static_cast<size_t>(j)];
+    for (int leg = 0; leg < kNumLegs; ++leg) {
+      const std::string prefix = std::string(kLegNames[static_cast<size_t>(leg)]);
+      if (name == prefix + "_hip") joint_map_[static_cast<size_t>(j)] = hipIndex(leg);
+      if (name == prefix + "_knee") joint_map_[static_cast<size_t>(j)] = kneeIndex(leg);
+    }
+    if (joint_map_[static_cast<size_t>(j)] < 0) {
+      throw std::invalid_argument("nmpc: model joint '" + name + "' is not a joint of the plant");
+    }
+  }
+  const std::vector<int>& wheels = pipeline_->driveWheelContacts();
+  wheel_map_.assign(kNumDriveWheels, -1);
+  for (int w = 0; w < kNumDriveWheels; ++w) {
+    const std::string prefix =
+        std::string(kLegNames[static_cast<size_t>(kDriveWheelLegs[static_cast<size_t>(w)])]) + "_";
+    for (size_t k = 0; k < wheels.size(); ++k) {
+      const std::string& frame = r.contact(wheels[k]).frame;
+      if (frame.rfind(prefix, 0) == 0) wheel_map_[static_cast<size_t>(w)] = static_cast<int>(k);
+    }
+    if (wheel_map_[static_cast<size_t>(w)] < 0) {
+      throw std::invalid_argument(
+          "nmpc: no drive-wheel contact of the robot description for the "
+          "plant's wheel " +
+          prefix + "...");
+    }
+  }
+  source_ = std::make_unique<GroundTruthSource>(plant, joint_map_);
+  state_ = pipeline_->makeState();
+  command_ = pipeline_->makeCommand();
+  if (!source_->read(plant.time(), plant.sensors(), state_)) {
+    throw std::runtime_error("nmpc: no initial state");
+  }
+  initial_status_ = pipeline_->initialize(state_, command);
+  // One record per MPC period of the longest run the CLI allows, so that recording does not
+  // reallocate in the loop (a longer run still works; the vector then grows).
+  updates_.reserve(settings.mpc.period >= 1e-3
+                       ? static_cast<size_t>(3600.0 / settings.mpc.period) + 2
+                       : size_t{1} << 20);
+  record(plant.time(), true);
+}
+
+void NmpcController::record(double t, bool adopted) {
+  const control::MpcSolution& s = pipeline_->lastSolution();
+  MpcUpdateRecord r;
+  r.time = t;
+  r.state_time = s.t0;
+  r.sequence = s.sequence;
+  r.status = s.status;
+  r.iterations = s.iterations;
+  r.kkt_error = s.kkt_error;
+  r.primal_residual = s.primal_residual;
+  r.solve_time_ms = s.solve_time_ms;
+  r.adopted = adopted;
+  updates_.push_back(r);
+}
+
+std::string NmpcController::logColumns() const {
+  return ",mode[-],mpc_sequence[-],qp_status,qp_iterations[-],qp_active[-],qp_correction[m/s^2]";
+}
+
+void NmpcController::logValues(std::string& out) const {
+  const control::TickRecord& r = pipeline_->lastTick();
+  char text[200];
+  std::snprintf(text, sizeof text, ",%d,%llu,%s,%d,%d,%.6g", r.mode,
+                static_cast<unsigned long long>(r.solution_sequence),
+                r.state_valid ? control::toString(r.cbf_status) : "invalid_state", r.qp_iterations,
+                r.active_barriers, r.correction);
+  out.assign(text);
+}
+
+std::string NmpcController::mpcUpdatesCsv() const {
+  std::string out =
+      "time[s],state_time[s],sequence[-],status,iterations[-],kkt_error[-],primal_residual[-],"
+      "solve_time[ms],adopted[0/1]\n";
+  char row[300];
+  for (const MpcUpdateRecord& r : updates_) {
+    std::snprintf(row, sizeof row, "%.4f,%.4f,%llu,%s,%d,%.6g,%.6g,%.3f,%d\n", r.time, r.state_time,
+                  static_cast<unsigned long long>(r.sequence), solver::toString(r.status),
+                  r.iterations, r.kkt_error, r.primal_residual, r.solve_time_ms, r.adopted ? 1 : 0);
+    out += row;
+  }
+  return out;
+}
+
+NmpcController::~NmpcController() {
+  if (pipeline_) pipeline_->stop();
+}
+
+void NmpcController::compute(double t, const SensorReadings& sensors, PlantCommand& command) {
+  if (source_->read(t, sensors, state_)) {
+    pipeline_->tick(state_, command_);
+    const control::TickRecord& r = pipeline_->lastTick();
+    if (r.new_solution) record(t, r.solution_adopted);
+  }
+  for (size_t j = 0; j < joint_map_.size(); ++j) {
+    command.joint_position[joint_map_[j]] = command_.joint_position[static_cast<Eigen::Index>(j)];
+  }
+  for (int w = 0; w < kNumDriveWheels; ++w) {
+    command.wheel_velocity[w] = command_.wheel_velocity[wheel_map_[static_cast<size_t>(w)]];
+  }
+}
+
+}  // namespace rollstep::sim

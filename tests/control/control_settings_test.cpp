@@ -1,0 +1,254 @@
+// Control settings from YAML: defaults documented by config/control.yaml, a round trip of
+// every key, errors naming the source, the line and the full key path, the nested ocp:
+// mapping read by the centroidal layer (and its solver: by the solver layer).
+#include "rollstep/control/control_settings.hpp"
+
+#include <gtest/gtest.h>
+
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+#include "rollstep/common/text_file.hpp"
+
+namespace rollstep::control {
+namespace {
+
+const std::string kConfigFile = std::string(ROLLSTEP_TEST_DATA_DIR) + "/../../config/control.yaml";
+
+std::string errorOf(const std::string& text) {
+  try {
+    parseControlSettings(text, "test.yaml");
+  } catch (const std::runtime_error& e) {
+    return e.what();
+  }
+  return "";
+}
+bool has(const std::string& s, const std::string& part) {
+  return s.find(part) != std::string::npos;
+}
+
+TEST(ControlSettings, EnumNames) {
+  EXPECT_STREQ(toString(MpcTiming::Deterministic), "deterministic");
+  EXPECT_STREQ(toString(MpcTiming::Asynchronous), "asynchronous");
+  EXPECT_STREQ(toString(IntegratorMode::Internal), "internal");
+  EXPECT_STREQ(toString(IntegratorMode::Naive), "naive");
+}
+
+TEST(ControlSettings, TheDocumentedFileEqualsTheDefaults) {
+  const ControlSettings file = loadControlSettings(kConfigFile);
+  EXPECT_EQ(toYaml(file), toYaml(ControlSettings{}));
+  EXPECT_NO_THROW(checkSettings(ControlSettings{}));
+  // Every key toYaml writes outside ocp: is documented in the file, in its section.
+  const std::string text = readTextFile(kConfigFile, "test", 1 << 20);
+  const std::string all = toYaml(ControlSettings{});
+  bool in_ocp = false;
+  for (std::size_t start = 0; start < all.size();) {
+    const std::size_t end = all.find('\n', start);
+    const std::string line = all.substr(start, end - start);
+    start = end + 1;
+    const std::string key = line.substr(0, line.find(':'));
+    if (key.rfind("  ", 0) != 0) in_ocp = key == "ocp";
+    if (in_ocp) continue;  // config/ocp.yaml's keys
+    EXPECT_TRUE(has(text, "\n" + key + ":")) << key;
+  }
+}
+
+TEST(ControlSettings, RoundTripsNonDefaultValues) {
+  ControlSettings s;
+  s.control_period = 0.002;
+  s.mpc.timing = MpcTiming::Asynchronous;
+  s.mpc.period = 0.0;
+  s.mpc.latency = 0.03;
+  s.mpc.initial_iterations = 7;
+  s.refinement.horizon = 0.1 / 3.0;
+  s.refinement.substeps = 4;
+  s.feedback.base_kp << 1, 2, 3, 4, 5, 6.25;
+  s.feedback.base_kd << 0.1, 0.2, 0.3, 0.4, 0.5, 0.6;
+  s.feedback.foot_kp = 123.456;
+  s.feedback.foot_kd = 1e-7;
+  s.feedback.joint_kp = 0;
+  s.feedback.joint_kd = 3;
+  s.cbf_qp.base_weight << 6, 5, 4, 3, 2, 1;
+  s.cbf_qp.foot_weight = 2;
+  s.cbf_qp.joint_weight = 0.5;
+  s.cbf_qp.damping = 1e-9;
+  s.cbf_qp.contact_gain = 11;
+  s.cbf_qp.freed_contact_weight = 12;
+  s.cbf_qp.joint_position_gamma = 13;
+  s.cbf_qp.joint_position_margin = 0.01;
+  s.cbf_qp.joint_velocity_gamma = 14;
+  s.cbf_qp.velocity_limit_scale = 0.9;
+  s.cbf_qp.region_gamma = 15;
+  s.cbf_qp.clearance_gamma = 16;
+  s.cbf_qp.clearance = 0.02;
+  s.cbf_qp.max_iterations = 17;
+  s.cbf_qp.fallback_brake_time = 0.3;
+  s.integrator.mode = IntegratorMode::Naive;
+  s.integrator.position_time_constant = 0;
+  s.integrator.velocity_time_constant = 0.05;
+  s.ocp.horizon = 37;
+  s.ocp.dt = 0.01;
+  s.ocp.base_velocity_weight << 1, 2, 3, 4, 5, 6.5;
+  s.ocp.solver.num_threads = 2;
+  s.ocp.solver.barrier_realtime = 1e-4;
+  EXPECT_NO_THROW(checkSettings(s));
+  const std::string text = toYaml(s);
+  EXPECT_NE(text, toYaml(ControlSettings{}));
+  const ControlSettings back = parseControlSettings(text, "round trip");
+  EXPECT_EQ(toYaml(back), text);
+  EXPECT_EQ(back.refinement.horizon, s.refinement.horizon);  // exactly
+  EXPECT_EQ(back.feedback.foot_kd, 1e-7);
+  EXPECT_EQ(back.mpc.timing, MpcTiming::Asynchronous);
+  EXPECT_EQ(back.integrator.mode, IntegratorMode::Naive);
+  EXPECT_EQ(back.ocp.horizon, 37);
+  EXPECT_EQ(back.ocp.solver.num_threads, 2);
+  EXPECT_EQ(back.ocp.solver.barrier_realtime, 1e-4);
+}
+
+TEST(ControlSettings, ReadsAnySubsetAndTheNestedOcp) {
+  const ControlSettings s = parseControlSettings(
+      "mpc:\n  latency: 0.005\nocp:\n  horizon: 20\n  dt: 0.02\n  solver:\n"
+      "    max_iterations: 9\n    exact_hessian: true\n",
+      "subset.yaml");
+  EXPECT_EQ(s.mpc.latency, 0.005);
+  EXPECT_EQ(s.mpc.period, 0.02);  // default kept
+  EXPECT_EQ(s.control_period, 0.001);
+  EXPECT_EQ(s.ocp.horizon, 20);
+  EXPECT_EQ(s.ocp.dt, 0.02);
+  EXPECT_EQ(s.ocp.torque_limit_scale, 1.0);
+  EXPECT_EQ(s.ocp.solver.max_iterations, 9);
+  EXPECT_TRUE(s.ocp.solver.exact_hessian);
+  // Solver keys not given keep the OCP's solver defaults (Gauss-Newton).
+  EXPECT_FALSE(parseControlSettings("ocp:\n  solver:\n    max_iterations: 3\n", "x")
+                   .ocp.solver.exact_hessian);
+  EXPECT_EQ(toYaml(parseControlSettings("", "empty")), toYaml(ControlSettings{}));
+  EXPECT_EQ(toYaml(parseControlSettings("mpc:\nocp:\n", "empty sections")),
+            toYaml(ControlSettings{}));
+  // The text-level OCP parser reads the same keys as before the node-level overload.
+  const centroidal::OcpSettings o = centroidal::parseOcpSettings("horizon: 20\ndt: 0.02\n", "o");
+  EXPECT_EQ(o.horizon, 20);
+  EXPECT_EQ(o.dt, 0.02);
+  EXPECT_FALSE(o.solver.exact_hessian);
+}
+
+TEST(ControlSettings, ErrorsNameTheSourceLineAndFullKey) {
+  struct Case {
+    const char* text;
+    const char* needle;
+  };
+  const Case cases[] = {
+      // unknown, repeated
+      {"control_period: 0.001\nfoo: 1\n", "line 2: unknown key 'foo'"},
+      {"mpc:\n  period: 0.02\n  perod: 0.01\n", "line 3: unknown key 'mpc.perod'"},
+      {"integrator:\n  mode: naive\n  gain: 1\n", "line 3: unknown key 'integrator.gain'"},
+      {"mpc:\n  period: 0.02\n  period: 0.03\n",
+       "line 3: mpc.period: given twice (first on line 2)"},
+      {"mpc:\n  period: 0.02\nmpc:\n  latency: 0.01\n",
+       "line 3: mpc: given twice (first on line 1)"},
+      {"control_period: 0.001\ncontrol_period: 0.002\n",
+       "line 2: control_period: given twice (first on line 1)"},
+      // wrong types
+      {"mpc: 3\n", "line 1: mpc: expected a mapping, got a value"},
+      {"feedback: [1, 2]\n", "line 1: feedback: expected a mapping, got a list"},
+      {"mpc:\n  initial_iterations: 2.5\n",
+       "line 2: mpc.initial_iterations: expected an integer, got '2.5'"},
+      {"refinement:\n  horizon: fast\n", "line 2: refinement.horizon: 'fast' is not a number"},
+      {"refinement:\n  horizon: '0.1'\n",
+       "refinement.horizon: '0.1' is not a number (it is quoted"},
+      {"feedback:\n  foot_kp: [1]\n",
+       "line 2: feedback.foot_kp: expected a single number, got a list"},
+      {"cbf_qp:\n  foot_weight:\n", "line 2: cbf_qp.foot_weight: no value"},
+      {"mpc:\n  timing: sometimes\n",
+       "line 2: mpc.timing: expected deterministic or asynchronous, got 'sometimes'"},
+      {"integrator:\n  mode: 'naive'\n", "line 2: integrator.mode: expected internal or naive"},
+      // vector length
+      {"feedback:\n  base_kp: [1, 2]\n",
+       "line 2: feedback.base_kp: expected a list of 6 numbers, got a list of 2"},
+      {"cbf_qp:\n  base_weight: 1\n",
+       "line 2: cbf_qp.base_weight: expected a list of 6 numbers, got a value"},
+      // out of range
+      {"control_period: 0\n", "line 1: control_period: 0 is outside (0, 0.1]"},
+      {"control_period: 0.5\n", "line 1: control_period: 0.5 is outside (0, 0.1]"},
+      {"mpc:\n  latency: -0.01\n", "line 2: mpc.latency: -0.01 is outside [0, 1]"},
+      {"mpc:\n  initial_iterations: 0\n", "line 2: mpc.initial_iterations: 0 is outside"},
+      {"refinement:\n  substeps: 101\n", "line 2: refinement.substeps: 101 is outside [1, 100]"},
+      {"feedback:\n  base_kd: [1, 1, 1, 1, 1, -1]\n", "line 2: feedback.base_kd: -1 is outside"},
+      {"feedback:\n  joint_kp: .nan\n", "line 2: feedback.joint_kp: .nan is outside"},
+      {"cbf_qp:\n  damping: 0\n", "line 2: cbf_qp.damping: 0 is outside (0, 1000000]"},
+      {"cbf_qp:\n  velocity_limit_scale: 1.5\n",
+       "cbf_qp.velocity_limit_scale: 1.5 is outside (0, 1]"},
+      {"cbf_qp:\n  max_iterations: 0\n", "line 2: cbf_qp.max_iterations: 0 is outside [1, 100000]"},
+      {"cbf_qp:\n  fallback_brake_time: 0\n", "cbf_qp.fallback_brake_time: 0 is outside (0, 100]"},
+      {"integrator:\n  position_time_constant: -1\n",
+       "line 2: integrator.position_time_constant: -1 is outside"},
+      // contradictions between keys: the line of the first key named
+      {"mpc:\n  timing: deterministic\n  period: 0\n", "line 3: mpc.period: 0 is allowed in"},
+      {"mpc:\n  period: 0.01\n  latency: 0.02\n", "line 3: mpc.latency: 0.02 is above mpc.period"},
+      {"mpc:\n  period: 0.005\n", "line 2: mpc.latency: 0.01 is above mpc.period"},
+      // the nested OCP and solver
+      {"ocp: 3\n", "line 1: ocp: expected a mapping of OCP settings"},
+      {"ocp:\n  horizon: 0\n", "line 2: ocp.horizon: 0 is outside [1, 10000]"},
+      {"ocp:\n  horizon: 10\n  bogus: 1\n", "line 3: unknown key 'ocp.bogus'"},
+      {"ocp:\n  dt: 0.01\n  dt: 0.02\n", "line 3: ocp.dt: given twice (first on line 2)"},
+      {"ocp:\n  base_velocity_weight: [1, 2]\n", "ocp.base_velocity_weight: expected a list of 6"},
+      {"ocp:\n  solver: 3\n", "line 2: ocp.solver: expected a mapping of solver settings"},
+      {"ocp:\n  solver:\n    bogus: 1\n", "(key 'ocp.solver', line 3): unknown key 'bogus'"},
+      {"ocp:\n  solver:\n    num_threads: 0\n", "'num_threads': 0 is outside"},
+      // the document
+      {"- 1\n", "line 1: expected a mapping"},
+      {"a: [1\n", "YAML error: line 2"},
+      {"mpc: {}\n---\nmpc: {}\n", "more than one YAML document"},
+  };
+  for (const Case& c : cases) {
+    const std::string e = errorOf(c.text);
+    EXPECT_TRUE(has(e, "test.yaml") && has(e, c.needle)) << c.text << " -> " << e;
+  }
+  // The control layer's own errors start with its name.
+  EXPECT_EQ(errorOf("mpc:\n  latency: 2\n").rfind("control settings test.yaml: line 2: ", 0), 0u);
+  EXPECT_EQ(errorOf("ocp:\n  dt: 0\n").rfind("control settings test.yaml: line 2: ocp.dt: ", 0),
+            0u);
+}
+
+TEST(ControlSettings, CheckSettingsNamesTheFirstBadField) {
+  const auto error = [](const ControlSettings& s) {
+    try {
+      checkSettings(s);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  ControlSettings s;
+  s.feedback.foot_kp = -1;
+  EXPECT_TRUE(has(error(s), "feedback.foot_kp: -1 is outside")) << error(s);
+  s = ControlSettings{};
+  s.feedback.base_kp[3] = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_TRUE(has(error(s), "feedback.base_kp: entry 3")) << error(s);
+  s = ControlSettings{};
+  s.mpc.timing = static_cast<MpcTiming>(7);
+  EXPECT_TRUE(has(error(s), "mpc.timing: not deterministic or asynchronous")) << error(s);
+  s = ControlSettings{};
+  s.mpc.period = 0;
+  EXPECT_TRUE(has(error(s), "mpc.period: 0 is allowed in asynchronous timing only")) << error(s);
+  s.mpc.timing = MpcTiming::Asynchronous;
+  EXPECT_EQ(error(s), "");
+  s = ControlSettings{};
+  s.ocp.horizon = 0;
+  EXPECT_TRUE(has(error(s), "ocp: ") && has(error(s), "horizon: 0 is outside")) << error(s);
+  s = ControlSettings{};
+  s.ocp.solver.barrier_realtime = -1;
+  EXPECT_TRUE(has(error(s), "ocp.solver: ") && has(error(s), "barrier_realtime")) << error(s);
+}
+
+TEST(ControlSettings, LoadNamesTheFile) {
+  try {
+    loadControlSettings("/nonexistent/control.yaml");
+    FAIL() << "no error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_TRUE(has(e.what(), "/nonexistent/control.yaml")) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace rollstep::control

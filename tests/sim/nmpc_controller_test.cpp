@@ -1,0 +1,78 @@
+// The NMPC pipeline as a plant controller, short runs (label sim; also in the sanitizer
+// trees): the real-time tick allocates nothing, bad states are refused, runs repeat bit
+// for bit.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "common/alloc_counter.hpp"
+#include "sim/nmpc_run.hpp"
+
+namespace rollstep::sim::test {
+namespace {
+
+control::ControlSettings shortHorizon() {
+  control::ControlSettings s;
+  s.ocp.horizon = 40;  // 0.6 s: enough for these short checks, cheaper under sanitizers
+  return s;
+}
+
+TEST(NmpcController, StandsAndRepeatsBitForBit) {
+  NmpcScenario sc;
+  sc.settings = shortHorizon();
+  sc.duration = 0.3;
+  const NmpcOutcome a = runNmpc(sc);
+  const NmpcOutcome b = runNmpc(sc);
+  std::printf("stand 0.3 s: %s\n", describe(a).c_str());
+  EXPECT_LT(a.max_roll_deg, 1.0);
+  EXPECT_LT(a.max_pitch_deg, 1.0);
+  EXPECT_EQ(a.counters.qp_fallbacks, 0u);
+  EXPECT_GE(a.counters.solutions_received, 14u);  // every 20 ms
+  ASSERT_EQ(a.log.size(), b.log.size());
+  EXPECT_TRUE(a.log == b.log) << "two deterministic runs differ";
+}
+
+TEST(NmpcController, TrotTickMakesNoAllocationAndRefusesBadStates) {
+  SceneConfig scene;
+  Plant plant(scene);
+  const centroidal::RobotOcpDescription robot =
+      centroidal::loadRobotOcpDescription(tachyon3Description());
+  control::ControlSettings settings = shortHorizon();
+  NmpcController controller(plant, robot, settings, terrainFromScene(scene, 0.085),
+                            planning::GaitKind::Trot, planning::BaseVelocityCommand{0.1, 0, 0});
+  PlantCommand command = plant.command();
+  for (int k = 0; k < 30; ++k) {  // warm up: first solves, first QP
+    controller.compute(plant.time(), plant.sensors(), command);
+    plant.setCommand(command);
+    plant.step();
+  }
+  control::ControlPipeline& pipeline = controller.pipeline();
+  control::JointCommand out = pipeline.makeCommand();
+  // The tick itself, on the last real state moved along in time: 60 ticks span three MPC
+  // solves (deterministic mode solves inside the tick) and three refinements.
+  control::RobotState s = pipeline.makeState();
+  control::fromModelState(plant.time(), pipeline.integrator().q(), pipeline.integrator().v(), s);
+  std::size_t count = 0;
+  for (int k = 0; k < 60; ++k) {
+    s.time += 0.001;
+    rollstep::test::AllocationGuard guard;
+    pipeline.tick(s, out);
+    count += guard.count();
+  }
+  EXPECT_EQ(count, 0u) << "the real-time tick allocated";
+  EXPECT_GE(pipeline.counters().solutions_received, 2u);
+
+  // A NaN in the state: refused, the command kept.
+  const control::JointCommand before = out;
+  const std::uint64_t invalid = pipeline.counters().invalid_states;
+  s.time += 0.001;
+  s.joint_velocity[3] = std::nan("");
+  pipeline.tick(s, out);
+  EXPECT_FALSE(pipeline.lastTick().state_valid);
+  EXPECT_EQ(pipeline.counters().invalid_states, invalid + 1);
+  EXPECT_EQ(out.joint_position, before.joint_position);
+  EXPECT_EQ(out.wheel_velocity, before.wheel_velocity);
+}
+
+}  // namespace
+}  // namespace rollstep::sim::test

@@ -1,0 +1,162 @@
+#pragma once
+// Closed-loop runs of the NMPC pipeline in MuJoCo for the tests: the plant, the
+// controller on ground truth, and the physical outcome of a run.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "rollstep/control/control_settings.hpp"
+#include "rollstep/sim/nmpc_controller.hpp"
+#include "rollstep/sim/plant.hpp"
+#include "rollstep/sim/scene.hpp"
+#include "rollstep/sim/scene_terrain.hpp"
+
+namespace rollstep::sim::test {
+
+inline std::string tachyon3Description() {
+  return std::string(ROLLSTEP_ROBOTS_DIR) + "/tachyon3/centroidal.yaml";
+}
+
+struct NmpcScenario {
+  SceneKind scene = SceneKind::kFlat;
+  planning::GaitKind gait = planning::GaitKind::Standing;
+  planning::BaseVelocityCommand command;
+  double duration = 1.0;
+  control::ControlSettings settings;
+  /// Foothold regions are shrunk by the wheel radius + this clearance (as rollstep plan).
+  double edge_clearance = 0.01;
+};
+
+/// What happened in a run (measured, ground truth).
+struct NmpcOutcome {
+  solver::SolverStatus initial_status = solver::SolverStatus::InvalidInput;
+  double max_roll_deg = 0.0, max_pitch_deg = 0.0;
+  double min_base_height = 1e9, max_base_height = -1e9;
+  double max_joint_limit_violation = 0.0;  ///< [rad or m] beyond the URDF limits
+  std::string worst_joint;
+  double mean_forward_speed = 0.0;  ///< base frame, over the second half of the run
+  double mean_lateral_speed = 0.0;
+  double mean_yaw_rate = 0.0;  ///< over the second half [rad/s]
+  Eigen::Vector3d start = Eigen::Vector3d::Zero(), end = Eigen::Vector3d::Zero();
+  control::PipelineCounters counters;
+  double mean_qp_correction = 0.0;
+  double command_rms_second_difference = 0.0;  ///< joint position commands [rad or m]
+  std::vector<double> log;  ///< every tick: time, base pose, joint commands, wheel commands
+  int warnings = 0;
+  double wall_time = 0.0;
+};
+
+inline NmpcOutcome runNmpc(const NmpcScenario& sc) {
+  SceneConfig scene;
+  scene.kind = sc.scene;
+  Plant plant(scene);
+  const centroidal::RobotOcpDescription robot =
+      centroidal::loadRobotOcpDescription(tachyon3Description());
+  NmpcController controller(plant, robot, sc.settings,
+                            terrainFromScene(scene, robot.contact_offset + sc.edge_clearance),
+                            sc.gait, sc.command);
+  NmpcOutcome out;
+  out.initial_status = controller.initialStatus();
+  const model::Model& m = controller.pipeline().robot().model();
+  const GroundTruth& g = plant.groundTruth();
+  out.start = g.base_position;
+  PlantCommand command = plant.command();
+  const long steps = std::lround(sc.duration / plant.controlPeriod());
+  double fwd = 0.0, lat = 0.0, yaw_rate = 0.0, corr = 0.0;
+  long half = 0;
+  const int warnings0 = plant.warningCount();
+  std::vector<JointVector> cmds;
+  const auto wall0 = std::chrono::steady_clock::now();
+  const bool paced = controller.paceToWallClock();
+  for (long k = 0; k < steps; ++k) {
+    if (paced) {
+      std::this_thread::sleep_until(wall0 +
+                                    std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                        std::chrono::duration<double>(k * plant.controlPeriod())));
+    }
+    controller.compute(plant.time(), plant.sensors(), command);
+    plant.setCommand(command);
+    plant.step();
+    cmds.push_back(command.joint_position);
+    out.log.push_back(plant.time());
+    for (int i = 0; i < 3; ++i) out.log.push_back(g.base_position[i]);
+    for (int i = 0; i < 4; ++i) out.log.push_back(g.base_orientation.coeffs()[i]);
+    for (int j = 0; j < kNumJoints; ++j) out.log.push_back(command.joint_position[j]);
+    for (int w = 0; w < kNumDriveWheels; ++w) out.log.push_back(command.wheel_velocity[w]);
+    const Eigen::Matrix3d R = g.base_orientation.toRotationMatrix();
+    const double roll = std::atan2(R(2, 1), R(2, 2));
+    const double pitch = std::asin(std::clamp(-R(2, 0), -1.0, 1.0));
+    out.max_roll_deg = std::max(out.max_roll_deg, std::abs(roll) * 180.0 / M_PI);
+    out.max_pitch_deg = std::max(out.max_pitch_deg, std::abs(pitch) * 180.0 / M_PI);
+    out.min_base_height = std::min(out.min_base_height, g.base_position.z());
+    out.max_base_height = std::max(out.max_base_height, g.base_position.z());
+    // Joint limits, measured (plant joint p <-> model joint by name).
+    for (int j = 0; j < m.nj; ++j) {
+      const std::string& name = m.jointNames[static_cast<size_t>(j)];
+      const std::string leg = name.substr(0, 2);
+      int p = -1;
+      for (int l = 0; l < kNumLegs; ++l) {
+        if (leg == kLegNames[static_cast<size_t>(l)]) {
+          p = name.find("hip") != std::string::npos ? hipIndex(l) : kneeIndex(l);
+        }
+      }
+      const double qj = g.joint_position[p];
+      const double v = std::max(m.lowerPositionLimit[j] - qj, qj - m.upperPositionLimit[j]);
+      if (v > out.max_joint_limit_violation) {
+        out.max_joint_limit_violation = v;
+        out.worst_joint = name;
+      }
+    }
+    if (k >= steps / 2) {
+      const Eigen::Vector3d v_local = g.base_orientation.conjugate() * g.base_linear_velocity;
+      fwd += v_local.x();
+      lat += v_local.y();
+      yaw_rate += (R * g.base_angular_velocity).z();
+      ++half;
+    }
+    corr += controller.pipeline().lastTick().correction;
+  }
+  out.wall_time = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+  out.end = g.base_position;
+  if (half > 0) {
+    out.mean_forward_speed = fwd / half;
+    out.mean_lateral_speed = lat / half;
+    out.mean_yaw_rate = yaw_rate / half;
+  }
+  out.mean_qp_correction = steps > 0 ? corr / steps : 0.0;
+  out.counters = controller.pipeline().counters();
+  out.warnings = plant.warningCount() - warnings0;
+  double sum = 0.0;
+  long n = 0;
+  for (size_t k = 2; k < cmds.size(); ++k) {
+    sum += (cmds[k] - 2.0 * cmds[k - 1] + cmds[k - 2]).squaredNorm();
+    n += kNumJoints;
+  }
+  out.command_rms_second_difference = n > 0 ? std::sqrt(sum / n) : 0.0;
+  return out;
+}
+
+inline std::string describe(const NmpcOutcome& o) {
+  char text[700];
+  std::snprintf(text, sizeof text,
+                "initial solve %s; roll %.2f deg, pitch %.2f deg, base z [%.3f, %.3f] m, joint "
+                "limit violation %.4f (%s); mean v_x %.3f m/s, v_y %.3f m/s, yaw rate %.3f rad/s; "
+                "moved (%.3f, %.3f) m; solutions %llu (rejected %llu), QP fallbacks %llu, mean "
+                "correction %.3g, cmd RMS 2nd diff %.3g; %d warnings; %.1f s wall",
+                solver::toString(o.initial_status), o.max_roll_deg, o.max_pitch_deg,
+                o.min_base_height, o.max_base_height, o.max_joint_limit_violation,
+                o.worst_joint.c_str(), o.mean_forward_speed, o.mean_lateral_speed, o.mean_yaw_rate,
+                o.end.x() - o.start.x(), o.end.y() - o.start.y(),
+                static_cast<unsigned long long>(o.counters.solutions_received),
+                static_cast<unsigned long long>(o.counters.solutions_rejected),
+                static_cast<unsigned long long>(o.counters.qp_fallbacks), o.mean_qp_correction,
+                o.command_rms_second_difference, o.warnings, o.wall_time);
+  return text;
+}
+
+}  // namespace rollstep::sim::test
