@@ -329,7 +329,7 @@ CbfQpStatus CbfQpFilter::filter(const Eigen::Ref<const Eigen::VectorXd>& q,
   auto Aeq = qp_.Aeq();
   auto beq = qp_.beq();
   // kept: an equality; otherwise a cost of the given weight.
-  auto addRow = [&](bool kept, double target, double weight) {
+  const auto addRow = [&](bool kept, double target, double weight) {
     if (kept) {
       Aeq.row(eq) = w.row;
       beq[eq] = target;
@@ -345,12 +345,14 @@ CbfQpStatus CbfQpFilter::filter(const Eigen::Ref<const Eigen::VectorXd>& q,
     const auto J = w.foot_jacobian.middleRows<3>(3 * i);
     w.row = J.row(2);
     addRow(kept, -k * w.foot_velocity(2, i) - w.foot_drift(2, i), s.freed_contact_weight);
-    if (robot.contact(i).drive_wheel) {
+    // Skid steering (lateral_slip_weight > 0): the wheels must slide sideways to turn, the
+    // MPC's plan weighs that slip; here the lateral rows are left out (an acceleration-level
+    // row pulling the slip to zero would hold the commanded turn back).
+    if (robot.contact(i).drive_wheel && lateral_slip_weight_ == 0.0) {
       const Eigen::Vector3d e_lat = w.lateral.col(i);
       w.row.noalias() = e_lat.transpose() * J;
-      const bool slip = lateral_slip_weight_ > 0.0;  // skid steering: a cost, not a row
-      addRow(kept && !slip, -k * e_lat.dot(w.foot_velocity.col(i)) - w.lateral_drift[i],
-             slip ? lateral_slip_weight_ : s.freed_contact_weight);
+      addRow(kept, -k * e_lat.dot(w.foot_velocity.col(i)) - w.lateral_drift[i],
+             s.freed_contact_weight);
     }
   }
 

@@ -105,8 +105,8 @@ class CbfQpFilter {
  public:
   /// `terrain` must outlive the filter. Throws std::invalid_argument for bad settings.
   /// `lateral_slip_weight`: the OCP's (OcpSettings::lateral_slip_weight): 0, drive wheels
-  /// keep their lateral rows as equalities; > 0, every stance drive wheel's lateral row is
-  /// a cost of this weight instead (skid steering).
+  /// keep their lateral rows (equalities, or costs for freed rows); > 0 (skid steering),
+  /// the filter has no lateral rows: the MPC's plan weighs the slip a turn needs.
   CbfQpFilter(std::shared_ptr<const centroidal::CentroidalRobot> robot,
               const planning::TerrainModel& terrain, const CbfQpSettings& settings,
               double lateral_slip_weight = 0.0);
