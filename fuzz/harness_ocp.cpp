@@ -1,5 +1,6 @@
-// Fuzz harness: YAML text -> OcpSettings and RobotOcpDescription
-// (rollstep::centroidal::parseOcpSettings / parseRobotOcpDescription).
+// Fuzz harness: YAML text -> OcpSettings, RobotOcpDescription and ControlSettings
+// (rollstep::centroidal::parseOcpSettings / parseRobotOcpDescription,
+// rollstep::control::parseControlSettings, which nests the OCP's and the solver's).
 // Fine: settings that survive a toYaml round trip exactly and a description whose names
 // are contacts, or a std::runtime_error whose message starts with the documented prefix
 // naming the source. Anything else fails: a crash, a sanitizer report, an escaped parser
@@ -12,6 +13,7 @@
 #include <string>
 
 #include "rollstep/centroidal/ocp_settings.hpp"
+#include "rollstep/control/control_settings.hpp"
 
 namespace {
 [[noreturn]] void failure(const std::string& what) {
@@ -53,6 +55,20 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   } catch (const std::runtime_error& e) {
     if (std::string(e.what()).rfind("robot description fuzz.yaml: ", 0) != 0) {
       failure(std::string("error message does not name the source: ") + e.what());
+    }
+  }
+  try {
+    const rollstep::control::ControlSettings s =
+        rollstep::control::parseControlSettings(text, "fuzz.yaml");
+    const std::string yaml = rollstep::control::toYaml(s);
+    if (rollstep::control::toYaml(rollstep::control::parseControlSettings(yaml, "round-trip")) !=
+        yaml) {
+      failure("control settings round trip differs");
+    }
+  } catch (const std::runtime_error& e) {
+    if (std::string(e.what()).rfind("control settings fuzz.yaml: ", 0) != 0 &&
+        std::string(e.what()).rfind("solver settings fuzz.yaml", 0) != 0) {
+      failure(std::string("control settings error does not name the source: ") + e.what());
     }
   }
   return 0;

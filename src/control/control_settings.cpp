@@ -103,10 +103,14 @@ const std::array<Field<IntegratorSettings>, 3> kIntegratorFields{{
     {"position_time_constant", &IntegratorSettings::position_time_constant, 0, 1000, false, false},
     {"velocity_time_constant", &IntegratorSettings::velocity_time_constant, 0, 1000, false, false},
 }};
+const std::array<Field<WheelSettings>, 2> kWheelFields{{
+    {"skid_track_factor", &WheelSettings::skid_track_factor, 0, 100, true, false},
+    {"skid_yaw_rate_gain", &WheelSettings::skid_yaw_rate_gain, 0, 1000, false, false},
+}};
 // The top-level keys, in file order: control_period, the sections, ocp (read and written by
 // the centroidal layer).
-const std::array<const char*, 7> kTopKeys{
-    {"control_period", "mpc", "refinement", "feedback", "cbf_qp", "integrator", "ocp"}};
+const std::array<const char*, 8> kTopKeys{
+    {"control_period", "mpc", "refinement", "feedback", "cbf_qp", "integrator", "wheels", "ocp"}};
 
 constexpr std::array<MpcTiming, 2> kTimings{{MpcTiming::Deterministic, MpcTiming::Asynchronous}};
 constexpr std::array<IntegratorMode, 2> kModes{{IntegratorMode::Internal, IntegratorMode::Naive}};
@@ -202,6 +206,7 @@ std::optional<Problem> problemOf(const ControlSettings& s) {
   if (auto p = rangeProblem(s.feedback, kFeedbackFields, "feedback.")) return p;
   if (auto p = rangeProblem(s.cbf_qp, kCbfQpFields, "cbf_qp.")) return p;
   if (auto p = rangeProblem(s.integrator, kIntegratorFields, "integrator.")) return p;
+  if (auto p = rangeProblem(s.wheels, kWheelFields, "wheels.")) return p;
   if (s.mpc.timing == MpcTiming::Deterministic) {
     if (!(s.mpc.period > 0.0)) {
       return Problem{{"mpc.period", "mpc.timing"},
@@ -404,6 +409,9 @@ ControlSettings parseControlSettings(const std::string& yaml_text, const std::st
       if (key == "integrator") {
         readSection(value, settings.integrator, kIntegratorFields, "integrator.", lines, fail);
       }
+      if (key == "wheels") {
+        readSection(value, settings.wheels, kWheelFields, "wheels.", lines, fail);
+      }
     }
     if (const std::optional<Problem> p = problemOf(settings)) {
       int line = root.line();
@@ -437,6 +445,8 @@ std::string toYaml(const ControlSettings& settings) {
   writeSection(settings.cbf_qp, kCbfQpFields, "  ", out);
   out += "integrator:\n";
   writeSection(settings.integrator, kIntegratorFields, "  ", out);
+  out += "wheels:\n";
+  writeSection(settings.wheels, kWheelFields, "  ", out);
   out += "ocp:\n";
   const std::string ocp_text = centroidal::toYaml(settings.ocp);
   for (std::size_t start = 0; start < ocp_text.size();) {

@@ -1,5 +1,6 @@
 #include "rollstep/control/pipeline.hpp"
 
+#include <Eigen/Geometry>
 #include <cmath>
 #include <stdexcept>
 
@@ -7,6 +8,17 @@
 #include "rollstep/model/kinematics.hpp"
 
 namespace rollstep::control {
+
+namespace {
+
+/// World z component of the base angular velocity of the model state (q, v): v's angular
+/// part is LOCAL, q's quaternion is x y z w.
+double worldYawRate(const Eigen::VectorXd& q, const Eigen::VectorXd& v) {
+  const Eigen::Quaterniond orientation(q[6], q[3], q[4], q[5]);
+  return (orientation.normalized() * Eigen::Vector3d(v.segment<3>(3))).z();
+}
+
+}  // namespace
 
 ControlPipeline::ControlPipeline(const centroidal::RobotOcpDescription& robot,
                                  const ControlSettings& settings,
@@ -116,8 +128,21 @@ void ControlPipeline::computeTargets() noexcept {
 void ControlPipeline::computeWheelCommands(JointCommand& command) noexcept {
   const centroidal::CentroidalRobot& r = robot();
   const model::Model& m = r.model();
-  model::forwardKinematics(m, *data_, integrator_->q(), integrator_->v());
+  const Eigen::VectorXd& q = integrator_->q();
+  const Eigen::VectorXd& v = integrator_->v();
+  model::forwardKinematics(m, *data_, q, v);
   const double radius = r.contactOffset();
+  // Skid steering (pipeline.hpp): the extra yaw rate the wheels' speed difference is
+  // commanded for, (factor - 1) w_cmd + gain (w_cmd - w_measured), world z.
+  double extra_yaw_rate = 0.0;
+  if (settings_.ocp.lateral_slip_weight > 0.0) {
+    const WheelSettings& ws = settings_.wheels;
+    const double w_cmd = worldYawRate(q, v);
+    const double w_meas = worldYawRate(q_meas_, v_meas_);
+    extra_yaw_rate =
+        (ws.skid_track_factor - 1.0) * w_cmd + ws.skid_yaw_rate_gain * (w_cmd - w_meas);
+    if (!std::isfinite(extra_yaw_rate)) extra_yaw_rate = 0.0;
+  }
   for (size_t w = 0; w < drive_wheels_.size(); ++w) {
     const int i = drive_wheels_[w];
     const model::FrameIndex f = r.frameIds()[static_cast<size_t>(i)];
@@ -132,6 +157,9 @@ void ControlPipeline::computeWheelCommands(JointCommand& command) noexcept {
           model::getFrameVelocity(m, *data_, f, model::ReferenceFrame::LOCAL);
       const Eigen::Vector3d v_world = R * local.head<3>();
       speed = heading.dot(v_world) / radius - local[4];
+      // The wheel centre's ground speed a yaw rate w about the base gives: w (e_z x d) . h.
+      const Eigen::Vector3d d = data_->opf[static_cast<size_t>(f)] - q.head<3>();
+      speed += extra_yaw_rate * (heading.y() * d.x() - heading.x() * d.y()) / radius;
     }
     command.wheel_velocity[static_cast<Eigen::Index>(w)] = std::isfinite(speed) ? speed : 0.0;
   }

@@ -87,6 +87,8 @@ TEST(ControlSettings, RoundTripsNonDefaultValues) {
   s.integrator.mode = IntegratorMode::Naive;
   s.integrator.position_time_constant = 0;
   s.integrator.velocity_time_constant = 0.05;
+  s.wheels.skid_track_factor = 3.75;
+  s.wheels.skid_yaw_rate_gain = 2.5;
   s.ocp.horizon = 37;
   s.ocp.dt = 0.01;
   s.ocp.base_velocity_weight << 1, 2, 3, 4, 5, 6.5;
@@ -101,6 +103,8 @@ TEST(ControlSettings, RoundTripsNonDefaultValues) {
   EXPECT_EQ(back.feedback.foot_kd, 1e-7);
   EXPECT_EQ(back.mpc.timing, MpcTiming::Asynchronous);
   EXPECT_EQ(back.integrator.mode, IntegratorMode::Naive);
+  EXPECT_EQ(back.wheels.skid_track_factor, 3.75);
+  EXPECT_EQ(back.wheels.skid_yaw_rate_gain, 2.5);
   EXPECT_EQ(back.ocp.horizon, 37);
   EXPECT_EQ(back.ocp.solver.num_threads, 2);
   EXPECT_EQ(back.ocp.solver.barrier_realtime, 1e-4);
@@ -182,6 +186,11 @@ TEST(ControlSettings, ErrorsNameTheSourceLineAndFullKey) {
       {"cbf_qp:\n  fallback_brake_time: 0\n", "cbf_qp.fallback_brake_time: 0 is outside (0, 100]"},
       {"integrator:\n  position_time_constant: -1\n",
        "line 2: integrator.position_time_constant: -1 is outside"},
+      {"wheels:\n  skid_track_factor: 0\n",
+       "line 2: wheels.skid_track_factor: 0 is outside (0, 100]"},
+      {"wheels:\n  skid_yaw_rate_gain: -1\n",
+       "line 2: wheels.skid_yaw_rate_gain: -1 is outside [0, 1000]"},
+      {"wheels:\n  gain: 1\n", "line 2: unknown key 'wheels.gain'"},
       // contradictions between keys: the line of the first key named
       {"mpc:\n  timing: deterministic\n  period: 0\n", "line 3: mpc.period: 0 is allowed in"},
       {"mpc:\n  period: 0.01\n  latency: 0.02\n", "line 3: mpc.latency: 0.02 is above mpc.period"},

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <string>
 
 #include "sim/nmpc_run.hpp"
 
@@ -57,8 +58,11 @@ TEST(NmpcClosedLoop, TurnOnTheSpotWithTheWheels) {
   sc.gait = planning::GaitKind::Rolling;
   sc.command.yaw_rate = 0.3;
   sc.duration = 10.0;
-  // Four drive wheels with fixed headings turn on the spot only by sliding sideways.
-  sc.settings.ocp.lateral_slip_weight = 10.0;
+  // Four drive wheels with fixed headings turn on the spot only by sliding sideways: the
+  // behaviour's settings (the OCP's lateral slip cost, the skid-steer wheel commands).
+  sc.settings = control::loadControlSettings(std::string(ROLLSTEP_TEST_DATA_DIR) +
+                                             "/../../config/behaviours/turn_in_place.yaml");
+  ASSERT_GT(sc.settings.ocp.lateral_slip_weight, 0.0);
   const NmpcOutcome o = runNmpc(sc);
   std::printf("turn 0.3 rad/s: %s\n", describe(o).c_str());
   expectUpright(o);

@@ -112,6 +112,21 @@ struct IntegratorSettings {
   double velocity_time_constant = 0.02;
 };
 
+/// Drive-wheel velocity commands under skid steering (pipeline.hpp, "Skid steering"). Used
+/// only when the OCP lets the drive wheels slide sideways (ocp.lateral_slip_weight > 0); the
+/// defaults change nothing even then.
+struct WheelSettings {
+  /// [-] Effective track width over the geometric one (Mandow et al. 2007): the share of a
+  /// drive wheel's ground speed due to the commanded yaw rate is multiplied by it, because
+  /// the sliding wheels realize only about 1 / factor of the yaw rate their speed
+  /// difference gives without slip. 1: no compensation.
+  double skid_track_factor = 1.0;
+  /// [-] Feedback of the yaw-rate error (commanded, i.e. the internal state's, minus
+  /// measured, world z) into the same differential wheel speeds: the yaw rate the wheels
+  /// are commanded for is factor * w_cmd + gain * (w_cmd - w_measured). 0: none.
+  double skid_yaw_rate_gain = 0.0;
+};
+
 struct ControlSettings {
   double control_period = 0.001;  ///< [s] the real-time tick (1 kHz)
   MpcSettings mpc;
@@ -119,6 +134,7 @@ struct ControlSettings {
   FeedbackSettings feedback;
   CbfQpSettings cbf_qp;
   IntegratorSettings integrator;
+  WheelSettings wheels;
   /// Nested `ocp:` mapping (config/ocp.yaml's keys, its `solver:` nested in turn). The
   /// pipeline runs the solver in real-time mode whatever ocp.solver.mode says.
   centroidal::OcpSettings ocp;

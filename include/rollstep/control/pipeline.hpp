@@ -19,6 +19,34 @@
 // frame's y axis), both at the internal state. Swing wheels get the same rule, so that
 // they touch down at ground speed.
 //
+// Skid steering (only with OcpSettings::lateral_slip_weight > 0, the drive wheels allowed to
+// slide sideways; WheelSettings, config/control.yaml `wheels:`). Wheels with fixed headings
+// turn the body only by sliding, and sliding wheels realize only part of the yaw rate their
+// speed difference gives without slip: the instantaneous centres of rotation of the wheel
+// tracks lie outside the wheels, so the effective track width is larger than the geometric
+// one (Mandow et al. 2007; on friction it depends, not on the robot alone). The rule above
+// assumes rolling without slip, so the body turned at a fraction of the commanded yaw rate
+// while the internal state turned at the full rate. Two terms correct it; each drive wheel
+// gets the ground speed a yaw rate w_x about the base origin gives it,
+//   w_x (e_z x d) . h / r,   d = wheel centre - base origin, h its heading, r its radius,
+//   w_x = (skid_track_factor - 1) w_c + skid_yaw_rate_gain (w_c - w_m),
+// with w_c the internal state's (commanded) and w_m the measured base yaw rate (world z):
+// - the track factor (effective / geometric track width) is the feedforward: the speed
+//   difference of a turn is scaled so that the sliding wheels realize w_c (with a factor
+//   that matches the ground, w_m = w_c and the feedback term is 0);
+// - the yaw-rate feedback takes up what the factor misses (a factor that does not match
+//   the ground, load or speed changes): a proportional correction is enough because the MPC
+//   closes the yaw angle loop above it.
+// Why it matters beyond the yaw rate: the OCP's base reference runs from the start pose at
+// the commanded yaw rate, so an unrealized turn makes the yaw error grow without bound; the
+// MPC keeps planning the largest turn, whose slip cost (lateral speed = yaw rate times the
+// wheel's distance along the heading) pulls the front and rear drive wheels towards the
+// yaw axis. Replanned every period from the measured state, that posture change ratchets:
+// the hips pitch (front and rear opposite), the wheels roll towards each other and the
+// prismatic knees extend until the body stands far above its nominal height. With the
+// turn realized the yaw error stays bounded and so does the posture. The defaults (factor
+// 1, gain 0) change nothing; with lateral_slip_weight == 0 the terms are not used at all.
+//
 // Fallbacks (documented rules, each counted in TickRecord):
 // - an invalid state (non-finite, wrong size): the previous command is kept, nothing is
 //   updated;
