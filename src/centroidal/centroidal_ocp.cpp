@@ -135,6 +135,13 @@ CentroidalOcp::CentroidalOcp(const RobotOcpDescription& description, const OcpSe
   foot_config.swing_clearance = settings.swing_clearance;
   foot_config.foot_height_offset = robot_->contactOffset();
   feet_ = std::make_shared<planning::FootReferencePlanner>(*terrain_, *base_, foot_config);
+  {
+    // The nodes' precomputation also caches every foot's planner reference (the terrain
+    // and swing terms read them instead of querying the planner once per term and call).
+    auto pre = std::make_shared<CentroidalPrecomputation>(robot_);
+    pre->setFootPlanner(feet_);
+    pre_ = std::move(pre);
+  }
   const double horizon_time = settings.horizon * settings.dt;
   scheduler_ = std::make_unique<planning::GaitScheduler>(makeGait(gait, description, settings),
                                                          horizon_time);

@@ -77,13 +77,13 @@ std::string number(double v) {
 int TerrainReferences::stanceRegion(const ocp::NodeContext& ctx, int foot) const {
   if (!CentroidalRobot::inStance(ctx.mode, foot)) return -1;
   if (terrain == nullptr || planner == nullptr || ctx.schedule == nullptr) return -1;
-  return planner->query(*ctx.schedule, foot, ctx.time).region;
+  return footReference(ctx, *planner, foot).region;
 }
 
 int TerrainReferences::swingRegion(const ocp::NodeContext& ctx, int foot) const {
   if (CentroidalRobot::inStance(ctx.mode, foot)) return -1;
   if (terrain == nullptr || planner == nullptr || ctx.schedule == nullptr) return -1;
-  const planning::FootReference ref = planner->query(*ctx.schedule, foot, ctx.time);
+  const planning::FootReference ref = footReference(ctx, *planner, foot);
   return ref.swing_region_active ? ref.swing_region : -1;
 }
 

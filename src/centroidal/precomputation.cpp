@@ -1,5 +1,6 @@
 #include "rollstep/centroidal/precomputation.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -34,10 +35,38 @@ std::unique_ptr<ocp::NodeCache> CentroidalPrecomputation::createCache() const {
   return std::make_unique<CentroidalCache>(*robot_);
 }
 
-void CentroidalPrecomputation::compute(const ocp::NodeContext& /*ctx*/, ocp::ConstVecRef x,
+void CentroidalPrecomputation::setFootPlanner(
+    std::shared_ptr<const planning::FootReferencePlanner> planner) {
+  planner_ = std::move(planner);
+}
+
+void CentroidalPrecomputation::compute(const ocp::NodeContext& ctx, ocp::ConstVecRef x,
                                        ocp::ConstVecRef u, bool derivatives,
                                        ocp::NodeCache& cache) const {
-  compute(x, u, derivatives, static_cast<CentroidalCache&>(cache));
+  auto& c = static_cast<CentroidalCache&>(cache);
+  compute(x, u, derivatives, c);
+  if (planner_ && ctx.schedule != nullptr) {
+    const int nf = std::min(robot_->nc(), planner_->numFeet());
+    for (int i = 0; i < nf; ++i) {
+      c.footRef[static_cast<std::size_t>(i)] = planner_->query(*ctx.schedule, i, ctx.time);
+    }
+    c.foot_refs_planner = planner_.get();
+    c.foot_refs_schedule = ctx.schedule;
+    c.foot_refs_time = ctx.time;
+    c.foot_refs_count = nf;
+  }
+}
+
+planning::FootReference footReference(const ocp::NodeContext& ctx,
+                                      const planning::FootReferencePlanner& planner, int foot) {
+  if (ctx.cache != nullptr) {
+    const auto& c = static_cast<const CentroidalCache&>(*ctx.cache);
+    if (c.foot_refs_planner == &planner && c.foot_refs_schedule == ctx.schedule &&
+        c.foot_refs_time == ctx.time && foot >= 0 && foot < c.foot_refs_count) {
+      return c.footRef[static_cast<std::size_t>(foot)];
+    }
+  }
+  return planner.query(*ctx.schedule, foot, ctx.time);
 }
 
 void CentroidalPrecomputation::compute(ocp::ConstVecRef x, ocp::ConstVecRef u, bool derivatives,
@@ -49,6 +78,7 @@ void CentroidalPrecomputation::compute(ocp::ConstVecRef x, ocp::ConstVecRef u, b
   const int nc = robot.nc();
   c.x = x;
   c.u = u;
+  c.foot_refs_planner = nullptr;  // compute(ctx, ...) fills them again
   const lie::Vector6d h = x.tail<6>();
   model::computeNodeQuantitiesFromMomentum(model, c.data, x.head(robot.nq()), h, u.head(nj),
                                            u.tail(3 * nc), c.nq);

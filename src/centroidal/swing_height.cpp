@@ -49,7 +49,7 @@ void SwingHeightResidual::calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x, 
   int row = 0;
   for (int i = 0; i < r.nc(); ++i) {
     if (CentroidalRobot::inStance(ctx.mode, i)) continue;
-    const planning::FootReference ref = planner_->query(*ctx.schedule, i, ctx.time);
+    const planning::FootReference ref = footReference(ctx, *planner_, i);
     d.r[row++] = c.footVelocity(i).z() - ref.z_dot_ref + kp_ * (c.footPosition(i).z() - ref.z_ref);
   }
 }

@@ -103,11 +103,15 @@ void LeastSquaresCost::calcDiff(const NodeContext& ctx, ConstVecRef x, ConstVecR
     Lxx.noalias() += Rx.transpose() * s.WRx.topRows(m);
   }
   if (on_u) {
-    const auto Ru = s.res->Ru.topRows(m);
-    s.WRu.topRows(m).noalias() = (scale * w).asDiagonal() * Ru;
-    lu.noalias() += Ru.transpose() * s.wr.head(m);
-    Luu.noalias() += Ru.transpose() * s.WRu.topRows(m);
-    if (on_x) Lux.noalias() += Ru.transpose() * s.WRx.topRows(m);
+    // Trailing input columns of Ru that are exactly zero (e.g. a base velocity residual
+    // does not depend on the contact forces) add exactly zero: they are left out.
+    int cu = nu();
+    while (cu > 0 && s.res->Ru.col(cu - 1).head(m).isZero(0.0)) --cu;
+    const auto Ru = s.res->Ru.topLeftCorner(m, cu);
+    s.WRu.topLeftCorner(m, cu).noalias() = (scale * w).asDiagonal() * Ru;
+    lu.head(cu).noalias() += Ru.transpose() * s.wr.head(m);
+    Luu.topLeftCorner(cu, cu).noalias() += Ru.transpose() * s.WRu.topLeftCorner(m, cu);
+    if (on_x) Lux.topRows(cu).noalias() += Ru.transpose() * s.WRx.topRows(m);
   }
 }
 

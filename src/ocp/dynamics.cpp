@@ -75,9 +75,16 @@ void ExplicitEuler::calcDiff(const NodeContext& ctx, ConstVecRef x, ConstVecRef 
     return;
   }
   space().integrateJacobians(x, e.v, e.Jx, e.Jv);
-  Fx = e.Jx;
-  Fx.noalias() += ctx.dt * (e.Jv * e.fx);
-  Fu.noalias() = ctx.dt * (e.Jv * e.fu);
+  // Jx and Jv are block-diagonal [b x b block, identity] with b = euclideanTangentOffset()
+  // (the Euclidean tail integrates by addition): only the top b rows of Fx, Fu mix.
+  const int b = space().euclideanTangentOffset(), n = space().ndx() - b;
+  const double dt = ctx.dt;
+  Fx.topRows(b).noalias() = dt * (e.Jv.topLeftCorner(b, b) * e.fx.topRows(b));
+  Fx.topLeftCorner(b, b) += e.Jx.topLeftCorner(b, b);
+  Fx.bottomRows(n) = dt * e.fx.bottomRows(n);
+  Fx.bottomRightCorner(n, n).diagonal().array() += 1.0;
+  Fu.topRows(b).noalias() = dt * (e.Jv.topLeftCorner(b, b) * e.fu.topRows(b));
+  Fu.bottomRows(n) = dt * e.fu.bottomRows(n);
 }
 
 // ---- RK4 (Euclidean) ------------------------------------------------------------------------

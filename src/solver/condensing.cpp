@@ -51,22 +51,43 @@ void Solver::Impl::condenseNode(int k) {
   }
   if (d.ni > 0) {
     const int m = d.ni;
-    const auto Gx = d.Gx.topRows(m);
+    // A row whose Gx (Gu) is zero adds nothing to Q (R, S): the products run over the
+    // contiguous runs of rows with an x (u) part. The terms' rows come in blocks (torque
+    // rows act on x and u, friction rows on u only, region rows on x only). Gu is zero on
+    // state-only rows, and a node without hard rows has only state-only rows.
+    for (int i = 0; i < m; ++i) {
+      const bool on_x = !d.Gx.row(i).isZero(0.0);
+      const bool on_u = running && !d.state_only(i);
+      n.row_parts(i) = (on_x ? 1 : 0) | (on_u ? 2 : 0);
+    }
+    const auto runs = [&n, m](int mask, const auto& f) {
+      for (int i = 0; i < m;) {
+        if ((n.row_parts(i) & mask) != mask) {
+          ++i;
+          continue;
+        }
+        int j = i + 1;
+        while (j < m && (n.row_parts(j) & mask) == mask) ++j;
+        f(i, j - i);
+        i = j;
+      }
+    };
     const auto W = n.W.head(m);
-    n.WGx.topRows(m).noalias() = W.asDiagonal() * Gx;
-    st.Q.triangularView<Eigen::Lower>() += Gx.transpose() * n.WGx.topRows(m);
-    st.q.noalias() += Gx.transpose() * n.gam.head(m);
-    bool has_u = false;
-    if (running) {
-      for (int i = 0; i < m; ++i) has_u = has_u || (n.kind(i) == kHard);
-    }
-    if (has_u) {
-      const auto Gu = d.Gu.topRows(m);
-      n.WGu.topRows(m).noalias() = W.asDiagonal() * Gu;
-      st.R.triangularView<Eigen::Lower>() += Gu.transpose() * n.WGu.topRows(m);
-      st.S.noalias() += Gu.transpose() * n.WGx.topRows(m);
-      st.r.noalias() += Gu.transpose() * n.gam.head(m);
-    }
+    runs(1, [&](int i, int r) {
+      const auto Gx = d.Gx.middleRows(i, r);
+      n.WGx.middleRows(i, r).noalias() = W.segment(i, r).asDiagonal() * Gx;
+      st.Q.triangularView<Eigen::Lower>() += Gx.transpose() * n.WGx.middleRows(i, r);
+    });
+    st.q.noalias() += d.Gx.topRows(m).transpose() * n.gam.head(m);
+    runs(2, [&](int i, int r) {
+      const auto Gu = d.Gu.middleRows(i, r);
+      n.WGu.middleRows(i, r).noalias() = W.segment(i, r).asDiagonal() * Gu;
+      st.R.triangularView<Eigen::Lower>() += Gu.transpose() * n.WGu.middleRows(i, r);
+      st.r.noalias() += Gu.transpose() * n.gam.segment(i, r);
+    });
+    runs(3, [&](int i, int r) {
+      st.S.noalias() += d.Gu.middleRows(i, r).transpose() * n.WGx.middleRows(i, r);
+    });
   }
   // Bounds: diagonal terms only.
   for (int i = ni_max; i < nrows; ++i) {

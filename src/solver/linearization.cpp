@@ -61,8 +61,13 @@ void Solver::Impl::linearizeNode(int k) {
       st.B = d.Fu;
     } else {
       prob->stateSpace().differenceJacobians(xn, d.xnext, n.J0, n.J1);
-      st.A.noalias() = n.J1 * d.Fx;
-      st.B.noalias() = n.J1 * d.Fu;
+      // J1 = blockdiag(J1_b, I) with b = euclideanTangentOffset() (the Euclidean tail
+      // differences by subtraction): only the top b rows of A and B mix.
+      const int b = prob->stateSpace().euclideanTangentOffset(), m = ndx - b;
+      st.A.topRows(b).noalias() = n.J1.topLeftCorner(b, b) * d.Fx.topRows(b);
+      st.A.bottomRows(m) = d.Fx.bottomRows(m);
+      st.B.topRows(b).noalias() = n.J1.topLeftCorner(b, b) * d.Fu.topRows(b);
+      st.B.bottomRows(m) = d.Fu.bottomRows(m);
     }
     st.b = n.defect;
   }

@@ -88,6 +88,8 @@ struct Solver::Impl {
     MatrixXd J0, J1;          // difference Jacobians
     VectorXd rx, ru, tmp;     // dual residual pieces, scratch
     MatrixXd WGu, WGx;        // weighted general-row Jacobians
+    // Per general row: 1 if Gx != 0, | 2 if it acts on u (condensing scratch).
+    Eigen::VectorXi row_parts;
     VectorXd W, gam;
     VectorXd soft_dual;  // -weight beta'(c) of soft rows (reporting)
     // Constraint curvature (converging mode, Euclidean): central differences of the

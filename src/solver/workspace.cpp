@@ -49,6 +49,7 @@ Solver::Impl::Impl(std::shared_ptr<ocp::OptimalControlProblem> p, SolverSettings
     n.tmp = VectorXd::Zero(std::max(ni_max, 1));
     n.WGu = MatrixXd::Zero(ni_max, nu);
     n.WGx = MatrixXd::Zero(ni_max, ndx);
+    n.row_parts = Eigen::VectorXi::Zero(ni_max);
     n.W = VectorXd::Zero(ni_max);
     n.gam = VectorXd::Zero(ni_max);
     n.soft_dual = VectorXd::Zero(nrows);

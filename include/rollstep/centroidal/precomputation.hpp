@@ -10,6 +10,7 @@
 // "_dx" matrices have ndx columns [dq (6 + nj), dh (6)], "_du" ones nu columns
 // [dv_J (nj), df (3 nc)].
 #include <Eigen/Core>
+#include <array>
 #include <memory>
 #include <vector>
 
@@ -17,6 +18,7 @@
 #include "rollstep/model/data.hpp"
 #include "rollstep/model/node.hpp"
 #include "rollstep/ocp/problem.hpp"
+#include "rollstep/planning/foot_reference.hpp"
 
 namespace rollstep::centroidal {
 
@@ -54,6 +56,15 @@ struct CentroidalCache : ocp::NodeCache {
   /// Scratch: the world-axes base twist derivatives [R dv_lin; R dw] (6 x ndx, 6 x nj).
   Eigen::Matrix<double, 6, Eigen::Dynamic> Rdvb_dx, Rdvb_du;
 
+  // ---- Filled by compute(ctx, ...) when the precomputation has a foot planner and ctx a
+  // schedule: every foot's planner reference at the node (what the terrain and swing terms
+  // ask for, once per node instead of once per term and call). See footReference().
+  const planning::FootReferencePlanner* foot_refs_planner = nullptr;  ///< nullptr: not filled
+  const ocp::ModeSchedule* foot_refs_schedule = nullptr;
+  double foot_refs_time = 0.0;
+  int foot_refs_count = 0;  ///< feet filled: min(nc, planner feet)
+  std::array<planning::FootReference, kMaxContacts> footRef{};
+
   // ---- Views of the node's variables.
   Eigen::VectorBlock<const Eigen::VectorXd> q() const { return x.head(nq_); }
   Eigen::VectorBlock<const Eigen::VectorXd, 6> h() const { return x.tail<6>(); }
@@ -79,6 +90,9 @@ class CentroidalPrecomputation final : public ocp::NodePrecomputation {
  public:
   /// Throws std::invalid_argument for a null robot.
   explicit CentroidalPrecomputation(std::shared_ptr<const CentroidalRobot> robot);
+  /// With a foot planner (it must outlive this object), compute(ctx, ...) also stores
+  /// every foot's planner reference at ctx in the cache (footReference() reads them).
+  void setFootPlanner(std::shared_ptr<const planning::FootReferencePlanner> planner);
   const CentroidalRobot& robot() const { return *robot_; }
   const std::shared_ptr<const CentroidalRobot>& robotPtr() const { return robot_; }
 
@@ -92,7 +106,14 @@ class CentroidalPrecomputation final : public ocp::NodePrecomputation {
 
  private:
   std::shared_ptr<const CentroidalRobot> robot_;
+  std::shared_ptr<const planning::FootReferencePlanner> planner_;
 };
+
+/// planner.query(*ctx.schedule, foot, ctx.time) (ctx.schedule must be set), read from the
+/// node cache ctx.cache when it holds that planner's references at this ctx (a
+/// CentroidalCache filled by compute(ctx, ...) of a precomputation with that planner).
+planning::FootReference footReference(const ocp::NodeContext& ctx,
+                                      const planning::FootReferencePlanner& planner, int foot);
 
 /// The cache a term reads at this node: ctx.cache when present (it must be a
 /// CentroidalCache computed at (x, u), with derivatives if `derivatives`), otherwise
