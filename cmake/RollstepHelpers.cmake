@@ -66,10 +66,12 @@ function(rollstep_add_layer layer)
     ARCHIVE DESTINATION lib LIBRARY DESTINATION lib RUNTIME DESTINATION bin)
 endfunction()
 
-# rollstep_add_test(<name> SOURCES ... [LIBS ...] [LABELS ...])
-# A GoogleTest executable registered with ctest; every test gets its layer label.
+# rollstep_add_test(<name> SOURCES ... [LIBS ...] [LABELS ...] [SERIAL])
+# A GoogleTest executable registered with ctest; every test gets its layer label. SERIAL:
+# its tests run alone (ctest RUN_SERIAL), for tests that need the machine's cores to
+# themselves (a real MPC thread paced by the wall clock).
 function(rollstep_add_test name)
-  cmake_parse_arguments(ARG "" "" "SOURCES;LIBS;LABELS" ${ARGN})
+  cmake_parse_arguments(ARG "SERIAL" "" "SOURCES;LIBS;LABELS" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
   target_link_libraries(${name} PRIVATE ${ARG_LIBS} rollstep_test_common GTest::gtest_main)
   target_compile_definitions(${name} PRIVATE
@@ -77,5 +79,10 @@ function(rollstep_add_test name)
     ROLLSTEP_TEST_DATA_DIR="${PROJECT_SOURCE_DIR}/tests/data")
   rollstep_target_defaults(${name})
   include(GoogleTest)
-  gtest_discover_tests(${name} PROPERTIES LABELS "${ARG_LABELS}" DISCOVERY_TIMEOUT 60)
+  if(ARG_SERIAL)
+    gtest_discover_tests(${name} PROPERTIES LABELS "${ARG_LABELS}" RUN_SERIAL TRUE
+      DISCOVERY_TIMEOUT 60)
+  else()
+    gtest_discover_tests(${name} PROPERTIES LABELS "${ARG_LABELS}" DISCOVERY_TIMEOUT 60)
+  endif()
 endfunction()
