@@ -108,4 +108,11 @@ const CLI::Validator kNotEmpty(
     },
     "NAME");
 
+std::string defaultRobotDescription() {
+  if (const char* dir = std::getenv("ROLLSTEP_ROBOTS_DIR"); dir != nullptr && *dir != '\0') {
+    return std::string(dir) + "/tachyon3/centroidal.yaml";
+  }
+  return std::string(ROLLSTEP_ROBOTS_DIR) + "/tachyon3/centroidal.yaml";
+}
+
 }  // namespace rollstep::apps

@@ -42,17 +42,6 @@ struct PlanOptions {
   std::string out = "out/plan";
 };
 
-/// Foothold regions are shrunk by the contact offset (the wheel radius: the regions bound
-/// the wheel centre) plus this clearance [m], so that wheels keep off the block edges.
-constexpr double kEdgeClearance = 0.01;
-
-std::string defaultRobotDescription() {
-  if (const char* dir = std::getenv("ROLLSTEP_ROBOTS_DIR"); dir != nullptr && *dir != '\0') {
-    return std::string(dir) + "/tachyon3/centroidal.yaml";
-  }
-  return std::string(ROLLSTEP_ROBOTS_DIR) + "/tachyon3/centroidal.yaml";
-}
-
 const char* statusName(solver::SolverStatus s) {
   switch (s) {
     case solver::SolverStatus::Converged:

@@ -64,17 +64,6 @@ struct SimOptions {
   std::string integrator;  // "" = the config's
 };
 
-/// Foothold regions are shrunk by the contact offset (the wheel radius: the regions bound
-/// the wheel centre) plus this clearance [m] (as `rollstep plan`).
-constexpr double kEdgeClearance = 0.01;
-
-std::string defaultRobotDescription() {
-  if (const char* dir = std::getenv("ROLLSTEP_ROBOTS_DIR"); dir != nullptr && *dir != '\0') {
-    return std::string(dir) + "/tachyon3/centroidal.yaml";
-  }
-  return std::string(ROLLSTEP_ROBOTS_DIR) + "/tachyon3/centroidal.yaml";
-}
-
 /// Result files of a run in the output directory.
 struct OutputFiles {
   fs::path log, summary, failed, mpc;

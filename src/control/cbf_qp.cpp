@@ -328,15 +328,14 @@ CbfQpStatus CbfQpFilter::filter(const Eigen::Ref<const Eigen::VectorXd>& q,
   int eq = 0;
   auto Aeq = qp_.Aeq();
   auto beq = qp_.beq();
-  // kept: an equality; otherwise a cost of the given weight.
-  const auto addRow = [&](bool kept, double target, double weight) {
+  auto addRow = [&](bool kept, double target) {
     if (kept) {
       Aeq.row(eq) = w.row;
       beq[eq] = target;
       ++eq;
     } else {
-      H.noalias() += weight * (w.row.transpose() * w.row);
-      g.noalias() -= (weight * target) * w.row.transpose();
+      H.noalias() += s.freed_contact_weight * (w.row.transpose() * w.row);
+      g.noalias() -= (s.freed_contact_weight * target) * w.row.transpose();
     }
   };
   for (int i = 0; i < nc; ++i) {
@@ -344,15 +343,14 @@ CbfQpStatus CbfQpFilter::filter(const Eigen::Ref<const Eigen::VectorXd>& q,
     const bool kept = robot.keepsVelocityConstraints(mode, i);
     const auto J = w.foot_jacobian.middleRows<3>(3 * i);
     w.row = J.row(2);
-    addRow(kept, -k * w.foot_velocity(2, i) - w.foot_drift(2, i), s.freed_contact_weight);
+    addRow(kept, -k * w.foot_velocity(2, i) - w.foot_drift(2, i));
     // Skid steering (lateral_slip_weight > 0): the wheels must slide sideways to turn, the
     // MPC's plan weighs that slip; here the lateral rows are left out (an acceleration-level
     // row pulling the slip to zero would hold the commanded turn back).
     if (robot.contact(i).drive_wheel && lateral_slip_weight_ == 0.0) {
       const Eigen::Vector3d e_lat = w.lateral.col(i);
       w.row.noalias() = e_lat.transpose() * J;
-      addRow(kept, -k * e_lat.dot(w.foot_velocity.col(i)) - w.lateral_drift[i],
-             s.freed_contact_weight);
+      addRow(kept, -k * e_lat.dot(w.foot_velocity.col(i)) - w.lateral_drift[i]);
     }
   }
 

@@ -78,15 +78,9 @@ solver::SolverStatus ControlPipeline::initialize(const RobotState& state,
         "ControlPipeline::initialize: the state is not valid (non-finite values, a quaternion "
         "that is not unit, or joint vectors of the wrong size)");
   }
-  toModelState(state, q_meas_, v_meas_);
-  x_meas_.head(r.nq()) = q_meas_;
-  x_meas_.tail<6>() = model::computeCentroidalMomentum(r.model(), *data_, q_meas_, v_meas_);
-  // The references start at the planar pose of the state (x, y, yaw).
-  const Eigen::Vector3d x_axis = state.base_orientation * Eigen::Vector3d::UnitX();
-  const double yaw = std::atan2(x_axis.y(), x_axis.x());
-  lie::SE3 start = lie::SE3::Identity();
-  start.translation = Eigen::Vector3d(state.base_position.x(), state.base_position.y(), 0.0);
-  start.rotation = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  measure(state);
+  // The references start at the state's pose (they keep its x, y and yaw).
+  const lie::SE3 start(state.base_position, state.base_orientation);
   rt_ocp_->reset(state.time, start, command);
   const solver::SolverStatus status = runner_->initialize(state.time, start, command, x_meas_);
   integrator_->reset(q_meas_, v_meas_);
@@ -97,6 +91,13 @@ solver::SolverStatus ControlPipeline::initialize(const RobotState& state,
   counters_ = PipelineCounters{};
   initialized_ = true;
   return status;
+}
+
+void ControlPipeline::measure(const RobotState& state) noexcept {
+  const centroidal::CentroidalRobot& r = robot();
+  toModelState(state, q_meas_, v_meas_);
+  x_meas_.head(r.nq()) = q_meas_;
+  x_meas_.tail<6>() = model::computeCentroidalMomentum(r.model(), *data_, q_meas_, v_meas_);
 }
 
 void ControlPipeline::computeTargets() noexcept {
@@ -176,9 +177,7 @@ void ControlPipeline::tick(const RobotState& state, JointCommand& command) noexc
     ++counters_.invalid_states;
     return;
   }
-  toModelState(state, q_meas_, v_meas_);
-  x_meas_.head(r.nq()) = q_meas_;
-  x_meas_.tail<6>() = model::computeCentroidalMomentum(r.model(), *data_, q_meas_, v_meas_);
+  measure(state);
 
   // MPC: post the state, take a newer solution, refine it from this state.
   runner_->post(t, x_meas_);

@@ -5,6 +5,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "rollstep/sim/scenario.hpp"
+
 namespace rollstep::sim {
 
 bool GroundTruthSource::read(double t, const SensorReadings&, control::RobotState& state) {
@@ -106,15 +108,14 @@ void NmpcController::logValues(std::string& out) const {
   const control::TickRecord& r = pipeline_->lastTick();
   const control::ReferenceSample& ref = pipeline_->reference();
   const Eigen::Quaterniond q_ref(ref.q[6], ref.q[3], ref.q[4], ref.q[5]);
-  const Eigen::Vector3d x_axis = q_ref * Eigen::Vector3d::UnitX();
   const Eigen::VectorXd& q_int = pipeline_->integrator().q();
   const Eigen::VectorXd& v_int = pipeline_->integrator().v();
   char text[400];
   std::snprintf(text, sizeof text, ",%d,%llu,%s,%d,%d,%.6g,%.6f,%.6f,%.6f,%.6f,%.5f,%.5f,%.6f,%.5f",
                 r.mode, static_cast<unsigned long long>(r.solution_sequence),
                 r.state_valid ? control::toString(r.cbf_status) : "invalid_state", r.qp_iterations,
-                r.active_barriers, r.correction, ref.q[0], ref.q[1], ref.q[2],
-                std::atan2(x_axis.y(), x_axis.x()), ref.v[0], ref.v[5], q_int[2], v_int[5]);
+                r.active_barriers, r.correction, ref.q[0], ref.q[1], ref.q[2], yawOf(q_ref),
+                ref.v[0], ref.v[5], q_int[2], v_int[5]);
   out.assign(text);
 }
 

@@ -95,21 +95,13 @@ inline NmpcOutcome runNmpc(const NmpcScenario& sc) {
     out.max_pitch_deg = std::max(out.max_pitch_deg, std::abs(pitch) * 180.0 / M_PI);
     out.min_base_height = std::min(out.min_base_height, g.base_position.z());
     out.max_base_height = std::max(out.max_base_height, g.base_position.z());
-    // Joint limits, measured (plant joint p <-> model joint by name).
+    // Joint limits, measured (the controller's plant <-> model joint map).
     for (int j = 0; j < m.nj; ++j) {
-      const std::string& name = m.jointNames[static_cast<size_t>(j)];
-      const std::string leg = name.substr(0, 2);
-      int p = -1;
-      for (int l = 0; l < kNumLegs; ++l) {
-        if (leg == kLegNames[static_cast<size_t>(l)]) {
-          p = name.find("hip") != std::string::npos ? hipIndex(l) : kneeIndex(l);
-        }
-      }
-      const double qj = g.joint_position[p];
+      const double qj = g.joint_position[controller.jointMap()[static_cast<size_t>(j)]];
       const double v = std::max(m.lowerPositionLimit[j] - qj, qj - m.upperPositionLimit[j]);
       if (v > out.max_joint_limit_violation) {
         out.max_joint_limit_violation = v;
-        out.worst_joint = name;
+        out.worst_joint = m.jointNames[static_cast<size_t>(j)];
       }
     }
     if (k >= steps / 2) {

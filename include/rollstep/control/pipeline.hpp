@@ -140,6 +140,8 @@ class ControlPipeline {
   const std::vector<int>& driveWheelContacts() const { return drive_wheels_; }
 
  private:
+  /// q_meas_, v_meas_ and the centroidal state x_meas_ (h = A(q) v) of a valid state.
+  void measure(const RobotState& state) noexcept;
   void computeTargets() noexcept;
   void computeWheelCommands(JointCommand& command) noexcept;
 

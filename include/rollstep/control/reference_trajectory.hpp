@@ -49,7 +49,9 @@ class ReferenceTrajectory {
 
   /// Adopts `solution` (its inputs, grid and horizon are copied) and re-integrates from
   /// x_now (centroidal state) at t_now. Returns false, keeping the previous reference, if the
-  /// solution does not fit (horizon, sizes), is not usable, or x_now is not finite.
+  /// solution does not fit (horizon, sizes), is not usable, or x_now is not finite. Returns
+  /// false with no reference left (hasReference() false) if the state equation is not finite
+  /// at x_now with the solution's first input.
   bool refine(const MpcSolution& solution, double t_now, const Eigen::VectorXd& x_now) noexcept;
   /// The reference at time t (clamped to the refined start). Requires a reference
   /// (hasReference()); `out` sized by makeSample().

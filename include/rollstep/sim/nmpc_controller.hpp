@@ -78,6 +78,8 @@ class NmpcController final : public Controller {
 
   control::ControlPipeline& pipeline() { return *pipeline_; }
   const control::ControlPipeline& pipeline() const { return *pipeline_; }
+  /// Plant joint index (hipIndex / kneeIndex) of each model joint, in the model's order.
+  const std::vector<int>& jointMap() const { return joint_map_; }
   /// Status of the first (converging) solve.
   solver::SolverStatus initialStatus() const { return initial_status_; }
 
