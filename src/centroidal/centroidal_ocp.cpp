@@ -106,7 +106,11 @@ CentroidalOcp::CentroidalOcp(const RobotOcpDescription& description, const OcpSe
                                 std::to_string(nj) + " joints");
   }
   q_joint_ref_ = description.nominal_joint_positions;
-  pre_ = std::make_shared<const CentroidalPrecomputation>(robot_);
+  // The nodes' precomputation; it also caches every foot's planner reference once the
+  // planner exists (below): the terrain and swing terms read them instead of querying the
+  // planner once per term and call.
+  auto pre = std::make_shared<CentroidalPrecomputation>(robot_);
+  pre_ = pre;
   scratch_ = std::make_unique<CentroidalCache>(*robot_);
 
   // --- nominal footholds and height, from the URDF at the nominal posture -------------------
@@ -135,13 +139,7 @@ CentroidalOcp::CentroidalOcp(const RobotOcpDescription& description, const OcpSe
   foot_config.swing_clearance = settings.swing_clearance;
   foot_config.foot_height_offset = robot_->contactOffset();
   feet_ = std::make_shared<planning::FootReferencePlanner>(*terrain_, *base_, foot_config);
-  {
-    // The nodes' precomputation also caches every foot's planner reference (the terrain
-    // and swing terms read them instead of querying the planner once per term and call).
-    auto pre = std::make_shared<CentroidalPrecomputation>(robot_);
-    pre->setFootPlanner(feet_);
-    pre_ = std::move(pre);
-  }
+  pre->setFootPlanner(feet_);
   const double horizon_time = settings.horizon * settings.dt;
   scheduler_ = std::make_unique<planning::GaitScheduler>(makeGait(gait, description, settings),
                                                          horizon_time);
