@@ -8,6 +8,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <string>
 #include <thread>
@@ -93,7 +94,7 @@ TEST(MpcSolution, UsableNeedsAGoodStatusAndFiniteNumbers) {
   s.us[1][0] = std::nan("");
   EXPECT_FALSE(s.usable());
   s.us[1][0] = 0.0;
-  s.xs[2][3] = INFINITY;
+  s.xs[2][3] = std::numeric_limits<double>::infinity();
   EXPECT_FALSE(s.usable());
 }
 
@@ -182,7 +183,8 @@ TEST(MpcRunner, DeterministicSkipsAheadAndIgnoresBadStates) {
   const Eigen::VectorXd x0 = initializeStanding(*runner);
   runner->post(0.019, x0);  // before the first solve time (0.02)
   EXPECT_EQ(runner->solvesStarted(), 0u);
-  const Eigen::VectorXd bad = Eigen::VectorXd::Constant(x0.size(), INFINITY);
+  const Eigen::VectorXd bad =
+      Eigen::VectorXd::Constant(x0.size(), std::numeric_limits<double>::infinity());
   runner->post(0.02, bad);  // ignored, counted
   runner->post(0.02, Eigen::VectorXd::Zero(5));
   EXPECT_EQ(runner->rejectedStates(), 2u);

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -121,17 +122,30 @@ TEST(BaseReference, BadInputThrowsNamingTheParameter) {
       EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
     }
   };
-  expectNaming([&] { BaseReference(flat, {NAN, {Vector2d::Zero()}}); }, "nominal_height = nan");
+  expectNaming(
+      [&] {
+        BaseReference(flat, {std::numeric_limits<double>::quiet_NaN(), {Vector2d::Zero()}});
+      },
+      "nominal_height = nan");
   expectNaming([&] { BaseReference(flat, {0.3, {}}); }, "height_samples.size() = 0");
   expectNaming(
       [&] {
-        BaseReference(flat, {0.3, {Vector2d(0, INFINITY)}});
+        BaseReference(flat, {0.3, {Vector2d(0, std::numeric_limits<double>::infinity())}});
       },
       "height_samples[0].y = inf");
   BaseReference ref(flat, {0.3, {Vector2d::Zero()}});
-  expectNaming([&] { ref.reset(0.0, lie::SE3(), {NAN, 0, 0}); }, "command.v_x = nan");
-  expectNaming([&] { ref.reset(0.0, lie::SE3(), {0, 0, INFINITY}); }, "command.yaw_rate = inf");
-  expectNaming([&] { ref.reset(NAN, lie::SE3(), {}); }, "t0 = nan");
+  expectNaming(
+      [&] {
+        ref.reset(0.0, lie::SE3(), {std::numeric_limits<double>::quiet_NaN(), 0, 0});
+      },
+      "command.v_x = nan");
+  expectNaming(
+      [&] {
+        ref.reset(0.0, lie::SE3(), {0, 0, std::numeric_limits<double>::infinity()});
+      },
+      "command.yaw_rate = inf");
+  expectNaming([&] { ref.reset(std::numeric_limits<double>::quiet_NaN(), lie::SE3(), {}); },
+               "t0 = nan");
 }
 
 TEST(BaseReference, QueriesDoNotAllocate) {

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -172,7 +173,8 @@ TEST(FootReference, BadConfigThrows) {
       "nominal_feet.size() = 0");
   expectNaming(
       [&] {
-        planning::FootReferencePlanner(s.terrain, s.base, {{Vector2d(NAN, 0)}, 0.1, 0.0});
+        planning::FootReferencePlanner(
+            s.terrain, s.base, {{Vector2d(std::numeric_limits<double>::quiet_NaN(), 0)}, 0.1, 0.0});
       },
       "nominal_feet[0].x = nan");
   expectNaming(

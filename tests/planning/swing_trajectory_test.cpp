@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -132,7 +133,8 @@ TEST(SwingHeightSpline, BadInputThrowsNamingTheParameter) {
   expectNaming([] { SwingHeightSpline(1.0, 0.5, 0, 0, 0.1); }, "t_touchdown = 0.5");
   expectNaming([] { SwingHeightSpline(std::nan(""), 1.0, 0, 0, 0.1); }, "t_liftoff = nan");
   expectNaming([] { SwingHeightSpline(0.0, 1.0, std::nan(""), 0, 0.1); }, "z_liftoff = nan");
-  expectNaming([] { SwingHeightSpline(0.0, 1.0, 0, INFINITY, 0.1); }, "z_touchdown = inf");
+  expectNaming([] { SwingHeightSpline(0.0, 1.0, 0, std::numeric_limits<double>::infinity(), 0.1); },
+               "z_touchdown = inf");
   expectNaming([] { SwingHeightSpline(0.0, 1.0, 0, 0, -0.1); }, "clearance = -0.1");
 }
 

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -97,7 +98,8 @@ TEST(ConvexRegion, BadPolygonsThrow) {
   expectThrowsNaming([&] { ConvexRegion::fromPolygon(sq, std::nan("")); }, "height = nan");
   expectThrowsNaming(
       [] {
-        ConvexRegion::fromPolygon({{0, 0}, {1, 0}, {NAN, 1}}, 0.0);
+        ConvexRegion::fromPolygon({{0, 0}, {1, 0}, {std::numeric_limits<double>::quiet_NaN(), 1}},
+                                  0.0);
       },
       "vertices[2]");
   expectThrowsNaming(
@@ -195,7 +197,8 @@ TEST(TerrainModel, Stairs2AndPartialWidthBoxes) {
 
 TEST(TerrainModel, BadBoxesThrow) {
   expectThrowsNaming([] { terrainFromBoxes({0, 0, -1, 1, 0}, 0.0, {}); }, "floor.x_max = 0");
-  expectThrowsNaming([] { terrainFromBoxes(kFloor, NAN, {}); }, "floor.top = nan");
+  expectThrowsNaming([] { terrainFromBoxes(kFloor, std::numeric_limits<double>::quiet_NaN(), {}); },
+                     "floor.top = nan");
   expectThrowsNaming(
       [] {
         terrainFromBoxes(kFloor, 0.0, {kStep20, {1, 2, 1, -1, 0.1}});
@@ -203,7 +206,7 @@ TEST(TerrainModel, BadBoxesThrow) {
       "boxes[1].y_max = -1");
   expectThrowsNaming(
       [] {
-        terrainFromBoxes(kFloor, 0.0, {{1, 2, -1, 1, INFINITY}});
+        terrainFromBoxes(kFloor, 0.0, {{1, 2, -1, 1, std::numeric_limits<double>::infinity()}});
       },
       "boxes[0].top = inf");
   expectThrowsNaming([] { terrainFromBoxes(kFloor, 0.0, {}, -0.1); }, "margin = -0.1");
