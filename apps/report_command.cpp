@@ -37,6 +37,7 @@ struct ReportOptions {
   std::string experiments;
   bool videos = true;
   bool check = false;
+  std::vector<std::string> only;
 };
 
 std::string fixed(double v, int digits) {
@@ -124,7 +125,24 @@ std::vector<std::size_t> rowsBetween(const LogTable& log, double t0, double t1, 
 
 int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
   // Inputs first: nothing is written before they load.
-  const ExperimentSet set = loadExperimentSet(o.experiments);
+  ExperimentSet set = loadExperimentSet(o.experiments);
+  if (!o.only.empty()) {
+    std::vector<Scenario> chosen;
+    for (const std::string& name : o.only) {
+      const Scenario* s = set.find(name);
+      if (s == nullptr) {
+        std::string have;
+        for (const Scenario& x : set.scenarios) have += (have.empty() ? "" : ", ") + x.name;
+        throw CLI::ValidationError(
+            "--only", "no scenario '" + name + "' in " + set.source + " (it has: " + have + ")");
+      }
+      chosen.push_back(*s);
+    }
+    set.scenarios = chosen;
+    // The comparison needs both of its runs.
+    set.acceptance.given = set.acceptance.given && set.find(set.acceptance.candidate) != nullptr &&
+                           set.find(set.acceptance.baseline) != nullptr;
+  }
   std::vector<sim::SceneConfig> scenes;
   for (const Scenario& s : set.scenarios) scenes.push_back(sceneOf(s));
   std::error_code ec;
@@ -239,7 +257,9 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
           const double t0 = w ? run.assessment.window.start : t.front();
           const double t1 = w ? run.assessment.window.end : t.back();
           std::vector<Image> frames;
-          for (std::size_t row : rowsBetween(log, t0, t1, 6)) frames.push_back(r.render(log, row));
+          for (std::size_t row : rowsBetween(log, t0, t1, 6)) {
+            frames.push_back(r.render(log, row, "t = " + fixed(t[row], 2) + " s"));
+          }
           const std::string file = "snapshots_" + s.name + ".png";
           writePng(out + "/" + file, tile(frames, 3));
           snapshots.emplace_back(
@@ -248,15 +268,15 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
                         (w ? "the traverse window" : "the whole run: no traverse window") + ")");
         }
         if (s.video && video_gap.empty()) {
-          constexpr int kFps = 25;
+          constexpr int kFps = 20;
           const double dt = t.size() > 1 ? t[1] - t[0] : 0.01;
           const std::size_t every =
               std::max<std::size_t>(1, static_cast<std::size_t>(std::lround(1.0 / (kFps * dt))));
-          Renderer r(plant, 640, 360);
+          Renderer r(plant, 480, 270, true);
           const std::string file = "video_" + s.name + ".mp4";
-          VideoWriter video(out + "/" + file, 640, 360, kFps);
+          VideoWriter video(out + "/" + file, 480, 270, kFps);
           for (std::size_t row = 0; row < t.size(); row += every) {
-            video.add(r.render(log, row));
+            video.add(r.render(log, row, s.title + "  t = " + fixed(t[row], 1) + " s"));
             if (row % (every * 25) == 0) {
               rbar.update((i + static_cast<double>(row) / t.size()) / n, s.name + " video");
             }
@@ -482,6 +502,10 @@ void registerReportCommand(CLI::App& app, int& exit_status) {
       ->check(kNotEmpty)
       ->capture_default_str();
   cmd->add_flag("!--no-videos", options->videos, "Skip the MP4 videos (snapshots are still made)");
+  cmd->add_option("--only", options->only,
+                  "Run only these scenarios (names of the experiments file), e.g. --only "
+                  "step20_nmpc,step20_cbfqp")
+      ->delimiter(',');
   cmd->add_flag("--check", options->check,
                 "Exit with status 3 if a run failed or the acceptance criteria were not met");
   cmd->final_callback([options, &exit_status, &app] {
@@ -490,6 +514,11 @@ void registerReportCommand(CLI::App& app, int& exit_status) {
                                      options->out, "--experiments", options->experiments};
     if (!options->videos) argv.push_back("--no-videos");
     if (options->check) argv.push_back("--check");
+    if (!options->only.empty()) {
+      std::string names;
+      for (const std::string& n : options->only) names += (names.empty() ? "" : ",") + n;
+      argv.insert(argv.end(), {"--only", names});
+    }
     exit_status = runReport(*options, argv);
   });
 }

@@ -48,7 +48,7 @@ bool Renderer::available(std::string& reason) {
   return true;
 }
 
-Renderer::Renderer(const sim::Plant& plant, int width, int height)
+Renderer::Renderer(const sim::Plant& plant, int width, int height, bool fast)
     : impl_(std::make_unique<Impl>()) {
   Impl& r = *impl_;
   r.width = width;
@@ -71,6 +71,10 @@ Renderer::Renderer(const sim::Plant& plant, int width, int height)
   mjr_defaultContext(&r.gl);
   mjv_makeScene(r.model, &r.scene, 2000);
   r.scene_made = true;
+  if (fast) {
+    r.scene.flags[mjRND_SHADOW] = 0;
+    r.scene.flags[mjRND_REFLECTION] = 0;
+  }
   mjr_makeContext(r.model, &r.gl, mjFONTSCALE_100);
   r.gl_made = true;
   mjr_setBuffer(mjFB_OFFSCREEN, &r.gl);
@@ -94,7 +98,7 @@ Renderer::Renderer(const sim::Plant& plant, int width, int height)
 
 Renderer::~Renderer() = default;
 
-Image Renderer::render(const LogTable& log, std::size_t row) {
+Image Renderer::render(const LogTable& log, std::size_t row, const std::string& label) {
   Impl& r = *impl_;
   OSMesaMakeCurrent(r.context, r.buffer.data(), GL_UNSIGNED_BYTE, r.width, r.height);
   static const char* const kBase[7] = {"base_x[m]",  "base_y[m]",  "base_z[m]", "base_qw[-]",
@@ -110,6 +114,8 @@ Image Renderer::render(const LogTable& log, std::size_t row) {
   mjv_updateScene(r.model, r.data, &r.option, nullptr, &r.camera, mjCAT_ALL, &r.scene);
   const mjrRect viewport{0, 0, r.width, r.height};
   mjr_render(viewport, &r.scene, &r.gl);
+  if (!label.empty())
+    mjr_overlay(mjFONT_NORMAL, mjGRID_TOPLEFT, viewport, label.c_str(), nullptr, &r.gl);
   Image image;
   image.width = r.width;
   image.height = r.height;
@@ -144,7 +150,7 @@ bool Renderer::available(std::string& reason) {
   return false;
 }
 
-Renderer::Renderer(const sim::Plant&, int, int) {
+Renderer::Renderer(const sim::Plant&, int, int, bool) {
   std::string reason;
   available(reason);
   throw std::runtime_error(reason);
@@ -152,7 +158,7 @@ Renderer::Renderer(const sim::Plant&, int, int) {
 
 Renderer::~Renderer() = default;
 
-Image Renderer::render(const LogTable&, std::size_t) { return {}; }
+Image Renderer::render(const LogTable&, std::size_t, const std::string&) { return {}; }
 
 void writePng(const std::string& path, const Image&) {
   throw std::runtime_error("cannot write '" + path + "': built without lodepng");

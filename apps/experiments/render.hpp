@@ -23,14 +23,16 @@ class Renderer {
  public:
   /// A renderer of `plant`'s scene (the model is copied). Throws std::runtime_error with the
   /// reason if offscreen rendering is not available (built without OSMesa, no context).
-  Renderer(const sim::Plant& plant, int width, int height);
+  /// `fast`: no shadows or reflections (videos: many frames on a software renderer).
+  Renderer(const sim::Plant& plant, int width, int height, bool fast = false);
   ~Renderer();
   Renderer(const Renderer&) = delete;
   Renderer& operator=(const Renderer&) = delete;
 
   /// The robot posed as in `row` of a `rollstep sim` log, seen from its left-front with the
   /// camera following the base.
-  Image render(const LogTable& log, std::size_t row);
+  /// `label` is written in the top left corner.
+  Image render(const LogTable& log, std::size_t row, const std::string& label = "");
 
   /// False (with the reason) when this build cannot render offscreen.
   static bool available(std::string& reason);
