@@ -104,6 +104,16 @@ std::string defaultExperiments() {
   return std::string(ROLLSTEP_CONFIG_DIR) + "/experiments.yaml";
 }
 
+/// The figure script's complaint about figure `name` ("fig2: KeyError: ..."), or "".
+std::string figureError(const std::string& out, const std::string& name) {
+  std::ifstream err(out + "/figures.err");
+  std::string line;
+  while (std::getline(err, line)) {
+    if (line.rfind(name + ": ", 0) == 0) return line.substr(name.size() + 2);
+  }
+  return "";
+}
+
 void warn(const std::string& text) {
   std::fprintf(stderr, "rollstep report: warning: %s\n", text.c_str());
 }
@@ -394,6 +404,10 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
       doc.image(file, caption);
     } else if (!figures_gap.empty()) {
       doc.paragraph("Figure not available: " + figures_gap);
+    } else if (const std::string why = figureError(out, file.substr(0, file.find('.')));
+               !why.empty()) {
+      doc.paragraph("Figure not drawn: " + why);
+      warn("figure " + file + " not drawn: " + why);
     } else {
       doc.paragraph("Figure not drawn: " + needs);
     }

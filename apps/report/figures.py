@@ -204,15 +204,18 @@ def main():
     runs = spec["runs"]
     pick = lambda key: [runs[name] for name in spec["figures"].get(key, [])]  # noqa: E731
     made = []
-    if fig2(spec, pick("table1"), out):
-        made.append("fig2.png")
-    if fig4(spec, pick("fig4"), out):
-        made.append("fig4.png")
-    if fig6(spec, pick("fig6"), spec["machine"], out):
-        made.append("fig6.png")
-    if fig8(spec, pick("fig8"), out):
-        made.append("fig8.png")
-    print("figures.py: wrote " + (", ".join(made) if made else "nothing (no run left a log)"))
+    jobs = [("fig2", lambda: fig2(spec, pick("table1"), out)),
+            ("fig4", lambda: fig4(spec, pick("fig4"), out)),
+            ("fig6", lambda: fig6(spec, pick("fig6"), spec["machine"], out)),
+            ("fig8", lambda: fig8(spec, pick("fig8"), out))]
+    for name, job in jobs:
+        # One figure's trouble (a log without a column) must not cost the others.
+        try:
+            if job():
+                made.append(name + ".png")
+        except Exception as e:  # noqa: BLE001
+            print("%s: %s: %s" % (name, type(e).__name__, e), file=sys.stderr)
+    print("figures.py: wrote " + (", ".join(made) if made else "nothing"))
 
 
 if __name__ == "__main__":

@@ -6,7 +6,7 @@
 rollstep=$1
 experiments=$2
 out=$3
-rm -rf "$out"
+rm -rf "$out" "$out.again"
 fail() { echo "FAIL: $*"; exit 1; }
 "$rollstep" report --out "$out" --experiments "$experiments" --check > "$out.stdout" 2> "$out.stderr"
 rc=$?
@@ -44,4 +44,11 @@ else
   grep -q "Videos not available" "$md" || fail "video neither made nor stated"
 fi
 [ -e "$out/video_step20_short.mp4" ] && fail "video made for a scenario with video: false"
+# Re-running gives the same numbers: the same run again, its log byte for byte.
+"$rollstep" report --out "$out.again" --experiments "$experiments" --only step20_short \
+  --no-videos > /dev/null 2>&1 || fail "the second report"
+cmp -s "$out/runs/step20_short/log.csv" "$out.again/runs/step20_short/log.csv" \
+  || fail "re-running changed step20_short's log"
+grep -q '| step20_short | step20, too short to climb | \*\*FAILED\*\* | did not traverse' "$out.again/report.md" \
+  || fail "the second report differs"
 echo "report check passed"
