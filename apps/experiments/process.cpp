@@ -131,7 +131,7 @@ int runProcess(const std::string& program, const std::vector<std::string>& args,
 }
 
 std::string commandOutput(const std::string& command) {
-  FILE* p = ::popen((command + " 2>/dev/null").c_str(), "r");
+  FILE* p = ::popen(("(" + command + ") 2>/dev/null").c_str(), "r");
   if (p == nullptr) return "";
   std::string out;
   char buffer[4096];
@@ -143,37 +143,40 @@ std::string commandOutput(const std::string& command) {
 }
 
 std::string machineDescription() {
-  std::string model, flags;
-  int cpus = 0;
-  std::ifstream cpuinfo("/proc/cpuinfo");
-  std::string line;
-  while (std::getline(cpuinfo, line)) {
-    const std::size_t colon = line.find(':');
-    if (colon == std::string::npos) continue;
-    std::string key = line.substr(0, colon);
-    key.erase(key.find_last_not_of(" \t") + 1);
-    const std::string value = colon + 2 <= line.size() ? line.substr(colon + 2) : "";
-    if (key == "model name" && model.empty()) model = value;
-    if (key == "flags" && flags.empty()) flags = value;
-    if (key == "processor") ++cpus;
-  }
-  // lscpu is what the project's performance notes quote; /proc/cpuinfo is the fallback.
-  const std::string lscpu = commandOutput("lscpu | sed -n 's/^Model name: *//p'");
-  if (!lscpu.empty()) model = lscpu;
-  static const char* const kSimd[] = {"sse2",     "sse3",     "ssse3",       "sse4_1",  "sse4_2",
-                                      "avx",      "avx2",     "fma",         "avx512f", "avx512dq",
-                                      "avx512bw", "avx512vl", "avx512_vnni", "neon",    "asimd"};
-  std::set<std::string> have;
-  std::istringstream words(flags);
-  std::string w;
-  while (words >> w) have.insert(w);
-  std::string simd;
-  for (const char* s : kSimd) {
-    if (have.count(s) != 0) simd += (simd.empty() ? "" : " ") + std::string(s);
-  }
-  if (model.empty()) model = "unknown CPU";
-  return model + " (" + std::to_string(cpus) +
-         " logical CPUs); SIMD: " + (simd.empty() ? "none found" : simd);
+  static const std::string description = [] {
+    std::string model, flags;
+    int cpus = 0;
+    std::ifstream cpuinfo("/proc/cpuinfo");
+    std::string line;
+    while (std::getline(cpuinfo, line)) {
+      const std::size_t colon = line.find(':');
+      if (colon == std::string::npos) continue;
+      std::string key = line.substr(0, colon);
+      key.erase(key.find_last_not_of(" \t") + 1);
+      const std::string value = colon + 2 <= line.size() ? line.substr(colon + 2) : "";
+      if (key == "model name" && model.empty()) model = value;
+      if (key == "flags" && flags.empty()) flags = value;
+      if (key == "processor") ++cpus;
+    }
+    // lscpu is what the project's performance notes quote; /proc/cpuinfo is the fallback.
+    const std::string lscpu = commandOutput("lscpu | sed -n 's/^Model name: *//p'");
+    if (!lscpu.empty()) model = lscpu;
+    static const char* const kSimd[] = {
+        "sse2",    "sse3",     "ssse3",    "sse4_1",   "sse4_2",      "avx",  "avx2", "fma",
+        "avx512f", "avx512dq", "avx512bw", "avx512vl", "avx512_vnni", "neon", "asimd"};
+    std::set<std::string> have;
+    std::istringstream words(flags);
+    std::string w;
+    while (words >> w) have.insert(w);
+    std::string simd;
+    for (const char* s : kSimd) {
+      if (have.count(s) != 0) simd += (simd.empty() ? "" : " ") + std::string(s);
+    }
+    if (model.empty()) model = "unknown CPU";
+    return model + " (" + std::to_string(cpus) +
+           " logical CPUs); SIMD: " + (simd.empty() ? "none found" : simd);
+  }();
+  return description;
 }
 
 std::string versionDescription() {
