@@ -159,7 +159,7 @@ def fig6(spec, runs, machine, out):
         ax.plot(t, ms, ".", ms=3, color="C%d" % k,
                 label="%s: mean %.1f ms, max %.1f ms (%d updates)" % (label(run), mean, max(ms), len(ms)))
     ax.set_xlabel("time [s]")
-    ax.set_ylabel("MPC update CPU time [ms]")
+    ax.set_ylabel("MPC update time [ms] (wall clock)")
     ax.set_title(machine, fontsize=8)
     ax.grid(alpha=0.3)
     ax.legend(loc="upper right", fontsize=8)
