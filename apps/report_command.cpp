@@ -22,6 +22,7 @@
 #include "experiments/render.hpp"
 #include "experiments/runs.hpp"
 #include "experiments/scenarios.hpp"
+#include "experiments/trials.hpp"
 #include "rollstep/common/text_file.hpp"
 #include "rollstep/sim/plant.hpp"
 
@@ -38,6 +39,7 @@ struct ReportOptions {
   bool videos = true;
   bool check = false;
   std::vector<std::string> only;
+  std::vector<std::string> trials;
 };
 
 std::string fixed(double v, int digits) {
@@ -166,6 +168,10 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
                           "fig6.png", "fig8.png", "snapshots.png"}) {
     fs::remove(fs::path(out) / old, ec);
   }
+
+  // Trial results to include (read now: a bad folder is an input error, before any run).
+  std::vector<TrialAggregate> trial_aggregates;
+  if (!o.trials.empty()) trial_aggregates = aggregate(collectResults(o.trials));
 
   // 1. The runs.
   std::vector<RunOutcome> outcomes;
@@ -450,6 +456,41 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
   for (const auto& [file, caption] : videos) doc.video(file, caption);
   for (const std::string& f : video_failures) doc.paragraph("Pictures failed: " + f);
 
+  doc.heading(2, "Randomized trials");
+  if (o.trials.empty()) {
+    doc.paragraph(
+        "No trials in this report: run `rollstep trials --scenario step20 --controller nmpc "
+        "--seeds 0-29 --out DIR` (and the same with the other controller), then `rollstep report "
+        "--trials DIR`.");
+  } else {
+    std::string from;
+    for (const std::string& d : o.trials) from += (from.empty() ? "`" : ", `") + d + "`";
+    doc.paragraph("Results collected from " + from +
+                  " (step height, friction, start offset and sensor noise scale drawn from each "
+                  "trial's seed; sensor noise recorded, not yet applied). Metrics over the passed "
+                  "trials: mean ± sample standard deviation (min to max).");
+    std::vector<std::vector<std::string>> rows;
+    const auto cell = [](const Spread& s, int digits) {
+      if (s.n == 0) return std::string("-");
+      return fixed(s.mean, digits) + " ± " + fixed(s.stddev, digits) + " (" + fixed(s.min, digits) +
+             " to " + fixed(s.max, digits) + ")";
+    };
+    for (const TrialAggregate& a : trial_aggregates) {
+      rows.push_back({a.scenario, a.controller, std::to_string(a.trials), std::to_string(a.passed),
+                      fixed(100.0 * a.successRate(), 1) + " %", cell(a.traverse_time, 2),
+                      cell(a.mean_abs_vz, 4), cell(a.mean_abs_wy, 4)});
+    }
+    doc.table({"scenario", "controller", "trials", "passed", "success rate", "traverse time [s]",
+               "mean |v_z| [m/s]", "mean |w_y| [rad/s]"},
+              rows);
+    for (const TrialAggregate& a : trial_aggregates) {
+      if (!a.failures.empty()) {
+        doc.paragraph("Failed trials of " + a.scenario + ":");
+        doc.bullets(a.failures);
+      }
+    }
+  }
+
   doc.heading(2, "How each run was made");
   for (std::size_t i = 0; i < outcomes.size(); ++i) {
     const RunOutcome& r = outcomes[i];
@@ -520,6 +561,10 @@ void registerReportCommand(CLI::App& app, int& exit_status) {
                   "Run only these scenarios (names of the experiments file), e.g. --only "
                   "step20_nmpc,step20_cbfqp")
       ->delimiter(',');
+  cmd->add_option("--trials", options->trials,
+                  "Include the randomized trials whose result files are under DIR (repeatable; "
+                  "written by `rollstep trials`)")
+      ->check(kNotEmpty);
   cmd->add_flag("--check", options->check,
                 "Exit with status 3 if a run failed or the acceptance criteria were not met");
   cmd->final_callback([options, &exit_status, &app] {
@@ -528,6 +573,7 @@ void registerReportCommand(CLI::App& app, int& exit_status) {
                                      options->out, "--experiments", options->experiments};
     if (!options->videos) argv.push_back("--no-videos");
     if (options->check) argv.push_back("--check");
+    for (const std::string& d : options->trials) argv.insert(argv.end(), {"--trials", d});
     if (!options->only.empty()) {
       std::string names;
       for (const std::string& n : options->only) names += (names.empty() ? "" : ",") + n;

@@ -94,26 +94,6 @@ TrialResult runTrial(const TrialsOptions& o, const ExperimentSet& set, const Sce
   return r;
 }
 
-/// Every result.yaml under the folders, read.
-std::vector<TrialResult> collectResults(const std::vector<std::string>& dirs) {
-  std::vector<TrialResult> results;
-  for (const std::string& d : dirs) {
-    std::error_code ec;
-    if (!fs::is_directory(d, ec)) throw InputError("--collect '" + d + "': not a directory");
-    std::vector<fs::path> files;
-    for (auto it = fs::recursive_directory_iterator(d, ec);
-         !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
-      if (it->is_regular_file() && it->path().filename() == "result.yaml")
-        files.push_back(it->path());
-    }
-    std::sort(files.begin(), files.end());
-    for (const fs::path& f : files) {
-      results.push_back(parseTrialResult(readTextFile(f.string(), "trial result"), f.string()));
-    }
-  }
-  return results;
-}
-
 void writeAggregate(const std::vector<TrialResult>& results, const std::string& out_dir,
                     const std::string& how) {
   const std::vector<TrialAggregate> a = aggregate(results);

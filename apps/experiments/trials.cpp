@@ -3,10 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <map>
 #include <stdexcept>
 
 #include "rollstep/common/number_text.hpp"
+#include "rollstep/common/text_file.hpp"
 #include "rollstep/common/yaml_tree.hpp"
 
 namespace rollstep::experiments {
@@ -296,6 +298,27 @@ std::string aggregateMarkdown(const std::vector<TrialAggregate>& aggregates) {
     for (const std::string& f : a.failures) out += "- " + f + "\n";
   }
   return out;
+}
+
+namespace fs = std::filesystem;
+
+std::vector<TrialResult> collectResults(const std::vector<std::string>& dirs) {
+  std::vector<TrialResult> results;
+  for (const std::string& d : dirs) {
+    std::error_code ec;
+    if (!fs::is_directory(d, ec)) throw InputError("trial results folder '" + d + "': not a directory");
+    std::vector<fs::path> files;
+    for (auto it = fs::recursive_directory_iterator(d, ec);
+         !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
+      if (it->is_regular_file() && it->path().filename() == "result.yaml")
+        files.push_back(it->path());
+    }
+    std::sort(files.begin(), files.end());
+    for (const fs::path& f : files) {
+      results.push_back(parseTrialResult(readTextFile(f.string(), "trial result"), f.string()));
+    }
+  }
+  return results;
 }
 
 }  // namespace rollstep::experiments

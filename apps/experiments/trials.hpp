@@ -68,6 +68,9 @@ struct TrialAggregate {
 /// Results grouped by scenario (in order of first appearance), seeds sorted; a seed given
 /// twice for the same scenario is an error naming both files.
 std::vector<TrialAggregate> aggregate(std::vector<TrialResult> results);
+/// Every result.yaml under the folders (recursively, sorted by path), read. Throws
+/// InputError for a folder that is not one, std::runtime_error for a malformed file.
+std::vector<TrialResult> collectResults(const std::vector<std::string>& dirs);
 /// Markdown text of the aggregates.
 std::string aggregateMarkdown(const std::vector<TrialAggregate>& aggregates);
 

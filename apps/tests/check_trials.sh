@@ -5,7 +5,7 @@
 rollstep=$1
 experiments=$2
 out=$3
-rm -rf "$out" "$out.elsewhere"
+rm -rf "$out" "$out.elsewhere" "$out.report"
 fail() { echo "FAIL: $*"; exit 1; }
 set -- --experiments "$experiments" --scenario step20 --controller nmpc
 "$rollstep" trials "$@" --seeds 0-1 --jobs 2 --out "$out" || fail "trials exited $?"
@@ -27,4 +27,9 @@ sh -c "$(sed -n 2p "$out.commands")" > /dev/null || fail "the printed command fa
   || fail "collect"
 cat "$out.collect"
 grep -q '| step20_short | nmpc | 3 | 0 | 0.0 %' "$out.collect" || fail "collected aggregate"
+# The report includes trials collected from a folder.
+"$rollstep" report --experiments "$experiments" --only flat_trot --no-videos --trials "$out" \
+  --out "$out.report" > /dev/null 2>&1 || fail "report --trials"
+grep -q '| step20_short | nmpc | 2 | 0 | 0.0 % | - | - | - |' "$out.report/report.md" \
+  || fail "the report's trials table"
 echo "trials check passed"
