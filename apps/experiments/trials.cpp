@@ -306,7 +306,8 @@ std::vector<TrialResult> collectResults(const std::vector<std::string>& dirs) {
   std::vector<TrialResult> results;
   for (const std::string& d : dirs) {
     std::error_code ec;
-    if (!fs::is_directory(d, ec)) throw InputError("trial results folder '" + d + "': not a directory");
+    if (!fs::is_directory(d, ec))
+      throw InputError("trial results folder '" + d + "': not a directory");
     std::vector<fs::path> files;
     for (auto it = fs::recursive_directory_iterator(d, ec);
          !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
