@@ -190,10 +190,21 @@ void runTrials(const TrialsOptions& o) {
       if (exitStatusOf(status) == 0 && fs::exists(dir + "/result.yaml")) {
         ok = parseTrialResult(readTextFile(dir + "/result.yaml", "trial result"), dir).passed;
       } else {
-        std::fprintf(
-            stderr,
-            "rollstep trials: warning: seed %llu exited with status %d (see %s/trial.err)\n",
-            static_cast<unsigned long long>(seed), exitStatusOf(status), dir.c_str());
+        // A trial whose process died still counts: as failed, with the reason.
+        const std::string why = "the trial process exited with status " +
+                                std::to_string(exitStatusOf(status)) + " (see " + dir +
+                                "/trial.err)";
+        std::fprintf(stderr, "rollstep trials: warning: seed %llu: %s\n",
+                     static_cast<unsigned long long>(seed), why.c_str());
+        TrialResult r;
+        r.scenario = scenario->name;
+        r.controller = scenario->controller;
+        r.parameters = drawTrial(seed, set.trials);
+        r.failure = why;
+        std::vector<std::string> command = trialCommand(o, seed);
+        command[0] = "rollstep";
+        r.command = shellCommand(command);
+        writeFileAtomically(dir + "/result.yaml", toYaml(r));
       }
       done(finished, seed, ok);
     }
