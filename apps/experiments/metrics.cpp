@@ -170,7 +170,7 @@ RunAssessment assessRun(const LogTable& log, const std::vector<JointLimit>& limi
       if (b[i] > 0.5) {
         a.failures.push_back(
             text("the body touched the terrain (first logged at t = %.2f s, %.0f "
-                 "ms of contact in all)",
+                 "control periods of contact in all)",
                  t[i], static_cast<double>(b.back())));
         break;
       }
