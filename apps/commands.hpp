@@ -14,4 +14,11 @@ void registerSimCommand(CLI::App& app);
 /// Sets exit_status (0 converged, 3 not converged) when it ran.
 void registerPlanCommand(CLI::App& app, int& exit_status);
 
+/// `rollstep report`: run the experiments and write the report. Sets exit_status (0, or 3
+/// with --check when a run failed or the acceptance was not met).
+void registerReportCommand(CLI::App& app, int& exit_status);
+
+/// `rollstep trials`: randomized trials, their result files and aggregate.
+void registerTrialsCommand(CLI::App& app);
+
 }  // namespace rollstep::apps

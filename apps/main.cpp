@@ -18,10 +18,15 @@ int main(int argc, char** argv) {
       "  rollstep sim --scene-config config/scenes/step20_custom.yaml --controller drive --out "
       "out/step\n"
       "  rollstep plan --scene flat --gait trot --vx 0.15 --duration 1.5 --out out/plan\n"
+      "  rollstep report --out out/report\n"
+      "  rollstep trials --scenario step20 --controller nmpc --seeds 0-29 --jobs 2 --out "
+      "out/trials\n"
       "Exit status: 0 on success, non-zero on bad options or a failed run.");
   rollstep::apps::registerSimCommand(app);
   int exit_status = 0;
   rollstep::apps::registerPlanCommand(app, exit_status);
+  rollstep::apps::registerReportCommand(app, exit_status);
+  rollstep::apps::registerTrialsCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -408,6 +408,7 @@ void Plant::reset(double x, double y, double yaw, double lift) {
   setCommand(nominal_command_);
   mj_forward(model_, data_);
   updateReadings();
+  truth_.body_contact_periods = 0;
 }
 
 void Plant::setCommand(const PlantCommand& command) {
@@ -445,12 +446,14 @@ void Plant::step() {
     // The reset also clears the counters, so a time running backwards is checked too.
     if (bad() != bad0 || !(data_->time > t)) {
       updateReadings();
+      if (truth_.body_contact) ++truth_.body_contact_periods;
       throw SimError("Plant::step: the simulation diverged at t = " + num(t) +
                      " s (MuJoCo found a non-finite or huge position, velocity or " +
                      "acceleration and reset the state); call reset() to continue");
     }
   }
   updateReadings();
+  if (truth_.body_contact) ++truth_.body_contact_periods;
 }
 
 double Plant::time() const { return data_->time; }
@@ -504,6 +507,7 @@ void Plant::updateReadings() {
     truth_.foot_contact[l] = false;
     truth_.foot_force[l].setZero();
   }
+  truth_.body_contact = false;
 
   truth_.time = data_->time;
   const mjtNum* b = qpos + base_qpos_;
@@ -519,7 +523,11 @@ void Plant::updateReadings() {
     const mjContact& con = data_->contact[i];
     const int leg1 = geom_leg_[static_cast<std::size_t>(con.geom1)];
     const int leg2 = geom_leg_[static_cast<std::size_t>(con.geom2)];
-    if (leg1 < 0 && leg2 < 0) continue;
+    if (leg1 < 0 && leg2 < 0) {
+      // Robot geoms collide only with the terrain: a contact without a wheel is the body.
+      truth_.body_contact = true;
+      continue;
+    }
     mjtNum f[6];
     mj_contactForce(model_, data_, i, f);
     const Eigen::Vector3d world = f[0] * Eigen::Vector3d(con.frame[0], con.frame[1], con.frame[2]) +

@@ -25,6 +25,8 @@ std::string csvHeader() {
   }
   for (const char* leg : kLegNames) h += std::string(",contact_") + leg + "[0/1]";
   for (const char* leg : kLegNames) h += std::string(",fz_") + leg + "[N]";
+  for (const char* leg : kLegNames) h += std::string(",foot_z_") + leg + "[m]";
+  h += ",body_contact_periods[-]";
   return h;
 }
 
@@ -47,6 +49,8 @@ void CsvLog::write(const GroundTruth& t, const PlantCommand& c, const std::strin
   for (int w = 0; w < kNumDriveWheels; ++w) file_.printf(",%.4f", c.wheel_velocity[w]);
   for (bool contact : t.foot_contact) file_.write(contact ? ",1" : ",0");
   for (const Eigen::Vector3d& f : t.foot_force) file_.printf(",%.3f", f.z());
+  for (const Eigen::Vector3d& w : t.wheel_center) file_.printf(",%.5f", w.z());
+  file_.printf(",%ld", t.body_contact_periods);
   file_.write(extra);
   file_.write("\n");
 }

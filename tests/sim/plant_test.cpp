@@ -93,6 +93,30 @@ TEST(Plant, StandsOnTheStep20Block) {
   EXPECT_EQ(plant.warningCount(), 0);
 }
 
+// The body contact flag and its count: none while standing on the wheels; a robot dropped
+// on its side touches the floor with its body; reset() clears the count.
+TEST(Plant, BodyContactIsSeenAndCounted) {
+  Plant plant(scene(SceneKind::kFlat));
+  for (int k = 0; k < 500; ++k) plant.step();
+  EXPECT_FALSE(plant.groundTruth().body_contact);
+  EXPECT_EQ(plant.groundTruth().body_contact_periods, 0);
+  plant.reset(0.0, 0.0, 0.0, 0.3);
+  mjData* d = plant.mujocoData();
+  d->qpos[3] = std::cos(0.25 * M_PI);  // rolled 90 deg about x: lands on its side
+  d->qpos[4] = std::sin(0.25 * M_PI);
+  d->qpos[5] = d->qpos[6] = 0.0;
+  mj_forward(plant.mujocoModel(), d);
+  long touching = 0;
+  for (int k = 0; k < 1500; ++k) {
+    plant.step();
+    touching += plant.groundTruth().body_contact ? 1 : 0;
+  }
+  EXPECT_GT(touching, 500);
+  EXPECT_EQ(plant.groundTruth().body_contact_periods, touching);
+  plant.reset();
+  EXPECT_EQ(plant.groundTruth().body_contact_periods, 0);
+}
+
 TEST(Plant, SensorsMatchGroundTruthAtRest) {
   Plant plant(scene(SceneKind::kFlat));
   for (int k = 0; k < 500; ++k) plant.step();

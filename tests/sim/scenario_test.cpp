@@ -54,7 +54,7 @@ std::vector<std::string> filesIn(const std::string& dir) {
 // Every column name ends in its unit in brackets; the units are the right ones.
 TEST(CsvLog, EveryColumnHasItsUnit) {
   const std::vector<std::string> columns = split(csvHeader());
-  ASSERT_EQ(columns.size(), 1u + 3 + 4 + 3 + 3 + 12 + 12 + 4 + 4 + 6 + 6);
+  ASSERT_EQ(columns.size(), 1u + 3 + 4 + 3 + 3 + 12 + 12 + 4 + 4 + 6 + 6 + 6 + 1);
   // name[unit]: letters and '_', then one of the known units in brackets. (No <regex>: GCC 12
   // warns falsely inside libstdc++'s regex in the sanitizer builds, which are -Werror.)
   const auto withUnit = [](const std::string& c) {
@@ -75,10 +75,10 @@ TEST(CsvLog, EveryColumnHasItsUnit) {
   const auto has = [&](const std::string& name) {
     return std::find(columns.begin(), columns.end(), name) != columns.end();
   };
-  for (const char* name :
-       {"time[s]", "base_x[m]", "base_qw[-]", "base_vx[m/s]", "base_wz[rad/s]", "q_LF_hip[rad]",
-        "q_LF_knee[m]", "cmd_RR_hip[rad]", "cmd_RR_knee[m]", "wheel_vel_LF[rad/s]",
-        "cmd_wheel_RR[rad/s]", "contact_MF[0/1]", "fz_MR[N]"}) {
+  for (const char* name : {"time[s]", "base_x[m]", "base_qw[-]", "base_vx[m/s]", "base_wz[rad/s]",
+                           "q_LF_hip[rad]", "q_LF_knee[m]", "cmd_RR_hip[rad]", "cmd_RR_knee[m]",
+                           "wheel_vel_LF[rad/s]", "cmd_wheel_RR[rad/s]", "contact_MF[0/1]",
+                           "fz_MR[N]", "foot_z_MF[m]", "body_contact_periods[-]"}) {
     EXPECT_TRUE(has(name)) << name;
   }
 }

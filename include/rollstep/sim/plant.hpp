@@ -93,6 +93,12 @@ struct GroundTruth {
   /// environment exerts on the wheel, world frame [N] (sum over its contacts).
   FootFlags foot_contact{};
   std::array<Eigen::Vector3d, kNumLegs> foot_force{};
+  /// A robot geom other than a wheel (base, hip, shank) touches the terrain now.
+  bool body_contact = false;
+  /// Control periods since reset() that ended with body_contact (the experiments' pass
+  /// criterion "the body never touched the terrain" reads it from the log: a touch between
+  /// two log rows still shows as an increase).
+  long body_contact_periods = 0;
 };
 
 struct PlantOptions {

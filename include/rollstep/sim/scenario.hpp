@@ -15,7 +15,8 @@ namespace rollstep::sim {
 ///   (world), base_wx/wy/wz[rad/s] (base frame), q_<joint> (12, URDF order: hips [rad],
 ///   knees [m]), cmd_<joint> (12, same units), wheel_vel_<leg>[rad/s] and
 ///   cmd_wheel_<leg>[rad/s] (4 drive wheels), contact_<leg>[0/1] (ground truth) and
-///   fz_<leg>[N] (world vertical force) for the 6 legs.
+///   fz_<leg>[N] (world vertical force) for the 6 legs, foot_z_<leg>[m] (wheel centre height,
+///   world) for the 6 legs, body_contact_periods[-] (GroundTruth::body_contact_periods).
 /// The file appears complete or not at all: rows go to a temporary file beside it
 /// (AtomicFileWriter), every write is checked, and commit() renames it to `path`.
 /// Without commit() (an exception left the run) the temporary is removed.

@@ -1,0 +1,143 @@
+#include "runs.hpp"
+
+#include <mujoco/mujoco.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+#include "process.hpp"
+#include "rollstep/common/text_file.hpp"
+#include "rollstep/sim/plant.hpp"
+
+namespace rollstep::experiments {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string fileText(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+std::string trimmed(std::string s) {
+  while (!s.empty() && (s.back() == '\n' || s.back() == ' ')) s.pop_back();
+  return s;
+}
+
+}  // namespace
+
+std::string RunOutcome::failureText() const {
+  if (!error.empty()) return error;
+  if (!log) return "no log";
+  std::string out;
+  for (const std::string& f : assessment.failures) out += (out.empty() ? "" : "; ") + f;
+  return out;
+}
+
+sim::SceneConfig sceneOf(const Scenario& scenario) {
+  sim::SceneConfig scene;
+  if (!scenario.scene_config.empty()) scene = sim::loadSceneConfig(scenario.scene_config);
+  scene.kind = sim::sceneKindFromString(scenario.scene);
+  return scene;
+}
+
+std::string robotOf(const Scenario& scenario) {
+  for (std::size_t i = 0; i + 1 < scenario.args.size(); ++i) {
+    if (scenario.args[i] == "--robot") return scenario.args[i + 1];
+  }
+  return "";
+}
+
+std::vector<JointLimit> jointLimits(const sim::SceneConfig& scene, const std::string& robot_file) {
+  sim::PlantOptions options;
+  options.robot_file = robot_file;
+  const sim::Plant plant(scene, options);
+  const mjModel* m = plant.mujocoModel();
+  std::vector<JointLimit> limits;
+  for (int leg = 0; leg < sim::kNumLegs; ++leg) {
+    for (const char* joint : {"_hip", "_knee"}) {
+      const std::string name = std::string(sim::kLegNames[static_cast<std::size_t>(leg)]) + joint;
+      const int id = mj_name2id(m, mjOBJ_JOINT, name.c_str());
+      if (id < 0 || !m->jnt_limited[id]) continue;
+      limits.push_back({name, m->jnt_range[2 * id], m->jnt_range[2 * id + 1]});
+    }
+  }
+  return limits;
+}
+
+RunOutcome executeRun(const Scenario& scenario, const sim::SceneConfig& scene,
+                      const std::string& dir, const RunCriteria& criteria,
+                      const std::string& scene_config_file,
+                      const std::function<void(double, double)>& on_progress) {
+  fs::create_directories(dir);
+  const std::vector<std::string> args = scenario.simArgs(dir, scene_config_file);
+  const std::string program = selfExecutable();
+  const int status = runProcess(
+      program, args, dir + "/stdout.txt", dir + "/stderr.txt", [&](const std::string& line) {
+        double done = 0.0, total = 0.0;
+        if (on_progress &&
+            std::sscanf(line.c_str(), "rollstep sim: %lf of %lf s", &done, &total) == 2) {
+          on_progress(done, total);
+        }
+      });
+  std::vector<std::string> argv{"rollstep"};
+  argv.insert(argv.end(), args.begin(), args.end());
+  RunOutcome outcome = judgeRun(scenario, scene, dir, status, criteria);
+  outcome.command = shellCommand(argv);
+  return outcome;
+}
+
+RunOutcome judgeRun(const Scenario& scenario, const sim::SceneConfig& scene, const std::string& dir,
+                    int exit_status, const RunCriteria& criteria) {
+  RunOutcome o;
+  o.name = scenario.name;
+  o.dir = dir;
+  o.exit_status = exit_status;
+  const fs::path d(dir);
+  if (exit_status != 0) {
+    // The sim's own account first (FAILED), else the end of its standard error.
+    std::string reason = trimmed(fileText(d / "FAILED"));
+    if (reason.empty()) {
+      const std::string err = trimmed(fileText(d / "stderr.txt"));
+      std::istringstream lines(err);
+      std::string line, last;
+      while (std::getline(lines, line)) {
+        if (line.rfind("rollstep sim: ", 0) != 0 || line.find("simulated") == std::string::npos) {
+          last += (last.empty() ? "" : " ") + line;
+        }
+      }
+      reason = last.empty() ? "no message" : last;
+    }
+    o.error = "rollstep sim exited with status " + std::to_string(exit_status) + ": " + reason;
+  }
+  try {
+    if (fs::exists(d / "log.csv")) o.log = LogTable::read((d / "log.csv").string(), "log");
+    if (fs::exists(d / "mpc.csv")) o.mpc = LogTable::read((d / "mpc.csv").string(), "MPC log");
+  } catch (const std::exception& e) {
+    if (o.error.empty()) o.error = e.what();
+  }
+  o.summary = fileText(d / "summary.txt");
+  if (!o.log) {
+    if (o.error.empty()) o.error = "the run left no log.csv";
+    return o;
+  }
+  try {
+    sim::PlantOptions options;
+    options.robot_file = robotOf(scenario);
+    const sim::Plant plant(scene, options);
+    o.up_height = plant.wheelRadius(1) + 0.5 * scene.step1_height;
+    o.assessment = assessRun(*o.log, jointLimits(scene, options.robot_file), criteria,
+                             scenario.traverse, o.up_height);
+  } catch (const std::exception& e) {
+    o.error = std::string("cannot judge the run: ") + e.what();
+  }
+  return o;
+}
+
+}  // namespace rollstep::experiments

@@ -1,0 +1,312 @@
+#include "scenarios.hpp"
+
+#include <cmath>
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <stdexcept>
+
+#include "rollstep/common/number_text.hpp"
+#include "rollstep/common/text_file.hpp"
+#include "rollstep/common/yaml_tree.hpp"
+
+namespace rollstep::experiments {
+
+bool Scenario::feeds(const std::string& figure) const {
+  for (const std::string& f : figures) {
+    if (f == figure) return true;
+  }
+  return false;
+}
+
+std::vector<std::string> Scenario::simArgs(const std::string& out_dir,
+                                           const std::string& scene_config_override) const {
+  std::vector<std::string> a{"sim", "--scene", scene};
+  const std::string& config = scene_config_override.empty() ? scene_config : scene_config_override;
+  if (!config.empty()) {
+    a.push_back("--scene-config");
+    a.push_back(config);
+  }
+  a.insert(a.end(), {"--controller", controller, "--duration", shortestNumberText(duration)});
+  a.insert(a.end(), args.begin(), args.end());
+  a.insert(a.end(), {"--out", out_dir});
+  return a;
+}
+
+const Scenario* ExperimentSet::find(const std::string& name) const {
+  for (const Scenario& s : scenarios) {
+    if (s.name == name) return &s;
+  }
+  return nullptr;
+}
+
+namespace {
+
+/// Reads one mapping: each key once, only known keys, errors naming file, line and key.
+class MappingReader {
+ public:
+  MappingReader(const yaml::Node& node, std::string source, std::string prefix)
+      : node_(node), source_(std::move(source)), prefix_(std::move(prefix)) {
+    if (!node.isMapping())
+      fail(node, prefix_.empty() ? "" : prefix_.substr(0, prefix_.size() - 1),
+           std::string("expected a mapping, got ") + node.kindName());
+  }
+  /// Calls `read(value, full_key)` for each entry whose key is in `known`.
+  void each(const std::map<std::string, std::function<void(const yaml::Node&, const std::string&)>>&
+                known) {
+    std::map<std::string, int> seen;
+    for (std::size_t i = 0; i < node_.size(); ++i) {
+      const yaml::Node key = node_.key(i);
+      const std::string name = key.isScalar() ? key.scalar() : "<key>";
+      const auto it = known.find(name);
+      if (it == known.end()) {
+        std::string list;
+        for (const auto& k : known) list += (list.empty() ? "" : ", ") + k.first;
+        fail(key, "", "unknown key '" + prefix_ + name + "' (known: " + list + ")");
+      }
+      if (const auto s = seen.find(name); s != seen.end()) {
+        fail(key, prefix_ + name, "given twice (first on line " + std::to_string(s->second) + ")");
+      }
+      seen.emplace(name, key.line());
+      if (node_.value(i).isNull()) fail(node_.value(i), prefix_ + name, "no value");
+      it->second(node_.value(i), prefix_ + name);
+    }
+  }
+  [[noreturn]] void fail(const yaml::Node& n, const std::string& key,
+                         const std::string& what) const {
+    throw std::runtime_error(source_ + ": line " + std::to_string(n.line()) + ": " +
+                             (key.empty() ? "" : key + ": ") + what);
+  }
+
+ private:
+  yaml::Node node_;
+  std::string source_;
+  std::string prefix_;
+};
+
+}  // namespace
+
+ExperimentSet parseExperimentSet(const std::string& text, const std::string& source,
+                                 const std::string& base_dir) {
+  ExperimentSet set;
+  set.source = source;
+  set.text = text;
+  yaml::Document doc = [&] {
+    try {
+      return yaml::Document::parse(text);
+    } catch (const yaml::YamlError& e) {
+      throw std::runtime_error(source + ": " + e.what());
+    }
+  }();
+  MappingReader top(doc.root(), source, "");
+  const auto number = [&](const MappingReader& r, double min, double max) {
+    return [&r, min, max](const yaml::Node& n, const std::string& key, double& out) {
+      double v = 0.0;
+      if (!n.isScalar() || !n.toDouble(v)) {
+        r.fail(n, key,
+               (n.isScalar() ? "'" + n.scalar() + "'" : std::string(n.kindName())) +
+                   " is not a number");
+      }
+      if (!std::isfinite(v) || v < min || v > max) {
+        r.fail(n, key,
+               n.scalar() + " is outside [" + shortestNumberText(min) + ", " +
+                   shortestNumberText(max) + "]");
+      }
+      out = v;
+    };
+  };
+  const auto word = [](const MappingReader& r) {
+    return [&r](const yaml::Node& n, const std::string& key, std::string& out) {
+      if (!n.isScalar()) r.fail(n, key, std::string("expected text, got ") + n.kindName());
+      out = n.scalar();
+    };
+  };
+  const auto flag = [](const MappingReader& r) {
+    return [&r](const yaml::Node& n, const std::string& key, bool& out) {
+      if (!n.isScalar() || !n.toBool(out)) r.fail(n, key, "expected true or false");
+    };
+  };
+  const auto words = [](const MappingReader& r) {
+    return [&r](const yaml::Node& n, const std::string& key, std::vector<std::string>& out) {
+      if (!n.isSequence()) r.fail(n, key, std::string("expected a list, got ") + n.kindName());
+      for (std::size_t i = 0; i < n.size(); ++i) {
+        if (!n.item(i).isScalar()) r.fail(n.item(i), key, "every item must be a single value");
+        out.push_back(n.item(i).scalar());
+      }
+    };
+  };
+  // A [min, max] pair.
+  const auto range = [&](const MappingReader& r, double lo, double hi) {
+    return [&r, lo, hi, number](const yaml::Node& n, const std::string& key, double& min,
+                                double& max) {
+      if (!n.isSequence() || n.size() != 2) r.fail(n, key, "expected [min, max]");
+      const auto num = number(r, lo, hi);
+      num(n.item(0), key, min);
+      num(n.item(1), key, max);
+      if (min > max) r.fail(n, key, "min is above max");
+    };
+  };
+
+  int acceptance_line = 0;
+  top.each({
+      {"criteria",
+       [&](const yaml::Node& n, const std::string& key) {
+         MappingReader r(n, source, key + ".");
+         r.each({{"max_tilt",
+                  [&](const yaml::Node& v, const std::string& k) {
+                    number(r, 0.01, M_PI)(v, k, set.criteria.max_tilt);
+                  }},
+                 {"joint_limit_tolerance", [&](const yaml::Node& v, const std::string& k) {
+                    number(r, 0.0, 1.0)(v, k, set.criteria.joint_limit_tolerance);
+                  }}});
+       }},
+      {"acceptance",
+       [&](const yaml::Node& n, const std::string& key) {
+         MappingReader r(n, source, key + ".");
+         acceptance_line = n.line();
+         set.acceptance.given = true;
+         Acceptance& a = set.acceptance;
+         r.each({{"candidate",
+                  [&](const yaml::Node& v, const std::string& k) { word(r)(v, k, a.candidate); }},
+                 {"baseline",
+                  [&](const yaml::Node& v, const std::string& k) { word(r)(v, k, a.baseline); }},
+                 {"traverse_time",
+                  [&](const yaml::Node& v, const std::string& k) {
+                    number(r, -1.0, 1.0)(v, k, a.traverse_time);
+                  }},
+                 {"mean_abs_vz",
+                  [&](const yaml::Node& v, const std::string& k) {
+                    number(r, -1.0, 1.0)(v, k, a.mean_abs_vz);
+                  }},
+                 {"mean_abs_wy", [&](const yaml::Node& v, const std::string& k) {
+                    number(r, -1.0, 1.0)(v, k, a.mean_abs_wy);
+                  }}});
+         if (a.candidate.empty() || a.baseline.empty()) {
+           r.fail(n, key, "needs candidate and baseline");
+         }
+       }},
+      {"trials",
+       [&](const yaml::Node& n, const std::string& key) {
+         MappingReader r(n, source, key + ".");
+         TrialRanges& t = set.trials;
+         r.each({{"step_height",
+                  [&](const yaml::Node& v, const std::string& k) {
+                    range(r, 0.001, 1.0)(v, k, t.step_height_min, t.step_height_max);
+                  }},
+                 {"friction",
+                  [&](const yaml::Node& v, const std::string& k) {
+                    range(r, 0.01, 5.0)(v, k, t.friction_min, t.friction_max);
+                  }},
+                 {"start_offset",
+                  [&](const yaml::Node& v, const std::string& k) {
+                    range(r, -10.0, 10.0)(v, k, t.start_offset_min, t.start_offset_max);
+                  }},
+                 {"sensor_noise", [&](const yaml::Node& v, const std::string& k) {
+                    range(r, 0.0, 100.0)(v, k, t.sensor_noise_min, t.sensor_noise_max);
+                  }}});
+       }},
+      {"scenarios",
+       [&](const yaml::Node& n, const std::string& key) {
+         if (!n.isSequence()) top.fail(n, key, std::string("expected a list, got ") + n.kindName());
+         for (std::size_t i = 0; i < n.size(); ++i) {
+           const yaml::Node item = n.item(i);
+           const std::string prefix = key + "[" + std::to_string(i) + "].";
+           MappingReader r(item, source, prefix);
+           Scenario s;
+           r.each({
+               {"name", [&](const yaml::Node& v, const std::string& k) { word(r)(v, k, s.name); }},
+               {"title",
+                [&](const yaml::Node& v, const std::string& k) { word(r)(v, k, s.title); }},
+               {"scene",
+                [&](const yaml::Node& v, const std::string& k) {
+                  word(r)(v, k, s.scene);
+                  if (s.scene != "flat" && s.scene != "step20" && s.scene != "stairs2") {
+                    r.fail(v, k, "'" + s.scene + "' is not flat, step20 or stairs2");
+                  }
+                }},
+               {"scene_config",
+                [&](const yaml::Node& v, const std::string& k) {
+                  word(r)(v, k, s.scene_config);
+                  if (!s.scene_config.empty() && s.scene_config[0] != '/') {
+                    s.scene_config = base_dir + "/" + s.scene_config;
+                  }
+                }},
+               {"controller",
+                [&](const yaml::Node& v, const std::string& k) { word(r)(v, k, s.controller); }},
+               {"duration",
+                [&](const yaml::Node& v, const std::string& k) {
+                  number(r, 0.001, 3600.0)(v, k, s.duration);
+                }},
+               {"args", [&](const yaml::Node& v, const std::string& k) { words(r)(v, k, s.args); }},
+               {"traverse",
+                [&](const yaml::Node& v, const std::string& k) { flag(r)(v, k, s.traverse); }},
+               {"video",
+                [&](const yaml::Node& v, const std::string& k) { flag(r)(v, k, s.video); }},
+               {"figures",
+                [&](const yaml::Node& v, const std::string& k) {
+                  words(r)(v, k, s.figures);
+                  for (std::size_t f = 0; f < s.figures.size(); ++f) {
+                    const std::string& name = s.figures[f];
+                    if (name != "table1" && name != "fig4" && name != "fig6" && name != "fig8" &&
+                        name != "snapshots") {
+                      r.fail(v.item(f), k,
+                             "'" + name + "' is not table1, fig4, fig6, fig8 or snapshots");
+                    }
+                  }
+                }},
+               {"paper",
+                [&](const yaml::Node& v, const std::string& k) {
+                  MappingReader p(v, source, k + ".");
+                  s.paper.given = true;
+                  p.each({{"traverse_time",
+                           [&](const yaml::Node& x, const std::string& kk) {
+                             number(p, 0.0, 1e6)(x, kk, s.paper.traverse_time);
+                           }},
+                          {"mean_abs_vz",
+                           [&](const yaml::Node& x, const std::string& kk) {
+                             number(p, 0.0, 1e6)(x, kk, s.paper.mean_abs_vz);
+                           }},
+                          {"mean_abs_wy", [&](const yaml::Node& x, const std::string& kk) {
+                             number(p, 0.0, 1e6)(x, kk, s.paper.mean_abs_wy);
+                           }}});
+                }},
+           });
+           for (const auto& [field, value] :
+                {std::pair<const char*, const std::string*>{"name", &s.name},
+                 {"scene", &s.scene},
+                 {"controller", &s.controller}}) {
+             if (value->empty()) r.fail(item, prefix + field, "missing (required)");
+           }
+           for (char c : s.name) {
+             if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-')) {
+               r.fail(item, prefix + "name",
+                      "'" + s.name + "': only letters, digits, '_' and '-' (it names a folder)");
+             }
+           }
+           if (set.find(s.name) != nullptr) {
+             r.fail(item, prefix + "name", "'" + s.name + "' is used by another scenario");
+           }
+           if (s.title.empty()) s.title = s.name;
+           set.scenarios.push_back(std::move(s));
+         }
+       }},
+  });
+  if (set.acceptance.given) {
+    for (const std::string* name : {&set.acceptance.candidate, &set.acceptance.baseline}) {
+      if (set.find(*name) == nullptr) {
+        throw std::runtime_error(source + ": line " + std::to_string(acceptance_line) +
+                                 ": acceptance: no scenario named '" + *name + "'");
+      }
+    }
+  }
+  if (set.scenarios.empty()) throw std::runtime_error(source + ": no scenarios");
+  return set;
+}
+
+ExperimentSet loadExperimentSet(const std::string& file) {
+  const std::string text = readTextFile(file, "experiments", std::size_t{1} << 20);
+  const std::string dir = std::filesystem::absolute(file).parent_path().string();
+  return parseExperimentSet(text, "experiments '" + file + "'", dir);
+}
+
+}  // namespace rollstep::experiments

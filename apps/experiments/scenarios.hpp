@@ -1,0 +1,81 @@
+#pragma once
+// The experiments as data (config/experiments.yaml): each scenario is a `rollstep sim` run
+// (scene, controller, duration, its other options as they are typed) and the parts of the
+// report it feeds; the pass criteria, the acceptance margins of the comparison and the
+// ranges of the randomized trials. The report and the trials know nothing else about a
+// controller: a new one is a new entry.
+#include <string>
+#include <vector>
+
+#include "metrics.hpp"
+
+namespace rollstep::experiments {
+
+/// The paper's Table 1 figures for one controller (NaN when the paper has none).
+struct PaperFigures {
+  double traverse_time = 0.0;  ///< [s]
+  double mean_abs_vz = 0.0;    ///< [m/s]
+  double mean_abs_wy = 0.0;    ///< [rad/s]
+  bool given = false;
+};
+
+struct Scenario {
+  std::string name;               ///< output folder name: letters, digits, '_' and '-'
+  std::string title;              ///< shown in tables and legends
+  std::string scene;              ///< flat, step20 or stairs2 (rollstep sim --scene)
+  std::string scene_config;       ///< optional scene YAML (absolute, resolved from the file)
+  std::string controller;         ///< rollstep sim --controller
+  double duration = 10.0;         ///< [s]
+  std::vector<std::string> args;  ///< the run's other `rollstep sim` options, as typed
+  bool traverse = false;          ///< must traverse the step(s) to pass
+  /// Parts of the report: table1 (Table 1 and Fig. 2), fig4 (stairs histories), fig6 (MPC
+  /// CPU time), fig8 (joint commands, integrator comparison), snapshots.
+  std::vector<std::string> figures;
+  bool video = true;
+  PaperFigures paper;
+
+  bool feeds(const std::string& figure) const;
+  /// The `rollstep sim` arguments of this run with outputs in `out_dir` (no program name).
+  std::vector<std::string> simArgs(const std::string& out_dir,
+                                   const std::string& scene_config_override = "") const;
+};
+
+/// Issue 14's acceptance: candidate beats baseline by at least these relative changes
+/// (negative: a reduction; -0.2 = 20 % less).
+struct Acceptance {
+  std::string candidate, baseline;
+  double traverse_time = -0.20;
+  double mean_abs_vz = -0.50;
+  double mean_abs_wy = -0.10;
+  bool given = false;
+};
+
+/// Ranges of the randomized trials: each value is drawn uniformly in [min, max].
+struct TrialRanges {
+  double step_height_min = 0.10, step_height_max = 0.20;   ///< [m] step1_height
+  double friction_min = 0.6, friction_max = 1.0;           ///< terrain friction
+  double start_offset_min = -0.2, start_offset_max = 0.2;  ///< [m] added to start_x
+  double sensor_noise_min = 0.5, sensor_noise_max = 1.5;   ///< scale of the sensor noise
+};
+
+struct ExperimentSet {
+  std::string source;  ///< the file it came from
+  std::string text;    ///< its text (the report quotes it)
+  RunCriteria criteria;
+  Acceptance acceptance;
+  TrialRanges trials;
+  std::vector<Scenario> scenarios;
+
+  /// The scenario named `name`, or nullptr.
+  const Scenario* find(const std::string& name) const;
+};
+
+/// Reads an experiments file. Throws std::runtime_error "experiments '<file>': line L:
+/// <key>: <problem>" for unknown or repeated keys, wrong types, out-of-range numbers,
+/// unknown scenes or figure names, repeated scenario names, an acceptance naming a scenario
+/// that is not there, and missing required keys (name, scene, controller).
+ExperimentSet loadExperimentSet(const std::string& file);
+ExperimentSet parseExperimentSet(const std::string& text, const std::string& source,
+                                 const std::string& base_dir);
+
+}  // namespace rollstep::experiments

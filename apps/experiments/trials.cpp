@@ -1,0 +1,325 @@
+#include "trials.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <stdexcept>
+
+#include "rollstep/common/number_text.hpp"
+#include "rollstep/common/text_file.hpp"
+#include "rollstep/common/yaml_tree.hpp"
+
+namespace rollstep::experiments {
+
+namespace {
+
+/// splitmix64: a fixed, portable sequence from the seed.
+struct SplitMix64 {
+  std::uint64_t state;
+  std::uint64_t next() {
+    std::uint64_t z = (state += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+  }
+  double uniform(double lo, double hi) {
+    const double u = static_cast<double>(next() >> 11) * (1.0 / 9007199254740992.0);  // [0, 1)
+    return lo + (hi - lo) * u;
+  }
+};
+
+/// Numbers as text with 4 decimals: what the trial uses is what its file says.
+double rounded(double v) { return std::round(v * 1e4) / 1e4; }
+
+std::string quoted(const std::string& s) {
+  std::string out = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') out += '\\';
+    if (c == '\n') {
+      out += "\\n";
+      continue;
+    }
+    out += c;
+  }
+  return out + "\"";
+}
+
+std::string numberOrNull(const std::optional<double>& v) {
+  return v ? shortestNumberText(*v) : "null";
+}
+
+}  // namespace
+
+TrialParameters drawTrial(std::uint64_t seed, const TrialRanges& r) {
+  SplitMix64 rng{seed};
+  TrialParameters p;
+  p.seed = seed;
+  p.step_height = rounded(rng.uniform(r.step_height_min, r.step_height_max));
+  p.friction = rounded(rng.uniform(r.friction_min, r.friction_max));
+  p.start_offset = rounded(rng.uniform(r.start_offset_min, r.start_offset_max));
+  p.sensor_noise = rounded(rng.uniform(r.sensor_noise_min, r.sensor_noise_max));
+  return p;
+}
+
+sim::SceneConfig trialScene(const sim::SceneConfig& base, const TrialParameters& p) {
+  sim::SceneConfig s = base;
+  s.step1_height = p.step_height;
+  s.friction = p.friction;
+  s.start_x = base.start_x + p.start_offset;
+  return s;
+}
+
+std::vector<std::string> trialSimArgs(const TrialParameters&) {
+  // Hook for the sensor models (issue 13): when `rollstep sim` gains its sensor noise
+  // option, pass p.sensor_noise here and set TrialResult::sensor_noise_applied.
+  return {};
+}
+
+std::vector<std::uint64_t> parseSeeds(const std::string& text) {
+  const auto bad = [&](const std::string& why) {
+    return std::invalid_argument("--seeds '" + text + "': " + why +
+                                 " (give seeds as 0-29, 7 or 1,5,9-12)");
+  };
+  const auto number = [&](const std::string& s) {
+    if (s.empty() || s.size() > 9 ||
+        !std::all_of(s.begin(), s.end(), [](char c) { return c >= '0' && c <= '9'; })) {
+      throw bad("'" + s + "' is not a seed (an integer 0 to 999999999)");
+    }
+    return static_cast<std::uint64_t>(std::stoull(s));
+  };
+  std::vector<std::uint64_t> seeds;
+  std::size_t start = 0;
+  while (start <= text.size()) {
+    std::size_t comma = text.find(',', start);
+    if (comma == std::string::npos) comma = text.size();
+    const std::string part = text.substr(start, comma - start);
+    const std::size_t dash = part.find('-');
+    if (dash == std::string::npos) {
+      seeds.push_back(number(part));
+    } else {
+      const std::uint64_t a = number(part.substr(0, dash)), b = number(part.substr(dash + 1));
+      if (b < a) throw bad("the range " + part + " runs backwards");
+      if (b - a >= 100000) throw bad("more than 100000 seeds in " + part);
+      for (std::uint64_t s = a; s <= b; ++s) seeds.push_back(s);
+    }
+    start = comma + 1;
+  }
+  std::vector<std::uint64_t> sorted = seeds;
+  std::sort(sorted.begin(), sorted.end());
+  if (std::adjacent_find(sorted.begin(), sorted.end()) != sorted.end()) {
+    throw bad("a seed is given twice");
+  }
+  return seeds;
+}
+
+std::string toYaml(const TrialResult& r) {
+  std::string out;
+  out += "# rollstep trials: one randomized trial (parameters drawn from the seed)\n";
+  out += "scenario: " + r.scenario + "\n";
+  out += "controller: " + r.controller + "\n";
+  out += "seed: " + std::to_string(r.parameters.seed) + "\n";
+  out += "step_height: " + shortestNumberText(r.parameters.step_height) + "\n";
+  out += "friction: " + shortestNumberText(r.parameters.friction) + "\n";
+  out += "start_offset: " + shortestNumberText(r.parameters.start_offset) + "\n";
+  out += "sensor_noise: " + shortestNumberText(r.parameters.sensor_noise) + "\n";
+  out += std::string("sensor_noise_applied: ") + (r.sensor_noise_applied ? "true" : "false") + "\n";
+  out += std::string("passed: ") + (r.passed ? "true" : "false") + "\n";
+  out += "failure: " + quoted(r.failure) + "\n";
+  out += "traverse_time: " + numberOrNull(r.traverse_time) + "\n";
+  out += "mean_abs_vz: " + numberOrNull(r.mean_abs_vz) + "\n";
+  out += "mean_abs_wy: " + numberOrNull(r.mean_abs_wy) + "\n";
+  out += "command: " + quoted(r.command) + "\n";
+  return out;
+}
+
+TrialResult parseTrialResult(const std::string& text, const std::string& source) {
+  TrialResult r;
+  r.source = source;
+  const yaml::Document doc = [&] {
+    try {
+      return yaml::Document::parse(text);
+    } catch (const yaml::YamlError& e) {
+      throw std::runtime_error(source + ": " + e.what());
+    }
+  }();
+  const yaml::Node root = doc.root();
+  if (!root.isMapping()) throw std::runtime_error(source + ": not a trial result (no mapping)");
+  std::map<std::string, bool> seen;
+  for (std::size_t i = 0; i < root.size(); ++i) {
+    const std::string key = root.key(i).scalar();
+    const yaml::Node v = root.value(i);
+    const auto fail = [&](const std::string& what) {
+      return std::runtime_error(source + ": line " + std::to_string(v.line()) + ": " + key + ": " +
+                                what);
+    };
+    if (seen[key]) throw fail("given twice");
+    seen[key] = true;
+    const auto num = [&]() {
+      double x = 0.0;
+      if (!v.isScalar() || !v.toDouble(x) || !std::isfinite(x)) throw fail("not a finite number");
+      return x;
+    };
+    const auto optional_num = [&]() -> std::optional<double> {
+      if (v.isNull()) return std::nullopt;
+      return num();
+    };
+    const auto flag = [&]() {
+      bool b = false;
+      if (!v.isScalar() || !v.toBool(b)) throw fail("expected true or false");
+      return b;
+    };
+    if (key == "scenario") {
+      r.scenario = v.scalar();
+    } else if (key == "controller") {
+      r.controller = v.scalar();
+    } else if (key == "seed") {
+      const double s = num();
+      if (s < 0 || s != std::floor(s)) throw fail("not a seed");
+      r.parameters.seed = static_cast<std::uint64_t>(s);
+    } else if (key == "step_height") {
+      r.parameters.step_height = num();
+    } else if (key == "friction") {
+      r.parameters.friction = num();
+    } else if (key == "start_offset") {
+      r.parameters.start_offset = num();
+    } else if (key == "sensor_noise") {
+      r.parameters.sensor_noise = num();
+    } else if (key == "sensor_noise_applied") {
+      r.sensor_noise_applied = flag();
+    } else if (key == "passed") {
+      r.passed = flag();
+    } else if (key == "failure") {
+      r.failure = v.scalar();
+    } else if (key == "traverse_time") {
+      r.traverse_time = optional_num();
+    } else if (key == "mean_abs_vz") {
+      r.mean_abs_vz = optional_num();
+    } else if (key == "mean_abs_wy") {
+      r.mean_abs_wy = optional_num();
+    } else if (key == "command") {
+      r.command = v.scalar();
+    } else {
+      throw std::runtime_error(source + ": line " + std::to_string(root.key(i).line()) +
+                               ": unknown key '" + key + "'");
+    }
+  }
+  for (const char* required : {"scenario", "seed", "passed"}) {
+    if (!seen[required]) throw std::runtime_error(source + ": missing key '" + required + "'");
+  }
+  return r;
+}
+
+Spread spreadOf(const std::vector<double>& values) {
+  Spread s;
+  s.n = static_cast<int>(values.size());
+  if (values.empty()) return s;
+  double sum = 0.0;
+  s.min = s.max = values[0];
+  for (double v : values) {
+    sum += v;
+    s.min = std::min(s.min, v);
+    s.max = std::max(s.max, v);
+  }
+  s.mean = sum / s.n;
+  double sq = 0.0;
+  for (double v : values) sq += (v - s.mean) * (v - s.mean);
+  s.stddev = s.n > 1 ? std::sqrt(sq / (s.n - 1)) : 0.0;  // sample standard deviation
+  return s;
+}
+
+std::vector<TrialAggregate> aggregate(std::vector<TrialResult> results) {
+  std::stable_sort(results.begin(), results.end(), [](const TrialResult& a, const TrialResult& b) {
+    return a.parameters.seed < b.parameters.seed;
+  });
+  std::vector<std::string> order;
+  std::map<std::string, std::vector<const TrialResult*>> groups;
+  for (const TrialResult& r : results) {
+    if (groups.count(r.scenario) == 0) order.push_back(r.scenario);
+    auto& group = groups[r.scenario];
+    for (const TrialResult* other : group) {
+      if (other->parameters.seed == r.parameters.seed) {
+        throw std::runtime_error("seed " + std::to_string(r.parameters.seed) + " of " + r.scenario +
+                                 " is in two result files: " + other->source + " and " + r.source);
+      }
+    }
+    group.push_back(&r);
+  }
+  std::vector<TrialAggregate> out;
+  for (const std::string& name : order) {
+    TrialAggregate a;
+    a.scenario = name;
+    std::vector<double> t, vz, wy;
+    for (const TrialResult* r : groups[name]) {
+      a.controller = r->controller;
+      ++a.trials;
+      if (r->passed) {
+        ++a.passed;
+        if (r->traverse_time) t.push_back(*r->traverse_time);
+        if (r->mean_abs_vz) vz.push_back(*r->mean_abs_vz);
+        if (r->mean_abs_wy) wy.push_back(*r->mean_abs_wy);
+      } else {
+        a.failures.push_back("seed " + std::to_string(r->parameters.seed) + ": " + r->failure);
+      }
+    }
+    a.traverse_time = spreadOf(t);
+    a.mean_abs_vz = spreadOf(vz);
+    a.mean_abs_wy = spreadOf(wy);
+    out.push_back(std::move(a));
+  }
+  return out;
+}
+
+std::string aggregateMarkdown(const std::vector<TrialAggregate>& aggregates) {
+  std::string out;
+  char line[600];
+  const auto cell = [&](const Spread& s, int digits) {
+    if (s.n == 0) return std::string("-");
+    char c[200];
+    std::snprintf(c, sizeof c, "%.*f ± %.*f (%.*f to %.*f)", digits, s.mean, digits, s.stddev,
+                  digits, s.min, digits, s.max);
+    return std::string(c);
+  };
+  out +=
+      "| scenario | controller | trials | passed | success rate | traverse time [s] | mean "
+      "\\|v_z\\| [m/s] | mean \\|w_y\\| [rad/s] |\n|---|---|---|---|---|---|---|---|\n";
+  for (const TrialAggregate& a : aggregates) {
+    std::snprintf(line, sizeof line, "| %s | %s | %d | %d | %.1f %% | %s | %s | %s |\n",
+                  a.scenario.c_str(), a.controller.c_str(), a.trials, a.passed,
+                  100.0 * a.successRate(), cell(a.traverse_time, 2).c_str(),
+                  cell(a.mean_abs_vz, 4).c_str(), cell(a.mean_abs_wy, 4).c_str());
+    out += line;
+  }
+  out += "\nMetrics over the passed trials: mean ± sample standard deviation (min to max).\n";
+  for (const TrialAggregate& a : aggregates) {
+    if (a.failures.empty()) continue;
+    out += "\nFailed trials of " + a.scenario + ":\n\n";
+    for (const std::string& f : a.failures) out += "- " + f + "\n";
+  }
+  return out;
+}
+
+namespace fs = std::filesystem;
+
+std::vector<TrialResult> collectResults(const std::vector<std::string>& dirs) {
+  std::vector<TrialResult> results;
+  for (const std::string& d : dirs) {
+    std::error_code ec;
+    if (!fs::is_directory(d, ec))
+      throw InputError("trial results folder '" + d + "': not a directory");
+    std::vector<fs::path> files;
+    for (auto it = fs::recursive_directory_iterator(d, ec);
+         !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
+      if (it->is_regular_file() && it->path().filename() == "result.yaml")
+        files.push_back(it->path());
+    }
+    std::sort(files.begin(), files.end());
+    for (const fs::path& f : files) {
+      results.push_back(parseTrialResult(readTextFile(f.string(), "trial result"), f.string()));
+    }
+  }
+  return results;
+}
+
+}  // namespace rollstep::experiments

@@ -1,0 +1,77 @@
+#pragma once
+// Randomized trials: every random quantity of a trial is drawn from its seed alone
+// (splitmix64, the same numbers on any machine and compiler), so that a trial is one
+// self-contained command and its result file can be written anywhere and collected later.
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "rollstep/sim/scene.hpp"
+#include "scenarios.hpp"
+
+namespace rollstep::experiments {
+
+struct TrialParameters {
+  std::uint64_t seed = 0;
+  double step_height = 0.0;   ///< [m] the first step's height
+  double friction = 0.0;      ///< terrain friction coefficient
+  double start_offset = 0.0;  ///< [m] added to the scene's start_x
+  /// Scale of the sensor noise. Drawn but not yet applied: `rollstep sim` runs on ground
+  /// truth until the sensor models land; then this becomes its noise option (the hook is
+  /// trialSimArgs).
+  double sensor_noise = 0.0;
+};
+
+/// The parameters of trial `seed`: each uniform in its range of `ranges`.
+TrialParameters drawTrial(std::uint64_t seed, const TrialRanges& ranges);
+/// `base` with the trial's step height, friction and start offset.
+sim::SceneConfig trialScene(const sim::SceneConfig& base, const TrialParameters& p);
+/// Extra `rollstep sim` options of a trial (empty while the sim has no sensor noise option).
+std::vector<std::string> trialSimArgs(const TrialParameters& p);
+
+/// "0-29", "7", "1,5,9-12" -> the seeds in order; throws std::invalid_argument naming the text.
+std::vector<std::uint64_t> parseSeeds(const std::string& text);
+
+/// One trial's result (result.yaml).
+struct TrialResult {
+  std::string scenario, controller;
+  TrialParameters parameters;
+  bool sensor_noise_applied = false;
+  bool passed = false;
+  std::string failure;  ///< why not passed
+  std::optional<double> traverse_time, mean_abs_vz, mean_abs_wy;
+  std::string command;  ///< the command that reproduces it
+  std::string source;   ///< file it was read from
+};
+
+std::string toYaml(const TrialResult& r);
+/// Throws std::runtime_error "<source>: line L: <key>: <problem>" for malformed files.
+TrialResult parseTrialResult(const std::string& text, const std::string& source);
+
+/// Statistics of one metric over the passed trials.
+struct Spread {
+  int n = 0;
+  double mean = 0.0, stddev = 0.0, min = 0.0, max = 0.0;
+};
+Spread spreadOf(const std::vector<double>& values);
+
+/// Aggregate of the results of one scenario.
+struct TrialAggregate {
+  std::string scenario, controller;
+  int trials = 0, passed = 0;
+  Spread traverse_time, mean_abs_vz, mean_abs_wy;
+  std::vector<std::string> failures;  ///< "seed 7: <reason>"
+  double successRate() const { return trials > 0 ? static_cast<double>(passed) / trials : 0.0; }
+};
+
+/// Results grouped by scenario (in order of first appearance), seeds sorted; a seed given
+/// twice for the same scenario is an error naming both files.
+std::vector<TrialAggregate> aggregate(std::vector<TrialResult> results);
+/// Every result.yaml under the folders (recursively, sorted by path), read. Throws
+/// InputError for a folder that is not one, std::runtime_error for a malformed file.
+std::vector<TrialResult> collectResults(const std::vector<std::string>& dirs);
+/// Markdown text of the aggregates.
+std::string aggregateMarkdown(const std::vector<TrialAggregate>& aggregates);
+
+}  // namespace rollstep::experiments

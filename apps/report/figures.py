@@ -1,0 +1,222 @@
+#!/usr/bin/python3
+"""Figures of `rollstep report` (called by it; Debian's /usr/bin/python3 + python3-matplotlib).
+
+Usage: figures.py FIGURES_JSON
+FIGURES_JSON (written by the report) names the output folder, each run (its log.csv and
+mpc.csv, pass/fail, traverse window, joint limits) and which runs feed which figure. Writes
+fig2.png, fig4.png, fig6.png and fig8.png into the output folder for the figures that have at
+least one run with a log; a failed run is drawn as far as its log goes and labelled FAILED.
+Only the standard library and matplotlib; plots only what the logs hold.
+"""
+import csv
+import json
+import math
+import os
+import sys
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+LEGS = ["LF", "MF", "RF", "LR", "MR", "RR"]
+
+
+def read_csv(path):
+    """Columns by name; cells that are not numbers become NaN."""
+    with open(path, newline="") as f:
+        rows = list(csv.reader(f))
+    if not rows:
+        return {}
+    names = rows[0]
+    cols = {n: [] for n in names}
+    for row in rows[1:]:
+        if len(row) != len(names):
+            continue
+        for n, v in zip(names, row):
+            try:
+                cols[n].append(float(v))
+            except ValueError:
+                cols[n].append(float("nan"))
+    return cols
+
+
+def local_vz(c):
+    out = []
+    for w, x, y, z, vx, vy, vz in zip(c["base_qw[-]"], c["base_qx[-]"], c["base_qy[-]"],
+                                      c["base_qz[-]"], c["base_vx[m/s]"], c["base_vy[m/s]"],
+                                      c["base_vz[m/s]"]):
+        n2 = w * w + x * x + y * y + z * z
+        s = 2.0 / n2 if n2 > 0 else 0.0
+        out.append(s * (x * z + w * y) * vx + s * (y * z - w * x) * vy +
+                   (1.0 - s * (x * x + y * y)) * vz)
+    return out
+
+
+def local_vx(c):
+    out = []
+    for w, x, y, z, vx, vy, vz in zip(c["base_qw[-]"], c["base_qx[-]"], c["base_qy[-]"],
+                                      c["base_qz[-]"], c["base_vx[m/s]"], c["base_vy[m/s]"],
+                                      c["base_vz[m/s]"]):
+        n2 = w * w + x * x + y * y + z * z
+        s = 2.0 / n2 if n2 > 0 else 0.0
+        out.append((1.0 - s * (y * y + z * z)) * vx + s * (x * y + w * z) * vy +
+                   s * (x * z - w * y) * vz)
+    return out
+
+
+def label(run):
+    return run["title"] + ("" if run["passed"] else " (FAILED)")
+
+
+def shade(ax, run, color):
+    if run.get("window"):
+        ax.axvspan(run["window"][0], run["window"][1], color=color, alpha=0.08)
+
+
+def fig2(spec, runs, out):
+    runs = [r for r in runs if r["log"]]
+    if not runs:
+        return False
+    fig, axes = plt.subplots(4, 1, figsize=(9, 9), sharex=True)
+    for k, run in enumerate(runs):
+        c = read_csv(run["log"])
+        t = c["time[s]"]
+        color = "C%d" % k
+        axes[0].plot(t, local_vz(c), color=color, lw=0.9, label=label(run))
+        axes[1].plot(t, c["base_wy[rad/s]"], color=color, lw=0.9)
+        axes[2].plot(t, c["foot_z_MF[m]"], color=color, lw=0.9)
+        axes[3].plot(t, c["foot_z_MR[m]"], color=color, lw=0.9)
+        for ax in axes:
+            shade(ax, run, color)
+    axes[0].set_ylabel("base local v_z [m/s]")
+    axes[1].set_ylabel("base local w_y [rad/s]")
+    axes[2].set_ylabel("MF wheel height [m]")
+    axes[3].set_ylabel("MR wheel height [m]")
+    axes[3].set_xlabel("time [s]")
+    axes[0].legend(loc="upper right", fontsize=8)
+    for ax in axes:
+        ax.grid(alpha=0.3)
+    fig.suptitle("step20: base motion and MF/MR wheel heights (shaded: traverse window)")
+    fig.tight_layout()
+    fig.savefig(os.path.join(out, "fig2.png"), dpi=90)
+    plt.close(fig)
+    return True
+
+
+def fig4(spec, runs, out):
+    runs = [r for r in runs if r["log"]]
+    if not runs:
+        return False
+    run = runs[0]
+    c = read_csv(run["log"])
+    t = c["time[s]"]
+    fig, axes = plt.subplots(4, 1, figsize=(9, 11), sharex=True)
+    axes[0].plot(t, local_vx(c), lw=0.9, label="v_x (local)")
+    axes[0].plot(t, local_vz(c), lw=0.9, label="v_z (local)")
+    axes[0].set_ylabel("base velocity [m/s]")
+    axes[0].legend(loc="upper right", fontsize=8)
+    for k, leg in enumerate(LEGS):
+        color = "C%d" % k
+        for ax, joint, unit in ((axes[1], "hip", "rad"), (axes[2], "knee", "m")):
+            name = "%s_%s" % (leg, joint)
+            col = "q_%s[%s]" % (name, unit)
+            if col not in c:
+                continue
+            ax.plot(t, c[col], color=color, lw=0.9, label=leg)
+            if name in run["limits"]:
+                lo, hi = run["limits"][name]
+                ax.axhline(lo, color=color, ls="--", lw=0.7)
+                ax.axhline(hi, color=color, ls="--", lw=0.7)
+        axes[3].plot(t, c["foot_z_%s[m]" % leg], color=color, lw=0.9, label=leg)
+    axes[1].set_ylabel("hip positions [rad]")
+    axes[2].set_ylabel("knee positions [m]")
+    axes[3].set_ylabel("wheel heights [m]")
+    axes[3].set_xlabel("time [s]")
+    axes[1].legend(loc="upper right", fontsize=7, ncol=6)
+    for ax in axes:
+        ax.grid(alpha=0.3)
+        shade(ax, run, "C7")
+    fig.suptitle(label(run) + ": limits dashed")
+    fig.tight_layout()
+    fig.savefig(os.path.join(out, "fig4.png"), dpi=90)
+    plt.close(fig)
+    return True
+
+
+def fig6(spec, runs, machine, out):
+    runs = [r for r in runs if r["mpc"]]
+    if not runs:
+        return False
+    fig, ax = plt.subplots(1, 1, figsize=(9, 4))
+    for k, run in enumerate(runs):
+        c = read_csv(run["mpc"])
+        # The first row is the initial converging solve, not an update.
+        t, ms = c["time[s]"][1:], c["solve_time[ms]"][1:]
+        if not ms:
+            continue
+        mean = sum(ms) / len(ms)
+        ax.plot(t, ms, ".", ms=3, color="C%d" % k,
+                label="%s: mean %.1f ms, max %.1f ms (%d updates)" % (label(run), mean, max(ms), len(ms)))
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("MPC update time [ms] (wall clock)")
+    ax.set_title(machine, fontsize=8)
+    ax.grid(alpha=0.3)
+    ax.legend(loc="upper right", fontsize=8)
+    fig.tight_layout()
+    fig.savefig(os.path.join(out, "fig6.png"), dpi=90)
+    plt.close(fig)
+    return True
+
+
+def fig8(spec, runs, out):
+    runs = [r for r in runs if r["log"]]
+    if not runs:
+        return False
+    joints = [("MF_knee", "m"), ("LF_hip", "rad")]
+    fig, axes = plt.subplots(len(joints), len(runs), figsize=(5 * len(runs), 6), squeeze=False,
+                             sharey="row")
+    for col, run in enumerate(runs):
+        c = read_csv(run["log"])
+        t = c["time[s]"]
+        for row, (joint, unit) in enumerate(joints):
+            ax = axes[row][col]
+            ax.plot(t, c["cmd_%s[%s]" % (joint, unit)], lw=0.9, label="target (command)")
+            ax.plot(t, c["q_%s[%s]" % (joint, unit)], lw=0.9, label="actual")
+            ax.set_ylabel("%s [%s]" % (joint, unit))
+            ax.grid(alpha=0.3)
+            if row == 0:
+                ax.set_title(label(run), fontsize=9)
+                ax.legend(loc="upper right", fontsize=8)
+        axes[-1][col].set_xlabel("time [s]")
+    fig.tight_layout()
+    fig.savefig(os.path.join(out, "fig8.png"), dpi=90)
+    plt.close(fig)
+    return True
+
+
+def main():
+    if len(sys.argv) != 2:
+        sys.exit("usage: figures.py FIGURES_JSON")
+    with open(sys.argv[1]) as f:
+        spec = json.load(f)
+    out = spec["out"]
+    runs = spec["runs"]
+    pick = lambda key: [runs[name] for name in spec["figures"].get(key, [])]  # noqa: E731
+    made = []
+    jobs = [("fig2", lambda: fig2(spec, pick("table1"), out)),
+            ("fig4", lambda: fig4(spec, pick("fig4"), out)),
+            ("fig6", lambda: fig6(spec, pick("fig6"), spec["machine"], out)),
+            ("fig8", lambda: fig8(spec, pick("fig8"), out))]
+    for name, job in jobs:
+        # One figure's trouble (a log without a column) must not cost the others.
+        try:
+            if job():
+                made.append(name + ".png")
+        except Exception as e:  # noqa: BLE001
+            print("%s: %s: %s" % (name, type(e).__name__, e), file=sys.stderr)
+    print("figures.py: wrote " + (", ".join(made) if made else "nothing"))
+
+
+if __name__ == "__main__":
+    main()

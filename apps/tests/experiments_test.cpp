@@ -1,0 +1,353 @@
+// The experiments' computations on synthetic logs and files: traverse window detection,
+// Table 1 means in the base frame, the pass criteria, the experiments file loader, the
+// trials' seeded draws, result files and aggregate, the report document.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "experiments/document.hpp"
+#include "experiments/log_table.hpp"
+#include "experiments/metrics.hpp"
+#include "experiments/process.hpp"
+#include "experiments/scenarios.hpp"
+#include "experiments/trials.hpp"
+
+namespace rollstep::experiments {
+namespace {
+
+constexpr double kR = 0.075;       // wheel radius
+constexpr double kUp = kR + 0.10;  // up_height for a 0.20 m step
+constexpr double kDt = 0.01;
+
+/// A synthetic step traverse: MF lifts at 2.00 s, lands up at 2.40 s; MR stands up from
+/// 5 s, lifts at 9.00 s, touches down on the floor at 9.50 s; trots on the floor before and
+/// after (lift-offs that are not the climb). The base pitches with w_y = 0.1 inside
+/// [2, 9.5] and 0.5 outside, and rises with local v_z = 0.02 inside.
+struct Synthetic {
+  std::vector<double> t, mf_z, mf_c, mr_z, mr_c;
+  Synthetic() {
+    for (int i = 0; i <= 1200; ++i) {
+      const double ti = i * kDt;
+      t.push_back(ti);
+      // MF: floor trot lift-offs at 0.5-0.7 s and 1.2-1.4 s; the climb 2.0-2.4 s; up after.
+      const bool mf_swing = (ti >= 0.5 && ti < 0.7) || (ti >= 1.2 && ti < 1.4) ||
+                            (ti >= 2.0 && ti < 2.4) || (ti >= 6.0 && ti < 6.2);
+      mf_c.push_back(mf_swing ? 0 : 1);
+      mf_z.push_back(ti < 2.2 ? (mf_swing ? kR + 0.05 : kR) : kR + 0.20 + (mf_swing ? 0.05 : 0.0));
+      // MR: floor until 4.6 s, up from 5.0 to 9.0 s, down at 9.5 s, one more floor step.
+      const bool mr_swing =
+          (ti >= 4.6 && ti < 5.0) || (ti >= 9.0 && ti < 9.5) || (ti >= 10.5 && ti < 10.7);
+      mr_c.push_back(mr_swing ? 0 : 1);
+      mr_z.push_back(ti >= 4.8 && ti < 9.2 ? kR + 0.20 : kR + (mr_swing ? 0.05 : 0.0));
+    }
+  }
+};
+
+TEST(TraverseWindow, FromTheClimbLiftOffToTheDescentTouchDown) {
+  const Synthetic s;
+  const TraverseWindow w = findTraverseWindow(s.t, s.mf_z, s.mf_c, s.mr_z, s.mr_c, kUp);
+  ASSERT_TRUE(w.found) << w.reason;
+  EXPECT_NEAR(w.start, 2.0, 1e-9);  // not the floor lift-offs at 0.5 or 1.2 s
+  EXPECT_NEAR(w.end, 9.5, 1e-9);    // not the floor touch-down at 10.7 s
+}
+
+TEST(TraverseWindow, SaysWhyWhenThereIsNone) {
+  Synthetic s;
+  // MF never lands up (bumps into the step).
+  std::vector<double> low(s.t.size(), kR);
+  TraverseWindow w = findTraverseWindow(s.t, low, s.mf_c, s.mr_z, s.mr_c, kUp);
+  EXPECT_FALSE(w.found);
+  EXPECT_EQ(w.reason, "the MF wheel never landed on the step");
+  // MR stays up to the end.
+  std::vector<double> mr_up = s.mr_z;
+  for (std::size_t i = 480; i < mr_up.size(); ++i) mr_up[i] = kR + 0.20;
+  w = findTraverseWindow(s.t, s.mf_z, s.mf_c, mr_up, s.mr_c, kUp);
+  EXPECT_FALSE(w.found);
+  EXPECT_NE(w.reason.find("the MR wheel did not come down"), std::string::npos) << w.reason;
+  // MR never gets up.
+  w = findTraverseWindow(s.t, s.mf_z, s.mf_c, low, s.mr_c, kUp);
+  EXPECT_EQ(w.reason, "the MR wheel never stood on the step");
+  // MF rolled onto the step without lifting off.
+  std::vector<double> always(s.t.size(), 1.0);
+  w = findTraverseWindow(s.t, s.mf_z, always, s.mr_z, s.mr_c, kUp);
+  EXPECT_EQ(w.reason, "no MF lift-off before it reached the step");
+  EXPECT_THROW(findTraverseWindow(s.t, low, s.mf_c, s.mr_z, {1.0}, kUp), std::invalid_argument);
+}
+
+/// A log.csv text of the synthetic traverse with the base pitched by `pitch` (constant) and
+/// its world velocity chosen so that the local v_z is 0.02 inside the window, 0.3 outside.
+std::string syntheticLog(double pitch, bool body_touch, double knee_peak) {
+  const Synthetic s;
+  std::string text =
+      "time[s],base_qw[-],base_qx[-],base_qy[-],base_qz[-],base_vx[m/s],base_vy[m/s],base_vz[m/s],"
+      "base_wy[rad/s],foot_z_MF[m],contact_MF[0/1],foot_z_MR[m],contact_MR[0/1],"
+      "body_contact_periods[-],q_MF_knee[m],qp_status\n";
+  const double qw = std::cos(pitch / 2), qy = std::sin(pitch / 2);
+  char row[400];
+  for (std::size_t i = 0; i < s.t.size(); ++i) {
+    const bool inside = s.t[i] >= 2.0 - 1e-9 && s.t[i] <= 9.5 + 1e-9;
+    const double vz_local = inside ? 0.02 : 0.3;
+    const double vx_local = 0.2;
+    // world = R_y(pitch) * local: x' = c x + s z, z' = -s x + c z.
+    const double vx = std::cos(pitch) * vx_local + std::sin(pitch) * vz_local;
+    const double vz = -std::sin(pitch) * vx_local + std::cos(pitch) * vz_local;
+    const double wy = (inside ? 0.1 : 0.5) * (i % 2 == 0 ? 1 : -1);  // |w_y| matters
+    const long body = body_touch && s.t[i] > 5.0 ? 3 : 0;
+    const double knee = i == 700 ? knee_peak : 0.2;
+    std::snprintf(row, sizeof row,
+                  "%.2f,%.9f,0,%.9f,0,%.9f,0,%.9f,%.3f,%.4f,%.0f,%.4f,%.0f,%ld,%.4f,%s\n", s.t[i],
+                  qw, qy, vx, vz, wy, s.mf_z[i], s.mf_c[i], s.mr_z[i], s.mr_c[i], body, knee,
+                  i % 3 == 0 ? "optimal" : "fallback");
+    text += row;
+  }
+  return text;
+}
+
+TEST(Table1, MeansInTheBaseFrameOverTheWindow) {
+  const LogTable log = LogTable::parse(syntheticLog(0.3, false, 0.2), "synthetic");
+  const TraverseWindow w = findTraverseWindow(log, kUp);
+  ASSERT_TRUE(w.found);
+  const Table1Metrics m = table1Metrics(log, w);
+  EXPECT_NEAR(m.traverse_time, 7.5, 1e-9);
+  EXPECT_EQ(m.samples, 751);               // rows 2.00 .. 9.50
+  EXPECT_NEAR(m.mean_abs_vz, 0.02, 1e-6);  // local, not the world's (which mixes in v_x)
+  EXPECT_NEAR(m.mean_abs_wy, 0.1, 1e-9);   // absolute values, outside rows excluded
+  const std::vector<double> vz = localVz(log);
+  EXPECT_NEAR(vz[0], 0.3, 1e-6);
+  EXPECT_THROW(table1Metrics(log, TraverseWindow{}), std::invalid_argument);
+}
+
+TEST(PassCriteria, EachFailureIsNamed) {
+  std::vector<JointLimit> limits{{"MF_knee", 0.0, 0.36}};
+  RunCriteria criteria;
+  // A clean run passes.
+  RunAssessment a =
+      assessRun(LogTable::parse(syntheticLog(0.1, false, 0.2), "ok"), limits, criteria, true, kUp);
+  EXPECT_TRUE(a.passed()) << (a.failures.empty() ? "" : a.failures[0]);
+  EXPECT_EQ(a.body_contact_periods, 0);
+  ASSERT_TRUE(a.metrics.has_value());
+  // Body contact.
+  a = assessRun(LogTable::parse(syntheticLog(0.1, true, 0.2), "body"), limits, criteria, true, kUp);
+  ASSERT_EQ(a.failures.size(), 1u);
+  EXPECT_NE(a.failures[0].find("the body touched the terrain (first logged at t = 5.01 s"),
+            std::string::npos)
+      << a.failures[0];
+  // A joint beyond its limit by more than the tolerance (within it: passes).
+  a = assessRun(LogTable::parse(syntheticLog(0.1, false, 0.365), "joint"), limits, criteria, true,
+                kUp);
+  EXPECT_TRUE(a.passed());
+  a = assessRun(LogTable::parse(syntheticLog(0.1, false, 0.40), "joint"), limits, criteria, true,
+                kUp);
+  ASSERT_EQ(a.failures.size(), 1u);
+  EXPECT_NE(a.failures[0].find("MF_knee left its limits: 0.4000 at t = 7.00 s"), std::string::npos)
+      << a.failures[0];
+  // A fall: tilted 60 deg.
+  a = assessRun(LogTable::parse(syntheticLog(M_PI / 3, false, 0.2), "fall"), limits, criteria, true,
+                kUp);
+  ASSERT_EQ(a.failures.size(), 1u);
+  EXPECT_NE(a.failures[0].find("fell: the base tilted 60 deg"), std::string::npos) << a.failures[0];
+  // No traverse: required or not.
+  const LogTable flat = LogTable::parse(syntheticLog(0.1, false, 0.2), "flat");
+  a = assessRun(flat, limits, criteria, true, 10.0);
+  ASSERT_EQ(a.failures.size(), 1u);
+  EXPECT_EQ(a.failures[0], "did not traverse the step: the MF wheel never landed on the step");
+  EXPECT_TRUE(assessRun(flat, limits, criteria, false, 10.0).passed());
+  // A log without the body contact column cannot pass.
+  const LogTable old = LogTable::parse(
+      "time[s],base_qw[-],base_qx[-],base_qy[-],base_qz[-],"
+      "foot_z_MF[m],contact_MF[0/1],foot_z_MR[m],contact_MR[0/1]\n"
+      "0,1,0,0,0,0.075,1,0.075,1\n",
+      "old");
+  a = assessRun(old, {}, criteria, false, kUp);
+  ASSERT_EQ(a.failures.size(), 1u);
+  EXPECT_NE(a.failures[0].find("body contact not checked"), std::string::npos);
+}
+
+TEST(LogTable, ColumnsWordsAndErrors) {
+  const LogTable t = LogTable::parse("a[s],status\n1,ok\n2.5,fallback\n", "x.csv");
+  EXPECT_EQ(t.rows(), 2u);
+  EXPECT_EQ(t.column("a[s]")[1], 2.5);
+  EXPECT_TRUE(std::isnan(t.column("status")[0]));
+  EXPECT_EQ(t.text("status")[1], "fallback");
+  try {
+    (void)t.column("b[s]");
+    FAIL();
+  } catch (const std::runtime_error& e) {
+    EXPECT_STREQ(e.what(), "x.csv: no column 'b[s]'");
+  }
+  try {
+    LogTable::parse("a,b\n1,2\n3\n", "y.csv");
+    FAIL();
+  } catch (const std::runtime_error& e) {
+    EXPECT_STREQ(e.what(), "y.csv: line 3: 1 fields, the header has 2");
+  }
+  EXPECT_THROW(LogTable::parse("", "empty"), std::runtime_error);
+  EXPECT_THROW(LogTable::parse("a,a\n", "twice"), std::runtime_error);
+}
+
+TEST(ExperimentSet, LoadsTheProjectsFileAndRefusesMistakes) {
+  const ExperimentSet set =
+      loadExperimentSet(std::string(ROLLSTEP_SOURCE_DIR) + "/config/experiments.yaml");
+  ASSERT_NE(set.find("step20_nmpc"), nullptr);
+  ASSERT_NE(set.find("step20_cbfqp"), nullptr);
+  EXPECT_TRUE(set.find("step20_nmpc")->feeds("table1"));
+  EXPECT_EQ(set.find("step20_nmpc")->paper.traverse_time, 14.0);
+  EXPECT_EQ(set.find("step20_cbfqp")->paper.mean_abs_vz, 0.055);
+  EXPECT_EQ(set.acceptance.traverse_time, -0.20);
+  EXPECT_EQ(set.trials.step_height_min, 0.10);
+  const std::vector<std::string> args = set.find("step20_nmpc")->simArgs("/o");
+  EXPECT_EQ(shellCommand(args).substr(0, 53),
+            "sim --scene step20 --controller nmpc --duration 30 --");
+  EXPECT_EQ(args.back(), "/o");
+
+  const std::string ok = "scenarios:\n  - {name: a, scene: flat, controller: nmpc}\n";
+  EXPECT_EQ(parseExperimentSet(ok, "f", "/d").scenarios.size(), 1u);
+  const auto error = [](const std::string& text) {
+    try {
+      parseExperimentSet(text, "f", "/d");
+    } catch (const std::runtime_error& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(error("scenarios:\n  - {name: a, scene: moon, controller: nmpc}\n"),
+            "f: line 2: scenarios[0].scene: 'moon' is not flat, step20 or stairs2");
+  EXPECT_EQ(error("scenarios:\n  - {name: a, scene: flat, controler: nmpc}\n").substr(0, 48),
+            "f: line 2: unknown key 'scenarios[0].controler' ");
+  EXPECT_EQ(error("scenarios:\n  - {name: a, scene: flat}\n"),
+            "f: line 2: scenarios[0].controller: missing (required)");
+  EXPECT_EQ(error(ok + "  - {name: a, scene: flat, controller: x}\n"),
+            "f: line 3: scenarios[1].name: 'a' is used by another scenario");
+  EXPECT_EQ(error(ok + "criteria:\n  max_tilt: 9\n"),
+            "f: line 4: criteria.max_tilt: 9 is outside [0.01, 3.141592653589793]");
+  EXPECT_EQ(error(ok + "acceptance: {candidate: a, baseline: b}\n"),
+            "f: line 3: acceptance: no scenario named 'b'");
+  EXPECT_EQ(error(ok + "trials: {friction: [1.0, 0.6]}\n"),
+            "f: line 3: trials.friction: min is above max");
+  EXPECT_EQ(error("scenarios:\n  - {name: a/b, scene: flat, controller: x}\n"),
+            "f: line 2: scenarios[0].name: 'a/b': only letters, digits, '_' and '-' (it names a "
+            "folder)");
+  EXPECT_EQ(error("scenarios: []\n"), "f: no scenarios");
+  EXPECT_EQ(error("scenarios:\n  - {name: a, scene: flat, controller: x, figures: [fig9]}\n"),
+            "f: line 2: scenarios[0].figures: 'fig9' is not table1, fig4, fig6, fig8 or snapshots");
+}
+
+TEST(Trials, DrawsAreFixedBySeedAndInRange) {
+  const TrialRanges r;
+  std::set<double> heights;
+  for (std::uint64_t seed = 0; seed < 200; ++seed) {
+    const TrialParameters p = drawTrial(seed, r);
+    const TrialParameters q = drawTrial(seed, r);
+    EXPECT_EQ(p.step_height, q.step_height);
+    EXPECT_EQ(p.friction, q.friction);
+    EXPECT_GE(p.step_height, 0.10);
+    EXPECT_LE(p.step_height, 0.20);
+    EXPECT_GE(p.friction, 0.6);
+    EXPECT_LE(p.friction, 1.0);
+    EXPECT_GE(p.start_offset, -0.2);
+    EXPECT_LE(p.start_offset, 0.2);
+    heights.insert(p.step_height);
+  }
+  EXPECT_GT(heights.size(), 150u);  // not a constant
+  // Fixed numbers: the same on every machine (splitmix64, not the library's distributions).
+  const TrialParameters p7 = drawTrial(7, r);
+  // (Computed independently with Python's integers from the splitmix64 definition.)
+  EXPECT_EQ(p7.step_height, 0.139);
+  EXPECT_EQ(p7.friction, 0.6067);
+  EXPECT_EQ(p7.start_offset, 0.1603);
+  EXPECT_EQ(p7.sensor_noise, 1.0829);
+  sim::SceneConfig base;
+  base.kind = sim::SceneKind::kStep20;
+  const sim::SceneConfig s = trialScene(base, p7);
+  EXPECT_EQ(s.step1_height, p7.step_height);
+  EXPECT_EQ(s.friction, p7.friction);
+  EXPECT_NEAR(s.start_x, 1.0 + p7.start_offset, 1e-12);
+}
+
+TEST(Trials, SeedLists) {
+  EXPECT_EQ(parseSeeds("0-3"), (std::vector<std::uint64_t>{0, 1, 2, 3}));
+  EXPECT_EQ(parseSeeds("7"), (std::vector<std::uint64_t>{7}));
+  EXPECT_EQ(parseSeeds("1,5,9-10"), (std::vector<std::uint64_t>{1, 5, 9, 10}));
+  for (const char* bad : {"", "a", "3-1", "1,1", "-1", "1-", "0-1000000", "1.5"}) {
+    EXPECT_THROW(parseSeeds(bad), std::invalid_argument) << bad;
+  }
+}
+
+TEST(Trials, ResultFilesRoundTripAndAggregate) {
+  std::vector<TrialResult> results;
+  for (std::uint64_t seed = 0; seed < 4; ++seed) {
+    TrialResult r;
+    r.scenario = "step20_nmpc";
+    r.controller = "nmpc";
+    r.parameters = drawTrial(seed, TrialRanges{});
+    r.passed = seed != 2;
+    if (r.passed) {
+      r.traverse_time = 10.0 + static_cast<double>(seed);
+      r.mean_abs_vz = 0.02;
+      r.mean_abs_wy = 0.05;
+    } else {
+      r.failure = "fell: \"the base\" tilted";
+    }
+    r.command = "rollstep trials --seeds " + std::to_string(seed);
+    const TrialResult back = parseTrialResult(toYaml(r), "r" + std::to_string(seed));
+    EXPECT_EQ(back.parameters.step_height, r.parameters.step_height);
+    EXPECT_EQ(back.passed, r.passed);
+    EXPECT_EQ(back.failure, r.failure);
+    EXPECT_EQ(back.traverse_time, r.traverse_time);
+    EXPECT_EQ(back.command, r.command);
+    results.push_back(back);
+  }
+  const std::vector<TrialAggregate> a = aggregate(results);
+  ASSERT_EQ(a.size(), 1u);
+  EXPECT_EQ(a[0].trials, 4);
+  EXPECT_EQ(a[0].passed, 3);
+  EXPECT_DOUBLE_EQ(a[0].successRate(), 0.75);
+  EXPECT_DOUBLE_EQ(a[0].traverse_time.mean, (10.0 + 11.0 + 13.0) / 3.0);
+  EXPECT_NEAR(
+      a[0].traverse_time.stddev,
+      std::sqrt(((-4.0 / 3) * (-4.0 / 3) + (-1.0 / 3) * (-1.0 / 3) + (5.0 / 3) * (5.0 / 3)) / 2.0),
+      1e-12);
+  EXPECT_EQ(a[0].traverse_time.min, 10.0);
+  EXPECT_EQ(a[0].failures, std::vector<std::string>{"seed 2: fell: \"the base\" tilted"});
+  const std::string md = aggregateMarkdown(a);
+  EXPECT_NE(md.find("| step20_nmpc | nmpc | 4 | 3 | 75.0 % | 11.33 ± 1.53 (10.00 to 13.00)"),
+            std::string::npos)
+      << md;
+  // The same seed twice is an error naming both files.
+  results.push_back(results[0]);
+  results.back().source = "elsewhere";
+  EXPECT_THROW(aggregate(results), std::runtime_error);
+  EXPECT_THROW(parseTrialResult("scenario: a\nseed: 1\npassed: maybe\n", "x"), std::runtime_error);
+  EXPECT_THROW(parseTrialResult("scenario: a\nseed: 1\n", "x"), std::runtime_error);
+  EXPECT_THROW(parseTrialResult("scenario: a\nseed: 1\npassed: true\nextra: 1\n", "x"),
+               std::runtime_error);
+}
+
+TEST(Document, MarkdownAndHtmlCarryTheSameContent) {
+  Document d;
+  d.heading(2, "Table 1");
+  d.paragraph("mean |v_z| <with> `code`");
+  d.table({"a", "b|c"}, {{"1", "x|y"}});
+  d.image("fig2.png", "caption");
+  d.code("rollstep report --out 'a b'");
+  const std::string md = d.markdown();
+  const std::string html = d.html("t");
+  EXPECT_NE(md.find("## Table 1\n"), std::string::npos);
+  EXPECT_NE(md.find("| 1 | x\\|y |"), std::string::npos);
+  EXPECT_NE(md.find("![caption](fig2.png)"), std::string::npos);
+  EXPECT_NE(html.find("<h2>Table 1</h2>"), std::string::npos);
+  EXPECT_NE(html.find("mean |v_z| &lt;with&gt; <code>code</code>"), std::string::npos);
+  EXPECT_NE(html.find("<img src=\"fig2.png\""), std::string::npos);
+  EXPECT_NE(html.find("<pre>rollstep report --out 'a b'</pre>"), std::string::npos);
+}
+
+TEST(Process, ShellQuoting) {
+  EXPECT_EQ(shellCommand({"rollstep", "sim", "--out", "a b", "it's"}),
+            "rollstep sim --out 'a b' 'it'\\''s'");
+}
+
+}  // namespace
+}  // namespace rollstep::experiments
