@@ -115,4 +115,11 @@ std::string defaultRobotDescription() {
   return std::string(ROLLSTEP_ROBOTS_DIR) + "/tachyon3/centroidal.yaml";
 }
 
+std::string defaultBaselineConfig() {
+  if (const char* dir = std::getenv("ROLLSTEP_CONFIG_DIR"); dir != nullptr && *dir != '\0') {
+    return std::string(dir) + "/baseline.yaml";
+  }
+  return std::string(ROLLSTEP_CONFIG_DIR) + "/baseline.yaml";
+}
+
 }  // namespace rollstep::apps
