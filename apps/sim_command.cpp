@@ -1,8 +1,8 @@
 // `rollstep sim`: the plant demo. Loads a scene with the Tachyon 3 MJCF, runs a controller
 // (stand: hold the nominal posture; drive: hold it and roll on the drive wheels; nmpc: the
 // full control pipeline, NMPC + CBF-QP + internal state integrator, on the ground-truth
-// state; cbfqp: the CBF-QP baseline without MPC) for a duration, writes DIR/log.csv and DIR/summary.txt (nmpc also DIR/mpc.csv),
-// prints the summary.
+// state; cbfqp: the CBF-QP baseline without MPC) for a duration, writes DIR/log.csv and
+// DIR/summary.txt (nmpc also DIR/mpc.csv), prints the summary.
 //
 // Outputs rule (README "Outputs"): a run that fails on its inputs (options, scene config,
 // robot file) writes nothing. Once the simulation starts, the previous run's log.csv,
@@ -335,8 +335,7 @@ void registerSimCommand(CLI::App& app) {
           ->check(numberIn(-0.5, 0.5, "m/s"))
           ->capture_default_str());
   pipeline_only.push_back(
-      cmd->add_option("--yaw-rate", options->yaw_rate,
-                      "nmpc, cbfqp only: yaw rate command [rad/s]")
+      cmd->add_option("--yaw-rate", options->yaw_rate, "nmpc, cbfqp only: yaw rate command [rad/s]")
           ->check(numberIn(-1.0, 1.0, "rad/s"))
           ->capture_default_str());
   pipeline_only.push_back(
@@ -399,8 +398,9 @@ void registerSimCommand(CLI::App& app) {
       }
     }
     if (options->controller == "cbfqp" && options->gait == "static_walk") {
-      throw CLI::ValidationError("--gait", "static_walk is not a gait of the cbfqp baseline "
-                                           "(standing, rolling or trot)");
+      throw CLI::ValidationError("--gait",
+                                 "static_walk is not a gait of the cbfqp baseline "
+                                 "(standing, rolling or trot)");
     }
     if (options->controller != "nmpc") {
       for (const CLI::Option* option : nmpc_only) {

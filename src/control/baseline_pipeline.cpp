@@ -30,10 +30,10 @@ BaselinePipeline::BaselinePipeline(const centroidal::RobotOcpDescription& robot,
                                    planning::GaitKind gait)
     : settings_(settings) {
   checkSettings(settings_);
-  ocp_ = std::make_unique<centroidal::CentroidalOcp>(robot, plannerOcpSettings(settings_),
-                                                     terrain, gait);
+  ocp_ = std::make_unique<centroidal::CentroidalOcp>(robot, plannerOcpSettings(settings_), terrain,
+                                                     gait);
   collision_terrain_ = std::make_unique<planning::TerrainModel>(collision_terrain);
-  planner_ = std::make_unique<ReactivePlanner>(*ocp_, settings_.baseline);
+  planner_ = std::make_unique<ReactivePlanner>(*ocp_, *collision_terrain_, settings_.baseline);
   filter_ = std::make_unique<CbfQpFilter>(ocp_->robotPtr(), ocp_->terrain(), settings_.cbf_qp, 0.0,
                                           collision_terrain_.get());
   const centroidal::CentroidalRobot& r = ocp_->robot();
@@ -92,9 +92,8 @@ void BaselinePipeline::computeTargets() noexcept {
   const double stance = settings_.baseline.stance_foot_gain;
   for (int i = 0; i < r.nc(); ++i) {
     const double scale = centroidal::CentroidalRobot::inStance(plan_.mode, i) ? stance : 1.0;
-    targets_.feet.col(i) =
-        scale * (fb.foot_kp * (plan_.foot_position.col(i) - foot_p_.col(i)) +
-                 fb.foot_kd * (plan_.foot_velocity.col(i) - foot_v_.col(i)));
+    targets_.feet.col(i) = scale * (fb.foot_kp * (plan_.foot_position.col(i) - foot_p_.col(i)) +
+                                    fb.foot_kd * (plan_.foot_velocity.col(i) - foot_v_.col(i)));
   }
 }
 
@@ -134,7 +133,13 @@ void BaselinePipeline::tick(const RobotState& state, JointCommand& command) noex
   record_.qp_iterations = filter_->qpIterations();
   record_.active_barriers = filter_->activeBarriers();
   record_.correction = filter_->correction();
-  if (record_.cbf_status != CbfQpStatus::Optimal) ++counters_.qp_fallbacks;
+  if (record_.cbf_status != CbfQpStatus::Optimal) {
+    // The filter's fallback keeps the base velocity; here the commanded base brakes as well:
+    // the drive wheels follow the commanded base, and rolling on unfiltered carries a
+    // stance wheel over an edge.
+    ++counters_.qp_fallbacks;
+    a_.head<6>() = -integrator_->v().head<6>() / settings_.cbf_qp.fallback_brake_time;
+  }
   integrator_->step(a_, q_meas_, v_meas_);
 
   // Commands.

@@ -23,7 +23,7 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr int kMinRegionEdges = 8;
 /// The most feet the support polygon takes (convexHull's limit).
 constexpr int kMaxContactsForHull = 64;
-/// A prism is an obstacle for a wheel when its top is this much above the ground under it [m].
+/// Prisms whose tops differ by less than this are level with each other [m].
 constexpr double kObstacleStep = 1e-3;
 /// |quaternion norm - 1| above this is refused as InvalidInput.
 constexpr double kQuaternionNormTolerance = 1e-3;
@@ -327,10 +327,14 @@ CbfQpStatus CbfQpFilter::filter(const Eigen::Ref<const Eigen::VectorXd>& q,
   const planning::TerrainModel& solids = *collision_terrain_;
   auto obstacle = [&](int i, int j) {
     const Eigen::Vector3d p = w.foot_position.col(i);
-    const double ground = solids.heightAt(p.head<2>(), -kInf);
+    const int given = regions != nullptr ? regions[i].support_prism : -1;
+    const int support = given >= 0 && given < solids.size() ? given : solids.regionAt(p.head<2>());
     const planning::ConvexRegion& prism = solids.region(j);
-    return prism.height > ground + kObstacleStep &&
-           prismFaceDistance(prism, p) - robot.contactOffset() <= s.collision_range;
+    if (j == support ||
+        (support >= 0 && std::abs(prism.height - solids.region(support).height) <= kObstacleStep)) {
+      return false;
+    }
+    return prismFaceDistance(prism, p) - robot.contactOffset() <= s.collision_range;
   };
   int n_eq = 0, n_ineq = 0;
   for (int i = 0; i < nc; ++i) {
@@ -507,8 +511,8 @@ CbfQpStatus CbfQpFilter::filter(const Eigen::Ref<const Eigen::VectorXd>& q,
     const double gs = s.support_gamma;
     for (int e = 0; e < w.hull_size; ++e) {
       const int ia = w.support_feet[static_cast<size_t>(w.hull[static_cast<size_t>(e)])];
-      const int ib = w.support_feet[static_cast<size_t>(
-          w.hull[static_cast<size_t>((e + 1) % w.hull_size)])];
+      const int ib =
+          w.support_feet[static_cast<size_t>(w.hull[static_cast<size_t>((e + 1) % w.hull_size)])];
       const Eigen::Vector2d pa = w.foot_position.col(ia).head<2>();
       const Eigen::Vector2d pb = w.foot_position.col(ib).head<2>();
       const Eigen::Vector2d edge = pb - pa;

@@ -49,11 +49,13 @@ void check(bool ok, const char* what) {
 }  // namespace
 
 ReactivePlanner::ReactivePlanner(const centroidal::CentroidalOcp& ocp,
+                                 const planning::TerrainModel& collision_terrain,
                                  const BaselineSettings& settings)
-    : ocp_(&ocp), settings_(settings) {
+    : ocp_(&ocp), solids_(&collision_terrain), settings_(settings) {
   check(settings.gait_period > 0.0 && std::isfinite(settings.gait_period),
         "baseline.gait_period must be finite and > 0");
-  check(settings.trot_duty > 0.5 && settings.trot_duty < 1.0, "baseline.trot_duty must be in (0.5, 1)");
+  check(settings.trot_duty > 0.5 && settings.trot_duty < 1.0,
+        "baseline.trot_duty must be in (0.5, 1)");
   check(settings.swing_clearance >= 0.0 && settings.foothold_lookahead >= 0.0 &&
             settings.height_lookahead >= 0.0 && settings.height_offset >= 0.0 &&
             settings.max_height_rate > 0.0,
@@ -164,8 +166,8 @@ void ReactivePlanner::plan(double t, const Eigen::VectorXd& q_meas, const Eigen:
   }
   out.terrain_high = high;
   out.terrain_low = low;
-  const double target = ocp_->nominalHeight() + high +
-                        (high - low > kLevelTolerance ? settings_.height_offset : 0.0);
+  const double target =
+      ocp_->nominalHeight() + high + (high - low > kLevelTolerance ? settings_.height_offset : 0.0);
   const double dt_h = std::max(0.0, t - height_time_);
   height_time_ = t;
   const double step = std::clamp(target - height_ref_, -settings_.max_height_rate * dt_h,
@@ -175,8 +177,7 @@ void ReactivePlanner::plan(double t, const Eigen::VectorXd& q_meas, const Eigen:
       std::abs(target - height_ref_) > 1e-9 ? std::copysign(settings_.max_height_rate, step) : 0.0;
 
   // Base reference: the state's x, y; planned height; level at the yaw reference.
-  const Eigen::Quaterniond orientation(
-      Eigen::AngleAxisd(yaw_ref_, Eigen::Vector3d::UnitZ()));
+  const Eigen::Quaterniond orientation(Eigen::AngleAxisd(yaw_ref_, Eigen::Vector3d::UnitZ()));
   out.q.head<3>() = Eigen::Vector3d(q_int[0], q_int[1], height_ref_);
   out.q.segment<4>(3) = orientation.coeffs();  // x y z w
   out.q.tail(r.nj()) = ocp_->nominalJointPositions();
@@ -207,9 +208,10 @@ void ReactivePlanner::plan(double t, const Eigen::VectorXd& q_meas, const Eigen:
         const Eigen::Vector2d goal = footholdFor(i, phase.touchdown, swing.region);
         const double z_td =
             (swing.region >= 0 ? terrain.region(swing.region).heightAt(goal) : 0.0) + offset;
-        swing.spline = planning::SwingHeightSpline(phase.liftoff, phase.touchdown,
-                                                   foot_positions(2, i), z_td,
-                                                   settings_.swing_clearance);
+        swing.liftoff_prism = solids_->regionAt(swing.start);
+        swing.touchdown_prism = solids_->regionAt(goal);
+        swing.spline = planning::SwingHeightSpline(
+            phase.liftoff, phase.touchdown, foot_positions(2, i), z_td, settings_.swing_clearance);
       }
       int region = swing.region;
       const Eigen::Vector2d goal = footholdFor(i, swing.touchdown, region);
@@ -221,8 +223,9 @@ void ReactivePlanner::plan(double t, const Eigen::VectorXd& q_meas, const Eigen:
       out.foot_position.col(i) << swing.start + blend * (goal - swing.start), z;
       // The goal moves with the robot (re-anchored every tick) at the commanded velocity.
       out.foot_velocity.col(i) << rate * (goal - swing.start) + blend * v_world.head<2>(), z_dot;
-      stance_region_[fi] = swing.region;  // the stance that follows
+      stance_region_[fi] = -1;  // the stance that follows takes the region it lands in
       regions.region = swing.region;
+      regions.support_prism = s < 0.5 ? swing.liftoff_prism : swing.touchdown_prism;
     } else {
       // Stance (or a swing the schedule does not bound: held as a stance).
       swing.planned = false;

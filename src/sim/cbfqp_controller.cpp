@@ -34,7 +34,7 @@ CbfQpController::CbfQpController(const Plant& plant, const centroidal::RobotOcpD
 
 std::string CbfQpController::logColumns() const {
   return ",mode[-],support[-],qp_status,qp_iterations[-],qp_active[-],qp_correction[m/s^2],"
-         "ref_base_z[m],int_base_z[m],terrain_high[m]";
+         "ref_base_z[m],int_base_z[m],terrain_high[m],";
 }
 
 void CbfQpController::logValues(std::string& out) const {

@@ -46,8 +46,8 @@ std::vector<int> plantJointMap(const centroidal::CentroidalRobot& r, const char*
   return map;
 }
 
-std::vector<int> plantWheelMap(const centroidal::CentroidalRobot& r,
-                               const std::vector<int>& wheels, const char* who) {
+std::vector<int> plantWheelMap(const centroidal::CentroidalRobot& r, const std::vector<int>& wheels,
+                               const char* who) {
   std::vector<int> map(kNumDriveWheels, -1);
   for (int w = 0; w < kNumDriveWheels; ++w) {
     const std::string prefix =

@@ -17,7 +17,9 @@
 // CentroidalOcp whose robot, nominal posture and terrain the planner reads).
 //
 // Fallbacks (each counted): an invalid state keeps the previous command; a failed QP gives
-// the filter's fallback acceleration (joints brake to rest).
+// the filter's fallback acceleration (joints brake to rest) with the base braking to rest
+// too (the drive wheels follow the commanded base: rolling on unfiltered would carry a
+// stance wheel over an edge).
 //
 // Real-time contract: tick() never allocates, locks or throws (tests count allocations).
 #include <Eigen/Core>
@@ -51,6 +53,9 @@ class BaselinePipeline {
   void initialize(const RobotState& state, const planning::BaseVelocityCommand& command);
   /// One real-time tick at state.time. Never allocates, locks or throws.
   void tick(const RobotState& state, JointCommand& command) noexcept;
+
+  /// A new base velocity command from the next tick on. Never allocates.
+  void setCommand(const planning::BaseVelocityCommand& command) { planner_->setCommand(command); }
 
   JointCommand makeCommand() const;
   RobotState makeState() const { return RobotState::zero(robot().nj()); }

@@ -64,9 +64,11 @@
 //   the feet's relative motion, zero when they move alike); c'' = Jcom a + the COM drift
 //   (mass-weighted classical accelerations of the bodies' COMs at a = 0).
 // - Collision (collision_gamma > 0): for each foot i and each prism j of the collision
-//   terrain (the constructor's, default the filter's own) whose top is higher than the
-//   collision terrain under the wheel centre by more than 1 mm, and nearer than
-//   collision_range (face distance): h = d_j(p_i) - contactOffset() - collision_clearance
+//   terrain (the constructor's, default the filter's own) that is nearer than
+//   collision_range (face distance) and is neither the foot's support prism
+//   (FootRegionPlan::support_prism, by default the one under the wheel centre) nor level
+//   with it within 1 mm (a wheel rolls from one such surface onto the other):
+//   h = d_j(p_i) - contactOffset() - collision_clearance
 //   with d_j the smoothed distance of barriers.hpp (the wheel as a sphere of the contact
 //   offset, its radius); h' = grad d . v_i, h'' = v_i^T Hess d v_i + grad d . (J_i a +
 //   dJ_i v). Stance feet too: a rolling wheel stops at a step's face.
@@ -103,6 +105,10 @@ struct FootRegionPlan {
   int region = -1;        ///< stance: the foothold region (-1: none)
   int swing_region = -1;  ///< swing: the collision-avoidance region (-1: none)
   bool swing_region_active = false;
+  /// Collision barrier only: the prism of the collision terrain the foot rests on, lifts off
+  /// from or lands on, left out of its collision rows (with the prisms level with it); -1:
+  /// the prism under the wheel centre.
+  int support_prism = -1;
 };
 
 /// Desired accelerations, each feedforward + feedback, sized for the robot.

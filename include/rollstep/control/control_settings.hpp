@@ -121,9 +121,9 @@ struct CbfQpSettings {
 /// paper's previous controller (Takasugi et al. 2023), no MPC. Its CBF-QP, feedback gains
 /// and integrator are the sections above (config/baseline.yaml is its tuning).
 struct BaselineSettings {
-  double gait_period = 1.6;      ///< [s] one trot cycle
-  double trot_duty = 0.6;        ///< stance share of the cycle, in (0.5, 1)
-  double swing_clearance = 0.05; ///< [m] swing apex above the higher end of the swing
+  double gait_period = 1.6;       ///< [s] one trot cycle
+  double trot_duty = 0.6;         ///< stance share of the cycle, in (0.5, 1)
+  double swing_clearance = 0.05;  ///< [m] swing apex above the higher end of the swing
   /// [m] a swing lands on the terrain this far ahead of its nominal foothold (along the
   /// command) when that terrain is higher or lower: the foot steps onto the next surface
   /// instead of stopping at its edge.
@@ -131,8 +131,8 @@ struct BaselineSettings {
   /// [m] the body height follows the highest terrain under the support polygon widened by
   /// this much along the command (it rises before the feet reach a step).
   double height_lookahead = 0.3;
-  double height_offset = 0.02;  ///< [m] added to the nominal height while the terrain differs
-  double max_height_rate = 0.25;   ///< [m/s] rate limit of the body height reference
+  double height_offset = 0.02;    ///< [m] added to the nominal height while the terrain differs
+  double max_height_rate = 0.25;  ///< [m/s] rate limit of the body height reference
   /// [m] the foothold regions are the terrain's surfaces shrunk by this (they bound the
   /// wheel centres; whoever builds the baseline's terrain applies it).
   double foothold_margin = 0.03;

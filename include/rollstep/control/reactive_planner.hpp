@@ -22,9 +22,10 @@
 //   projected into that region) with a smoothstep of the swing phase; z is the swing height
 //   spline from the lift-off height to the touch-down surface + the contact offset, apex
 //   swing_clearance above the higher end.
-// - Stance of foot i: the region where it touched down (the region under it when its stance
-//   began before the first swing) and the nominal foothold at t as the (x, y) target (the
-//   wheels roll, the hips return to their nominal angle), z on that surface.
+// - Stance of foot i: the foothold region under the foot where its stance began (where it
+//   really landed: a swing may end short of its foothold) and the nominal foothold at t,
+//   projected into that region, as the (x, y) target (the wheels roll, the hips return to
+//   their nominal angle), z on that surface.
 // - Body: x, y and yaw rate from the command (yaw integrated from the start), roll and pitch
 //   0, height = nominal height + the highest terrain under the support polygon's footholds
 //   (the nominal footholds at t, and each moved height_lookahead ahead along the command) +
@@ -55,19 +56,27 @@ struct ReactivePlan {
   Eigen::VectorXd v;     ///< nv: base twist LOCAL (of the state's orientation), joints 0
   Eigen::Matrix3Xd foot_position, foot_velocity;  ///< 3 x nc, world, contact frame origins
   std::vector<FootRegionPlan> regions;            ///< nc
-  double terrain_high = 0.0;  ///< highest terrain under the height samples [m]
-  double terrain_low = 0.0;   ///< lowest [m]
+  double terrain_high = 0.0;                      ///< highest terrain under the height samples [m]
+  double terrain_low = 0.0;                       ///< lowest [m]
 };
 
 class ReactivePlanner {
  public:
   /// `ocp` supplies the robot, the gait, the nominal posture and feet, and the foothold
-  /// terrain; it must outlive the planner. Throws std::invalid_argument for bad settings.
-  ReactivePlanner(const centroidal::CentroidalOcp& ocp, const BaselineSettings& settings);
+  /// terrain; `collision_terrain` the prisms of the collision barrier (a swing's support
+  /// prism: its lift-off one on the first half, its touch-down one on the second). Both must
+  /// outlive the planner. Throws std::invalid_argument for bad settings.
+  ReactivePlanner(const centroidal::CentroidalOcp& ocp,
+                  const planning::TerrainModel& collision_terrain,
+                  const BaselineSettings& settings);
 
   /// Starts at time t at the model state (q, v) with `command`: the yaw reference starts at
   /// q's yaw, the height reference at q's height, no swing planned. Never allocates.
   void reset(double t, const Eigen::VectorXd& q, const planning::BaseVelocityCommand& command);
+  /// A new base velocity command from the next plan() on (the yaw and height references
+  /// continue). Never allocates.
+  void setCommand(const planning::BaseVelocityCommand& command) { command_ = command; }
+  const planning::BaseVelocityCommand& command() const { return command_; }
   /// The plan at time t for the measured state (q_meas: measured base pose) and the
   /// internal state (q_int, v_int: where swings start, the twist's frame). Never allocates.
   void plan(double t, const Eigen::VectorXd& q_meas, const Eigen::VectorXd& q_int,
@@ -82,7 +91,8 @@ class ReactivePlanner {
     bool planned = false;
     double liftoff = 0.0, touchdown = 0.0;
     Eigen::Vector2d start = Eigen::Vector2d::Zero();
-    int region = -1;  ///< touch-down region
+    int region = -1;                               ///< touch-down region
+    int liftoff_prism = -1, touchdown_prism = -1;  ///< of the collision terrain
     planning::SwingHeightSpline spline;
   };
   /// The touch-down foothold of foot i for a swing ending at t_td, projected onto `region`
@@ -90,6 +100,7 @@ class ReactivePlanner {
   Eigen::Vector2d footholdFor(int i, double t_td, int& region) const;
 
   const centroidal::CentroidalOcp* ocp_;
+  const planning::TerrainModel* solids_;
   BaselineSettings settings_;
   std::unique_ptr<planning::BaseReference> base_;
   std::unique_ptr<planning::FootReferencePlanner> feet_;
