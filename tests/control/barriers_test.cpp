@@ -1,4 +1,4 @@
-// The CBF-QP baseline's barriers (barriers.hpp, cbf_qp.hpp): the smoothed prism distance
+
 // against the true distance (equal away from the edges, within its bound everywhere), its
 // gradient and Hessian against finite differences; the support polygon; the filter's
 // support-polygon and collision rows against their definitions (value, and the row's
@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 #include <random>
 #include <vector>
 
@@ -276,6 +277,100 @@ TEST(CbfQpBaselineBarriers, CollisionRowsMatchTheirDefinition) {
     EXPECT_EQ(row, qp.nIneq());
   }
   EXPECT_GE(rows_checked, 10);
+}
+
+// ---- closed loop at 1 kHz: the kinematic model driven by the filter ----------------------
+
+/// Pushes the base forward (a_x = 2 m/s^2, other base axes damped) for 2 s in all-stance,
+/// every foot held by a PD at its start (or, with `roll`, pushed forward like the base),
+/// joints weakly at their start; integrates the
+/// filtered acceleration (semi-implicit Euler) and calls observe(q) every step. Returns the
+/// number of non-Optimal filter results.
+int pushForward(CbfQpFilter& filter, VectorXd q, int support_mask, bool roll,
+                const std::function<void(const VectorXd&)>& observe) {
+  const CentroidalRobot& robot = filter.robot();
+  const model::Model& m = robot.model();
+  VectorXd v = VectorXd::Zero(robot.nv()), a(robot.nv());
+  const FootKinematics start = feet(robot, q, v);
+  const VectorXd q0 = q;
+  control::AccelerationTargets t = filter.makeTargets();
+  filter.setSupportFeet(support_mask);
+  int not_optimal = 0;
+  for (int k = 0; k < 2000; ++k) {
+    const FootKinematics f = feet(robot, q, v);
+    t.base = -10.0 * v.head<6>();
+    t.base[0] = 2.0;
+    for (int i = 0; i < robot.nc(); ++i) {
+      t.feet.col(i) = 100.0 * (start.p.col(i) - f.p.col(i)) - 20.0 * f.v.col(i);
+      if (roll) t.feet(0, i) = 2.0;
+    }
+    t.joints = 100.0 * (q0.tail(robot.nj()) - q.tail(robot.nj())) - 20.0 * v.tail(robot.nj());
+    if (filter.filter(q, v, ct::kAllStance, nullptr, t, a) != CbfQpStatus::Optimal) ++not_optimal;
+    v += 1e-3 * a;
+    model::integrate(m, q, 1e-3 * v, q);
+    observe(q);
+  }
+  return not_optimal;
+}
+
+TEST(CbfQpBaselineBarriers, ClosedLoopComStaysInsideTheSupportPolygon) {
+  const auto robot = ct::tachyon3Robot();
+  const planning::TerrainModel terrain = planning::terrainFromBoxes({-50, 50, -50, 50, 0}, 0.0, {});
+  // The support triangle LF RF MR: its front edge runs through LF and RF. ((front edge x -
+  // margin) - COM x: 0.18 m at the start.)
+  const int triangle = (1 << ct::LF) | (1 << ct::RF) | (1 << ct::MR);
+  auto run = [&](double gamma, int* not_optimal) {
+    CbfQpSettings s;
+    s.clearance_gamma = 0.0;
+    s.support_gamma = gamma;
+    s.support_margin = 0.15;  // inside the reach of the hips (+-45 deg)
+    s.base_weight.setConstant(10.0);
+    CbfQpFilter filter(robot, terrain, s);
+    double worst = 1e9;  // least (front edge x - margin) - COM x over the run
+    *not_optimal = pushForward(filter, ct::nominalState(*robot).head(robot->nq()), triangle, false,
+                               [&](const VectorXd& q) {
+                                 const FootKinematics f =
+                                     feet(*robot, q, VectorXd::Zero(robot->nv()));
+                                 const double edge = 0.5 * (f.p(0, ct::LF) + f.p(0, ct::RF));
+                                 worst = std::min(worst, edge - 0.15 - com(*robot, q).x());
+                               });
+    return worst;
+  };
+  int not_optimal = 0;
+  const double filtered = run(20.0, &not_optimal);
+  EXPECT_EQ(not_optimal, 0);
+  EXPECT_GE(filtered, -2e-3);                // the COM stops at the margin
+  EXPECT_LE(filtered, 0.02);                 // and does get there
+  EXPECT_LT(run(0.0, &not_optimal), -0.05);  // without the barrier it crosses the margin
+}
+
+TEST(CbfQpBaselineBarriers, ClosedLoopRollingWheelStopsAtTheFace) {
+  const auto robot = ct::tachyon3Robot();
+  const planning::TerrainModel terrain =
+      planning::terrainFromBoxes({-50, 50, -50, 50, 0}, 0.0, {{1.0, 2.2, -1.5, 1.5, 0.2}});
+  VectorXd q = ct::nominalState(*robot).head(robot->nq());
+  const FootKinematics nominal = feet(*robot, q, VectorXd::Zero(robot->nv()));
+  q[0] = 1.0 - 0.2 - nominal.p(0, ct::LF);  // the front wheel centres 20 cm before the face
+  auto run = [&](double gamma, int* not_optimal) {
+    CbfQpSettings s;
+    s.clearance_gamma = 0.0;
+    s.collision_gamma = gamma;
+    s.collision_clearance = 0.02;
+    CbfQpFilter filter(robot, terrain, s);
+    double front = -1e9;  // the most forward front wheel centre
+    *not_optimal = pushForward(filter, q, -1, true, [&](const VectorXd& qk) {
+      const FootKinematics f = feet(*robot, qk, VectorXd::Zero(robot->nv()));
+      for (const int i : {ct::LF, ct::MF, ct::RF}) front = std::max(front, f.p(0, i));
+    });
+    return front;
+  };
+  int not_optimal = 0;
+  const double stop = 1.0 - robot->contactOffset() - 0.02;  // face - radius - clearance
+  const double filtered = run(10.0, &not_optimal);
+  EXPECT_EQ(not_optimal, 0);
+  EXPECT_LE(filtered, stop + 2e-3);
+  EXPECT_GE(filtered, stop - 0.02);        // it rolls up to the face
+  EXPECT_GT(run(0.0, &not_optimal), 1.2);  // without the barrier it runs into the block
 }
 
 }  // namespace
