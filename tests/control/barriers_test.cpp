@@ -1,4 +1,4 @@
-
+// The CBF-QP baseline's barriers (barriers.hpp, cbf_qp.hpp): the smoothed prism distance
 // against the true distance (equal away from the edges, within its bound everywhere), its
 // gradient and Hessian against finite differences; the support polygon; the filter's
 // support-polygon and collision rows against their definitions (value, and the row's
