@@ -113,11 +113,12 @@ const std::array<Field<WheelSettings>, 2> kWheelFields{{
     {"skid_track_factor", &WheelSettings::skid_track_factor, 0, 100, true, false},
     {"skid_yaw_rate_gain", &WheelSettings::skid_yaw_rate_gain, 0, 1000, false, false},
 }};
-const std::array<Field<BaselineSettings>, 9> kBaselineFields{{
+const std::array<Field<BaselineSettings>, 10> kBaselineFields{{
     {"gait_period", &BaselineSettings::gait_period, 0, 100, true, false},
     {"trot_duty", &BaselineSettings::trot_duty, 0.5, 1, true, true},
     {"swing_clearance", &BaselineSettings::swing_clearance, 0, 2, false, false},
     {"foothold_lookahead", &BaselineSettings::foothold_lookahead, 0, 2, false, false},
+    {"descent_offset", &BaselineSettings::descent_offset, 0, 2, false, false},
     {"height_lookahead", &BaselineSettings::height_lookahead, 0, 5, false, false},
     {"height_offset", &BaselineSettings::height_offset, 0, 1, false, false},
     {"max_height_rate", &BaselineSettings::max_height_rate, 0, 10, true, false},

@@ -14,6 +14,8 @@ namespace {
 
 /// Swings and surfaces count as level below this height difference [m].
 constexpr double kLevelTolerance = 1e-3;
+/// A swing has landed when its wheel centre is this close above its surface [m].
+constexpr double kLandingTolerance = 0.01;
 
 double yawOfQuaternion(const Eigen::VectorXd& q) {
   const Eigen::Quaterniond r(q[6], q[3], q[4], q[5]);
@@ -103,27 +105,33 @@ void ReactivePlanner::reset(double t, const Eigen::VectorXd& q,
   std::fill(stance_region_.begin(), stance_region_.end(), -1);
 }
 
-Eigen::Vector2d ReactivePlanner::footholdFor(int i, double t_td, int& region) const {
+Eigen::Vector2d ReactivePlanner::footholdFor(int i, double t_td, int& region, double& shift) const {
   const planning::TerrainModel& terrain = ocp_->terrain();
   const Eigen::Vector2d nominal = feet_->nominalFoothold(i, t_td);
   if (terrain.size() == 0) return nominal;
+  const double speed = std::hypot(command_.v_x, command_.v_y);
+  Eigen::Vector2d dir = Eigen::Vector2d::Zero();
+  if (speed > 1e-9) {
+    const double c = std::cos(yaw_ref_), s = std::sin(yaw_ref_);
+    dir = Eigen::Vector2d((c * command_.v_x - s * command_.v_y) / speed,
+                          (s * command_.v_x + c * command_.v_y) / speed);
+  }
   if (region < 0) {
     region = terrain.regionAt(nominal);
+    shift = 0.0;
     // The surface foothold_lookahead ahead, if it is higher or lower, takes the foot.
-    const double speed = std::hypot(command_.v_x, command_.v_y);
     if (speed > 1e-9 && settings_.foothold_lookahead > 0.0) {
-      const double c = std::cos(yaw_ref_), s = std::sin(yaw_ref_);
-      const Eigen::Vector2d dir((c * command_.v_x - s * command_.v_y) / speed,
-                                (s * command_.v_x + c * command_.v_y) / speed);
       const int ahead = terrain.regionAt(nominal + settings_.foothold_lookahead * dir);
-      if (ahead >= 0 && ahead != region &&
-          std::abs(terrain.region(ahead).heightAt(nominal) -
-                   terrain.region(region).heightAt(nominal)) > kLevelTolerance) {
+      const double rise = ahead >= 0 ? terrain.region(ahead).heightAt(nominal) -
+                                           terrain.region(region).heightAt(nominal)
+                                     : 0.0;
+      if (ahead >= 0 && ahead != region && std::abs(rise) > kLevelTolerance) {
         region = ahead;
+        if (rise < 0.0) shift = settings_.descent_offset;
       }
     }
   }
-  return closestPoint(terrain.region(region), nominal);
+  return closestPoint(terrain.region(region), nominal + shift * dir);
 }
 
 void ReactivePlanner::plan(double t, const Eigen::VectorXd& q_meas, const Eigen::VectorXd& q_int,
@@ -197,6 +205,27 @@ void ReactivePlanner::plan(double t, const Eigen::VectorXd& q_meas, const Eigen:
     FootRegionPlan& regions = out.regions[fi];
     regions = FootRegionPlan{};
     Swing& swing = swings_[fi];
+    // Late touch-down: a swing whose wheel is still above its surface at the scheduled
+    // touch-down (the knee's velocity limit, or the collision barrier holding it above an
+    // edge) goes on as a swing, straight down to the surface, for at most half a swing.
+    bool late = false;
+    if (phase.stance && swing.planned) {
+      const double z_td = swing.spline.position(swing.touchdown);
+      late = foot_positions(2, i) > z_td + kLandingTolerance &&
+             t < swing.touchdown + 0.5 * (swing.touchdown - swing.liftoff);
+      if (late) {
+        int region = swing.region;
+        double shift = swing.shift;
+        const Eigen::Vector2d goal = footholdFor(i, t, region, shift);
+        out.foot_position.col(i) << goal, z_td;
+        out.foot_velocity.col(i) << v_world.head<2>(), 0.0;
+        out.mode &= ~(1 << i);
+        out.support_mask &= ~(1 << i);
+        regions.region = swing.region;
+        regions.support_prism = swing.touchdown_prism;
+        continue;
+      }
+    }
     if (!phase.stance && phase.bounded()) {
       if (!swing.planned || swing.liftoff != phase.liftoff) {
         // A new swing: from where the foot is, to the foothold of its touch-down.
@@ -205,7 +234,7 @@ void ReactivePlanner::plan(double t, const Eigen::VectorXd& q_meas, const Eigen:
         swing.touchdown = phase.touchdown;
         swing.start = foot_positions.col(i).head<2>();
         swing.region = -1;
-        const Eigen::Vector2d goal = footholdFor(i, phase.touchdown, swing.region);
+        const Eigen::Vector2d goal = footholdFor(i, phase.touchdown, swing.region, swing.shift);
         const double z_td =
             (swing.region >= 0 ? terrain.region(swing.region).heightAt(goal) : 0.0) + offset;
         swing.liftoff_prism = solids_->regionAt(swing.start);
@@ -214,7 +243,8 @@ void ReactivePlanner::plan(double t, const Eigen::VectorXd& q_meas, const Eigen:
             phase.liftoff, phase.touchdown, foot_positions(2, i), z_td, settings_.swing_clearance);
       }
       int region = swing.region;
-      const Eigen::Vector2d goal = footholdFor(i, swing.touchdown, region);
+      double shift = swing.shift;
+      const Eigen::Vector2d goal = footholdFor(i, swing.touchdown, region, shift);
       const double T = swing.touchdown - swing.liftoff;
       const double s = std::clamp((t - swing.liftoff) / T, 0.0, 1.0);
       const double blend = s * s * (3.0 - 2.0 * s), rate = 6.0 * s * (1.0 - s) / T;

@@ -128,6 +128,9 @@ struct BaselineSettings {
   /// command) when that terrain is higher or lower: the foot steps onto the next surface
   /// instead of stopping at its edge.
   double foothold_lookahead = 0.12;
+  /// [m] a swing down onto a lower surface aims this far ahead of its nominal foothold
+  /// (along the command): its wheel must clear the edge by its radius to come down.
+  double descent_offset = 0.15;
   /// [m] the body height follows the highest terrain under the support polygon widened by
   /// this much along the command (it rises before the feet reach a step).
   double height_lookahead = 0.3;

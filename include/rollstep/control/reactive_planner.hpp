@@ -17,11 +17,17 @@
 //   the touch-down foothold is the nominal foothold at the touch-down time, moved onto the
 //   surface foothold_lookahead ahead of it (along the command) when that surface is higher
 //   or lower: the foot steps onto the next surface instead of stopping at its edge, as the
-//   closest point of that surface's (shrunk) region. Its region and height are fixed at
+//   closest point of that surface's (shrunk) region; onto a lower surface it aims
+//   descent_offset ahead of the nominal foothold (the wheel must clear the edge by its
+//   radius before it can come down). Its region and height are fixed at
 //   lift-off; (x, y) moves from the lift-off point to the foothold (updated every tick,
 //   projected into that region) with a smoothstep of the swing phase; z is the swing height
 //   spline from the lift-off height to the touch-down surface + the contact offset, apex
 //   swing_clearance above the higher end.
+// - Late touch-down (reactive): a swing whose wheel centre is still more than 1 cm above its
+//   surface at the scheduled touch-down (the knee's velocity limit, or the collision barrier
+//   holding it over an edge, made it lag) stays a swing, out of the mode and the support
+//   feet, aimed straight down at the surface, until it lands or half a swing has passed.
 // - Stance of foot i: the foothold region under the foot where its stance began (where it
 //   really landed: a swing may end short of its foothold) and the nominal foothold at t,
 //   projected into that region, as the (x, y) target (the wheels roll, the hips return to
@@ -91,13 +97,15 @@ class ReactivePlanner {
     bool planned = false;
     double liftoff = 0.0, touchdown = 0.0;
     Eigen::Vector2d start = Eigen::Vector2d::Zero();
-    int region = -1;                               ///< touch-down region
+    int region = -1;     ///< touch-down region
+    double shift = 0.0;  ///< [m] the foothold's shift along the command (descent_offset)
     int liftoff_prism = -1, touchdown_prism = -1;  ///< of the collision terrain
     planning::SwingHeightSpline spline;
   };
-  /// The touch-down foothold of foot i for a swing ending at t_td, projected onto `region`
-  /// (or choosing it when region < 0).
-  Eigen::Vector2d footholdFor(int i, double t_td, int& region) const;
+  /// The touch-down foothold of foot i for a swing ending at t_td: the nominal foothold
+  /// shifted by `shift` along the command, projected onto `region`. With region < 0 it
+  /// chooses the region (and the shift of a descent) first.
+  Eigen::Vector2d footholdFor(int i, double t_td, int& region, double& shift) const;
 
   const centroidal::CentroidalOcp* ocp_;
   const planning::TerrainModel* solids_;
