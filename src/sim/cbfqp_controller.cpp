@@ -12,7 +12,8 @@ CbfQpController::CbfQpController(const Plant& plant, const centroidal::RobotOcpD
                                  const planning::TerrainModel& terrain,
                                  const planning::TerrainModel& collision_terrain,
                                  planning::GaitKind gait,
-                                 const planning::BaseVelocityCommand& command) {
+                                 const planning::BaseVelocityCommand& command)
+    : plant_(&plant) {
   if (std::abs(settings.control_period - plant.controlPeriod()) > 1e-12) {
     throw std::invalid_argument("cbfqp: control_period " + std::to_string(settings.control_period) +
                                 " s differs from the plant's control period " +
@@ -34,7 +35,8 @@ CbfQpController::CbfQpController(const Plant& plant, const centroidal::RobotOcpD
 
 std::string CbfQpController::logColumns() const {
   return ",mode[-],support[-],qp_status,qp_iterations[-],qp_active[-],qp_correction[m/s^2],"
-         "ref_base_z[m],int_base_z[m],terrain_high[m],";
+         "ref_base_z[m],int_base_z[m],terrain_high[m],wheel_z_LF[m],wheel_z_MF[m],wheel_z_RF[m],"
+         "wheel_z_LR[m],wheel_z_MR[m],wheel_z_RR[m]";
 }
 
 void CbfQpController::logValues(std::string& out) const {
@@ -46,6 +48,11 @@ void CbfQpController::logValues(std::string& out) const {
                 r.active_barriers, r.correction, p.q[2], pipeline_->integrator().q()[2],
                 p.terrain_high);
   out.assign(text);
+  for (int leg = 0; leg < kNumLegs; ++leg) {
+    std::snprintf(text, sizeof text, ",%.4f",
+                  plant_->groundTruth().wheel_center[static_cast<size_t>(leg)].z());
+    out += text;
+  }
 }
 
 void CbfQpController::compute(double t, const SensorReadings& sensors, PlantCommand& command) {

@@ -24,7 +24,8 @@ class CbfQpController final : public Controller {
   void compute(double t, const SensorReadings& sensors, PlantCommand& command) override;
   std::string_view name() const override { return "cbfqp"; }
   /// mode[-], support[-] (support feet mask), qp_status, qp_iterations[-], qp_active[-],
-  /// qp_correction[m/s^2], ref_base_z[m] (planned height), int_base_z[m], terrain_high[m].
+  /// qp_correction[m/s^2], ref_base_z[m] (planned height), int_base_z[m], terrain_high[m],
+  /// wheel_z_<leg>[m] (ground-truth wheel centre heights, the paper's Fig. 2 foot heights).
   std::string logColumns() const override;
   void logValues(std::string& out) const override;
 
@@ -34,6 +35,7 @@ class CbfQpController final : public Controller {
   const std::vector<int>& jointMap() const { return joint_map_; }
 
  private:
+  const Plant* plant_;
   std::unique_ptr<control::BaselinePipeline> pipeline_;
   std::unique_ptr<StateSource> source_;
   std::vector<int> joint_map_;
