@@ -83,8 +83,10 @@ class ReactivePlanner {
   /// continue). Never allocates.
   void setCommand(const planning::BaseVelocityCommand& command) { command_ = command; }
   const planning::BaseVelocityCommand& command() const { return command_; }
-  /// The plan at time t for the measured state (q_meas: measured base pose) and the
-  /// internal state (q_int, v_int: where swings start, the twist's frame). Never allocates.
+  /// The plan at time t from the measured configuration q_meas (the anchor: its planar pose)
+  /// and the internal one q_int (the base reference's x, y and the twist's frame), with
+  /// foot_positions (3 x nc) the contact frame origins at the internal state (where swings
+  /// start, whether they have landed). Never allocates.
   void plan(double t, const Eigen::VectorXd& q_meas, const Eigen::VectorXd& q_int,
             const Eigen::Matrix3Xd& foot_positions, ReactivePlan& out) noexcept;
 
