@@ -115,4 +115,13 @@ std::string defaultRobotDescription() {
   return std::string(ROLLSTEP_ROBOTS_DIR) + "/tachyon3/centroidal.yaml";
 }
 
+std::string configFile(const std::string& name) {
+  if (const char* dir = std::getenv("ROLLSTEP_CONFIG_DIR"); dir != nullptr && *dir != '\0') {
+    return std::string(dir) + "/" + name;
+  }
+  return std::string(ROLLSTEP_CONFIG_DIR) + "/" + name;
+}
+
+std::string defaultBaselineConfig() { return configFile("baseline.yaml"); }
+
 }  // namespace rollstep::apps

@@ -26,5 +26,12 @@ inline constexpr double kEdgeClearance = 0.01;
 /// The Tachyon 3 OCP description: $ROLLSTEP_ROBOTS_DIR/tachyon3/centroidal.yaml if that
 /// environment variable is set, else the source tree's robots/ folder.
 std::string defaultRobotDescription();
+/// `name` in $ROLLSTEP_CONFIG_DIR if that environment variable is set (an installed
+/// rollstep), else in the source tree's config/.
+std::string configFile(const std::string& name);
+
+/// The CBF-QP baseline's tuning: $ROLLSTEP_CONFIG_DIR/baseline.yaml if that environment
+/// variable is set, else the source tree's config/baseline.yaml.
+std::string defaultBaselineConfig();
 
 }  // namespace rollstep::apps

@@ -99,12 +99,7 @@ std::string figuresScript() {
   return ROLLSTEP_FIGURES_SCRIPT;
 }
 
-std::string defaultExperiments() {
-  if (const char* d = std::getenv("ROLLSTEP_CONFIG_DIR"); d != nullptr && *d != '\0') {
-    return std::string(d) + "/experiments.yaml";
-  }
-  return std::string(ROLLSTEP_CONFIG_DIR) + "/experiments.yaml";
-}
+std::string defaultExperiments() { return configFile("experiments.yaml"); }
 
 /// The figure script's complaint about figure `name` ("fig2: KeyError: ..."), or "".
 std::string figureError(const std::string& out, const std::string& name) {

@@ -1,8 +1,8 @@
 // `rollstep sim`: the plant demo. Loads a scene with the Tachyon 3 MJCF, runs a controller
 // (stand: hold the nominal posture; drive: hold it and roll on the drive wheels; nmpc: the
 // full control pipeline, NMPC + CBF-QP + internal state integrator, on the ground-truth
-// state) for a duration, writes DIR/log.csv and DIR/summary.txt (nmpc also DIR/mpc.csv),
-// prints the summary.
+// state; cbfqp: the CBF-QP baseline without MPC) for a duration, writes DIR/log.csv and
+// DIR/summary.txt (nmpc also DIR/mpc.csv), prints the summary.
 //
 // Outputs rule (README "Outputs"): a run that fails on its inputs (options, scene config,
 // robot file) writes nothing. Once the simulation starts, the previous run's log.csv,
@@ -32,6 +32,7 @@
 #include "rollstep/common/number_text.hpp"
 #include "rollstep/common/text_file.hpp"
 #include "rollstep/control/control_settings.hpp"
+#include "rollstep/sim/cbfqp_controller.hpp"
 #include "rollstep/sim/nmpc_controller.hpp"
 #include "rollstep/sim/plant.hpp"
 #include "rollstep/sim/scenario.hpp"
@@ -125,6 +126,7 @@ void runSim(const SimOptions& o, bool scene_given) {
 
   std::unique_ptr<sim::Controller> controller;
   sim::NmpcController* nmpc_controller = nullptr;
+  sim::CbfQpController* cbfqp_controller = nullptr;
   std::string controller_text;
   if (o.controller == "stand") {
     controller = std::make_unique<sim::StandController>(plant.nominalCommand());
@@ -153,6 +155,25 @@ void runSim(const SimOptions& o, bool scene_given) {
         control::toString(settings.mpc.timing), settings.ocp.horizon,
         control::toString(settings.integrator.mode),
         solver::toString(nmpc_controller->initialStatus()));
+  } else if (o.controller == "cbfqp") {
+    const std::string description =
+        o.robot_description.empty() ? defaultRobotDescription() : o.robot_description;
+    const centroidal::RobotOcpDescription robot = centroidal::loadRobotOcpDescription(description);
+    const std::string config =
+        o.control_config.empty() ? defaultBaselineConfig() : o.control_config;
+    const control::ControlSettings settings = control::loadControlSettings(config);
+    const planning::BaseVelocityCommand command{o.vx, o.vy, o.yaw_rate};
+    auto cbfqp = std::make_unique<sim::CbfQpController>(
+        plant, robot, settings, sim::terrainFromScene(scene, settings.baseline.foothold_margin),
+        sim::terrainFromScene(scene, 0.0), centroidal::gaitKindFromString(o.gait), command);
+    cbfqp_controller = cbfqp.get();
+    controller = std::move(cbfqp);
+    controller_text = format(
+        "cbfqp (CBF-QP baseline, no MPC; gait %s, command (%s m/s, %s m/s, %s rad/s), "
+        "trot period %s s; %s)",
+        o.gait.c_str(), numberText(o.vx).c_str(), numberText(o.vy).c_str(),
+        numberText(o.yaw_rate).c_str(), numberText(settings.baseline.gait_period).c_str(),
+        config.c_str());
   } else {
     // Each side's wheels run at speed -+ turn_speed: beyond the servos' limit they would
     // be clamped and the robot would not do what was asked.
@@ -215,6 +236,12 @@ void runSim(const SimOptions& o, bool scene_given) {
           static_cast<unsigned long long>(c.ticks));
     }
 
+    if (cbfqp_controller != nullptr) {
+      const control::PipelineCounters& c = cbfqp_controller->pipeline().counters();
+      mpc_text = format("  CBF-QP     %llu fallbacks in %llu ticks\n",
+                        static_cast<unsigned long long>(c.qp_fallbacks),
+                        static_cast<unsigned long long>(c.ticks));
+    }
     const double deg = 180.0 / M_PI;
     text = format(
         "rollstep sim: scene %s, controller %s\n"
@@ -261,8 +288,9 @@ void registerSimCommand(CLI::App& app) {
       "header) and a summary, and print the summary.");
   cmd->footer(
       "Numbers must be finite and within the ranges shown; --speed and --turn-speed only "
-      "apply to --controller drive, --gait, --vx, --vy, --yaw-rate, --control-config, "
-      "--robot-description, --mpc-timing and --integrator only to --controller nmpc.\n"
+      "apply to --controller drive; --gait, --vx, --vy, --yaw-rate, --control-config and "
+      "--robot-description only to --controller nmpc and cbfqp; --mpc-timing and "
+      "--integrator only to --controller nmpc.\n"
       "Outputs: DIR/log.csv and DIR/summary.txt appear only complete and only when the run "
       "succeeds; a run that fails once started removes the previous run's files and leaves "
       "DIR/FAILED with the error. Exit status: 0 on success, non-zero on any error.\n"
@@ -283,35 +311,44 @@ void registerSimCommand(CLI::App& app) {
                   "stand: hold the nominal posture; drive: hold it and roll on the four "
                   "drive wheels at --speed (turning with --turn-speed); nmpc: the control "
                   "pipeline (NMPC + CBF-QP + internal state integrator) on the ground-truth "
-                  "state, with --gait and the base velocity command --vx, --vy, --yaw-rate")
-      ->check(CLI::IsMember({"stand", "drive", "nmpc"}))
+                  "state, with --gait and the base velocity command --vx, --vy, --yaw-rate; "
+                  "cbfqp: the CBF-QP baseline (the paper's previous controller, a reactive "
+                  "planner and the CBF-QP without MPC) with the same options")
+      ->check(CLI::IsMember({"stand", "drive", "nmpc", "cbfqp"}))
       ->capture_default_str();
+  std::vector<CLI::Option*> pipeline_only;  // nmpc and cbfqp
   std::vector<CLI::Option*> nmpc_only;
-  nmpc_only.push_back(
-      cmd->add_option("--gait", options->gait, "nmpc only: standing, rolling, trot or static_walk")
+  pipeline_only.push_back(
+      cmd->add_option("--gait", options->gait,
+                      "nmpc, cbfqp only: standing, rolling, trot or static_walk (cbfqp: "
+                      "standing, rolling or trot)")
           ->check(CLI::IsMember({"standing", "rolling", "trot", "static_walk"}))
           ->capture_default_str());
-  nmpc_only.push_back(cmd->add_option("--vx", options->vx,
-                                      "nmpc only: forward base velocity command [m/s] (base frame)")
-                          ->check(numberIn(-1.0, 1.0, "m/s"))
-                          ->capture_default_str());
-  nmpc_only.push_back(cmd->add_option("--vy", options->vy,
-                                      "nmpc only: lateral base velocity command [m/s] (base frame)")
-                          ->check(numberIn(-0.5, 0.5, "m/s"))
-                          ->capture_default_str());
-  nmpc_only.push_back(
-      cmd->add_option("--yaw-rate", options->yaw_rate, "nmpc only: yaw rate command [rad/s]")
+  pipeline_only.push_back(
+      cmd->add_option("--vx", options->vx,
+                      "nmpc, cbfqp only: forward base velocity command [m/s] (base frame)")
+          ->check(numberIn(-1.0, 1.0, "m/s"))
+          ->capture_default_str());
+  pipeline_only.push_back(
+      cmd->add_option("--vy", options->vy,
+                      "nmpc, cbfqp only: lateral base velocity command [m/s] (base frame)")
+          ->check(numberIn(-0.5, 0.5, "m/s"))
+          ->capture_default_str());
+  pipeline_only.push_back(
+      cmd->add_option("--yaw-rate", options->yaw_rate, "nmpc, cbfqp only: yaw rate command [rad/s]")
           ->check(numberIn(-1.0, 1.0, "rad/s"))
           ->capture_default_str());
-  nmpc_only.push_back(
+  pipeline_only.push_back(
       cmd->add_option("--control-config", options->control_config,
-                      "nmpc only: YAML control settings (config/control.yaml lists every key "
-                      "and its default; the OCP's and the solver's keys nest in it)")
+                      "nmpc, cbfqp only: YAML control settings (config/control.yaml lists every "
+                      "key and its default; the OCP's and the solver's keys nest in it). cbfqp "
+                      "default: config/baseline.yaml (the baseline's tuning; "
+                      "$ROLLSTEP_CONFIG_DIR/baseline.yaml if set)")
           ->check(kNotEmpty));
-  nmpc_only.push_back(cmd->add_option("--robot-description", options->robot_description,
-                                      "nmpc only: the robot's OCP description (default "
-                                      "robots/tachyon3/centroidal.yaml)")
-                          ->check(kNotEmpty));
+  pipeline_only.push_back(cmd->add_option("--robot-description", options->robot_description,
+                                          "nmpc, cbfqp only: the robot's OCP description "
+                                          "(default robots/tachyon3/centroidal.yaml)")
+                              ->check(kNotEmpty));
   nmpc_only.push_back(cmd->add_option("--mpc-timing", options->mpc_timing,
                                       "nmpc only: deterministic (a solve every MPC period of "
                                       "simulated time, reproducible) or asynchronous (a real "
@@ -350,7 +387,21 @@ void registerSimCommand(CLI::App& app) {
                   "Default: robots/tachyon3/tachyon3.xml of the source tree, or "
                   "$ROLLSTEP_ROBOTS_DIR/tachyon3/tachyon3.xml")
       ->check(kNotEmpty);
-  cmd->final_callback([options, scene, speed, turn_speed, nmpc_only] {
+  cmd->final_callback([options, scene, speed, turn_speed, nmpc_only, pipeline_only] {
+    if (options->controller != "nmpc" && options->controller != "cbfqp") {
+      for (const CLI::Option* option : pipeline_only) {
+        if (option->count() > 0) {
+          throw CLI::ValidationError(option->get_name(),
+                                     "is used only by --controller nmpc or cbfqp (drop the "
+                                     "option or add --controller nmpc or cbfqp)");
+        }
+      }
+    }
+    if (options->controller == "cbfqp" && options->gait == "static_walk") {
+      throw CLI::ValidationError("--gait",
+                                 "static_walk is not a gait of the cbfqp baseline "
+                                 "(standing, rolling or trot)");
+    }
     if (options->controller != "nmpc") {
       for (const CLI::Option* option : nmpc_only) {
         if (option->count() > 0) {

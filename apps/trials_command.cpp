@@ -34,12 +34,7 @@ struct TrialsOptions {
   std::vector<std::string> collect;
 };
 
-std::string defaultExperimentsFile() {
-  if (const char* d = std::getenv("ROLLSTEP_CONFIG_DIR"); d != nullptr && *d != '\0') {
-    return std::string(d) + "/experiments.yaml";
-  }
-  return std::string(ROLLSTEP_CONFIG_DIR) + "/experiments.yaml";
-}
+std::string defaultExperimentsFile() { return configFile("experiments.yaml"); }
 
 std::string trialDir(const std::string& out, const Scenario& s, std::uint64_t seed) {
   char name[64];

@@ -200,7 +200,7 @@ TEST(ExperimentSet, LoadsTheProjectsFileAndRefusesMistakes) {
   EXPECT_EQ(set.trials.step_height_min, 0.10);
   const std::vector<std::string> args = set.find("step20_nmpc")->simArgs("/o");
   EXPECT_EQ(shellCommand(args).substr(0, 53),
-            "sim --scene step20 --controller nmpc --duration 30 --");
+            "sim --scene step20 --controller nmpc --duration 28 --");
   EXPECT_EQ(args.back(), "/o");
 
   const std::string ok = "scenarios:\n  - {name: a, scene: flat, controller: nmpc}\n";

@@ -9,6 +9,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "rollstep/control/barriers.hpp"
+#include "rollstep/model/center-of-mass.hpp"
 #include "rollstep/model/kinematics.hpp"
 
 namespace rollstep::control {
@@ -19,6 +21,10 @@ using Vector6d = Eigen::Matrix<double, 6, 1>;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 /// Regions are sized for at least this many edges (a terrain from perception may change).
 constexpr int kMinRegionEdges = 8;
+/// The most feet the support polygon takes (convexHull's limit).
+constexpr int kMaxContactsForHull = 64;
+/// Prisms whose tops differ by less than this are level with each other [m].
+constexpr double kObstacleStep = 1e-3;
 /// |quaternion norm - 1| above this is refused as InvalidInput.
 constexpr double kQuaternionNormTolerance = 1e-3;
 
@@ -69,9 +75,15 @@ void checkCbfSettings(const CbfQpSettings& s, const model::Model& model) {
               s.velocity_limit_scale <= 1.0,
           fieldValue("velocity_limit_scale", s.velocity_limit_scale) + " must be in (0, 1]");
   positive("region_gamma", s.region_gamma);
-  positive("clearance_gamma", s.clearance_gamma);
+  nonNegative("clearance_gamma", s.clearance_gamma);  // 0: off
   nonNegative("clearance", s.clearance);
   positive("fallback_brake_time", s.fallback_brake_time);
+  nonNegative("support_gamma", s.support_gamma);  // 0: off
+  nonNegative("support_margin", s.support_margin);
+  nonNegative("collision_gamma", s.collision_gamma);  // 0: off
+  positive("collision_sharpness", s.collision_sharpness);
+  nonNegative("collision_clearance", s.collision_clearance);
+  positive("collision_range", s.collision_range);
   require(s.max_iterations >= 1,
           "settings.max_iterations = " + std::to_string(s.max_iterations) + " must be >= 1");
   // The cost must be strictly convex: the damping, or every base and joint weight.
@@ -133,6 +145,9 @@ struct CbfQpFilter::Work {
         joint_lower(Eigen::VectorXd::Zero(robot.nj())),
         joint_upper(Eigen::VectorXd::Zero(robot.nj())),
         joint_vmax(Eigen::VectorXd::Zero(robot.nj())),
+        support_xy(static_cast<size_t>(robot.nc())),
+        hull(static_cast<size_t>(robot.nc()) + 1),
+        support_feet(static_cast<size_t>(robot.nc())),
         free_qp({dims.n, dims.n_eq, 0}),
         free_solver({dims.n, dims.n_eq, 0}) {}
 
@@ -147,15 +162,21 @@ struct CbfQpFilter::Work {
   Eigen::RowVectorXd row;
   Eigen::VectorXd joint_lower, joint_upper;  ///< position limits with the margin (+-inf: none)
   Eigen::VectorXd joint_vmax;                ///< scaled velocity limits (+inf: none)
+  std::vector<Eigen::Vector2d> support_xy;   ///< (x, y) of the support feet
+  std::vector<int> hull;                     ///< support polygon: indices into support_xy
+  std::vector<int> support_feet;             ///< foot of each support_xy entry
+  int hull_size = 0;
   DenseQpProblem free_qp;  ///< same cost and equalities, no inequality: correction()
   DenseQpSolver free_solver;
 };
 
 CbfQpFilter::CbfQpFilter(std::shared_ptr<const centroidal::CentroidalRobot> robot,
                          const planning::TerrainModel& terrain, const CbfQpSettings& settings,
-                         double lateral_slip_weight)
+                         double lateral_slip_weight,
+                         const planning::TerrainModel* collision_terrain)
     : robot_(std::move(robot)),
       terrain_(&terrain),
+      collision_terrain_(collision_terrain != nullptr ? collision_terrain : &terrain),
       settings_(settings),
       lateral_slip_weight_(lateral_slip_weight),
       qp_({0, 0, 0}),
@@ -164,8 +185,12 @@ CbfQpFilter::CbfQpFilter(std::shared_ptr<const centroidal::CentroidalRobot> robo
   const model::Model& model = robot_->model();
   checkCbfSettings(settings_, model);
   max_region_edges_ = terrainMaxEdges(terrain);
+  require(robot_->nc() <= kMaxContactsForHull, "too many contacts for the support polygon");
+  const int support_rows = settings_.support_gamma > 0.0 ? robot_->nc() : 0;
+  const int collision_rows =
+      settings_.collision_gamma > 0.0 ? robot_->nc() * collision_terrain_->size() : 0;
   const DenseQpDims dims{robot_->nv(), maxEqualities(*robot_),
-                         robot_->nc() * (max_region_edges_ + 1)};
+                         robot_->nc() * (max_region_edges_ + 1) + support_rows + collision_rows};
   qp_ = DenseQpProblem(dims);
   DenseQpSettings qp_settings;
   qp_settings.max_iterations = settings_.max_iterations;
@@ -296,6 +321,21 @@ CbfQpStatus CbfQpFilter::filter(const Eigen::Ref<const Eigen::VectorXd>& q,
     if (centroidal::CentroidalRobot::inStance(mode, i)) return plan.region;
     return plan.swing_region_active ? plan.swing_region : -1;
   };
+  const bool clearance_on = s.clearance_gamma > 0.0;
+  // Collision: prism j is an obstacle of foot i (cbf_qp.hpp) when it rises above the ground
+  // under the wheel and is within range.
+  const planning::TerrainModel& solids = *collision_terrain_;
+  auto obstacle = [&](int i, int j) {
+    const Eigen::Vector3d p = w.foot_position.col(i);
+    const int given = regions != nullptr ? regions[i].support_prism : -1;
+    const int support = given >= 0 && given < solids.size() ? given : solids.regionAt(p.head<2>());
+    const planning::ConvexRegion& prism = solids.region(j);
+    if (j == support ||
+        (support >= 0 && std::abs(prism.height - solids.region(support).height) <= kObstacleStep)) {
+      return false;
+    }
+    return prismFaceDistance(prism, p) - robot.contactOffset() <= s.collision_range;
+  };
   int n_eq = 0, n_ineq = 0;
   for (int i = 0; i < nc; ++i) {
     if (robot.keepsVelocityConstraints(mode, i)) {
@@ -303,7 +343,23 @@ CbfQpStatus CbfQpFilter::filter(const Eigen::Ref<const Eigen::VectorXd>& q,
     }
     const int r = regionOf(i);
     if (r >= 0) n_ineq += static_cast<int>(terrain_->region(r).A.rows());
-    if (!centroidal::CentroidalRobot::inStance(mode, i)) ++n_ineq;  // clearance
+    if (clearance_on && !centroidal::CentroidalRobot::inStance(mode, i)) ++n_ineq;
+    if (s.collision_gamma > 0.0) {
+      for (int j = 0; j < solids.size(); ++j) n_ineq += obstacle(i, j) ? 1 : 0;
+    }
+  }
+  w.hull_size = 0;
+  if (s.support_gamma > 0.0) {
+    const int support = support_mask_ >= 0 ? support_mask_ : mode;
+    int n = 0;
+    for (int i = 0; i < nc; ++i) {
+      if (!centroidal::CentroidalRobot::inStance(support, i)) continue;
+      w.support_xy[static_cast<size_t>(n)] = w.foot_position.col(i).head<2>();
+      w.support_feet[static_cast<size_t>(n)] = i;
+      ++n;
+    }
+    w.hull_size = convexHull(w.support_xy.data(), n, w.hull.data());
+    n_ineq += w.hull_size;
   }
   qp_.setDimensions(nv, n_eq, n_ineq);
 
@@ -398,7 +454,7 @@ CbfQpStatus CbfQpFilter::filter(const Eigen::Ref<const Eigen::VectorXd>& q,
         ++row;
       }
     }
-    if (!centroidal::CentroidalRobot::inStance(mode, i)) {
+    if (clearance_on && !centroidal::CentroidalRobot::inStance(mode, i)) {
       // h = z - r - H(x, y) - clearance with H the plane of the region under the wheel.
       const Eigen::Vector2d pxy = p.head<2>();
       const int under = terrain_->regionAt(pxy);
@@ -414,6 +470,63 @@ CbfQpStatus CbfQpFilter::filter(const Eigen::Ref<const Eigen::VectorXd>& q,
       const double hd = vp.z() - sx * vp.x() - sy * vp.y();
       C.row(row) = J.row(2) - sx * J.row(0) - sy * J.row(1);
       l[row] = -(d.z() - sx * d.x() - sy * d.y()) - 2.0 * gc * hd - gc * gc * h;
+      u[row] = kInf;
+      ++row;
+    }
+    if (s.collision_gamma > 0.0) {
+      // h = d(p) - r - clearance, h' = g . v, h'' = v^T H v + g . (J a + drift).
+      const double gk = s.collision_gamma;
+      for (int j = 0; j < solids.size(); ++j) {
+        if (!obstacle(i, j)) continue;
+        const SmoothDistance sd = smoothPrismDistance(solids.region(j), p, s.collision_sharpness);
+        const double h = sd.value - robot.contactOffset() - s.collision_clearance;
+        const double hd = sd.gradient.dot(vp);
+        const Eigen::Vector3d& gr = sd.gradient;
+        C.row(row) = gr.x() * J.row(0) + gr.y() * J.row(1) + gr.z() * J.row(2);
+        l[row] = -(sd.gradient.dot(d) + vp.dot(sd.hessian * vp)) - 2.0 * gk * hd - gk * gk * h;
+        u[row] = kInf;
+        ++row;
+      }
+    }
+  }
+
+  // ---- support polygon: h = n . (c - m) - margin per hull edge (cbf_qp.hpp)
+  if (w.hull_size >= 3) {
+    const Eigen::Matrix3Xd& Jcom = model::jacobianCenterOfMass(model, w.data, q);
+    const Eigen::Vector3d com = w.data.com;
+    // COM velocity and drift: mass-weighted over the bodies' COMs at a = 0.
+    Eigen::Vector3d com_v = Eigen::Vector3d::Zero(), com_drift = Eigen::Vector3d::Zero();
+    for (int b = 0; b < model.nbodies(); ++b) {
+      const size_t bi = static_cast<size_t>(b);
+      const double mb = model.bodies[bi].mass;
+      const Eigen::Vector3d& c = w.data.ocom[bi];
+      const Vector6d& ov = w.data.ov[bi];
+      const Vector6d& alpha = w.body_drift[bi];
+      const Eigen::Vector3d vc = ov.head<3>() + ov.tail<3>().cross(c);
+      com_v += mb * vc;
+      com_drift += mb * (alpha.head<3>() + alpha.tail<3>().cross(c) + ov.tail<3>().cross(vc));
+    }
+    com_v /= model.totalMass;
+    com_drift /= model.totalMass;
+    const double gs = s.support_gamma;
+    for (int e = 0; e < w.hull_size; ++e) {
+      const int ia = w.support_feet[static_cast<size_t>(w.hull[static_cast<size_t>(e)])];
+      const int ib =
+          w.support_feet[static_cast<size_t>(w.hull[static_cast<size_t>((e + 1) % w.hull_size)])];
+      const Eigen::Vector2d pa = w.foot_position.col(ia).head<2>();
+      const Eigen::Vector2d pb = w.foot_position.col(ib).head<2>();
+      const Eigen::Vector2d edge = pb - pa;
+      const Eigen::Vector2d n = Eigen::Vector2d(-edge.y(), edge.x()) / edge.norm();  // inward
+      const Eigen::Vector2d mid_v =
+          0.5 * (w.foot_velocity.col(ia).head<2>() + w.foot_velocity.col(ib).head<2>());
+      const Eigen::Vector2d mid_d =
+          0.5 * (w.foot_drift.col(ia).head<2>() + w.foot_drift.col(ib).head<2>());
+      const double h = n.dot(com.head<2>() - 0.5 * (pa + pb)) - s.support_margin;
+      const double hd = n.dot(com_v.head<2>() - mid_v);
+      const Eigen::MatrixXd& Jf = w.foot_jacobian;
+      C.row(row) = n.x() * (Jcom.row(0) - 0.5 * (Jf.row(3 * ia) + Jf.row(3 * ib))) +
+                   n.y() * (Jcom.row(1) - 0.5 * (Jf.row(3 * ia + 1) + Jf.row(3 * ib + 1)));
+      l[row] = -n.dot(com_drift.head<2>() - mid_d) - 2.0 * gs * hd - gs * gs * h;
       u[row] = kInf;
       ++row;
     }

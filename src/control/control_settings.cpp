@@ -80,7 +80,7 @@ const std::array<Field<FeedbackSettings>, 6> kFeedbackFields{{
     {"joint_kp", &FeedbackSettings::joint_kp, 0, kBig, false, false},
     {"joint_kd", &FeedbackSettings::joint_kd, 0, kBig, false, false},
 }};
-const std::array<Field<CbfQpSettings>, 15> kCbfQpFields{{
+const std::array<Field<CbfQpSettings>, 21> kCbfQpFields{{
     {"base_weight", &CbfQpSettings::base_weight, 0, kBig, false, false},
     {"foot_weight", &CbfQpSettings::foot_weight, 0, kBig, false, false},
     {"joint_weight", &CbfQpSettings::joint_weight, 0, kBig, false, false},
@@ -96,6 +96,12 @@ const std::array<Field<CbfQpSettings>, 15> kCbfQpFields{{
     {"clearance", &CbfQpSettings::clearance, 0, 2, false, false},
     {"max_iterations", &CbfQpSettings::max_iterations, 1, 100000, false, false},
     {"fallback_brake_time", &CbfQpSettings::fallback_brake_time, 0, 100, true, false},
+    {"support_gamma", &CbfQpSettings::support_gamma, 0, 1e6, false, false},
+    {"support_margin", &CbfQpSettings::support_margin, 0, 1, false, false},
+    {"collision_gamma", &CbfQpSettings::collision_gamma, 0, 1e6, false, false},
+    {"collision_sharpness", &CbfQpSettings::collision_sharpness, 0, 1e6, true, false},
+    {"collision_clearance", &CbfQpSettings::collision_clearance, 0, 1, false, false},
+    {"collision_range", &CbfQpSettings::collision_range, 0, 10, true, false},
 }};
 const std::array<Field<IntegratorSettings>, 3> kIntegratorFields{{
     {"mode", &IntegratorSettings::mode, 0, 0, false, false},
@@ -107,10 +113,22 @@ const std::array<Field<WheelSettings>, 2> kWheelFields{{
     {"skid_track_factor", &WheelSettings::skid_track_factor, 0, 100, true, false},
     {"skid_yaw_rate_gain", &WheelSettings::skid_yaw_rate_gain, 0, 1000, false, false},
 }};
+const std::array<Field<BaselineSettings>, 10> kBaselineFields{{
+    {"gait_period", &BaselineSettings::gait_period, 0, 100, true, false},
+    {"trot_duty", &BaselineSettings::trot_duty, 0.5, 1, true, true},
+    {"swing_clearance", &BaselineSettings::swing_clearance, 0, 2, false, false},
+    {"foothold_lookahead", &BaselineSettings::foothold_lookahead, 0, 2, false, false},
+    {"descent_offset", &BaselineSettings::descent_offset, 0, 2, false, false},
+    {"height_lookahead", &BaselineSettings::height_lookahead, 0, 5, false, false},
+    {"height_offset", &BaselineSettings::height_offset, 0, 1, false, false},
+    {"max_height_rate", &BaselineSettings::max_height_rate, 0, 10, true, false},
+    {"foothold_margin", &BaselineSettings::foothold_margin, 0, 1, false, false},
+    {"stance_foot_gain", &BaselineSettings::stance_foot_gain, 0, kBig, false, false},
+}};
 // The top-level keys, in file order: control_period, the sections, ocp (read and written by
 // the centroidal layer).
-const std::array<const char*, 8> kTopKeys{
-    {"control_period", "mpc", "refinement", "feedback", "cbf_qp", "integrator", "wheels", "ocp"}};
+const std::array<const char*, 9> kTopKeys{{"control_period", "mpc", "refinement", "feedback",
+                                           "cbf_qp", "integrator", "wheels", "baseline", "ocp"}};
 
 constexpr std::array<MpcTiming, 2> kTimings{{MpcTiming::Deterministic, MpcTiming::Asynchronous}};
 constexpr std::array<IntegratorMode, 2> kModes{{IntegratorMode::Internal, IntegratorMode::Naive}};
@@ -207,6 +225,7 @@ std::optional<Problem> problemOf(const ControlSettings& s) {
   if (auto p = rangeProblem(s.cbf_qp, kCbfQpFields, "cbf_qp.")) return p;
   if (auto p = rangeProblem(s.integrator, kIntegratorFields, "integrator.")) return p;
   if (auto p = rangeProblem(s.wheels, kWheelFields, "wheels.")) return p;
+  if (auto p = rangeProblem(s.baseline, kBaselineFields, "baseline.")) return p;
   if (s.mpc.timing == MpcTiming::Deterministic) {
     if (!(s.mpc.period > 0.0)) {
       return Problem{{"mpc.period", "mpc.timing"},
@@ -412,6 +431,9 @@ ControlSettings parseControlSettings(const std::string& yaml_text, const std::st
       if (key == "wheels") {
         readSection(value, settings.wheels, kWheelFields, "wheels.", lines, fail);
       }
+      if (key == "baseline") {
+        readSection(value, settings.baseline, kBaselineFields, "baseline.", lines, fail);
+      }
     }
     if (const std::optional<Problem> p = problemOf(settings)) {
       int line = root.line();
@@ -447,6 +469,8 @@ std::string toYaml(const ControlSettings& settings) {
   writeSection(settings.integrator, kIntegratorFields, "  ", out);
   out += "wheels:\n";
   writeSection(settings.wheels, kWheelFields, "  ", out);
+  out += "baseline:\n";
+  writeSection(settings.baseline, kBaselineFields, "  ", out);
   out += "ocp:\n";
   const std::string ocp_text = centroidal::toYaml(settings.ocp);
   for (std::size_t start = 0; start < ocp_text.size();) {

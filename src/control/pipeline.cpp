@@ -4,6 +4,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "rollstep/control/wheel_speed.hpp"
 #include "rollstep/model/centroidal.hpp"
 #include "rollstep/model/kinematics.hpp"
 
@@ -127,12 +128,8 @@ void ControlPipeline::computeTargets() noexcept {
 }
 
 void ControlPipeline::computeWheelCommands(JointCommand& command) noexcept {
-  const centroidal::CentroidalRobot& r = robot();
-  const model::Model& m = r.model();
   const Eigen::VectorXd& q = integrator_->q();
   const Eigen::VectorXd& v = integrator_->v();
-  model::forwardKinematics(m, *data_, q, v);
-  const double radius = r.contactOffset();
   // Skid steering (pipeline.hpp): the extra yaw rate the wheels' speed difference is
   // commanded for, (factor - 1) w_cmd + gain (w_cmd - w_measured), world z.
   double extra_yaw_rate = 0.0;
@@ -144,26 +141,8 @@ void ControlPipeline::computeWheelCommands(JointCommand& command) noexcept {
         (ws.skid_track_factor - 1.0) * w_cmd + ws.skid_yaw_rate_gain * (w_cmd - w_meas);
     if (!std::isfinite(extra_yaw_rate)) extra_yaw_rate = 0.0;
   }
-  for (size_t w = 0; w < drive_wheels_.size(); ++w) {
-    const int i = drive_wheels_[w];
-    const model::FrameIndex f = r.frameIds()[static_cast<size_t>(i)];
-    model::updateFramePlacement(m, *data_, f);
-    const Eigen::Matrix3d& R = data_->oRf[static_cast<size_t>(f)];
-    Eigen::Vector3d heading(R(0, 0), R(1, 0), 0.0);
-    const double norm = heading.norm();
-    double speed = 0.0;
-    if (norm > 1e-6 && radius > 0.0) {
-      heading /= norm;
-      const lie::Vector6d local =
-          model::getFrameVelocity(m, *data_, f, model::ReferenceFrame::LOCAL);
-      const Eigen::Vector3d v_world = R * local.head<3>();
-      speed = heading.dot(v_world) / radius - local[4];
-      // The wheel centre's ground speed a yaw rate w about the base gives: w (e_z x d) . h.
-      const Eigen::Vector3d d = data_->opf[static_cast<size_t>(f)] - q.head<3>();
-      speed += extra_yaw_rate * (heading.y() * d.x() - heading.x() * d.y()) / radius;
-    }
-    command.wheel_velocity[static_cast<Eigen::Index>(w)] = std::isfinite(speed) ? speed : 0.0;
-  }
+  computeDriveWheelSpeeds(robot(), *data_, q, v, drive_wheels_, extra_yaw_rate,
+                          command.wheel_velocity);
 }
 
 void ControlPipeline::tick(const RobotState& state, JointCommand& command) noexcept {

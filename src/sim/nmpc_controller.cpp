@@ -24,6 +24,48 @@ bool GroundTruthSource::read(double t, const SensorReadings&, control::RobotStat
   return true;
 }
 
+std::vector<int> plantJointMap(const centroidal::CentroidalRobot& r, const char* who) {
+  const model::Model& m = r.model();
+  if (r.nj() != kNumJoints) {
+    throw std::invalid_argument(std::string(who) + ": the model has " + std::to_string(r.nj()) +
+                                " joints, the plant " + std::to_string(kNumJoints));
+  }
+  std::vector<int> map(static_cast<size_t>(r.nj()), -1);
+  for (int j = 0; j < r.nj(); ++j) {
+    const std::string& name = m.jointNames[static_cast<size_t>(j)];
+    for (int leg = 0; leg < kNumLegs; ++leg) {
+      const std::string prefix = std::string(kLegNames[static_cast<size_t>(leg)]);
+      if (name == prefix + "_hip") map[static_cast<size_t>(j)] = hipIndex(leg);
+      if (name == prefix + "_knee") map[static_cast<size_t>(j)] = kneeIndex(leg);
+    }
+    if (map[static_cast<size_t>(j)] < 0) {
+      throw std::invalid_argument(std::string(who) + ": model joint '" + name +
+                                  "' is not a joint of the plant");
+    }
+  }
+  return map;
+}
+
+std::vector<int> plantWheelMap(const centroidal::CentroidalRobot& r, const std::vector<int>& wheels,
+                               const char* who) {
+  std::vector<int> map(kNumDriveWheels, -1);
+  for (int w = 0; w < kNumDriveWheels; ++w) {
+    const std::string prefix =
+        std::string(kLegNames[static_cast<size_t>(kDriveWheelLegs[static_cast<size_t>(w)])]) + "_";
+    for (size_t k = 0; k < wheels.size(); ++k) {
+      const std::string& frame = r.contact(wheels[k]).frame;
+      if (frame.rfind(prefix, 0) == 0) map[static_cast<size_t>(w)] = static_cast<int>(k);
+    }
+    if (map[static_cast<size_t>(w)] < 0) {
+      throw std::invalid_argument(std::string(who) +
+                                  ": no drive-wheel contact of the robot description for the "
+                                  "plant's wheel " +
+                                  prefix + "...");
+    }
+  }
+  return map;
+}
+
 NmpcController::NmpcController(const Plant& plant, const centroidal::RobotOcpDescription& robot,
                                const control::ControlSettings& settings,
                                const planning::TerrainModel& terrain, planning::GaitKind gait,
@@ -35,39 +77,8 @@ NmpcController::NmpcController(const Plant& plant, const centroidal::RobotOcpDes
   }
   pipeline_ = std::make_unique<control::ControlPipeline>(robot, settings, terrain, gait);
   const centroidal::CentroidalRobot& r = pipeline_->robot();
-  const model::Model& m = r.model();
-  if (r.nj() != kNumJoints) {
-    throw std::invalid_argument("nmpc: the model has " + std::to_string(r.nj()) +
-                                " joints, the plant " + std::to_string(kNumJoints));
-  }
-  joint_map_.assign(static_cast<size_t>(r.nj()), -1);
-  for (int j = 0; j < r.nj(); ++j) {
-    const std::string& name = m.jointNames[static_cast<size_t>(j)];
-    for (int leg = 0; leg < kNumLegs; ++leg) {
-      const std::string prefix = std::string(kLegNames[static_cast<size_t>(leg)]);
-      if (name == prefix + "_hip") joint_map_[static_cast<size_t>(j)] = hipIndex(leg);
-      if (name == prefix + "_knee") joint_map_[static_cast<size_t>(j)] = kneeIndex(leg);
-    }
-    if (joint_map_[static_cast<size_t>(j)] < 0) {
-      throw std::invalid_argument("nmpc: model joint '" + name + "' is not a joint of the plant");
-    }
-  }
-  const std::vector<int>& wheels = pipeline_->driveWheelContacts();
-  wheel_map_.assign(kNumDriveWheels, -1);
-  for (int w = 0; w < kNumDriveWheels; ++w) {
-    const std::string prefix =
-        std::string(kLegNames[static_cast<size_t>(kDriveWheelLegs[static_cast<size_t>(w)])]) + "_";
-    for (size_t k = 0; k < wheels.size(); ++k) {
-      const std::string& frame = r.contact(wheels[k]).frame;
-      if (frame.rfind(prefix, 0) == 0) wheel_map_[static_cast<size_t>(w)] = static_cast<int>(k);
-    }
-    if (wheel_map_[static_cast<size_t>(w)] < 0) {
-      throw std::invalid_argument(
-          "nmpc: no drive-wheel contact of the robot description for the "
-          "plant's wheel " +
-          prefix + "...");
-    }
-  }
+  joint_map_ = plantJointMap(r, "nmpc");
+  wheel_map_ = plantWheelMap(r, pipeline_->driveWheelContacts(), "nmpc");
   source_ = std::make_unique<GroundTruthSource>(plant, joint_map_);
   state_ = pipeline_->makeState();
   command_ = pipeline_->makeCommand();

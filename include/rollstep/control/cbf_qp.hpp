@@ -15,7 +15,11 @@
 //                (second-order CBF per edge); a swing foot inside its collision region
 //                while that constraint is on (the planner's swing_region_active);
 //              leg/terrain clearance: a swing wheel's bottom above the terrain under it
-//                (second-order CBF).
+//                (second-order CBF; clearance_gamma = 0: off);
+//              the baseline's families (DESIGN.md section 6), each off unless its gamma > 0:
+//                static stability, the COM's ground projection inside the support polygon
+//                with a margin; leg/terrain collision with analytically smoothed distances
+//                (second-order CBFs, below).
 //
 // Every foot term is about the origin of contact i's frame (the wheel centre; world axes):
 // p_i, its velocity v_i = J_i v (J_i: linear rows of the LOCAL_WORLD_ALIGNED frame
@@ -51,6 +55,23 @@
 // - Clearance of swing foot i: h = z_i - contactOffset() - H(x_i, y_i) - clearance, with H
 //   the plane of the terrain region under the wheel (TerrainModel::regionAt; its slope
 //   enters h'), or the plane z = 0 for an empty terrain model.
+// - Support polygon (support_gamma > 0): the convex hull (barriers.hpp) of the (x, y) of
+//   the support feet's contact frames (setSupportFeet(), by default the stance feet), at
+//   least 3 feet not on a line (else no row). Edge k from foot a to foot b (counter-
+//   clockwise), inward unit normal n, midpoint m = (p_a + p_b) / 2: h = n . (c - m) -
+//   support_margin with c the COM (x, y). The feet roll, so h' = n . (c' - m') and h'' =
+//   n . (c'' - m'') with n held (its rotation as the feet move is left out: second order in
+//   the feet's relative motion, zero when they move alike); c'' = Jcom a + the COM drift
+//   (mass-weighted classical accelerations of the bodies' COMs at a = 0).
+// - Collision (collision_gamma > 0): for each foot i and each prism j of the collision
+//   terrain (the constructor's, default the filter's own) that is nearer than
+//   collision_range (face distance) and is neither the foot's support prism
+//   (FootRegionPlan::support_prism, by default the one under the wheel centre) nor level
+//   with it within 1 mm (a wheel rolls from one such surface onto the other):
+//   h = d_j(p_i) - contactOffset() - collision_clearance
+//   with d_j the smoothed distance of barriers.hpp (the wheel as a sphere of the contact
+//   offset, its radius); h' = grad d . v_i, h'' = v_i^T Hess d v_i + grad d . (J_i a +
+//   dJ_i v). Stance feet too: a rolling wheel stops at a step's face.
 // - `regions` may be nullptr (no region constraints). An index must be < terrain.size()
 //   and its region have at most maxRegionEdges() edges (sized at construction: the most
 //   edges of any region of the terrain then, at least 8), else InvalidInput.
@@ -84,6 +105,10 @@ struct FootRegionPlan {
   int region = -1;        ///< stance: the foothold region (-1: none)
   int swing_region = -1;  ///< swing: the collision-avoidance region (-1: none)
   bool swing_region_active = false;
+  /// Collision barrier only: the prism of the collision terrain the foot rests on, lifts off
+  /// from or lands on, left out of its collision rows (with the prisms level with it); -1:
+  /// the prism under the wheel centre.
+  int support_prism = -1;
 };
 
 /// Desired accelerations, each feedforward + feedback, sized for the robot.
@@ -107,9 +132,12 @@ class CbfQpFilter {
   /// `lateral_slip_weight`: the OCP's (OcpSettings::lateral_slip_weight): 0, drive wheels
   /// keep their lateral rows (equalities, or costs for freed rows); > 0 (skid steering),
   /// the filter has no lateral rows: the MPC's plan weighs the slip a turn needs.
+  /// `collision_terrain` (must outlive the filter; nullptr: `terrain`): the solids of the
+  /// collision barrier, unshrunk (the foothold regions of `terrain` are usually shrunk).
   CbfQpFilter(std::shared_ptr<const centroidal::CentroidalRobot> robot,
               const planning::TerrainModel& terrain, const CbfQpSettings& settings,
-              double lateral_slip_weight = 0.0);
+              double lateral_slip_weight = 0.0,
+              const planning::TerrainModel* collision_terrain = nullptr);
   ~CbfQpFilter();  // out of line: Work is incomplete here
   CbfQpFilter(CbfQpFilter&&) noexcept;
   CbfQpFilter& operator=(CbfQpFilter&&) noexcept;
@@ -126,6 +154,9 @@ class CbfQpFilter {
 
   /// An AccelerationTargets sized for the robot (zero).
   AccelerationTargets makeTargets() const;
+  /// The feet (contact mask) whose support polygon holds the COM from the next filter() on;
+  /// -1 (the default): the stance feet of filter()'s mode. Only with support_gamma > 0.
+  void setSupportFeet(int mask) { support_mask_ = mask; }
 
   // --- about the last filter() ---------------------------------------------------------
   /// The QP's status (DenseQpStatus::InvalidInput when filter() refused its input and
@@ -155,6 +186,8 @@ class CbfQpFilter {
  private:
   std::shared_ptr<const centroidal::CentroidalRobot> robot_;
   const planning::TerrainModel* terrain_;
+  const planning::TerrainModel* collision_terrain_;
+  int support_mask_ = -1;
   CbfQpSettings settings_;
   double lateral_slip_weight_ = 0.0;
   DenseQpProblem qp_;

@@ -102,6 +102,44 @@ struct CbfQpSettings {
   /// [s] Fallback when the QP fails: joint accelerations -v_J / fallback_brake_time (the
   /// commanded joints brake to rest where they are), base acceleration 0.
   double fallback_brake_time = 0.1;
+  // Barrier families of the CBF-QP baseline (DESIGN.md section 6), each off when its gamma
+  // is 0 (the defaults: the NMPC pipeline does not use them). clearance_gamma = 0 also
+  // turns the region-plane clearance above off (its height jumps at a region edge; the
+  // smoothed collision barrier replaces it in the baseline).
+  /// [1/s] second-order: the COM's ground projection inside the support polygon (0: off).
+  double support_gamma = 0.0;
+  double support_margin = 0.0;  ///< [m] kept between the COM projection and every edge
+  /// [1/s] second-order: leg/terrain collision, smoothed distance of each wheel to every
+  /// terrain prism higher than the ground under it (collision_distance.hpp; 0: off).
+  double collision_gamma = 0.0;
+  double collision_sharpness = 100.0;  ///< [1/m] k of the log-sum-exp smooth maximum
+  double collision_clearance = 0.0;    ///< [m] kept between a wheel and an obstacle
+  double collision_range = 0.3;        ///< [m] prisms farther than this give no row
+};
+
+/// The reactive planner of the CBF-QP baseline (control/baseline_pipeline.hpp): the
+/// paper's previous controller (Takasugi et al. 2023), no MPC. Its CBF-QP, feedback gains
+/// and integrator are the sections above (config/baseline.yaml is its tuning).
+struct BaselineSettings {
+  double gait_period = 1.6;       ///< [s] one trot cycle
+  double trot_duty = 0.6;         ///< stance share of the cycle, in (0.5, 1)
+  double swing_clearance = 0.05;  ///< [m] swing apex above the higher end of the swing
+  /// [m] a swing lands on the terrain this far ahead of its nominal foothold (along the
+  /// command) when that terrain is higher or lower: the foot steps onto the next surface
+  /// instead of stopping at its edge.
+  double foothold_lookahead = 0.12;
+  /// [m] a swing down onto a lower surface aims this far ahead of its nominal foothold
+  /// (along the command): its wheel must clear the edge by its radius to come down.
+  double descent_offset = 0.15;
+  /// [m] the body height follows the highest terrain under the support polygon widened by
+  /// this much along the command (it rises before the feet reach a step).
+  double height_lookahead = 0.3;
+  double height_offset = 0.02;    ///< [m] added to the nominal height while the terrain differs
+  double max_height_rate = 0.25;  ///< [m/s] rate limit of the body height reference
+  /// [m] the foothold regions are the terrain's surfaces shrunk by this (they bound the
+  /// wheel centres; whoever builds the baseline's terrain applies it).
+  double foothold_margin = 0.03;
+  double stance_foot_gain = 1.0;  ///< scales foot_kp, foot_kd for stance feet (rolling wheels)
 };
 
 struct IntegratorSettings {
@@ -135,6 +173,7 @@ struct ControlSettings {
   CbfQpSettings cbf_qp;
   IntegratorSettings integrator;
   WheelSettings wheels;
+  BaselineSettings baseline;  ///< only the CBF-QP baseline reads it
   /// Nested `ocp:` mapping (config/ocp.yaml's keys, its `solver:` nested in turn). The
   /// pipeline runs the solver in real-time mode whatever ocp.solver.mode says.
   centroidal::OcpSettings ocp;

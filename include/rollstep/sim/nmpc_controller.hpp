@@ -37,6 +37,16 @@ class GroundTruthSource final : public StateSource {
   std::vector<int> joint_map_;
 };
 
+/// The plant joint index (hipIndex / kneeIndex) of each model joint, matched by name
+/// ("LF_hip", "LF_knee"); throws std::invalid_argument naming a model joint the plant lacks,
+/// `who` ("nmpc") first.
+std::vector<int> plantJointMap(const centroidal::CentroidalRobot& robot, const char* who);
+/// For each plant drive wheel (kDriveWheelLegs order), the index into `drive_wheels` (contact
+/// indices) of the contact whose frame starts with the leg's name and "_"; throws
+/// std::invalid_argument when a plant wheel has none.
+std::vector<int> plantWheelMap(const centroidal::CentroidalRobot& robot,
+                               const std::vector<int>& drive_wheels, const char* who);
+
 /// One MPC solution as the real-time loop received it (the log's mpc.csv rows).
 struct MpcUpdateRecord {
   double time = 0.0;        ///< [s] loop time it arrived

@@ -1,0 +1,94 @@
+#pragma once
+// The CBF-QP baseline (the paper's previous controller, Takasugi et al. 2023; DESIGN.md
+// section 6): the NMPC pipeline's CBF-QP safety filter at 1 kHz driven by the myopic
+// reactive planner (reactive_planner.hpp), without any MPC. Every tick:
+//
+//   state (RobotState) -> reactive planner (gait, swings, footholds, body height, support
+//   feet) -> acceleration commands: kp, kd feedback (ControlSettings::feedback) of the
+//   planner's references against the INTERNAL integrator state (stance feet: gains scaled
+//   by baseline.stance_foot_gain) -> CBF-QP (contact consistency, joint position and
+//   velocity limits, foothold regions, COM inside the support polygon with a margin,
+//   leg/terrain collision with smoothed distances; config/baseline.yaml turns the last two
+//   on) -> internal state integrator -> joint position commands and drive-wheel speeds
+//   (wheel_speed.hpp, the NMPC pipeline's rule).
+//
+// Settings: ControlSettings' control_period, feedback, cbf_qp, integrator and baseline
+// sections (mpc, refinement and wheels are not used; the ocp section gives only the
+// CentroidalOcp whose robot, nominal posture and terrain the planner reads).
+//
+// Fallbacks (each counted): an invalid state keeps the previous command; a failed QP gives
+// the filter's fallback acceleration (joints brake to rest) with the base braking to rest
+// too (the drive wheels follow the commanded base: rolling on unfiltered would carry a
+// stance wheel over an edge).
+//
+// Real-time contract: tick() never allocates, locks or throws (tests count allocations).
+#include <Eigen/Core>
+#include <memory>
+#include <vector>
+
+#include "rollstep/centroidal/centroidal_ocp.hpp"
+#include "rollstep/control/cbf_qp.hpp"
+#include "rollstep/control/control_settings.hpp"
+#include "rollstep/control/pipeline.hpp"
+#include "rollstep/control/reactive_planner.hpp"
+#include "rollstep/control/robot_state.hpp"
+#include "rollstep/control/state_integrator.hpp"
+
+namespace rollstep::control {
+
+class BaselinePipeline {
+ public:
+  /// `terrain`: the foothold regions (shrunk); `collision_terrain`: the solids of the
+  /// collision barrier (unshrunk). Both are copied. Throws std::invalid_argument for bad
+  /// settings or robot description.
+  BaselinePipeline(const centroidal::RobotOcpDescription& robot, const ControlSettings& settings,
+                   const planning::TerrainModel& terrain,
+                   const planning::TerrainModel& collision_terrain, planning::GaitKind gait);
+  ~BaselinePipeline();
+  BaselinePipeline(const BaselinePipeline&) = delete;
+  BaselinePipeline& operator=(const BaselinePipeline&) = delete;
+
+  /// Not real-time: starts the planner and the integrator at the state. Throws
+  /// std::invalid_argument for an invalid state.
+  void initialize(const RobotState& state, const planning::BaseVelocityCommand& command);
+  /// One real-time tick at state.time. Never allocates, locks or throws.
+  void tick(const RobotState& state, JointCommand& command) noexcept;
+
+  /// A new base velocity command from the next tick on. Never allocates.
+  void setCommand(const planning::BaseVelocityCommand& command) { planner_->setCommand(command); }
+
+  JointCommand makeCommand() const;
+  RobotState makeState() const { return RobotState::zero(robot().nj()); }
+  /// solution_sequence and the MPC fields stay 0.
+  const TickRecord& lastTick() const { return record_; }
+  const PipelineCounters& counters() const { return counters_; }
+  const ReactivePlan& plan() const { return plan_; }
+  const StateIntegrator& integrator() const { return *integrator_; }
+  const CbfQpFilter& filter() const { return *filter_; }
+  const ReactivePlanner& planner() const { return *planner_; }
+  const centroidal::CentroidalRobot& robot() const { return ocp_->robot(); }
+  const ControlSettings& settings() const { return settings_; }
+  /// Contact index of each drive wheel, in the order of JointCommand::wheel_velocity.
+  const std::vector<int>& driveWheelContacts() const { return drive_wheels_; }
+
+ private:
+  void computeTargets() noexcept;
+
+  ControlSettings settings_;
+  std::unique_ptr<centroidal::CentroidalOcp> ocp_;
+  std::unique_ptr<planning::TerrainModel> collision_terrain_;
+  std::unique_ptr<ReactivePlanner> planner_;
+  std::unique_ptr<CbfQpFilter> filter_;
+  std::unique_ptr<StateIntegrator> integrator_;
+  std::unique_ptr<model::Data> data_;
+  std::vector<int> drive_wheels_;
+  ReactivePlan plan_;
+  AccelerationTargets targets_;
+  TickRecord record_;
+  PipelineCounters counters_;
+  Eigen::VectorXd q_meas_, v_meas_, a_, dq_;
+  Eigen::Matrix3Xd foot_p_, foot_v_;
+  bool initialized_ = false;
+};
+
+}  // namespace rollstep::control

@@ -1,0 +1,152 @@
+// The CBF-QP baseline pipeline (baseline_pipeline.hpp).
+#include "rollstep/control/baseline_pipeline.hpp"
+
+#include <stdexcept>
+
+#include "rollstep/control/wheel_speed.hpp"
+#include "rollstep/model/kinematics.hpp"
+
+namespace rollstep::control {
+
+namespace {
+
+/// The OCP settings of the planner's CentroidalOcp: the baseline's gait and swing height;
+/// one node (no MPC is solved, the problem only has to exist).
+centroidal::OcpSettings plannerOcpSettings(const ControlSettings& s) {
+  centroidal::OcpSettings ocp = s.ocp;
+  ocp.horizon = 1;
+  ocp.gait_period = s.baseline.gait_period;
+  ocp.trot_duty = s.baseline.trot_duty;
+  ocp.swing_clearance = s.baseline.swing_clearance;
+  return ocp;
+}
+
+}  // namespace
+
+BaselinePipeline::BaselinePipeline(const centroidal::RobotOcpDescription& robot,
+                                   const ControlSettings& settings,
+                                   const planning::TerrainModel& terrain,
+                                   const planning::TerrainModel& collision_terrain,
+                                   planning::GaitKind gait)
+    : settings_(settings) {
+  checkSettings(settings_);
+  ocp_ = std::make_unique<centroidal::CentroidalOcp>(robot, plannerOcpSettings(settings_), terrain,
+                                                     gait);
+  collision_terrain_ = std::make_unique<planning::TerrainModel>(collision_terrain);
+  planner_ = std::make_unique<ReactivePlanner>(*ocp_, *collision_terrain_, settings_.baseline);
+  filter_ = std::make_unique<CbfQpFilter>(ocp_->robotPtr(), ocp_->terrain(), settings_.cbf_qp, 0.0,
+                                          collision_terrain_.get());
+  const centroidal::CentroidalRobot& r = ocp_->robot();
+  integrator_ = std::make_unique<StateIntegrator>(r.modelPtr(), settings_.integrator,
+                                                  settings_.control_period);
+  data_ = std::make_unique<model::Data>(r.model());
+  for (int i = 0; i < r.nc(); ++i) {
+    if (r.contact(i).drive_wheel) drive_wheels_.push_back(i);
+  }
+  plan_ = planner_->makePlan();
+  targets_ = filter_->makeTargets();
+  q_meas_ = Eigen::VectorXd::Zero(r.nq());
+  v_meas_ = Eigen::VectorXd::Zero(r.nv());
+  a_ = Eigen::VectorXd::Zero(r.nv());
+  dq_ = Eigen::VectorXd::Zero(r.nv());
+  foot_p_ = Eigen::Matrix3Xd::Zero(3, r.nc());
+  foot_v_ = Eigen::Matrix3Xd::Zero(3, r.nc());
+}
+
+BaselinePipeline::~BaselinePipeline() = default;
+
+JointCommand BaselinePipeline::makeCommand() const {
+  JointCommand c;
+  c.joint_position = ocp_->nominalJointPositions();
+  c.joint_velocity = Eigen::VectorXd::Zero(robot().nj());
+  c.wheel_velocity = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(drive_wheels_.size()));
+  return c;
+}
+
+void BaselinePipeline::initialize(const RobotState& state,
+                                  const planning::BaseVelocityCommand& command) {
+  if (!state.valid(robot().nj())) {
+    throw std::invalid_argument(
+        "BaselinePipeline::initialize: the state is not valid (non-finite values, a quaternion "
+        "that is not unit, or joint vectors of the wrong size)");
+  }
+  toModelState(state, q_meas_, v_meas_);
+  integrator_->reset(q_meas_, v_meas_);
+  planner_->reset(state.time, q_meas_, command);
+  counters_ = PipelineCounters{};
+  initialized_ = true;
+}
+
+void BaselinePipeline::computeTargets() noexcept {
+  const centroidal::CentroidalRobot& r = robot();
+  const model::Model& m = r.model();
+  const FeedbackSettings& fb = settings_.feedback;
+  const Eigen::VectorXd& q = integrator_->q();
+  const Eigen::VectorXd& v = integrator_->v();
+  const int nj = r.nj();
+  // Configuration error plan (-) internal, in the internal state's tangent (LOCAL).
+  model::difference(m, q, plan_.q, dq_);
+  targets_.base = fb.base_kp.cwiseProduct(dq_.head<6>()) +
+                  fb.base_kd.cwiseProduct(plan_.v.head<6>() - v.head<6>());
+  targets_.joints = fb.joint_kp * dq_.tail(nj) - fb.joint_kd * v.tail(nj);
+  const double stance = settings_.baseline.stance_foot_gain;
+  for (int i = 0; i < r.nc(); ++i) {
+    const double scale = centroidal::CentroidalRobot::inStance(plan_.mode, i) ? stance : 1.0;
+    targets_.feet.col(i) = scale * (fb.foot_kp * (plan_.foot_position.col(i) - foot_p_.col(i)) +
+                                    fb.foot_kd * (plan_.foot_velocity.col(i) - foot_v_.col(i)));
+  }
+}
+
+void BaselinePipeline::tick(const RobotState& state, JointCommand& command) noexcept {
+  const centroidal::CentroidalRobot& r = robot();
+  const model::Model& m = r.model();
+  const double t = state.time;
+  record_ = TickRecord{};
+  record_.time = t;
+  ++counters_.ticks;
+  if (!initialized_ || !state.valid(r.nj())) {
+    record_.state_valid = false;
+    ++counters_.invalid_states;
+    return;
+  }
+  toModelState(state, q_meas_, v_meas_);
+
+  // Feet at the internal state.
+  const Eigen::VectorXd& q = integrator_->q();
+  model::forwardKinematics(m, *data_, q, integrator_->v());
+  for (int i = 0; i < r.nc(); ++i) {
+    const model::FrameIndex f = r.frameIds()[static_cast<size_t>(i)];
+    model::updateFramePlacement(m, *data_, f);
+    foot_p_.col(i) = data_->opf[static_cast<size_t>(f)];
+    foot_v_.col(i) =
+        model::getFrameVelocity(m, *data_, f, model::ReferenceFrame::LOCAL_WORLD_ALIGNED).head<3>();
+  }
+
+  // Plan, targets, safety filter, integrator.
+  planner_->plan(t, q_meas_, q, foot_p_, plan_);
+  record_.mode = plan_.mode;
+  computeTargets();
+  filter_->setSupportFeet(plan_.support_mask);
+  record_.cbf_status =
+      filter_->filter(q, integrator_->v(), plan_.mode, plan_.regions.data(), targets_, a_);
+  record_.qp_status = filter_->qpStatus();
+  record_.qp_iterations = filter_->qpIterations();
+  record_.active_barriers = filter_->activeBarriers();
+  record_.correction = filter_->correction();
+  if (record_.cbf_status != CbfQpStatus::Optimal) {
+    // The filter's fallback keeps the base velocity; here the commanded base brakes as well:
+    // the drive wheels follow the commanded base, and rolling on unfiltered carries a
+    // stance wheel over an edge.
+    ++counters_.qp_fallbacks;
+    a_.head<6>() = -integrator_->v().head<6>() / settings_.cbf_qp.fallback_brake_time;
+  }
+  integrator_->step(a_, q_meas_, v_meas_);
+
+  // Commands.
+  command.joint_position = integrator_->q().tail(r.nj());
+  command.joint_velocity = integrator_->v().tail(r.nj());
+  computeDriveWheelSpeeds(r, *data_, integrator_->q(), integrator_->v(), drive_wheels_, 0.0,
+                          command.wheel_velocity);
+}
+
+}  // namespace rollstep::control

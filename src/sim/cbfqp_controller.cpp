@@ -1,0 +1,61 @@
+#include "rollstep/sim/cbfqp_controller.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+#include <string>
+
+namespace rollstep::sim {
+
+CbfQpController::CbfQpController(const Plant& plant, const centroidal::RobotOcpDescription& robot,
+                                 const control::ControlSettings& settings,
+                                 const planning::TerrainModel& terrain,
+                                 const planning::TerrainModel& collision_terrain,
+                                 planning::GaitKind gait,
+                                 const planning::BaseVelocityCommand& command) {
+  if (std::abs(settings.control_period - plant.controlPeriod()) > 1e-12) {
+    throw std::invalid_argument("cbfqp: control_period " + std::to_string(settings.control_period) +
+                                " s differs from the plant's control period " +
+                                std::to_string(plant.controlPeriod()) + " s");
+  }
+  pipeline_ = std::make_unique<control::BaselinePipeline>(robot, settings, terrain,
+                                                          collision_terrain, gait);
+  const centroidal::CentroidalRobot& r = pipeline_->robot();
+  joint_map_ = plantJointMap(r, "cbfqp");
+  wheel_map_ = plantWheelMap(r, pipeline_->driveWheelContacts(), "cbfqp");
+  source_ = std::make_unique<GroundTruthSource>(plant, joint_map_);
+  state_ = pipeline_->makeState();
+  command_ = pipeline_->makeCommand();
+  if (!source_->read(plant.time(), plant.sensors(), state_)) {
+    throw std::runtime_error("cbfqp: no initial state");
+  }
+  pipeline_->initialize(state_, command);
+}
+
+std::string CbfQpController::logColumns() const {
+  return ",mode[-],support[-],qp_status,qp_iterations[-],qp_active[-],qp_correction[m/s^2],"
+         "ref_base_z[m],int_base_z[m],terrain_high[m]";
+}
+
+void CbfQpController::logValues(std::string& out) const {
+  const control::TickRecord& r = pipeline_->lastTick();
+  const control::ReactivePlan& p = pipeline_->plan();
+  char text[300];
+  std::snprintf(text, sizeof text, ",%d,%d,%s,%d,%d,%.6g,%.6f,%.6f,%.4f", r.mode, p.support_mask,
+                r.state_valid ? control::toString(r.cbf_status) : "invalid_state", r.qp_iterations,
+                r.active_barriers, r.correction, p.q[2], pipeline_->integrator().q()[2],
+                p.terrain_high);
+  out.assign(text);
+}
+
+void CbfQpController::compute(double t, const SensorReadings& sensors, PlantCommand& command) {
+  if (source_->read(t, sensors, state_)) pipeline_->tick(state_, command_);
+  for (size_t j = 0; j < joint_map_.size(); ++j) {
+    command.joint_position[joint_map_[j]] = command_.joint_position[static_cast<Eigen::Index>(j)];
+  }
+  for (int w = 0; w < kNumDriveWheels; ++w) {
+    command.wheel_velocity[w] = command_.wheel_velocity[wheel_map_[static_cast<size_t>(w)]];
+  }
+}
+
+}  // namespace rollstep::sim
