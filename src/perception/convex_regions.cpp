@@ -215,11 +215,11 @@ std::optional<planning::ConvexRegion> ConvexRegionGrower::growPrepared(
     }
   }
   // Uniform growth: every half-plane not yet blocked sits at the common offset t, which
-  // grows by half a cell per round; a half-plane stops at the first obstacle only it
+  // grows by a cell per round; a half-plane stops at the first obstacle only it
   // keeps out. Moving together, the half-plane facing an obstacle most squarely is the
   // one that stops at it (larger or one-at-a-time steps let an oblique one cut corners).
   std::vector<unsigned char> blocked(static_cast<std::size_t>(K), 0);
-  const double step = 0.5 * res;
+  const double step = res;
   for (double t = off[0] + step; t < cap + step; t += step) {
     bool any = false;
     for (int k = 0; k < K; ++k) {

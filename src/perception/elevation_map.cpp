@@ -130,16 +130,24 @@ void ElevationMap::fuse(std::size_t i, double z, double var) {
 int ElevationMap::clearAlongRay(const Eigen::Vector3d& from, const Eigen::Vector3d& to) {
   const Eigen::Vector3d d = to - from;
   const double horizontal = d.head<2>().norm();
-  // The last two cells before the hit are left alone: the ray may graze the surface there.
+  // One sample per cell length; the last two cells before the hit are left alone (the ray
+  // may graze the surface there). Positions in cells, advanced incrementally.
   const int steps = static_cast<int>(horizontal / res_) - 2;
+  if (steps < 2) return 0;
+  const double dt = res_ / horizontal;
+  const double sx = d.x() * dt / res_, sy = d.y() * dt / res_, sz = d.z() * dt;
+  double fx = from.x() / res_ - static_cast<double>(gx0_),
+         fy = from.y() / res_ - static_cast<double>(gy0_);
+  double z = from.z() + settings_.visibility_margin;
   int cleared = 0;
   for (int k = 1; k < steps; ++k) {
-    const double t = k * res_ / horizontal;
-    int r = 0, c = 0;
-    if (!cellOf((from + t * d).head<2>(), r, c)) continue;
-    const auto i = static_cast<std::size_t>(r * n_ + c);
-    if (!std::isnan(height_[i]) &&
-        static_cast<double>(height_[i]) > from.z() + t * d.z() + settings_.visibility_margin) {
+    fx += sx;
+    fy += sy;
+    z += sz;
+    if (fx < 0 || fy < 0 || fx >= n_ || fy >= n_) continue;
+    const auto i = static_cast<std::size_t>(static_cast<int>(fy) * n_ + static_cast<int>(fx));
+    // NaN compares false: empty cells are skipped.
+    if (static_cast<double>(height_[i]) > z) {
       height_[i] = variance_[i] = kNaN;
       ++cleared;
     }

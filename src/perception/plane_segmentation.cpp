@@ -134,7 +134,7 @@ std::vector<PolygonWithHoles> tracePolygons(const cv::Mat& mask, const Eigen::Ve
     std::vector<PolygonWithHoles> one{std::move(p)};
     for (PolygonWithHoles& q : offset(one, 0.5 * res)) out.push_back(std::move(q));
   }
-  // Single cells or one-cell-wide lines give degenerate contours: their own squares.
+  // Single cells and one-cell-wide lines have no area: they give no polygon.
   return out;
 }
 
