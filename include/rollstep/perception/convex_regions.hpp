@@ -30,8 +30,8 @@ struct ConvexRegionSettings {
   double height_weight = 2.0;   ///< selection cost per metre of height difference
   /// Terrain cover: pieces per planar region, and the share of a region's cells the
   /// pieces must cover before the cover stops.
-  int max_pieces_per_region = 4;
-  double cover_fraction = 0.9;
+  int max_pieces_per_region = 8;
+  double cover_fraction = 0.97;
   double min_piece_area = 0.01;  ///< smaller convex pieces are dropped [m^2]
 
   void validate() const;  ///< std::invalid_argument naming the bad parameter

@@ -57,6 +57,7 @@ class TerrainPerception {
   /// map().update); Ok or NoPlanarRegion.
   PerceptionStatus rebuild();
 
+  const PerceptionSettings& settings() const { return settings_; }
   const planning::TerrainModel& terrain() const { return terrain_; }
   bool hasTerrain() const { return has_terrain_; }
   double terrainTime() const { return terrain_time_; }
