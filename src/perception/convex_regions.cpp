@@ -215,12 +215,11 @@ std::optional<planning::ConvexRegion> ConvexRegionGrower::growPrepared(
     }
   }
   // Uniform growth: every half-plane not yet blocked sits at the common offset t, which
-  // grows by a cell per round; a half-plane stops at the first obstacle only it
-  // keeps out. Moving together, the half-plane facing an obstacle most squarely is the
-  // one that stops at it (larger or one-at-a-time steps let an oblique one cut corners).
+  // grows by a cell (or 3 % of t, when larger) per round; a half-plane stops at the first obstacle
+  // only it keeps out. Moving together, the half-plane facing an obstacle most squarely is the one
+  // that stops at it (larger or one-at-a-time steps let an oblique one cut corners).
   std::vector<unsigned char> blocked(static_cast<std::size_t>(K), 0);
-  const double step = res;
-  for (double t = off[0] + step; t < cap + step; t += step) {
+  for (double t = off[0] + res; t < cap + res; t += std::max(res, 0.03 * t)) {
     bool any = false;
     for (int k = 0; k < K; ++k) {
       const auto kk = static_cast<std::size_t>(k);
@@ -307,27 +306,40 @@ planning::TerrainModel ConvexRegionGrower::terrain(const Segmentation& seg) {
     const auto total = static_cast<double>(std::count(region_mask.begin(), region_mask.end(), 1));
     std::vector<unsigned char> covered(region_mask.size(), 0);
     double covered_cells = 0;
+    // The region's bounding box: the seed search and the coverage stay inside it.
+    int r0 = n, r1 = -1, c0 = n, c1 = -1;
+    for (int r = 0; r < n; ++r) {
+      for (int c = 0; c < n; ++c) {
+        if (!region_mask[static_cast<std::size_t>(r * n + c)]) continue;
+        r0 = std::min(r0, r);
+        r1 = std::max(r1, r);
+        c0 = std::min(c0, c);
+        c1 = std::max(c1, c);
+      }
+    }
+    const int rows = r1 - r0 + 1, cols = c1 - c0 + 1;
+    cv::Mat padded(rows + 2, cols + 2, CV_8U), dist;
     for (int piece = 0; piece < settings_.max_pieces_per_region; ++piece) {
       // Seed: the uncovered region cell furthest from the border and the pieces so far.
-      cv::Mat padded = cv::Mat::zeros(n + 2, n + 2, CV_8U);
-      for (int r = 0; r < n; ++r) {
-        for (int c = 0; c < n; ++c) {
+      padded.setTo(0);
+      for (int r = r0; r <= r1; ++r) {
+        for (int c = c0; c <= c1; ++c) {
           const auto i = static_cast<std::size_t>(r * n + c);
-          padded.at<unsigned char>(r + 1, c + 1) = (region_mask[i] && !covered[i]) ? 1 : 0;
+          padded.at<unsigned char>(r - r0 + 1, c - c0 + 1) =
+              (region_mask[i] && !covered[i]) ? 1 : 0;
         }
       }
-      cv::Mat dist;
       cv::distanceTransform(padded, dist, cv::DIST_L2, cv::DIST_MASK_PRECISE);
       double best = 0;
       cv::Point at;
       cv::minMaxLoc(dist, nullptr, &best, nullptr, &at);
       if (best < 1.5) break;
-      const Eigen::Vector2d seed = seg.cellCenter(at.y - 1, at.x - 1);
+      const Eigen::Vector2d seed = seg.cellCenter(r0 + at.y - 1, c0 + at.x - 1);
       std::optional<planning::ConvexRegion> r = growPrepared(seg, k, seed);
       if (!r) break;
       // Cells the piece covers (its edges sit on the region's cell edges, minus margin).
-      for (int rr = 0; rr < n; ++rr) {
-        for (int cc = 0; cc < n; ++cc) {
+      for (int rr = r0; rr <= r1; ++rr) {
+        for (int cc = c0; cc <= c1; ++cc) {
           const auto i = static_cast<std::size_t>(rr * n + cc);
           if (!region_mask[i] || covered[i]) continue;
           if (r->margin(seg.cellCenter(rr, cc)) >= -settings_.margin - 0.5 * res) {

@@ -37,6 +37,8 @@ void ElevationMapSettings::validate() const {
           "must be > 0");
   require(std::isfinite(max_variance) && max_variance > min_variance, "max_variance", max_variance,
           "must be > min_variance");
+  require(visibility_stride >= 1 && visibility_stride <= 1000, "visibility_stride",
+          visibility_stride, "must be 1 to 1000");
   require(std::isfinite(visibility_margin) && visibility_margin >= 0, "visibility_margin",
           visibility_margin, "must be >= 0");
   require(std::isfinite(min_range) && min_range >= 0, "min_range", min_range, "must be >= 0");
@@ -127,20 +129,30 @@ void ElevationMap::fuse(std::size_t i, double z, double var) {
   v = static_cast<float>(std::max(settings_.min_variance, vd * var / s));
 }
 
-int ElevationMap::clearAlongRay(const Eigen::Vector3d& from, const Eigen::Vector3d& to) {
+int ElevationMap::clearAlongRay(const Eigen::Vector3d& from, const Eigen::Vector3d& to,
+                                double top) {
   const Eigen::Vector3d d = to - from;
   const double horizontal = d.head<2>().norm();
+  // Only where the ray runs below the map's highest cell (less the margin) can it clear
+  // anything: start there.
+  double t0 = 0.0;
+  const double z_clear = top - settings_.visibility_margin;
+  if (from.z() >= z_clear) {
+    if (to.z() >= z_clear) return 0;
+    t0 = (from.z() - z_clear) / (from.z() - to.z());
+  }
   // One sample per cell length; the last two cells before the hit are left alone (the ray
   // may graze the surface there). Positions in cells, advanced incrementally.
   const int steps = static_cast<int>(horizontal / res_) - 2;
   if (steps < 2) return 0;
   const double dt = res_ / horizontal;
   const double sx = d.x() * dt / res_, sy = d.y() * dt / res_, sz = d.z() * dt;
-  double fx = from.x() / res_ - static_cast<double>(gx0_),
-         fy = from.y() / res_ - static_cast<double>(gy0_);
-  double z = from.z() + settings_.visibility_margin;
+  const int k0 = std::max(1, static_cast<int>(t0 / dt));
+  double fx = from.x() / res_ - static_cast<double>(gx0_) + (k0 - 1) * sx;
+  double fy = from.y() / res_ - static_cast<double>(gy0_) + (k0 - 1) * sy;
+  double z = from.z() + settings_.visibility_margin + (k0 - 1) * sz;
   int cleared = 0;
-  for (int k = 1; k < steps; ++k) {
+  for (int k = k0; k < steps; ++k) {
     fx += sx;
     fy += sy;
     z += sz;
@@ -164,6 +176,13 @@ MapUpdateStats ElevationMap::update(const Eigen::Vector3d* points, int count,
     return stats;
   }
   const Eigen::Vector3d origin = sensor_pose.translation();
+  // The highest cell, kept up to date as points are fused (bounds the visibility walk).
+  double top = -std::numeric_limits<double>::infinity();
+  if (settings_.visibility_cleanup) {
+    for (const float h : height_) {
+      if (static_cast<double>(h) > top) top = static_cast<double>(h);  // NaN compares false
+    }
+  }
   for (int k = 0; k < count; ++k) {
     const Eigen::Vector3d& ps = points[k];
     if (!ps.allFinite()) {
@@ -177,7 +196,10 @@ MapUpdateStats ElevationMap::update(const Eigen::Vector3d* points, int count,
       ++stats.out_of_map;
       continue;
     }
-    if (settings_.visibility_cleanup) stats.cleared += clearAlongRay(origin, p);
+    if (settings_.visibility_cleanup && k % settings_.visibility_stride == 0) {
+      stats.cleared += clearAlongRay(origin, p, top);
+    }
+    top = std::max(top, p.z());
     const double sigma = settings_.sensor_noise + settings_.range_noise_slope * range;
     fuse(static_cast<std::size_t>(r * n_ + c), p.z(), sigma * sigma);
     ++stats.fused;

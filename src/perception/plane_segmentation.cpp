@@ -219,6 +219,7 @@ void PlaneSegmenter::segment(const ElevationMap& map, Segmentation& out) {
   const double min_count = settings_.min_window_fill * (2 * hw + 1) * (2 * hw + 1);
   const double max_sse_per_point = settings_.max_residual * settings_.max_residual;
   const double max_grad = std::tan(settings_.max_slope_deg * kPi / 180.0);
+  const double max_grad2 = max_grad * max_grad;
   for (int r = 0; r < n; ++r) {
     const int r0 = std::max(0, r - hw), r1 = std::min(n, r + hw + 1);
     for (int c = 0; c < n; ++c) {
@@ -252,7 +253,7 @@ void PlaneSegmenter::segment(const ElevationMap& map, Segmentation& out) {
       w.fitted[i] = static_cast<float>(theta.z() + zref);
       w.gx[i] = static_cast<float>(gxv);
       w.gy[i] = static_cast<float>(gyv);
-      w.planar[i] = (sse <= max_sse_per_point * cnt && std::hypot(gxv, gyv) <= max_grad &&
+      w.planar[i] = (sse <= max_sse_per_point * cnt && gxv * gxv + gyv * gyv <= max_grad2 &&
                      !w.step.at<unsigned char>(r, c))
                         ? 1
                         : 0;

@@ -187,7 +187,7 @@ TEST(PerceptionSettings, FileRoundTripsAndErrorsNameLineAndKey) {
       "perception settings 'p.yaml': line 2: unknown key 'map.resolutoin' (known in map: length, "
       "resolution, sensor_noise, range_noise_slope, gate, process_noise, max_variance, "
       "min_variance, "
-      "visibility_cleanup, visibility_margin, max_range, min_range)");
+      "visibility_cleanup, visibility_stride, visibility_margin, max_range, min_range)");
   EXPECT_EQ(
       error("map:\n  gate: 3\nsegmentation:\n  max_residual: -1\n"),
       "perception settings 'p.yaml': line 4: segmentation.max_residual = -1.000000: must be > 0");

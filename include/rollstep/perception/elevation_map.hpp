@@ -31,6 +31,8 @@ struct ElevationMapSettings {
   double max_variance = 0.0025;  ///< a cell less certain than this is cleared [m^2]
   double min_variance = 1e-6;    ///< variance floor [m^2]
   bool visibility_cleanup = true;
+  /// Clean-up along every n-th ray only (elevation_mapping runs it at a lower rate too).
+  int visibility_stride = 4;
   /// Clear a cell only if the ray passed this far below its height [m].
   double visibility_margin = 0.03;
   /// Points further than this from the sensor, or nearer than min_range, are ignored [m].
@@ -94,7 +96,7 @@ class ElevationMap {
 
  private:
   void fuse(std::size_t i, double z, double var);
-  int clearAlongRay(const Eigen::Vector3d& from, const Eigen::Vector3d& to);
+  int clearAlongRay(const Eigen::Vector3d& from, const Eigen::Vector3d& to, double top);
 
   ElevationMapSettings settings_;
   double res_;
