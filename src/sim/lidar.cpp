@@ -184,7 +184,13 @@ Eigen::Isometry3d Lidar::sensorPose(const Eigen::Vector3d& base_position,
 
 const std::vector<Eigen::Vector3d>& Lidar::scan(const Plant& plant) {
   const GroundTruth& truth = plant.groundTruth();
-  pose_ = sensorPose(truth.base_position, truth.base_orientation);
+  return scanFrom(plant, truth.base_position, truth.base_orientation);
+}
+
+const std::vector<Eigen::Vector3d>& Lidar::scanFrom(const Plant& plant,
+                                                    const Eigen::Vector3d& base_position,
+                                                    const Eigen::Quaterniond& base_orientation) {
+  pose_ = sensorPose(base_position, base_orientation);
   const Eigen::Matrix3d R = pose_.linear();
   const Eigen::Vector3d origin = pose_.translation();
   const double nan = std::numeric_limits<double>::quiet_NaN();

@@ -54,6 +54,11 @@ class Lidar {
   /// One scan from the plant's current (ground-truth) base pose: points in the sensor
   /// frame, NaN for misses and dropouts. Does not allocate.
   const std::vector<Eigen::Vector3d>& scan(const Plant& plant);
+  /// One scan from a given base pose (the robot "placed" there: only the terrain is hit,
+  /// so the robot need not be simulated at that pose).
+  const std::vector<Eigen::Vector3d>& scanFrom(const Plant& plant,
+                                               const Eigen::Vector3d& base_position,
+                                               const Eigen::Quaterniond& base_orientation);
   /// The pose of the last scan.
   const Eigen::Isometry3d& lastPose() const { return pose_; }
   /// Rays of the last scan that returned a point.
