@@ -207,6 +207,49 @@ MapUpdateStats ElevationMap::update(const Eigen::Vector3d* points, int count,
   return stats;
 }
 
+int ElevationMap::fillFootprint(const Eigen::Vector3d* contacts, int count, double margin,
+                                double variance) {
+  if (count <= 0 || !std::isfinite(margin) || margin < 0 || !std::isfinite(variance) ||
+      variance <= 0) {
+    return 0;
+  }
+  Eigen::Vector2d lo = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector2d hi = -lo;
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (int k = 0; k < count; ++k) {
+    if (!contacts[k].allFinite()) return 0;
+    lo = lo.cwiseMin(contacts[k].head<2>());
+    hi = hi.cwiseMax(contacts[k].head<2>());
+    mean += contacts[k];
+  }
+  mean /= count;
+  // z = mean.z + g . (p - mean.xy), g by least squares when the contacts span an area.
+  Eigen::Matrix2d C = Eigen::Matrix2d::Zero();
+  Eigen::Vector2d rhs = Eigen::Vector2d::Zero();
+  for (int k = 0; k < count; ++k) {
+    const Eigen::Vector2d d = contacts[k].head<2>() - mean.head<2>();
+    C += d * d.transpose();
+    rhs += d * (contacts[k].z() - mean.z());
+  }
+  Eigen::Vector2d g = Eigen::Vector2d::Zero();
+  if (count >= 3 && C.determinant() > 1e-8) g = C.ldlt().solve(rhs);
+  lo.array() -= margin;
+  hi.array() += margin;
+  int filled = 0;
+  for (int r = 0; r < n_; ++r) {
+    for (int c = 0; c < n_; ++c) {
+      const Eigen::Vector2d p = cellCenter(r, c);
+      if ((p.array() < lo.array()).any() || (p.array() > hi.array()).any()) continue;
+      const auto i = static_cast<std::size_t>(r * n_ + c);
+      if (!std::isnan(height_[i])) continue;
+      height_[i] = static_cast<float>(mean.z() + g.dot(p - mean.head<2>()));
+      variance_[i] = static_cast<float>(variance);
+      ++filled;
+    }
+  }
+  return filled;
+}
+
 void ElevationMap::clear() {
   std::fill(height_.begin(), height_.end(), kNaN);
   std::fill(variance_.begin(), variance_.end(), kNaN);

@@ -99,6 +99,25 @@ TEST(ElevationMap, UncertainCellsAreForgottenOverTime) {
   EXPECT_TRUE(std::isnan(map.height(10, 10)));
 }
 
+TEST(ElevationMap, FootprintFillsOnlyEmptyCellsOnThePlaneOfTheContacts) {
+  ElevationMap map;
+  map.setCell(100, 100, 0.5f, 1e-4f);  // a measured cell under the robot is kept
+  // Four contacts on the plane z = 0.1 + 0.2 x.
+  const std::vector<Eigen::Vector3d> contacts{
+      {-0.3, -0.2, 0.04}, {0.3, -0.2, 0.16}, {0.3, 0.2, 0.16}, {-0.3, 0.2, 0.04}};
+  const int filled = map.fillFootprint(contacts.data(), 4, 0.1, 1e-4);
+  // (0.6 + 0.2) x (0.4 + 0.2) m of 2 cm cells, less the measured one.
+  EXPECT_NEAR(filled, 40 * 30 - 1, 40 + 30);
+  EXPECT_FLOAT_EQ(map.height(100, 100), 0.5f);
+  int r = 0, c = 0;
+  ASSERT_TRUE(map.cellOf({0.35, 0.05}, r, c));
+  EXPECT_NEAR(map.height(r, c), 0.1 + 0.2 * map.cellCenter(r, c).x(), 1e-6);
+  ASSERT_TRUE(map.cellOf({0.45, 0.05}, r, c));
+  EXPECT_TRUE(std::isnan(map.height(r, c)));  // beyond the margin
+  const std::vector<Eigen::Vector3d> bad{{std::nan(""), 0, 0}};
+  EXPECT_EQ(map.fillFootprint(bad.data(), 1, 0.1, 1e-4), 0);
+}
+
 TEST(ElevationMap, UpdateMoveAndPredictDoNotAllocate) {
   ElevationMap map;
   const std::vector<Eigen::Vector3d> pts =

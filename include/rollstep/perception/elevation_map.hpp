@@ -81,6 +81,12 @@ class ElevationMap {
                         const Eigen::Isometry3d& sensor_pose) {
     return update(points.data(), static_cast<int>(points.size()), sensor_pose);
   }
+  /// Fills the empty cells under the robot, which the sensor cannot see, from its contact
+  /// points (world; e.g. the wheels' ground contacts from the leg kinematics): the plane
+  /// through them (least squares; their mean height with fewer than 3) over their
+  /// bounding box grown by `margin` [m], with variance `variance` [m^2]. Measured cells are
+  /// kept. Returns the cells filled (0 for no or non-finite contacts).
+  int fillFootprint(const Eigen::Vector3d* contacts, int count, double margin, double variance);
   /// Empties every cell.
   void clear();
 
