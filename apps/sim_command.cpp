@@ -12,6 +12,7 @@
 // leaves only DIR/FAILED holding the error, and exits non-zero.
 #include <mujoco/mujoco.h>
 
+#include <array>
 #include <cerrno>
 #include <cmath>
 #include <cstdarg>
@@ -32,7 +33,9 @@
 #include "rollstep/common/number_text.hpp"
 #include "rollstep/common/text_file.hpp"
 #include "rollstep/control/control_settings.hpp"
+#include "rollstep/perception/terrain_perception.hpp"
 #include "rollstep/sim/cbfqp_controller.hpp"
+#include "rollstep/sim/lidar.hpp"
 #include "rollstep/sim/nmpc_controller.hpp"
 #include "rollstep/sim/plant.hpp"
 #include "rollstep/sim/scenario.hpp"
@@ -45,6 +48,9 @@ namespace rollstep::apps {
 namespace {
 
 namespace fs = std::filesystem;
+
+/// Around the wheels' contacts, the part of the map filled from them at the start [m].
+constexpr double kFootprintMargin = 0.15;
 
 struct SimOptions {
   std::string scene = "flat";
@@ -63,6 +69,7 @@ struct SimOptions {
   std::string robot_description;
   std::string mpc_timing;  // "" = the config's
   std::string integrator;  // "" = the config's
+  std::string terrain = "scene";
 };
 
 /// Result files of a run in the output directory.
@@ -142,9 +149,43 @@ void runSim(const SimOptions& o, bool scene_given) {
     if (o.integrator == "internal") settings.integrator.mode = control::IntegratorMode::Internal;
     if (o.integrator == "naive") settings.integrator.mode = control::IntegratorMode::Naive;
     const planning::BaseVelocityCommand command{o.vx, o.vy, o.yaw_rate};
+    // The terrain source: the scene's ground truth, or the LiDAR's view from the start pose
+    // (config/lidar.yaml's defaults, a second of scans fused, the blind spot under the
+    // robot filled from its wheel contacts), regions shrunk alike.
+    const double margin = robot.contact_offset + kEdgeClearance;
+    planning::TerrainModel terrain;
+    std::string terrain_text = "scene ground truth";
+    if (o.terrain == "perception") {
+      sim::Lidar lidar;
+      perception::PerceptionSettings perception_settings;
+      perception_settings.regions.margin = margin;
+      perception::TerrainPerception perception(perception_settings);
+      const int scans = static_cast<int>(std::lround(lidar.settings().rate));
+      for (int k = 0; k < scans; ++k) {
+        perception.update(lidar.scan(plant), lidar.lastPose(), k / lidar.settings().rate);
+      }
+      // Under the robot the sensor sees nothing: the wheels' ground contacts fill it.
+      std::array<Eigen::Vector3d, sim::kNumLegs> contacts;
+      for (int leg = 0; leg < sim::kNumLegs; ++leg) {
+        contacts[static_cast<std::size_t>(leg)] =
+            plant.groundTruth().wheel_center[static_cast<std::size_t>(leg)] -
+            plant.wheelRadius(leg) * Eigen::Vector3d::UnitZ();
+      }
+      perception.map().fillFootprint(contacts.data(), sim::kNumLegs, kFootprintMargin, 1e-4);
+      perception.rebuild();
+      if (!perception.hasTerrain()) {
+        throw std::runtime_error(std::string("--terrain perception: no terrain from the LiDAR "
+                                             "at the start pose: ") +
+                                 perception::toString(perception.lastStatus()));
+      }
+      terrain = perception.terrain();
+      terrain_text = format("perception (%d convex regions from %d LiDAR scans at the start)",
+                            terrain.size(), scans);
+    } else {
+      terrain = sim::terrainFromScene(scene, margin);
+    }
     auto nmpc = std::make_unique<sim::NmpcController>(
-        plant, robot, settings, sim::terrainFromScene(scene, robot.contact_offset + kEdgeClearance),
-        centroidal::gaitKindFromString(o.gait), command);
+        plant, robot, settings, terrain, centroidal::gaitKindFromString(o.gait), command);
     nmpc_controller = nmpc.get();
     controller = std::move(nmpc);
     controller_text = format(
@@ -155,6 +196,7 @@ void runSim(const SimOptions& o, bool scene_given) {
         control::toString(settings.mpc.timing), settings.ocp.horizon,
         control::toString(settings.integrator.mode),
         solver::toString(nmpc_controller->initialStatus()));
+    controller_text += "; terrain " + terrain_text;
   } else if (o.controller == "cbfqp") {
     const std::string description =
         o.robot_description.empty() ? defaultRobotDescription() : o.robot_description;
@@ -354,6 +396,12 @@ void registerSimCommand(CLI::App& app) {
                                       "simulated time, reproducible) or asynchronous (a real "
                                       "MPC thread); default: the control settings'")
                           ->check(CLI::IsMember({"deterministic", "asynchronous"})));
+  nmpc_only.push_back(cmd->add_option("--terrain", options->terrain,
+                                      "nmpc only: scene (the scene's ground-truth regions) or "
+                                      "perception (regions from the simulated LiDAR at the "
+                                      "start pose, config/lidar.yaml's sensor)")
+                          ->check(CLI::IsMember({"scene", "perception"}))
+                          ->capture_default_str());
   nmpc_only.push_back(cmd->add_option("--integrator", options->integrator,
                                       "nmpc only: internal (the internal state integrator) or "
                                       "naive (naive state feedback); default: the control "

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace rollstep::control {
 
@@ -27,7 +28,7 @@ void forEachFace(const planning::ConvexRegion& region, const Eigen::Vector3d& p,
 }  // namespace
 
 double prismFaceDistance(const planning::ConvexRegion& region, const Eigen::Vector3d& p) {
-  double m = -INFINITY;
+  double m = -std::numeric_limits<double>::infinity();
   forEachFace(region, p, [&](const Eigen::Vector3d&, double s) { m = std::max(m, s); });
   return m;
 }

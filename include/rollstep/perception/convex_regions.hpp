@@ -1,0 +1,79 @@
+#pragma once
+// Convex foothold regions from a plane segmentation, in the planning layer's terrain form
+// (planning::ConvexRegion: half-planes A p + b >= 0, height at the centroid, normal).
+//
+// Growing: a convex polygon is the intersection of K half-planes with fixed directions
+// (K evenly spaced, turned to the region's main axis from OpenCV's minimum-area
+// rectangle), around a seed inside the region. The cells bordering the region (outside
+// it, holes and map border included) are obstacles. All half-planes are pushed outwards
+// together, a little per round, each only as far as no obstacle cell centre enters the
+// polygon (a point leaves the polygon's interior once it is on or beyond any one
+// half-plane; counting, per obstacle, the half-planes it is beyond keeps a round linear
+// in the obstacles). The result is then pulled in by half a cell (obstacle centres are
+// half a cell beyond the region's edge) and by `margin`. An axis-aligned rectangle region
+// is recovered exactly (to a cell); any region gives an inscribed convex polygon that
+// grows from the seed in every direction until it touches the region's border.
+#include <Eigen/Core>
+#include <optional>
+#include <vector>
+
+#include "rollstep/perception/plane_segmentation.hpp"
+#include "rollstep/planning/terrain.hpp"
+
+namespace rollstep::perception {
+
+struct ConvexRegionSettings {
+  int directions = 4;           ///< K half-plane directions (>= 4, even)
+  double margin = 0.0;          ///< pulled in from the region's edge [m]
+  double min_clearance = 0.03;  ///< a seed this close to the edge is moved inwards [m]
+  double search_radius = 0.5;   ///< foothold selection: regions within this distance [m]
+  double height_weight = 2.0;   ///< selection cost per metre of height difference
+  /// Terrain cover: pieces per planar region, and the share of a region's cells the
+  /// pieces must cover before the cover stops.
+  int max_pieces_per_region = 8;
+  double cover_fraction = 0.97;
+  double min_piece_area = 0.01;  ///< smaller convex pieces are dropped [m^2]
+
+  void validate() const;  ///< std::invalid_argument naming the bad parameter
+};
+
+class ConvexRegionGrower {
+ public:
+  explicit ConvexRegionGrower(const ConvexRegionSettings& settings = {});
+  const ConvexRegionSettings& settings() const { return settings_; }
+
+  /// The region a foothold at nominal world position `foothold` (z: the expected height)
+  /// should use: the one containing its (x, y) if any, else the nearest within
+  /// search_radius, cost = distance + height_weight * |height difference|. -1 if none.
+  int selectRegion(const Segmentation& seg, const Eigen::Vector3d& foothold) const;
+
+  /// The largest convex polygon grown inside region `region` around `seed` (moved to the
+  /// nearest cell at least min_clearance inside the region when it is not). nullopt when
+  /// the region has no such cell or the polygon vanishes under the margin.
+  std::optional<planning::ConvexRegion> grow(const Segmentation& seg, int region,
+                                             const Eigen::Vector2d& seed);
+  /// selectRegion then grow around the foothold.
+  std::optional<planning::ConvexRegion> forFoothold(const Segmentation& seg,
+                                                    const Eigen::Vector3d& foothold);
+
+  /// The whole map as a planning terrain model: each planar region covered by up to
+  /// max_pieces_per_region convex pieces, each grown from the region's cell furthest
+  /// from its border and from the pieces before it.
+  planning::TerrainModel terrain(const Segmentation& seg);
+
+ private:
+  /// Fills obstacles_ and mask_ for `region`; returns false if the region is empty.
+  bool prepare(const Segmentation& seg, int region);
+  std::optional<planning::ConvexRegion> growPrepared(const Segmentation& seg, int region,
+                                                     const Eigen::Vector2d& seed);
+
+  ConvexRegionSettings settings_;
+  std::vector<Eigen::Vector2d> obstacles_;
+  std::vector<double> proj_;         // obstacles x directions
+  std::vector<int> beyond_;          // per obstacle: half-planes it is on or beyond
+  std::vector<unsigned char> mask_;  // region cells (row-major, map size)
+  std::vector<double> clearance_;    // distance to the nearest non-region cell [cells]
+  double angle_ = 0.0;               // of direction 0 [rad]
+};
+
+}  // namespace rollstep::perception

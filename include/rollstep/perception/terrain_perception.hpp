@@ -1,0 +1,85 @@
+#pragma once
+// The perception pipeline: point clouds -> elevation map -> plane segmentation -> convex
+// foothold regions, as the planning layer's TerrainModel (the same type the scene's
+// ground truth gives, so the planner and the safety filter take either).
+//
+// Bad data never replaces the terrain: update() reports a status, and terrain() keeps the
+// last terrain built from good data (empty until the first).
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "rollstep/perception/convex_regions.hpp"
+#include "rollstep/perception/elevation_map.hpp"
+#include "rollstep/perception/plane_segmentation.hpp"
+#include "rollstep/planning/terrain.hpp"
+
+namespace rollstep::perception {
+
+struct PerceptionSettings {
+  ElevationMapSettings map;
+  SegmentationSettings segmentation;
+  ConvexRegionSettings regions;
+
+  void validate() const;
+};
+
+/// Reads perception settings (config/perception.yaml documents every key): a mapping with
+/// optional sections map, segmentation, regions; absent keys keep their defaults. Throws
+/// std::runtime_error "perception settings '<source>': line L: <key>: <problem>" for
+/// YAML errors, unknown or repeated keys, values that are not numbers (booleans for the
+/// switches) or are out of range.
+PerceptionSettings parsePerceptionSettings(std::string_view text, const std::string& source);
+PerceptionSettings loadPerceptionSettings(const std::string& path);
+/// The settings as YAML text that parsePerceptionSettings reads back to the same values.
+std::string toYaml(const PerceptionSettings& settings);
+
+enum class PerceptionStatus {
+  Ok,              ///< new terrain built
+  NoPoints,        ///< the scan is empty or every ray missed (no return in range)
+  NonFinite,       ///< no usable point: every return was NaN or infinite
+  InvalidPose,     ///< the sensor pose is not finite: nothing fused
+  NoPlanarRegion,  ///< the map holds no planar region large enough
+};
+const char* toString(PerceptionStatus status);
+
+class TerrainPerception {
+ public:
+  explicit TerrainPerception(const PerceptionSettings& settings = {});
+
+  /// One scan: points in the sensor frame (NaN for a ray that missed), the sensor's pose
+  /// in the world (from the estimated base pose), the scan's time [s]. Recentres the map
+  /// on the sensor, grows the cells' variance by the time since the last scan, fuses,
+  /// segments and rebuilds the terrain. Only Ok replaces terrain().
+  PerceptionStatus update(const std::vector<Eigen::Vector3d>& points,
+                          const Eigen::Isometry3d& sensor_pose, double time);
+  /// Segmentation and terrain from the map as it is (e.g. after fusing several scans with
+  /// map().update); Ok or NoPlanarRegion.
+  PerceptionStatus rebuild();
+
+  const PerceptionSettings& settings() const { return settings_; }
+  const planning::TerrainModel& terrain() const { return terrain_; }
+  bool hasTerrain() const { return has_terrain_; }
+  double terrainTime() const { return terrain_time_; }
+  PerceptionStatus lastStatus() const { return last_status_; }
+  const MapUpdateStats& lastStats() const { return last_stats_; }
+  ElevationMap& map() { return map_; }
+  const ElevationMap& map() const { return map_; }
+  const Segmentation& segmentation() const { return segmentation_; }
+  ConvexRegionGrower& grower() { return grower_; }
+
+ private:
+  PerceptionSettings settings_;
+  ElevationMap map_;
+  PlaneSegmenter segmenter_;
+  ConvexRegionGrower grower_;
+  Segmentation segmentation_;
+  planning::TerrainModel terrain_;
+  bool has_terrain_ = false;
+  double terrain_time_ = 0.0, last_time_ = 0.0;
+  bool has_time_ = false;
+  PerceptionStatus last_status_ = PerceptionStatus::NoPoints;
+  MapUpdateStats last_stats_;
+};
+
+}  // namespace rollstep::perception

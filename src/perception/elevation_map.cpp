@@ -1,0 +1,271 @@
+#include "rollstep/perception/elevation_map.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace rollstep::perception {
+
+namespace {
+
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+void require(bool ok, const char* name, double value, const char* what) {
+  if (!ok) {
+    throw std::invalid_argument(std::string("elevation map: ") + name + " = " +
+                                std::to_string(value) + ": " + what);
+  }
+}
+
+}  // namespace
+
+void ElevationMapSettings::validate() const {
+  require(std::isfinite(resolution) && resolution >= 0.005 && resolution <= 0.5, "resolution",
+          resolution, "must be in [0.005, 0.5] m");
+  require(std::isfinite(length) && length >= 4 * resolution && length / resolution <= 2000,
+          "length", length, "must span 4 to 2000 cells");
+  require(std::isfinite(sensor_noise) && sensor_noise > 0 && sensor_noise <= 1, "sensor_noise",
+          sensor_noise, "must be in (0, 1] m");
+  require(std::isfinite(range_noise_slope) && range_noise_slope >= 0 && range_noise_slope <= 1,
+          "range_noise_slope", range_noise_slope, "must be in [0, 1]");
+  require(std::isfinite(gate) && gate > 0, "gate", gate, "must be > 0");
+  require(std::isfinite(process_noise) && process_noise >= 0, "process_noise", process_noise,
+          "must be >= 0");
+  require(std::isfinite(min_variance) && min_variance > 0, "min_variance", min_variance,
+          "must be > 0");
+  require(std::isfinite(max_variance) && max_variance > min_variance, "max_variance", max_variance,
+          "must be > min_variance");
+  require(visibility_stride >= 1 && visibility_stride <= 1000, "visibility_stride",
+          visibility_stride, "must be 1 to 1000");
+  require(std::isfinite(visibility_margin) && visibility_margin >= 0, "visibility_margin",
+          visibility_margin, "must be >= 0");
+  require(std::isfinite(min_range) && min_range >= 0, "min_range", min_range, "must be >= 0");
+  require(std::isfinite(max_range) && max_range > min_range, "max_range", max_range,
+          "must be > min_range");
+}
+
+ElevationMap::ElevationMap(const ElevationMapSettings& settings) : settings_(settings) {
+  settings_.validate();
+  res_ = settings_.resolution;
+  n_ = std::max(4, static_cast<int>(std::lround(settings_.length / res_)));
+  const auto cells = static_cast<std::size_t>(n_) * static_cast<std::size_t>(n_);
+  height_.assign(cells, kNaN);
+  variance_.assign(cells, kNaN);
+  scratch_h_.assign(cells, kNaN);
+  scratch_v_.assign(cells, kNaN);
+  gx0_ = gy0_ = -n_ / 2;
+}
+
+bool ElevationMap::cellOf(const Eigen::Vector2d& p, int& r, int& c) const {
+  if (!p.allFinite()) return false;
+  const double fx = std::floor(p.x() / res_) - static_cast<double>(gx0_);
+  const double fy = std::floor(p.y() / res_) - static_cast<double>(gy0_);
+  if (fx < 0 || fy < 0 || fx >= n_ || fy >= n_) return false;
+  c = static_cast<int>(fx);
+  r = static_cast<int>(fy);
+  return true;
+}
+
+bool ElevationMap::moveTo(const Eigen::Vector2d& center) {
+  if (!center.allFinite() || center.cwiseAbs().maxCoeff() > 1e6) return false;
+  const long nx = static_cast<long>(std::floor(center.x() / res_)) - n_ / 2;
+  const long ny = static_cast<long>(std::floor(center.y() / res_)) - n_ / 2;
+  const long dx = nx - gx0_, dy = ny - gy0_;
+  if (dx == 0 && dy == 0) return true;
+  for (int r = 0; r < n_; ++r) {
+    for (int c = 0; c < n_; ++c) {
+      const long orow = r + dy, ocol = c + dx;
+      const auto i = static_cast<std::size_t>(r * n_ + c);
+      if (orow >= 0 && orow < n_ && ocol >= 0 && ocol < n_) {
+        const auto o = static_cast<std::size_t>(orow * n_ + ocol);
+        scratch_h_[i] = height_[o];
+        scratch_v_[i] = variance_[o];
+      } else {
+        scratch_h_[i] = scratch_v_[i] = kNaN;
+      }
+    }
+  }
+  height_.swap(scratch_h_);
+  variance_.swap(scratch_v_);
+  gx0_ = nx;
+  gy0_ = ny;
+  return true;
+}
+
+void ElevationMap::predict(double dt) {
+  if (!(dt > 0) || !std::isfinite(dt)) return;
+  const auto grow = static_cast<float>(settings_.process_noise * dt);
+  const auto vmax = static_cast<float>(settings_.max_variance);
+  for (std::size_t i = 0; i < height_.size(); ++i) {
+    if (std::isnan(height_[i])) continue;
+    variance_[i] += grow;
+    if (variance_[i] > vmax) height_[i] = variance_[i] = kNaN;
+  }
+}
+
+void ElevationMap::fuse(std::size_t i, double z, double var) {
+  float& h = height_[i];
+  float& v = variance_[i];
+  if (std::isnan(h)) {
+    h = static_cast<float>(z);
+    v = static_cast<float>(var);
+    return;
+  }
+  const double hd = h, vd = v;
+  const double d = z - hd;
+  const double s = vd + var;
+  if (d * d > settings_.gate * settings_.gate * s) {
+    if (d > 0) {
+      h = static_cast<float>(z);
+      v = static_cast<float>(var);
+    } else {
+      v = static_cast<float>(std::min(settings_.max_variance, vd + var));
+    }
+    return;
+  }
+  h = static_cast<float>((var * hd + vd * z) / s);
+  v = static_cast<float>(std::max(settings_.min_variance, vd * var / s));
+}
+
+int ElevationMap::clearAlongRay(const Eigen::Vector3d& from, const Eigen::Vector3d& to,
+                                double top) {
+  const Eigen::Vector3d d = to - from;
+  const double horizontal = d.head<2>().norm();
+  // Only where the ray runs below the map's highest cell (less the margin) can it clear
+  // anything: start there.
+  double t0 = 0.0;
+  const double z_clear = top - settings_.visibility_margin;
+  if (from.z() >= z_clear) {
+    if (to.z() >= z_clear) return 0;
+    t0 = (from.z() - z_clear) / (from.z() - to.z());
+  }
+  // One sample per cell length; the last two cells before the hit are left alone (the ray
+  // may graze the surface there). Positions in cells, advanced incrementally.
+  const int steps = static_cast<int>(horizontal / res_) - 2;
+  if (steps < 2) return 0;
+  const double dt = res_ / horizontal;
+  const double sx = d.x() * dt / res_, sy = d.y() * dt / res_, sz = d.z() * dt;
+  const int k0 = std::max(1, static_cast<int>(t0 / dt));
+  double fx = from.x() / res_ - static_cast<double>(gx0_) + (k0 - 1) * sx;
+  double fy = from.y() / res_ - static_cast<double>(gy0_) + (k0 - 1) * sy;
+  double z = from.z() + settings_.visibility_margin + (k0 - 1) * sz;
+  int cleared = 0;
+  for (int k = k0; k < steps; ++k) {
+    fx += sx;
+    fy += sy;
+    z += sz;
+    if (fx < 0 || fy < 0 || fx >= n_ || fy >= n_) continue;
+    const auto i = static_cast<std::size_t>(static_cast<int>(fy) * n_ + static_cast<int>(fx));
+    // NaN compares false: empty cells are skipped.
+    if (static_cast<double>(height_[i]) > z) {
+      height_[i] = variance_[i] = kNaN;
+      ++cleared;
+    }
+  }
+  return cleared;
+}
+
+MapUpdateStats ElevationMap::update(const Eigen::Vector3d* points, int count,
+                                    const Eigen::Isometry3d& sensor_pose) {
+  MapUpdateStats stats;
+  stats.points = std::max(0, count);
+  if (!sensor_pose.matrix().allFinite()) {
+    stats.non_finite = stats.points;
+    return stats;
+  }
+  const Eigen::Vector3d origin = sensor_pose.translation();
+  // The highest cell, kept up to date as points are fused (bounds the visibility walk).
+  double top = -std::numeric_limits<double>::infinity();
+  if (settings_.visibility_cleanup) {
+    for (const float h : height_) {
+      if (static_cast<double>(h) > top) top = static_cast<double>(h);  // NaN compares false
+    }
+  }
+  for (int k = 0; k < count; ++k) {
+    const Eigen::Vector3d& ps = points[k];
+    if (!ps.allFinite()) {
+      ++stats.non_finite;
+      continue;
+    }
+    const double range = ps.norm();
+    int r = 0, c = 0;
+    const Eigen::Vector3d p = sensor_pose * ps;
+    if (range < settings_.min_range || range > settings_.max_range || !cellOf(p.head<2>(), r, c)) {
+      ++stats.out_of_map;
+      continue;
+    }
+    if (settings_.visibility_cleanup && k % settings_.visibility_stride == 0) {
+      stats.cleared += clearAlongRay(origin, p, top);
+    }
+    top = std::max(top, p.z());
+    const double sigma = settings_.sensor_noise + settings_.range_noise_slope * range;
+    fuse(static_cast<std::size_t>(r * n_ + c), p.z(), sigma * sigma);
+    ++stats.fused;
+  }
+  return stats;
+}
+
+int ElevationMap::fillFootprint(const Eigen::Vector3d* contacts, int count, double margin,
+                                double variance) {
+  if (count <= 0 || !std::isfinite(margin) || margin < 0 || !std::isfinite(variance) ||
+      variance <= 0) {
+    return 0;
+  }
+  Eigen::Vector2d lo = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector2d hi = -lo;
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (int k = 0; k < count; ++k) {
+    if (!contacts[k].allFinite()) return 0;
+    lo = lo.cwiseMin(contacts[k].head<2>());
+    hi = hi.cwiseMax(contacts[k].head<2>());
+    mean += contacts[k];
+  }
+  mean /= count;
+  // z = mean.z + g . (p - mean.xy), g by least squares when the contacts span an area.
+  Eigen::Matrix2d C = Eigen::Matrix2d::Zero();
+  Eigen::Vector2d rhs = Eigen::Vector2d::Zero();
+  for (int k = 0; k < count; ++k) {
+    const Eigen::Vector2d d = contacts[k].head<2>() - mean.head<2>();
+    C += d * d.transpose();
+    rhs += d * (contacts[k].z() - mean.z());
+  }
+  Eigen::Vector2d g = Eigen::Vector2d::Zero();
+  if (count >= 3 && C.determinant() > 1e-8) g = C.ldlt().solve(rhs);
+  lo.array() -= margin;
+  hi.array() += margin;
+  int filled = 0;
+  for (int r = 0; r < n_; ++r) {
+    for (int c = 0; c < n_; ++c) {
+      const Eigen::Vector2d p = cellCenter(r, c);
+      if ((p.array() < lo.array()).any() || (p.array() > hi.array()).any()) continue;
+      const auto i = static_cast<std::size_t>(r * n_ + c);
+      if (!std::isnan(height_[i])) continue;
+      height_[i] = static_cast<float>(mean.z() + g.dot(p - mean.head<2>()));
+      variance_[i] = static_cast<float>(variance);
+      ++filled;
+    }
+  }
+  return filled;
+}
+
+void ElevationMap::clear() {
+  std::fill(height_.begin(), height_.end(), kNaN);
+  std::fill(variance_.begin(), variance_.end(), kNaN);
+}
+
+int ElevationMap::validCells() const {
+  return static_cast<int>(
+      std::count_if(height_.begin(), height_.end(), [](float h) { return !std::isnan(h); }));
+}
+
+void ElevationMap::setCell(int r, int c, float height, float variance) {
+  if (r < 0 || c < 0 || r >= n_ || c >= n_) return;
+  const auto i = static_cast<std::size_t>(r * n_ + c);
+  const bool ok = std::isfinite(height) && std::isfinite(variance) && variance > 0;
+  height_[i] = ok ? height : kNaN;
+  variance_[i] = ok ? variance : kNaN;
+}
+
+}  // namespace rollstep::perception

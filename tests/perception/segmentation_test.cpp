@@ -1,0 +1,241 @@
+// Issue 15 proof on synthetic height maps (flat, blocks, stairs, a 10 degree slope, with
+// noise, dropouts and patches without data): the extracted planar regions and the
+// convex regions grown in them match the ground-truth planes (area IoU >= 0.9, step edges
+// within 2 cm, heights within 1 cm).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+
+#include "perception/synthetic_terrain.hpp"
+#include "rollstep/perception/convex_regions.hpp"
+#include "rollstep/perception/plane_segmentation.hpp"
+#include "rollstep/perception/polygon.hpp"
+
+namespace rollstep::perception {
+namespace {
+
+using test::SyntheticTerrain;
+using test::TruthPlane;
+
+constexpr double kPi = 3.14159265358979323846;
+const Eigen::Vector3d kSensor(0.0, 0.0, 3.0);
+
+ElevationMapSettings syntheticMap() {
+  ElevationMapSettings s;
+  s.visibility_cleanup = false;  // points fall straight down from above
+  return s;
+}
+
+struct Extracted {
+  ElevationMap map{syntheticMap()};
+  Segmentation seg;
+};
+
+void extract(const SyntheticTerrain& terrain, Extracted& out, unsigned seed = 1) {
+  out.map.moveTo(Eigen::Vector2d::Zero());
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.translation() = kSensor;
+  // 1 cm point spacing: about 4 points per 2 cm cell, 10 % dropped, 5 mm noise.
+  out.map.update(terrain.cloud(0.01, 0.005, 0.1, kSensor, seed), pose);
+  PlaneSegmenter segmenter;
+  segmenter.segment(out.map, out.seg);
+}
+
+/// The extracted region overlapping `truth` most (-1 if none).
+int matchRegion(const Segmentation& seg, const TruthPlane& truth) {
+  int best = -1;
+  double best_area = 0;
+  for (std::size_t k = 0; k < seg.regions.size(); ++k) {
+    const double a = intersectionArea(seg.regions[k].polygons, truth.footprint);
+    if (a > best_area) {
+      best_area = a;
+      best = static_cast<int>(k);
+    }
+  }
+  return best;
+}
+
+/// Largest distance from points along the truth's step edges (2 cm apart, 4 cm clear of
+/// the corners) to the region's boundary.
+double edgeError(const std::vector<PolygonWithHoles>& polygons, const TruthPlane& truth) {
+  double worst = 0;
+  for (const auto& [a, b] : truth.edges) {
+    const double len = (b - a).norm();
+    for (double s = 0.04; s <= len - 0.04; s += 0.02) {
+      worst = std::max(worst, boundaryDistance(polygons, a + (b - a) * (s / len)));
+    }
+  }
+  return worst;
+}
+
+/// Largest height error of the region's plane over the truth's footprint (grid of 5 cm,
+/// 5 cm inside it).
+double heightError(const PlanarRegion& region, const TruthPlane& truth) {
+  const std::vector<PolygonWithHoles> inner = offset(truth.footprint, -0.05);
+  double worst = 0;
+  for (double y = -2.0; y <= 2.0; y += 0.05) {
+    for (double x = -2.0; x <= 2.0; x += 0.05) {
+      const Eigen::Vector2d p(x, y);
+      const std::vector<PolygonWithHoles> dot{rectangle(x - 1e-4, x + 1e-4, y - 1e-4, y + 1e-4)};
+      if (intersectionArea(dot, inner) <= 0) continue;
+      worst = std::max(worst, std::abs(region.heightAt(p) - truth.at(p)));
+    }
+  }
+  return worst;
+}
+
+/// Checks every truth plane against its extracted region; prints the figures.
+void checkPlanes(const char* name, const SyntheticTerrain& terrain, const Segmentation& seg) {
+  const std::vector<TruthPlane> truths = terrain.planes();
+  for (std::size_t t = 0; t < truths.size(); ++t) {
+    const TruthPlane& truth = truths[t];
+    const int k = matchRegion(seg, truth);
+    ASSERT_GE(k, 0) << name << " plane " << t;
+    const PlanarRegion& reg = seg.regions[static_cast<std::size_t>(k)];
+    const double overlap = iou(reg.polygons, truth.footprint);
+    const double edge = edgeError(reg.polygons, truth);
+    const double height = heightError(reg, truth);
+    std::printf(
+        "%s plane %zu: IoU %.4f, edge error %.4f m (%zu edges), height error %.4f m, rms %.4f m\n",
+        name, t, overlap, edge, truth.edges.size(), height, reg.rms);
+    EXPECT_GE(overlap, 0.9) << name << " plane " << t;
+    EXPECT_LE(edge, 0.02) << name << " plane " << t;
+    EXPECT_LE(height, 0.01) << name << " plane " << t;
+  }
+}
+
+/// For each box top: the convex region grown from a foothold near its centre covers it
+/// (IoU >= 0.9), its edges lie on the box's sides (2 cm) and its height is the top's (1 cm).
+void checkConvexTops(const char* name, const SyntheticTerrain& terrain, const Segmentation& seg) {
+  const std::vector<TruthPlane> truths = terrain.planes();
+  ConvexRegionGrower grower;
+  for (std::size_t t = 1; t < truths.size(); ++t) {
+    const TruthPlane& truth = truths[t];
+    // A nominal foothold 3 cm off the centre, with a height guess 5 cm off.
+    const Eigen::Vector3d foothold(truth.anchor.x() + 0.03, truth.anchor.y() - 0.03,
+                                   truth.height + 0.05);
+    const std::optional<planning::ConvexRegion> region = grower.forFoothold(seg, foothold);
+    ASSERT_TRUE(region.has_value()) << name << " top " << t;
+    std::vector<PolygonWithHoles> poly(1);
+    poly.front().outer = region->vertices;
+    const double overlap = iou(poly, truth.footprint);
+    const double edge = edgeError(poly, truth);
+    const double height = std::abs(region->height - truth.at(region->centroid));
+    std::printf(
+        "%s convex top %zu: %zu vertices, IoU %.4f, edge error %.4f m, height error %.4f m\n", name,
+        t, region->vertices.size(), overlap, edge, height);
+    EXPECT_GE(overlap, 0.9) << name << " top " << t;
+    EXPECT_LE(edge, 0.02) << name << " top " << t;
+    EXPECT_LE(height, 0.01) << name << " top " << t;
+    EXPECT_TRUE(region->contains(foothold.head<2>()));
+    // Half-plane form: unit inward rows, A v + b = 0 on the vertices.
+    for (Eigen::Index e = 0; e < region->A.rows(); ++e)
+      EXPECT_NEAR(region->A.row(e).norm(), 1.0, 1e-9);
+  }
+}
+
+TEST(PlaneSegmentation, FlatWithNoiseDropoutsAndAHoleIsOneRegionWithTheHole) {
+  SyntheticTerrain flat;
+  flat.no_data = {rectangle(0.5, 0.8, -0.4, -0.1)};  // 30 cm x 30 cm, larger than max_hole_area
+  Extracted e;
+  extract(flat, e);
+  checkPlanes("flat", flat, e.seg);
+  // The unobserved patch is a hole of the region, not a foothold.
+  EXPECT_EQ(e.seg.regionAt({0.65, -0.25}), -1);
+  int holes = 0;
+  for (const PolygonWithHoles& p :
+       e.seg.regions[static_cast<std::size_t>(matchRegion(e.seg, flat.planes()[0]))].polygons) {
+    holes += static_cast<int>(p.holes.size());
+  }
+  EXPECT_GE(holes, 1);
+  // A convex region around a foothold next to the hole stays out of it.
+  ConvexRegionGrower grower;
+  const auto region = grower.forFoothold(e.seg, {0.3, -0.25, 0.0});
+  ASSERT_TRUE(region.has_value());
+  EXPECT_TRUE(region->contains({0.3, -0.25}));
+  for (double y = -0.4; y <= -0.1; y += 0.01) {
+    for (double x = 0.5; x <= 0.8; x += 0.01) EXPECT_FALSE(region->contains({x, y}, -1e-9));
+  }
+}
+
+TEST(PlaneSegmentation, BlocksMatchTheirTopsAndTheFloor) {
+  const SyntheticTerrain terrain = test::blocksTerrain();
+  Extracted e;
+  extract(terrain, e);
+  checkPlanes("blocks", terrain, e.seg);
+  checkConvexTops("blocks", terrain, e.seg);
+  EXPECT_FALSE(e.seg.step_edges.empty());
+}
+
+TEST(PlaneSegmentation, StairsTreadsAreSeparateRegions) {
+  const SyntheticTerrain terrain = test::stairsTerrain();
+  Extracted e;
+  extract(terrain, e);
+  checkPlanes("stairs", terrain, e.seg);
+  checkConvexTops("stairs", terrain, e.seg);
+}
+
+TEST(PlaneSegmentation, TenDegreeSlopeIsOnePlaneWithItsNormal) {
+  SyntheticTerrain slope;
+  const double g = std::tan(10.0 * kPi / 180.0);
+  slope.floor_gradient = g * Eigen::Vector2d(std::cos(kPi / 6), std::sin(kPi / 6));
+  slope.no_data = {rectangle(-0.6, -0.5, 0.2, 0.3)};
+  Extracted e;
+  extract(slope, e);
+  checkPlanes("slope", slope, e.seg);
+  const PlanarRegion& reg =
+      e.seg.regions[static_cast<std::size_t>(matchRegion(e.seg, slope.planes()[0]))];
+  const double angle = std::acos(reg.normal.z()) * 180.0 / kPi;
+  std::printf("slope: normal tilt %.3f deg\n", angle);
+  EXPECT_NEAR(angle, 10.0, 0.2);
+  // The convex region takes the plane's normal and height.
+  ConvexRegionGrower grower;
+  const auto region = grower.forFoothold(e.seg, {0.2, 0.1, slope.height({0.2, 0.1})});
+  ASSERT_TRUE(region.has_value());
+  EXPECT_NEAR(region->heightAt({0.2, 0.1}), slope.height({0.2, 0.1}), 0.01);
+  EXPECT_NEAR(region->normal.dot(reg.normal), 1.0, 1e-9);
+}
+
+TEST(PlaneSegmentation, TerrainCoverGivesConvexPiecesOnEverySurface) {
+  const SyntheticTerrain terrain = test::stairsTerrain();
+  Extracted e;
+  extract(terrain, e);
+  ConvexRegionGrower grower;
+  const planning::TerrainModel model = grower.terrain(e.seg);
+  ASSERT_GT(model.size(), 0);
+  // Every surface's height is found at points well inside it.
+  for (const Eigen::Vector2d& p :
+       {Eigen::Vector2d(-1.0, 0.0), Eigen::Vector2d(0.46, 0.0), Eigen::Vector2d(0.77, 0.3),
+        Eigen::Vector2d(1.3, -0.4), Eigen::Vector2d(1.0, 1.5)}) {
+    EXPECT_NEAR(model.heightAt(p), terrain.height(p), 0.01) << p.transpose();
+  }
+  // And no piece reaches over a step edge by more than the 2 cm edge tolerance: each
+  // vertex is inside, or within 2 cm of, the footprint of the surface at its height.
+  const std::vector<TruthPlane> truths = terrain.planes();
+  for (const planning::ConvexRegion& r : model.regions()) {
+    for (const Eigen::Vector2d& v : r.vertices) {
+      double best = 1e9;
+      for (const TruthPlane& t : truths) {
+        if (std::abs(t.at(v) - r.heightAt(v)) > 0.01) continue;
+        std::vector<PolygonWithHoles> dot(1);
+        dot.front() = rectangle(v.x() - 1e-4, v.x() + 1e-4, v.y() - 1e-4, v.y() + 1e-4);
+        best = std::min(
+            best, intersectionArea(dot, t.footprint) > 0 ? 0.0 : boundaryDistance(t.footprint, v));
+      }
+      EXPECT_LE(best, 0.02) << v.transpose();
+    }
+  }
+}
+
+TEST(PlaneSegmentation, SettingsAreValidated) {
+  SegmentationSettings s;
+  s.max_residual = -1;
+  EXPECT_THROW(PlaneSegmenter{s}, std::invalid_argument);
+  ConvexRegionSettings c;
+  c.directions = 5;
+  EXPECT_THROW(ConvexRegionGrower{c}, std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace rollstep::perception

@@ -1,0 +1,227 @@
+// The elevation map (fusion, moving, no allocation after construction), the pipeline's
+// status on bad data (the terrain is kept), and the settings file.
+#include "rollstep/perception/terrain_perception.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <random>
+
+#include "common/alloc_counter.hpp"
+#include "perception/synthetic_terrain.hpp"
+
+namespace rollstep::perception {
+namespace {
+
+const Eigen::Vector3d kSensor(0.0, 0.0, 3.0);
+
+Eigen::Isometry3d sensorPose(const Eigen::Vector3d& at = kSensor) {
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.translation() = at;
+  return pose;
+}
+
+PerceptionSettings syntheticSettings() {
+  PerceptionSettings s;
+  s.map.visibility_cleanup = false;
+  return s;
+}
+
+TEST(ElevationMap, FusesRepeatedNoisyPointsToTheMeanWithShrinkingVariance) {
+  ElevationMap map;
+  std::mt19937 rng(3);
+  std::normal_distribution<double> noise(0.0, 0.01);
+  std::vector<Eigen::Vector3d> pts(1);
+  const double sigma = 0.005 + 0.002 * 2.9;  // the point's standard deviation at 2.9 m
+  int r = 0, c = 0;
+  ASSERT_TRUE(map.cellOf({0.011, 0.013}, r, c));
+  for (int k = 0; k < 400; ++k) {
+    pts[0] = Eigen::Vector3d(0.011, 0.013, 0.10 + noise(rng)) - kSensor;
+    map.update(pts, sensorPose());
+    if (k == 9) {  // ten fused points: a tenth of one point's variance
+      EXPECT_NEAR(map.variance(r, c), sigma * sigma / 10, 0.05 * sigma * sigma / 10);
+    }
+  }
+  EXPECT_NEAR(map.height(r, c), 0.10, 0.003);
+  EXPECT_FLOAT_EQ(map.variance(r, c), 1e-6f);  // the floor
+  EXPECT_EQ(map.validCells(), 1);
+}
+
+TEST(ElevationMap, AHigherSurfaceReplacesAndALowerOutlierOnlyInflatesTheVariance) {
+  ElevationMap map;
+  std::vector<Eigen::Vector3d> pts{Eigen::Vector3d(0.5, 0.5, 0.0) - kSensor};
+  map.update(pts, sensorPose());
+  int r = 0, c = 0;
+  ASSERT_TRUE(map.cellOf({0.5, 0.5}, r, c));
+  pts[0].z() = 0.2 - kSensor.z();  // a box appeared: 20 cm higher
+  map.update(pts, sensorPose());
+  EXPECT_FLOAT_EQ(map.height(r, c), 0.2f);
+  const float v = map.variance(r, c);
+  pts[0].z() = -0.3 - kSensor.z();  // a low outlier
+  map.update(pts, sensorPose());
+  EXPECT_FLOAT_EQ(map.height(r, c), 0.2f);
+  EXPECT_GT(map.variance(r, c), v);
+}
+
+TEST(ElevationMap, VisibilityCleanupClearsCellsARayPassedThrough) {
+  ElevationMap map;
+  map.setCell(100, 125, 0.5f, 1e-4f);  // a phantom 50 cm obstacle at x = 0.51, y = 0.01
+  const Eigen::Vector2d phantom = map.cellCenter(100, 125);
+  // A ray from a sensor 0.3 m up at the origin to the floor 1.5 m ahead passes below it.
+  const Eigen::Vector3d sensor(0.0, phantom.y(), 0.3);
+  std::vector<Eigen::Vector3d> pts{Eigen::Vector3d(1.5, phantom.y(), 0.0) - sensor};
+  const MapUpdateStats stats = map.update(pts, sensorPose(sensor));
+  EXPECT_EQ(stats.cleared, 1);
+  EXPECT_TRUE(std::isnan(map.height(100, 125)));
+}
+
+TEST(ElevationMap, MovesWithTheRobotKeepingWorldCells) {
+  ElevationMap map;
+  std::vector<Eigen::Vector3d> pts{Eigen::Vector3d(0.51, -0.33, 0.07) - kSensor};
+  map.update(pts, sensorPose());
+  ASSERT_TRUE(map.moveTo({1.0, 0.5}));
+  int r = 0, c = 0;
+  ASSERT_TRUE(map.cellOf({0.51, -0.33}, r, c));
+  EXPECT_FLOAT_EQ(map.height(r, c), 0.07f);
+  EXPECT_EQ(map.validCells(), 1);
+  ASSERT_TRUE(map.moveTo({5.0, 0.5}));  // the point leaves the map
+  EXPECT_EQ(map.validCells(), 0);
+  EXPECT_FALSE(map.moveTo({std::nan(""), 0.0}));
+}
+
+TEST(ElevationMap, UncertainCellsAreForgottenOverTime) {
+  ElevationMap map;
+  map.setCell(10, 10, 0.0f, 1e-4f);
+  map.predict(10.0);  // + 1e-3
+  EXPECT_FALSE(std::isnan(map.height(10, 10)));
+  map.predict(30.0);  // above max_variance 2.5e-3
+  EXPECT_TRUE(std::isnan(map.height(10, 10)));
+}
+
+TEST(ElevationMap, FootprintFillsOnlyEmptyCellsOnThePlaneOfTheContacts) {
+  ElevationMap map;
+  map.setCell(100, 100, 0.5f, 1e-4f);  // a measured cell under the robot is kept
+  // Four contacts on the plane z = 0.1 + 0.2 x.
+  const std::vector<Eigen::Vector3d> contacts{
+      {-0.3, -0.2, 0.04}, {0.3, -0.2, 0.16}, {0.3, 0.2, 0.16}, {-0.3, 0.2, 0.04}};
+  const int filled = map.fillFootprint(contacts.data(), 4, 0.1, 1e-4);
+  // (0.6 + 0.2) x (0.4 + 0.2) m of 2 cm cells, less the measured one.
+  EXPECT_NEAR(filled, 40 * 30 - 1, 40 + 30);
+  EXPECT_FLOAT_EQ(map.height(100, 100), 0.5f);
+  int r = 0, c = 0;
+  ASSERT_TRUE(map.cellOf({0.35, 0.05}, r, c));
+  EXPECT_NEAR(map.height(r, c), 0.1 + 0.2 * map.cellCenter(r, c).x(), 1e-6);
+  ASSERT_TRUE(map.cellOf({0.45, 0.05}, r, c));
+  EXPECT_TRUE(std::isnan(map.height(r, c)));  // beyond the margin
+  const std::vector<Eigen::Vector3d> bad{{std::nan(""), 0, 0}};
+  EXPECT_EQ(map.fillFootprint(bad.data(), 1, 0.1, 1e-4), 0);
+}
+
+TEST(ElevationMap, UpdateMoveAndPredictDoNotAllocate) {
+  ElevationMap map;
+  const std::vector<Eigen::Vector3d> pts =
+      test::stairsTerrain().cloud(0.02, 0.005, 0.1, kSensor, 2);
+  map.update(pts, sensorPose());
+  rollstep::test::AllocationGuard guard;
+  map.moveTo({0.3, 0.1});
+  map.update(pts, sensorPose());
+  map.predict(0.1);
+  EXPECT_EQ(guard.count(), 0u);
+}
+
+TEST(TerrainPerception, BadDataGivesAStatusAndKeepsTheLastTerrain) {
+  TerrainPerception perception(syntheticSettings());
+  EXPECT_FALSE(perception.hasTerrain());
+  const std::vector<Eigen::Vector3d> good =
+      test::stairsTerrain().cloud(0.01, 0.005, 0.1, kSensor, 4);
+  ASSERT_EQ(perception.update(good, sensorPose(), 0.0), PerceptionStatus::Ok);
+  ASSERT_TRUE(perception.hasTerrain());
+  const planning::TerrainModel kept = perception.terrain();
+  ASSERT_GT(kept.size(), 0);
+  const auto same = [&] {
+    if (perception.terrain().size() != kept.size()) return false;
+    for (int i = 0; i < kept.size(); ++i) {
+      if (perception.terrain().region(i).vertices != kept.region(i).vertices) return false;
+    }
+    return perception.terrainTime() == 0.0;
+  };
+  // Every ray missed: an empty scan.
+  EXPECT_EQ(perception.update({}, sensorPose(), 0.1), PerceptionStatus::NoPoints);
+  EXPECT_TRUE(same());
+  // Returns out of range only.
+  EXPECT_EQ(perception.update({Eigen::Vector3d(0, 0, 0.01)}, sensorPose(), 0.2),
+            PerceptionStatus::NoPoints);
+  EXPECT_TRUE(same());
+  // NaN points.
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_EQ(perception.update(std::vector<Eigen::Vector3d>(100, Eigen::Vector3d(nan, 0, 0)),
+                              sensorPose(), 0.3),
+            PerceptionStatus::NonFinite);
+  EXPECT_TRUE(same());
+  // A NaN pose.
+  EXPECT_EQ(perception.update(good, sensorPose(Eigen::Vector3d(nan, 0, 3)), 0.4),
+            PerceptionStatus::InvalidPose);
+  EXPECT_TRUE(same());
+  EXPECT_STREQ(toString(perception.lastStatus()), "sensor pose not finite");
+  // No planar region: rubble (every cell a random height) on a fresh map.
+  TerrainPerception fresh(syntheticSettings());
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> uni(0.0, 0.5);
+  std::vector<Eigen::Vector3d> rubble;
+  for (double y = -1.99; y < 2.0; y += 0.02) {
+    for (double x = -1.99; x < 2.0; x += 0.02)
+      rubble.push_back(Eigen::Vector3d(x, y, uni(rng)) - kSensor);
+  }
+  EXPECT_EQ(fresh.update(rubble, sensorPose(), 0.0), PerceptionStatus::NoPlanarRegion);
+  EXPECT_FALSE(fresh.hasTerrain());
+  // ... and on the map that had terrain, rubble fused over it keeps the old terrain.
+  perception.map().clear();
+  EXPECT_EQ(perception.update(rubble, sensorPose(), 0.5), PerceptionStatus::NoPlanarRegion);
+  EXPECT_TRUE(same());
+}
+
+TEST(PerceptionSettings, FileRoundTripsAndErrorsNameLineAndKey) {
+  PerceptionSettings s;
+  s.map.resolution = 0.03;
+  s.segmentation.window_half = 3;
+  s.regions.margin = 0.05;
+  s.map.visibility_cleanup = false;
+  const PerceptionSettings back = parsePerceptionSettings(toYaml(s), "round trip");
+  EXPECT_EQ(back.map.resolution, 0.03);
+  EXPECT_EQ(back.segmentation.window_half, 3);
+  EXPECT_EQ(back.regions.margin, 0.05);
+  EXPECT_FALSE(back.map.visibility_cleanup);
+  EXPECT_EQ(toYaml(back), toYaml(s));
+  const auto error = [](const char* text) {
+    try {
+      parsePerceptionSettings(text, "p.yaml");
+    } catch (const std::runtime_error& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(
+      error("map:\n  resolutoin: 0.02\n"),
+      "perception settings 'p.yaml': line 2: unknown key 'map.resolutoin' (known in map: length, "
+      "resolution, sensor_noise, range_noise_slope, gate, process_noise, max_variance, "
+      "min_variance, "
+      "visibility_cleanup, visibility_stride, visibility_margin, max_range, min_range)");
+  EXPECT_EQ(
+      error("map:\n  gate: 3\nsegmentation:\n  max_residual: -1\n"),
+      "perception settings 'p.yaml': line 4: segmentation.max_residual = -1.000000: must be > 0");
+  EXPECT_EQ(
+      error("regions:\n  margin: .nan\n"),
+      "perception settings 'p.yaml': line 2: regions.margin: expected a finite number, got '.nan'");
+  EXPECT_EQ(error("lidar: {}\n"),
+            "perception settings 'p.yaml': line 1: unknown key 'lidar' (known: map, segmentation, "
+            "regions)");
+  EXPECT_EQ(error("map:\n  gate: 3\n  gate: 4\n"),
+            "perception settings 'p.yaml': line 3: map.gate: given twice (first on line 2)");
+  // The shipped file holds the defaults.
+  const PerceptionSettings shipped = loadPerceptionSettings(ROLLSTEP_CONFIG_DIR "/perception.yaml");
+  EXPECT_EQ(toYaml(shipped), toYaml(PerceptionSettings{}));
+}
+
+}  // namespace
+}  // namespace rollstep::perception
