@@ -62,6 +62,10 @@ struct SimOptions {
   std::string robot_description;
   std::string mpc_timing;  // "" = the config's
   std::string integrator;  // "" = the config's
+  std::string state_source = "ground_truth";
+  std::string estimator_config;  // "" = the defaults
+  // any controller
+  std::string sensor_config;  // "" = ideal sensors (inekf: the defaults)
 };
 
 /// Result files of a run in the output directory.
@@ -121,6 +125,11 @@ void runSim(const SimOptions& o, bool scene_given) {
 
   sim::PlantOptions plant_options;
   plant_options.robot_file = o.robot;
+  if (!o.sensor_config.empty()) {
+    plant_options.sensor_noise = sim::loadSensorNoiseConfig(o.sensor_config);
+  } else if (o.state_source == "inekf") {
+    plant_options.sensor_noise = sim::SensorNoiseConfig{};  // an estimator reads real sensors
+  }
   sim::Plant plant(scene, plant_options);
 
   std::unique_ptr<sim::Controller> controller;
@@ -140,18 +149,28 @@ void runSim(const SimOptions& o, bool scene_given) {
     if (o.integrator == "internal") settings.integrator.mode = control::IntegratorMode::Internal;
     if (o.integrator == "naive") settings.integrator.mode = control::IntegratorMode::Naive;
     const planning::BaseVelocityCommand command{o.vx, o.vy, o.yaw_rate};
+    sim::StateSourceOptions source;
+    source.kind = sim::stateSourceFromString(o.state_source);
+    if (source.kind == sim::StateSourceKind::Inekf) {
+      // The robot's tuning beside its description, unless another file is named.
+      const std::string tuning =
+          o.estimator_config.empty()
+              ? (fs::path(description).parent_path() / "estimation.yaml").string()
+              : o.estimator_config;
+      source.estimator = estimation::loadInekfSettings(tuning);
+    }
     auto nmpc = std::make_unique<sim::NmpcController>(
         plant, robot, settings, sim::terrainFromScene(scene, robot.contact_offset + kEdgeClearance),
-        centroidal::gaitKindFromString(o.gait), command);
+        centroidal::gaitKindFromString(o.gait), command, source);
     nmpc_controller = nmpc.get();
     controller = std::move(nmpc);
     controller_text = format(
         "nmpc (gait %s, command (%s m/s, %s m/s, %s rad/s), MPC every %s s %s, N = %d, "
-        "integrator %s; first solve %s)",
+        "integrator %s, state %s; first solve %s)",
         o.gait.c_str(), numberText(o.vx).c_str(), numberText(o.vy).c_str(),
         numberText(o.yaw_rate).c_str(), numberText(settings.mpc.period).c_str(),
         control::toString(settings.mpc.timing), settings.ocp.horizon,
-        control::toString(settings.integrator.mode),
+        control::toString(settings.integrator.mode), o.state_source.c_str(),
         solver::toString(nmpc_controller->initialStatus()));
   } else {
     // Each side's wheels run at speed -+ turn_speed: beyond the servos' limit they would
@@ -322,6 +341,20 @@ void registerSimCommand(CLI::App& app) {
                                       "naive (naive state feedback); default: the control "
                                       "settings'")
                           ->check(CLI::IsMember({"internal", "naive"})));
+  nmpc_only.push_back(cmd->add_option("--state-source", options->state_source,
+                                      "nmpc only: ground_truth (the simulator's exact state) or "
+                                      "inekf (the state estimator on the plant's noisy sensors)")
+                          ->check(CLI::IsMember({"ground_truth", "inekf"}))
+                          ->capture_default_str());
+  nmpc_only.push_back(cmd->add_option("--estimator-config", options->estimator_config,
+                                      "nmpc only: YAML tuning of the state estimator "
+                                      "(default: estimation.yaml beside the robot description, "
+                                      "robots/tachyon3/estimation.yaml, which lists every key)")
+                          ->check(kNotEmpty));
+  cmd->add_option("--sensor-config", options->sensor_config,
+                  "YAML sensor noise of the plant (config/sensors.yaml lists every key and its "
+                  "default); default: ideal sensors, or the defaults with --state-source inekf")
+      ->check(kNotEmpty);
   cmd->add_option("--duration", options->duration, "Simulated time [s]")
       ->check(numberIn(0.001, 3600.0, "s"))
       ->capture_default_str();

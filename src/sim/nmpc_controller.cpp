@@ -5,6 +5,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "rollstep/sim/estimator_source.hpp"
 #include "rollstep/sim/scenario.hpp"
 
 namespace rollstep::sim {
@@ -24,10 +25,21 @@ bool GroundTruthSource::read(double t, const SensorReadings&, control::RobotStat
   return true;
 }
 
+const char* toString(StateSourceKind kind) {
+  return kind == StateSourceKind::Inekf ? "inekf" : "ground_truth";
+}
+
+StateSourceKind stateSourceFromString(const std::string& name) {
+  if (name == "ground_truth") return StateSourceKind::GroundTruth;
+  if (name == "inekf") return StateSourceKind::Inekf;
+  throw std::invalid_argument("state source '" + name + "': expected ground_truth or inekf");
+}
+
 NmpcController::NmpcController(const Plant& plant, const centroidal::RobotOcpDescription& robot,
                                const control::ControlSettings& settings,
                                const planning::TerrainModel& terrain, planning::GaitKind gait,
-                               const planning::BaseVelocityCommand& command) {
+                               const planning::BaseVelocityCommand& command,
+                               const StateSourceOptions& source) {
   if (std::abs(settings.control_period - plant.controlPeriod()) > 1e-12) {
     throw std::invalid_argument("nmpc: control_period " + std::to_string(settings.control_period) +
                                 " s differs from the plant's control period " +
@@ -68,7 +80,13 @@ NmpcController::NmpcController(const Plant& plant, const centroidal::RobotOcpDes
           prefix + "...");
     }
   }
-  source_ = std::make_unique<GroundTruthSource>(plant, joint_map_);
+  if (source.kind == StateSourceKind::Inekf) {
+    auto estimator = std::make_unique<EstimatorSource>(plant, r, joint_map_, source.estimator);
+    estimator_ = estimator.get();
+    source_ = std::move(estimator);
+  } else {
+    source_ = std::make_unique<GroundTruthSource>(plant, joint_map_);
+  }
   state_ = pipeline_->makeState();
   command_ = pipeline_->makeCommand();
   if (!source_->read(plant.time(), plant.sensors(), state_)) {

@@ -16,7 +16,7 @@
 namespace rollstep::estimation {
 namespace {
 
-const std::string kConfig = std::string(ROLLSTEP_TEST_DATA_DIR) + "/../../config/estimation.yaml";
+const std::string kConfig = std::string(ROLLSTEP_ROBOTS_DIR) + "/tachyon3/estimation.yaml";
 
 const model::Model& testModel() {
   static const model::Model m =

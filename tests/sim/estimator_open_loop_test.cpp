@@ -77,8 +77,8 @@ OpenLoopRun runOpenLoop(double duration, double speed, double turn_speed, int se
   params.acceleration = 0.5;
   params.start_time = 0.5;
   DriveController drive(plant.nominalCommand(), plant.wheelRadius(0), params);
-  estimation::InekfSettings settings = estimation::loadInekfSettings(
-      std::string(ROLLSTEP_TEST_DATA_DIR) + "/../../config/estimation.yaml");
+  estimation::InekfSettings settings =
+      estimation::loadInekfSettings(std::string(ROLLSTEP_ROBOTS_DIR) + "/tachyon3/estimation.yaml");
   settings.rolling = rolling;
   EstimatorSource source(plant, *robot.robot, robot.joint_map, settings);
   control::RobotState state = control::RobotState::zero(robot.robot->nj());

@@ -76,7 +76,8 @@ struct ContactSpec {
   double radius = 0.0;  ///< [m] wheel radius (0 for a point foot)
 };
 
-/// The filter's tuning (config/estimation.yaml documents every key and default).
+/// The filter's tuning (robots/tachyon3/estimation.yaml documents every key and its
+/// default).
 struct InekfSettings {
   double gravity = 9.81;  ///< [m/s^2] along world -z
   // imu:
@@ -110,8 +111,9 @@ struct InekfSettings {
   double max_dt = 0.05;              ///< [s] a longer gap is not integrated
 };
 
-/// Reads config/estimation.yaml-style text (sections imu, contacts, initial, limits and the
-/// top-level gravity); absent keys keep their defaults; errors name the file, line and key.
+/// Reads estimation.yaml text (robots/tachyon3/estimation.yaml) (sections imu, contacts, initial,
+/// limits and the top-level gravity); absent keys keep their defaults; errors name the file, line
+/// and key.
 InekfSettings parseInekfSettings(const std::string& yaml_text, const std::string& source);
 InekfSettings loadInekfSettings(const std::string& yaml_file);
 std::string toYaml(const InekfSettings& settings);
