@@ -39,6 +39,8 @@ struct NmpcScenario {
   StateSourceOptions source;
   /// Called on a copy of the readings before the controller sees them (fault injection).
   std::function<void(double t, SensorReadings& readings)> corrupt;
+  /// Called once on the controller after its construction (fault injection).
+  std::function<void(NmpcController& controller)> setup;
 };
 
 /// What happened in a run (measured, ground truth).
@@ -88,6 +90,7 @@ inline NmpcOutcome runNmpc(const NmpcScenario& sc) {
   NmpcController controller(plant, robot, sc.settings,
                             terrainFromScene(scene, robot.contact_offset + sc.edge_clearance),
                             sc.gait, sc.command, sc.source);
+  if (sc.setup) sc.setup(controller);
   NmpcOutcome out;
   SensorReadings readings;
   Eigen::Vector3d last_position = plant.groundTruth().base_position;
