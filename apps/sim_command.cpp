@@ -32,6 +32,7 @@
 #include "rollstep/common/number_text.hpp"
 #include "rollstep/common/text_file.hpp"
 #include "rollstep/control/control_settings.hpp"
+#include "rollstep/sim/estimator_source.hpp"
 #include "rollstep/sim/nmpc_controller.hpp"
 #include "rollstep/sim/plant.hpp"
 #include "rollstep/sim/scenario.hpp"
@@ -114,6 +115,20 @@ bool markFailed(const OutputFiles& files, const std::string& error) {
 /// the working directory, a file nobody asked for).
 void printMujocoWarning(const char* message) {
   std::fprintf(stderr, "rollstep: MuJoCo warning: %s\n", message);
+}
+
+/// The estimate's horizontal position and yaw errors against the plant's ground truth.
+struct GroundTruthErrors {
+  double position = 0.0, yaw_deg = 0.0;
+};
+GroundTruthErrors estimateErrors(const sim::EstimatorSource& e, const sim::GroundTruth& g) {
+  const estimation::InvariantEkf& f = e.filter();
+  GroundTruthErrors out;
+  out.position = (f.position() - g.base_position).head<2>().norm();
+  out.yaw_deg = std::abs(std::remainder(
+                    sim::yawOf(f.orientation()) - sim::yawOf(g.base_orientation), 2.0 * M_PI)) *
+                180.0 / M_PI;
+  return out;
 }
 
 void runSim(const SimOptions& o, bool scene_given) {
@@ -232,6 +247,22 @@ void runSim(const SimOptions& o, bool scene_given) {
           solve_sum / updates_n, solve_max, files.mpc.c_str(),
           static_cast<unsigned long long>(c.qp_fallbacks),
           static_cast<unsigned long long>(c.ticks));
+      mpc_text += format("  watchdog   %llu trips, %llu ticks holding, %llu stale solutions\n",
+                         static_cast<unsigned long long>(c.watchdog_trips),
+                         static_cast<unsigned long long>(c.holding_ticks),
+                         static_cast<unsigned long long>(c.stale_solutions));
+      if (const sim::EstimatorSource* e = nmpc_controller->estimator(); e != nullptr) {
+        const estimation::EstimatorCounters& k = e->filter().counters();
+        const GroundTruthErrors err = estimateErrors(*e, plant.groundTruth());
+        mpc_text += format(
+            "  estimator  error at the end %.3f m, %.2f deg (ground truth); rejected samples: "
+            "%llu IMU, %llu encoder, %llu time; contacts %llu used, %llu gated out\n",
+            err.position, err.yaw_deg, static_cast<unsigned long long>(k.imu_rejected),
+            static_cast<unsigned long long>(k.encoder_rejected),
+            static_cast<unsigned long long>(k.time_rejected),
+            static_cast<unsigned long long>(k.contacts_used),
+            static_cast<unsigned long long>(k.contacts_rejected));
+      }
     }
 
     const double deg = 180.0 / M_PI;
