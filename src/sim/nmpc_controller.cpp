@@ -119,7 +119,13 @@ void NmpcController::record(double t, bool adopted) {
 std::string NmpcController::logColumns() const {
   return ",mode[-],mpc_sequence[-],qp_status,qp_iterations[-],qp_active[-],qp_correction[m/s^2],"
          "ref_base_x[m],ref_base_y[m],ref_base_z[m],ref_base_yaw[rad],ref_base_vx[m/s],"
-         "ref_base_wz[rad/s],int_base_z[m],int_base_wz[rad/s]";
+         "ref_base_wz[rad/s],int_base_z[m],int_base_wz[rad/s]" +
+         std::string(estimator_ != nullptr
+                         ? ",est_base_x[m],est_base_y[m],est_base_z[m],est_base_yaw[rad],"
+                           "est_base_vx[m/s],est_base_vy[m/s],est_base_vz[m/s],"
+                           "est_gyro_bias_x[rad/s],est_gyro_bias_y[rad/s],est_gyro_bias_z[rad/s],"
+                           "est_contacts_rejected[-]"
+                         : "");
 }
 
 void NmpcController::logValues(std::string& out) const {
@@ -135,6 +141,16 @@ void NmpcController::logValues(std::string& out) const {
                 r.active_barriers, r.correction, ref.q[0], ref.q[1], ref.q[2], yawOf(q_ref),
                 ref.v[0], ref.v[5], q_int[2], v_int[5]);
   out.assign(text);
+  if (estimator_ != nullptr) {
+    // The estimate beside the ground truth of the log's base columns.
+    const estimation::InvariantEkf& f = estimator_->filter();
+    std::snprintf(text, sizeof text, ",%.6f,%.6f,%.6f,%.6f,%.5f,%.5f,%.5f,%.4e,%.4e,%.4e,%llu",
+                  f.position().x(), f.position().y(), f.position().z(), yawOf(f.orientation()),
+                  f.velocity().x(), f.velocity().y(), f.velocity().z(), f.gyroBias().x(),
+                  f.gyroBias().y(), f.gyroBias().z(),
+                  static_cast<unsigned long long>(f.counters().contacts_rejected));
+    out.append(text);
+  }
 }
 
 std::string NmpcController::mpcUpdatesCsv() const {

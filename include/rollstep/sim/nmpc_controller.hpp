@@ -88,7 +88,8 @@ class NmpcController final : public Controller {
   }
   /// mode[-] (contact mask), mpc_sequence[-] (solution in use), qp_status (optimal,
   /// fallback, invalid_input), qp_iterations[-], qp_active[-] (active barrier sides),
-  /// qp_correction[m/s^2] (CbfQpFilter::correction).
+  /// qp_correction[m/s^2] (CbfQpFilter::correction); with the estimator also est_base_*
+  /// (its position, yaw, world velocity), est_gyro_bias_* and est_contacts_rejected.
   std::string logColumns() const override;
   void logValues(std::string& out) const override;
   /// Every solution received so far, in order (the first one is the initial solve's).
