@@ -45,7 +45,7 @@ namespace {
 
 using Matrix3 = Eigen::Matrix3d;
 using Vector3 = Eigen::Vector3d;
-constexpr int kMaxRows = 3 * kMaxContacts;
+constexpr int kMaxRows = 4 * kMaxContacts;  // 3 velocity rows + 1 height row each
 using RowsMatrix =
     Eigen::Matrix<double, Eigen::Dynamic, kErrorDim, Eigen::RowMajor, kMaxRows, kErrorDim>;
 using SquareMax = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxRows, kMaxRows>;
@@ -72,6 +72,7 @@ std::vector<yaml::NumberSection> sectionsOf(InekfSettings& s, SettingsProxy& x) 
         {"joint_velocity_noise", &s.joint_velocity_noise, 0.0, 10.0},
         {"wheel_velocity_noise", &s.wheel_velocity_noise, 0.0, 10.0},
         {"rolling_radius_offset", &s.rolling_radius_offset, -1.0, 1.0},
+        {"height_noise", &s.height_noise, 1e-6, 10.0},
         {"gate_3dof", &s.gate_3dof, 0.0, kBig},
         {"gate_1dof", &s.gate_1dof, 0.0, kBig},
         {"gate_recovery_ticks", &x.recovery, 1.0, 1e9}}},
@@ -204,6 +205,7 @@ void InvariantEkf::reset(double time, const Eigen::Quaterniond& orientation,
   ba_.setZero();
   omega_.setZero();
   all_rejected_ticks_ = 0;
+  for (Vector3& c : contact_point_) c = position;
   P_.setZero();
   const auto sq = [](double x) { return x * x; };
   P_.diagonal().segment<3>(0).setConstant(sq(settings_.initial_orientation));
@@ -423,6 +425,26 @@ void InvariantEkf::update(const EstimatorInput& in) noexcept {
       rows += 3;
     }
     ++counters_.contacts_used;
+    // Ground point of the contact (world) and, with a map's height, its height row.
+    const double radius =
+        kind == ContactKind::Point ? 0.0 : c.radius - settings_.rolling_radius_offset;
+    const Vector3 w_lin = p_ + R_ * pc;
+    contact_point_[i] = w_lin - radius * Vector3::UnitZ();
+    const double h = in.ground_height[i];
+    if (std::isfinite(h)) {
+      Eigen::Matrix<double, 1, kErrorDim> hrow = Eigen::Matrix<double, 1, kErrorDim>::Zero();
+      hrow.segment<3>(0) = -(Vector3::UnitZ().transpose() * lie::hat(w_lin));
+      hrow(0, 8) = 1.0;
+      const double e = h - contact_point_[i].z();
+      const double nh = settings_.height_noise * settings_.height_noise;
+      const double s = (hrow * P_ * hrow.transpose())(0, 0) + nh;
+      if (recovering || settings_.gate_1dof <= 0.0 || e * e / s <= settings_.gate_1dof) {
+        H.row(rows) = hrow;
+        r[rows] = e;
+        N(rows, rows) = nh;
+        rows += 1;
+      }
+    }
   }
   // Every contact that sees the horizontal velocity disagrees with the estimate (or every
   // contact, with omni wheels only): the estimate is what is wrong after a while.

@@ -20,8 +20,8 @@ std::vector<estimation::ContactSpec> estimatorContacts(const centroidal::Centroi
 
 EstimatorSource::EstimatorSource(const Plant& plant, const centroidal::CentroidalRobot& robot,
                                  std::vector<int> joint_map,
-                                 const estimation::InekfSettings& settings)
-    : joint_map_(std::move(joint_map)) {
+                                 const estimation::InekfSettings& settings, bool ground_heights)
+    : joint_map_(std::move(joint_map)), scene_(plant.scene()), ground_heights_(ground_heights) {
   filter_ =
       std::make_unique<estimation::InvariantEkf>(robot.model(), estimatorContacts(robot), settings);
   for (int i = 0; i < robot.nc(); ++i) {
@@ -60,6 +60,10 @@ bool EstimatorSource::read(double t, const SensorReadings& sensors, control::Rob
   }
   for (size_t i = 0; i < contact_leg_.size(); ++i) {
     input_.contact[i] = sensors.foot_contact[static_cast<size_t>(contact_leg_[i])];
+    if (ground_heights_) {
+      const Eigen::Vector3d& c = filter_->contactPoint(static_cast<int>(i));
+      input_.ground_height[i] = terrainHeight(scene_, c.x(), c.y());
+    }
     input_.wheel_velocity[i] =
         contact_wheel_[i] >= 0 ? sensors.wheel_velocity[contact_wheel_[i]] : 0.0;
   }

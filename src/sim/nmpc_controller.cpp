@@ -81,7 +81,8 @@ NmpcController::NmpcController(const Plant& plant, const centroidal::RobotOcpDes
     }
   }
   if (source.kind == StateSourceKind::Inekf) {
-    auto estimator = std::make_unique<EstimatorSource>(plant, r, joint_map_, source.estimator);
+    auto estimator = std::make_unique<EstimatorSource>(plant, r, joint_map_, source.estimator,
+                                                       source.ground_heights);
     estimator_ = estimator.get();
     source_ = std::move(estimator);
   } else {

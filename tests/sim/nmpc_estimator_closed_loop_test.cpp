@@ -1,6 +1,7 @@
 // The NMPC pipeline in closed loop on the state estimator (issue 13): the plant's sensors
 // with their noise model (config/sensors.yaml defaults), the invariant EKF
-// (robots/tachyon3/estimation.yaml) as the state source. The trot and roll scenarios of the
+// (robots/tachyon3/estimation.yaml, with the scene's terrain heights as its map) as the
+// state source. The trot and roll scenarios of the
 // pipeline's proof pass, and the estimate's drift against ground truth stays small:
 // trotting under 5 % of the distance travelled and 3 deg of yaw, rolling at 0.5 m/s under
 // 2 % and 2 deg. The ctest forms run 20 s; the 60 s forms of the issue are the DISABLED_

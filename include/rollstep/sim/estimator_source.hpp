@@ -8,6 +8,9 @@
 // OmniWheel (Tachyon 3's middle legs carry passive omni wheels), both of the description's
 // contact_offset as radius. Contacts are matched to the plant's legs by the frame's name
 // prefix ("LF" -> "LF_wheel"), as the controller matches its wheels.
+// The map: with `ground_heights`, each contact's ground height is the scene's terrain height
+// under the contact's last estimated ground point (the scene stands in for the perception
+// layer's elevation map, which the robot would use).
 #include <memory>
 #include <vector>
 
@@ -22,7 +25,8 @@ class EstimatorSource final : public StateSource {
   /// `joint_map[j]`: the plant joint index of model joint j. Throws std::invalid_argument
   /// for a contact the plant has no leg for, or bad settings.
   EstimatorSource(const Plant& plant, const centroidal::CentroidalRobot& robot,
-                  std::vector<int> joint_map, const estimation::InekfSettings& settings);
+                  std::vector<int> joint_map, const estimation::InekfSettings& settings,
+                  bool ground_heights = true);
   /// One filter tick on the sensors; the state from the estimate (base pose, world
   /// velocity, gyro less bias, the last accepted encoder sample). Always true once started.
   bool read(double t, const SensorReadings& sensors, control::RobotState& state) override;
@@ -37,6 +41,8 @@ class EstimatorSource final : public StateSource {
   std::vector<int> contact_leg_;    // estimator contact -> plant leg
   std::vector<int> contact_wheel_;  // estimator contact -> plant drive wheel, or -1
   estimation::EstimatorInput input_;
+  SceneConfig scene_;
+  bool ground_heights_ = true;
 };
 
 /// The estimator's contacts for a centroidal robot description (see above).

@@ -50,8 +50,10 @@ StateSourceKind stateSourceFromString(const std::string& name);
 
 struct StateSourceOptions {
   StateSourceKind kind = StateSourceKind::GroundTruth;
-  estimation::InekfSettings estimator;  ///< tuning of the estimator (a robot's estimation.yaml,
-                                        ///< e.g. robots/tachyon3/estimation.yaml)
+  estimation::InekfSettings estimator;
+  /// The estimator gets the scene's terrain height under each stance contact (the map).
+  bool ground_heights = true;  ///< tuning of the estimator (a robot's estimation.yaml,
+                               ///< e.g. robots/tachyon3/estimation.yaml)
 };
 
 class EstimatorSource;
