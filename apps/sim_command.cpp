@@ -35,6 +35,7 @@
 #include "rollstep/control/control_settings.hpp"
 #include "rollstep/perception/terrain_perception.hpp"
 #include "rollstep/sim/cbfqp_controller.hpp"
+#include "rollstep/sim/estimator_source.hpp"
 #include "rollstep/sim/lidar.hpp"
 #include "rollstep/sim/nmpc_controller.hpp"
 #include "rollstep/sim/plant.hpp"
@@ -70,6 +71,10 @@ struct SimOptions {
   std::string mpc_timing;  // "" = the config's
   std::string integrator;  // "" = the config's
   std::string terrain = "scene";
+  std::string state_source = "ground_truth";
+  std::string estimator_config;  // "" = the defaults
+  // any controller
+  std::string sensor_config;  // "" = ideal sensors (inekf: the defaults)
 };
 
 /// Result files of a run in the output directory.
@@ -120,6 +125,20 @@ void printMujocoWarning(const char* message) {
   std::fprintf(stderr, "rollstep: MuJoCo warning: %s\n", message);
 }
 
+/// The estimate's horizontal position and yaw errors against the plant's ground truth.
+struct GroundTruthErrors {
+  double position = 0.0, yaw_deg = 0.0;
+};
+GroundTruthErrors estimateErrors(const sim::EstimatorSource& e, const sim::GroundTruth& g) {
+  const estimation::InvariantEkf& f = e.filter();
+  GroundTruthErrors out;
+  out.position = (f.position() - g.base_position).head<2>().norm();
+  out.yaw_deg = std::abs(std::remainder(
+                    sim::yawOf(f.orientation()) - sim::yawOf(g.base_orientation), 2.0 * M_PI)) *
+                180.0 / M_PI;
+  return out;
+}
+
 void runSim(const SimOptions& o, bool scene_given) {
   mju_user_warning = printMujocoWarning;
   // Inputs: nothing is written before they have all loaded.
@@ -129,6 +148,11 @@ void runSim(const SimOptions& o, bool scene_given) {
 
   sim::PlantOptions plant_options;
   plant_options.robot_file = o.robot;
+  if (!o.sensor_config.empty()) {
+    plant_options.sensor_noise = sim::loadSensorNoiseConfig(o.sensor_config);
+  } else if (o.state_source == "inekf") {
+    plant_options.sensor_noise = sim::SensorNoiseConfig{};  // an estimator reads real sensors
+  }
   sim::Plant plant(scene, plant_options);
 
   std::unique_ptr<sim::Controller> controller;
@@ -184,17 +208,27 @@ void runSim(const SimOptions& o, bool scene_given) {
     } else {
       terrain = sim::terrainFromScene(scene, margin);
     }
+    sim::StateSourceOptions source;
+    source.kind = sim::stateSourceFromString(o.state_source);
+    if (source.kind == sim::StateSourceKind::Inekf) {
+      // The robot's tuning beside its description, unless another file is named.
+      const std::string tuning =
+          o.estimator_config.empty()
+              ? (fs::path(description).parent_path() / "estimation.yaml").string()
+              : o.estimator_config;
+      source.estimator = estimation::loadInekfSettings(tuning);
+    }
     auto nmpc = std::make_unique<sim::NmpcController>(
-        plant, robot, settings, terrain, centroidal::gaitKindFromString(o.gait), command);
+        plant, robot, settings, terrain, centroidal::gaitKindFromString(o.gait), command, source);
     nmpc_controller = nmpc.get();
     controller = std::move(nmpc);
     controller_text = format(
         "nmpc (gait %s, command (%s m/s, %s m/s, %s rad/s), MPC every %s s %s, N = %d, "
-        "integrator %s; first solve %s)",
+        "integrator %s, state %s; first solve %s)",
         o.gait.c_str(), numberText(o.vx).c_str(), numberText(o.vy).c_str(),
         numberText(o.yaw_rate).c_str(), numberText(settings.mpc.period).c_str(),
         control::toString(settings.mpc.timing), settings.ocp.horizon,
-        control::toString(settings.integrator.mode),
+        control::toString(settings.integrator.mode), o.state_source.c_str(),
         solver::toString(nmpc_controller->initialStatus()));
     controller_text += "; terrain " + terrain_text;
   } else if (o.controller == "cbfqp") {
@@ -276,6 +310,22 @@ void runSim(const SimOptions& o, bool scene_given) {
           solve_sum / updates_n, solve_max, files.mpc.c_str(),
           static_cast<unsigned long long>(c.qp_fallbacks),
           static_cast<unsigned long long>(c.ticks));
+      mpc_text += format("  watchdog   %llu trips, %llu ticks holding, %llu stale solutions\n",
+                         static_cast<unsigned long long>(c.watchdog_trips),
+                         static_cast<unsigned long long>(c.holding_ticks),
+                         static_cast<unsigned long long>(c.stale_solutions));
+      if (const sim::EstimatorSource* e = nmpc_controller->estimator(); e != nullptr) {
+        const estimation::EstimatorCounters& k = e->filter().counters();
+        const GroundTruthErrors err = estimateErrors(*e, plant.groundTruth());
+        mpc_text += format(
+            "  estimator  error at the end %.3f m, %.2f deg (ground truth); rejected samples: "
+            "%llu IMU, %llu encoder, %llu time; contacts %llu used, %llu gated out\n",
+            err.position, err.yaw_deg, static_cast<unsigned long long>(k.imu_rejected),
+            static_cast<unsigned long long>(k.encoder_rejected),
+            static_cast<unsigned long long>(k.time_rejected),
+            static_cast<unsigned long long>(k.contacts_used),
+            static_cast<unsigned long long>(k.contacts_rejected));
+      }
     }
 
     if (cbfqp_controller != nullptr) {
@@ -407,6 +457,20 @@ void registerSimCommand(CLI::App& app) {
                                       "naive (naive state feedback); default: the control "
                                       "settings'")
                           ->check(CLI::IsMember({"internal", "naive"})));
+  nmpc_only.push_back(cmd->add_option("--state-source", options->state_source,
+                                      "nmpc only: ground_truth (the simulator's exact state) or "
+                                      "inekf (the state estimator on the plant's noisy sensors)")
+                          ->check(CLI::IsMember({"ground_truth", "inekf"}))
+                          ->capture_default_str());
+  nmpc_only.push_back(cmd->add_option("--estimator-config", options->estimator_config,
+                                      "nmpc only: YAML tuning of the state estimator "
+                                      "(default: estimation.yaml beside the robot description, "
+                                      "robots/tachyon3/estimation.yaml, which lists every key)")
+                          ->check(kNotEmpty));
+  cmd->add_option("--sensor-config", options->sensor_config,
+                  "YAML sensor noise of the plant (config/sensors.yaml lists every key and its "
+                  "default); default: ideal sensors, or the defaults with --state-source inekf")
+      ->check(kNotEmpty);
   cmd->add_option("--duration", options->duration, "Simulated time [s]")
       ->check(numberIn(0.001, 3600.0, "s"))
       ->capture_default_str();

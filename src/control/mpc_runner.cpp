@@ -166,7 +166,28 @@ struct MpcRunner::Impl {
     if (t < grid_start + static_cast<double>(next_index) * period - kTimeTolerance) return;
     const auto start = std::chrono::steady_clock::now();
     const solver::SolverStatus status = solveRealTime(t, x);
-    publishDeterministic(t, t + settings.mpc.latency, status, millisecondsSince(start));
+    double release = t + settings.mpc.latency;
+    const bool stall = t >= faults.stall_at - kTimeTolerance && !stalled;
+    if (stall) {
+      stalled = true;
+      release += faults.stall_duration;
+    }
+    publishDeterministic(t, release, status, millisecondsSince(start));
+    if (t >= faults.fail_at - kTimeTolerance && failures < faults.fail_count) {
+      MpcSolution& s = solutions[static_cast<std::size_t>(pending)];
+      if (failures % 2 == 0 && !s.xs.empty()) {
+        s.xs.back()[0] = std::numeric_limits<double>::quiet_NaN();
+      } else {
+        s.status = solver::SolverStatus::Diverged;
+      }
+      ++failures;
+    }
+    if (stall) {
+      // The thread is busy until the release: the next solve starts after it.
+      const double periods = std::floor((release - grid_start) / period + kTimeTolerance);
+      next_index = static_cast<std::int64_t>(periods) + 1;
+      return;
+    }
     // The next solve time: the first point of the grid t_init + k period after t (one
     // period on when on time, further when more than a period behind).
     const double periods = std::floor((t - grid_start) / period + kTimeTolerance);
@@ -248,6 +269,9 @@ struct MpcRunner::Impl {
   // Deterministic: the released and pending slots (-1: none); solves on the grid
   // grid_start + k period, the next one at k = next_index.
   int released = -1, pending = -1;
+  MpcFaultInjection faults;
+  bool stalled = false;
+  int failures = 0;
   double grid_start = 0.0;
   std::int64_t next_index = 1;
   // Asynchronous: triple buffers of posted states (post() -> thread) and of solutions
@@ -324,6 +348,12 @@ solver::SolverStatus MpcRunner::initialize(double t0, const lie::SE3& start,
   }
   m.initialized = true;
   return status;
+}
+
+void MpcRunner::injectFaults(const MpcFaultInjection& faults) {
+  impl_->faults = faults;
+  impl_->stalled = false;
+  impl_->failures = 0;
 }
 
 void MpcRunner::post(double t, const Eigen::VectorXd& x) noexcept {

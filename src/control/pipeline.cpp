@@ -89,6 +89,8 @@ solver::SolverStatus ControlPipeline::initialize(const RobotState& state,
   if (runner_->poll(state.time, solution_)) {
     reference_->refine(solution_, state.time, x_meas_);
   }
+  adopted_t0_ = state.time;
+  holding_ = false;
   counters_ = PipelineCounters{};
   initialized_ = true;
   return status;
@@ -163,9 +165,14 @@ void ControlPipeline::tick(const RobotState& state, JointCommand& command) noexc
   if (runner_->poll(t, solution_)) {
     record_.new_solution = true;
     ++counters_.solutions_received;
-    if (reference_->refine(solution_, t, x_meas_)) {
+    if (t - solution_.t0 > settings_.mpc.max_solution_age) {
+      // Too old on arrival (a stalled solve): the watchdog's business, not adopted.
+      ++counters_.stale_solutions;
+    } else if (reference_->refine(solution_, t, x_meas_)) {
       record_.solution_adopted = true;
       adopted_sequence_ = solution_.sequence;
+      adopted_t0_ = solution_.t0;
+      holding_ = false;
       // Naive state feedback: the commands restart from the measurement with each plan.
       if (settings_.integrator.mode == IntegratorMode::Naive) integrator_->reset(q_meas_, v_meas_);
     } else {
@@ -173,12 +180,21 @@ void ControlPipeline::tick(const RobotState& state, JointCommand& command) noexc
     }
   }
   record_.solution_sequence = adopted_sequence_;
+  // Stale-solution watchdog: past the age limit, freeze the plan where it is, at rest.
+  if (!holding_ && t - adopted_t0_ > settings_.mpc.max_solution_age) {
+    holding_ = true;
+    hold_time_ = t;
+    ++counters_.watchdog_trips;
+  }
+  record_.holding = holding_;
+  if (holding_) ++counters_.holding_ticks;
+  const double t_plan = holding_ ? hold_time_ : t;
 
   // Contact planner: the gait at t and each foot's regions.
-  scheduler_->fill(t, schedule_horizon_, schedule_);
-  record_.mode = schedule_.modeAt(t);
+  scheduler_->fill(t_plan, schedule_horizon_, schedule_);
+  record_.mode = schedule_.modeAt(t_plan);
   for (int i = 0; i < r.nc(); ++i) {
-    const planning::FootReference ref = rt_ocp_->footPlanner().query(schedule_, i, t);
+    const planning::FootReference ref = rt_ocp_->footPlanner().query(schedule_, i, t_plan);
     FootRegionPlan& plan = regions_[static_cast<size_t>(i)];
     plan.region = ref.region;
     plan.swing_region = ref.swing_region;
@@ -186,7 +202,13 @@ void ControlPipeline::tick(const RobotState& state, JointCommand& command) noexc
   }
 
   // Reference at t, acceleration commands, safety filter, integrator.
-  reference_->sample(t, sample_);
+  reference_->sample(t_plan, sample_);
+  if (holding_) {
+    sample_.v.setZero();
+    sample_.a.setZero();
+    sample_.foot_velocity.setZero();
+    sample_.foot_acceleration.setZero();
+  }
   computeTargets();
   record_.cbf_status = filter_->filter(integrator_->q(), integrator_->v(), record_.mode,
                                        regions_.data(), targets_, a_);

@@ -5,6 +5,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "rollstep/sim/estimator_source.hpp"
 #include "rollstep/sim/scenario.hpp"
 
 namespace rollstep::sim {
@@ -66,10 +67,21 @@ std::vector<int> plantWheelMap(const centroidal::CentroidalRobot& r, const std::
   return map;
 }
 
+const char* toString(StateSourceKind kind) {
+  return kind == StateSourceKind::Inekf ? "inekf" : "ground_truth";
+}
+
+StateSourceKind stateSourceFromString(const std::string& name) {
+  if (name == "ground_truth") return StateSourceKind::GroundTruth;
+  if (name == "inekf") return StateSourceKind::Inekf;
+  throw std::invalid_argument("state source '" + name + "': expected ground_truth or inekf");
+}
+
 NmpcController::NmpcController(const Plant& plant, const centroidal::RobotOcpDescription& robot,
                                const control::ControlSettings& settings,
                                const planning::TerrainModel& terrain, planning::GaitKind gait,
-                               const planning::BaseVelocityCommand& command) {
+                               const planning::BaseVelocityCommand& command,
+                               const StateSourceOptions& source) {
   if (std::abs(settings.control_period - plant.controlPeriod()) > 1e-12) {
     throw std::invalid_argument("nmpc: control_period " + std::to_string(settings.control_period) +
                                 " s differs from the plant's control period " +
@@ -79,7 +91,14 @@ NmpcController::NmpcController(const Plant& plant, const centroidal::RobotOcpDes
   const centroidal::CentroidalRobot& r = pipeline_->robot();
   joint_map_ = plantJointMap(r, "nmpc");
   wheel_map_ = plantWheelMap(r, pipeline_->driveWheelContacts(), "nmpc");
-  source_ = std::make_unique<GroundTruthSource>(plant, joint_map_);
+  if (source.kind == StateSourceKind::Inekf) {
+    auto estimator = std::make_unique<EstimatorSource>(plant, r, joint_map_, source.estimator,
+                                                       source.ground_heights);
+    estimator_ = estimator.get();
+    source_ = std::move(estimator);
+  } else {
+    source_ = std::make_unique<GroundTruthSource>(plant, joint_map_);
+  }
   state_ = pipeline_->makeState();
   command_ = pipeline_->makeCommand();
   if (!source_->read(plant.time(), plant.sensors(), state_)) {
@@ -112,7 +131,13 @@ void NmpcController::record(double t, bool adopted) {
 std::string NmpcController::logColumns() const {
   return ",mode[-],mpc_sequence[-],qp_status,qp_iterations[-],qp_active[-],qp_correction[m/s^2],"
          "ref_base_x[m],ref_base_y[m],ref_base_z[m],ref_base_yaw[rad],ref_base_vx[m/s],"
-         "ref_base_wz[rad/s],int_base_z[m],int_base_wz[rad/s]";
+         "ref_base_wz[rad/s],int_base_z[m],int_base_wz[rad/s]" +
+         std::string(estimator_ != nullptr
+                         ? ",est_base_x[m],est_base_y[m],est_base_z[m],est_base_yaw[rad],"
+                           "est_base_vx[m/s],est_base_vy[m/s],est_base_vz[m/s],"
+                           "est_gyro_bias_x[rad/s],est_gyro_bias_y[rad/s],est_gyro_bias_z[rad/s],"
+                           "est_contacts_rejected[-]"
+                         : "");
 }
 
 void NmpcController::logValues(std::string& out) const {
@@ -128,6 +153,16 @@ void NmpcController::logValues(std::string& out) const {
                 r.active_barriers, r.correction, ref.q[0], ref.q[1], ref.q[2], yawOf(q_ref),
                 ref.v[0], ref.v[5], q_int[2], v_int[5]);
   out.assign(text);
+  if (estimator_ != nullptr) {
+    // The estimate beside the ground truth of the log's base columns.
+    const estimation::InvariantEkf& f = estimator_->filter();
+    std::snprintf(text, sizeof text, ",%.6f,%.6f,%.6f,%.6f,%.5f,%.5f,%.5f,%.4e,%.4e,%.4e,%llu",
+                  f.position().x(), f.position().y(), f.position().z(), yawOf(f.orientation()),
+                  f.velocity().x(), f.velocity().y(), f.velocity().z(), f.gyroBias().x(),
+                  f.gyroBias().y(), f.gyroBias().z(),
+                  static_cast<unsigned long long>(f.counters().contacts_rejected));
+    out.append(text);
+  }
 }
 
 std::string NmpcController::mpcUpdatesCsv() const {

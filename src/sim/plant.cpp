@@ -144,6 +144,9 @@ Plant::Plant(const SceneConfig& scene, const PlantOptions& options)
     throw SimError("PlantOptions::contact_threshold = " + num(contact_threshold_) +
                    " N: must be finite and >= 0");
   }
+  if (options.sensor_noise) {
+    sensor_model_ = std::make_unique<SensorModel>(*options.sensor_noise, control_period_);
+  }
   const std::string what = "robot model '" + robot_file_ + "'";
   std::string robot_xml = options.robot_xml;
   if (robot_xml.empty()) {
@@ -407,6 +410,7 @@ void Plant::reset(double x, double y, double yaw, double lift) {
   data_->qpos[base_qpos_ + 6] = std::sin(0.5 * yaw);
   setCommand(nominal_command_);
   mj_forward(model_, data_);
+  if (sensor_model_) sensor_model_->reset();
   updateReadings();
   truth_.body_contact_periods = 0;
 }
@@ -543,6 +547,7 @@ void Plant::updateReadings() {
       truth_.foot_contact[static_cast<std::size_t>(leg1)] |= active;
     }
   }
+  if (sensor_model_) sensor_model_->apply(sensors_);
 }
 
 }  // namespace rollstep::sim

@@ -209,6 +209,49 @@ TEST(MpcRunner, DeterministicSkipsAheadAndIgnoresBadStates) {
   runner->stop();  // idempotent
 }
 
+// Fault drills (issue 13): a stalled solve arrives stall_duration late and no other starts
+// meanwhile; broken solutions are published unusable (NaN state, then failure status).
+TEST(MpcRunner, InjectedStallAndFailures) {
+  ControlSettings settings = shortHorizon(20);
+  auto runner = makeRunner(settings, planning::GaitKind::Standing);
+  const Eigen::VectorXd x0 = initializeStanding(*runner);
+  MpcFaultInjection faults;
+  faults.stall_at = 0.04;
+  faults.stall_duration = 0.3;
+  faults.fail_at = 0.4;
+  faults.fail_count = 2;
+  runner->injectFaults(faults);
+  MpcSolution out = runner->makeSolution();
+  ASSERT_TRUE(runner->poll(0.0, out));
+  std::vector<int> handouts, solves;
+  std::vector<bool> usable;
+  for (int i = 1; i <= 500; ++i) {
+    const double t = 1e-3 * i;
+    const std::uint64_t before = runner->solvesStarted();
+    runner->post(t, x0);
+    if (runner->solvesStarted() != before) solves.push_back(i);
+    if (runner->poll(t, out)) {
+      handouts.push_back(i);
+      usable.push_back(out.usable());
+    }
+  }
+  // Solves at 20, 40 (stalled: released at 40 + 10 + 300 = 350), then the grid after the
+  // release: 360, 380, ...
+  ASSERT_GE(solves.size(), 4u);
+  EXPECT_EQ(solves[0], 20);
+  EXPECT_EQ(solves[1], 40);
+  EXPECT_EQ(solves[2], 360);
+  ASSERT_GE(handouts.size(), 5u);
+  EXPECT_EQ(handouts[0], 30);
+  EXPECT_EQ(handouts[1], 350);
+  EXPECT_EQ(handouts[2], 370);
+  // The first two solves at or after 0.4 s (400, 420) are broken, the next ones fine.
+  for (std::size_t k = 0; k < handouts.size(); ++k) {
+    const bool broken = handouts[k] == 410 || handouts[k] == 430;
+    EXPECT_EQ(usable[k], !broken) << "hand-out at tick " << handouts[k];
+  }
+}
+
 /// Runs a deterministic trot for `ticks` ms, posting the newest solution's prediction at t
 /// plus a perturbation; returns every solution handed out, and the states posted.
 std::vector<MpcSolution> runTrot(MpcRunner& runner, int ticks, double amplitude,

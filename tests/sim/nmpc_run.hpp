@@ -5,14 +5,18 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "rollstep/control/control_settings.hpp"
+#include "rollstep/sim/estimator_source.hpp"
 #include "rollstep/sim/nmpc_controller.hpp"
 #include "rollstep/sim/plant.hpp"
+#include "rollstep/sim/scenario.hpp"
 #include "rollstep/sim/scene.hpp"
 #include "rollstep/sim/scene_terrain.hpp"
 
@@ -30,6 +34,13 @@ struct NmpcScenario {
   control::ControlSettings settings;
   /// Foothold regions are shrunk by the wheel radius + this clearance (as rollstep plan).
   double edge_clearance = 0.01;
+  /// Sensor noise of the plant (unset: ideal readings) and the pipeline's state source.
+  std::optional<SensorNoiseConfig> sensor_noise;
+  StateSourceOptions source;
+  /// Called on a copy of the readings before the controller sees them (fault injection).
+  std::function<void(double t, SensorReadings& readings)> corrupt;
+  /// Called once on the controller after its construction (fault injection).
+  std::function<void(NmpcController& controller)> setup;
 };
 
 /// What happened in a run (measured, ground truth).
@@ -49,18 +60,40 @@ struct NmpcOutcome {
   std::vector<double> log;  ///< every tick: time, base pose, joint commands, wheel commands
   int warnings = 0;
   double wall_time = 0.0;
+  /// With the estimator: path length (horizontal, ground truth) and the estimate's error at
+  /// the end (horizontal position, yaw), the largest errors over the run, its counters.
+  double distance = 0.0;
+  double estimate_position_error = 0.0, estimate_yaw_error_deg = 0.0;
+  double max_estimate_position_error = 0.0, max_estimate_yaw_error_deg = 0.0;
+  bool estimate_finite = true;
+  estimation::EstimatorCounters estimator_counters;
 };
+
+/// Horizontal position and yaw [deg] errors of the estimator against ground truth.
+inline void estimateErrors(const NmpcController& c, const GroundTruth& g, double& position,
+                           double& yaw_deg) {
+  const estimation::InvariantEkf& f = c.estimator()->filter();
+  position = (f.position() - g.base_position).head<2>().norm();
+  yaw_deg =
+      std::abs(std::remainder(yawOf(f.orientation()) - yawOf(g.base_orientation), 2.0 * M_PI)) *
+      180.0 / M_PI;
+}
 
 inline NmpcOutcome runNmpc(const NmpcScenario& sc) {
   SceneConfig scene;
   scene.kind = sc.scene;
-  Plant plant(scene);
+  PlantOptions plant_options;
+  plant_options.sensor_noise = sc.sensor_noise;
+  Plant plant(scene, plant_options);
   const centroidal::RobotOcpDescription robot =
       centroidal::loadRobotOcpDescription(tachyon3Description());
   NmpcController controller(plant, robot, sc.settings,
                             terrainFromScene(scene, robot.contact_offset + sc.edge_clearance),
-                            sc.gait, sc.command);
+                            sc.gait, sc.command, sc.source);
+  if (sc.setup) sc.setup(controller);
   NmpcOutcome out;
+  SensorReadings readings;
+  Eigen::Vector3d last_position = plant.groundTruth().base_position;
   out.initial_status = controller.initialStatus();
   const model::Model& m = controller.pipeline().robot().model();
   const GroundTruth& g = plant.groundTruth();
@@ -79,9 +112,21 @@ inline NmpcOutcome runNmpc(const NmpcScenario& sc) {
                                     std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                                         std::chrono::duration<double>(k * plant.controlPeriod())));
     }
-    controller.compute(plant.time(), plant.sensors(), command);
+    readings = plant.sensors();
+    if (sc.corrupt) sc.corrupt(plant.time(), readings);
+    controller.compute(plant.time(), readings, command);
+    if (controller.estimator() != nullptr) {
+      // The estimate is of the readings' time: compare before stepping.
+      double pe = 0.0, ye = 0.0;
+      estimateErrors(controller, g, pe, ye);
+      out.max_estimate_position_error = std::max(out.max_estimate_position_error, pe);
+      out.max_estimate_yaw_error_deg = std::max(out.max_estimate_yaw_error_deg, ye);
+      out.estimate_finite = out.estimate_finite && controller.estimator()->filter().finite();
+    }
     plant.setCommand(command);
     plant.step();
+    out.distance += (g.base_position - last_position).head<2>().norm();
+    last_position = g.base_position;
     cmds.push_back(command.joint_position);
     out.log.push_back(plant.time());
     for (int i = 0; i < 3; ++i) out.log.push_back(g.base_position[i]);
@@ -115,6 +160,11 @@ inline NmpcOutcome runNmpc(const NmpcScenario& sc) {
   }
   out.wall_time = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
   out.end = g.base_position;
+  if (controller.estimator() != nullptr) {
+    controller.compute(plant.time(), plant.sensors(), command);  // the last readings
+    estimateErrors(controller, g, out.estimate_position_error, out.estimate_yaw_error_deg);
+    out.estimator_counters = controller.estimator()->filter().counters();
+  }
   if (half > 0) {
     out.mean_forward_speed = fwd / half;
     out.mean_lateral_speed = lat / half;

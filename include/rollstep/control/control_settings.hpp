@@ -54,6 +54,10 @@ struct MpcSettings {
   /// Iteration limit of the converging solve from a cold start that gives the first
   /// solution (at initialisation, not real-time).
   int initial_iterations = 100;
+  /// [s] Stale-solution watchdog: once the solution in use is older than this (its state's
+  /// time to now: a stalled or failing MPC), the pipeline holds a safe posture (the
+  /// reference frozen at that moment, at rest) until a new solution arrives.
+  double max_solution_age = 0.2;
 };
 
 struct RefinementSettings {

@@ -17,6 +17,7 @@
 #include <Eigen/Core>
 #include <atomic>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <thread>
 #include <vector>
@@ -56,6 +57,18 @@ struct MpcSolution {
   bool usable() const;
 };
 
+/// Faults injected into the deterministic MPC (fault drills and tests; nothing by default):
+/// the first solve at or after stall_at [s] delivers its solution stall_duration [s] late and
+/// no solve starts meanwhile (a stalled MPC thread); the first fail_count solutions at or
+/// after fail_at [s] are published broken, alternately with a non-finite state (status
+/// fine) and with a failure status (SolverStatus::Diverged). The solver itself is untouched.
+struct MpcFaultInjection {
+  double stall_at = std::numeric_limits<double>::infinity();
+  double stall_duration = 0.0;
+  double fail_at = std::numeric_limits<double>::infinity();
+  int fail_count = 0;
+};
+
 class MpcRunner {
  public:
   /// Builds the OCP (its own CentroidalOcp) and the solver in real-time mode from
@@ -90,6 +103,9 @@ class MpcRunner {
   MpcSolution makeSolution() const;
   /// Stops the thread (asynchronous mode); idempotent. post() is ignored afterwards.
   void stop();
+
+  /// Deterministic timing only (asynchronous: ignored). Not real-time.
+  void injectFaults(const MpcFaultInjection& faults);
 
   const centroidal::CentroidalOcp& ocp() const { return *ocp_; }
   const ControlSettings& settings() const { return settings_; }

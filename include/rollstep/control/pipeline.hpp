@@ -52,7 +52,12 @@
 //   updated;
 // - an unusable MPC solution (failed solve): the previous reference is kept (it holds its
 //   last state at rest once it runs past the end of its horizon);
-// - a failed CBF-QP: the filter's fallback acceleration (joints brake to rest).
+// - a failed CBF-QP: the filter's fallback acceleration (joints brake to rest);
+// - a stale solution (older than mpc.max_solution_age: the MPC stalled or keeps failing):
+//   the safe posture, i.e. the reference and the contact plan frozen at the moment the
+//   watchdog tripped, at rest (zero velocity and acceleration), until a new solution is
+//   adopted (a solution already older than the limit when it arrives is not adopted). Until
+//   the limit the last solution, refined, is used as usual.
 //
 // Real-time contract: tick() never allocates, locks or throws (tests count allocations).
 // Construction and initialize() allocate and may throw.
@@ -91,6 +96,7 @@ struct TickRecord {
   int qp_iterations = 0;
   int active_barriers = 0;
   double correction = 0.0;  ///< CbfQpFilter::correction()
+  bool holding = false;     ///< stale-solution watchdog: holding the safe posture
 };
 
 /// Counters over the run.
@@ -100,6 +106,9 @@ struct PipelineCounters {
   std::uint64_t solutions_received = 0;
   std::uint64_t solutions_rejected = 0;  ///< unusable, reference kept
   std::uint64_t qp_fallbacks = 0;
+  std::uint64_t watchdog_trips = 0;   ///< solution older than mpc.max_solution_age: hold began
+  std::uint64_t holding_ticks = 0;    ///< ticks spent holding the safe posture
+  std::uint64_t stale_solutions = 0;  ///< older than mpc.max_solution_age on arrival: ignored
 };
 
 class ControlPipeline {
@@ -136,6 +145,8 @@ class ControlPipeline {
   const centroidal::CentroidalOcp& ocp() const { return *rt_ocp_; }
   const centroidal::CentroidalRobot& robot() const { return rt_ocp_->robot(); }
   const ControlSettings& settings() const { return settings_; }
+  /// Fault drills and tests: faults of the deterministic MPC (MpcRunner::injectFaults).
+  void injectMpcFaults(const MpcFaultInjection& faults) { runner_->injectFaults(faults); }
   /// Contact index of each drive wheel, in the order of JointCommand::wheel_velocity.
   const std::vector<int>& driveWheelContacts() const { return drive_wheels_; }
 
@@ -166,6 +177,9 @@ class ControlPipeline {
   Eigen::Matrix3Xd foot_p_, foot_v_;
   double schedule_horizon_ = 0.0;
   std::uint64_t adopted_sequence_ = 0;
+  double adopted_t0_ = 0.0;  // state time of the solution in use
+  bool holding_ = false;     // watchdog: safe posture held since hold_time_
+  double hold_time_ = 0.0;
   bool initialized_ = false;
 };
 

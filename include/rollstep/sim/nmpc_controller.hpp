@@ -6,10 +6,12 @@
 // leg's name prefix of the contact frame ("LF" -> "LF_wheel").
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <string_view>
 #include <vector>
 
 #include "rollstep/control/pipeline.hpp"
+#include "rollstep/estimation/invariant_ekf.hpp"
 #include "rollstep/sim/plant.hpp"
 #include "rollstep/sim/simple_controllers.hpp"
 
@@ -47,6 +49,25 @@ std::vector<int> plantJointMap(const centroidal::CentroidalRobot& robot, const c
 std::vector<int> plantWheelMap(const centroidal::CentroidalRobot& robot,
                                const std::vector<int>& drive_wheels, const char* who);
 
+/// Which state the pipeline runs on: the simulator's ground truth, or the state estimator
+/// (estimator_source.hpp) on the plant's sensors (give the plant a sensor noise model,
+/// PlantOptions::sensor_noise, for realistic readings).
+enum class StateSourceKind { GroundTruth, Inekf };
+/// "ground_truth" or "inekf".
+const char* toString(StateSourceKind kind);
+/// Inverse of toString; throws std::invalid_argument naming the accepted values.
+StateSourceKind stateSourceFromString(const std::string& name);
+
+struct StateSourceOptions {
+  StateSourceKind kind = StateSourceKind::GroundTruth;
+  estimation::InekfSettings estimator;
+  /// The estimator gets the scene's terrain height under each stance contact (the map).
+  bool ground_heights = true;  ///< tuning of the estimator (a robot's estimation.yaml,
+                               ///< e.g. robots/tachyon3/estimation.yaml)
+};
+
+class EstimatorSource;
+
 /// One MPC solution as the real-time loop received it (the log's mpc.csv rows).
 struct MpcUpdateRecord {
   double time = 0.0;        ///< [s] loop time it arrived
@@ -67,7 +88,8 @@ class NmpcController final : public Controller {
   /// what is wrong (a joint or wheel of the plant the model lacks, bad settings).
   NmpcController(const Plant& plant, const centroidal::RobotOcpDescription& robot,
                  const control::ControlSettings& settings, const planning::TerrainModel& terrain,
-                 planning::GaitKind gait, const planning::BaseVelocityCommand& command);
+                 planning::GaitKind gait, const planning::BaseVelocityCommand& command,
+                 const StateSourceOptions& source = {});
   ~NmpcController() override;
 
   void compute(double t, const SensorReadings& sensors, PlantCommand& command) override;
@@ -78,7 +100,8 @@ class NmpcController final : public Controller {
   }
   /// mode[-] (contact mask), mpc_sequence[-] (solution in use), qp_status (optimal,
   /// fallback, invalid_input), qp_iterations[-], qp_active[-] (active barrier sides),
-  /// qp_correction[m/s^2] (CbfQpFilter::correction).
+  /// qp_correction[m/s^2] (CbfQpFilter::correction); with the estimator also est_base_*
+  /// (its position, yaw, world velocity), est_gyro_bias_* and est_contacts_rejected.
   std::string logColumns() const override;
   void logValues(std::string& out) const override;
   /// Every solution received so far, in order (the first one is the initial solve's).
@@ -90,6 +113,8 @@ class NmpcController final : public Controller {
   const control::ControlPipeline& pipeline() const { return *pipeline_; }
   /// Plant joint index (hipIndex / kneeIndex) of each model joint, in the model's order.
   const std::vector<int>& jointMap() const { return joint_map_; }
+  /// The state estimator when the state source is Inekf, else null.
+  const EstimatorSource* estimator() const { return estimator_; }
   /// Status of the first (converging) solve.
   solver::SolverStatus initialStatus() const { return initial_status_; }
 
@@ -98,8 +123,9 @@ class NmpcController final : public Controller {
 
   std::unique_ptr<control::ControlPipeline> pipeline_;
   std::unique_ptr<StateSource> source_;
-  std::vector<int> joint_map_;  // model joint -> plant joint
-  std::vector<int> wheel_map_;  // plant drive wheel -> pipeline wheel command index
+  const EstimatorSource* estimator_ = nullptr;  // source_ when it is the estimator
+  std::vector<int> joint_map_;                  // model joint -> plant joint
+  std::vector<int> wheel_map_;                  // plant drive wheel -> pipeline wheel command index
   control::RobotState state_;
   control::JointCommand command_;
   solver::SolverStatus initial_status_ = solver::SolverStatus::InvalidInput;

@@ -21,11 +21,13 @@
 #include <array>
 #include <cstddef>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "rollstep/sim/scene.hpp"
+#include "rollstep/sim/sensor_model.hpp"
 
 struct mjModel_;
 struct mjData_;
@@ -112,6 +114,9 @@ struct PlantOptions {
   double control_period = 0.001;
   /// Touch sensor threshold [N] for SensorReadings::foot_contact.
   double contact_threshold = 1.0;
+  /// Sensor noise (sensor_model.hpp): unset = the ideal readings above; set = sensors()
+  /// are corrupted by a SensorModel seeded by it (reset() restarts its draws).
+  std::optional<SensorNoiseConfig> sensor_noise;
 };
 
 /// The Tachyon 3 MJCF shipped with the project: $ROLLSTEP_ROBOTS_DIR/tachyon3/tachyon3.xml
@@ -155,6 +160,9 @@ class Plant {
   double time() const;
   const SensorReadings& sensors() const { return sensors_; }
   const GroundTruth& groundTruth() const { return truth_; }
+  /// The sensor noise model, or null when the readings are ideal (for tests and logs:
+  /// its true biases).
+  const SensorModel* sensorModel() const { return sensor_model_.get(); }
 
   /// Distance [m] along the unit direction `direction` from `origin` (world) to the
   /// first terrain surface (robot geoms are ignored), or -1 if nothing is hit within
@@ -211,6 +219,7 @@ class Plant {
   PlantCommand command_;
   PlantCommand nominal_command_;
   SensorReadings sensors_;
+  std::unique_ptr<SensorModel> sensor_model_;
   GroundTruth truth_;
   double total_mass_ = 0.0;
   double front_extent_ = 0.0;
