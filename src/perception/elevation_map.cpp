@@ -113,7 +113,7 @@ void ElevationMap::fuse(std::size_t i, double z, double var) {
     v = static_cast<float>(var);
     return;
   }
-  const double hd = h, vd = v;
+  const double hd = static_cast<double>(h), vd = static_cast<double>(v);
   const double d = z - hd;
   const double s = vd + var;
   if (d * d > settings_.gate * settings_.gate * s) {

@@ -158,7 +158,7 @@ void PlaneSegmenter::segment(const ElevationMap& map, Segmentation& out) {
   double zref = 0.0;
   for (float h : H) {
     if (!std::isnan(h)) {
-      zref = h;
+      zref = static_cast<double>(h);
       break;
     }
   }
@@ -266,7 +266,8 @@ void PlaneSegmenter::segment(const ElevationMap& map, Segmentation& out) {
       std::max(1, static_cast<int>(std::ceil(settings_.min_region_area / (res * res))));
   std::vector<int>& labels = out.labels;
   auto normalOf = [&](std::size_t i) {
-    return Eigen::Vector3d(-w.gx[i], -w.gy[i], 1.0).normalized();
+    return Eigen::Vector3d(-static_cast<double>(w.gx[i]), -static_cast<double>(w.gy[i]), 1.0)
+        .normalized();
   };
   constexpr int kRejected = -2;
   int next = 0;
