@@ -73,6 +73,17 @@ struct OcpSettings {
   /// [m] swing apex above the higher end (>= 0). The knees stand 5 cm off their stop: a
   /// swing higher than that needs the hips or the body (0.08 left a static walk infeasible).
   double swing_clearance = 0.04;
+  /// [m] The base height reference's terrain (planning::BaseReferenceConfig): 0 averages the
+  /// terrain under the nominal feet; > 0 takes the highest terrain within this distance of
+  /// a nominal foot along the travel, lowered by base_height_slope per metre, so that the
+  /// body rises before a step up and comes down after a step down. In [0, 10].
+  double base_height_reach = 0.0;
+  double base_height_slope = 0.0;  ///< [-] grade of that ramp, in [0, 100]
+  /// [m] A nominal foothold in a gap between (shrunk) regions goes onto the region ahead
+  /// along the travel when that begins within this distance (planning::FootReferenceConfig::
+  /// gap_reach); 0: onto the nearest region, which at a step edge is the one the foot is
+  /// leaving, so it stops at that region's edge until a later swing. In [0, 10].
+  double foothold_gap_reach = 0.0;
   double gait_period = 0.8;  ///< [s] one gait cycle (> 0)
   double trot_duty = 0.6;    ///< stance share of a trot cycle, in (0, 1)
   double walk_duty = 0.85;   ///< stance share of a static-walk cycle, in (0, 1)
