@@ -194,8 +194,9 @@ CentroidalOcp::CentroidalOcp(const RobotOcpDescription& description, const OcpSe
       "stance_velocity",
       std::make_shared<StanceVelocityResidual>(
           pre_, StanceRows::Kept, skid ? StanceComponents::VerticalOnly : StanceComponents::All));
-  problem_->addEquality("swing_height", std::make_shared<SwingHeightResidual>(
-                                            pre_, feet_, settings.swing_height_gain));
+  problem_->addEquality(
+      "swing_height", std::make_shared<SwingHeightResidual>(pre_, feet_, settings.swing_height_gain,
+                                                            settings.swing_height_max_correction));
 
   // Inequalities.
   ocp::InequalityOptions state_only;

@@ -56,6 +56,10 @@ struct OcpSettings {
   /// [1/s] Kp of the swing height equality (>= 0); 50 (1 - Kp dt = 0.25): with 20 the
   /// Euler-integrated swing lagged its spline and a wheel touched down 7.5 mm low.
   double swing_height_gain = 50.0;
+  /// [m/s] Saturation of that feedback, max_correction tanh(Kp e / max_correction) (>= 0;
+  /// 0: none): a foot far from its spline is asked for at most this much extra vertical
+  /// speed, so that the equality stays compatible with the joint velocity bounds.
+  double swing_height_max_correction = 0.0;
   // --- inequalities ----------------------------------------------------------------------
   double friction_coefficient = 0.6;  ///< mu of the friction pyramid (> 0), below the scene's
   double min_normal_force = 0.0;      ///< [N] lower bound on a stance normal force (>= 0)
