@@ -26,6 +26,7 @@
 #include <stdexcept>
 #include <string>
 #include <system_error>
+#include <vector>
 
 #include "cli_util.hpp"
 #include "commands.hpp"
@@ -66,6 +67,7 @@ struct SimOptions {
   // nmpc only
   std::string gait = "standing";
   double vx = 0.0, vy = 0.0, yaw_rate = 0.0;
+  std::string command_schedule;  // --command: "" = the constant --vx, --vy, --yaw-rate
   std::string control_config;
   std::string robot_description;
   std::string mpc_timing;  // "" = the config's
@@ -139,9 +141,53 @@ GroundTruthErrors estimateErrors(const sim::EstimatorSource& e, const sim::Groun
   return out;
 }
 
+/// Parses --command "T:VX[:VY[:YAW]],...": one segment per comma, times [s] from the start
+/// (the first 0, increasing), speeds within --vx's, --vy's and --yaw-rate's ranges.
+std::vector<planning::TimedBaseCommand> parseCommandSchedule(const std::string& text) {
+  const auto fail = [&](const std::string& what) -> std::vector<planning::TimedBaseCommand> {
+    throw CLI::ValidationError("--command", "'" + text + "': " + what +
+                                                " (expected T:VX[:VY[:YAW_RATE]],... with T in "
+                                                "s from 0, increasing)");
+  };
+  std::vector<planning::TimedBaseCommand> out;
+  std::stringstream entries(text);
+  std::string entry;
+  while (std::getline(entries, entry, ',')) {
+    std::vector<double> v;
+    std::stringstream fields(entry);
+    std::string field;
+    while (std::getline(fields, field, ':')) {
+      double x = 0.0;
+      bool non_finite = false;
+      if (!parseDecimal(field, x, non_finite) || non_finite) {
+        return fail("'" + field + "' is not a finite decimal number");
+      }
+      v.push_back(x);
+    }
+    if (v.size() < 2 || v.size() > 4) return fail("entry '" + entry + "' needs 2 to 4 numbers");
+    v.resize(4, 0.0);
+    const std::size_t k = out.size();
+    if (k == 0 && v[0] != 0.0) return fail("the first time must be 0");
+    if (k > 0 && !(v[0] > out.back().time)) return fail("times must increase");
+    if (v[0] > 3600.0) return fail("time " + numberText(v[0]) + " s beyond 3600 s");
+    if (std::abs(v[1]) > 1.0) return fail("vx " + numberText(v[1]) + " outside [-1, 1] m/s");
+    if (std::abs(v[2]) > 0.5) return fail("vy " + numberText(v[2]) + " outside [-0.5, 0.5] m/s");
+    if (std::abs(v[3]) > 1.0) {
+      return fail("yaw rate " + numberText(v[3]) + " outside [-1, 1] rad/s");
+    }
+    out.push_back({v[0], {v[1], v[2], v[3]}});
+  }
+  if (out.empty() || text.back() == ',') return fail("empty entry");
+  return out;
+}
+
 void runSim(const SimOptions& o, bool scene_given) {
   mju_user_warning = printMujocoWarning;
   // Inputs: nothing is written before they have all loaded.
+  const std::vector<planning::TimedBaseCommand> schedule =
+      o.command_schedule.empty()
+          ? std::vector<planning::TimedBaseCommand>{{0.0, {o.vx, o.vy, o.yaw_rate}}}
+          : parseCommandSchedule(o.command_schedule);
   sim::SceneConfig scene;
   if (!o.scene_config.empty()) scene = sim::loadSceneConfig(o.scene_config);
   if (scene_given || o.scene_config.empty()) scene.kind = sim::sceneKindFromString(o.scene);
@@ -172,7 +218,6 @@ void runSim(const SimOptions& o, bool scene_given) {
     if (o.mpc_timing == "asynchronous") settings.mpc.timing = control::MpcTiming::Asynchronous;
     if (o.integrator == "internal") settings.integrator.mode = control::IntegratorMode::Internal;
     if (o.integrator == "naive") settings.integrator.mode = control::IntegratorMode::Naive;
-    const planning::BaseVelocityCommand command{o.vx, o.vy, o.yaw_rate};
     // The terrain source: the scene's ground truth, or the LiDAR's view from the start pose
     // (config/lidar.yaml's defaults, a second of scans fused, the blind spot under the
     // robot filled from its wheel contacts), regions shrunk alike.
@@ -219,14 +264,21 @@ void runSim(const SimOptions& o, bool scene_given) {
       source.estimator = estimation::loadInekfSettings(tuning);
     }
     auto nmpc = std::make_unique<sim::NmpcController>(
-        plant, robot, settings, terrain, centroidal::gaitKindFromString(o.gait), command, source);
+        plant, robot, settings, terrain, centroidal::gaitKindFromString(o.gait), schedule, source);
     nmpc_controller = nmpc.get();
     controller = std::move(nmpc);
+    std::string command_text;
+    for (const planning::TimedBaseCommand& c : schedule) {
+      command_text +=
+          format("%s(%s m/s, %s m/s, %s rad/s)%s", command_text.empty() ? "" : ", ",
+                 numberText(c.command.v_x).c_str(), numberText(c.command.v_y).c_str(),
+                 numberText(c.command.yaw_rate).c_str(),
+                 schedule.size() > 1 ? (" from " + numberText(c.time) + " s").c_str() : "");
+    }
     controller_text = format(
-        "nmpc (gait %s, command (%s m/s, %s m/s, %s rad/s), MPC every %s s %s, N = %d, "
+        "nmpc (gait %s, command %s, MPC every %s s %s, N = %d, "
         "integrator %s, state %s; first solve %s)",
-        o.gait.c_str(), numberText(o.vx).c_str(), numberText(o.vy).c_str(),
-        numberText(o.yaw_rate).c_str(), numberText(settings.mpc.period).c_str(),
+        o.gait.c_str(), command_text.c_str(), numberText(settings.mpc.period).c_str(),
         control::toString(settings.mpc.timing), settings.ocp.horizon,
         control::toString(settings.integrator.mode), o.state_source.c_str(),
         solver::toString(nmpc_controller->initialStatus()));
@@ -430,6 +482,14 @@ void registerSimCommand(CLI::App& app) {
       cmd->add_option("--yaw-rate", options->yaw_rate, "nmpc, cbfqp only: yaw rate command [rad/s]")
           ->check(numberIn(-1.0, 1.0, "rad/s"))
           ->capture_default_str());
+  CLI::Option* command_schedule =
+      cmd->add_option("--command", options->command_schedule,
+                      "nmpc only: a base velocity command schedule instead of the constant "
+                      "--vx/--vy/--yaw-rate: T:VX[:VY[:YAW_RATE]],... each from T s on (the "
+                      "first T 0, increasing; speeds in the ranges of --vx, --vy, --yaw-rate), "
+                      "e.g. 0:0.15,32:-0.15 goes forward, then back")
+          ->check(kNotEmpty);
+  nmpc_only.push_back(command_schedule);
   pipeline_only.push_back(
       cmd->add_option("--control-config", options->control_config,
                       "nmpc, cbfqp only: YAML control settings (config/control.yaml lists every "
@@ -499,7 +559,8 @@ void registerSimCommand(CLI::App& app) {
                   "Default: robots/tachyon3/tachyon3.xml of the source tree, or "
                   "$ROLLSTEP_ROBOTS_DIR/tachyon3/tachyon3.xml")
       ->check(kNotEmpty);
-  cmd->final_callback([options, scene, speed, turn_speed, nmpc_only, pipeline_only] {
+  cmd->final_callback([options, scene, speed, turn_speed, nmpc_only, pipeline_only,
+                       command_schedule] {
     if (options->controller != "nmpc" && options->controller != "cbfqp") {
       for (const CLI::Option* option : pipeline_only) {
         if (option->count() > 0) {
@@ -513,6 +574,14 @@ void registerSimCommand(CLI::App& app) {
       throw CLI::ValidationError("--gait",
                                  "static_walk is not a gait of the cbfqp baseline "
                                  "(standing, rolling or trot)");
+    }
+    // pipeline_only[1..3] are --vx, --vy and --yaw-rate: one command or the other.
+    for (std::size_t k = 1; k <= 3 && command_schedule->count() > 0; ++k) {
+      if (pipeline_only[k]->count() > 0) {
+        throw CLI::ValidationError(pipeline_only[k]->get_name(),
+                                   "and --command exclude each other (give the constant "
+                                   "command in --command: 0:VX:VY:YAW_RATE)");
+      }
     }
     if (options->controller != "nmpc") {
       for (const CLI::Option* option : nmpc_only) {

@@ -133,10 +133,13 @@ CentroidalOcp::CentroidalOcp(const RobotOcpDescription& description, const OcpSe
   planning::BaseReferenceConfig base_config;
   base_config.nominal_height = nominal_height_;
   base_config.height_samples = nominal_feet_;  // the body rises as the feet climb
+  base_config.height_reach = settings.base_height_reach;
+  base_config.height_slope = settings.base_height_slope;
   base_ = std::make_shared<planning::BaseReference>(*terrain_, base_config);
   planning::FootReferenceConfig foot_config;
   foot_config.nominal_feet = nominal_feet_;
   foot_config.swing_clearance = settings.swing_clearance;
+  foot_config.gap_reach = settings.foothold_gap_reach;
   foot_config.foot_height_offset = robot_->contactOffset();
   feet_ = std::make_shared<planning::FootReferencePlanner>(*terrain_, *base_, foot_config);
   pre->setFootPlanner(feet_);
@@ -191,8 +194,9 @@ CentroidalOcp::CentroidalOcp(const RobotOcpDescription& description, const OcpSe
       "stance_velocity",
       std::make_shared<StanceVelocityResidual>(
           pre_, StanceRows::Kept, skid ? StanceComponents::VerticalOnly : StanceComponents::All));
-  problem_->addEquality("swing_height", std::make_shared<SwingHeightResidual>(
-                                            pre_, feet_, settings.swing_height_gain));
+  problem_->addEquality(
+      "swing_height", std::make_shared<SwingHeightResidual>(pre_, feet_, settings.swing_height_gain,
+                                                            settings.swing_height_max_correction));
 
   // Inequalities.
   ocp::InequalityOptions state_only;
@@ -229,6 +233,12 @@ CentroidalOcp::CentroidalOcp(const RobotOcpDescription& description, const OcpSe
 void CentroidalOcp::reset(double t0, const lie::SE3& start,
                           const planning::BaseVelocityCommand& command) {
   base_->reset(t0, start, command);
+  advance(t0);
+}
+
+void CentroidalOcp::resetSchedule(double t0, const lie::SE3& start,
+                                  const std::vector<planning::TimedBaseCommand>& schedule) {
+  base_->resetSchedule(t0, start, schedule);
   advance(t0);
 }
 

@@ -16,8 +16,8 @@ BaseVelocityResidual::BaseVelocityResidual(std::shared_ptr<const CentroidalPreco
   if (!pre_) throw std::invalid_argument("BaseVelocityResidual: null precomputation");
 }
 
-lie::Vector6d BaseVelocityResidual::reference(const ocp::NodeContext& /*ctx*/) const {
-  return base_ ? base_->twist() : v_ref_;
+lie::Vector6d BaseVelocityResidual::reference(const ocp::NodeContext& ctx) const {
+  return base_ ? base_->twistAt(ctx.time) : v_ref_;
 }
 
 std::unique_ptr<ocp::ResidualData> BaseVelocityResidual::createData() const {

@@ -31,7 +31,7 @@ struct Field {
 };
 
 // The one table of keys (config/ocp.yaml documents each, in this order).
-const std::array<Field, 27> kFields{{
+const std::array<Field, 31> kFields{{
     {"horizon", &OcpSettings::horizon, 1, 10000, false, false},
     {"dt", &OcpSettings::dt, 0, 10, true, false},
     {"base_velocity_weight", &OcpSettings::base_velocity_weight, 0, 1e12, false, false},
@@ -46,6 +46,8 @@ const std::array<Field, 27> kFields{{
     {"lateral_slip_weight", &OcpSettings::lateral_slip_weight, 0, 1e12, false, false},
     {"terminal_weight_scale", &OcpSettings::terminal_weight_scale, 0, 1e12, false, false},
     {"swing_height_gain", &OcpSettings::swing_height_gain, 0, 1e6, false, false},
+    {"swing_height_max_correction", &OcpSettings::swing_height_max_correction, 0, 100, false,
+     false},
     {"friction_coefficient", &OcpSettings::friction_coefficient, 0, 10, true, false},
     {"min_normal_force", &OcpSettings::min_normal_force, 0, 1e6, false, false},
     {"torque_limit_scale", &OcpSettings::torque_limit_scale, 0, 1, true, false},
@@ -55,6 +57,9 @@ const std::array<Field, 27> kFields{{
     {"soft_relaxation", &OcpSettings::soft_relaxation, 0, 1e3, true, false},
     {"soft_weight", &OcpSettings::soft_weight, 0, 1e12, true, false},
     {"swing_clearance", &OcpSettings::swing_clearance, 0, 2, false, false},
+    {"base_height_reach", &OcpSettings::base_height_reach, 0, 10, false, false},
+    {"base_height_slope", &OcpSettings::base_height_slope, 0, 100, false, false},
+    {"foothold_gap_reach", &OcpSettings::foothold_gap_reach, 0, 10, false, false},
     {"gait_period", &OcpSettings::gait_period, 0, 100, true, false},
     {"trot_duty", &OcpSettings::trot_duty, 0, 1, true, true},
     {"walk_duty", &OcpSettings::walk_duty, 0, 1, true, true},

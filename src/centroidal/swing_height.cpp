@@ -8,12 +8,13 @@ namespace rollstep::centroidal {
 
 SwingHeightResidual::SwingHeightResidual(
     std::shared_ptr<const CentroidalPrecomputation> pre,
-    std::shared_ptr<const planning::FootReferencePlanner> planner, double kp)
+    std::shared_ptr<const planning::FootReferencePlanner> planner, double kp, double max_correction)
     : ocp::Residual(pre ? pre->robot().ndx() : 0, pre ? pre->robot().nu() : 0,
                     pre ? pre->robot().nc() : 0),
       pre_(std::move(pre)),
       planner_(std::move(planner)),
-      kp_(kp) {
+      kp_(kp),
+      max_correction_(max_correction) {
   if (!pre_) throw std::invalid_argument("SwingHeightResidual: null precomputation");
   if (!planner_) throw std::invalid_argument("SwingHeightResidual: null foot reference planner");
   if (planner_->numFeet() != pre_->robot().nc()) {
@@ -25,6 +26,21 @@ SwingHeightResidual::SwingHeightResidual(
     throw std::invalid_argument("SwingHeightResidual: kp = " + std::to_string(kp_) +
                                 ", expected a finite value >= 0");
   }
+  if (!std::isfinite(max_correction_) || max_correction_ < 0.0) {
+    throw std::invalid_argument("SwingHeightResidual: max_correction = " +
+                                std::to_string(max_correction_) + ", expected a finite value >= 0");
+  }
+}
+
+double SwingHeightResidual::correction(double e) const {
+  if (max_correction_ <= 0.0) return kp_ * e;
+  return max_correction_ * std::tanh(kp_ * e / max_correction_);
+}
+
+double SwingHeightResidual::correctionSlope(double e) const {
+  if (max_correction_ <= 0.0) return kp_;
+  const double th = std::tanh(kp_ * e / max_correction_);
+  return kp_ * (1.0 - th * th);
 }
 
 int SwingHeightResidual::rows(const ocp::NodeContext& ctx) const {
@@ -50,7 +66,8 @@ void SwingHeightResidual::calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x, 
   for (int i = 0; i < r.nc(); ++i) {
     if (CentroidalRobot::inStance(ctx.mode, i)) continue;
     const planning::FootReference ref = footReference(ctx, *planner_, i);
-    d.r[row++] = c.footVelocity(i).z() - ref.z_dot_ref + kp_ * (c.footPosition(i).z() - ref.z_ref);
+    d.r[row++] =
+        c.footVelocity(i).z() - ref.z_dot_ref + correction(c.footPosition(i).z() - ref.z_ref);
   }
 }
 
@@ -66,7 +83,12 @@ void SwingHeightResidual::calcDiff(const ocp::NodeContext& ctx, ocp::ConstVecRef
   for (int i = 0; i < r.nc(); ++i) {
     if (CentroidalRobot::inStance(ctx.mode, i)) continue;
     const int k = 3 * i + 2;
-    d.Rx.row(row) = c.footVelocity_dx.row(k) + kp_ * c.footPosition_dx.row(k);
+    double slope = kp_;
+    if (max_correction_ > 0.0) {
+      const planning::FootReference ref = footReference(ctx, *planner_, i);
+      slope = correctionSlope(c.footPosition(i).z() - ref.z_ref);
+    }
+    d.Rx.row(row) = c.footVelocity_dx.row(k) + slope * c.footPosition_dx.row(k);
     d.Ru.row(row).head(nj) = c.footVelocity_du.row(k).head(nj);
     d.Ru.row(row).tail(nf).setZero();
     ++row;

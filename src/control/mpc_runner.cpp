@@ -301,6 +301,12 @@ MpcRunner::~MpcRunner() { stop(); }
 solver::SolverStatus MpcRunner::initialize(double t0, const lie::SE3& start,
                                            const planning::BaseVelocityCommand& command,
                                            const Eigen::VectorXd& x0) {
+  return initializeSchedule(t0, start, std::vector<planning::TimedBaseCommand>{{0.0, command}}, x0);
+}
+
+solver::SolverStatus MpcRunner::initializeSchedule(
+    double t0, const lie::SE3& start, const std::vector<planning::TimedBaseCommand>& schedule,
+    const Eigen::VectorXd& x0) {
   Impl& m = *impl_;
   if (x0.size() != m.nx) {
     throw std::invalid_argument("MpcRunner::initialize: x0 has size " + std::to_string(x0.size()) +
@@ -314,7 +320,7 @@ solver::SolverStatus MpcRunner::initialize(double t0, const lie::SE3& start,
   m.initialized = false;
 
   // The converging solve from a cold start (as `rollstep plan` does).
-  ocp_->reset(t0, start, command);
+  ocp_->resetSchedule(t0, start, schedule);
   solver::SolverSettings converging = m.realtime_settings;
   converging.mode = solver::SolverMode::Converging;
   converging.max_iterations = settings_.mpc.initial_iterations;

@@ -73,6 +73,11 @@ JointCommand ControlPipeline::makeCommand() const {
 
 solver::SolverStatus ControlPipeline::initialize(const RobotState& state,
                                                  const planning::BaseVelocityCommand& command) {
+  return initializeSchedule(state, std::vector<planning::TimedBaseCommand>{{0.0, command}});
+}
+
+solver::SolverStatus ControlPipeline::initializeSchedule(
+    const RobotState& state, const std::vector<planning::TimedBaseCommand>& schedule) {
   const centroidal::CentroidalRobot& r = robot();
   if (!state.valid(r.nj())) {
     throw std::invalid_argument(
@@ -82,8 +87,9 @@ solver::SolverStatus ControlPipeline::initialize(const RobotState& state,
   measure(state);
   // The references start at the state's pose (they keep its x, y and yaw).
   const lie::SE3 start(state.base_position, state.base_orientation);
-  rt_ocp_->reset(state.time, start, command);
-  const solver::SolverStatus status = runner_->initialize(state.time, start, command, x_meas_);
+  rt_ocp_->resetSchedule(state.time, start, schedule);
+  const solver::SolverStatus status =
+      runner_->initializeSchedule(state.time, start, schedule, x_meas_);
   integrator_->reset(q_meas_, v_meas_);
   solution_.sequence = 0;
   if (runner_->poll(state.time, solution_)) {

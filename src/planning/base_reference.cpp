@@ -1,6 +1,8 @@
 #include "rollstep/planning/base_reference.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 #include <utility>
 
@@ -20,14 +22,55 @@ BaseReference::BaseReference(const TerrainModel& terrain, BaseReferenceConfig co
     detail::checkFinite(where, ("height_samples[" + std::to_string(k) + "].x").c_str(), s.x());
     detail::checkFinite(where, ("height_samples[" + std::to_string(k) + "].y").c_str(), s.y());
   }
+  detail::checkNonNegative(where, "height_reach", config_.height_reach);
+  detail::checkNonNegative(where, "height_slope", config_.height_slope);
+  segments_.reserve(4);
+  segments_.push_back({0.0, BaseVelocityCommand{}, lie::SE3::Identity()});
 }
+
+namespace {
+
+lie::Vector6d twistOf(const BaseVelocityCommand& c) {
+  lie::Vector6d v;
+  v << c.v_x, c.v_y, 0.0, 0.0, 0.0, c.yaw_rate;
+  return v;
+}
+
+}  // namespace
 
 void BaseReference::reset(double t0, const lie::SE3& start, const BaseVelocityCommand& command) {
   const char* where = "BaseReference::reset";
-  detail::checkFinite(where, "t0", t0);
   detail::checkFinite(where, "command.v_x", command.v_x);
   detail::checkFinite(where, "command.v_y", command.v_y);
   detail::checkFinite(where, "command.yaw_rate", command.yaw_rate);
+  const TimedBaseCommand one{0.0, command};
+  resetSegments(t0, start, &one, 1);
+}
+
+void BaseReference::resetSchedule(double t0, const lie::SE3& start,
+                                  const std::vector<TimedBaseCommand>& schedule) {
+  const char* where = "BaseReference::reset";
+  if (schedule.empty()) detail::fail(where, "schedule.size()", 0, "need at least one command");
+  for (std::size_t k = 0; k < schedule.size(); ++k) {
+    const std::string name = "schedule[" + std::to_string(k) + "]";
+    detail::checkFinite(where, (name + ".time").c_str(), schedule[k].time);
+    detail::checkFinite(where, (name + ".v_x").c_str(), schedule[k].command.v_x);
+    detail::checkFinite(where, (name + ".v_y").c_str(), schedule[k].command.v_y);
+    detail::checkFinite(where, (name + ".yaw_rate").c_str(), schedule[k].command.yaw_rate);
+    if (k == 0 && schedule[k].time != 0.0) {
+      detail::fail(where, (name + ".time").c_str(), schedule[k].time, "the first must be 0");
+    }
+    if (k > 0 && !(schedule[k].time > schedule[k - 1].time)) {
+      detail::fail(where, (name + ".time").c_str(), schedule[k].time, "times must increase");
+    }
+  }
+  resetSegments(t0, start, schedule.data(), schedule.size());
+}
+
+void BaseReference::resetSegments(double t0, const lie::SE3& start,
+                                  const TimedBaseCommand* schedule, std::size_t n) {
+  const char* where = "BaseReference::reset";
+  detail::checkFinite(where, "t0", t0);
   if (!start.translation.allFinite() || !start.rotation.coeffs().allFinite() ||
       start.rotation.norm() < 1e-9) {
     detail::fail(where, "start", "(non-finite or zero quaternion)", "must be a finite pose");
@@ -35,20 +78,32 @@ void BaseReference::reset(double t0, const lie::SE3& start, const BaseVelocityCo
   const Eigen::Matrix3d r = start.rotation.normalized().toRotationMatrix();
   const double yaw = std::atan2(r(1, 0), r(0, 0));
   t0_ = t0;
-  command_ = command;
-  start_ = lie::SE3(Eigen::Vector3d(start.translation.x(), start.translation.y(), 0.0),
-                    Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ())));
+  segments_.clear();
+  lie::SE3 pose(Eigen::Vector3d(start.translation.x(), start.translation.y(), 0.0),
+                Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ())));
+  for (std::size_t k = 0; k < n; ++k) {
+    if (k > 0) {
+      const Segment& prev = segments_.back();
+      pose = prev.start *
+             lie::expSE3((t0 + schedule[k].time - prev.start_time) * twistOf(prev.command));
+    }
+    segments_.push_back({t0 + schedule[k].time, schedule[k].command, pose});
+  }
 }
 
-lie::Vector6d BaseReference::twist() const {
-  lie::Vector6d v;
-  v << command_.v_x, command_.v_y, 0.0, 0.0, 0.0, command_.yaw_rate;
-  return v;
+const BaseReference::Segment& BaseReference::segmentAt(double t) const {
+  std::size_t k = 0;
+  while (k + 1 < segments_.size() && t >= segments_[k + 1].start_time) ++k;
+  return segments_[k];
 }
+
+lie::Vector6d BaseReference::twistAt(double t) const { return twistOf(segmentAt(t).command); }
+
+lie::Vector6d BaseReference::twist() const { return twistOf(segments_.front().command); }
 
 lie::SE3 BaseReference::planarPoseAt(double t) const {
-  const lie::Vector6d d = (t - t0_) * twist();
-  return start_ * lie::expSE3(d);
+  const Segment& s = segmentAt(t);
+  return s.start * lie::expSE3((t - s.start_time) * twistOf(s.command));
 }
 
 Eigen::Vector2d BaseReference::worldPoint(const Eigen::Vector2d& body_xy, double t) const {
@@ -57,6 +112,21 @@ Eigen::Vector2d BaseReference::worldPoint(const Eigen::Vector2d& body_xy, double
 
 double BaseReference::terrainHeightAt(double t) const {
   const lie::SE3 p = planarPoseAt(t);
+  if (config_.height_reach > 0.0) {
+    // Direction of travel in the world plane (none when standing or turning on the spot:
+    // the envelope then reduces to the heights under the samples).
+    const BaseVelocityCommand& c = segmentAt(t).command;
+    Eigen::Vector2d e = (p.rotation * Eigen::Vector3d(c.v_x, c.v_y, 0.0)).head<2>();
+    const double speed = e.norm();
+    const double reach = speed > 1e-9 ? config_.height_reach : 0.0;
+    if (speed > 1e-9) e /= speed;
+    double best = -std::numeric_limits<double>::infinity();
+    for (const Eigen::Vector2d& s : config_.height_samples) {
+      const Eigen::Vector2d w = p.act(Eigen::Vector3d(s.x(), s.y(), 0.0)).head<2>();
+      best = std::max(best, terrain_->envelopeHeight(w, e, reach, config_.height_slope));
+    }
+    return best;
+  }
   double sum = 0.0;
   for (const Eigen::Vector2d& s : config_.height_samples) {
     sum += terrain_->heightAt(p.act(Eigen::Vector3d(s.x(), s.y(), 0.0)).head<2>());

@@ -39,6 +39,21 @@ FootReferencePlanner::FootReferencePlanner(const TerrainModel& terrain, const Ba
   detail::checkNonNegative(where, "swing_clearance", config_.swing_clearance);
   detail::checkFinite(where, "foot_height_offset", config_.foot_height_offset);
   detail::checkNonNegative(where, "level_tolerance", config_.level_tolerance);
+  detail::checkNonNegative(where, "gap_reach", config_.gap_reach);
+}
+
+int FootReferencePlanner::footholdRegion(const Eigen::Vector2d& p, double t) const {
+  if (config_.gap_reach <= 0.0) return terrain_->regionAt(p);
+  const lie::Vector6d v = base_->twistAt(t);
+  Eigen::Vector2d e =
+      (base_->planarPoseAt(t).rotation * Eigen::Vector3d(v[0], v[1], 0.0)).head<2>();
+  const double speed = e.norm();
+  if (speed < 1e-9) return terrain_->regionAt(p);
+  return terrain_->regionAhead(p, e / speed, config_.gap_reach);
+}
+
+double FootReferencePlanner::heightIn(int region, const Eigen::Vector2d& p) const {
+  return region < 0 ? 0.0 : terrain_->region(region).heightAt(p);
 }
 
 Eigen::Vector2d FootReferencePlanner::nominalFoothold(int foot, double t) const {
@@ -47,8 +62,10 @@ Eigen::Vector2d FootReferencePlanner::nominalFoothold(int foot, double t) const 
 
 SwingHeightSpline FootReferencePlanner::swingSpline(int foot, double t_liftoff,
                                                     double t_touchdown) const {
-  const double z_lo = terrain_->heightAt(nominalFoothold(foot, t_liftoff));
-  const double z_td = terrain_->heightAt(nominalFoothold(foot, t_touchdown));
+  const Eigen::Vector2d p_lo = nominalFoothold(foot, t_liftoff);
+  const Eigen::Vector2d p_td = nominalFoothold(foot, t_touchdown);
+  const double z_lo = heightIn(footholdRegion(p_lo, t_liftoff), p_lo);
+  const double z_td = heightIn(footholdRegion(p_td, t_touchdown), p_td);
   return SwingHeightSpline(t_liftoff, t_touchdown, z_lo + config_.foot_height_offset,
                            z_td + config_.foot_height_offset, config_.swing_clearance);
 }
@@ -68,28 +85,40 @@ FootReference FootReferencePlanner::query(const ocp::ModeSchedule& schedule, int
   FootReference r;
   r.timing = footPhase(schedule, foot, t);
   if (r.timing.stance) {
-    const Eigen::Vector2d p = stanceFoothold(schedule, foot, t);
-    r.region = terrain_->regionAt(p);
-    r.z_ref = terrain_->heightAt(p) + config_.foot_height_offset;
+    const int phase = schedule.phaseAt(t);
+    const double start = stanceStart(schedule, foot, phase);
+    const double t_chosen = start > -1e300 ? start : t;  // stanceFoothold's time
+    const Eigen::Vector2d p = nominalFoothold(foot, t_chosen);
+    r.region = footholdRegion(p, t_chosen);
+    r.z_ref = heightIn(r.region, p) + config_.foot_height_offset;
     return r;
   }
   const Eigen::Vector2d p = nominalFoothold(foot, t);
   if (!r.timing.bounded()) {
-    r.region = terrain_->regionAt(p);
-    r.z_ref = terrain_->heightAt(p) + config_.foot_height_offset + config_.swing_clearance;
+    r.region = footholdRegion(p, t);
+    r.z_ref = heightIn(r.region, p) + config_.foot_height_offset + config_.swing_clearance;
     return r;
   }
   // Where the foot stands before lift-off: the foothold of the stance that ends there.
-  const Eigen::Vector2d p_lo =
-      stanceFoothold(schedule, foot, std::nextafter(r.timing.liftoff, -1e300));
+  const double before = std::nextafter(r.timing.liftoff, -1e300);
+  const int lo_phase = schedule.phaseAt(before);
+  const double lo_start = inContact(schedule.modes()[static_cast<std::size_t>(lo_phase)], foot)
+                              ? stanceStart(schedule, foot, lo_phase)
+                              : before;
+  const double t_lo = lo_start > -1e300 ? lo_start : before;  // stanceFoothold's time
+  const Eigen::Vector2d p_lo = nominalFoothold(foot, t_lo);
   const Eigen::Vector2d p_td = nominalFoothold(foot, r.timing.touchdown);
-  r.region = terrain_->regionAt(p_td);
-  r.direction = terrain_->classifySwing(p_lo, p_td, config_.level_tolerance);
-  r.swing_region = terrain_->swingRegion(p_lo, p_td, config_.level_tolerance);
+  const int region_lo = footholdRegion(p_lo, t_lo);
+  r.region = footholdRegion(p_td, r.timing.touchdown);
+  const double z_lo = heightIn(region_lo, p_lo), z_td = heightIn(r.region, p_td);
+  r.direction = classifySwing(z_lo, z_td, config_.level_tolerance);
+  r.swing_region = r.direction == SwingDirection::Ascending    ? region_lo
+                   : r.direction == SwingDirection::Descending ? r.region
+                                                               : -1;
   r.swing_region_active = swingRegionActive(r.direction, r.timing.phase);
-  const SwingHeightSpline spline(
-      r.timing.liftoff, r.timing.touchdown, terrain_->heightAt(p_lo) + config_.foot_height_offset,
-      terrain_->heightAt(p_td) + config_.foot_height_offset, config_.swing_clearance);
+  const SwingHeightSpline spline(r.timing.liftoff, r.timing.touchdown,
+                                 z_lo + config_.foot_height_offset,
+                                 z_td + config_.foot_height_offset, config_.swing_clearance);
   spline.evaluate(t, r.z_ref, r.z_dot_ref);
   return r;
 }

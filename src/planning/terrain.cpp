@@ -176,6 +176,78 @@ int TerrainModel::swingRegion(const Eigen::Vector2d& p_liftoff, const Eigen::Vec
   return -1;
 }
 
+int TerrainModel::regionAhead(const Eigen::Vector2d& p, const Eigen::Vector2d& e,
+                              double reach) const {
+  const int here = regionAt(p);
+  if (here < 0 || reach <= 0.0 || region(here).contains(p)) return here;
+  int best = here;
+  double best_entry = std::numeric_limits<double>::infinity();
+  for (int i = 0; i < size(); ++i) {
+    const ConvexRegion& r = region(i);
+    double lo = 0.0, hi = reach;  // the part of the ray inside the polygon
+    for (Eigen::Index k = 0; k < r.A.rows() && lo <= hi; ++k) {
+      const double s = r.A(k, 0) * p.x() + r.A(k, 1) * p.y() + r.b(k);
+      const double rate = r.A(k, 0) * e.x() + r.A(k, 1) * e.y();
+      if (std::abs(rate) < 1e-12) {
+        if (s < 0.0) hi = lo - 1.0;
+      } else if (rate > 0.0) {
+        lo = std::max(lo, -s / rate);
+      } else {
+        hi = std::min(hi, -s / rate);
+      }
+    }
+    if (lo <= hi && lo < best_entry) {
+      best = i;
+      best_entry = lo;
+    }
+  }
+  return best;
+}
+
+double TerrainModel::envelopeHeight(const Eigen::Vector2d& p, const Eigen::Vector2d& e,
+                                    double reach, double slope) const {
+  double best = heightAt(p);
+  // Beyond reach + (highest - lowest region) / slope nothing can raise the result.
+  double span = 0.0;
+  if (slope > 0.0 && !regions_.empty()) {
+    double lowest = regions_.front().height, highest = lowest;
+    for (const ConvexRegion& r : regions_) {
+      lowest = std::min(lowest, r.heightAt(p));
+      highest = std::max(highest, r.heightAt(p));
+    }
+    span = (highest - lowest) / slope;
+  }
+  const double extent = reach + span;
+  for (const ConvexRegion& r : regions_) {
+    // The part [lo, hi] of the segment p + d e, |d| <= extent, inside the polygon.
+    double lo = -extent, hi = extent;
+    for (Eigen::Index k = 0; k < r.A.rows() && lo <= hi; ++k) {
+      const double s = r.A(k, 0) * p.x() + r.A(k, 1) * p.y() + r.b(k);  // distance at d = 0
+      const double rate = r.A(k, 0) * e.x() + r.A(k, 1) * e.y();
+      if (std::abs(rate) < 1e-12) {
+        if (s < 0.0) hi = lo - 1.0;  // parallel and outside
+      } else if (rate > 0.0) {
+        lo = std::max(lo, -s / rate);
+      } else {
+        hi = std::min(hi, -s / rate);
+      }
+    }
+    if (lo > hi) continue;
+    // The plane along the segment is linear in d; minus slope max(|d| - reach, 0), concave
+    // and piecewise linear, it peaks at an end, at 0 or at +-reach.
+    const double h0 = r.heightAt(p);
+    const double grade = -(r.normal.x() * e.x() + r.normal.y() * e.y()) / r.normal.z();
+    const auto value = [&](double d) {
+      return h0 + grade * d - slope * std::max(std::abs(d) - reach, 0.0);
+    };
+    best = std::max({best, value(lo), value(hi)});
+    for (const double d : {0.0, -reach, reach}) {
+      if (lo < d && d < hi) best = std::max(best, value(d));
+    }
+  }
+  return best;
+}
+
 namespace {
 
 void checkBox(const std::string& name, const TerrainBox& b) {

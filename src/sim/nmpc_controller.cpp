@@ -81,6 +81,14 @@ NmpcController::NmpcController(const Plant& plant, const centroidal::RobotOcpDes
                                const control::ControlSettings& settings,
                                const planning::TerrainModel& terrain, planning::GaitKind gait,
                                const planning::BaseVelocityCommand& command,
+                               const StateSourceOptions& source)
+    : NmpcController(plant, robot, settings, terrain, gait,
+                     std::vector<planning::TimedBaseCommand>{{0.0, command}}, source) {}
+
+NmpcController::NmpcController(const Plant& plant, const centroidal::RobotOcpDescription& robot,
+                               const control::ControlSettings& settings,
+                               const planning::TerrainModel& terrain, planning::GaitKind gait,
+                               const std::vector<planning::TimedBaseCommand>& schedule,
                                const StateSourceOptions& source) {
   if (std::abs(settings.control_period - plant.controlPeriod()) > 1e-12) {
     throw std::invalid_argument("nmpc: control_period " + std::to_string(settings.control_period) +
@@ -104,7 +112,7 @@ NmpcController::NmpcController(const Plant& plant, const centroidal::RobotOcpDes
   if (!source_->read(plant.time(), plant.sensors(), state_)) {
     throw std::runtime_error("nmpc: no initial state");
   }
-  initial_status_ = pipeline_->initialize(state_, command);
+  initial_status_ = pipeline_->initializeSchedule(state_, schedule);
   // One record per MPC period of the longest run the CLI allows, so that recording does not
   // reallocate in the loop (a longer run still works; the vector then grows).
   updates_.reserve(settings.mpc.period >= 1e-3

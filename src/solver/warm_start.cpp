@@ -60,15 +60,46 @@ void Solver::Impl::shiftNodes(int n) {
     a.mult_bak.swap(b.mult_bak);
     std::swap(a.ni_prev, b.ni_prev);
   }
-  for (int k = std::max(N - n, 0); k <= N; ++k) {
-    Node& t = node(k);
-    t.fresh = true;
-    t.lam.setZero();
-    t.lam_bak.setZero();
-    // The backup tail keeps slacks/duals that are reinitialised at the next
-    // linearisation anyway (fresh); mark them consistent with the primary ones.
-    t.s_bak = t.s;
-    t.z_bak = t.z;
+  // The new tail repeats the old last running node (now at N - 1 - n) and the old terminal
+  // node (now at N - n, moved to N); it takes their slacks and duals too, as it takes their
+  // states and inputs. Reinitialised ones (z = mu / s, a weak barrier) let the next step
+  // run a tail input through its bounds, and the fraction to the boundary then cut the
+  // whole horizon's step, one shift after another. A node whose rows change with its mode
+  // is still reinitialised at its linearisation (ni != ni_prev).
+  const int last_running = N - 1 - n;
+  if (n >= 1 && last_running >= 0) {
+    Node& terminal = node(N);
+    const Node& old_terminal = node(N - n);
+    terminal.s = old_terminal.s;
+    terminal.z = old_terminal.z;
+    terminal.ni_prev = old_terminal.ni_prev;
+    terminal.fresh = old_terminal.fresh;
+    const Node& src = node(last_running);
+    for (int k = N - n; k < N; ++k) {
+      Node& t = node(k);
+      t.s = src.s;
+      t.z = src.z;
+      t.mult = src.mult;
+      t.ni_prev = src.ni_prev;
+      t.fresh = src.fresh;
+    }
+    for (int k = N - n; k <= N; ++k) {
+      Node& t = node(k);
+      t.lam.setZero();
+      t.lam_bak.setZero();
+      t.s_bak = t.s;
+      t.z_bak = t.z;
+      t.mult_bak = t.mult;
+    }
+  } else {
+    for (int k = std::max(N - n, 0); k <= N; ++k) {
+      Node& t = node(k);
+      t.fresh = true;
+      t.lam.setZero();
+      t.lam_bak.setZero();
+      t.s_bak = t.s;
+      t.z_bak = t.z;
+    }
   }
 }
 

@@ -205,6 +205,48 @@ TEST(Equalities, ValuesMatchTheirDefinition) {
   }
 }
 
+// The saturated feedback: values c tanh(Kp e / c) (at most c [m/s] of extra vertical speed
+// however far the foot is from its spline, Kp e for a small error), Jacobians against
+// central differences.
+TEST(Equalities, SaturatedSwingHeightFeedback) {
+  Fixture s;
+  constexpr double kMax = 0.1;
+  const SwingHeightResidual sat{s.pre, s.scene.feet, kKp, kMax};
+  EXPECT_DOUBLE_EQ(sat.maxCorrection(), kMax);
+  EXPECT_THROW(SwingHeightResidual(s.pre, s.scene.feet, kKp, -0.1), std::invalid_argument);
+  EXPECT_THROW(SwingHeightResidual(s.pre, s.scene.feet, kKp, std::nan("")), std::invalid_argument);
+  std::mt19937 rng(5);
+  const double t = s.scene.timeInMode(kTrotA);
+  const auto ctx = makeContext(kTrotA, t, s.scene.schedule.get(), nullptr);
+  for (int trial = 0; trial < 3; ++trial) {
+    const Eigen::VectorXd x = randomState(*s.robot, rng);
+    const Eigen::VectorXd u = randomInput(*s.robot, rng);
+    const NodeEvaluator ev{s.pre.get(), s.cache.get(), ctx};
+    EXPECT_TRUE(checkResidualDerivatives(sat, *s.robot->space(), ev, x, u)) << trial;
+    auto plain = s.height.createData();
+    auto capped = sat.createData();
+    plain->rows = capped->rows = sat.rows(ctx);
+    s.height.calc(ctx, x, u, *plain);
+    sat.calc(ctx, x, u, *capped);
+    const CentroidalRobot& r = *s.robot;
+    model::Data data(r.model());
+    model::NodeQuantities nq(r.model(), r.frameIds());
+    const lie::Vector6d h = x.tail<6>();
+    model::computeNodeQuantitiesFromMomentum(r.model(), data, x.head(r.nq()), h, u.head(12),
+                                             u.tail(18), nq);
+    int row = 0;
+    for (int foot : {MF, LR, RR}) {
+      const planning::FootReference ref = s.scene.feet->query(*s.scene.schedule, foot, t);
+      const double e = nq.contactPositions(2, foot) - ref.z_ref;
+      const double open = nq.contactVelocities(2, foot) - ref.z_dot_ref;
+      EXPECT_NEAR(capped->r[row], open + kMax * std::tanh(kKp * e / kMax), 1e-10);
+      EXPECT_LE(std::abs(capped->r[row] - open), kMax + 1e-12);
+      EXPECT_NEAR(plain->r[row], open + kKp * e, 1e-10);
+      ++row;
+    }
+  }
+}
+
 /// Ru of the stacked equalities at (x, u) in `mode`.
 Eigen::MatrixXd stackedRu(const Fixture& s, int mode, double t, const Eigen::VectorXd& x,
                           const Eigen::VectorXd& u) {

@@ -9,6 +9,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "common/alloc_counter.hpp"
 #include "rollstep/lie/se3.hpp"
@@ -112,6 +113,78 @@ TEST(BaseReference, ClimbingFollowsTheTerrain) {
   EXPECT_TRUE(avg.worldPoint({0.33, 0.22}, 2.0).isApprox(Vector2d(1.33, 0.22), 1e-12));
 }
 
+TEST(BaseReference, EnvelopeRisesBeforeAStepUpAndComesDownAfterAStepDown) {
+  // Shrunk by 0.085 m like the scenes' regions: a gap of 0.17 m at each edge.
+  const planning::TerrainModel step =
+      planning::terrainFromBoxes(kFloor, 0.0, {{1.0, 2.2, -3.0, 3.0, 0.20}}, 0.085);
+  // Full height within 0.25 m, a grade of 0.5 beyond.
+  BaseReferenceConfig feet{0.375, {{0.33, 0.0}, {-0.33, 0.0}}, 0.25, 0.5};
+  BaseReference ref(step, feet);
+  ref.reset(0.0, startPose(0.0, 0.0, 0.0), {0.5, 0.0, 0.0});
+  const auto z = [&](double x) { return ref.poseAt(x / 0.5).translation.z() - 0.375; };
+  // The block's region begins at 1.085: the front foot (base + 0.33) 0.65 m before it sees
+  // nothing, then the ramp up to the full 0.2 m when the foot is 0.25 m before it.
+  const double up = 1.085 - 0.33;
+  EXPECT_NEAR(z(0.0), 0.0, 1e-12);
+  EXPECT_NEAR(z(up - 0.7), 0.0, 1e-12);
+  EXPECT_NEAR(z(up - 0.55), 0.2 - 0.5 * 0.3, 1e-12);
+  EXPECT_NEAR(z(up - 0.4), 0.2 - 0.5 * 0.15, 1e-12);
+  // Full height from 0.25 m before the block (front foot) to 0.25 m after its last point
+  // (rear foot at base - 0.33 beyond the region's end 2.115).
+  const double down = 2.115 + 0.33;
+  for (double x = up - 0.25; x <= down + 0.25; x += 0.01) {
+    EXPECT_NEAR(z(x), 0.2, 1e-9) << "x " << x;
+  }
+  EXPECT_NEAR(z(down + 0.35), 0.2 - 0.5 * 0.1, 1e-12);
+  EXPECT_NEAR(z(down + 0.7), 0.0, 1e-12);
+  // Never below the mean rule, continuous (a ramp, no jump) along the way.
+  BaseReference mean(step, {0.375, {{0.33, 0.0}, {-0.33, 0.0}}});
+  mean.reset(0.0, startPose(0.0, 0.0, 0.0), {0.5, 0.0, 0.0});
+  double prev = z(0.0);
+  for (double x = 0.0; x < 3.5; x += 0.005) {
+    EXPECT_GE(z(x) + 1e-12, mean.poseAt(x / 0.5).translation.z() - 0.375);
+    EXPECT_LE(std::abs(z(x) - prev), 0.5 * 0.005 + 1e-9) << "x " << x;
+    prev = z(x);
+  }
+  // Standing still: no direction of travel, the highest terrain under the samples.
+  ref.reset(0.0, startPose(0.6, 0.0, 0.0), {0.0, 0.0, 0.0});
+  EXPECT_NEAR(ref.poseAt(3.0).translation.z(), 0.375, 1e-12);
+  ref.reset(0.0, startPose(0.8, 0.0, 0.0), {0.0, 0.0, 0.0});  // front foot on the block
+  EXPECT_NEAR(ref.poseAt(3.0).translation.z(), 0.575, 1e-12);
+}
+
+TEST(BaseReference, CommandScheduleChainsTheSegments) {
+  const planning::TerrainModel flat = planning::terrainFromBoxes(kFloor, 0.0, {});
+  BaseReference ref(flat, {0.375, {Vector2d::Zero()}});
+  ref.resetSchedule(1.0, startPose(0.5, 0.0, 0.0),
+                    std::vector<planning::TimedBaseCommand>{
+                        {0.0, {0.2, 0.0, 0.0}}, {2.0, {0.0, 0.0, 0.5}}, {4.0, {-0.1, 0.0, 0.0}}});
+  EXPECT_NEAR(ref.poseAt(2.0).translation.x(), 0.7, 1e-12);
+  EXPECT_NEAR(ref.poseAt(3.0).translation.x(), 0.9, 1e-12);  // end of segment 0
+  EXPECT_NEAR(ref.poseAt(4.0).translation.x(), 0.9, 1e-12);  // turning on the spot
+  EXPECT_NEAR(yawOf(ref.poseAt(5.0)), 1.0, 1e-12);
+  const lie::SE3 p = ref.poseAt(6.0);  // 1 s backwards along the heading 1 rad
+  EXPECT_NEAR(p.translation.x(), 0.9 - 0.1 * std::cos(1.0), 1e-12);
+  EXPECT_NEAR(p.translation.y(), -0.1 * std::sin(1.0), 1e-12);
+  EXPECT_DOUBLE_EQ(ref.twistAt(2.9)[0], 0.2);
+  EXPECT_DOUBLE_EQ(ref.twistAt(3.5)[5], 0.5);
+  EXPECT_DOUBLE_EQ(ref.twistAt(7.0)[0], -0.1);
+  EXPECT_DOUBLE_EQ(ref.twistAt(0.0)[0], 0.2);  // before the start: the first segment
+  const auto bad = [&](std::vector<planning::TimedBaseCommand> s, const std::string& what) {
+    try {
+      ref.resetSchedule(0.0, lie::SE3(), s);
+      ADD_FAILURE() << "no exception, expected " << what;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
+    }
+  };
+  bad({}, "schedule.size() = 0");
+  bad({{0.5, {}}}, "schedule[0].time = 0.5");
+  bad({{0.0, {}}, {0.0, {}}}, "schedule[1].time = 0 (times must increase)");
+  bad({{0.0, {}}, {1.0, {std::numeric_limits<double>::quiet_NaN(), 0.0, 0.0}}},
+      "schedule[1].v_x = nan");
+}
+
 TEST(BaseReference, BadInputThrowsNamingTheParameter) {
   const planning::TerrainModel flat = planning::terrainFromBoxes(kFloor, 0.0, {});
   auto expectNaming = [](auto f, const std::string& what) {
@@ -130,6 +203,11 @@ TEST(BaseReference, BadInputThrowsNamingTheParameter) {
   expectNaming([&] { BaseReference(flat, {0.3, {}}); }, "height_samples.size() = 0");
   expectNaming(
       [&] {
+        BaseReference(flat, {0.3, {Vector2d::Zero()}, -1.0, 0.0});
+      },
+      "height_reach = -1");
+  expectNaming(
+      [&] {
         BaseReference(flat, {0.3, {Vector2d(0, std::numeric_limits<double>::infinity())}});
       },
       "height_samples[0].y = inf");
@@ -144,8 +222,11 @@ TEST(BaseReference, BadInputThrowsNamingTheParameter) {
         ref.reset(0.0, lie::SE3(), {0, 0, std::numeric_limits<double>::infinity()});
       },
       "command.yaw_rate = inf");
-  expectNaming([&] { ref.reset(std::numeric_limits<double>::quiet_NaN(), lie::SE3(), {}); },
-               "t0 = nan");
+  expectNaming(
+      [&] {
+        ref.reset(std::numeric_limits<double>::quiet_NaN(), lie::SE3(), BaseVelocityCommand{});
+      },
+      "t0 = nan");
 }
 
 TEST(BaseReference, QueriesDoNotAllocate) {

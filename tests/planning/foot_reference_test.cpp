@@ -56,6 +56,47 @@ double stanceStart(const Scene& s, int foot, double t) {
   return hi;
 }
 
+TEST(FootReference, GapReachSendsAFootholdInAGapOntoTheRegionAhead) {
+  // Regions shrunk by 0.085 m: a gap [0.915, 1.085] before the block. A touch-down whose
+  // nominal foothold falls 1 cm into the gap goes onto the block (ascending, its spline ends
+  // on the top) with gap_reach 0.2, onto the floor (level) with the nearest rule.
+  const planning::TerrainModel terrain = planning::terrainFromBoxes(
+      {-5.0, 10.0, -1.5, 1.5, 0.0}, 0.0, {{1.0, 2.2, -1.5, 1.5, 0.20}}, 0.085);
+  planning::BaseReference base{terrain, {0.375, kNominal}};
+  base.reset(0.0, lie::SE3(), planning::BaseVelocityCommand{0.5, 0.0, 0.0});
+  planning::FootReferenceConfig near{kNominal, kClearance, kWheelRadius};
+  planning::FootReferenceConfig ahead = near;
+  ahead.gap_reach = 0.2;
+  const planning::FootReferencePlanner nearest(terrain, base, near), forward(terrain, base, ahead);
+  planning::GaitScheduler scheduler{
+      planning::Gait::trot(6, 0.8, 0.6, planning::contactMask(kFeet, {"LF", "RF", "MR"}),
+                           planning::contactMask(kFeet, {"MF", "LR", "RR"})),
+      3.0};
+  ocp::ModeSchedule schedule{scheduler.requiredCapacity()};
+  scheduler.fill(0.0, 3.0, schedule);
+  const int floor = terrain.regionAt({0.5, 0.0}), block = terrain.regionAt({1.5, 0.0});
+  int crossings = 0;
+  for (double t = 0.0; t < 2.5; t += 0.005) {
+    for (int f : {0, 1, 2}) {  // front feet
+      const planning::FootReference a = nearest.query(schedule, f, t);
+      const planning::FootReference b = forward.query(schedule, f, t);
+      if (a.timing.stance || !a.timing.bounded()) continue;
+      const double x_td = nearest.nominalFoothold(f, a.timing.touchdown).x();
+      if (x_td > 0.915 && x_td < 1.0) {  // nearest: the floor; ahead: the block
+        ++crossings;
+        EXPECT_EQ(a.region, floor);
+        EXPECT_EQ(a.direction, SwingDirection::Level);
+        EXPECT_EQ(b.region, block);
+        EXPECT_EQ(b.direction, SwingDirection::Ascending);
+        EXPECT_EQ(b.swing_region, floor);  // the first half stays over the floor
+      } else {
+        EXPECT_EQ(a.region, b.region) << "t " << t << " foot " << f;
+      }
+    }
+  }
+  EXPECT_GT(crossings, 0) << "no touch-down fell into the gap";
+}
+
 TEST(FootReference, TrotOverTheStep) {
   Scene s;
   const int floor_before = s.terrain.regionAt({0.0, 0.0});

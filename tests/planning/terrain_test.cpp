@@ -212,6 +212,61 @@ TEST(TerrainModel, BadBoxesThrow) {
   expectThrowsNaming([] { terrainFromBoxes(kFloor, 0.0, {}, -0.1); }, "margin = -0.1");
 }
 
+TEST(TerrainModel, EnvelopeHeightEqualsADenseSearch) {
+  // Stairs of shrunk regions and a sloped region: the exact envelope against a search over
+  // 1 mm steps of the same definition, along several directions.
+  std::vector<ConvexRegion> regions =
+      terrainFromBoxes(kFloor, 0.0, {kStep20, {1.6, 2.2, -1.5, 1.5, 0.365}}, 0.085).regions();
+  regions.push_back(ConvexRegion::fromPolygon({{3.0, -1.0}, {4.0, -1.0}, {4.0, 1.0}, {3.0, 1.0}},
+                                              0.1, Vector3d(-0.2, 0.1, 1.0)));
+  const TerrainModel t(regions);
+  const auto dense = [&](const Vector2d& p, const Vector2d& e, double reach, double slope) {
+    double best = t.heightAt(p);
+    for (double d = -4.0; d <= 4.0; d += 1e-3) {
+      const Vector2d q = p + d * e;
+      double h = -1e9;
+      for (const ConvexRegion& r : t.regions()) {
+        if (r.contains(q)) h = std::max(h, r.heightAt(q));
+      }
+      best = std::max(best, h - slope * std::max(std::abs(d) - reach, 0.0));
+    }
+    return best;
+  };
+  for (const Vector2d& p : {Vector2d(0.5, 0.0), Vector2d(0.95, 0.3), Vector2d(1.9, -0.2),
+                            Vector2d(2.6, 0.1), Vector2d(3.5, 0.0)}) {
+    for (const double angle : {0.0, 0.4, M_PI, -2.0}) {
+      const Vector2d e(std::cos(angle), std::sin(angle));
+      for (const double reach : {0.0, 0.25}) {
+        const double slope = 0.5;
+        EXPECT_NEAR(t.envelopeHeight(p, e, reach, slope), dense(p, e, reach, slope), 1e-3)
+            << "p (" << p.transpose() << ") angle " << angle << " reach " << reach;
+      }
+    }
+  }
+  // Without distance the heights under p only; a step 0.3 m ahead with reach 0.25 and grade
+  // 0.5: 0.2 - 0.5 * 0.05.
+  EXPECT_NEAR(t.envelopeHeight({0.5, 0.0}, {1.0, 0.0}, 0.0, 0.0), 0.0, 1e-12);
+  EXPECT_NEAR(t.envelopeHeight({1.085 - 0.3, 0.0}, {1.0, 0.0}, 0.25, 0.5), 0.175, 1e-12);
+}
+
+TEST(TerrainModel, RegionAheadCrossesAGapAlongTheTravel) {
+  const TerrainModel t = terrainFromBoxes(kFloor, 0.0, {kStep20}, 0.085);
+  const int floor = t.regionAt({0.5, 0.0}), block = t.regionAt({1.5, 0.0});
+  const int beyond = t.regionAt({2.5, 0.0});
+  ASSERT_NE(floor, block);
+  // In the gap [0.915, 1.085], 1 cm past the floor region: nearest is the floor; ahead
+  // (forward, reach 0.2) the block; backwards the floor; too short a reach: the nearest.
+  EXPECT_EQ(t.regionAt({0.925, 0.0}), floor);
+  EXPECT_EQ(t.regionAhead({0.925, 0.0}, {1.0, 0.0}, 0.2), block);
+  EXPECT_EQ(t.regionAhead({0.925, 0.0}, {-1.0, 0.0}, 0.2), floor);
+  EXPECT_EQ(t.regionAhead({0.925, 0.0}, {1.0, 0.0}, 0.1), floor);
+  // Inside a region: that region, whatever the direction.
+  EXPECT_EQ(t.regionAhead({0.9, 0.0}, {1.0, 0.0}, 0.2), floor);
+  // Stepping down: the floor beyond the block.
+  EXPECT_EQ(t.regionAhead({2.13, 0.0}, {1.0, 0.0}, 0.2), beyond);
+  EXPECT_EQ(t.regionAhead({2.13, 0.0}, {-1.0, 0.0}, 0.2), block);
+}
+
 TEST(TerrainModel, QueriesDoNotAllocate) {
   const TerrainModel t = terrainFromBoxes(kFloor, 0.0, {kStep20}, 0.02);
   rollstep::test::AllocationGuard guard;
@@ -220,6 +275,8 @@ TEST(TerrainModel, QueriesDoNotAllocate) {
     sum += t.heightAt({x, 0.1});
     sum += t.swingRegion({x, 0.0}, {x + 0.3, 0.0});
     sum += static_cast<int>(t.classifySwing({x, 0.0}, {x + 0.3, 0.0}));
+    sum += t.envelopeHeight({x, 0.0}, {1.0, 0.0}, 0.25, 0.5);
+    sum += t.regionAhead({x, 0.0}, {1.0, 0.0}, 0.2);
   }
   EXPECT_EQ(guard.count(), 0u);
   EXPECT_NE(sum, 0.0);  // the queries ran

@@ -30,6 +30,8 @@ struct NmpcScenario {
   SceneKind scene = SceneKind::kFlat;
   planning::GaitKind gait = planning::GaitKind::Standing;
   planning::BaseVelocityCommand command;
+  /// A command schedule instead of `command` when not empty.
+  std::vector<planning::TimedBaseCommand> schedule;
   double duration = 1.0;
   control::ControlSettings settings;
   /// Foothold regions are shrunk by the wheel radius + this clearance (as rollstep plan).
@@ -49,6 +51,7 @@ struct NmpcOutcome {
   double max_roll_deg = 0.0, max_pitch_deg = 0.0;
   double min_base_height = 1e9, max_base_height = -1e9;
   double max_joint_limit_violation = 0.0;  ///< [rad or m] beyond the URDF limits
+  double max_x = -1e9;                     ///< [m] furthest base x
   std::string worst_joint;
   double mean_forward_speed = 0.0;  ///< base frame, over the second half of the run
   double mean_lateral_speed = 0.0;
@@ -87,9 +90,12 @@ inline NmpcOutcome runNmpc(const NmpcScenario& sc) {
   Plant plant(scene, plant_options);
   const centroidal::RobotOcpDescription robot =
       centroidal::loadRobotOcpDescription(tachyon3Description());
+  const std::vector<planning::TimedBaseCommand> schedule =
+      sc.schedule.empty() ? std::vector<planning::TimedBaseCommand>{{0.0, sc.command}}
+                          : sc.schedule;
   NmpcController controller(plant, robot, sc.settings,
                             terrainFromScene(scene, robot.contact_offset + sc.edge_clearance),
-                            sc.gait, sc.command, sc.source);
+                            sc.gait, schedule, sc.source);
   if (sc.setup) sc.setup(controller);
   NmpcOutcome out;
   SensorReadings readings;
@@ -140,6 +146,7 @@ inline NmpcOutcome runNmpc(const NmpcScenario& sc) {
     out.max_pitch_deg = std::max(out.max_pitch_deg, std::abs(pitch) * 180.0 / M_PI);
     out.min_base_height = std::min(out.min_base_height, g.base_position.z());
     out.max_base_height = std::max(out.max_base_height, g.base_position.z());
+    out.max_x = std::max(out.max_x, g.base_position.x());
     // Joint limits, measured (the controller's plant <-> model joint map).
     for (int j = 0; j < m.nj; ++j) {
       const double qj = g.joint_position[controller.jointMap()[static_cast<size_t>(j)]];

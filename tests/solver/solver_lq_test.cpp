@@ -468,6 +468,42 @@ TEST(SolverRealTime, IterationsConvergeAndShiftWarmStarts) {
   EXPECT_TRUE(s.feedbackGain(0).allFinite());
 }
 
+// The new tail of a shift repeats the last node's input and takes its slacks and duals
+// with it: an input bound active there stays active with its dual. A tail reinitialised
+// with a weak barrier (z = mu / s) let the next Newton step run that input through its
+// bound, and the fraction to the boundary then cut the whole horizon's step (the closed
+// loop's MPC stalled at 1-5 % steps while trotting onto a step).
+TEST(SolverRealTime, ShiftedTailKeepsItsActiveBound) {
+  auto set = tight();
+  set.mode = solver::SolverMode::RealTime;
+  set.barrier_realtime = 1e-3;
+  auto dyn = std::make_shared<ocp::RungeKutta4>(std::make_shared<testmodels::Pendulum>());
+  auto p = std::make_shared<ocp::OptimalControlProblem>(dyn, 30, 0.05);
+  auto space = dyn->spacePtr();
+  p->addCost("x", std::make_shared<ocp::LeastSquaresCost>(
+                      std::make_shared<ocp::StateErrorResidual>(space, 1, VectorXd::Zero(2)),
+                      (VectorXd(2) << 0.01, 0.01).finished()));
+  // The input wants 5, its bound allows 3: active at every node.
+  p->addCost("u", std::make_shared<ocp::LeastSquaresCost>(
+                      std::make_shared<ocp::InputErrorResidual>(2, VectorXd::Constant(1, 5.0)),
+                      VectorXd::Constant(1, 10.0)));
+  p->setInputBounds(VectorXd::Constant(1, -3.0), VectorXd::Constant(1, 3.0));
+  Solver s(p, set);
+  const VectorXd x0 = (VectorXd(2) << 0.2, 0.0).finished();
+  for (int i = 0; i < 60; ++i) ASSERT_EQ(s.update(0.0, x0), SolverStatus::IterationDone);
+  const int N = p->horizon();
+  ASSERT_NEAR(s.inputs()[static_cast<std::size_t>(N - 1)](0), 3.0, 1e-3);
+  const int upper_row = p->maxInequalities() + 1;  // [lower, upper] of the one input bound
+  const double z_last = s.inequalityDuals(N - 1)(upper_row);
+  ASSERT_GT(z_last, 1.0);  // the bound holds the input against a cost gradient of 20
+  const auto prev = s.states();
+  ASSERT_EQ(s.update(p->dt() + 1e-9, prev[1]), SolverStatus::IterationDone);
+  ASSERT_EQ(s.lastShift(), 1);
+  EXPECT_GT(s.stats()[0].primal_step, 0.9);
+  EXPECT_GT(s.inequalityDuals(N - 1)(upper_row), 0.5 * z_last);
+  EXPECT_LE(s.inputs()[static_cast<std::size_t>(N - 1)](0), 3.0);
+}
+
 TEST(SolverRealTime, UpdatesFasterThanTheNodeStepAddUpToShifts) {
   auto set = tight();
   set.mode = solver::SolverMode::RealTime;

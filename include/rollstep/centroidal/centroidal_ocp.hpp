@@ -63,6 +63,10 @@ class CentroidalOcp {
   /// Starts the references at t0 from `start` (its x, y and yaw) with `command`, and fills
   /// the mode schedule for the horizon starting at t0.
   void reset(double t0, const lie::SE3& start, const planning::BaseVelocityCommand& command);
+  /// Same with a command schedule (planning::BaseReference::reset; allocates when longer
+  /// than any before).
+  void resetSchedule(double t0, const lie::SE3& start,
+                     const std::vector<planning::TimedBaseCommand>& schedule);
   /// Moves the horizon to start at t0 (same references): the problem's initial time and
   /// mode schedule.
   void advance(double t0);

@@ -96,14 +96,21 @@ class StanceVelocityResidual final : public ocp::Residual {
 };
 
 /// Swing contacts: v_z - z_dot_ref(t) + Kp (p_z - z_ref(t)) = 0. Needs ctx.schedule.
+/// With max_correction > 0 the feedback term Kp e is saturated smoothly,
+/// max_correction tanh(Kp e / max_correction): a foot far from its spline (a new horizon
+/// tail, a foot held back in closed loop) is asked for at most that much extra vertical
+/// speed, not for one the joint velocity bounds cannot give (the hard equality and bounds
+/// then had no feasible point and the real-time iteration's step collapsed).
 class SwingHeightResidual final : public ocp::Residual {
  public:
   /// @param kp position-error gain [1/s], finite and >= 0 (std::invalid_argument otherwise,
   /// also for a null argument or a planner with a different number of feet).
   SwingHeightResidual(std::shared_ptr<const CentroidalPrecomputation> pre,
-                      std::shared_ptr<const planning::FootReferencePlanner> planner, double kp);
+                      std::shared_ptr<const planning::FootReferencePlanner> planner, double kp,
+                      double max_correction = 0.0);
   int rows(const ocp::NodeContext& ctx) const override;
   double kp() const { return kp_; }
+  double maxCorrection() const { return max_correction_; }
   std::unique_ptr<ocp::ResidualData> createData() const override;
   /// Throws std::invalid_argument if ctx.schedule is null and some contact swings.
   void calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
@@ -115,6 +122,9 @@ class SwingHeightResidual final : public ocp::Residual {
   std::shared_ptr<const CentroidalPrecomputation> pre_;
   std::shared_ptr<const planning::FootReferencePlanner> planner_;
   double kp_;
+  double max_correction_;                  // [m/s], 0: no saturation
+  double correction(double e) const;       // Kp e, saturated
+  double correctionSlope(double e) const;  // its derivative by e
 };
 
 }  // namespace rollstep::centroidal

@@ -56,6 +56,10 @@ struct OcpSettings {
   /// [1/s] Kp of the swing height equality (>= 0); 50 (1 - Kp dt = 0.25): with 20 the
   /// Euler-integrated swing lagged its spline and a wheel touched down 7.5 mm low.
   double swing_height_gain = 50.0;
+  /// [m/s] Saturation of that feedback, max_correction tanh(Kp e / max_correction) (>= 0;
+  /// 0: none): a foot far from its spline is asked for at most this much extra vertical
+  /// speed, so that the equality stays compatible with the joint velocity bounds.
+  double swing_height_max_correction = 0.0;
   // --- inequalities ----------------------------------------------------------------------
   double friction_coefficient = 0.6;  ///< mu of the friction pyramid (> 0), below the scene's
   double min_normal_force = 0.0;      ///< [N] lower bound on a stance normal force (>= 0)
@@ -73,6 +77,17 @@ struct OcpSettings {
   /// [m] swing apex above the higher end (>= 0). The knees stand 5 cm off their stop: a
   /// swing higher than that needs the hips or the body (0.08 left a static walk infeasible).
   double swing_clearance = 0.04;
+  /// [m] The base height reference's terrain (planning::BaseReferenceConfig): 0 averages the
+  /// terrain under the nominal feet; > 0 takes the highest terrain within this distance of
+  /// a nominal foot along the travel, lowered by base_height_slope per metre, so that the
+  /// body rises before a step up and comes down after a step down. In [0, 10].
+  double base_height_reach = 0.0;
+  double base_height_slope = 0.0;  ///< [-] grade of that ramp, in [0, 100]
+  /// [m] A nominal foothold in a gap between (shrunk) regions goes onto the region ahead
+  /// along the travel when that begins within this distance (planning::FootReferenceConfig::
+  /// gap_reach); 0: onto the nearest region, which at a step edge is the one the foot is
+  /// leaving, so it stops at that region's edge until a later swing. In [0, 10].
+  double foothold_gap_reach = 0.0;
   double gait_period = 0.8;  ///< [s] one gait cycle (> 0)
   double trot_duty = 0.6;    ///< stance share of a trot cycle, in (0, 1)
   double walk_duty = 0.85;   ///< stance share of a static-walk cycle, in (0, 1)

@@ -89,6 +89,10 @@ class MpcRunner {
   solver::SolverStatus initialize(double t0, const lie::SE3& start,
                                   const planning::BaseVelocityCommand& command,
                                   const Eigen::VectorXd& x0);
+  /// Same with a command schedule (planning::BaseReference::reset).
+  solver::SolverStatus initializeSchedule(double t0, const lie::SE3& start,
+                                          const std::vector<planning::TimedBaseCommand>& schedule,
+                                          const Eigen::VectorXd& x0);
 
   /// Real-time thread: the latest state x (centroidal layout) at loop time t.
   /// Deterministic: solves now if t has reached the next solve time (then the next one is a

@@ -127,6 +127,10 @@ class ControlPipeline {
   /// state.
   solver::SolverStatus initialize(const RobotState& state,
                                   const planning::BaseVelocityCommand& command);
+  /// Same with a command schedule (planning::BaseReference::reset; its times count from
+  /// state.time).
+  solver::SolverStatus initializeSchedule(const RobotState& state,
+                                          const std::vector<planning::TimedBaseCommand>& schedule);
   /// One real-time tick at state.time. Never allocates, locks or throws.
   void tick(const RobotState& state, JointCommand& command) noexcept;
   /// Stops the MPC thread (asynchronous mode); idempotent.

@@ -1,18 +1,27 @@
 #pragma once
 // Base reference q_b,ref(t) from a base velocity command and the terrain.
 //
-// The command (v_x, v_y, yaw rate) is a twist in the base LOCAL frame, held constant, so
-// the planar part of the reference is the SE(3) exponential of the twist (a straight
-// line, or a circular arc with a turn): P(t) = P0 * Exp((t - t0) [v_x, v_y, 0, 0, 0, w_z])
-// with P0 the start pose reduced to x, y and yaw (rollstep/lie, LOCAL twist convention).
-// The height follows the terrain: z(t) = mean of the terrain heights under the
-// configured body-frame sample points + nominal height; roll and pitch are zero. With
-// the single sample (0, 0) the height steps at a terrain edge; sampling under the feet
-// spreads a step over the feet crossing it.
+// The command (v_x, v_y, yaw rate) is a twist in the base LOCAL frame, held constant over
+// each segment of a command schedule (one segment for a constant command), so the planar
+// part of the reference is the SE(3) exponential of the twist (a straight line, or a
+// circular arc with a turn): P(t) = P_k * Exp((t - t_k) [v_x, v_y, 0, 0, 0, w_z]) with
+// P_0 the start pose reduced to x, y and yaw (rollstep/lie, LOCAL twist convention) and
+// P_k the pose where segment k begins.
+// The height follows the terrain: z(t) = terrain height + nominal height; roll and pitch
+// are zero. The terrain height is, with height_reach = 0, the mean of the terrain heights
+// under the configured body-frame sample points: with the single sample (0, 0) the height
+// steps at a terrain edge; sampling under the feet spreads a step over the feet crossing
+// it. With height_reach > 0 it is the highest TerrainModel::envelopeHeight of the sample
+// points along the direction of travel: the body rises on a ramp of height_slope and is up
+// when the first foot comes within height_reach of a step up, and comes down only after the
+// last foot is height_reach past a step down, so the legs never have to lift a foot onto
+// a step by retracting alone.
 //
-// reset() and the queries allocate nothing. The TerrainModel is held by pointer: it must
+// reset() with one command and the queries allocate nothing (a schedule of more segments
+// than any before allocates in reset). The TerrainModel is held by pointer: it must
 // outlive the reference (and may be updated in place between queries).
 #include <Eigen/Core>
+#include <cstddef>
 #include <vector>
 
 #include "rollstep/lie/se3.hpp"
@@ -27,11 +36,23 @@ struct BaseVelocityCommand {
   double yaw_rate = 0.0;
 };
 
+/// One segment of a command schedule: `command` from `time` [s] after the reset on.
+struct TimedBaseCommand {
+  double time = 0.0;
+  BaseVelocityCommand command;
+};
+
 struct BaseReferenceConfig {
   /// Base frame height above the terrain [m] (robot-specific: from the robot's config).
   double nominal_height = 0.0;
-  /// Body-frame (x, y) points [m] where the terrain height is sampled and averaged.
+  /// Body-frame (x, y) points [m] where the terrain height is sampled (averaged when
+  /// height_reach = 0, the highest envelope otherwise).
   std::vector<Eigen::Vector2d> height_samples{Eigen::Vector2d::Zero()};
+  /// [m] Distance ahead of and behind each sample, along the direction of travel, within
+  /// which the terrain counts fully (TerrainModel::envelopeHeight); 0: the mean.
+  double height_reach = 0.0;
+  /// Height lost per metre beyond height_reach [-] (the ramp's grade), >= 0.
+  double height_slope = 0.0;
 };
 
 class BaseReference {
@@ -43,12 +64,19 @@ class BaseReference {
   /// Starts the reference at time t0 from `start` (its x, y and yaw) with `command`.
   /// Throws std::invalid_argument naming a non-finite argument.
   void reset(double t0, const lie::SE3& start, const BaseVelocityCommand& command);
+  /// Same with a command schedule: segment k holds from t0 + schedule[k].time on. Throws
+  /// std::invalid_argument naming the entry: an empty schedule, a first time other than 0,
+  /// times not increasing, non-finite values.
+  void resetSchedule(double t0, const lie::SE3& start,
+                     const std::vector<TimedBaseCommand>& schedule);
 
   /// q_b,ref(t) (any t; before t0 the command is extrapolated backwards).
   lie::SE3 poseAt(double t) const;
   /// The planar pose (x, y, yaw; z = 0) at t.
   lie::SE3 planarPoseAt(double t) const;
-  /// The local-frame velocity reference [v_x, v_y, 0, 0, 0, yaw rate] (linear first).
+  /// The local-frame velocity reference [v_x, v_y, 0, 0, 0, yaw rate] (linear first) at t.
+  lie::Vector6d twistAt(double t) const;
+  /// twistAt(startTime()): the first segment's.
   lie::Vector6d twist() const;
   /// World (x, y) of a body-frame (x, y) point at time t (nominal footholds).
   Eigen::Vector2d worldPoint(const Eigen::Vector2d& body_xy, double t) const;
@@ -56,15 +84,24 @@ class BaseReference {
   double terrainHeightAt(double t) const;
 
   const BaseReferenceConfig& config() const { return config_; }
-  const BaseVelocityCommand& command() const { return command_; }
+  /// The first segment's command.
+  const BaseVelocityCommand& command() const { return segments_.front().command; }
   double startTime() const { return t0_; }
 
  private:
+  struct Segment {
+    double start_time;  // absolute [s]
+    BaseVelocityCommand command;
+    lie::SE3 start;  // planar pose at start_time
+  };
+  const Segment& segmentAt(double t) const;
+  void resetSegments(double t0, const lie::SE3& start, const TimedBaseCommand* schedule,
+                     std::size_t n);
+
   const TerrainModel* terrain_;
   BaseReferenceConfig config_;
-  BaseVelocityCommand command_;
   double t0_ = 0.0;
-  lie::SE3 start_;  // planar
+  std::vector<Segment> segments_;
 };
 
 }  // namespace rollstep::planning

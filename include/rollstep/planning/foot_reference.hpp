@@ -36,6 +36,10 @@ struct FootReferenceConfig {
   double foot_height_offset = 0.0;
   /// Height difference [m] below which a swing counts as level.
   double level_tolerance = 1e-3;
+  /// [m] A nominal foothold in a gap between regions takes the region ahead along the
+  /// direction of travel when it begins within this distance (TerrainModel::regionAhead);
+  /// 0: the nearest region.
+  double gap_reach = 0.0;
 };
 
 struct FootReference {
@@ -77,8 +81,13 @@ class FootReferencePlanner {
   /// touch-down the schedule does not contain holds z_ref at the apex over the current
   /// nominal foothold, with no swing region.
   FootReference query(const ocp::ModeSchedule& schedule, int foot, double t) const;
+  /// The region of a foothold p chosen at time t (regionAhead along the base reference's
+  /// direction of travel at t, with gap_reach), -1 for an empty terrain.
+  int footholdRegion(const Eigen::Vector2d& p, double t) const;
 
  private:
+  double heightIn(int region, const Eigen::Vector2d& p) const;
+
   const TerrainModel* terrain_;
   const BaseReference* base_;
   FootReferenceConfig config_;

@@ -70,6 +70,21 @@ class TerrainModel {
   /// touch-down region when descending (second half); -1 on the level.
   int swingRegion(const Eigen::Vector2d& p_liftoff, const Eigen::Vector2d& p_touchdown,
                   double tolerance = 1e-3) const;
+  /// The region a foot at p moving along the unit direction e should use: regionAt(p) when
+  /// a region contains p; in a gap, the region the ray p + d e (0 < d <= reach) enters
+  /// first, if any (a foothold between two shrunk regions goes onto the next one along the
+  /// travel instead of back onto the one it leaves); else the nearest. -1 for an empty model.
+  int regionAhead(const Eigen::Vector2d& p, const Eigen::Vector2d& e, double reach) const;
+  /// The terrain seen along a line, lowered beyond a distance: the largest of heightAt(p) and
+  /// H(p + d e) - slope max(|d| - reach, 0) over every d, with H the highest region
+  /// containing the point (points in no region, gaps between shrunk regions, count nothing).
+  /// Exact (each region's plane clipped to the segment), no allocation. `e` is a unit
+  /// direction; reach and slope are >= 0 (slope 0: only |d| <= reach counts). A step of
+  /// height s within `reach` ahead or behind counts fully, one at reach + d raises the result
+  /// to s - slope d: a body reference built from it is up before a step up and comes down
+  /// only after a step down.
+  double envelopeHeight(const Eigen::Vector2d& p, const Eigen::Vector2d& e, double reach,
+                        double slope) const;
 
  private:
   std::vector<ConvexRegion> regions_;

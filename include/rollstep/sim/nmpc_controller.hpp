@@ -90,6 +90,11 @@ class NmpcController final : public Controller {
                  const control::ControlSettings& settings, const planning::TerrainModel& terrain,
                  planning::GaitKind gait, const planning::BaseVelocityCommand& command,
                  const StateSourceOptions& source = {});
+  /// Same with a base velocity command schedule (times from the plant's current time).
+  NmpcController(const Plant& plant, const centroidal::RobotOcpDescription& robot,
+                 const control::ControlSettings& settings, const planning::TerrainModel& terrain,
+                 planning::GaitKind gait, const std::vector<planning::TimedBaseCommand>& schedule,
+                 const StateSourceOptions& source = {});
   ~NmpcController() override;
 
   void compute(double t, const SensorReadings& sensors, PlantCommand& command) override;
