@@ -8,6 +8,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "rollstep/common/number_text.hpp"
+
 namespace rollstep::perception {
 
 namespace {
@@ -20,7 +22,7 @@ constexpr double kTie = 1e-9;
 void require(bool ok, const char* name, double value, const char* what) {
   if (!ok) {
     throw std::invalid_argument(std::string("convex regions: ") + name + " = " +
-                                std::to_string(value) + ": " + what);
+                                shortestNumberText(value) + ": " + what);
   }
 }
 

@@ -6,6 +6,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "rollstep/common/number_text.hpp"
+
 namespace rollstep::perception {
 
 namespace {
@@ -15,7 +17,7 @@ constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 void require(bool ok, const char* name, double value, const char* what) {
   if (!ok) {
     throw std::invalid_argument(std::string("elevation map: ") + name + " = " +
-                                std::to_string(value) + ": " + what);
+                                shortestNumberText(value) + ": " + what);
   }
 }
 

@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "rollstep/common/number_text.hpp"
 #include "rollstep/perception/polygon.hpp"
 
 namespace rollstep::perception {
@@ -21,7 +22,7 @@ constexpr double kPi = 3.14159265358979323846;
 void require(bool ok, const char* name, double value, const char* what) {
   if (!ok) {
     throw std::invalid_argument(std::string("plane segmentation: ") + name + " = " +
-                                std::to_string(value) + ": " + what);
+                                shortestNumberText(value) + ": " + what);
   }
 }
 

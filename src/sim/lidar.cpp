@@ -5,6 +5,7 @@
 #include <map>
 #include <stdexcept>
 
+#include "rollstep/common/number_text.hpp"
 #include "rollstep/common/text_file.hpp"
 #include "rollstep/common/yaml_tree.hpp"
 
@@ -17,7 +18,7 @@ constexpr double kDeg = kPi / 180.0;
 
 void require(bool ok, const char* name, double value, const char* what) {
   if (!ok) {
-    throw std::invalid_argument(std::string("lidar: ") + name + " = " + std::to_string(value) +
+    throw std::invalid_argument(std::string("lidar: ") + name + " = " + shortestNumberText(value) +
                                 ": " + what);
   }
 }

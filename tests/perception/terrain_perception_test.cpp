@@ -207,9 +207,18 @@ TEST(PerceptionSettings, FileRoundTripsAndErrorsNameLineAndKey) {
       "resolution, sensor_noise, range_noise_slope, gate, process_noise, max_variance, "
       "min_variance, "
       "visibility_cleanup, visibility_stride, visibility_margin, max_range, min_range)");
-  EXPECT_EQ(
-      error("map:\n  gate: 3\nsegmentation:\n  max_residual: -1\n"),
-      "perception settings 'p.yaml': line 4: segmentation.max_residual = -1.000000: must be > 0");
+  EXPECT_EQ(error("map:\n  gate: 3\nsegmentation:\n  max_residual: -1\n"),
+            "perception settings 'p.yaml': line 4: segmentation.max_residual = -1: must be > 0");
+  // The value as given (shortest round-trip text), not rounded to six decimals: a tiny
+  // negative noise or a variance bound below the floor must not read as 0.000000.
+  EXPECT_EQ(error("map:\n  sensor_noise: -1e-9\n"),
+            "perception settings 'p.yaml': line 2: map.sensor_noise = -1e-09: must be in (0, 1] m");
+  EXPECT_EQ(error("map:\n  min_variance: 1e-6\n  max_variance: 1e-7\n"),
+            "perception settings 'p.yaml': line 3: map.max_variance = 1e-07: must be > "
+            "min_variance");
+  EXPECT_EQ(error("regions:\n  cover_fraction: 1.0000000000000002\n"),
+            "perception settings 'p.yaml': line 2: regions.cover_fraction = 1.0000000000000002: "
+            "must be in (0, 1]");
   EXPECT_EQ(
       error("regions:\n  margin: .nan\n"),
       "perception settings 'p.yaml': line 2: regions.margin: expected a finite number, got '.nan'");

@@ -52,6 +52,28 @@ TEST(Lidar, ScansTheFloorAtItsHeightWithNoiseAndDropouts) {
   EXPECT_THROW(parseLidarSettings("beam: 3\n", "x.yaml"), std::runtime_error);
 }
 
+// Range errors name the file, line and key, and the value as given (shortest round-trip
+// text): -1e-9 must not read as -0.000000, nor 0.0499999 as 0.050000.
+TEST(LidarSettings, RangeErrorsShowTheValueGiven) {
+  const auto error = [](const char* text) {
+    try {
+      parseLidarSettings(text, "x.yaml");
+    } catch (const std::runtime_error& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(error("seed: 1\ndropout: -1e-9\n"),
+            "lidar settings 'x.yaml': line 2: dropout = -1e-09: must be in [0, 1]");
+  EXPECT_EQ(error("horizontal_resolution_deg: 0.0499999\n"),
+            "lidar settings 'x.yaml': line 1: horizontal_resolution_deg = 0.0499999: must be in "
+            "[0.05, horizontal_fov_deg]");
+  EXPECT_EQ(error("beams: 0\n"), "lidar settings 'x.yaml': line 1: beams = 0: must be 1 to 256");
+  EXPECT_EQ(error("mount_position: [0, 0, 10.5]\n"),
+            "lidar settings 'x.yaml': line 1: mount_position = 10.5: must be finite, within 10 m "
+            "of the base");
+}
+
 /// Per ground-truth surface (0 floor, b + 1 block b's top): area IoU over the densely
 /// observed cells, largest distance of its region's boundary from the rising step edges
 /// it borders (its near edge, the next block's near edge), largest height error.
