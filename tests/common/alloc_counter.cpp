@@ -3,7 +3,9 @@
 #include <cstdlib>
 #include <new>
 
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+#include "common/sanitized.hpp"
+
+#if ROLLSTEP_SANITIZED
 // Sanitizers interpose malloc: operator new goes through them (and malloc counting,
 // see malloc_guard.cpp, is off).
 #define ROLLSTEP_RAW_MALLOC(n) std::malloc(n)

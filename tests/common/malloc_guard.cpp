@@ -2,8 +2,10 @@
 
 #include <cstddef>
 
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+#include "common/sanitized.hpp"
+
 // Sanitizers interpose malloc themselves: counting is disabled (count() stays 0).
+#if ROLLSTEP_SANITIZED
 #define ROLLSTEP_MALLOC_GUARD_DISABLED 1
 #endif
 
