@@ -205,7 +205,9 @@ Gait Gait::fromTable(int num_feet, const std::vector<GaitPhase>& phases) {
 
 int Gait::modeAt(double t) const {
   double tau = t - period_ * std::floor(t / period_);
-  if (tau >= period_) tau = 0.0;  // rounding at the boundary
+  // Rounding at the boundary: t just below a multiple of the period can give tau == period,
+  // and a negative t just below one can give tau a hair below 0 (before the first phase).
+  if (tau >= period_ || tau < 0.0) tau = 0.0;
   const auto it = std::upper_bound(starts_.begin(), starts_.end(), tau);
   return modes_[static_cast<std::size_t>(it - starts_.begin()) - 1];
 }

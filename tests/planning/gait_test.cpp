@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -92,6 +93,25 @@ TEST(Gait, WrapsAroundPeriodBoundaries) {
   EXPECT_EQ(g.modeAt(5 * T - 1e-9), g.modeAt(T - 1e-9));
   EXPECT_EQ(g.modeAt(5 * T + 1e-9), g.modeAt(1e-9));
   EXPECT_EQ(g.modeAt(-1e-9), g.modeAt(T - 1e-9));
+}
+
+TEST(Gait, NegativeTimesNearPeriodMultiplesGiveAPhaseOfTheGait) {
+  // t - period * floor(t / period) can round to a hair below 0 just below a negative
+  // multiple of the period (the foot planner searches back before t = 0): the mode must
+  // still be one of the gait's phases, never a read before the phase table (UBSan found one).
+  const Gait g = paperTrot(0.8, 0.5);
+  std::vector<int> modes;
+  for (double t = 0.0; t < 0.8; t += 1e-4) modes.push_back(g.modeAt(t));
+  const auto isAMode = [&](int m) {
+    return std::find(modes.begin(), modes.end(), m) != modes.end();
+  };
+  for (int m = 1; m <= 200; ++m) {
+    const double multiple = -0.8 * m;  // e.g. just below -7.2, t / 0.8 rounds to -9 exactly
+    for (const double t :
+         {std::nextafter(multiple, -1e9), multiple, std::nextafter(multiple, 0.0)}) {
+      EXPECT_TRUE(isAMode(g.modeAt(t))) << t;
+    }
+  }
 }
 
 TEST(Gait, StandingAndRollingKeepEveryFootDown) {
