@@ -1,31 +1,10 @@
 #include "document.hpp"
 
+#include "rollstep/common/markup.hpp"
+
 namespace rollstep::experiments {
 
 namespace {
-
-std::string escapeHtml(const std::string& s) {
-  std::string out;
-  for (char c : s) {
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      default:
-        out += c;
-    }
-  }
-  return out;
-}
 
 /// HTML of inline text: `code` spans become <code>.
 std::string inlineHtml(const std::string& s) {
@@ -34,14 +13,14 @@ std::string inlineHtml(const std::string& s) {
   std::string part;
   for (char c : s) {
     if (c == '`') {
-      out += in_code ? "<code>" + escapeHtml(part) + "</code>" : escapeHtml(part);
+      out += in_code ? "<code>" + escapeMarkup(part) + "</code>" : escapeMarkup(part);
       part.clear();
       in_code = !in_code;
     } else {
       part += c;
     }
   }
-  out += in_code ? "`" + escapeHtml(part) : escapeHtml(part);
+  out += in_code ? "`" + escapeMarkup(part) : escapeMarkup(part);
   return out;
 }
 
@@ -130,7 +109,7 @@ std::string Document::markdown() const {
 std::string Document::html(const std::string& title) const {
   std::string out =
       "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n<title>" +
-      escapeHtml(title) +
+      escapeMarkup(title) +
       "</title>\n<style>\nbody{font-family:sans-serif;max-width:1100px;margin:2em "
       "auto;padding:0 1em;line-height:1.45;color:#222}\ntable{border-collapse:collapse;margin:1em "
       "0}\nth,td{border:1px solid #bbb;padding:4px 8px;text-align:left;vertical-align:top}\nth{"
@@ -164,16 +143,16 @@ std::string Document::html(const std::string& title) const {
         out += "</table>\n";
         break;
       case Block::Image:
-        out += "<figure><img src=\"" + escapeHtml(b.file) + "\" alt=\"" + escapeHtml(b.text) +
+        out += "<figure><img src=\"" + escapeMarkup(b.file) + "\" alt=\"" + escapeMarkup(b.text) +
                "\"><figcaption>" + inlineHtml(b.text) + "</figcaption></figure>\n";
         break;
       case Block::Video:
-        out += "<figure><video controls src=\"" + escapeHtml(b.file) + "\"></video><figcaption>" +
-               inlineHtml(b.text) + " (<a href=\"" + escapeHtml(b.file) + "\">" +
-               escapeHtml(b.file) + "</a>)</figcaption></figure>\n";
+        out += "<figure><video controls src=\"" + escapeMarkup(b.file) + "\"></video><figcaption>" +
+               inlineHtml(b.text) + " (<a href=\"" + escapeMarkup(b.file) + "\">" +
+               escapeMarkup(b.file) + "</a>)</figcaption></figure>\n";
         break;
       case Block::Code:
-        out += "<pre>" + escapeHtml(b.text) + "</pre>\n";
+        out += "<pre>" + escapeMarkup(b.text) + "</pre>\n";
         break;
     }
   }

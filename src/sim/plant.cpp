@@ -12,6 +12,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "rollstep/common/markup.hpp"
 #include "rollstep/common/text_file.hpp"
 
 namespace rollstep::sim {
@@ -32,30 +33,6 @@ std::string trimmed(const char* text) {
   std::string s(text);
   while (!s.empty() && (s.back() == '\n' || s.back() == ' ' || s.back() == '\r')) s.pop_back();
   return s;
-}
-
-/// Text for an XML attribute value between double quotes.
-std::string xmlAttribute(const std::string& text) {
-  std::string out;
-  for (char c : text) {
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      default:
-        out += c;
-    }
-  }
-  return out;
 }
 
 /// MuJoCo's virtual file system (~2 MB: never on the stack), emptied on destruction.
@@ -171,7 +148,7 @@ Plant::Plant(const SceneConfig& scene, const PlantOptions& options)
   const std::string scene_file =
       base == "rollstep_scene.xml" ? "rollstep_scene_0.xml" : "rollstep_scene.xml";
   const std::string scene_xml = "<mujoco model=\"rollstep_scene\">\n  <include file=\"" +
-                                xmlAttribute(base) + "\"/>\n  <worldbody>\n" + terrainMjcf(scene_) +
+                                escapeMarkup(base) + "\"/>\n  <worldbody>\n" + terrainMjcf(scene_) +
                                 "  </worldbody>\n</mujoco>\n";
   Vfs vfs;
   if (!vfs.add(base, robot_xml) || !vfs.add(scene_file, scene_xml)) {
