@@ -233,7 +233,7 @@ std::optional<planning::ConvexRegion> ConvexRegionGrower::growPrepared(
       // One-cell irregularities of the border (a cell straddling a step edge joins one
       // region or the other with last-bit rounding: GCC and clang builds differ) must
       // not stop this half-plane rows early. When every obstacle that would stop it this
-      // round lies within a cell of another half-plane's furthest reach, that one steps
+      // round lies within a cell of another, already stopped half-plane, that one steps
       // back onto them instead (at most a cell, once): the border moves by a cell, not
       // by the distance to the irregularity.
       rescue_.clear();
@@ -244,7 +244,9 @@ std::optional<planning::ConvexRegion> ConvexRegionGrower::growPrepared(
         int best = -1;
         double best_gap = res + kTie;
         for (int j = 0; j < K; ++j) {
-          if (j == k || stepped[static_cast<std::size_t>(j)]) continue;
+          if (j == k || !blocked[static_cast<std::size_t>(j)] ||
+              stepped[static_cast<std::size_t>(j)])
+            continue;
           const double gap = off[static_cast<std::size_t>(j)] -
                              proj_[i * static_cast<std::size_t>(K) + static_cast<std::size_t>(j)];
           if (gap <= best_gap) {

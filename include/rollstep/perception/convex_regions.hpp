@@ -10,7 +10,7 @@
 // polygon (a point leaves the polygon's interior once it is on or beyond any one
 // half-plane; counting, per obstacle, the half-planes it is beyond keeps a round linear
 // in the obstacles). When all obstacles that would stop a half-plane in a round lie
-// within a cell of another half-plane's reach, that one steps back onto them instead
+// within a cell of another, already stopped half-plane, that one steps back onto them
 // (once): a one-cell irregularity of the border (a cell straddling a step edge, whose
 // label flips with last-bit rounding) moves an edge by a cell, not a far edge by the
 // distance to it. The result is then pulled in by half a cell (obstacle centres are
