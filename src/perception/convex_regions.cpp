@@ -221,6 +221,7 @@ std::optional<planning::ConvexRegion> ConvexRegionGrower::growPrepared(
   // only it keeps out. Moving together, the half-plane facing an obstacle most squarely is the one
   // that stops at it (larger or one-at-a-time steps let an oblique one cut corners).
   std::vector<unsigned char> blocked(static_cast<std::size_t>(K), 0);
+  std::vector<unsigned char> stepped(static_cast<std::size_t>(K), 0);
   for (double t = off[0] + res; t < cap + res; t += std::max(res, 0.03 * t)) {
     bool any = false;
     for (int k = 0; k < K; ++k) {
@@ -229,6 +230,49 @@ std::optional<planning::ConvexRegion> ConvexRegionGrower::growPrepared(
       any = true;
       const double o = off[kk];
       double limit = std::min(t, cap);
+      // One-cell irregularities of the border (a cell straddling a step edge joins one
+      // region or the other with last-bit rounding: GCC and clang builds differ) must
+      // not stop this half-plane rows early. When every obstacle that would stop it this
+      // round lies within a cell of another, already stopped half-plane, that one steps
+      // back onto them instead (at most a cell, once): the border moves by a cell, not
+      // by the distance to the irregularity.
+      rescue_.clear();
+      bool rescuable = true;
+      for (std::size_t i = 0; i < P && rescuable; ++i) {
+        const double v = proj_[i * static_cast<std::size_t>(K) + kk];
+        if (beyond_[i] != 1 || v < o - kTie || v >= limit) continue;
+        int best = -1;
+        double best_gap = res + kTie;
+        for (int j = 0; j < K; ++j) {
+          if (j == k || !blocked[static_cast<std::size_t>(j)] ||
+              stepped[static_cast<std::size_t>(j)])
+            continue;
+          const double gap = off[static_cast<std::size_t>(j)] -
+                             proj_[i * static_cast<std::size_t>(K) + static_cast<std::size_t>(j)];
+          if (gap <= best_gap) {
+            best_gap = gap;
+            best = j;
+          }
+        }
+        if (best < 0)
+          rescuable = false;
+        else
+          rescue_.push_back({i, best});
+      }
+      if (rescuable) {
+        for (const auto& [i, j] : rescue_) {
+          const auto jj = static_cast<std::size_t>(j);
+          const double p = proj_[i * static_cast<std::size_t>(K) + jj];
+          if (p >= off[jj] - kTie) continue;  // already stepped back past it
+          for (std::size_t m = 0; m < P; ++m) {
+            const double pm = proj_[m * static_cast<std::size_t>(K) + jj];
+            if (pm >= p - kTie && pm < off[jj] - kTie) ++beyond_[m];
+          }
+          off[jj] = p;
+          blocked[jj] = 1;
+          stepped[jj] = 1;
+        }
+      }
       for (std::size_t i = 0; i < P; ++i) {
         const double v = proj_[i * static_cast<std::size_t>(K) + kk];
         if (beyond_[i] == 1 && v >= o - kTie) limit = std::min(limit, v);

@@ -228,6 +228,67 @@ TEST(PlaneSegmentation, TerrainCoverGivesConvexPiecesOnEverySurface) {
   }
 }
 
+// A hand-made segmentation: a 40 x 60 cell rectangle (region 0) in a floor (region 1).
+Segmentation rectangleSegmentation(const Eigen::Vector2d& origin) {
+  Segmentation seg;
+  seg.size = 100;
+  seg.resolution = 0.02;
+  seg.origin = origin;
+  seg.labels.assign(100 * 100, 1);
+  for (int r = 20; r < 80; ++r) {
+    for (int c = 20; c < 60; ++c) seg.labels[static_cast<std::size_t>(r * 100 + c)] = 0;
+  }
+  seg.regions.resize(2);
+  seg.regions[1].height = -0.1;
+  return seg;
+}
+
+// Extent (min x, max x, min y, max y) of a grown region's vertices.
+Eigen::Vector4d extent(const planning::ConvexRegion& r) {
+  Eigen::Vector4d e(1e9, -1e9, 1e9, -1e9);
+  for (const Eigen::Vector2d& v : r.vertices) {
+    e = Eigen::Vector4d(std::min(e[0], v.x()), std::max(e[1], v.x()), std::min(e[2], v.y()),
+                        std::max(e[3], v.y()));
+  }
+  return e;
+}
+
+TEST(ConvexRegions, OneCellIrregularityOrLastBitShiftDoesNotMoveAFarEdge) {
+  const Eigen::Vector2d origin(-1.0, -1.0);
+  const Eigen::Vector2d seed = origin + 0.02 * Eigen::Vector2d(30.5, 65.5);
+  ConvexRegionGrower grower;
+  const Segmentation clean = rectangleSegmentation(origin);
+  const auto base = grower.grow(clean, 0, seed);
+  ASSERT_TRUE(base.has_value());
+  const Eigen::Vector4d b = extent(*base);
+  // The rectangle, recovered exactly: cells 20..59 x 20..79.
+  EXPECT_NEAR(b[0], -0.6, 1e-9);
+  EXPECT_NEAR(b[1], 0.2, 1e-9);
+  EXPECT_NEAR(b[2], -0.6, 1e-9);
+  EXPECT_NEAR(b[3], 0.6, 1e-9);
+  // Last-bit shifts of the map origin and the seed: the same region to rounding.
+  for (const double d : {1e-9, -1e-9}) {
+    const Segmentation shifted = rectangleSegmentation(origin + Eigen::Vector2d(d, -d));
+    const auto r = grower.grow(shifted, 0, seed + Eigen::Vector2d(-d, d));
+    ASSERT_TRUE(r.has_value());
+    EXPECT_LT((extent(*r) - b).cwiseAbs().maxCoeff(), 1e-6) << d;
+  }
+  // A cell of the floor notched into the left border, 45 rows from the seed (a cell
+  // straddling a step edge that joined the other region). The border may move by a cell,
+  // never by the distance to the notch (the bottom edge used to stop at the notch's row,
+  // 20 cm short).
+  for (const int row : {25, 30, 70}) {
+    Segmentation notched = clean;
+    notched.labels[static_cast<std::size_t>(row * 100 + 20)] = 1;
+    const auto r = grower.grow(notched, 0, seed);
+    ASSERT_TRUE(r.has_value());
+    const Eigen::Vector4d e = extent(*r);
+    std::printf("notch at row %d: extent %.3f %.3f %.3f %.3f\n", row, e[0], e[1], e[2], e[3]);
+    EXPECT_LE((e - b).cwiseAbs().maxCoeff(), 0.02 + 1e-9) << row;
+    EXPECT_LT(r->margin(origin + 0.02 * Eigen::Vector2d(20.5, row + 0.5)), -0.005);  // notch out
+  }
+}
+
 TEST(PlaneSegmentation, SettingsAreValidated) {
   SegmentationSettings s;
   s.max_residual = -1;

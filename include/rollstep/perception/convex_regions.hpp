@@ -9,12 +9,17 @@
 // together, a little per round, each only as far as no obstacle cell centre enters the
 // polygon (a point leaves the polygon's interior once it is on or beyond any one
 // half-plane; counting, per obstacle, the half-planes it is beyond keeps a round linear
-// in the obstacles). The result is then pulled in by half a cell (obstacle centres are
+// in the obstacles). When all obstacles that would stop a half-plane in a round lie
+// within a cell of another, already stopped half-plane, that one steps back onto them
+// (once): a one-cell irregularity of the border (a cell straddling a step edge, whose
+// label flips with last-bit rounding) moves an edge by a cell, not a far edge by the
+// distance to it. The result is then pulled in by half a cell (obstacle centres are
 // half a cell beyond the region's edge) and by `margin`. An axis-aligned rectangle region
 // is recovered exactly (to a cell); any region gives an inscribed convex polygon that
 // grows from the seed in every direction until it touches the region's border.
 #include <Eigen/Core>
 #include <optional>
+#include <utility>
 #include <vector>
 
 #include "rollstep/perception/plane_segmentation.hpp"
@@ -69,11 +74,12 @@ class ConvexRegionGrower {
 
   ConvexRegionSettings settings_;
   std::vector<Eigen::Vector2d> obstacles_;
-  std::vector<double> proj_;         // obstacles x directions
-  std::vector<int> beyond_;          // per obstacle: half-planes it is on or beyond
-  std::vector<unsigned char> mask_;  // region cells (row-major, map size)
-  std::vector<double> clearance_;    // distance to the nearest non-region cell [cells]
-  double angle_ = 0.0;               // of direction 0 [rad]
+  std::vector<double> proj_;                         // obstacles x directions
+  std::vector<std::pair<std::size_t, int>> rescue_;  // (obstacle, half-plane stepping back)
+  std::vector<int> beyond_;                          // per obstacle: half-planes it is on or beyond
+  std::vector<unsigned char> mask_;                  // region cells (row-major, map size)
+  std::vector<double> clearance_;  // distance to the nearest non-region cell [cells]
+  double angle_ = 0.0;             // of direction 0 [rad]
 };
 
 }  // namespace rollstep::perception
