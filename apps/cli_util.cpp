@@ -124,4 +124,6 @@ std::string configFile(const std::string& name) {
 
 std::string defaultBaselineConfig() { return configFile("baseline.yaml"); }
 
+std::string defaultExperimentsFile() { return configFile("experiments.yaml"); }
+
 }  // namespace rollstep::apps

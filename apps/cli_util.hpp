@@ -34,4 +34,7 @@ std::string configFile(const std::string& name);
 /// variable is set, else the source tree's config/baseline.yaml.
 std::string defaultBaselineConfig();
 
+/// The experiments of `rollstep report` and `rollstep trials`: configFile("experiments.yaml").
+std::string defaultExperimentsFile();
+
 }  // namespace rollstep::apps

@@ -99,8 +99,6 @@ std::string figuresScript() {
   return ROLLSTEP_FIGURES_SCRIPT;
 }
 
-std::string defaultExperiments() { return configFile("experiments.yaml"); }
-
 /// The figure script's complaint about figure `name` ("fig2: KeyError: ..."), or "".
 std::string figureError(const std::string& out, const std::string& name) {
   std::ifstream err(out + "/figures.err");
@@ -531,7 +529,7 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
 
 void registerReportCommand(CLI::App& app, int& exit_status) {
   auto options = std::make_shared<ReportOptions>();
-  options->experiments = defaultExperiments();
+  options->experiments = defaultExperimentsFile();
   CLI::App* cmd = app.add_subcommand(
       "report",
       "Run the paper's experiments (config/experiments.yaml: step20 with both controllers, "

@@ -34,8 +34,6 @@ struct TrialsOptions {
   std::vector<std::string> collect;
 };
 
-std::string defaultExperimentsFile() { return configFile("experiments.yaml"); }
-
 std::string trialDir(const std::string& out, const Scenario& s, std::uint64_t seed) {
   char name[64];
   std::snprintf(name, sizeof name, "_seed%04llu", static_cast<unsigned long long>(seed));
