@@ -91,13 +91,7 @@ ExperimentSet parseExperimentSet(const std::string& text, const std::string& sou
   ExperimentSet set;
   set.source = source;
   set.text = text;
-  yaml::Document doc = [&] {
-    try {
-      return yaml::Document::parse(text);
-    } catch (const yaml::YamlError& e) {
-      throw std::runtime_error(source + ": " + e.what());
-    }
-  }();
+  yaml::Document doc = yaml::parseDocument(text, source + ": ");
   MappingReader top(doc.root(), source, "");
   const auto number = [&](const MappingReader& r, double min, double max) {
     return [&r, min, max](const yaml::Node& n, const std::string& key, double& out) {

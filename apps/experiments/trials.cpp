@@ -137,13 +137,7 @@ std::string toYaml(const TrialResult& r) {
 TrialResult parseTrialResult(const std::string& text, const std::string& source) {
   TrialResult r;
   r.source = source;
-  const yaml::Document doc = [&] {
-    try {
-      return yaml::Document::parse(text);
-    } catch (const yaml::YamlError& e) {
-      throw std::runtime_error(source + ": " + e.what());
-    }
-  }();
+  const yaml::Document doc = yaml::parseDocument(text, source + ": ");
   const yaml::Node root = doc.root();
   if (!root.isMapping()) throw std::runtime_error(source + ": not a trial result (no mapping)");
   std::map<std::string, bool> seen;

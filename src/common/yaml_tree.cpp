@@ -292,4 +292,12 @@ bool Node::toBool(bool& out) const {
   return false;
 }
 
+Document parseDocument(std::string_view text, const std::string& prefix) {
+  try {
+    return Document::parse(text);
+  } catch (const YamlError& e) {
+    throw std::runtime_error(prefix + e.what());
+  }
+}
+
 }  // namespace rollstep::yaml

@@ -150,13 +150,7 @@ PerceptionSettings parsePerceptionSettings(std::string_view text, const std::str
   const auto fail = [&](const yaml::Node& node, const std::string& what) {
     throw std::runtime_error(head + "line " + std::to_string(node.line()) + ": " + what);
   };
-  yaml::Document doc = [&] {
-    try {
-      return yaml::Document::parse(text);
-    } catch (const yaml::YamlError& e) {
-      throw std::runtime_error(head + e.what());
-    }
-  }();
+  yaml::Document doc = yaml::parseDocument(text, head);
   PerceptionSettings s;
   const yaml::Node root = doc.root();
   if (root.isNull()) return s;

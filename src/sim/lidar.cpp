@@ -63,13 +63,7 @@ LidarSettings parseLidarSettings(std::string_view text, const std::string& sourc
   const auto fail = [&](const yaml::Node& node, const std::string& what) {
     throw std::runtime_error(head + "line " + std::to_string(node.line()) + ": " + what);
   };
-  yaml::Document doc = [&] {
-    try {
-      return yaml::Document::parse(text);
-    } catch (const yaml::YamlError& e) {
-      throw std::runtime_error(head + e.what());
-    }
-  }();
+  yaml::Document doc = yaml::parseDocument(text, head);
   LidarSettings s;
   const yaml::Node root = doc.root();
   if (root.isNull()) return s;

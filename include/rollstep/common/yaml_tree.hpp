@@ -109,4 +109,8 @@ class Document {
   std::vector<Record> nodes_;
 };
 
+/// Document::parse for a loader: a YamlError comes back as std::runtime_error(prefix +
+/// its message), so that every error names the loader's source.
+Document parseDocument(std::string_view text, const std::string& prefix);
+
 }  // namespace rollstep::yaml
