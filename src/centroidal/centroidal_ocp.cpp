@@ -139,6 +139,7 @@ CentroidalOcp::CentroidalOcp(const RobotOcpDescription& description, const OcpSe
   planning::FootReferenceConfig foot_config;
   foot_config.nominal_feet = nominal_feet_;
   foot_config.swing_clearance = settings.swing_clearance;
+  foot_config.swing_apex_margin = settings.swing_apex_margin;
   foot_config.gap_reach = settings.foothold_gap_reach;
   foot_config.foot_height_offset = robot_->contactOffset();
   feet_ = std::make_shared<planning::FootReferencePlanner>(*terrain_, *base_, foot_config);
@@ -225,7 +226,9 @@ CentroidalOcp::CentroidalOcp(const RobotOcpDescription& description, const OcpSe
   limits.velocity_scale = settings.velocity_limit_scale;
   const JointLimitBounds bounds = jointLimitBounds(*robot_, limits);
   problem_->setStateBounds(bounds.state_lower, bounds.state_upper, state_only);
-  problem_->setInputBounds(bounds.input_lower, bounds.input_upper);
+  ocp::InequalityOptions velocity = state_only;
+  velocity.soft = settings.soft_velocity_limits;
+  problem_->setInputBounds(bounds.input_lower, bounds.input_upper, velocity);
 
   reset(0.0, lie::SE3::Identity(), planning::BaseVelocityCommand{});
 }

@@ -31,7 +31,7 @@ struct Field {
 };
 
 // The one table of keys (config/ocp.yaml documents each, in this order).
-const std::array<Field, 31> kFields{{
+const std::array<Field, 33> kFields{{
     {"horizon", &OcpSettings::horizon, 1, 10000, false, false},
     {"dt", &OcpSettings::dt, 0, 10, true, false},
     {"base_velocity_weight", &OcpSettings::base_velocity_weight, 0, 1e12, false, false},
@@ -54,9 +54,11 @@ const std::array<Field, 31> kFields{{
     {"joint_limit_margin", &OcpSettings::joint_limit_margin, 0, 10, false, false},
     {"velocity_limit_scale", &OcpSettings::velocity_limit_scale, 0, 1, true, false},
     {"soft_state_constraints", &OcpSettings::soft_state_constraints, 0, 0, false, false},
+    {"soft_velocity_limits", &OcpSettings::soft_velocity_limits, 0, 0, false, false},
     {"soft_relaxation", &OcpSettings::soft_relaxation, 0, 1e3, true, false},
     {"soft_weight", &OcpSettings::soft_weight, 0, 1e12, true, false},
     {"swing_clearance", &OcpSettings::swing_clearance, 0, 2, false, false},
+    {"swing_apex_margin", &OcpSettings::swing_apex_margin, 0, 0.5, true, false},
     {"base_height_reach", &OcpSettings::base_height_reach, 0, 10, false, false},
     {"base_height_slope", &OcpSettings::base_height_slope, 0, 100, false, false},
     {"foothold_gap_reach", &OcpSettings::foothold_gap_reach, 0, 10, false, false},

@@ -121,9 +121,18 @@ void OptimalControlProblem::addInequality(std::string name,
   ineq_names_.push_back(std::move(name));
 }
 
-void OptimalControlProblem::setInputBounds(const VectorXd& lower, const VectorXd& upper) {
+void OptimalControlProblem::setInputBounds(const VectorXd& lower, const VectorXd& upper,
+                                           InequalityOptions options) {
   checkBoundValues("setInputBounds", lower, upper, nu());
-  input_bounds_ = makeBounds(lower, upper, {});
+  if (options.soft && !(options.relaxation > 0.0)) {
+    throw std::invalid_argument(
+        "OptimalControlProblem::setInputBounds: soft bounds need a positive relaxation");
+  }
+  if (options.soft && !(options.weight > 0.0 && std::isfinite(options.weight))) {
+    throw std::invalid_argument(
+        "OptimalControlProblem::setInputBounds: soft bounds need a positive finite weight");
+  }
+  input_bounds_ = makeBounds(lower, upper, options);
 }
 
 void OptimalControlProblem::setStateBounds(const VectorXd& lower, const VectorXd& upper,

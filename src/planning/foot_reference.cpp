@@ -40,6 +40,9 @@ FootReferencePlanner::FootReferencePlanner(const TerrainModel& terrain, const Ba
   detail::checkFinite(where, "foot_height_offset", config_.foot_height_offset);
   detail::checkNonNegative(where, "level_tolerance", config_.level_tolerance);
   detail::checkNonNegative(where, "gap_reach", config_.gap_reach);
+  if (!(config_.swing_apex_margin > 0.0 && config_.swing_apex_margin <= 0.5)) {
+    detail::fail(where, "swing_apex_margin", config_.swing_apex_margin, "must be in (0, 0.5]");
+  }
 }
 
 int FootReferencePlanner::footholdRegion(const Eigen::Vector2d& p, double t) const {
@@ -67,7 +70,8 @@ SwingHeightSpline FootReferencePlanner::swingSpline(int foot, double t_liftoff,
   const double z_lo = heightIn(footholdRegion(p_lo, t_liftoff), p_lo);
   const double z_td = heightIn(footholdRegion(p_td, t_touchdown), p_td);
   return SwingHeightSpline(t_liftoff, t_touchdown, z_lo + config_.foot_height_offset,
-                           z_td + config_.foot_height_offset, config_.swing_clearance);
+                           z_td + config_.foot_height_offset, config_.swing_clearance,
+                           config_.swing_apex_margin);
 }
 
 Eigen::Vector2d FootReferencePlanner::stanceFoothold(const ocp::ModeSchedule& schedule, int foot,
@@ -116,9 +120,9 @@ FootReference FootReferencePlanner::query(const ocp::ModeSchedule& schedule, int
                    : r.direction == SwingDirection::Descending ? r.region
                                                                : -1;
   r.swing_region_active = swingRegionActive(r.direction, r.timing.phase);
-  const SwingHeightSpline spline(r.timing.liftoff, r.timing.touchdown,
-                                 z_lo + config_.foot_height_offset,
-                                 z_td + config_.foot_height_offset, config_.swing_clearance);
+  const SwingHeightSpline spline(
+      r.timing.liftoff, r.timing.touchdown, z_lo + config_.foot_height_offset,
+      z_td + config_.foot_height_offset, config_.swing_clearance, config_.swing_apex_margin);
   spline.evaluate(t, r.z_ref, r.z_dot_ref);
   return r;
 }

@@ -13,12 +13,12 @@ SwingDirection classifySwing(double z_liftoff, double z_touchdown, double tolera
   return SwingDirection::Level;
 }
 
-bool swingRegionActive(SwingDirection direction, double phase) {
+bool swingRegionActive(SwingDirection direction, double phase, double apex_phase) {
   switch (direction) {
     case SwingDirection::Ascending:
-      return phase <= 0.5;
+      return phase <= apex_phase;
     case SwingDirection::Descending:
-      return phase >= 0.5;
+      return phase >= apex_phase;
     case SwingDirection::Level:
       break;
   }
@@ -26,7 +26,7 @@ bool swingRegionActive(SwingDirection direction, double phase) {
 }
 
 SwingHeightSpline::SwingHeightSpline(double t_liftoff, double t_touchdown, double z_liftoff,
-                                     double z_touchdown, double clearance)
+                                     double z_touchdown, double clearance, double apex_margin)
     : t0_(t_liftoff), t1_(t_touchdown), z0_(z_liftoff), z1_(z_touchdown) {
   const char* where = "SwingHeightSpline";
   detail::checkFinite(where, "t_liftoff", t_liftoff);
@@ -37,7 +37,13 @@ SwingHeightSpline::SwingHeightSpline(double t_liftoff, double t_touchdown, doubl
   detail::checkFinite(where, "z_liftoff", z_liftoff);
   detail::checkFinite(where, "z_touchdown", z_touchdown);
   detail::checkNonNegative(where, "clearance", clearance);
+  if (!(apex_margin > 0.0 && apex_margin <= 0.5)) {
+    detail::fail(where, "apex_margin", apex_margin, "must be in (0, 0.5]");
+  }
   za_ = std::max(z_liftoff, z_touchdown) + clearance;
+  const double rise = za_ - z0_, fall = za_ - z1_;
+  const double phase = rise + fall > 0.0 ? rise / (rise + fall) : 0.5;
+  tm_ = t0_ + std::clamp(phase, apex_margin, 1.0 - apex_margin) * (t1_ - t0_);
 }
 
 void SwingHeightSpline::evaluate(double t, double& z, double& z_dot) const {

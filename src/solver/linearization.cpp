@@ -93,14 +93,15 @@ void Solver::Impl::rowValues(int k, const VectorXd& x, const VectorXd& u, Node& 
   }
   for (int i = d.ni; i < ni_max; ++i) n.c(i) = 0.0;
   const auto& ub = prob->inputBounds();
+  const int uk = ub.options.soft ? kSoft : kHard;
   for (int j = 0; j < nbu; ++j) {
     const int lo = ni_max + j, hi = ni_max + nbu + j;
     const double v = terminal ? 0.0 : u(ub.index[static_cast<std::size_t>(j)]);
     n.c(lo) = v - ub.lower(j);
     n.c(hi) = ub.upper(j) - v;
     if (!terminal) {
-      if (ub.has_lower[static_cast<std::size_t>(j)]) n.kind(lo) = kHard;
-      if (ub.has_upper[static_cast<std::size_t>(j)]) n.kind(hi) = kHard;
+      if (ub.has_lower[static_cast<std::size_t>(j)]) n.kind(lo) = uk;
+      if (ub.has_upper[static_cast<std::size_t>(j)]) n.kind(hi) = uk;
     }
   }
   const auto& xb = prob->stateBounds();

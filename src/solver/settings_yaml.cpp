@@ -24,7 +24,7 @@ struct Entry {
   Field field;
 };
 // A new SolverSettings field goes here and into config/solver.yaml.
-const std::array<Entry, 19> kFields{{
+const std::array<Entry, 20> kFields{{
     {"mode", &SolverSettings::mode},
     {"max_iterations", &SolverSettings::max_iterations},
     {"kkt_tolerance", &SolverSettings::kkt_tolerance},
@@ -32,6 +32,7 @@ const std::array<Entry, 19> kFields{{
     {"barrier_min", &SolverSettings::barrier_min},
     {"barrier_decrease", &SolverSettings::barrier_decrease},
     {"barrier_realtime", &SolverSettings::barrier_realtime},
+    {"realtime_iterations", &SolverSettings::realtime_iterations},
     {"fraction_to_boundary", &SolverSettings::fraction_to_boundary},
     {"line_search", &SolverSettings::line_search},
     {"exact_hessian", &SolverSettings::exact_hessian},
@@ -74,8 +75,9 @@ struct IntRange {
   const char* key;
   IntSettingRange range;
 };
-constexpr std::array<IntRange, 5> kIntRanges{{
+constexpr std::array<IntRange, 6> kIntRanges{{
     {"max_iterations", kIterationCountRange},
+    {"realtime_iterations", kRealtimeIterationRange},
     {"acceptable_iterations", kIterationCountRange},
     {"max_line_search_steps", kLineSearchStepsRange},
     {"num_threads", kThreadCountRange},

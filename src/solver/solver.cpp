@@ -80,7 +80,7 @@ bool Solver::Impl::begin(ConstVecRef x_init, bool realtime) {
 /// One real-time iteration (realtime) or a converging solve.
 SolverStatus Solver::Impl::run(ConstVecRef x_init, bool realtime) {
   if (!begin(x_init, realtime)) return status;
-  const int max_it = realtime ? 1 : std::max(set.max_iterations, 0);
+  const int max_it = realtime ? set.realtime_iterations : std::max(set.max_iterations, 0);
   for (;;) {
     IterationStats it;
     it.iteration = iterations;
@@ -129,7 +129,7 @@ SolverStatus Solver::Impl::run(ConstVecRef x_init, bool realtime) {
     stats.push_back(it);
     ++iterations;
     has_solution = true;
-    if (realtime) return endRealTimeIteration();
+    if (realtime && iterations >= max_it) return endRealTimeIteration();
   }
 }
 
@@ -153,6 +153,7 @@ void checkSettings(const SolverSettings& s) {
   require(s.barrier_decrease > 0.0 && s.barrier_decrease < 1.0,
           "barrier_decrease must be in (0, 1)");
   require(positive(s.barrier_realtime), "barrier_realtime must be finite and > 0");
+  requireIn(s.realtime_iterations, kRealtimeIterationRange, "realtime_iterations");
   require(s.fraction_to_boundary > 0.0 && s.fraction_to_boundary < 1.0,
           "fraction_to_boundary must be in (0, 1)");
   requireIn(s.max_line_search_steps, kLineSearchStepsRange, "max_line_search_steps");

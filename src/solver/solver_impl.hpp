@@ -202,11 +202,15 @@ struct Solver::Impl {
   const VectorXd& uOf(int k) const { return k < N ? us[static_cast<std::size_t>(k)] : zero_u; }
   Node& node(int k) { return nodes[static_cast<std::size_t>(k)]; }
   double relaxation(const Node& n, int i) const {
-    return i < ni_max ? n.d->relaxation(i) : prob->stateBounds().options.relaxation;
+    return i < ni_max ? n.d->relaxation(i) : boundOptions(i).relaxation;
   }
   /// Fixed weight of a soft row's relaxed barrier (independent of mu).
   double softWeight(const Node& n, int i) const {
-    return i < ni_max ? n.d->soft_weight(i) : prob->stateBounds().options.weight;
+    return i < ni_max ? n.d->soft_weight(i) : boundOptions(i).weight;
+  }
+  /// Options of bound row i >= ni_max: the input bounds' or the state bounds'.
+  const ocp::InequalityOptions& boundOptions(int i) const {
+    return i < ni_max + 2 * nbu ? prob->inputBounds().options : prob->stateBounds().options;
   }
   /// f(k) for every node k = 0..N, split over the threads (static partition).
   template <class F>

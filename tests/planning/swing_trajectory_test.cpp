@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -136,6 +137,53 @@ TEST(SwingHeightSpline, BadInputThrowsNamingTheParameter) {
   expectNaming([] { SwingHeightSpline(0.0, 1.0, 0, std::numeric_limits<double>::infinity(), 0.1); },
                "z_touchdown = inf");
   expectNaming([] { SwingHeightSpline(0.0, 1.0, 0, 0, -0.1); }, "clearance = -0.1");
+  expectNaming([] { SwingHeightSpline(0.0, 1.0, 0, 0, 0.1, 0.0); }, "apex_margin = 0");
+  expectNaming([] { SwingHeightSpline(0.0, 1.0, 0, 0, 0.1, 0.6); }, "apex_margin = 0.6");
+}
+
+// An apex margin below 1/2 moves the apex of a swing up a step later (of one down
+// earlier), to rise / (rise + fall) of the swing within [margin, 1 - margin]: the peak
+// speeds of the two pieces (1.5 x height / duration) are then equal, or as close as the
+// margin allows. The spline stays monotone up to the apex and down after it, and the
+// region rule follows the apex.
+TEST(SwingHeightSpline, ApexMarginBalancesThePeakSpeeds) {
+  using rollstep::planning::swingRegionActive;
+  const double T = 0.56;
+  const auto peak = [&](const SwingHeightSpline& s, double t0, double t1) {
+    double v = 0.0;
+    for (int i = 0; i <= 2000; ++i)
+      v = std::max(v, std::abs(s.velocity(t0 + (t1 - t0) * i / 2000.0)));
+    return v;
+  };
+  // 0.2 m up, 0.02 m clearance: rise 0.22, fall 0.02 -> phase 0.917, clamped to 0.8.
+  const SwingHeightSpline mid(0.0, T, 0.0, 0.2, 0.02), late(0.0, T, 0.0, 0.2, 0.02, 0.2);
+  EXPECT_DOUBLE_EQ(mid.apexPhase(), 0.5);
+  EXPECT_NEAR(late.apexPhase(), 0.8, 1e-12);
+  EXPECT_NEAR(peak(mid, 0.0, T), 1.5 * 0.22 / (0.5 * T), 1e-3);
+  EXPECT_NEAR(peak(late, 0.0, late.apexTime()), 1.5 * 0.22 / (0.8 * T), 1e-3);
+  EXPECT_NEAR(peak(late, late.apexTime(), T), 1.5 * 0.02 / (0.2 * T), 1e-3);
+  EXPECT_NEAR(late.position(late.apexTime()), 0.22, 1e-12);
+  // Unclamped: 0.1 up with 0.1 clearance (rise 0.2, fall 0.1) puts the apex at 2/3 and
+  // equalises the two peaks; a swing down mirrors it.
+  const SwingHeightSpline up(0.0, T, 0.0, 0.1, 0.1, 0.1), down(0.0, T, 0.1, 0.0, 0.1, 0.1);
+  EXPECT_NEAR(up.apexPhase(), 2.0 / 3.0, 1e-12);
+  EXPECT_NEAR(down.apexPhase(), 1.0 / 3.0, 1e-12);
+  EXPECT_NEAR(peak(up, 0.0, up.apexTime()), peak(up, up.apexTime(), T), 1e-3);
+  // Monotone on each side of the apex.
+  double prev = late.position(0.0);
+  for (int i = 1; i <= 1000; ++i) {
+    const double t = T * i / 1000.0, z = late.position(t);
+    if (t <= late.apexTime())
+      EXPECT_GE(z, prev - 1e-15) << t;
+    else
+      EXPECT_LE(z, prev + 1e-15) << t;
+    prev = z;
+  }
+  // The region window ends at the apex, not at mid-swing.
+  EXPECT_TRUE(swingRegionActive(SwingDirection::Ascending, 0.7, late.apexPhase()));
+  EXPECT_FALSE(swingRegionActive(SwingDirection::Ascending, 0.85, late.apexPhase()));
+  EXPECT_TRUE(swingRegionActive(SwingDirection::Descending, 0.4, down.apexPhase()));
+  EXPECT_FALSE(swingRegionActive(SwingDirection::Descending, 0.3, down.apexPhase()));
 }
 
 }  // namespace

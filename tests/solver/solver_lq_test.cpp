@@ -253,6 +253,7 @@ TEST(SolverLq, BadSettingsAreRejectedByName) {
       {"barrier_decrease", [](SolverSettings& s, double, double) { s.barrier_decrease = 1.0; }},
       {"barrier_decrease", [](SolverSettings& s, double n, double) { s.barrier_decrease = n; }},
       {"barrier_realtime", [](SolverSettings& s, double, double) { s.barrier_realtime = 0.0; }},
+      {"realtime_iterations", [](SolverSettings& s, double, double) { s.realtime_iterations = 0; }},
       {"fraction_to_boundary",
        [](SolverSettings& s, double, double) { s.fraction_to_boundary = 1.5; }},
       {"max_line_search_steps",
@@ -502,6 +503,77 @@ TEST(SolverRealTime, ShiftedTailKeepsItsActiveBound) {
   EXPECT_GT(s.stats()[0].primal_step, 0.9);
   EXPECT_GT(s.inequalityDuals(N - 1)(upper_row), 0.5 * z_last);
   EXPECT_LE(s.inputs()[static_cast<std::size_t>(N - 1)](0), 3.0);
+}
+
+// realtime_iterations = k: one update runs k relinearised Newton iterations, the same
+// iterate as k updates of one iteration each from the same state and time.
+TEST(SolverRealTime, SeveralIterationsPerUpdateEqualSuccessiveUpdates) {
+  auto set = tight();
+  set.mode = solver::SolverMode::RealTime;
+  auto p1 = pendulumProblem(30), p3 = pendulumProblem(30);
+  Solver one(p1, set);
+  set.realtime_iterations = 3;
+  Solver three(p3, set);
+  const VectorXd x0 = (VectorXd(2) << 0.8, 0.0).finished();
+  ASSERT_EQ(three.update(0.0, x0), SolverStatus::IterationDone);
+  ASSERT_EQ(three.stats().size(), 3u);
+  EXPECT_EQ(three.iterations(), 3);
+  for (int i = 0; i < 3; ++i) ASSERT_EQ(one.update(0.0, x0), SolverStatus::IterationDone);
+  for (std::size_t k = 0; k < one.states().size(); ++k) {
+    EXPECT_LT((one.states()[k] - three.states()[k]).norm(), 1e-12) << "node " << k;
+  }
+  // The first iteration's residual is that of the start, the last one's much smaller.
+  EXPECT_LT(three.stats().back().primal_residual, three.stats().front().primal_residual);
+}
+
+// Soft input bounds (relaxed barrier): a real-time step that runs the input through its
+// bound is taken whole (a hard bound cuts it by the fraction to the boundary), and the
+// converged input exceeds the bound by an amount its weight sets.
+TEST(SolverRealTime, SoftInputBoundsNeverCutTheStep) {
+  const auto problem = [](bool soft, double weight) {
+    auto dyn = std::make_shared<ocp::RungeKutta4>(std::make_shared<testmodels::Pendulum>());
+    auto p = std::make_shared<ocp::OptimalControlProblem>(dyn, 20, 0.05);
+    auto space = dyn->spacePtr();
+    p->addCost("x", std::make_shared<ocp::LeastSquaresCost>(
+                        std::make_shared<ocp::StateErrorResidual>(space, 1, VectorXd::Zero(2)),
+                        (VectorXd(2) << 0.01, 0.01).finished()));
+    // The input wants 5, its bound allows 3.
+    p->addCost("u", std::make_shared<ocp::LeastSquaresCost>(
+                        std::make_shared<ocp::InputErrorResidual>(2, VectorXd::Constant(1, 5.0)),
+                        VectorXd::Constant(1, 10.0)));
+    ocp::InequalityOptions options;
+    options.soft = soft;
+    options.relaxation = 1e-3;
+    options.weight = weight;
+    p->setInputBounds(VectorXd::Constant(1, -3.0), VectorXd::Constant(1, 3.0), options);
+    return p;
+  };
+  const VectorXd x0 = (VectorXd(2) << 0.2, 0.0).finished();
+  auto set = tight();
+  set.mode = solver::SolverMode::RealTime;
+  Solver hard_rt(problem(false, 1.0), set), soft_rt(problem(true, 1e-3), set);
+  ASSERT_EQ(hard_rt.update(0.0, x0), SolverStatus::IterationDone);
+  ASSERT_EQ(soft_rt.update(0.0, x0), SolverStatus::IterationDone);
+  EXPECT_LT(hard_rt.stats()[0].primal_step, 0.9);
+  EXPECT_EQ(soft_rt.stats()[0].primal_step, 1.0);
+
+  set.mode = solver::SolverMode::Converging;
+  const auto worst = [](const Solver& s) {
+    double u = -1e9;
+    for (const auto& v : s.inputs()) u = std::max(u, v(0));
+    return u;
+  };
+  Solver hard(problem(false, 1.0), set), light(problem(true, 1e-4), set),
+      heavy(problem(true, 1e-2), set);
+  ASSERT_EQ(hard.solve(x0), SolverStatus::Converged);
+  ASSERT_EQ(light.solve(x0), SolverStatus::Converged);
+  ASSERT_EQ(heavy.solve(x0), SolverStatus::Converged);
+  EXPECT_LE(worst(hard), 3.0);
+  // The input cost's slope at the bound is dt W (5 - 3) = 1. Against the relaxed barrier
+  // w B(c), c = 3 - u, with slope w / c for c >= delta and (w / delta)(2 - c / delta)
+  // below: w = 1e-2 stops at c = 0.01 (inside), w = 1e-4 at c = -8 delta (outside).
+  EXPECT_NEAR(worst(heavy), 2.99, 1e-3);
+  EXPECT_NEAR(worst(light), 3.008, 1e-3);
 }
 
 TEST(SolverRealTime, UpdatesFasterThanTheNodeStepAddUpToShifts) {

@@ -71,12 +71,23 @@ struct OcpSettings {
   /// Off by default: a soft row's fixed-weight barrier keeps pushing at the solution (the
   /// knees work 5 cm from their stop: standing moved 2 % of the weight between feet).
   bool soft_state_constraints = false;
+  /// The joint velocity bounds (inputs) as relaxed-barrier rows too (with soft_relaxation
+  /// and soft_weight). Off by default. In a real-time iteration a hard velocity bound that
+  /// the linearisation cannot meet (a swing spline or the measured state asking a knee for
+  /// more than its limit) cuts the whole step by the fraction to the boundary, so that the
+  /// iterate hardly moves for as long as the conflict lasts.
+  bool soft_velocity_limits = false;
   double soft_relaxation = 1e-3;  ///< relaxed barrier delta (> 0)
   double soft_weight = 1e-3;      ///< relaxed barrier weight (> 0)
   // --- planning inputs -------------------------------------------------------------------
   /// [m] swing apex above the higher end (>= 0). The knees stand 5 cm off their stop: a
   /// swing higher than that needs the hips or the body (0.08 left a static walk infeasible).
   double swing_clearance = 0.04;
+  /// Apex placement of the swing height spline, in (0, 0.5] (planning::SwingHeightSpline):
+  /// 0.5 = mid-swing (the paper); less lets the apex of a swing up a step move later, to
+  /// rise / (rise + fall) of the swing but no further than 1 - margin, so that the knee
+  /// is not asked for a faster rise than its velocity limit allows.
+  double swing_apex_margin = 0.5;
   /// [m] The base height reference's terrain (planning::BaseReferenceConfig): 0 averages the
   /// terrain under the nominal feet; > 0 takes the highest terrain within this distance of
   /// a nominal foot along the travel, lowered by base_height_slope per metre, so that the

@@ -110,8 +110,10 @@ class OptimalControlProblem {
   /// g(x, u) >= 0. Terminal or soft inequalities must be state-only.
   void addInequality(std::string name, std::shared_ptr<const Residual> residual,
                      Stage stage = Stage::Running, InequalityOptions options = {});
-  /// lower <= u <= upper on running nodes (size nu; +-kInfinity for none).
-  void setInputBounds(const VectorXd& lower, const VectorXd& upper);
+  /// lower <= u <= upper on running nodes (size nu; +-kInfinity for none); soft: relaxed
+  /// log barrier rows, which never cut a step (a real-time iteration whose linearisation
+  /// asks for more than a bound allows then takes its whole step).
+  void setInputBounds(const VectorXd& lower, const VectorXd& upper, InequalityOptions options = {});
   /// lower <= x <= upper on the Euclidean tangent coordinates (size ndx; entries of the
   /// non-Euclidean part must be infinite), on every node 0..N.
   void setStateBounds(const VectorXd& lower, const VectorXd& upper, InequalityOptions options = {});

@@ -40,6 +40,10 @@ struct FootReferenceConfig {
   /// direction of travel when it begins within this distance (TerrainModel::regionAhead);
   /// 0: the nearest region.
   double gap_reach = 0.0;
+  /// Apex placement of the swing height spline, in (0, 1/2] (SwingHeightSpline): 1/2 puts
+  /// the apex at mid-swing; less lets it move towards the end of a swing up a step (the
+  /// start of one down) so that the rise is not faster than the fall.
+  double swing_apex_margin = 0.5;
 };
 
 struct FootReference {

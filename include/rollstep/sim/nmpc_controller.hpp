@@ -77,6 +77,7 @@ struct MpcUpdateRecord {
   int iterations = 0;
   double kkt_error = 0.0;
   double primal_residual = 0.0;
+  double primal_step = 0.0;    ///< of the last iteration (1: full Newton step)
   double solve_time_ms = 0.0;  ///< wall time (not reproducible)
   bool adopted = false;        ///< refined into the reference (false: unusable, rejected)
 };

@@ -80,6 +80,10 @@ struct SolverSettings {
   double barrier_min = 1e-10;      ///< converging mode: last barrier parameter
   double barrier_decrease = 0.2;   ///< mu <- max(barrier_min, min(k mu, mu^1.5))
   double barrier_realtime = 1e-3;  ///< real-time mode: fixed barrier parameter
+  /// Real-time mode: Newton iterations per update() (each relinearises; 1 = the classic
+  /// real-time iteration). More let an update catch up where the fraction to the boundary
+  /// cut the first step short (a reference that changed faster than the iterate followed).
+  int realtime_iterations = 1;
   double fraction_to_boundary = 0.995;
   bool line_search = true;  ///< filter line search (converging mode); false: full steps
   /// Converging mode: add the constraint curvature (multipliers times second derivatives
@@ -122,6 +126,7 @@ struct IntSettingRange {
   int min, max;
 };
 inline constexpr IntSettingRange kIterationCountRange{1, 1000000};  ///< max_/acceptable_iterations
+inline constexpr IntSettingRange kRealtimeIterationRange{1, 100};   ///< realtime_iterations
 inline constexpr IntSettingRange kLineSearchStepsRange{1, 1000};    ///< max_line_search_steps
 inline constexpr IntSettingRange kThreadCountRange{1, 256};         ///< num_threads
 inline constexpr IntSettingRange kThreadSpinRange{0, 1000000};      ///< thread_spin_us
