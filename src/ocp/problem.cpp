@@ -15,6 +15,16 @@ void checkDims(const char* what, const std::string& name, int ndx, int nu, int p
   }
 }
 
+void checkSoftBounds(const char* where, const InequalityOptions& options) {
+  const std::string prefix = std::string("OptimalControlProblem::") + where + ": soft bounds need ";
+  if (options.soft && !(options.relaxation > 0.0)) {
+    throw std::invalid_argument(prefix + "a positive relaxation");
+  }
+  if (options.soft && !(options.weight > 0.0 && std::isfinite(options.weight))) {
+    throw std::invalid_argument(prefix + "a positive finite weight");
+  }
+}
+
 BoundSet makeBounds(const VectorXd& lower, const VectorXd& upper, InequalityOptions options) {
   BoundSet b;
   b.options = options;
@@ -124,14 +134,7 @@ void OptimalControlProblem::addInequality(std::string name,
 void OptimalControlProblem::setInputBounds(const VectorXd& lower, const VectorXd& upper,
                                            InequalityOptions options) {
   checkBoundValues("setInputBounds", lower, upper, nu());
-  if (options.soft && !(options.relaxation > 0.0)) {
-    throw std::invalid_argument(
-        "OptimalControlProblem::setInputBounds: soft bounds need a positive relaxation");
-  }
-  if (options.soft && !(options.weight > 0.0 && std::isfinite(options.weight))) {
-    throw std::invalid_argument(
-        "OptimalControlProblem::setInputBounds: soft bounds need a positive finite weight");
-  }
+  checkSoftBounds("setInputBounds", options);
   input_bounds_ = makeBounds(lower, upper, options);
 }
 
@@ -146,14 +149,7 @@ void OptimalControlProblem::setStateBounds(const VectorXd& lower, const VectorXd
                                   " is not Euclidean; its bounds must be infinite");
     }
   }
-  if (options.soft && !(options.relaxation > 0.0)) {
-    throw std::invalid_argument(
-        "OptimalControlProblem::setStateBounds: soft bounds need a positive relaxation");
-  }
-  if (options.soft && !(options.weight > 0.0 && std::isfinite(options.weight))) {
-    throw std::invalid_argument(
-        "OptimalControlProblem::setStateBounds: soft bounds need a positive finite weight");
-  }
+  checkSoftBounds("setStateBounds", options);
   state_bounds_ = makeBounds(lower, upper, options);
 }
 

@@ -469,6 +469,22 @@ TEST(SolverRealTime, IterationsConvergeAndShiftWarmStarts) {
   EXPECT_TRUE(s.feedbackGain(0).allFinite());
 }
 
+/// A pendulum whose input cost (weight 10) wants u = 5 while its bound allows |u| <= 3.
+std::shared_ptr<ocp::OptimalControlProblem> inputAgainstItsBound(
+    int N, const ocp::InequalityOptions& bound_options) {
+  auto dyn = std::make_shared<ocp::RungeKutta4>(std::make_shared<testmodels::Pendulum>());
+  auto p = std::make_shared<ocp::OptimalControlProblem>(dyn, N, 0.05);
+  auto space = dyn->spacePtr();
+  p->addCost("x", std::make_shared<ocp::LeastSquaresCost>(
+                      std::make_shared<ocp::StateErrorResidual>(space, 1, VectorXd::Zero(2)),
+                      (VectorXd(2) << 0.01, 0.01).finished()));
+  p->addCost("u", std::make_shared<ocp::LeastSquaresCost>(
+                      std::make_shared<ocp::InputErrorResidual>(2, VectorXd::Constant(1, 5.0)),
+                      VectorXd::Constant(1, 10.0)));
+  p->setInputBounds(VectorXd::Constant(1, -3.0), VectorXd::Constant(1, 3.0), bound_options);
+  return p;
+}
+
 // The new tail of a shift repeats the last node's input and takes its slacks and duals
 // with it: an input bound active there stays active with its dual. A tail reinitialised
 // with a weak barrier (z = mu / s) let the next Newton step run that input through its
@@ -478,17 +494,8 @@ TEST(SolverRealTime, ShiftedTailKeepsItsActiveBound) {
   auto set = tight();
   set.mode = solver::SolverMode::RealTime;
   set.barrier_realtime = 1e-3;
-  auto dyn = std::make_shared<ocp::RungeKutta4>(std::make_shared<testmodels::Pendulum>());
-  auto p = std::make_shared<ocp::OptimalControlProblem>(dyn, 30, 0.05);
-  auto space = dyn->spacePtr();
-  p->addCost("x", std::make_shared<ocp::LeastSquaresCost>(
-                      std::make_shared<ocp::StateErrorResidual>(space, 1, VectorXd::Zero(2)),
-                      (VectorXd(2) << 0.01, 0.01).finished()));
   // The input wants 5, its bound allows 3: active at every node.
-  p->addCost("u", std::make_shared<ocp::LeastSquaresCost>(
-                      std::make_shared<ocp::InputErrorResidual>(2, VectorXd::Constant(1, 5.0)),
-                      VectorXd::Constant(1, 10.0)));
-  p->setInputBounds(VectorXd::Constant(1, -3.0), VectorXd::Constant(1, 3.0));
+  auto p = inputAgainstItsBound(30, {});
   Solver s(p, set);
   const VectorXd x0 = (VectorXd(2) << 0.2, 0.0).finished();
   for (int i = 0; i < 60; ++i) ASSERT_EQ(s.update(0.0, x0), SolverStatus::IterationDone);
@@ -531,22 +538,11 @@ TEST(SolverRealTime, SeveralIterationsPerUpdateEqualSuccessiveUpdates) {
 // converged input exceeds the bound by an amount its weight sets.
 TEST(SolverRealTime, SoftInputBoundsNeverCutTheStep) {
   const auto problem = [](bool soft, double weight) {
-    auto dyn = std::make_shared<ocp::RungeKutta4>(std::make_shared<testmodels::Pendulum>());
-    auto p = std::make_shared<ocp::OptimalControlProblem>(dyn, 20, 0.05);
-    auto space = dyn->spacePtr();
-    p->addCost("x", std::make_shared<ocp::LeastSquaresCost>(
-                        std::make_shared<ocp::StateErrorResidual>(space, 1, VectorXd::Zero(2)),
-                        (VectorXd(2) << 0.01, 0.01).finished()));
-    // The input wants 5, its bound allows 3.
-    p->addCost("u", std::make_shared<ocp::LeastSquaresCost>(
-                        std::make_shared<ocp::InputErrorResidual>(2, VectorXd::Constant(1, 5.0)),
-                        VectorXd::Constant(1, 10.0)));
     ocp::InequalityOptions options;
     options.soft = soft;
     options.relaxation = 1e-3;
     options.weight = weight;
-    p->setInputBounds(VectorXd::Constant(1, -3.0), VectorXd::Constant(1, 3.0), options);
-    return p;
+    return inputAgainstItsBound(20, options);  // wants 5, allowed 3
   };
   const VectorXd x0 = (VectorXd(2) << 0.2, 0.0).finished();
   auto set = tight();
