@@ -460,7 +460,8 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
     for (const std::string& d : o.trials) from += (from.empty() ? "`" : ", `") + d + "`";
     doc.paragraph("Results collected from " + from +
                   " (step height, friction, start offset and sensor noise scale drawn from each "
-                  "trial's seed; sensor noise recorded, not yet applied). Metrics over the passed "
+                  "trial's seed; the sensor noise reaches the runs whose state comes from the "
+                  "estimator, `--state-source inekf`). Metrics over the passed "
                   "trials: mean ± sample standard deviation (min to max).");
     std::vector<std::vector<std::string>> rows;
     const auto cell = [](const Spread& s, int digits) {

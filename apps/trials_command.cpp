@@ -64,15 +64,16 @@ TrialResult runTrial(const TrialsOptions& o, const ExperimentSet& set, const Sce
   const std::string dir = trialDir(fs::absolute(o.out).string(), s, seed);
   fs::create_directories(dir + "/sim");
   writeFileAtomically(dir + "/scene.yaml", sim::toYaml(scene));
+  writeFileAtomically(dir + "/sensors.yaml", trialSensorNoise(p).toYaml());
   Scenario trial = s;
-  const std::vector<std::string> extra = trialSimArgs(p);
+  const std::vector<std::string> extra = trialSimArgs(dir + "/sensors.yaml");
   trial.args.insert(trial.args.end(), extra.begin(), extra.end());
   const RunOutcome run = executeRun(trial, scene, dir + "/sim", set.criteria, dir + "/scene.yaml");
   TrialResult r;
   r.scenario = s.name;
   r.controller = s.controller;
   r.parameters = p;
-  r.sensor_noise_applied = !extra.empty();
+  r.sensor_noise_applied = readsSensors(s);
   r.passed = run.passed();
   r.failure = run.passed() ? "" : run.failureText();
   if (run.assessment.metrics) {
@@ -229,8 +230,8 @@ void registerTrialsCommand(CLI::App& app) {
   cmd->footer(
       "Scale out: --print-commands prints one self-contained command per trial (for GNU parallel "
       "or a Slurm job array); afterwards `rollstep trials --collect DIR` aggregates the result "
-      "files found under DIR. Sensor noise is drawn and recorded but not applied until "
-      "`rollstep sim` has sensor models.");
+      "files found under DIR. The sensor noise (DIR/<scenario>_seedNNNN/sensors.yaml) reaches "
+      "the controllers that read the sensors (--state-source inekf).");
   cmd->add_option("--scenario", o->scenario, "Scene of the scenario: flat, step20 or stairs2")
       ->check(CLI::IsMember({"flat", "step20", "stairs2"}));
   cmd->add_option("--controller", o->controller, "Controller of the scenario (nmpc, ...)")

@@ -71,10 +71,28 @@ sim::SceneConfig trialScene(const sim::SceneConfig& base, const TrialParameters&
   return s;
 }
 
-std::vector<std::string> trialSimArgs(const TrialParameters&) {
-  // Hook for the sensor models (issue 13): when `rollstep sim` gains its sensor noise
-  // option, pass p.sensor_noise here and set TrialResult::sensor_noise_applied.
-  return {};
+sim::SensorNoiseConfig trialSensorNoise(const TrialParameters& p) {
+  sim::SensorNoiseConfig c;
+  c.seed = static_cast<double>(p.seed);
+  const double k = p.sensor_noise;
+  for (double* v : {&c.gyro_noise_density, &c.gyro_bias_random_walk, &c.gyro_initial_bias,
+                    &c.accel_noise_density, &c.accel_bias_random_walk, &c.accel_initial_bias,
+                    &c.joint_position_noise, &c.joint_velocity_noise, &c.wheel_velocity_noise,
+                    &c.force_noise}) {
+    *v *= k;
+  }
+  return c;
+}
+
+std::vector<std::string> trialSimArgs(const std::string& sensor_file) {
+  return {"--sensor-config", sensor_file};
+}
+
+bool readsSensors(const Scenario& s) {
+  for (std::size_t i = 0; i + 1 < s.args.size(); ++i) {
+    if (s.args[i] == "--state-source" && s.args[i + 1] == "inekf") return true;
+  }
+  return false;
 }
 
 std::vector<std::uint64_t> parseSeeds(const std::string& text) {

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "rollstep/sim/scene.hpp"
+#include "rollstep/sim/sensor_model.hpp"
 #include "scenarios.hpp"
 
 namespace rollstep::experiments {
@@ -17,9 +18,9 @@ struct TrialParameters {
   double step_height = 0.0;   ///< [m] the first step's height
   double friction = 0.0;      ///< terrain friction coefficient
   double start_offset = 0.0;  ///< [m] added to the scene's start_x
-  /// Scale of the sensor noise. Drawn but not yet applied: `rollstep sim` runs on ground
-  /// truth until the sensor models land; then this becomes its noise option (the hook is
-  /// trialSimArgs).
+  /// Scale of the sensor noise: every white-noise density, bias random walk and initial
+  /// bias of sim::SensorNoiseConfig's defaults times this (trialSensorNoise); encoder
+  /// resolutions and the contact-flag threshold stay as they are.
   double sensor_noise = 0.0;
 };
 
@@ -27,8 +28,14 @@ struct TrialParameters {
 TrialParameters drawTrial(std::uint64_t seed, const TrialRanges& ranges);
 /// `base` with the trial's step height, friction and start offset.
 sim::SceneConfig trialScene(const sim::SceneConfig& base, const TrialParameters& p);
-/// Extra `rollstep sim` options of a trial (empty while the sim has no sensor noise option).
-std::vector<std::string> trialSimArgs(const TrialParameters& p);
+/// The trial's sensor noise: the defaults scaled by p.sensor_noise, seeded with p.seed.
+sim::SensorNoiseConfig trialSensorNoise(const TrialParameters& p);
+/// Extra `rollstep sim` options of a trial: the sensor file (trialSensorNoise written to
+/// `sensor_file`).
+std::vector<std::string> trialSimArgs(const std::string& sensor_file);
+/// Whether a scenario's controller reads the (noisy) sensors: `--state-source inekf`
+/// (the others run on ground truth, so a trial's sensor noise does not reach them).
+bool readsSensors(const Scenario& s);
 
 /// "0-29", "7", "1,5,9-12" -> the seeds in order; throws std::invalid_argument naming the text.
 std::vector<std::uint64_t> parseSeeds(const std::string& text);

@@ -12,7 +12,11 @@ set -- --experiments "$experiments" --scenario step20 --controller nmpc
 for s in 0000 0001; do
   [ -s "$out/step20_short_seed$s/result.yaml" ] || fail "no result file of seed $s"
   [ -s "$out/step20_short_seed$s/scene.yaml" ] || fail "no scene file of seed $s"
+  [ -s "$out/step20_short_seed$s/sensors.yaml" ] || fail "no sensor file of seed $s"
 done
+grep -q '^seed: 1$' "$out/step20_short_seed0001/sensors.yaml" || fail "seed 1's sensor noise seed"
+grep -q '^sensor_noise_applied: false$' "$out/step20_short_seed0001/result.yaml" \
+  || fail "a ground-truth run reads no sensors"
 grep -q '^seed: 1$' "$out/step20_short_seed0001/result.yaml" || fail "seed 1's file"
 grep -q '^step_height: 0.1' "$out/step20_short_seed0001/scene.yaml" 2>/dev/null \
   || grep -q 'step1_height: 0.1' "$out/step20_short_seed0001/scene.yaml" || fail "randomized step height"

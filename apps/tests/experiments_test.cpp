@@ -265,6 +265,25 @@ TEST(Trials, DrawsAreFixedBySeedAndInRange) {
   EXPECT_EQ(s.step1_height, p7.step_height);
   EXPECT_EQ(s.friction, p7.friction);
   EXPECT_NEAR(s.start_x, 1.0 + p7.start_offset, 1e-12);
+  // The sensor noise: the defaults' noise terms times the draw, seeded by the trial; the
+  // file the sim reads gives the same config back.
+  const sim::SensorNoiseConfig defaults, n = trialSensorNoise(p7);
+  EXPECT_EQ(n.seed, 7.0);
+  EXPECT_DOUBLE_EQ(n.gyro_noise_density, 1.0829 * defaults.gyro_noise_density);
+  EXPECT_DOUBLE_EQ(n.accel_initial_bias, 1.0829 * defaults.accel_initial_bias);
+  EXPECT_DOUBLE_EQ(n.force_noise, 1.0829 * defaults.force_noise);
+  EXPECT_EQ(n.knee_resolution, defaults.knee_resolution);
+  EXPECT_EQ(n.force_threshold, defaults.force_threshold);
+  const sim::SensorNoiseConfig back = sim::parseSensorNoiseConfig(n.toYaml(), "trial");
+  EXPECT_EQ(back.toYaml(), n.toYaml());
+  EXPECT_DOUBLE_EQ(back.wheel_velocity_noise, n.wheel_velocity_noise);
+  Scenario nmpc, cbfqp;
+  nmpc.args = {"--gait", "trot", "--state-source", "inekf"};
+  cbfqp.args = {"--gait", "trot"};
+  EXPECT_TRUE(readsSensors(nmpc));
+  EXPECT_FALSE(readsSensors(cbfqp));
+  EXPECT_EQ(trialSimArgs("d/sensors.yaml"),
+            (std::vector<std::string>{"--sensor-config", "d/sensors.yaml"}));
 }
 
 TEST(Trials, SeedLists) {
