@@ -75,18 +75,20 @@ struct SimOptions {
   std::string terrain = "scene";
   std::string state_source = "ground_truth";
   std::string estimator_config;  // "" = the defaults
+  bool log_violations = false;   // DIR/mpc_violations.csv (deterministic timing)
   // any controller
   std::string sensor_config;  // "" = ideal sensors (inekf: the defaults)
 };
 
 /// Result files of a run in the output directory.
 struct OutputFiles {
-  fs::path log, summary, failed, mpc;
+  fs::path log, summary, failed, mpc, violations;
   explicit OutputFiles(const fs::path& dir)
       : log(dir / "log.csv"),
         summary(dir / "summary.txt"),
         failed(dir / "FAILED"),
-        mpc(dir / "mpc.csv") {}
+        mpc(dir / "mpc.csv"),
+        violations(dir / "mpc_violations.csv") {}
 };
 
 /// Creates the output directory if needed and removes the previous run's result files.
@@ -97,7 +99,7 @@ void prepareOutputDir(const std::string& dir, const OutputFiles& files) {
   }
   fs::create_directories(dir, ec);
   if (ec) throw OutputError("--out '" + dir + "': cannot create the directory: " + ec.message());
-  for (const fs::path& p : {files.log, files.summary, files.failed, files.mpc}) {
+  for (const fs::path& p : {files.log, files.summary, files.failed, files.mpc, files.violations}) {
     fs::remove(p, ec);
     if (ec) {
       throw OutputError("cannot remove the previous run's '" + p.string() + "': " + ec.message());
@@ -266,6 +268,12 @@ void runSim(const SimOptions& o, bool scene_given) {
     auto nmpc = std::make_unique<sim::NmpcController>(
         plant, robot, settings, terrain, centroidal::gaitKindFromString(o.gait), schedule, source);
     nmpc_controller = nmpc.get();
+    if (o.log_violations) {
+      if (settings.mpc.timing != control::MpcTiming::Deterministic) {
+        throw std::invalid_argument("--log-violations needs --mpc-timing deterministic");
+      }
+      nmpc->enableViolationLog();
+    }
     controller = std::move(nmpc);
     std::string command_text;
     for (const planning::TimedBaseCommand& c : schedule) {
@@ -347,6 +355,9 @@ void runSim(const SimOptions& o, bool scene_given) {
     std::string mpc_text;
     if (nmpc_controller != nullptr) {
       writeFileAtomically(files.mpc.string(), nmpc_controller->mpcUpdatesCsv());
+      if (o.log_violations) {
+        writeFileAtomically(files.violations.string(), nmpc_controller->violationsCsv());
+      }
       const control::PipelineCounters& c = nmpc_controller->pipeline().counters();
       double solve_sum = 0.0, solve_max = 0.0;
       const auto& updates = nmpc_controller->mpcUpdates();
@@ -506,6 +517,11 @@ void registerSimCommand(CLI::App& app) {
                                       "simulated time, reproducible) or asynchronous (a real "
                                       "MPC thread); default: the control settings'")
                           ->check(CLI::IsMember({"deterministic", "asynchronous"})));
+  nmpc_only.push_back(cmd->add_flag("--log-violations", options->log_violations,
+                                    "nmpc only, deterministic MPC timing: check every MPC "
+                                    "solution against the problem it solved and write the "
+                                    "largest violation of each constraint group and its node "
+                                    "to DIR/mpc_violations.csv (slow; for analysis)"));
   nmpc_only.push_back(cmd->add_option("--terrain", options->terrain,
                                       "nmpc only: scene (the scene's ground-truth regions) or "
                                       "perception (regions from the simulated LiDAR at the "

@@ -199,6 +199,15 @@ CentroidalOcp::CentroidalOcp(const RobotOcpDescription& description, const OcpSe
       "swing_height", std::make_shared<SwingHeightResidual>(pre_, feet_, settings.swing_height_gain,
                                                             settings.swing_height_max_correction));
 
+  // Real-time warm start: a node appended by the shift, or whose mode changed since the
+  // last solve, gets its mode's reference contact forces (otherwise a foot that begins a
+  // swing there keeps its stance force against f = 0, and a step cut by the fraction to the
+  // boundary leaves most of that violation in place, update after update).
+  problem_->setInputGuess(
+      [robot = robot_](const ocp::NodeContext& ctx, ocp::ConstVecRef, ocp::VecRef u) {
+        setStanceForceReference(*robot, ctx.mode, u);
+      });
+
   // Inequalities.
   ocp::InequalityOptions state_only;
   state_only.soft = settings.soft_state_constraints;

@@ -85,15 +85,20 @@ InputTrackingResidual::InputTrackingResidual(std::shared_ptr<const CentroidalRob
   if (!robot_) throw std::invalid_argument("InputTrackingResidual: null robot");
 }
 
+void setStanceForceReference(const CentroidalRobot& robot, int mode, ocp::VecRef u) {
+  int n = 0;
+  for (int i = 0; i < robot.nc(); ++i) n += CentroidalRobot::inStance(mode, i) ? 1 : 0;
+  const Eigen::Vector3d f = n > 0 ? Eigen::Vector3d(-(robot.mass() / n) * robot.model().gravity)
+                                  : Eigen::Vector3d::Zero();
+  for (int i = 0; i < robot.nc(); ++i) {
+    u.segment<3>(robot.inputForceIndex(i)) =
+        CentroidalRobot::inStance(mode, i) ? f : Eigen::Vector3d::Zero();
+  }
+}
+
 void InputTrackingResidual::reference(const ocp::NodeContext& ctx, ocp::VecRef u_ref) const {
   u_ref.setZero();
-  int n = 0;
-  for (int i = 0; i < robot_->nc(); ++i) n += CentroidalRobot::inStance(ctx.mode, i) ? 1 : 0;
-  if (n == 0) return;
-  const Eigen::Vector3d f = -(robot_->mass() / n) * robot_->model().gravity;
-  for (int i = 0; i < robot_->nc(); ++i) {
-    if (CentroidalRobot::inStance(ctx.mode, i)) u_ref.segment<3>(robot_->inputForceIndex(i)) = f;
-  }
+  setStanceForceReference(*robot_, ctx.mode, u_ref);
 }
 
 }  // namespace rollstep::centroidal

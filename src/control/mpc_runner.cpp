@@ -139,7 +139,9 @@ struct MpcRunner::Impl {
   solver::SolverStatus solveRealTime(double t, const Eigen::VectorXd& x) {
     solves_started.fetch_add(1, std::memory_order_relaxed);
     ocp.advance(t);
-    return solver->update(t, x);
+    const solver::SolverStatus status = solver->update(t, x);
+    if (observer) observer(t, *ocp.problem(), solver->states(), solver->inputs());
+    return status;
   }
 
   // --- deterministic timing (the caller's thread only) -----------------------------------
@@ -270,6 +272,7 @@ struct MpcRunner::Impl {
   // grid_start + k period, the next one at k = next_index.
   int released = -1, pending = -1;
   MpcFaultInjection faults;
+  MpcRunner::SolveObserver observer;  ///< diagnostics (setSolveObserver), empty by default
   bool stalled = false;
   int failures = 0;
   double grid_start = 0.0;
@@ -355,6 +358,8 @@ solver::SolverStatus MpcRunner::initializeSchedule(
   m.initialized = true;
   return status;
 }
+
+void MpcRunner::setSolveObserver(SolveObserver observer) { impl_->observer = std::move(observer); }
 
 void MpcRunner::injectFaults(const MpcFaultInjection& faults) {
   impl_->faults = faults;

@@ -189,6 +189,33 @@ std::string NmpcController::mpcUpdatesCsv() const {
   return out;
 }
 
+void NmpcController::enableViolationLog() {
+  if (pipeline_->settings().mpc.timing != control::MpcTiming::Deterministic) {
+    throw std::logic_error("nmpc: the constraint violation log needs deterministic MPC timing");
+  }
+  pipeline_->setMpcSolveObserver([this](double t, const ocp::OptimalControlProblem& problem,
+                                        const std::vector<Eigen::VectorXd>& xs,
+                                        const std::vector<Eigen::VectorXd>& us) {
+    const std::vector<centroidal::ConstraintViolation> v =
+        centroidal::constraintViolations(problem, xs, us);
+    if (violations_csv_.empty()) {
+      violations_csv_ = "time[s]";
+      for (const centroidal::ConstraintViolation& g : v) {
+        violations_csv_ += "," + g.group + "[-]," + g.group + "_node[-]";
+      }
+      violations_csv_ += "\n";
+    }
+    char cell[64];
+    std::snprintf(cell, sizeof cell, "%.4f", t);
+    violations_csv_ += cell;
+    for (const centroidal::ConstraintViolation& g : v) {
+      std::snprintf(cell, sizeof cell, ",%.4g,%d", g.value, g.node);
+      violations_csv_ += cell;
+    }
+    violations_csv_ += "\n";
+  });
+}
+
 NmpcController::~NmpcController() {
   if (pipeline_) pipeline_->stop();
 }

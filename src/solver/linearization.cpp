@@ -52,6 +52,7 @@ void Solver::Impl::linearizeNode(int k) {
   const VectorXd& x = xs[static_cast<std::size_t>(k)];
   const VectorXd& u = uOf(k);
   prob->linearize(k, x, u, d);
+  n.mode_prev = d.context.mode;
   LqStage& st = lq.stage(k);
   if (k < N) {
     const VectorXd& xn = xs[static_cast<std::size_t>(k) + 1];

@@ -102,6 +102,9 @@ struct Solver::Impl {
     bool h2_added = false;
     double delta = 0.0;  // diagonal shift of the Hessian (inertia correction)
     int ni_prev = -1;
+    /// Contact mode the node was last linearised in (-1: never), moved with the shift:
+    /// an input whose node changed mode is refitted (OptimalControlProblem::InputGuess).
+    int mode_prev = -1;
     bool fresh = true;  // (re)initialise slacks and duals at next linearisation
     bool finite = true;
     bool rank_ok = true;

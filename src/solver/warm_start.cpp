@@ -25,6 +25,17 @@ void Solver::Impl::shiftToTime(double t0) {
     }
   }
   prob->setInitialTime(t0);
+  // Appended inputs repeat the old last one, and a node whose time crossed a mode switch
+  // keeps the input of its old mode: the problem may fit those to their nodes.
+  if (has_solution && prob->inputGuess()) {
+    for (int k = 0; k < N; ++k) {
+      const bool appended = k >= N - last_shift;
+      const ocp::NodeContext ctx = prob->context(k);
+      if (appended || ctx.mode != node(k).mode_prev) {
+        prob->inputGuess()(ctx, xs[static_cast<std::size_t>(k)], us[static_cast<std::size_t>(k)]);
+      }
+    }
+  }
 }
 
 /// Moves the solution n whole nodes earlier (warm start of a real-time update): node k
@@ -59,6 +70,7 @@ void Solver::Impl::shiftNodes(int n) {
     a.lam_bak.swap(b.lam_bak);
     a.mult_bak.swap(b.mult_bak);
     std::swap(a.ni_prev, b.ni_prev);
+    std::swap(a.mode_prev, b.mode_prev);
   }
   // The new tail repeats the old last running node (now at N - 1 - n) and the old terminal
   // node (now at N - n, moved to N); it takes their slacks and duals too, as it takes their

@@ -103,6 +103,24 @@ TEST(Costs, InputTrackingReference) {
   }
 }
 
+// The warm-start refit (CentroidalOcp's InputGuess): only the force entries change, to
+// the input tracking reference of the mode; joint velocities are kept.
+TEST(Costs, StanceForceReferenceKeepsJointVelocities) {
+  Fixture s;
+  std::mt19937 rng(33);
+  Eigen::VectorXd u_ref(s.robot->nu());
+  for (int mode : {kAllStance, maskOf({LF, RF, MR}), maskOf({MF, LR, RR}), 0}) {
+    const Eigen::VectorXd u0 = randomInput(*s.robot, rng);
+    Eigen::VectorXd u = u0;
+    rollstep::test::AllocationGuard guard;
+    setStanceForceReference(*s.robot, mode, u);
+    EXPECT_EQ(guard.count(), 0u);
+    s.input->reference(makeContext(mode, 0.0, nullptr, nullptr), u_ref);
+    EXPECT_EQ(u.head(12), u0.head(12)) << "mode " << mode;
+    EXPECT_EQ(u.tail(18), u_ref.tail(18)) << "mode " << mode;
+  }
+}
+
 TEST(Costs, LeastSquaresGradientsMatchFiniteDifferences) {
   Fixture s;
   const auto& space = *s.robot->space();

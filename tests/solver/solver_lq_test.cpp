@@ -2,6 +2,8 @@
 // failure statuses, thread-count invariance, real-time iterations and allocation freedom.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <cstring>
 
 #include "common/alloc_counter.hpp"
@@ -658,6 +660,43 @@ TEST(SolverRealTime, ShiftAcrossModeSwitchesDoesNotAllocate) {
       EXPECT_LE(s.inputs()[static_cast<std::size_t>(k)](0), 2.0 + 1e-6) << k;
     }
   }
+}
+
+// OptimalControlProblem::InputGuess: a real-time update refits the inputs the shift
+// appended and those of nodes whose mode changed since they were solved (the grid moved by
+// 1.5 nodes: nodes near a switch change mode), and no others; without allocating.
+TEST(SolverRealTime, InputGuessRefitsAppendedAndModeChangedNodes) {
+  auto p = pendulumProblem(30);
+  p->addInequality("mode1", std::make_shared<ModeBound>());
+  const int N = p->horizon();
+  const double dt = p->dt();
+  p->modeSchedule().set({0.32, 0.62, 0.92, 1.22, 1.52, 1.82, 2.12}, {0, 1, 0, 1, 0, 1, 0, 1});
+  std::array<int, 64> calls{};
+  p->setInputGuess([&calls](const ocp::NodeContext& ctx, ocp::ConstVecRef, ocp::VecRef u) {
+    ++calls[static_cast<std::size_t>(ctx.node)];
+    u(0) = ctx.mode == 1 ? 1.0 : 0.0;
+  });
+  auto set = tight();
+  set.mode = solver::SolverMode::RealTime;
+  Solver s(p, set);
+  VectorXd x = (VectorXd(2) << 1.0, 0.0).finished();
+  ASSERT_EQ(s.update(0.0, x), SolverStatus::IterationDone);
+  EXPECT_EQ(std::count(calls.begin(), calls.end(), 0), 64);  // nothing solved before
+  x = s.states()[1];
+  test::AllocationGuard guard;
+  ASSERT_EQ(s.update(1.5 * dt, x), SolverStatus::IterationDone);
+  EXPECT_EQ(guard.count(), 0u);
+  ASSERT_EQ(s.lastShift(), 1);
+  int refitted = 0;
+  for (int k = 0; k < N; ++k) {
+    // Node k now holds what node k + 1 was (time (k + 1) dt); it lies at 1.5 dt + k dt.
+    const int old_mode = p->modeSchedule().modeAt((k + 1) * dt);
+    const int new_mode = p->modeSchedule().modeAt(1.5 * dt + k * dt);
+    const bool expected = k == N - 1 || old_mode != new_mode;
+    EXPECT_EQ(calls[static_cast<std::size_t>(k)], expected ? 1 : 0) << "node " << k;
+    refitted += expected ? 1 : 0;
+  }
+  EXPECT_GE(refitted, 4);  // the appended node and a node at each switch in the horizon
 }
 
 /// A double integrator whose model breaks (NaN) above a speed of 3.

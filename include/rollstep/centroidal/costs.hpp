@@ -58,6 +58,11 @@ class StateTrackingResidual final : public ocp::StateErrorResidual {
   std::shared_ptr<const planning::BaseReference> base_;
 };
 
+/// The paper's reference contact forces of `mode`: the stance contacts share the weight
+/// (-m g / n each, world frame), swing contacts carry none. Writes only the force entries
+/// of u (robot.inputForceIndex); joint velocities are left as they are.
+void setStanceForceReference(const CentroidalRobot& robot, int mode, ocp::VecRef u);
+
 class InputTrackingResidual final : public ocp::InputErrorResidual {
  public:
   /// Throws std::invalid_argument for a null robot.

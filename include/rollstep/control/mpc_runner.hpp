@@ -17,6 +17,7 @@
 #include <Eigen/Core>
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <thread>
@@ -110,6 +111,15 @@ class MpcRunner {
 
   /// Deterministic timing only (asynchronous: ignored). Not real-time.
   void injectFaults(const MpcFaultInjection& faults);
+
+  /// Diagnostics: called after every real-time solve, in the solving thread, with the time
+  /// solved from, the problem as solved and the solver's trajectory. It may allocate and
+  /// takes the solve's time, so it is for analysis runs, not for the real-time loop. Set
+  /// it before the first post() (not synchronised with a running thread).
+  using SolveObserver = std::function<void(double t, const ocp::OptimalControlProblem& problem,
+                                           const std::vector<Eigen::VectorXd>& xs,
+                                           const std::vector<Eigen::VectorXd>& us)>;
+  void setSolveObserver(SolveObserver observer);
 
   const centroidal::CentroidalOcp& ocp() const { return *ocp_; }
   const ControlSettings& settings() const { return settings_; }

@@ -151,6 +151,10 @@ class ControlPipeline {
   const ControlSettings& settings() const { return settings_; }
   /// Fault drills and tests: faults of the deterministic MPC (MpcRunner::injectFaults).
   void injectMpcFaults(const MpcFaultInjection& faults) { runner_->injectFaults(faults); }
+  /// Diagnostics of every MPC solve (MpcRunner::setSolveObserver; not real-time).
+  void setMpcSolveObserver(MpcRunner::SolveObserver observer) {
+    runner_->setSolveObserver(std::move(observer));
+  }
   /// Contact index of each drive wheel, in the order of JointCommand::wheel_velocity.
   const std::vector<int>& driveWheelContacts() const { return drive_wheels_; }
 

@@ -14,6 +14,7 @@
 // different nodes concurrently (SolverSettings::num_threads > 1), each into its own
 // NodeData: terms and precomputations must not modify shared state in calc/calcDiff.
 // Hard state bounds are not imposed at node 0 by the solver (x_0 is fixed by x_init).
+#include <functional>
 #include <limits>
 #include <memory>
 #include <string>
@@ -118,6 +119,17 @@ class OptimalControlProblem {
   /// non-Euclidean part must be infinite), on every node 0..N.
   void setStateBounds(const VectorXd& lower, const VectorXd& upper, InequalityOptions options = {});
 
+  /// Warm start of a real-time update (Solver::update) where the previous solution does
+  /// not fit: the inputs a shift appends (they repeat the old last one) and those of nodes
+  /// whose contact mode changed since they were last solved (the node grid moves by
+  /// fractions of dt, so a node near a switch changes mode). The solver calls this for
+  /// them with the node's context and state, for example to set the contact forces of the
+  /// new mode (a foot whose swing begins there would otherwise keep its stance force
+  /// against the swing's f = 0). Must not allocate. None by default.
+  using InputGuess = std::function<void(const NodeContext& ctx, ConstVecRef x, VecRef u)>;
+  void setInputGuess(InputGuess guess) { input_guess_ = std::move(guess); }
+  const InputGuess& inputGuess() const { return input_guess_; }
+
   // --- per-solve inputs (real-time safe) ------------------------------------------------
   void setInitialTime(double t0) { t0_ = t0; }
   double initialTime() const { return t0_; }
@@ -188,6 +200,7 @@ class OptimalControlProblem {
   std::vector<std::string> cost_names_, eq_names_, ineq_names_;
   int max_eq_ = 0, max_ineq_ = 0;
   BoundSet input_bounds_, state_bounds_;
+  InputGuess input_guess_;
 };
 
 }  // namespace rollstep::ocp

@@ -114,6 +114,14 @@ class NmpcController final : public Controller {
   const std::vector<MpcUpdateRecord>& mpcUpdates() const { return updates_; }
   /// The mpc.csv text of mpcUpdates() (header with units, one row per update).
   std::string mpcUpdatesCsv() const;
+  /// Diagnostics (deterministic MPC timing only; throws std::logic_error otherwise): from
+  /// now on every MPC solve's trajectory is checked against the problem it solved
+  /// (centroidal::constraintViolations: the largest violation of each constraint group
+  /// and its node). Slows the run down; the real-time loop itself is unaffected.
+  void enableViolationLog();
+  /// mpc_violations.csv: time[s], then per group <group>[-] and <group>_node[-]; empty
+  /// when the log is off.
+  const std::string& violationsCsv() const { return violations_csv_; }
 
   control::ControlPipeline& pipeline() { return *pipeline_; }
   const control::ControlPipeline& pipeline() const { return *pipeline_; }
@@ -135,6 +143,7 @@ class NmpcController final : public Controller {
   control::RobotState state_;
   control::JointCommand command_;
   solver::SolverStatus initial_status_ = solver::SolverStatus::InvalidInput;
+  std::string violations_csv_;
   std::vector<MpcUpdateRecord> updates_;
 };
 
