@@ -89,6 +89,19 @@ class ElevationMap {
   int fillFootprint(const Eigen::Vector3d* contacts, int count, double margin, double variance);
   /// Empties every cell.
   void clear();
+  /// This map becomes a copy of `other` (cells and placement); `other` must have the same
+  /// size (e.g. the same settings), else nothing is copied and false is returned. Never
+  /// allocates.
+  bool copyFrom(const ElevationMap& other);
+  /// Fills the empty cells that lie in a small gap of one surface (the unseen strips between
+  /// the rings a multi-beam LiDAR draws on the ground): an empty cell whose nearest measured
+  /// cells on both sides along a row, a column or a diagonal are at most max_gap_cells cells
+  /// apart (the empty ones between them) and differ by at most max_step [m] in height gets
+  /// the linear interpolation between them (the shortest such gap wins) and the larger of
+  /// their variances. Only interpolates, never extrapolates: an edge or an occlusion shadow
+  /// (one side unseen, or a step between the sides) stays empty. Returns the cells filled.
+  /// Never allocates.
+  int fillGaps(int max_gap_cells, double max_step);
 
   /// Row-major cells (index r * size() + c): height [m] (NaN: empty) and variance [m^2].
   const std::vector<float>& heights() const { return height_; }
