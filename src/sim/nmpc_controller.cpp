@@ -81,9 +81,10 @@ NmpcController::NmpcController(const Plant& plant, const centroidal::RobotOcpDes
                                const control::ControlSettings& settings,
                                const planning::TerrainModel& terrain, planning::GaitKind gait,
                                const planning::BaseVelocityCommand& command,
-                               const StateSourceOptions& source)
+                               const StateSourceOptions& source, int region_edge_capacity)
     : NmpcController(plant, robot, settings, terrain, gait,
-                     std::vector<planning::TimedBaseCommand>{{0.0, command}}, source) {}
+                     std::vector<planning::TimedBaseCommand>{{0.0, command}}, source,
+                     region_edge_capacity) {}
 
 NmpcController::NmpcController(const Plant& plant, const centroidal::RobotOcpDescription& robot,
                                const control::ControlSettings& settings,
@@ -200,14 +201,13 @@ void NmpcController::setPerception(std::unique_ptr<OnlinePerception> perception,
 
 void NmpcController::updatePerception(double t) {
   if (perception_->step(t, *plant_, state_.base_position, state_.base_orientation)) {
-    if (pipeline_->setTerrain(
-            perception_->footholdTerrain(perception_margin_)) == 0) {
+    if (pipeline_->setTerrain(perception_->footholdTerrain(perception_margin_)) == 0) {
       ++terrains_refused_;
     }
   }
   if (perception_->logDue(t)) {
-    perception_->writeSnapshot(t, pipeline_->ocp().terrain(), plannedFootholds(), state_.base_position,
-                               yawOf(state_.base_orientation));
+    perception_->writeSnapshot(t, pipeline_->ocp().terrain(), plannedFootholds(),
+                               state_.base_position, yawOf(state_.base_orientation));
   }
 }
 

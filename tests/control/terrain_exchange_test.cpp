@@ -22,8 +22,8 @@ using rollstep::planning::TerrainModel;
 TerrainModel squares(int n, double h) {
   std::vector<ConvexRegion> regions;
   for (int i = 0; i < n; ++i) {
-    regions.push_back(
-        ConvexRegion::fromPolygon({{i + 0.0, 0.0}, {i + 1.0, 0.0}, {i + 1.0, 1.0}, {i + 0.0, 1.0}}, h));
+    regions.push_back(ConvexRegion::fromPolygon(
+        {{i + 0.0, 0.0}, {i + 1.0, 0.0}, {i + 1.0, 1.0}, {i + 0.0, 1.0}}, h));
   }
   return TerrainModel(std::move(regions));
 }

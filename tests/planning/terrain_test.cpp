@@ -287,7 +287,8 @@ TEST(TerrainModel, QueriesDoNotAllocate) {
 // the margin empties is dropped; swap exchanges without allocating.
 TEST(TerrainModel, ShrinkMovesEveryEdgeInwardsAndDropsVanishedRegions) {
   const Vector3d tilt = Vector3d(0.0, -std::sin(0.1), std::cos(0.1));  // rises along +y
-  const ConvexRegion square = ConvexRegion::fromPolygon({{0, 0}, {1, 0}, {1, 1}, {0, 1}}, 0.3, tilt);
+  const ConvexRegion square =
+      ConvexRegion::fromPolygon({{0, 0}, {1, 0}, {1, 1}, {0, 1}}, 0.3, tilt);
   // A pentagon whose short top-right edge (length 0.02 * sqrt 2) vanishes under 0.1.
   const ConvexRegion cut =
       ConvexRegion::fromPolygon({{2, 0}, {3, 0}, {3, 0.98}, {2.98, 1}, {2, 1}}, 0.0);
@@ -363,8 +364,37 @@ TEST(TerrainModel, ShrinkKeepsSeamsBetweenPiecesOfOneSurface) {
       EXPECT_NEAR(std::min(v.y(), 1.0 - v.y()), 0.1, 1e-12);
     }
   }
-  expectThrowsNaming(
-      [] { rollstep::planning::shrinkTerrain(TerrainModel(), 0.1, -1.0); }, "seam_probe");
+  expectThrowsNaming([] { rollstep::planning::shrinkTerrain(TerrainModel(), 0.1, -1.0); },
+                     "seam_probe");
+}
+
+// Levelling (measured terrains): floor pieces a few millimetres apart and slightly tilted
+// become one level height (area-weighted), so swings between them are level; a step stays a
+// step and a real slope stays a slope.
+TEST(TerrainModel, LevelTerrainMergesNoisyFloorPiecesButKeepsStepsAndSlopes) {
+  const Vector3d tiny_tilt = Vector3d(0.01, 0.0, 1.0).normalized();       // 0.57 deg
+  const Vector3d slope = Vector3d(-std::sin(0.17), 0.0, std::cos(0.17));  // 10 deg
+  const TerrainModel terrain({
+      ConvexRegion::fromPolygon({{0, 0}, {1, 0}, {1, 1}, {0, 1}}, 0.002, tiny_tilt),  // 1 m^2
+      ConvexRegion::fromPolygon({{1, 0}, {2, 0}, {2, 3}, {1, 3}}, -0.002),            // 3 m^2
+      ConvexRegion::fromPolygon({{2, 0}, {3, 0}, {3, 1}, {2, 1}}, 0.2),               // a step
+      ConvexRegion::fromPolygon({{3, 0}, {4, 0}, {4, 1}, {3, 1}}, 0.3, slope),
+  });
+  EXPECT_EQ(terrain.classifySwing({0.5, 0.5}, {1.5, 0.5}), SwingDirection::Descending);
+  const TerrainModel level = rollstep::planning::levelTerrain(terrain, 2.0 * M_PI / 180.0, 0.01);
+  ASSERT_EQ(level.size(), 4);
+  const double merged = (1.0 * 0.002 + 3.0 * -0.002) / 4.0;
+  EXPECT_NEAR(level.region(0).height, merged, 1e-12);
+  EXPECT_NEAR(level.region(1).height, merged, 1e-12);
+  EXPECT_EQ(level.region(0).normal, Vector3d::UnitZ());
+  EXPECT_EQ(level.classifySwing({0.5, 0.5}, {1.5, 0.5}), SwingDirection::Level);
+  EXPECT_DOUBLE_EQ(level.region(2).height, 0.2);
+  EXPECT_EQ(level.classifySwing({1.5, 0.5}, {2.5, 0.5}), SwingDirection::Ascending);
+  EXPECT_EQ(level.region(3).normal, terrain.region(3).normal);  // 10 deg: kept
+  EXPECT_EQ(level.region(0).vertices, terrain.region(0).vertices);
+  expectThrowsNaming([&] { rollstep::planning::levelTerrain(terrain, -1.0, 0.01); }, "max_tilt");
+  expectThrowsNaming([&] { rollstep::planning::levelTerrain(terrain, 0.1, -0.01); },
+                     "height_tolerance");
 }
 
 }  // namespace

@@ -74,5 +74,72 @@ TEST(NmpcController, TrotTickMakesNoAllocationAndRefusesBadStates) {
   EXPECT_EQ(out.wheel_velocity, before.wheel_velocity);
 }
 
+// A new terrain (perception's hand-over, ControlPipeline::setTerrain): the MPC solves on it
+// from its next solve, the real-time side changes to it with the first solution solved on
+// it, and neither allocates (the terrains are swapped in); a terrain the problem cannot take
+// is refused and the one in use stays.
+TEST(NmpcController, TerrainHandOverIsAllocationFreeAndRefusesUnfitTerrains) {
+  SceneConfig scene;
+  Plant plant(scene);
+  const centroidal::RobotOcpDescription robot =
+      centroidal::loadRobotOcpDescription(tachyon3Description());
+  control::ControlSettings settings = shortHorizon();
+  NmpcController controller(plant, robot, settings, terrainFromScene(scene, 0.085),
+                            planning::GaitKind::Trot, planning::BaseVelocityCommand{0.1, 0, 0},
+                            StateSourceOptions{}, 6);
+  PlantCommand command = plant.command();
+  for (int k = 0; k < 30; ++k) {
+    controller.compute(plant.time(), plant.sensors(), command);
+    plant.setCommand(command);
+    plant.step();
+  }
+  control::ControlPipeline& pipeline = controller.pipeline();
+  control::JointCommand out = pipeline.makeCommand();
+  control::RobotState s = pipeline.makeState();
+  control::fromModelState(plant.time(), pipeline.integrator().q(), pipeline.integrator().v(), s);
+  // The floor in two pieces, one a hexagon (6 edges, the capacity), 1 mm higher.
+  const planning::TerrainModel before = pipeline.ocp().terrain();
+  const planning::TerrainModel next({
+      planning::ConvexRegion::fromPolygon({{-3, -1}, {0.2, -1}, {0.2, 1}, {-3, 1}}, 0.001),
+      planning::ConvexRegion::fromPolygon(
+          {{0.2, -1}, {3, -1}, {3.2, -0.5}, {3.2, 0.5}, {3, 1}, {0.2, 1}}, 0.001),
+  });
+  const std::uint64_t version = pipeline.setTerrain(next);
+  EXPECT_EQ(version, 1u);
+  // Refused: empty, or a region with more edges than the capacity.
+  EXPECT_EQ(pipeline.setTerrain(planning::TerrainModel()), 0u);
+  std::vector<Eigen::Vector2d> octagon;
+  for (int k = 0; k < 8; ++k) {
+    octagon.emplace_back(std::cos(k * M_PI / 4), std::sin(k * M_PI / 4));
+  }
+  EXPECT_EQ(pipeline.setTerrain(
+                planning::TerrainModel({planning::ConvexRegion::fromPolygon(octagon, 0.0)})),
+            0u);
+  std::size_t count = 0;
+  std::uint64_t version_seen_by_rt = 0;
+  for (int k = 0; k < 60; ++k) {
+    s.time += 0.001;
+    rollstep::test::AllocationGuard guard;
+    pipeline.tick(s, out);
+    count += guard.count();
+    if (version_seen_by_rt == 0 && pipeline.terrainVersion() == version) {
+      // The real-time side changed with the solution solved on it, not before.
+      EXPECT_TRUE(pipeline.lastTick().solution_adopted);
+      EXPECT_EQ(pipeline.lastSolution().terrain_version, version);
+      version_seen_by_rt = version;
+    }
+  }
+  EXPECT_EQ(count, 0u) << "the real-time tick allocated around a terrain hand-over";
+  EXPECT_EQ(version_seen_by_rt, version);
+  EXPECT_EQ(pipeline.counters().terrain_updates, 1u);
+  EXPECT_EQ(pipeline.runner().terrainVersion(), version);
+  const planning::TerrainModel& now = pipeline.ocp().terrain();
+  ASSERT_EQ(now.size(), 2);
+  EXPECT_EQ(now.region(1).vertices.size(), 6u);
+  EXPECT_DOUBLE_EQ(now.heightAt({1.0, 0.0}), 0.001);
+  EXPECT_NE(before.size(), 2);  // it really changed
+  EXPECT_TRUE(out.joint_position.allFinite());
+}
+
 }  // namespace
 }  // namespace rollstep::sim::test

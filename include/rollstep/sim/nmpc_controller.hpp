@@ -90,7 +90,7 @@ class NmpcController final : public Controller {
   NmpcController(const Plant& plant, const centroidal::RobotOcpDescription& robot,
                  const control::ControlSettings& settings, const planning::TerrainModel& terrain,
                  planning::GaitKind gait, const planning::BaseVelocityCommand& command,
-                 const StateSourceOptions& source = {});
+                 const StateSourceOptions& source = {}, int region_edge_capacity = 0);
   /// Same with a base velocity command schedule (times from the plant's current time).
   /// `region_edge_capacity`: the most edges of a foothold region of a terrain given later
   /// (setPerception: the perception's regions.directions); 0: the initial terrain's.
