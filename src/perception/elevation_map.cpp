@@ -318,10 +318,12 @@ int ElevationMap::fillGaps(int max_gap_cells, double max_step) {
         if (gap > max_gap_cells || gap >= best_gap) continue;
         const double h0 = static_cast<double>(height_[end[0]]);
         const double h1 = static_cast<double>(height_[end[1]]);
-        if (std::abs(h0 - h1) > max_step) continue;
         const double w = static_cast<double>(steps[1]) / (steps[0] + steps[1]);
         best_gap = gap;
-        best_h = static_cast<float>(w * h0 + (1.0 - w) * h1);
+        // Across a step: the lower side (the shadow behind an edge is the lower surface
+        // going on under it; anything higher there would have been seen).
+        best_h = static_cast<float>(std::abs(h0 - h1) <= max_step ? w * h0 + (1.0 - w) * h1
+                                                                  : std::min(h0, h1));
         best_v = std::max(variance_[end[0]], variance_[end[1]]);
       }
       if (best_gap <= max_gap_cells) {

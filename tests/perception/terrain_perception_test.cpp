@@ -130,10 +130,10 @@ TEST(ElevationMap, UpdateMoveAndPredictDoNotAllocate) {
   EXPECT_EQ(guard.count(), 0u);
 }
 
-// Gap filling (the strips between a LiDAR's rings): a floor with every third and fourth row
-// unseen and a step whose top is seen: the floor's gaps are interpolated (a tilted floor
-// exactly), the strip between floor and top (a step across it) and the map beyond the last
-// measured row (one side unseen) stay empty, wide gaps stay empty; no allocation.
+// Gap filling (the strips between a LiDAR's rings, the shadow behind an edge): a floor with
+// every third and fourth row unseen is interpolated (a tilted floor exactly); a narrow
+// shadow between a floor and a step top gets the floor's height; a wide shadow and the map
+// beyond the last measured row (one side unseen) stay empty; no allocation.
 TEST(ElevationMap, FillGapsInterpolatesAcrossSmallGapsOfOneSurfaceOnly) {
   ElevationMapSettings settings;
   settings.length = 1.0;
@@ -167,8 +167,19 @@ TEST(ElevationMap, FillGapsInterpolatesAcrossSmallGapsOfOneSurfaceOnly) {
       EXPECT_NEAR(h, floor(r, c), 1e-5) << r << " " << c;  // linear: exact on a plane
     }
   }
+  // The 6-row shadow below the step top (rows 30-35): wider than 4 cells, stays empty.
   for (int r = 30; r < 36; ++r) {
     for (int c = 0; c < n; ++c) EXPECT_TRUE(std::isnan(copy.height(r, c))) << r << " " << c;
+  }
+  // A 3-row shadow between a floor and a step top: the floor's height (the lower side).
+  ElevationMap shadow(settings);
+  for (int c = 0; c < n; ++c) {
+    for (int r = 0; r < 10; ++r) shadow.setCell(r, c, 0.01f, 1e-4f);
+    for (int r = 13; r < 20; ++r) shadow.setCell(r, c, 0.2f, 1e-4f);
+  }
+  EXPECT_EQ(shadow.fillGaps(4, 0.04), 3 * n);
+  for (int c = 0; c < n; ++c) {
+    for (int r = 10; r < 13; ++r) EXPECT_FLOAT_EQ(shadow.height(r, c), 0.01f) << r << " " << c;
   }
   for (int r = 44; r < n; ++r) {
     for (int c = 0; c < n; ++c) EXPECT_TRUE(std::isnan(copy.height(r, c))) << r << " " << c;
