@@ -79,8 +79,8 @@ std::string runJson(const Scenario& s, const RunOutcome& o, const std::vector<Jo
   j += ", \"log\": " + (o.log ? jsonString(o.dir + "/log.csv") : std::string("null"));
   j += ", \"mpc\": " + (o.mpc ? jsonString(o.dir + "/mpc.csv") : std::string("null"));
   const std::string maps = o.dir + "/map/maps.csv";
-  j += ", \"map\": " + (s.feeds("map") && fs::exists(maps) ? jsonString(o.dir + "/map")
-                                                             : std::string("null"));
+  j += ", \"map\": " +
+       (s.feeds("map") && fs::exists(maps) ? jsonString(o.dir + "/map") : std::string("null"));
   j += ", \"terrain\": " + jsonString(s.terrainText());
   j += std::string(", \"passed\": ") + (o.passed() ? "true" : "false");
   j += ", \"failure\": " + jsonString(o.failureText());
@@ -327,8 +327,8 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
     std::vector<std::vector<std::string>> rows;
     for (std::size_t i = 0; i < outcomes.size(); ++i) {
       const RunOutcome& r = outcomes[i];
-      rows.push_back({set.scenarios[i].name, set.scenarios[i].title,
-                      set.scenarios[i].terrainText(), r.passed() ? "passed" : "**FAILED**",
+      rows.push_back({set.scenarios[i].name, set.scenarios[i].title, set.scenarios[i].terrainText(),
+                      r.passed() ? "passed" : "**FAILED**",
                       r.passed() ? "no fall, body clear of the terrain, joints inside limits" +
                                        std::string(set.scenarios[i].traverse ? ", traversed" : "")
                                  : r.failureText()});

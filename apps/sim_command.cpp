@@ -324,8 +324,7 @@ void runSim(const SimOptions& o, bool scene_given) {
       // Perceived surfaces: unshrunk as the collision solids, shrunk as the footholds.
       std::unique_ptr<sim::OnlinePerception> online = startPerception(o, plant);
       cbfqp = std::make_unique<sim::CbfQpController>(
-          plant, robot, settings,
-          online->footholdTerrain(settings.baseline.foothold_margin),
+          plant, robot, settings, online->footholdTerrain(settings.baseline.foothold_margin),
           online->terrain(), centroidal::gaitKindFromString(o.gait), command,
           online->perception().settings().regions.directions, kCollisionPrismCapacity);
       terrain_text = format(

@@ -30,7 +30,7 @@ struct Scenario {
   /// Terrain source: "scene" (the scene's ground-truth regions) or "perception" (rollstep
   /// sim --terrain perception: perception in closed loop).
   std::string terrain = "scene";
-  bool traverse = false;          ///< must traverse the step(s) to pass
+  bool traverse = false;  ///< must traverse the step(s) to pass
   /// Parts of the report: table1 (Table 1 and Fig. 2), fig4 (stairs histories), fig6 (MPC
   /// CPU time), fig8 (joint commands, integrator comparison), snapshots, map (top view of
   /// the perceived map, regions and footholds: terrain perception only; the run then logs

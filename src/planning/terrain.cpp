@@ -452,9 +452,8 @@ TerrainModel levelTerrain(const TerrainModel& terrain, double max_tilt, double h
   for (int i = 0; i < terrain.size(); ++i) {
     if (terrain.region(i).normal.z() >= min_nz) level.push_back(i);
   }
-  std::sort(level.begin(), level.end(), [&](int a, int b) {
-    return terrain.region(a).height < terrain.region(b).height;
-  });
+  std::sort(level.begin(), level.end(),
+            [&](int a, int b) { return terrain.region(a).height < terrain.region(b).height; });
   std::vector<double> height(static_cast<std::size_t>(terrain.size()), 0.0);
   for (std::size_t first = 0; first < level.size();) {
     const double lowest = terrain.region(level[first]).height;

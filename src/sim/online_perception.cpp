@@ -171,8 +171,8 @@ planning::TerrainModel OnlinePerception::levelTerrain() const {
 }
 
 planning::TerrainModel OnlinePerception::footholdTerrain(double margin) const {
-  return planning::shrinkTerrain(terrain_, margin,
-                                 2.0 * perception_.map().resolution(), kSeamHeightTolerance);
+  return planning::shrinkTerrain(terrain_, margin, 2.0 * perception_.map().resolution(),
+                                 kSeamHeightTolerance);
 }
 
 bool OnlinePerception::logDue(double t) const {

@@ -15,8 +15,8 @@
 #include <cstdio>
 #include <memory>
 
-#include "sim/cbfqp_run.hpp"
 #include "rollstep/sim/online_perception.hpp"
+#include "sim/cbfqp_run.hpp"
 #include "sim/nmpc_run.hpp"
 
 namespace rollstep::sim::test {
