@@ -68,11 +68,10 @@ std::uint64_t ControlPipeline::setTerrain(const planning::TerrainModel& terrain)
   if (!rt_ocp_->acceptsTerrain(terrain) || terrain.maxEdges() > filter_->maxRegionEdges()) {
     return 0;
   }
-  const std::uint64_t version = runner_->publishTerrain(terrain);
-  if (version == 0) return 0;
-  // Published in lockstep with the runner's: the same version numbers.
-  terrain_in_.publish(terrain);
-  return version;
+  // The real-time side's copy first: it is there when a solution solved on it arrives. The
+  // runner applies the same checks (same capacity): both count the same versions.
+  const std::uint64_t version = terrain_in_.publish(terrain);
+  return runner_->publishTerrain(terrain) == version ? version : 0;
 }
 
 JointCommand ControlPipeline::makeCommand() const {
