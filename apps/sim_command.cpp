@@ -375,6 +375,12 @@ void runSim(const SimOptions& o, bool scene_given) {
   // Outputs.
   const OutputFiles files(o.out);
   prepareOutputDir(o.out, files);
+  if (nmpc_controller != nullptr && nmpc_controller->perception() != nullptr) {
+    nmpc_controller->perception()->openLog();
+  }
+  if (cbfqp_controller != nullptr && cbfqp_controller->perception() != nullptr) {
+    cbfqp_controller->perception()->openLog();
+  }
   std::string text;
   try {
     sim::CsvLog log(files.log.string(), controller->logColumns());

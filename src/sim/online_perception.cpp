@@ -66,31 +66,33 @@ OnlinePerception::OnlinePerception(const OnlinePerceptionOptions& options)
   period_ = 1.0 / options_.lidar.rate;
   blind_.assign(static_cast<std::size_t>(options_.lidar.beams * options_.lidar.columns()),
                 Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN()));
-  if (!options_.log_dir.empty()) {
-    namespace fs = std::filesystem;
-    std::error_code ec;
-    fs::create_directories(options_.log_dir, ec);
-    if (ec || !fs::is_directory(options_.log_dir)) {
-      throw OutputError("--log-map '" + options_.log_dir + "': cannot create the directory" +
-                        (ec ? ": " + ec.message() : std::string()));
-    }
-    // Snapshots of an earlier run would mix with this one's.
-    for (const auto& entry : fs::directory_iterator(options_.log_dir, ec)) {
-      const std::string name = entry.path().filename().string();
-      if (name.rfind("heights_", 0) == 0 && entry.path().extension() == ".npy") {
-        fs::remove(entry.path(), ec);
-      }
-    }
-    const fs::path dir(options_.log_dir);
-    maps_ = std::make_unique<AtomicFileWriter>((dir / "maps.csv").string());
-    regions_ = std::make_unique<AtomicFileWriter>((dir / "regions.csv").string());
-    footholds_ = std::make_unique<AtomicFileWriter>((dir / "footholds.csv").string());
-    maps_->write(
-        "snapshot[-],time[s],status,terrain_count[-],regions[-],origin_x[m],origin_y[m],"
-        "resolution[m],size[-],base_x[m],base_y[m],base_yaw[rad],heights_file\n");
-    regions_->write("snapshot[-],region[-],vertex[-],x[m],y[m],z[m]\n");
-    footholds_->write("snapshot[-],foot[-],x[m],y[m],z[m]\n");
+}
+
+void OnlinePerception::openLog() {
+  if (options_.log_dir.empty() || maps_ != nullptr) return;
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  fs::create_directories(options_.log_dir, ec);
+  if (ec || !fs::is_directory(options_.log_dir)) {
+    throw OutputError("--log-map '" + options_.log_dir + "': cannot create the directory" +
+                      (ec ? ": " + ec.message() : std::string()));
   }
+  // Snapshots of an earlier run would mix with this one's.
+  for (const auto& entry : fs::directory_iterator(options_.log_dir, ec)) {
+    const std::string name = entry.path().filename().string();
+    if (name.rfind("heights_", 0) == 0 && entry.path().extension() == ".npy") {
+      fs::remove(entry.path(), ec);
+    }
+  }
+  const fs::path dir(options_.log_dir);
+  maps_ = std::make_unique<AtomicFileWriter>((dir / "maps.csv").string());
+  regions_ = std::make_unique<AtomicFileWriter>((dir / "regions.csv").string());
+  footholds_ = std::make_unique<AtomicFileWriter>((dir / "footholds.csv").string());
+  maps_->write(
+      "snapshot[-],time[s],status,terrain_count[-],regions[-],origin_x[m],origin_y[m],"
+      "resolution[m],size[-],base_x[m],base_y[m],base_yaw[rad],heights_file\n");
+  regions_->write("snapshot[-],region[-],vertex[-],x[m],y[m],z[m]\n");
+  footholds_->write("snapshot[-],foot[-],x[m],y[m],z[m]\n");
 }
 
 OnlinePerception::~OnlinePerception() = default;

@@ -68,9 +68,12 @@ struct OnlinePerceptionCounters {
 
 class OnlinePerception {
  public:
-  /// Throws std::invalid_argument for bad settings, OutputError when the map log directory
-  /// cannot be created.
+  /// Throws std::invalid_argument for bad settings. Writes nothing (openLog does).
   explicit OnlinePerception(const OnlinePerceptionOptions& options);
+  /// Map log (options.log_dir set): creates the directory, removes an earlier run's
+  /// heights_*.npy and opens the CSV files; snapshots are written from then on. Call it when
+  /// the run's outputs may be written (after its inputs loaded). Throws OutputError.
+  void openLog();
   ~OnlinePerception();
 
   /// The first terrain: warmup_scans from the plant's current (ground-truth) sensor pose,
