@@ -411,13 +411,25 @@ TerrainModel shrinkTerrain(const TerrainModel& terrain, double margin, double se
       }
       polygon.swap(clipped);
     }
-    // Drop near-duplicate vertices (an edge clipped to a point) and tiny remains.
+    // Drop near-duplicate vertices (an edge clipped to a point) and vertices on a straight
+    // line through their neighbours: a shrunk region never has more edges than the region.
     clipped.clear();
     for (const Eigen::Vector2d& p : polygon) {
-      if (clipped.empty() || (p - clipped.back()).norm() > 1e-9) clipped.push_back(p);
+      if (clipped.empty() || (p - clipped.back()).norm() > 1e-7) clipped.push_back(p);
     }
-    while (clipped.size() > 1 && (clipped.front() - clipped.back()).norm() <= 1e-9) {
+    while (clipped.size() > 1 && (clipped.front() - clipped.back()).norm() <= 1e-7) {
       clipped.pop_back();
+    }
+    for (std::size_t k = 0; clipped.size() >= 3 && k < clipped.size();) {
+      const std::size_t n = clipped.size();
+      const Eigen::Vector2d& a = clipped[(k + n - 1) % n];
+      const Eigen::Vector2d& c = clipped[(k + 1) % n];
+      const Eigen::Vector2d u = clipped[k] - a, v = c - clipped[k];
+      if (std::abs(u.x() * v.y() - u.y() * v.x()) <= 1e-9 * u.norm() * v.norm()) {
+        clipped.erase(clipped.begin() + static_cast<std::ptrdiff_t>(k));
+      } else {
+        ++k;
+      }
     }
     if (clipped.size() < 3) continue;
     double area = 0.0;
