@@ -315,6 +315,14 @@ TEST(TerrainModel, ShrinkMovesEveryEdgeInwardsAndDropsVanishedRegions) {
     EXPECT_GE(cut.margin(v), 0.1 - 1e-9) << v.transpose();
   }
   EXPECT_LE(c.vertices.size(), 5u);
+  // A vertex on a straight edge does not survive the shrink (no more edges than needed).
+  const ConvexRegion five =
+      ConvexRegion::fromPolygon({{0, 0}, {0.5, 0}, {1, 0}, {1, 1}, {0, 1}}, 0.0);
+  ASSERT_EQ(five.A.rows(), 5);
+  const TerrainModel s5 = rollstep::planning::shrinkTerrain(TerrainModel({five}), 0.1);
+  ASSERT_EQ(s5.size(), 1);
+  EXPECT_EQ(s5.region(0).vertices.size(), 4u);
+  EXPECT_EQ(s5.maxEdges(), 4);
   // Margin 0 changes nothing; a bad margin throws.
   const TerrainModel same = rollstep::planning::shrinkTerrain(terrain, 0.0);
   ASSERT_EQ(same.size(), 3);
