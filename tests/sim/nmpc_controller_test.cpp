@@ -3,7 +3,9 @@
 // for bit.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
+#include <thread>
 
 #include "common/alloc_counter.hpp"
 #include "sim/nmpc_run.hpp"
@@ -138,6 +140,55 @@ TEST(NmpcController, TerrainHandOverIsAllocationFreeAndRefusesUnfitTerrains) {
   EXPECT_EQ(now.region(1).vertices.size(), 6u);
   EXPECT_DOUBLE_EQ(now.heightAt({1.0, 0.0}), 0.001);
   EXPECT_NE(before.size(), 2);  // it really changed
+  EXPECT_TRUE(out.joint_position.allFinite());
+}
+
+// The hand-over across threads (asynchronous MPC: its own thread swaps the terrain in at the
+// start of a solve while this thread publishes the next ones and ticks): every terrain
+// published reaches both sides, the newest in the end (the sanitizer trees run this too:
+// ThreadSanitizer checks the exchange).
+TEST(NmpcController, TerrainHandOverReachesAnAsynchronousMpc) {
+  SceneConfig scene;
+  Plant plant(scene);
+  const centroidal::RobotOcpDescription robot =
+      centroidal::loadRobotOcpDescription(tachyon3Description());
+  control::ControlSettings settings = shortHorizon();
+  settings.mpc.timing = control::MpcTiming::Asynchronous;
+  settings.mpc.max_solution_age = 100.0;  // a slow (sanitized) MPC must not trip the watchdog
+  NmpcController controller(plant, robot, settings, terrainFromScene(scene, 0.085),
+                            planning::GaitKind::Standing, planning::BaseVelocityCommand{},
+                            StateSourceOptions{}, 4);
+  control::ControlPipeline& pipeline = controller.pipeline();
+  control::JointCommand out = pipeline.makeCommand();
+  control::RobotState s = pipeline.makeState();
+  control::fromModelState(plant.time(), pipeline.integrator().q(), pipeline.integrator().v(), s);
+  const auto floorAt = [](double h) {
+    return planning::TerrainModel(
+        {planning::ConvexRegion::fromPolygon({{-3, -2}, {3, -2}, {3, 2}, {-3, 2}}, h)});
+  };
+  std::uint64_t last = 0;
+  for (int k = 0; k < 5; ++k) {
+    last = pipeline.setTerrain(floorAt(0.001 * (k + 1)));
+    ASSERT_EQ(last, static_cast<std::uint64_t>(k + 1));
+    for (int j = 0; j < 20; ++j) {
+      s.time += 0.001;
+      pipeline.tick(s, out);
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+  }
+  // Wait (wall clock) until the MPC solved on the last one and this side adopted a solution
+  // solved on it.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (pipeline.terrainVersion() != last && std::chrono::steady_clock::now() < deadline) {
+    s.time += 0.001;
+    pipeline.tick(s, out);
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  pipeline.stop();
+  EXPECT_EQ(pipeline.runner().terrainVersion(), last);
+  EXPECT_EQ(pipeline.terrainVersion(), last);
+  EXPECT_DOUBLE_EQ(pipeline.ocp().terrain().heightAt({0.0, 0.0}), 0.005);
+  EXPECT_GE(pipeline.counters().terrain_updates, 1u);
   EXPECT_TRUE(out.joint_position.allFinite());
 }
 
