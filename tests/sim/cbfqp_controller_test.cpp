@@ -8,11 +8,14 @@
 
 #include "common/alloc_counter.hpp"
 #include "sim/cbfqp_run.hpp"
+#include "sim/closed_loop_ticks.hpp"
 
 namespace {
 
 using namespace rollstep;
 using namespace rollstep::sim;
+using sim::test::internalState;
+using sim::test::runTicks;
 
 TEST(CbfQpController, TickMakesNoAllocationAndRefusesBadStates) {
   SceneConfig scene;
@@ -26,18 +29,12 @@ TEST(CbfQpController, TickMakesNoAllocationAndRefusesBadStates) {
                              terrainFromScene(scene, settings.baseline.foothold_margin),
                              terrainFromScene(scene, 0.0), planning::GaitKind::Trot,
                              planning::BaseVelocityCommand{0.15, 0, 0});
-  PlantCommand command = plant.command();
-  for (int k = 0; k < 30; ++k) {
-    controller.compute(plant.time(), plant.sensors(), command);
-    plant.setCommand(command);
-    plant.step();
-  }
+  runTicks(controller, plant, 30);
   control::BaselinePipeline& pipeline = controller.pipeline();
   control::JointCommand out = pipeline.makeCommand();
   // The internal state moved to 8 cm before the block with the front wheels: collision rows
   // for them; one second spans a lift-off and a touch-down of each trot group.
-  control::RobotState s = pipeline.makeState();
-  control::fromModelState(plant.time(), pipeline.integrator().q(), pipeline.integrator().v(), s);
+  control::RobotState s = internalState(pipeline, plant.time());
   s.base_position.x() = 1.0 - 0.33 - 0.08;
   std::size_t count = 0;
   int max_rows = 0;
@@ -80,12 +77,7 @@ TEST(CbfQpController, TerrainHandOverIsAllocationFreeAndRemapsTheRegions) {
   CbfQpController controller(plant, robot, settings, terrainFromScene(scene, margin),
                              terrainFromScene(scene, 0.0), planning::GaitKind::Trot,
                              planning::BaseVelocityCommand{0.15, 0, 0}, 0, 8);
-  PlantCommand command = plant.command();
-  for (int k = 0; k < 500; ++k) {  // into the first swings
-    controller.compute(plant.time(), plant.sensors(), command);
-    plant.setCommand(command);
-    plant.step();
-  }
+  runTicks(controller, plant, 500);  // into the first swings
   control::BaselinePipeline& pipeline = controller.pipeline();
   // The same surfaces, numbered and cut differently: floor before the block in two pieces
   // (y < 0, y > 0), then the block, then the floor beyond.
@@ -103,14 +95,9 @@ TEST(CbfQpController, TerrainHandOverIsAllocationFreeAndRemapsTheRegions) {
   EXPECT_EQ(pipeline.setTerrain(planning::TerrainModel(), solids), 0u);
 
   control::JointCommand out = pipeline.makeCommand();
-  control::RobotState s = pipeline.makeState();
   std::size_t count = 0;
-  for (int k = 0; k < 20; ++k) {
-    controller.compute(plant.time(), plant.sensors(), command);  // real states, real plans
-    plant.setCommand(command);
-    plant.step();
-  }
-  control::fromModelState(plant.time(), pipeline.integrator().q(), pipeline.integrator().v(), s);
+  runTicks(controller, plant, 20);  // real states, real plans
+  control::RobotState s = internalState(pipeline, plant.time());
   EXPECT_EQ(pipeline.terrainVersion(), 1u);
   EXPECT_EQ(pipeline.counters().terrain_updates, 1u);
   // A second hand-over inside the guard: the swap and the remap allocate nothing.

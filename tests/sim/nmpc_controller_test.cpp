@@ -8,6 +8,7 @@
 #include <thread>
 
 #include "common/alloc_counter.hpp"
+#include "sim/closed_loop_ticks.hpp"
 #include "sim/nmpc_run.hpp"
 
 namespace rollstep::sim::test {
@@ -42,18 +43,12 @@ TEST(NmpcController, TrotTickMakesNoAllocationAndRefusesBadStates) {
   control::ControlSettings settings = shortHorizon();
   NmpcController controller(plant, robot, settings, terrainFromScene(scene, 0.085),
                             planning::GaitKind::Trot, planning::BaseVelocityCommand{0.1, 0, 0});
-  PlantCommand command = plant.command();
-  for (int k = 0; k < 30; ++k) {  // warm up: first solves, first QP
-    controller.compute(plant.time(), plant.sensors(), command);
-    plant.setCommand(command);
-    plant.step();
-  }
+  runTicks(controller, plant, 30);  // warm up: first solves, first QP
   control::ControlPipeline& pipeline = controller.pipeline();
   control::JointCommand out = pipeline.makeCommand();
   // The tick itself, on the last real state moved along in time: 60 ticks span three MPC
   // solves (deterministic mode solves inside the tick) and three refinements.
-  control::RobotState s = pipeline.makeState();
-  control::fromModelState(plant.time(), pipeline.integrator().q(), pipeline.integrator().v(), s);
+  control::RobotState s = internalState(pipeline, plant.time());
   std::size_t count = 0;
   for (int k = 0; k < 60; ++k) {
     s.time += 0.001;
@@ -89,16 +84,10 @@ TEST(NmpcController, TerrainHandOverIsAllocationFreeAndRefusesUnfitTerrains) {
   NmpcController controller(plant, robot, settings, terrainFromScene(scene, 0.085),
                             planning::GaitKind::Trot, planning::BaseVelocityCommand{0.1, 0, 0},
                             StateSourceOptions{}, 6);
-  PlantCommand command = plant.command();
-  for (int k = 0; k < 30; ++k) {
-    controller.compute(plant.time(), plant.sensors(), command);
-    plant.setCommand(command);
-    plant.step();
-  }
+  runTicks(controller, plant, 30);
   control::ControlPipeline& pipeline = controller.pipeline();
   control::JointCommand out = pipeline.makeCommand();
-  control::RobotState s = pipeline.makeState();
-  control::fromModelState(plant.time(), pipeline.integrator().q(), pipeline.integrator().v(), s);
+  control::RobotState s = internalState(pipeline, plant.time());
   // The floor in two pieces, one a hexagon (6 edges, the capacity), 1 mm higher.
   const planning::TerrainModel before = pipeline.ocp().terrain();
   const planning::TerrainModel next({
@@ -160,8 +149,7 @@ TEST(NmpcController, TerrainHandOverReachesAnAsynchronousMpc) {
                             StateSourceOptions{}, 4);
   control::ControlPipeline& pipeline = controller.pipeline();
   control::JointCommand out = pipeline.makeCommand();
-  control::RobotState s = pipeline.makeState();
-  control::fromModelState(plant.time(), pipeline.integrator().q(), pipeline.integrator().v(), s);
+  control::RobotState s = internalState(pipeline, plant.time());
   const auto floorAt = [](double h) {
     return planning::TerrainModel(
         {planning::ConvexRegion::fromPolygon({{-3, -2}, {3, -2}, {3, 2}, {-3, 2}}, h)});
