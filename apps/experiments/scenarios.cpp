@@ -32,6 +32,7 @@ std::vector<std::string> Scenario::simArgs(const std::string& out_dir,
     a.push_back(config);
   }
   a.insert(a.end(), {"--controller", controller, "--duration", shortestNumberText(duration)});
+  if (!control_config.empty()) a.insert(a.end(), {"--control-config", control_config});
   a.insert(a.end(), args.begin(), args.end());
   if (terrain == "perception") {
     a.insert(a.end(), {"--terrain", "perception"});
@@ -235,6 +236,13 @@ ExperimentSet parseExperimentSet(const std::string& text, const std::string& sou
                 }},
                {"controller",
                 [&](const yaml::Node& v, const std::string& k) { word(r)(v, k, s.controller); }},
+               {"control_config",
+                [&](const yaml::Node& v, const std::string& k) {
+                  word(r)(v, k, s.control_config);
+                  if (!s.control_config.empty() && s.control_config[0] != '/') {
+                    s.control_config = base_dir + "/" + s.control_config;
+                  }
+                }},
                {"duration",
                 [&](const yaml::Node& v, const std::string& k) {
                   number(r, 0.001, 3600.0)(v, k, s.duration);
@@ -243,6 +251,11 @@ ExperimentSet parseExperimentSet(const std::string& text, const std::string& sou
                 [&](const yaml::Node& v, const std::string& k) {
                   words(r)(v, k, s.args);
                   for (std::size_t a = 0; a < s.args.size(); ++a) {
+                    if (s.args[a] == "--control-config") {
+                      r.fail(v.item(a), k,
+                             "'--control-config' is set by the scenario's control_config key "
+                             "(a path relative to this file)");
+                    }
                     if (s.args[a] == "--terrain" || s.args[a].rfind("--terrain=", 0) == 0 ||
                         s.args[a] == "--log-map") {
                       r.fail(v.item(a), k,

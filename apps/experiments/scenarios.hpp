@@ -20,11 +20,14 @@ struct PaperFigures {
 };
 
 struct Scenario {
-  std::string name;               ///< output folder name: letters, digits, '_' and '-'
-  std::string title;              ///< shown in tables and legends
-  std::string scene;              ///< flat, step20 or stairs2 (rollstep sim --scene)
-  std::string scene_config;       ///< optional scene YAML (absolute, resolved from the file)
-  std::string controller;         ///< rollstep sim --controller
+  std::string name;          ///< output folder name: letters, digits, '_' and '-'
+  std::string title;         ///< shown in tables and legends
+  std::string scene;         ///< flat, step20 or stairs2 (rollstep sim --scene)
+  std::string scene_config;  ///< optional scene YAML (absolute, resolved from the file)
+  std::string controller;    ///< rollstep sim --controller
+  /// Optional control settings YAML (rollstep sim --control-config; absolute, resolved from
+  /// the experiments file's folder like scene_config), e.g. behaviours/climb.yaml.
+  std::string control_config;
   double duration = 10.0;         ///< [s]
   std::vector<std::string> args;  ///< the run's other `rollstep sim` options, as typed
   /// Terrain source: "scene" (the scene's ground-truth regions) or "perception" (rollstep

@@ -216,6 +216,15 @@ TEST(ExperimentSet, LoadsTheProjectsFileAndRefusesMistakes) {
       "sim --scene flat --controller nmpc --duration 10 --terrain perception --log-map /o/map "
       "--out /o");
   EXPECT_EQ(perceived.scenarios[0].terrainText(), "perception (LiDAR, closed loop)");
+  // Control settings: a path relative to the experiments file's folder, given as
+  // --control-config after the controller (not in args).
+  const ExperimentSet tuned = parseExperimentSet(
+      "scenarios:\n  - {name: a, scene: step20, controller: nmpc, control_config: "
+      "behaviours/climb.yaml}\n",
+      "f", "/d");
+  EXPECT_EQ(shellCommand(tuned.scenarios[0].simArgs("/o")),
+            "sim --scene step20 --controller nmpc --duration 10 --control-config "
+            "/d/behaviours/climb.yaml --out /o");
   const auto error = [](const std::string& text) {
     try {
       parseExperimentSet(text, "f", "/d");
@@ -245,6 +254,11 @@ TEST(ExperimentSet, LoadsTheProjectsFileAndRefusesMistakes) {
   EXPECT_EQ(error("scenarios:\n  - {name: a, scene: flat, controller: x, figures: [fig9]}\n"),
             "f: line 2: scenarios[0].figures: 'fig9' is not table1, fig4, fig6, fig8, snapshots or "
             "map");
+  EXPECT_NE(error("scenarios:\n  - {name: a, scene: flat, controller: x, args: [--control-config, "
+                  "c.yaml]}\n")
+                .find("scenarios[0].args: '--control-config' is set by the scenario's "
+                      "control_config key"),
+            std::string::npos);
   // The terrain source: a key of its own (not --terrain in args); the map figure needs it.
   EXPECT_EQ(error("scenarios:\n  - {name: a, scene: flat, controller: x, terrain: lidar}\n"),
             "f: line 2: scenarios[0].terrain: 'lidar' is not scene or perception");
