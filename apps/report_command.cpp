@@ -78,6 +78,10 @@ std::string runJson(const Scenario& s, const RunOutcome& o, const std::vector<Jo
   std::string j = "{\"name\": " + jsonString(s.name) + ", \"title\": " + jsonString(s.title);
   j += ", \"log\": " + (o.log ? jsonString(o.dir + "/log.csv") : std::string("null"));
   j += ", \"mpc\": " + (o.mpc ? jsonString(o.dir + "/mpc.csv") : std::string("null"));
+  const std::string maps = o.dir + "/map/maps.csv";
+  j += ", \"map\": " +
+       (s.feeds("map") && fs::exists(maps) ? jsonString(o.dir + "/map") : std::string("null"));
+  j += ", \"terrain\": " + jsonString(s.terrainText());
   j += std::string(", \"passed\": ") + (o.passed() ? "true" : "false");
   j += ", \"failure\": " + jsonString(o.failureText());
   if (o.log && o.assessment.window.found) {
@@ -158,7 +162,7 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
   if (ec) throw OutputError("--out '" + o.out + "': cannot create the directory: " + ec.message());
   const std::string out = fs::absolute(o.out).lexically_normal().string();
   for (const char* old : {"report.md", "report.html", "figures.json", "fig2.png", "fig4.png",
-                          "fig6.png", "fig8.png", "snapshots.png"}) {
+                          "fig6.png", "fig8.png", "map.png", "snapshots.png"}) {
     fs::remove(fs::path(out) / old, ec);
   }
 
@@ -202,8 +206,8 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
               runJson(set.scenarios[i], outcomes[i], limits);
     }
     json += "}, \"figures\": {";
-    const char* const kFigures[] = {"table1", "fig4", "fig6", "fig8"};
-    for (std::size_t f = 0; f < 4; ++f) {
+    const char* const kFigures[] = {"table1", "fig4", "fig6", "fig8", "map"};
+    for (std::size_t f = 0; f < 5; ++f) {
       json += (f ? ", " : "") + jsonString(kFigures[f]) + ": [";
       bool first = true;
       for (const Scenario& s : set.scenarios) {
@@ -314,21 +318,22 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
   doc.bullets({"Command: `" + shellCommand(argv) + "`", "Version: " + versionDescription(),
                "Machine: " + machineDescription(),
                "Experiments: `" + set.source + "` (quoted in full at the end)",
-               "State: the simulator's ground truth (no state estimator); terrain: the scene's "
-               "blocks as convex regions (no perception)."});
+               "State and terrain sources: per run, in the table below (terrain: the scene's "
+               "blocks as convex regions, or perception in closed loop from the simulated "
+               "LiDAR)."});
 
   doc.heading(2, "Runs");
   {
     std::vector<std::vector<std::string>> rows;
     for (std::size_t i = 0; i < outcomes.size(); ++i) {
       const RunOutcome& r = outcomes[i];
-      rows.push_back({set.scenarios[i].name, set.scenarios[i].title,
+      rows.push_back({set.scenarios[i].name, set.scenarios[i].title, set.scenarios[i].terrainText(),
                       r.passed() ? "passed" : "**FAILED**",
                       r.passed() ? "no fall, body clear of the terrain, joints inside limits" +
                                        std::string(set.scenarios[i].traverse ? ", traversed" : "")
                                  : r.failureText()});
     }
-    doc.table({"scenario", "what", "result", "criteria / reason"}, rows);
+    doc.table({"scenario", "what", "terrain", "result", "criteria / reason"}, rows);
     doc.paragraph(
         "Pass criteria: no fall (base tilt at most " +
         fixed(set.criteria.max_tilt * 180.0 / M_PI, 0) +
@@ -432,6 +437,13 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
          "Target (command) and actual joint positions with the internal state integrator and with "
          "naive state feedback (`--integrator naive`).",
          "no fig8 run left a log");
+
+  doc.heading(2, "Perception: top view");
+  figure("map.png",
+         "The elevation map (colour: height), the convex foothold regions in use (outlines) and "
+         "the planned footholds (crosses) at three moments of each run with terrain perception "
+         "(`runs/<scenario>/map/`, docs/PERCEPTION.md).",
+         "no map run (figures: [map], terrain: perception) left a map log");
 
   doc.heading(2, "Snapshots");
   if (!render_gap.empty()) {

@@ -39,6 +39,7 @@
 #include "rollstep/sim/estimator_source.hpp"
 #include "rollstep/sim/lidar.hpp"
 #include "rollstep/sim/nmpc_controller.hpp"
+#include "rollstep/sim/online_perception.hpp"
 #include "rollstep/sim/plant.hpp"
 #include "rollstep/sim/scenario.hpp"
 #include "rollstep/sim/scene.hpp"
@@ -51,8 +52,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-/// Around the wheels' contacts, the part of the map filled from them at the start [m].
-constexpr double kFootprintMargin = 0.15;
+/// The most collision prisms (perceived regions) the baseline's CBF-QP is sized for; a
+/// perceived terrain with more is refused (counted; the last one stays).
+constexpr int kCollisionPrismCapacity = 64;
 
 struct SimOptions {
   std::string scene = "flat";
@@ -73,6 +75,9 @@ struct SimOptions {
   std::string mpc_timing;  // "" = the config's
   std::string integrator;  // "" = the config's
   std::string terrain = "scene";
+  std::string lidar_config, perception_config;  // "" = the built-in defaults
+  std::string log_map;                          // "" = no map log
+  double log_map_rate = 2.0;
   std::string state_source = "ground_truth";
   std::string estimator_config;  // "" = the defaults
   bool log_violations = false;   // DIR/mpc_violations.csv (deterministic timing)
@@ -183,6 +188,43 @@ std::vector<planning::TimedBaseCommand> parseCommandSchedule(const std::string& 
   return out;
 }
 
+/// Perception in closed loop (--terrain perception): the sensor and perception settings,
+/// started at the plant's pose (its first terrain built), with the map log if asked for.
+std::unique_ptr<sim::OnlinePerception> startPerception(const SimOptions& o,
+                                                       const sim::Plant& plant) {
+  sim::OnlinePerceptionOptions options;
+  if (!o.lidar_config.empty()) options.lidar = sim::loadLidarSettings(o.lidar_config);
+  if (!o.perception_config.empty()) {
+    options.perception = perception::loadPerceptionSettings(o.perception_config);
+  }
+  options.log_dir = o.log_map;
+  options.log_rate = o.log_map_rate;
+  auto p = std::make_unique<sim::OnlinePerception>(options);
+  p->start(plant, plant.groundTruth().base_position, plant.groundTruth().base_orientation);
+  return p;
+}
+
+/// The summary's perception line.
+std::string perceptionText(const sim::OnlinePerception& p, std::uint64_t refused,
+                           std::uint64_t in_use) {
+  const sim::OnlinePerceptionCounters& c = p.counters();
+  std::string text = format(
+      "  perception %llu scans at %s Hz: %llu new terrains (%llu handed over, %llu refused), "
+      "%llu kept the last (%llu no points, %llu no finite point, %llu bad pose, %llu no "
+      "planar region); map update + segmentation mean %.1f ms, max %.1f ms; %d regions at "
+      "the end\n",
+      static_cast<unsigned long long>(c.scans), numberText(p.lidar().settings().rate).c_str(),
+      static_cast<unsigned long long>(c.terrains), static_cast<unsigned long long>(in_use),
+      static_cast<unsigned long long>(refused), static_cast<unsigned long long>(c.kept),
+      static_cast<unsigned long long>(c.no_points), static_cast<unsigned long long>(c.non_finite),
+      static_cast<unsigned long long>(c.invalid_pose),
+      static_cast<unsigned long long>(c.no_planar_region),
+      c.scans > 0 ? c.total_update_ms / static_cast<double>(c.scans) : 0.0, c.max_update_ms,
+      p.terrain().size());
+  if (p.snapshots() > 0) text += format("  map log    %d snapshots\n", p.snapshots());
+  return text;
+}
+
 void runSim(const SimOptions& o, bool scene_given) {
   mju_user_warning = printMujocoWarning;
   // Inputs: nothing is written before they have all loaded.
@@ -220,38 +262,21 @@ void runSim(const SimOptions& o, bool scene_given) {
     if (o.mpc_timing == "asynchronous") settings.mpc.timing = control::MpcTiming::Asynchronous;
     if (o.integrator == "internal") settings.integrator.mode = control::IntegratorMode::Internal;
     if (o.integrator == "naive") settings.integrator.mode = control::IntegratorMode::Naive;
-    // The terrain source: the scene's ground truth, or the LiDAR's view from the start pose
-    // (config/lidar.yaml's defaults, a second of scans fused, the blind spot under the
-    // robot filled from its wheel contacts), regions shrunk alike.
+    // The terrain source: the scene's ground truth, or perception in closed loop (the
+    // LiDAR's view from the start pose first, then every scan), regions shrunk alike.
     const double margin = robot.contact_offset + kEdgeClearance;
     planning::TerrainModel terrain;
     std::string terrain_text = "scene ground truth";
+    std::unique_ptr<sim::OnlinePerception> online;
+    int edge_capacity = 0;
     if (o.terrain == "perception") {
-      sim::Lidar lidar;
-      perception::PerceptionSettings perception_settings;
-      perception_settings.regions.margin = margin;
-      perception::TerrainPerception perception(perception_settings);
-      const int scans = static_cast<int>(std::lround(lidar.settings().rate));
-      for (int k = 0; k < scans; ++k) {
-        perception.update(lidar.scan(plant), lidar.lastPose(), k / lidar.settings().rate);
-      }
-      // Under the robot the sensor sees nothing: the wheels' ground contacts fill it.
-      std::array<Eigen::Vector3d, sim::kNumLegs> contacts;
-      for (int leg = 0; leg < sim::kNumLegs; ++leg) {
-        contacts[static_cast<std::size_t>(leg)] =
-            plant.groundTruth().wheel_center[static_cast<std::size_t>(leg)] -
-            plant.wheelRadius(leg) * Eigen::Vector3d::UnitZ();
-      }
-      perception.map().fillFootprint(contacts.data(), sim::kNumLegs, kFootprintMargin, 1e-4);
-      perception.rebuild();
-      if (!perception.hasTerrain()) {
-        throw std::runtime_error(std::string("--terrain perception: no terrain from the LiDAR "
-                                             "at the start pose: ") +
-                                 perception::toString(perception.lastStatus()));
-      }
-      terrain = perception.terrain();
-      terrain_text = format("perception (%d convex regions from %d LiDAR scans at the start)",
-                            terrain.size(), scans);
+      online = startPerception(o, plant);
+      terrain = online->footholdTerrain(margin);
+      edge_capacity = online->perception().settings().regions.directions;
+      terrain_text = format(
+          "perception in closed loop (%d convex regions at the start from %d "
+          "LiDAR scans, then one terrain per scan)",
+          terrain.size(), sim::OnlinePerceptionOptions{}.warmup_scans);
     } else {
       terrain = sim::terrainFromScene(scene, margin);
     }
@@ -265,8 +290,10 @@ void runSim(const SimOptions& o, bool scene_given) {
               : o.estimator_config;
       source.estimator = estimation::loadInekfSettings(tuning);
     }
-    auto nmpc = std::make_unique<sim::NmpcController>(
-        plant, robot, settings, terrain, centroidal::gaitKindFromString(o.gait), schedule, source);
+    auto nmpc = std::make_unique<sim::NmpcController>(plant, robot, settings, terrain,
+                                                      centroidal::gaitKindFromString(o.gait),
+                                                      schedule, source, edge_capacity);
+    if (online) nmpc->setPerception(std::move(online), margin);
     nmpc_controller = nmpc.get();
     if (o.log_violations) {
       if (settings.mpc.timing != control::MpcTiming::Deterministic) {
@@ -299,9 +326,25 @@ void runSim(const SimOptions& o, bool scene_given) {
         o.control_config.empty() ? defaultBaselineConfig() : o.control_config;
     const control::ControlSettings settings = control::loadControlSettings(config);
     const planning::BaseVelocityCommand command{o.vx, o.vy, o.yaw_rate};
-    auto cbfqp = std::make_unique<sim::CbfQpController>(
-        plant, robot, settings, sim::terrainFromScene(scene, settings.baseline.foothold_margin),
-        sim::terrainFromScene(scene, 0.0), centroidal::gaitKindFromString(o.gait), command);
+    std::unique_ptr<sim::CbfQpController> cbfqp;
+    std::string terrain_text = "scene ground truth";
+    if (o.terrain == "perception") {
+      // Perceived surfaces: unshrunk as the collision solids, shrunk as the footholds.
+      std::unique_ptr<sim::OnlinePerception> online = startPerception(o, plant);
+      cbfqp = std::make_unique<sim::CbfQpController>(
+          plant, robot, settings, online->footholdTerrain(settings.baseline.foothold_margin),
+          online->terrain(), centroidal::gaitKindFromString(o.gait), command,
+          online->perception().settings().regions.directions, kCollisionPrismCapacity);
+      terrain_text = format(
+          "perception in closed loop (%d regions at the start, then one "
+          "terrain per scan)",
+          online->terrain().size());
+      cbfqp->setPerception(std::move(online));
+    } else {
+      cbfqp = std::make_unique<sim::CbfQpController>(
+          plant, robot, settings, sim::terrainFromScene(scene, settings.baseline.foothold_margin),
+          sim::terrainFromScene(scene, 0.0), centroidal::gaitKindFromString(o.gait), command);
+    }
     cbfqp_controller = cbfqp.get();
     controller = std::move(cbfqp);
     controller_text = format(
@@ -310,6 +353,7 @@ void runSim(const SimOptions& o, bool scene_given) {
         o.gait.c_str(), numberText(o.vx).c_str(), numberText(o.vy).c_str(),
         numberText(o.yaw_rate).c_str(), numberText(settings.baseline.gait_period).c_str(),
         config.c_str());
+    controller_text += "; terrain " + terrain_text;
   } else {
     // Each side's wheels run at speed -+ turn_speed: beyond the servos' limit they would
     // be clamped and the robot would not do what was asked.
@@ -339,6 +383,12 @@ void runSim(const SimOptions& o, bool scene_given) {
   // Outputs.
   const OutputFiles files(o.out);
   prepareOutputDir(o.out, files);
+  if (nmpc_controller != nullptr && nmpc_controller->perception() != nullptr) {
+    nmpc_controller->perception()->openLog();
+  }
+  if (cbfqp_controller != nullptr && cbfqp_controller->perception() != nullptr) {
+    cbfqp_controller->perception()->openLog();
+  }
   std::string text;
   try {
     sim::CsvLog log(files.log.string(), controller->logColumns());
@@ -389,6 +439,11 @@ void runSim(const SimOptions& o, bool scene_given) {
             static_cast<unsigned long long>(k.contacts_used),
             static_cast<unsigned long long>(k.contacts_rejected));
       }
+      if (sim::OnlinePerception* p = nmpc_controller->perception(); p != nullptr) {
+        p->closeLog();
+        mpc_text += perceptionText(*p, nmpc_controller->terrainsRefused(),
+                                   nmpc_controller->pipeline().counters().terrain_updates);
+      }
     }
 
     if (cbfqp_controller != nullptr) {
@@ -396,6 +451,10 @@ void runSim(const SimOptions& o, bool scene_given) {
       mpc_text = format("  CBF-QP     %llu fallbacks in %llu ticks\n",
                         static_cast<unsigned long long>(c.qp_fallbacks),
                         static_cast<unsigned long long>(c.ticks));
+      if (sim::OnlinePerception* p = cbfqp_controller->perception(); p != nullptr) {
+        p->closeLog();
+        mpc_text += perceptionText(*p, cbfqp_controller->terrainsRefused(), c.terrain_updates);
+      }
     }
     const double deg = 180.0 / M_PI;
     text = format(
@@ -522,12 +581,38 @@ void registerSimCommand(CLI::App& app) {
                                     "solution against the problem it solved and write the "
                                     "largest violation of each constraint group and its node "
                                     "to DIR/mpc_violations.csv (slow; for analysis)"));
-  nmpc_only.push_back(cmd->add_option("--terrain", options->terrain,
-                                      "nmpc only: scene (the scene's ground-truth regions) or "
-                                      "perception (regions from the simulated LiDAR at the "
-                                      "start pose, config/lidar.yaml's sensor)")
-                          ->check(CLI::IsMember({"scene", "perception"}))
-                          ->capture_default_str());
+  CLI::Option* terrain_option =
+      cmd->add_option("--terrain", options->terrain,
+                      "nmpc, cbfqp only: scene (the scene's ground-truth regions) or perception "
+                      "(perception in closed loop: the simulated LiDAR scans at its rate, each "
+                      "scan is fused at the base pose the controller runs on and gives a new "
+                      "terrain; a scan with a bad status keeps the last one)")
+          ->check(CLI::IsMember({"scene", "perception"}))
+          ->capture_default_str();
+  pipeline_only.push_back(terrain_option);
+  std::vector<CLI::Option*> perception_only;
+  perception_only.push_back(
+      cmd->add_option("--lidar-config", options->lidar_config,
+                      "--terrain perception only: YAML LiDAR settings (config/lidar.yaml lists "
+                      "every key; default: its defaults)")
+          ->check(kNotEmpty));
+  perception_only.push_back(
+      cmd->add_option("--perception-config", options->perception_config,
+                      "--terrain perception only: YAML perception settings "
+                      "(config/perception.yaml lists every key; default: its defaults)")
+          ->check(kNotEmpty));
+  perception_only.push_back(
+      cmd->add_option("--log-map", options->log_map,
+                      "--terrain perception only: write the elevation map, the terrain's "
+                      "regions and the planned footholds into this directory at "
+                      "--log-map-rate (docs/PERCEPTION.md: maps.csv, heights_NNNN.npy, "
+                      "regions.csv, footholds.csv)")
+          ->check(kNotEmpty));
+  perception_only.push_back(
+      cmd->add_option("--log-map-rate", options->log_map_rate,
+                      "--terrain perception only: map log snapshots per second")
+          ->check(numberIn(0.01, 100.0, "Hz"))
+          ->capture_default_str());
   nmpc_only.push_back(cmd->add_option("--integrator", options->integrator,
                                       "nmpc only: internal (the internal state integrator) or "
                                       "naive (naive state feedback); default: the control "
@@ -575,8 +660,17 @@ void registerSimCommand(CLI::App& app) {
                   "Default: robots/tachyon3/tachyon3.xml of the source tree, or "
                   "$ROLLSTEP_ROBOTS_DIR/tachyon3/tachyon3.xml")
       ->check(kNotEmpty);
-  cmd->final_callback([options, scene, speed, turn_speed, nmpc_only, pipeline_only,
+  cmd->final_callback([options, scene, speed, turn_speed, nmpc_only, pipeline_only, perception_only,
                        command_schedule] {
+    if (options->terrain != "perception") {
+      for (const CLI::Option* option : perception_only) {
+        if (option->count() > 0) {
+          throw CLI::ValidationError(option->get_name(),
+                                     "is used only with --terrain perception (drop the option "
+                                     "or add --terrain perception)");
+        }
+      }
+    }
     if (options->controller != "nmpc" && options->controller != "cbfqp") {
       for (const CLI::Option* option : pipeline_only) {
         if (option->count() > 0) {

@@ -19,6 +19,10 @@ bool Scenario::feeds(const std::string& figure) const {
   return false;
 }
 
+std::string Scenario::terrainText() const {
+  return terrain == "perception" ? "perception (LiDAR, closed loop)" : "scene ground truth";
+}
+
 std::vector<std::string> Scenario::simArgs(const std::string& out_dir,
                                            const std::string& scene_config_override) const {
   std::vector<std::string> a{"sim", "--scene", scene};
@@ -29,6 +33,10 @@ std::vector<std::string> Scenario::simArgs(const std::string& out_dir,
   }
   a.insert(a.end(), {"--controller", controller, "--duration", shortestNumberText(duration)});
   a.insert(a.end(), args.begin(), args.end());
+  if (terrain == "perception") {
+    a.insert(a.end(), {"--terrain", "perception"});
+    if (feeds("map")) a.insert(a.end(), {"--log-map", out_dir + "/map"});
+  }
   a.insert(a.end(), {"--out", out_dir});
   return a;
 }
@@ -231,7 +239,26 @@ ExperimentSet parseExperimentSet(const std::string& text, const std::string& sou
                 [&](const yaml::Node& v, const std::string& k) {
                   number(r, 0.001, 3600.0)(v, k, s.duration);
                 }},
-               {"args", [&](const yaml::Node& v, const std::string& k) { words(r)(v, k, s.args); }},
+               {"args",
+                [&](const yaml::Node& v, const std::string& k) {
+                  words(r)(v, k, s.args);
+                  for (std::size_t a = 0; a < s.args.size(); ++a) {
+                    if (s.args[a] == "--terrain" || s.args[a].rfind("--terrain=", 0) == 0 ||
+                        s.args[a] == "--log-map") {
+                      r.fail(v.item(a), k,
+                             "'" + s.args[a] +
+                                 "' is set by the scenario's terrain key (terrain: "
+                                 "perception | scene; its map log by figures: [map])");
+                    }
+                  }
+                }},
+               {"terrain",
+                [&](const yaml::Node& v, const std::string& k) {
+                  word(r)(v, k, s.terrain);
+                  if (s.terrain != "scene" && s.terrain != "perception") {
+                    r.fail(v, k, "'" + s.terrain + "' is not scene or perception");
+                  }
+                }},
                {"traverse",
                 [&](const yaml::Node& v, const std::string& k) { flag(r)(v, k, s.traverse); }},
                {"video",
@@ -242,9 +269,9 @@ ExperimentSet parseExperimentSet(const std::string& text, const std::string& sou
                   for (std::size_t f = 0; f < s.figures.size(); ++f) {
                     const std::string& name = s.figures[f];
                     if (name != "table1" && name != "fig4" && name != "fig6" && name != "fig8" &&
-                        name != "snapshots") {
+                        name != "snapshots" && name != "map") {
                       r.fail(v.item(f), k,
-                             "'" + name + "' is not table1, fig4, fig6, fig8 or snapshots");
+                             "'" + name + "' is not table1, fig4, fig6, fig8, snapshots or map");
                     }
                   }
                 }},
@@ -279,6 +306,10 @@ ExperimentSet parseExperimentSet(const std::string& text, const std::string& sou
            }
            if (set.find(s.name) != nullptr) {
              r.fail(item, prefix + "name", "'" + s.name + "' is used by another scenario");
+           }
+           if (s.feeds("map") && s.terrain != "perception") {
+             r.fail(item, prefix + "figures",
+                    "map (the perceived map's top view) needs terrain: perception");
            }
            if (s.title.empty()) s.title = s.name;
            set.scenarios.push_back(std::move(s));

@@ -27,14 +27,21 @@ struct Scenario {
   std::string controller;         ///< rollstep sim --controller
   double duration = 10.0;         ///< [s]
   std::vector<std::string> args;  ///< the run's other `rollstep sim` options, as typed
-  bool traverse = false;          ///< must traverse the step(s) to pass
+  /// Terrain source: "scene" (the scene's ground-truth regions) or "perception" (rollstep
+  /// sim --terrain perception: perception in closed loop).
+  std::string terrain = "scene";
+  bool traverse = false;  ///< must traverse the step(s) to pass
   /// Parts of the report: table1 (Table 1 and Fig. 2), fig4 (stairs histories), fig6 (MPC
-  /// CPU time), fig8 (joint commands, integrator comparison), snapshots.
+  /// CPU time), fig8 (joint commands, integrator comparison), snapshots, map (top view of
+  /// the perceived map, regions and footholds: terrain perception only; the run then logs
+  /// its map, --log-map DIR/map).
   std::vector<std::string> figures;
   bool video = true;
   PaperFigures paper;
 
   bool feeds(const std::string& figure) const;
+  /// "scene ground truth" or "perception (closed loop)".
+  std::string terrainText() const;
   /// The `rollstep sim` arguments of this run with outputs in `out_dir` (no program name).
   std::vector<std::string> simArgs(const std::string& out_dir,
                                    const std::string& scene_config_override = "") const;

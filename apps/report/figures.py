@@ -4,7 +4,8 @@
 Usage: figures.py FIGURES_JSON
 FIGURES_JSON (written by the report) names the output folder, each run (its log.csv and
 mpc.csv, pass/fail, traverse window, joint limits) and which runs feed which figure. Writes
-fig2.png, fig4.png, fig6.png and fig8.png into the output folder for the figures that have at
+fig2.png, fig4.png, fig6.png, fig8.png and map.png (top views of the perceived map, its
+regions and the planned footholds, from a run's map log) into the output folder for the figures that have at
 least one run with a log; a failed run is drawn as far as its log goes and labelled FAILED.
 Only the standard library and matplotlib; plots only what the logs hold.
 """
@@ -195,6 +196,91 @@ def fig8(spec, runs, out):
     return True
 
 
+def read_npy_f32(path):
+    """A 2-D float32 .npy (version 1.0, C order) as a list of rows; the standard library only."""
+    import struct
+    with open(path, "rb") as f:
+        data = f.read()
+    if data[:6] != b"\x93NUMPY":
+        raise ValueError("%s: not a .npy file" % path)
+    n = struct.unpack("<H", data[8:10])[0]
+    header = data[10:10 + n].decode("latin1")
+    if "'<f4'" not in header or "True" in header:
+        raise ValueError("%s: expected little-endian float32 in C order" % path)
+    shape = tuple(int(x) for x in header.split("(")[1].split(")")[0].split(",") if x.strip())
+    values = struct.unpack("<%df" % (shape[0] * shape[1]), data[10 + n:10 + n + 4 * shape[0] * shape[1]])
+    return [list(values[r * shape[1]:(r + 1) * shape[1]]) for r in range(shape[0])]
+
+
+def top_view(ax, map_dir, snapshot, maps, regions, footholds, vmin, vmax):
+    """One snapshot: the map as an image, the regions' outlines, the footholds, the base."""
+    row = maps[snapshot]
+    heights = read_npy_f32(os.path.join(map_dir, row["heights_file"]))
+    x0, y0 = float(row["origin_x[m]"]), float(row["origin_y[m]"])
+    size = int(row["size[-]"]) * float(row["resolution[m]"])
+    image = ax.imshow(heights, origin="lower", extent=[x0, x0 + size, y0, y0 + size], cmap="viridis",
+                      vmin=vmin, vmax=vmax, interpolation="nearest")
+    for poly in regions.get(snapshot, {}).values():
+        xs = [p[0] for p in poly] + [poly[0][0]]
+        ys = [p[1] for p in poly] + [poly[0][1]]
+        ax.plot(xs, ys, "-", color="white", lw=0.8)
+    feet = footholds.get(snapshot, [])
+    if feet:
+        ax.plot([p[0] for p in feet], [p[1] for p in feet], "x", color="red", ms=4, mew=1.0)
+    bx, by, yaw = float(row["base_x[m]"]), float(row["base_y[m]"]), float(row["base_yaw[rad]"])
+    ax.plot([bx], [by], "o", color="orange", ms=4)
+    ax.plot([bx, bx + 0.3 * math.cos(yaw)], [by, by + 0.3 * math.sin(yaw)], "-", color="orange")
+    ax.set_title("t = %.1f s: %s regions, %s" % (float(row["time[s]"]), row["regions[-]"],
+                                                 row["status"]), fontsize=8)
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_aspect("equal")
+    return image
+
+
+def fig_map(spec, runs, out):
+    """Top views of the perceived map (docs/PERCEPTION.md's map log) at three moments per run."""
+    runs = [r for r in runs if r.get("map")]
+    if not runs:
+        return False
+    fig, axes = plt.subplots(len(runs), 3, figsize=(15, 5 * len(runs)), squeeze=False)
+    for row_index, run in enumerate(runs):
+        map_dir = run["map"]
+        with open(os.path.join(map_dir, "maps.csv"), newline="") as f:
+            maps = list(csv.DictReader(f))
+        regions, footholds = {}, {}
+        with open(os.path.join(map_dir, "regions.csv"), newline="") as f:
+            for r in csv.DictReader(f):
+                regions.setdefault(int(r["snapshot[-]"]), {}).setdefault(int(r["region[-]"]), []).append(
+                    (float(r["x[m]"]), float(r["y[m]"])))
+        with open(os.path.join(map_dir, "footholds.csv"), newline="") as f:
+            for r in csv.DictReader(f):
+                footholds.setdefault(int(r["snapshot[-]"]), []).append((float(r["x[m]"]), float(r["y[m]"])))
+        if not maps:
+            continue
+        picks = sorted(set([0, len(maps) // 2, len(maps) - 1]))
+        # One colour scale per run: the heights of the snapshots drawn.
+        values = []
+        for k in picks:
+            for line in read_npy_f32(os.path.join(map_dir, maps[k]["heights_file"])):
+                values.extend(v for v in line if v == v)
+        vmin, vmax = (min(values), max(values)) if values else (0.0, 1.0)
+        image = None
+        for col in range(3):
+            ax = axes[row_index][col]
+            if col < len(picks):
+                image = top_view(ax, map_dir, picks[col], maps, regions, footholds, vmin, vmax)
+            else:
+                ax.axis("off")
+        axes[row_index][0].annotate(label(run) + " (" + run.get("terrain", "") + ")", (0, 1.08),
+                                    xycoords="axes fraction", fontsize=9)
+        if image is not None:
+            fig.colorbar(image, ax=list(axes[row_index]), label="height [m]", shrink=0.8)
+    fig.savefig(os.path.join(out, "map.png"), dpi=80)
+    plt.close(fig)
+    return True
+
+
 def main():
     if len(sys.argv) != 2:
         sys.exit("usage: figures.py FIGURES_JSON")
@@ -207,7 +293,8 @@ def main():
     jobs = [("fig2", lambda: fig2(spec, pick("table1"), out)),
             ("fig4", lambda: fig4(spec, pick("fig4"), out)),
             ("fig6", lambda: fig6(spec, pick("fig6"), spec["machine"], out)),
-            ("fig8", lambda: fig8(spec, pick("fig8"), out))]
+            ("fig8", lambda: fig8(spec, pick("fig8"), out)),
+            ("map", lambda: fig_map(spec, pick("map"), out))]
     for name, job in jobs:
         # One figure's trouble (a log without a column) must not cost the others.
         try:

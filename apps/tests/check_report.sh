@@ -17,8 +17,9 @@ for f in report.md report.html figures.json runs/flat_trot/log.csv runs/flat_tro
   [ -s "$out/$f" ] || fail "missing $f"
 done
 md="$out/report.md"
-grep -q '| flat_trot | trot on flat | passed |' "$md" || fail "flat_trot not shown as passed"
-grep -q '| step20_short | step20, too short to climb | \*\*FAILED\*\* | did not traverse the step: the MF wheel never landed on the step |' "$md" \
+grep -q '| flat_trot | trot on flat | perception (LiDAR, closed loop) | passed |' "$md" \
+  || fail "flat_trot not shown as passed on perception"
+grep -q '| step20_short | step20, too short to climb | scene ground truth | \*\*FAILED\*\* | did not traverse the step: the MF wheel never landed on the step |' "$md" \
   || fail "step20_short not shown as failed with its reason"
 grep -q '| step20, too short to climb | not measured | 14 | not measured | 0.021 | not measured | 0.056 |' "$md" \
   || fail "Table 1 row of the failed run: expected 'not measured' beside the paper's figures"
@@ -26,9 +27,10 @@ grep -q 'Not met' "$md" || fail "acceptance verdict missing"
 grep -q 'Version: ' "$md" || fail "version missing"
 grep -q 'rollstep sim --scene flat --controller nmpc --duration 1 --gait trot' "$md" \
   || fail "the run's exact command is missing"
+[ -s "$out/runs/flat_trot/map/maps.csv" ] || fail "the perception run left no map log"
 grep -q '<table>' "$out/report.html" || fail "report.html has no table"
 # Figures: drawn, or stated as not available (never silently missing).
-for fig in fig2 fig4 fig6 fig8; do
+for fig in fig2 fig4 fig6 fig8 map; do
   [ -s "$out/$fig.png" ] || grep -q "Figure not available" "$md" || fail "$fig neither drawn nor stated"
 done
 # Pictures: made, or stated as not available with a warning.
@@ -49,6 +51,6 @@ fi
   --no-videos > /dev/null 2>&1 || fail "the second report"
 cmp -s "$out/runs/step20_short/log.csv" "$out.again/runs/step20_short/log.csv" \
   || fail "re-running changed step20_short's log"
-grep -q '| step20_short | step20, too short to climb | \*\*FAILED\*\* | did not traverse' "$out.again/report.md" \
+grep -q '| step20_short | step20, too short to climb | scene ground truth | \*\*FAILED\*\* | did not traverse' "$out.again/report.md" \
   || fail "the second report differs"
 echo "report check passed"

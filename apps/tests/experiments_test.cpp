@@ -205,6 +205,17 @@ TEST(ExperimentSet, LoadsTheProjectsFileAndRefusesMistakes) {
 
   const std::string ok = "scenarios:\n  - {name: a, scene: flat, controller: nmpc}\n";
   EXPECT_EQ(parseExperimentSet(ok, "f", "/d").scenarios.size(), 1u);
+  EXPECT_EQ(parseExperimentSet(ok, "f", "/d").scenarios[0].terrain, "scene");
+  // Perception: the run gets --terrain perception, and its map log with the map figure.
+  const ExperimentSet perceived = parseExperimentSet(
+      "scenarios:\n  - {name: a, scene: flat, controller: nmpc, terrain: perception, figures: "
+      "[map]}\n",
+      "f", "/d");
+  EXPECT_EQ(
+      shellCommand(perceived.scenarios[0].simArgs("/o")),
+      "sim --scene flat --controller nmpc --duration 10 --terrain perception --log-map /o/map "
+      "--out /o");
+  EXPECT_EQ(perceived.scenarios[0].terrainText(), "perception (LiDAR, closed loop)");
   const auto error = [](const std::string& text) {
     try {
       parseExperimentSet(text, "f", "/d");
@@ -232,7 +243,18 @@ TEST(ExperimentSet, LoadsTheProjectsFileAndRefusesMistakes) {
             "folder)");
   EXPECT_EQ(error("scenarios: []\n"), "f: no scenarios");
   EXPECT_EQ(error("scenarios:\n  - {name: a, scene: flat, controller: x, figures: [fig9]}\n"),
-            "f: line 2: scenarios[0].figures: 'fig9' is not table1, fig4, fig6, fig8 or snapshots");
+            "f: line 2: scenarios[0].figures: 'fig9' is not table1, fig4, fig6, fig8, snapshots or "
+            "map");
+  // The terrain source: a key of its own (not --terrain in args); the map figure needs it.
+  EXPECT_EQ(error("scenarios:\n  - {name: a, scene: flat, controller: x, terrain: lidar}\n"),
+            "f: line 2: scenarios[0].terrain: 'lidar' is not scene or perception");
+  EXPECT_NE(error("scenarios:\n  - {name: a, scene: flat, controller: x, args: [--terrain, "
+                  "perception]}\n")
+                .find("scenarios[0].args: '--terrain' is set by the scenario's terrain key"),
+            std::string::npos);
+  EXPECT_EQ(error("scenarios:\n  - {name: a, scene: flat, controller: x, figures: [map]}\n"),
+            "f: line 2: scenarios[0].figures: map (the perceived map's top view) needs terrain: "
+            "perception");
 }
 
 TEST(Trials, DrawsAreFixedBySeedAndInRange) {

@@ -1,5 +1,6 @@
 #include "rollstep/centroidal/centroidal_ocp.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -80,8 +81,13 @@ Eigen::VectorXd repeat(double value, int n) { return Eigen::VectorXd::Constant(n
 }  // namespace
 
 CentroidalOcp::CentroidalOcp(const RobotOcpDescription& description, const OcpSettings& settings,
-                             planning::TerrainModel terrain, planning::GaitKind gait)
+                             planning::TerrainModel terrain, planning::GaitKind gait,
+                             int region_edge_capacity)
     : settings_(settings), contact_names_(description.contact_frames) {
+  if (region_edge_capacity < 0) {
+    throw std::invalid_argument("CentroidalOcp: region_edge_capacity = " +
+                                std::to_string(region_edge_capacity) + " must be >= 0");
+  }
   // --- the robot --------------------------------------------------------------------------
   auto model =
       std::make_shared<const model::Model>(model::buildModelFromUrdfFile(description.urdf));
@@ -130,6 +136,8 @@ CentroidalOcp::CentroidalOcp(const RobotOcpDescription& description, const OcpSe
 
   // --- planning inputs ------------------------------------------------------------------------
   terrain_ = std::make_unique<planning::TerrainModel>(std::move(terrain));
+  region_edge_capacity_ = std::max(region_edge_capacity, terrain_->maxEdges());
+  has_regions_ = terrain_->size() > 0;
   planning::BaseReferenceConfig base_config;
   base_config.nominal_height = nominal_height_;
   base_config.height_samples = nominal_feet_;  // the body rises as the feet climb
@@ -224,11 +232,13 @@ CentroidalOcp::CentroidalOcp(const RobotOcpDescription& description, const OcpSe
                           std::make_shared<FrictionPyramidResidual>(robot_, refs, friction));
   if (terrain_->size() > 0) {
     problem_->addInequality("stance_region",
-                            std::make_shared<FootRegionResidual>(robot_, refs, RegionUse::Stance),
+                            std::make_shared<FootRegionResidual>(robot_, refs, RegionUse::Stance,
+                                                                 region_edge_capacity_),
                             ocp::Stage::Running, state_only);
-    problem_->addInequality("swing_region",
-                            std::make_shared<FootRegionResidual>(robot_, refs, RegionUse::Swing),
-                            ocp::Stage::Running, state_only);
+    problem_->addInequality(
+        "swing_region",
+        std::make_shared<FootRegionResidual>(robot_, refs, RegionUse::Swing, region_edge_capacity_),
+        ocp::Stage::Running, state_only);
   }
   JointLimitBoundOptions limits;
   limits.position_margin = settings.joint_limit_margin;
@@ -257,6 +267,16 @@ void CentroidalOcp::resetSchedule(double t0, const lie::SE3& start,
 void CentroidalOcp::advance(double t0) {
   problem_->setInitialTime(t0);
   scheduler_->fill(t0, settings_.horizon * settings_.dt, problem_->modeSchedule());
+}
+
+bool CentroidalOcp::acceptsTerrain(const planning::TerrainModel& terrain) const noexcept {
+  return (terrain.size() > 0) == has_regions_ && terrain.maxEdges() <= region_edge_capacity_;
+}
+
+bool CentroidalOcp::swapTerrain(planning::TerrainModel& terrain) noexcept {
+  if (!acceptsTerrain(terrain)) return false;
+  terrain_->swap(terrain);
+  return true;
 }
 
 Eigen::VectorXd CentroidalOcp::standingState(double x, double y, double yaw) const {

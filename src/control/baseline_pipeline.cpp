@@ -27,15 +27,16 @@ BaselinePipeline::BaselinePipeline(const centroidal::RobotOcpDescription& robot,
                                    const ControlSettings& settings,
                                    const planning::TerrainModel& terrain,
                                    const planning::TerrainModel& collision_terrain,
-                                   planning::GaitKind gait)
+                                   planning::GaitKind gait, int region_edge_capacity,
+                                   int collision_prism_capacity)
     : settings_(settings) {
   checkSettings(settings_);
   ocp_ = std::make_unique<centroidal::CentroidalOcp>(robot, plannerOcpSettings(settings_), terrain,
-                                                     gait);
+                                                     gait, region_edge_capacity);
   collision_terrain_ = std::make_unique<planning::TerrainModel>(collision_terrain);
   planner_ = std::make_unique<ReactivePlanner>(*ocp_, *collision_terrain_, settings_.baseline);
   filter_ = std::make_unique<CbfQpFilter>(ocp_->robotPtr(), ocp_->terrain(), settings_.cbf_qp, 0.0,
-                                          collision_terrain_.get());
+                                          collision_terrain_.get(), collision_prism_capacity);
   const centroidal::CentroidalRobot& r = ocp_->robot();
   integrator_ = std::make_unique<StateIntegrator>(r.modelPtr(), settings_.integrator,
                                                   settings_.control_period);
@@ -61,6 +62,16 @@ JointCommand BaselinePipeline::makeCommand() const {
   c.joint_velocity = Eigen::VectorXd::Zero(robot().nj());
   c.wheel_velocity = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(drive_wheels_.size()));
   return c;
+}
+
+std::uint64_t BaselinePipeline::setTerrain(const planning::TerrainModel& terrain,
+                                           const planning::TerrainModel& collision_terrain) {
+  if (terrain.size() == 0 || !ocp_->acceptsTerrain(terrain) ||
+      terrain.maxEdges() > filter_->maxRegionEdges() ||
+      collision_terrain.size() > filter_->maxCollisionPrisms()) {
+    return 0;
+  }
+  return terrain_in_.publish(TerrainPair{terrain, collision_terrain});
 }
 
 void BaselinePipeline::initialize(const RobotState& state,
@@ -110,6 +121,16 @@ void BaselinePipeline::tick(const RobotState& state, JointCommand& command) noex
     return;
   }
   toModelState(state, q_meas_, v_meas_);
+
+  // A new terrain (setTerrain): swapped in, the planner's indices moved onto it.
+  std::uint64_t version = 0;
+  if (terrain_in_.take(incoming_, version) && ocp_->swapTerrain(incoming_.footholds)) {
+    collision_terrain_->swap(incoming_.solids);
+    planner_->remapRegions(incoming_.footholds);
+    terrain_version_ = version;
+    ++counters_.terrain_updates;
+  }
+  record_.terrain_version = terrain_version_;
 
   // Feet at the internal state.
   const Eigen::VectorXd& q = integrator_->q();

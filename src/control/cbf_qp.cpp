@@ -173,7 +173,8 @@ struct CbfQpFilter::Work {
 CbfQpFilter::CbfQpFilter(std::shared_ptr<const centroidal::CentroidalRobot> robot,
                          const planning::TerrainModel& terrain, const CbfQpSettings& settings,
                          double lateral_slip_weight,
-                         const planning::TerrainModel* collision_terrain)
+                         const planning::TerrainModel* collision_terrain,
+                         int collision_prism_capacity)
     : robot_(std::move(robot)),
       terrain_(&terrain),
       collision_terrain_(collision_terrain != nullptr ? collision_terrain : &terrain),
@@ -187,8 +188,10 @@ CbfQpFilter::CbfQpFilter(std::shared_ptr<const centroidal::CentroidalRobot> robo
   max_region_edges_ = terrainMaxEdges(terrain);
   require(robot_->nc() <= kMaxContactsForHull, "too many contacts for the support polygon");
   const int support_rows = settings_.support_gamma > 0.0 ? robot_->nc() : 0;
+  require(collision_prism_capacity >= 0, "negative collision_prism_capacity");
+  max_collision_prisms_ = std::max(collision_prism_capacity, collision_terrain_->size());
   const int collision_rows =
-      settings_.collision_gamma > 0.0 ? robot_->nc() * collision_terrain_->size() : 0;
+      settings_.collision_gamma > 0.0 ? robot_->nc() * max_collision_prisms_ : 0;
   const DenseQpDims dims{robot_->nv(), maxEqualities(*robot_),
                          robot_->nc() * (max_region_edges_ + 1) + support_rows + collision_rows};
   qp_ = DenseQpProblem(dims);

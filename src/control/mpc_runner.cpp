@@ -133,11 +133,17 @@ struct MpcRunner::Impl {
     out.primal_step = stats.empty() ? 0.0 : stats.back().primal_step;
     out.solve_time_ms = solve_time_ms;
     out.release_time = release_time;
+    out.terrain_version = terrain_version.load(std::memory_order_relaxed);
   }
 
   /// One real-time iteration from x at t (never allocates).
   solver::SolverStatus solveRealTime(double t, const Eigen::VectorXd& x) {
     solves_started.fetch_add(1, std::memory_order_relaxed);
+    // A new terrain takes effect at the start of a solve (swapped in: no allocation).
+    std::uint64_t version = 0;
+    if (terrain_in.take(incoming_terrain, version) && ocp.swapTerrain(incoming_terrain)) {
+      terrain_version.store(version, std::memory_order_relaxed);
+    }
     ocp.advance(t);
     const solver::SolverStatus status = solver->update(t, x);
     if (observer) observer(t, *ocp.problem(), solver->states(), solver->inputs());
@@ -284,6 +290,11 @@ struct MpcRunner::Impl {
   std::thread thread;
   std::atomic<bool> stop_requested{false};
 
+  // Terrains from the producer (publishTerrain) to the solving side.
+  LatestValueExchange<planning::TerrainModel> terrain_in;
+  planning::TerrainModel incoming_terrain;
+  std::atomic<std::uint64_t> terrain_version{0};
+
   bool initialized = false;
   std::atomic<bool> stopped{false};
   std::atomic<std::uint64_t> solves_started{0};
@@ -291,11 +302,12 @@ struct MpcRunner::Impl {
 };
 
 MpcRunner::MpcRunner(const centroidal::RobotOcpDescription& robot, const ControlSettings& settings,
-                     planning::TerrainModel terrain, planning::GaitKind gait)
+                     planning::TerrainModel terrain, planning::GaitKind gait,
+                     int region_edge_capacity)
     : settings_(settings) {
   checkSettings(settings_);
-  ocp_ =
-      std::make_unique<centroidal::CentroidalOcp>(robot, settings_.ocp, std::move(terrain), gait);
+  ocp_ = std::make_unique<centroidal::CentroidalOcp>(robot, settings_.ocp, std::move(terrain), gait,
+                                                     region_edge_capacity);
   impl_ = std::make_unique<Impl>(settings_, *ocp_);
 }
 
@@ -389,6 +401,17 @@ bool MpcRunner::poll(double t, MpcSolution& out) noexcept {
 }
 
 MpcSolution MpcRunner::makeSolution() const { return impl_->makeSolution(); }
+
+std::uint64_t MpcRunner::publishTerrain(const planning::TerrainModel& terrain) {
+  // acceptsTerrain reads only the OCP's constant capacity and whether its terrain is empty
+  // (which no accepted terrain changes): safe beside a solve in the thread.
+  if (!ocp_->acceptsTerrain(terrain)) return 0;
+  return impl_->terrain_in.publish(terrain);
+}
+
+std::uint64_t MpcRunner::terrainVersion() const {
+  return impl_->terrain_version.load(std::memory_order_relaxed);
+}
 
 void MpcRunner::stop() {
   if (!impl_) return;

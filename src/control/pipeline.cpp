@@ -23,11 +23,13 @@ double worldYawRate(const Eigen::VectorXd& q, const Eigen::VectorXd& v) {
 
 ControlPipeline::ControlPipeline(const centroidal::RobotOcpDescription& robot,
                                  const ControlSettings& settings,
-                                 const planning::TerrainModel& terrain, planning::GaitKind gait)
+                                 const planning::TerrainModel& terrain, planning::GaitKind gait,
+                                 int region_edge_capacity)
     : settings_(settings) {
   checkSettings(settings_);
-  runner_ = std::make_unique<MpcRunner>(robot, settings_, terrain, gait);
-  rt_ocp_ = std::make_unique<centroidal::CentroidalOcp>(robot, settings_.ocp, terrain, gait);
+  runner_ = std::make_unique<MpcRunner>(robot, settings_, terrain, gait, region_edge_capacity);
+  rt_ocp_ = std::make_unique<centroidal::CentroidalOcp>(robot, settings_.ocp, terrain, gait,
+                                                        region_edge_capacity);
   const centroidal::CentroidalRobot& r = rt_ocp_->robot();
   schedule_horizon_ = settings_.ocp.dt;
   scheduler_ = std::make_unique<planning::GaitScheduler>(rt_ocp_->gait(), schedule_horizon_);
@@ -60,6 +62,16 @@ ControlPipeline::~ControlPipeline() { stop(); }
 
 void ControlPipeline::stop() {
   if (runner_) runner_->stop();
+}
+
+std::uint64_t ControlPipeline::setTerrain(const planning::TerrainModel& terrain) {
+  if (!rt_ocp_->acceptsTerrain(terrain) || terrain.maxEdges() > filter_->maxRegionEdges()) {
+    return 0;
+  }
+  // The real-time side's copy first: it is there when a solution solved on it arrives. The
+  // runner applies the same checks (same capacity): both count the same versions.
+  const std::uint64_t version = terrain_in_.publish(terrain);
+  return runner_->publishTerrain(terrain) == version ? version : 0;
 }
 
 JointCommand ControlPipeline::makeCommand() const {
@@ -177,6 +189,14 @@ void ControlPipeline::tick(const RobotState& state, JointCommand& command) noexc
     } else if (reference_->refine(solution_, t, x_meas_)) {
       record_.solution_adopted = true;
       adopted_sequence_ = solution_.sequence;
+      // The first solution solved on a newer terrain: the contact planner and the filter
+      // change to it too (the newest published, swapped in).
+      std::uint64_t version = 0;
+      if (solution_.terrain_version > rt_terrain_version_ &&
+          terrain_in_.take(rt_incoming_, version) && rt_ocp_->swapTerrain(rt_incoming_)) {
+        rt_terrain_version_ = version;
+        ++counters_.terrain_updates;
+      }
       adopted_t0_ = solution_.t0;
       holding_ = false;
       // Naive state feedback: the commands restart from the measurement with each plan.
@@ -186,6 +206,7 @@ void ControlPipeline::tick(const RobotState& state, JointCommand& command) noexc
     }
   }
   record_.solution_sequence = adopted_sequence_;
+  record_.terrain_version = rt_terrain_version_;
   // Stale-solution watchdog: past the age limit, freeze the plan where it is, at rest.
   if (!holding_ && t - adopted_t0_ > settings_.mpc.max_solution_age) {
     holding_ = true;

@@ -106,7 +106,31 @@ void ReactivePlanner::reset(double t, const Eigen::VectorXd& q,
 }
 
 Eigen::Vector2d ReactivePlanner::footholdFor(int i, double t_td, int& region, double& shift) const {
+  return footholdOn(ocp_->terrain(), i, t_td, region, shift);
+}
+
+void ReactivePlanner::remapRegions(const planning::TerrainModel& old_terrain) noexcept {
   const planning::TerrainModel& terrain = ocp_->terrain();
+  for (size_t fi = 0; fi < swings_.size(); ++fi) {
+    Swing& swing = swings_[fi];
+    stance_region_[fi] = -1;
+    if (!swing.planned) continue;
+    Eigen::Vector2d goal = swing.start;
+    if (swing.region >= 0 && swing.region < old_terrain.size()) {
+      int region = swing.region;
+      double shift = swing.shift;
+      goal = footholdOn(old_terrain, static_cast<int>(fi), swing.touchdown, region, shift);
+      swing.region = terrain.regionAt(goal);
+    } else {
+      swing.region = -1;
+    }
+    swing.liftoff_prism = solids_->regionAt(swing.start);
+    swing.touchdown_prism = solids_->regionAt(goal);
+  }
+}
+
+Eigen::Vector2d ReactivePlanner::footholdOn(const planning::TerrainModel& terrain, int i,
+                                            double t_td, int& region, double& shift) const {
   const Eigen::Vector2d nominal = feet_->nominalFoothold(i, t_td);
   if (terrain.size() == 0) return nominal;
   const double speed = std::hypot(command_.v_x, command_.v_y);

@@ -80,8 +80,8 @@ void LeastSquaresCost::calcDiff(const NodeContext& ctx, ConstVecRef x, ConstVecR
     H.diagonal().head(m) += scale * weights_.head(m);
     return;
   }
-  residual_->calcDiff(ctx, x, u, *s.res);
   if (structure_ == Structure::StateBlock) {
+    static_cast<const StateErrorResidual&>(*residual_).calcDiffHead(x, *s.res);
     // Rx = blockdiag(J, I) with J = d(x_ref (-) x)/dx on the pose (block_ x block_).
     const int b = block_, n = m - b;
     const auto J = s.res->Rx.topLeftCorner(b, b);
@@ -93,6 +93,7 @@ void LeastSquaresCost::calcDiff(const NodeContext& ctx, ConstVecRef x, ConstVecR
     Lxx.diagonal().tail(n) += scale * weights_.tail(n);
     return;
   }
+  residual_->calcDiff(ctx, x, u, *s.res);
   const auto w = weights_.head(m);
   const auto Rx = s.res->Rx.topRows(m);
   const bool on_x = residual_->dependsOnState(), on_u = residual_->dependsOnInput();

@@ -74,10 +74,10 @@ void ExplicitEuler::calcDiff(const NodeContext& ctx, ConstVecRef x, ConstVecRef 
     Fu.noalias() = ctx.dt * e.fu;
     return;
   }
-  space().integrateJacobians(x, e.v, e.Jx, e.Jv);
   // Jx and Jv are block-diagonal [b x b block, identity] with b = euclideanTangentOffset()
   // (the Euclidean tail integrates by addition): only the top b rows of Fx, Fu mix.
   const int b = space().euclideanTangentOffset(), n = space().ndx() - b;
+  space().integrateJacobiansHead(x, e.v, e.Jx.topLeftCorner(b, b), e.Jv.topLeftCorner(b, b));
   const double dt = ctx.dt;
   Fx.topRows(b).noalias() = dt * (e.Jv.topLeftCorner(b, b) * e.fx.topRows(b));
   Fx.topLeftCorner(b, b) += e.Jx.topLeftCorner(b, b);

@@ -66,6 +66,12 @@ void StateErrorResidual::calcDiff(const NodeContext& /*ctx*/, ConstVecRef x, Con
   s.Ru.setZero();
 }
 
+void StateErrorResidual::calcDiffHead(ConstVecRef x, ResidualData& d) const {
+  auto& s = static_cast<StateDiffData&>(d);
+  const int b = space_->euclideanTangentOffset();
+  space_->differenceJacobiansHead(s.xref, x, s.J0.topLeftCorner(b, b), s.Rx.topLeftCorner(b, b));
+}
+
 // ---- InputErrorResidual --------------------------------------------------------------------
 
 InputErrorResidual::InputErrorResidual(int ndx, const VectorXd& u_ref)

@@ -73,4 +73,16 @@ void SE3xEuclideanSpace::differenceJacobians(ConstVecRef x0, ConstVecRef x1, Mat
   J1.bottomRightCorner(n_, n_).setIdentity();
 }
 
+void SE3xEuclideanSpace::integrateJacobiansHead(ConstVecRef x, ConstVecRef dx, MatRef Jx,
+                                                MatRef Jdx) const {
+  lie::integrateSE3Jacobians(x.head<7>(), dx.head<6>(), Jx.topLeftCorner<6, 6>(),
+                             Jdx.topLeftCorner<6, 6>());
+}
+
+void SE3xEuclideanSpace::differenceJacobiansHead(ConstVecRef x0, ConstVecRef x1, MatRef J0,
+                                                 MatRef J1) const {
+  lie::differenceSE3Jacobians(x0.head<7>(), x1.head<7>(), J0.topLeftCorner<6, 6>(),
+                              J1.topLeftCorner<6, 6>());
+}
+
 }  // namespace rollstep::ocp

@@ -270,4 +270,72 @@ void ElevationMap::setCell(int r, int c, float height, float variance) {
   variance_[i] = ok ? variance : kNaN;
 }
 
+bool ElevationMap::copyFrom(const ElevationMap& other) {
+  if (other.n_ != n_) return false;
+  res_ = other.res_;
+  gx0_ = other.gx0_;
+  gy0_ = other.gy0_;
+  std::copy(other.height_.begin(), other.height_.end(), height_.begin());
+  std::copy(other.variance_.begin(), other.variance_.end(), variance_.begin());
+  return true;
+}
+
+int ElevationMap::fillGaps(int max_gap_cells, double max_step) {
+  if (max_gap_cells < 1 || !(max_step >= 0.0)) return 0;
+  // Decided on the map as it is (scratch copies), written back at the end.
+  std::copy(height_.begin(), height_.end(), scratch_h_.begin());
+  std::copy(variance_.begin(), variance_.end(), scratch_v_.begin());
+  constexpr int kDirections[4][2] = {{0, 1}, {1, 0}, {1, 1}, {1, -1}};
+  int filled = 0;
+  for (int r = 0; r < n_; ++r) {
+    for (int c = 0; c < n_; ++c) {
+      const auto i = static_cast<std::size_t>(r * n_ + c);
+      if (!std::isnan(height_[i])) continue;
+      int best_gap = max_gap_cells + 1;
+      float best_h = kNaN, best_v = kNaN;
+      for (const auto& d : kDirections) {
+        // The nearest measured cell each way, at most max_gap_cells steps (a gap of at most
+        // max_gap_cells empty cells has both ends within that many steps of any of its cells).
+        int steps[2] = {0, 0};
+        std::size_t end[2] = {0, 0};
+        bool found[2] = {false, false};
+        for (int side = 0; side < 2; ++side) {
+          const int sign = side == 0 ? 1 : -1;
+          for (int k = 1; k <= max_gap_cells; ++k) {
+            const int rr = r + sign * k * d[0], cc = c + sign * k * d[1];
+            if (rr < 0 || cc < 0 || rr >= n_ || cc >= n_) break;
+            const auto j = static_cast<std::size_t>(rr * n_ + cc);
+            if (!std::isnan(height_[j])) {
+              steps[side] = k;
+              end[side] = j;
+              found[side] = true;
+              break;
+            }
+          }
+        }
+        if (!found[0] || !found[1]) continue;
+        const int gap = steps[0] + steps[1] - 1;  // empty cells between the two ends
+        if (gap > max_gap_cells || gap >= best_gap) continue;
+        const double h0 = static_cast<double>(height_[end[0]]);
+        const double h1 = static_cast<double>(height_[end[1]]);
+        const double w = static_cast<double>(steps[1]) / (steps[0] + steps[1]);
+        best_gap = gap;
+        // Across a step: the lower side (the shadow behind an edge is the lower surface
+        // going on under it; anything higher there would have been seen).
+        best_h = static_cast<float>(std::abs(h0 - h1) <= max_step ? w * h0 + (1.0 - w) * h1
+                                                                  : std::min(h0, h1));
+        best_v = std::max(variance_[end[0]], variance_[end[1]]);
+      }
+      if (best_gap <= max_gap_cells) {
+        scratch_h_[i] = best_h;
+        scratch_v_[i] = best_v;
+        ++filled;
+      }
+    }
+  }
+  std::copy(scratch_h_.begin(), scratch_h_.end(), height_.begin());
+  std::copy(scratch_v_.begin(), scratch_v_.end(), variance_.begin());
+  return filled;
+}
+
 }  // namespace rollstep::perception

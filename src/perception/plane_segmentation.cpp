@@ -48,6 +48,8 @@ void SegmentationSettings::validate() const {
           "must be >= 0");
   require(std::isfinite(min_region_area) && min_region_area >= 0, "min_region_area",
           min_region_area, "must be >= 0");
+  require(std::isfinite(fill_gap) && fill_gap >= 0 && fill_gap <= 1, "fill_gap", fill_gap,
+          "must be in [0, 1] m");
   require(std::isfinite(max_hole_area) && max_hole_area >= 0, "max_hole_area", max_hole_area,
           "must be >= 0");
 }

@@ -40,7 +40,7 @@ const std::array<Field<ElevationMapSettings>, 13> kMapFields{{
     {"max_range", &ElevationMapSettings::max_range},
     {"min_range", &ElevationMapSettings::min_range},
 }};
-const std::array<Field<SegmentationSettings>, 10> kSegmentationFields{{
+const std::array<Field<SegmentationSettings>, 11> kSegmentationFields{{
     {"window_half", &SegmentationSettings::window_half},
     {"min_window_fill", &SegmentationSettings::min_window_fill},
     {"max_residual", &SegmentationSettings::max_residual},
@@ -51,6 +51,7 @@ const std::array<Field<SegmentationSettings>, 10> kSegmentationFields{{
     {"grow_tolerance", &SegmentationSettings::grow_tolerance},
     {"min_region_area", &SegmentationSettings::min_region_area},
     {"max_hole_area", &SegmentationSettings::max_hole_area},
+    {"fill_gap", &SegmentationSettings::fill_gap},
 }};
 const std::array<Field<ConvexRegionSettings>, 8> kRegionFields{{
     {"directions", &ConvexRegionSettings::directions},
@@ -229,6 +230,7 @@ const char* toString(PerceptionStatus status) {
 TerrainPerception::TerrainPerception(const PerceptionSettings& settings)
     : settings_((settings.validate(), settings)),
       map_(settings.map),
+      filled_(settings.map),
       segmenter_(settings.segmentation),
       grower_(settings.regions) {}
 
@@ -256,7 +258,17 @@ PerceptionStatus TerrainPerception::update(const std::vector<Eigen::Vector3d>& p
 }
 
 PerceptionStatus TerrainPerception::rebuild() {
-  segmenter_.segment(map_, segmentation_);
+  const SegmentationSettings& seg = settings_.segmentation;
+  if (seg.fill_gap > 0.0) {
+    // The unseen strips between the LiDAR's rings on the ground, filled across (a copy:
+    // the fused map keeps only what was measured).
+    filled_.copyFrom(map_);
+    filled_.fillGaps(static_cast<int>(std::floor(seg.fill_gap / map_.resolution() + 1e-9)),
+                     seg.step_height);
+    segmenter_.segment(filled_, segmentation_);
+  } else {
+    segmenter_.segment(map_, segmentation_);
+  }
   if (segmentation_.regions.empty()) return last_status_ = PerceptionStatus::NoPlanarRegion;
   planning::TerrainModel terrain = grower_.terrain(segmentation_);
   if (terrain.size() == 0) return last_status_ = PerceptionStatus::NoPlanarRegion;

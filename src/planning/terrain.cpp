@@ -128,6 +128,12 @@ double ConvexRegion::heightAt(const Eigen::Vector2d& p) const {
 
 TerrainModel::TerrainModel(std::vector<ConvexRegion> regions) : regions_(std::move(regions)) {}
 
+int TerrainModel::maxEdges() const {
+  int edges = 0;
+  for (const ConvexRegion& r : regions_) edges = std::max(edges, static_cast<int>(r.A.rows()));
+  return edges;
+}
+
 int TerrainModel::regionAt(const Eigen::Vector2d& p) const {
   int best = -1;
   double best_height = -std::numeric_limits<double>::infinity();
@@ -338,6 +344,163 @@ TerrainModel terrainFromBoxes(const TerrainBox& floor, double floor_height,
                                                 Eigen::Vector3d::UnitZ()));
   }
   return TerrainModel(std::move(regions));
+}
+
+namespace {
+
+/// Whether edge e of region `index` is a seam (shrinkTerrain): the surface goes on beyond it
+/// in other regions at about the same height.
+bool isSeam(const TerrainModel& terrain, int index, Eigen::Index e, double probe,
+            double tolerance) {
+  const ConvexRegion& r = terrain.region(index);
+  const std::size_t n = r.vertices.size();
+  // Edge e runs from vertex e to vertex e + 1 (fromPolygon's row order).
+  const Eigen::Vector2d a = r.vertices[static_cast<std::size_t>(e)];
+  const Eigen::Vector2d b = r.vertices[(static_cast<std::size_t>(e) + 1) % n];
+  const Eigen::Vector2d outward = -r.A.row(e).transpose();
+  const double length = (b - a).norm();
+  const int samples = std::max(1, static_cast<int>(std::ceil(length / probe)));
+  for (int k = 0; k <= samples; ++k) {
+    const Eigen::Vector2d on = a + (b - a) * (static_cast<double>(k) / samples);
+    const Eigen::Vector2d p = on + probe * outward;
+    const double h = r.heightAt(on);
+    bool covered = false;
+    for (int j = 0; j < terrain.size() && !covered; ++j) {
+      if (j == index) continue;
+      const ConvexRegion& other = terrain.region(j);
+      covered = other.contains(p) && std::abs(other.heightAt(p) - h) <= tolerance;
+    }
+    if (!covered) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+TerrainModel shrinkTerrain(const TerrainModel& terrain, double margin, double seam_probe,
+                           double seam_height_tolerance) {
+  if (!std::isfinite(margin) || margin < 0.0) {
+    detail::fail("shrinkTerrain", "margin", margin, "must be finite and >= 0");
+  }
+  if (!std::isfinite(seam_probe) || seam_probe < 0.0) {
+    detail::fail("shrinkTerrain", "seam_probe", seam_probe, "must be finite and >= 0");
+  }
+  if (!std::isfinite(seam_height_tolerance) || seam_height_tolerance < 0.0) {
+    detail::fail("shrinkTerrain", "seam_height_tolerance", seam_height_tolerance,
+                 "must be finite and >= 0");
+  }
+  std::vector<ConvexRegion> out;
+  std::vector<Eigen::Vector2d> polygon, clipped;
+  for (int index = 0; index < terrain.size(); ++index) {
+    const ConvexRegion& r = terrain.region(index);
+    // Clip the polygon by each edge's half-plane moved inwards (Sutherland-Hodgman: a
+    // convex polygon stays convex; edges that vanish simply produce no vertex).
+    polygon = r.vertices;
+    for (Eigen::Index e = 0; e < r.A.rows() && polygon.size() >= 3; ++e) {
+      const Eigen::Vector2d a = r.A.row(e).transpose();
+      const bool seam =
+          seam_probe > 0.0 && isSeam(terrain, index, e, seam_probe, seam_height_tolerance);
+      const double b = r.b[e] - (seam ? 0.0 : margin);
+      clipped.clear();
+      for (std::size_t k = 0; k < polygon.size(); ++k) {
+        const Eigen::Vector2d& p = polygon[k];
+        const Eigen::Vector2d& q = polygon[(k + 1) % polygon.size()];
+        const double dp = a.dot(p) + b, dq = a.dot(q) + b;
+        if (dp >= 0.0) clipped.push_back(p);
+        if ((dp >= 0.0) != (dq >= 0.0)) clipped.push_back(p + dp / (dp - dq) * (q - p));
+      }
+      polygon.swap(clipped);
+    }
+    // Drop near-duplicate vertices (an edge clipped to a point) and vertices on a straight
+    // line through their neighbours: a shrunk region never has more edges than the region.
+    clipped.clear();
+    for (const Eigen::Vector2d& p : polygon) {
+      if (clipped.empty() || (p - clipped.back()).norm() > 1e-7) clipped.push_back(p);
+    }
+    while (clipped.size() > 1 && (clipped.front() - clipped.back()).norm() <= 1e-7) {
+      clipped.pop_back();
+    }
+    for (std::size_t k = 0; clipped.size() >= 3 && k < clipped.size();) {
+      const std::size_t n = clipped.size();
+      const Eigen::Vector2d& a = clipped[(k + n - 1) % n];
+      const Eigen::Vector2d& c = clipped[(k + 1) % n];
+      const Eigen::Vector2d u = clipped[k] - a, v = c - clipped[k];
+      if (std::abs(u.x() * v.y() - u.y() * v.x()) <= 1e-9 * u.norm() * v.norm()) {
+        clipped.erase(clipped.begin() + static_cast<std::ptrdiff_t>(k));
+      } else {
+        ++k;
+      }
+    }
+    if (clipped.size() < 3) continue;
+    double area = 0.0;
+    for (std::size_t k = 0; k < clipped.size(); ++k) {
+      const Eigen::Vector2d& p = clipped[k];
+      const Eigen::Vector2d& q = clipped[(k + 1) % clipped.size()];
+      area += p.x() * q.y() - q.x() * p.y();
+    }
+    if (std::abs(area) < 1e-10) continue;
+    try {
+      ConvexRegion shrunk = ConvexRegion::fromPolygon(clipped, r.height, r.normal);
+      shrunk.height = r.heightAt(shrunk.centroid);
+      out.push_back(std::move(shrunk));
+    } catch (const std::invalid_argument&) {
+      // A sliver that rounding made non-convex: too thin to stand on, dropped.
+    }
+  }
+  return TerrainModel(std::move(out));
+}
+
+TerrainModel levelTerrain(const TerrainModel& terrain, double max_tilt, double height_tolerance) {
+  if (!std::isfinite(max_tilt) || max_tilt < 0.0) {
+    detail::fail("levelTerrain", "max_tilt", max_tilt, "must be finite and >= 0");
+  }
+  if (!std::isfinite(height_tolerance) || height_tolerance < 0.0) {
+    detail::fail("levelTerrain", "height_tolerance", height_tolerance, "must be finite and >= 0");
+  }
+  const double min_nz = std::cos(max_tilt);
+  // The nearly level regions by height; groups of heights within the tolerance of their
+  // lowest.
+  std::vector<int> level;
+  for (int i = 0; i < terrain.size(); ++i) {
+    if (terrain.region(i).normal.z() >= min_nz) level.push_back(i);
+  }
+  std::sort(level.begin(), level.end(),
+            [&](int a, int b) { return terrain.region(a).height < terrain.region(b).height; });
+  std::vector<double> height(static_cast<std::size_t>(terrain.size()), 0.0);
+  for (std::size_t first = 0; first < level.size();) {
+    const double lowest = terrain.region(level[first]).height;
+    std::size_t last = first;
+    double area_sum = 0.0, weighted = 0.0;
+    while (last < level.size() && terrain.region(level[last]).height <= lowest + height_tolerance) {
+      const ConvexRegion& r = terrain.region(level[last]);
+      double area = 0.0;
+      for (std::size_t k = 0; k < r.vertices.size(); ++k) {
+        const Eigen::Vector2d& p = r.vertices[k];
+        const Eigen::Vector2d& q = r.vertices[(k + 1) % r.vertices.size()];
+        area += 0.5 * (p.x() * q.y() - q.x() * p.y());
+      }
+      area_sum += std::abs(area);
+      weighted += std::abs(area) * r.height;
+      ++last;
+    }
+    const double h = area_sum > 0.0 ? weighted / area_sum : lowest;
+    for (std::size_t k = first; k < last; ++k) height[static_cast<std::size_t>(level[k])] = h;
+    first = last;
+  }
+  std::vector<ConvexRegion> out;
+  out.reserve(static_cast<std::size_t>(terrain.size()));
+  for (int i = 0; i < terrain.size(); ++i) {
+    const ConvexRegion& r = terrain.region(i);
+    if (r.normal.z() >= min_nz) {
+      ConvexRegion flat = r;
+      flat.height = height[static_cast<std::size_t>(i)];
+      flat.normal = Eigen::Vector3d::UnitZ();
+      out.push_back(std::move(flat));
+    } else {
+      out.push_back(r);
+    }
+  }
+  return TerrainModel(std::move(out));
 }
 
 }  // namespace rollstep::planning

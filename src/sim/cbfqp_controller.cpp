@@ -12,14 +12,17 @@ CbfQpController::CbfQpController(const Plant& plant, const centroidal::RobotOcpD
                                  const planning::TerrainModel& terrain,
                                  const planning::TerrainModel& collision_terrain,
                                  planning::GaitKind gait,
-                                 const planning::BaseVelocityCommand& command) {
+                                 const planning::BaseVelocityCommand& command,
+                                 int region_edge_capacity, int collision_prism_capacity)
+    : plant_(&plant) {
   if (std::abs(settings.control_period - plant.controlPeriod()) > 1e-12) {
     throw std::invalid_argument("cbfqp: control_period " + std::to_string(settings.control_period) +
                                 " s differs from the plant's control period " +
                                 std::to_string(plant.controlPeriod()) + " s");
   }
-  pipeline_ = std::make_unique<control::BaselinePipeline>(robot, settings, terrain,
-                                                          collision_terrain, gait);
+  pipeline_ =
+      std::make_unique<control::BaselinePipeline>(robot, settings, terrain, collision_terrain, gait,
+                                                  region_edge_capacity, collision_prism_capacity);
   const centroidal::CentroidalRobot& r = pipeline_->robot();
   joint_map_ = plantJointMap(r, "cbfqp");
   wheel_map_ = plantWheelMap(r, pipeline_->driveWheelContacts(), "cbfqp");
@@ -48,8 +51,34 @@ void CbfQpController::logValues(std::string& out) const {
   out.assign(text);
 }
 
+void CbfQpController::setPerception(std::unique_ptr<OnlinePerception> perception) {
+  perception_ = std::move(perception);
+}
+
+Eigen::Matrix3Xd CbfQpController::plannedFootholds() const {
+  Eigen::Matrix3Xd out = pipeline_->plan().foot_position;
+  out.row(2).array() -= pipeline_->robot().contactOffset();
+  return out;
+}
+
 void CbfQpController::compute(double t, const SensorReadings& sensors, PlantCommand& command) {
-  if (source_->read(t, sensors, state_)) pipeline_->tick(state_, command_);
+  const bool valid = source_->read(t, sensors, state_);
+  // Perception (not real-time: the pipeline's tick below is) at the LiDAR's rate.
+  if (valid && perception_ != nullptr && perception_->due(t)) {
+    if (perception_->step(t, *plant_, state_.base_position, state_.base_orientation)) {
+      const planning::TerrainModel& solids = perception_->terrain();
+      if (pipeline_->setTerrain(
+              perception_->footholdTerrain(pipeline_->settings().baseline.foothold_margin),
+              solids) == 0) {
+        ++terrains_refused_;
+      }
+    }
+    if (perception_->logDue(t)) {
+      perception_->writeSnapshot(t, pipeline_->terrain(), plannedFootholds(), state_.base_position,
+                                 yawOf(state_.base_orientation));
+    }
+  }
+  if (valid) pipeline_->tick(state_, command_);
   for (size_t j = 0; j < joint_map_.size(); ++j) {
     command.joint_position[joint_map_[j]] = command_.joint_position[static_cast<Eigen::Index>(j)];
   }

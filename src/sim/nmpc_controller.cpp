@@ -81,21 +81,24 @@ NmpcController::NmpcController(const Plant& plant, const centroidal::RobotOcpDes
                                const control::ControlSettings& settings,
                                const planning::TerrainModel& terrain, planning::GaitKind gait,
                                const planning::BaseVelocityCommand& command,
-                               const StateSourceOptions& source)
+                               const StateSourceOptions& source, int region_edge_capacity)
     : NmpcController(plant, robot, settings, terrain, gait,
-                     std::vector<planning::TimedBaseCommand>{{0.0, command}}, source) {}
+                     std::vector<planning::TimedBaseCommand>{{0.0, command}}, source,
+                     region_edge_capacity) {}
 
 NmpcController::NmpcController(const Plant& plant, const centroidal::RobotOcpDescription& robot,
                                const control::ControlSettings& settings,
                                const planning::TerrainModel& terrain, planning::GaitKind gait,
                                const std::vector<planning::TimedBaseCommand>& schedule,
-                               const StateSourceOptions& source) {
+                               const StateSourceOptions& source, int region_edge_capacity) {
   if (std::abs(settings.control_period - plant.controlPeriod()) > 1e-12) {
     throw std::invalid_argument("nmpc: control_period " + std::to_string(settings.control_period) +
                                 " s differs from the plant's control period " +
                                 std::to_string(plant.controlPeriod()) + " s");
   }
-  pipeline_ = std::make_unique<control::ControlPipeline>(robot, settings, terrain, gait);
+  pipeline_ = std::make_unique<control::ControlPipeline>(robot, settings, terrain, gait,
+                                                         region_edge_capacity);
+  plant_ = &plant;
   const centroidal::CentroidalRobot& r = pipeline_->robot();
   joint_map_ = plantJointMap(r, "nmpc");
   wheel_map_ = plantWheelMap(r, pipeline_->driveWheelContacts(), "nmpc");
@@ -220,8 +223,54 @@ NmpcController::~NmpcController() {
   if (pipeline_) pipeline_->stop();
 }
 
+void NmpcController::setPerception(std::unique_ptr<OnlinePerception> perception, double margin) {
+  perception_ = std::move(perception);
+  perception_margin_ = margin;
+}
+
+void NmpcController::updatePerception(double t) {
+  if (perception_->step(t, *plant_, state_.base_position, state_.base_orientation)) {
+    if (pipeline_->setTerrain(perception_->footholdTerrain(perception_margin_)) == 0) {
+      ++terrains_refused_;
+    }
+  }
+  if (perception_->logDue(t)) {
+    perception_->writeSnapshot(t, pipeline_->ocp().terrain(), plannedFootholds(),
+                               state_.base_position, yawOf(state_.base_orientation));
+  }
+}
+
+Eigen::Matrix3Xd NmpcController::plannedFootholds() const {
+  const control::MpcSolution& s = pipeline_->lastSolution();
+  const centroidal::CentroidalOcp& ocp = pipeline_->ocp();
+  const int nc = ocp.robot().nc();
+  const double offset = ocp.robot().contactOffset();
+  std::vector<Eigen::Vector3d> points;
+  for (std::size_t k = 0; k < s.xs.size() && k < s.modes.size(); ++k) {
+    int landing = 0;
+    for (int i = 0; i < nc; ++i) {
+      const bool stance = (s.modes[k] >> i) & 1;
+      const bool before = k > 0 && ((s.modes[k - 1] >> i) & 1);
+      if (stance && (k == 0 || !before)) landing |= 1 << i;
+    }
+    if (landing == 0) continue;
+    const Eigen::Matrix3Xd feet = ocp.footPositions(s.xs[k]);
+    for (int i = 0; i < nc; ++i) {
+      if ((landing >> i) & 1) points.push_back(feet.col(i) - offset * Eigen::Vector3d::UnitZ());
+    }
+  }
+  Eigen::Matrix3Xd out(3, static_cast<Eigen::Index>(points.size()));
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    out.col(static_cast<Eigen::Index>(k)) = points[k];
+  }
+  return out;
+}
+
 void NmpcController::compute(double t, const SensorReadings& sensors, PlantCommand& command) {
   if (source_->read(t, sensors, state_)) {
+    // Perception (not real-time: the pipeline's tick below is) at the LiDAR's rate, at the
+    // base pose the pipeline runs on.
+    if (perception_ != nullptr && perception_->due(t)) updatePerception(t);
     pipeline_->tick(state_, command_);
     const control::TickRecord& r = pipeline_->lastTick();
     if (r.new_solution) record(t, r.solution_adopted);

@@ -72,21 +72,41 @@ void Solver::Impl::condenseNode(int k) {
         i = j;
       }
     };
+    // Within a run, only the columns between the first and the last non-zero column of
+    // its rows take part: the terms' rows are sparse (a torque row acts on the base
+    // rotation, the leg joints and the contact forces, not on the momentum or the joint
+    // velocities; a friction row on the contact forces only).
+    const auto span = [](const MatrixXd& G, int i, int r) {
+      const auto zero = [&](int c) { return G.col(c).segment(i, r).isZero(0.0); };
+      int c0 = 0, c1 = static_cast<int>(G.cols());
+      while (c0 < c1 && zero(c0)) ++c0;
+      while (c1 > c0 && zero(c1 - 1)) --c1;
+      return std::pair<int, int>(c0, c1 - c0);
+    };
     const auto W = n.W.head(m);
     runs(1, [&](int i, int r) {
-      const auto Gx = d.Gx.middleRows(i, r);
-      n.WGx.middleRows(i, r).noalias() = W.segment(i, r).asDiagonal() * Gx;
-      st.Q.triangularView<Eigen::Lower>() += Gx.transpose() * n.WGx.middleRows(i, r);
+      const auto [a, s] = span(d.Gx, i, r);
+      const auto Gx = d.Gx.block(i, a, r, s);
+      n.WGx.block(i, a, r, s).noalias() = W.segment(i, r).asDiagonal() * Gx;
+      st.Q.block(a, a, s, s).triangularView<Eigen::Lower>() +=
+          Gx.transpose() * n.WGx.block(i, a, r, s);
     });
     st.q.noalias() += d.Gx.topRows(m).transpose() * n.gam.head(m);
     runs(2, [&](int i, int r) {
-      const auto Gu = d.Gu.middleRows(i, r);
-      n.WGu.middleRows(i, r).noalias() = W.segment(i, r).asDiagonal() * Gu;
-      st.R.triangularView<Eigen::Lower>() += Gu.transpose() * n.WGu.middleRows(i, r);
-      st.r.noalias() += Gu.transpose() * n.gam.segment(i, r);
+      const auto [a, s] = span(d.Gu, i, r);
+      const auto Gu = d.Gu.block(i, a, r, s);
+      n.WGu.block(i, a, r, s).noalias() = W.segment(i, r).asDiagonal() * Gu;
+      st.R.block(a, a, s, s).triangularView<Eigen::Lower>() +=
+          Gu.transpose() * n.WGu.block(i, a, r, s);
+      st.r.segment(a, s).noalias() += Gu.transpose() * n.gam.segment(i, r);
     });
     runs(3, [&](int i, int r) {
-      st.S.noalias() += d.Gu.middleRows(i, r).transpose() * n.WGx.middleRows(i, r);
+      // The x span of these rows is within that of the run of mask 1 that holds them,
+      // whose columns of WGx were written above.
+      const auto [a, s] = span(d.Gx, i, r);
+      const auto [b, t] = span(d.Gu, i, r);
+      st.S.block(b, a, t, s).noalias() +=
+          d.Gu.block(i, b, r, t).transpose() * n.WGx.block(i, a, r, s);
     });
   }
   // Bounds: diagonal terms only.

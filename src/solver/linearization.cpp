@@ -61,10 +61,11 @@ void Solver::Impl::linearizeNode(int k) {
       st.A = d.Fx;
       st.B = d.Fu;
     } else {
-      prob->stateSpace().differenceJacobians(xn, d.xnext, n.J0, n.J1);
       // J1 = blockdiag(J1_b, I) with b = euclideanTangentOffset() (the Euclidean tail
       // differences by subtraction): only the top b rows of A and B mix.
       const int b = prob->stateSpace().euclideanTangentOffset(), m = ndx - b;
+      prob->stateSpace().differenceJacobiansHead(xn, d.xnext, n.J0.topLeftCorner(b, b),
+                                                 n.J1.topLeftCorner(b, b));
       st.A.topRows(b).noalias() = n.J1.topLeftCorner(b, b) * d.Fx.topRows(b);
       st.A.bottomRows(m) = d.Fx.bottomRows(m);
       st.B.topRows(b).noalias() = n.J1.topLeftCorner(b, b) * d.Fu.topRows(b);

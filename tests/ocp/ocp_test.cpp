@@ -2,6 +2,7 @@
 // schedule and the problem's stacking of rows, against finite differences.
 #include <gtest/gtest.h>
 
+#include <limits>
 #include <random>
 
 #include "common/alloc_counter.hpp"
@@ -121,6 +122,24 @@ TEST_P(SpaceTest, IntegrateDifferenceRoundTripAndJacobians) {
     }
     EXPECT_LT((J0 - J0_fd).lpNorm<Eigen::Infinity>(), 1e-6);
     EXPECT_LT((J1 - J1_fd).lpNorm<Eigen::Infinity>(), 1e-6);
+
+    // Block structure [b x b, 0; 0, +-I] with b = euclideanTangentOffset(), and the head
+    // variants give the b x b blocks exactly (callers rely on both).
+    const int b = s->euclideanTangentOffset(), m = s->ndx() - b;
+    for (const MatrixXd* J : {&Jx, &Jd, &J0, &J1}) {
+      const double sign = J == &J0 ? -1.0 : 1.0;
+      EXPECT_TRUE((sign * J->bottomRightCorner(m, m)).isIdentity(0.0));
+      EXPECT_TRUE(J->topRightCorner(b, m).isZero(0.0));
+      EXPECT_TRUE(J->bottomLeftCorner(m, b).isZero(0.0));
+    }
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    MatrixXd H0 = MatrixXd::Constant(b, b, nan), H1 = H0, Hx = H0, Hd = H0;
+    s->differenceJacobiansHead(x, x1, H0, H1);
+    s->integrateJacobiansHead(x, dx, Hx, Hd);
+    EXPECT_TRUE(H0 == J0.topLeftCorner(b, b));
+    EXPECT_TRUE(H1 == J1.topLeftCorner(b, b));
+    EXPECT_TRUE(Hx == Jx.topLeftCorner(b, b));
+    EXPECT_TRUE(Hd == Jd.topLeftCorner(b, b));
   }
 }
 

@@ -130,6 +130,72 @@ TEST(ElevationMap, UpdateMoveAndPredictDoNotAllocate) {
   EXPECT_EQ(guard.count(), 0u);
 }
 
+// Gap filling (the strips between a LiDAR's rings, the shadow behind an edge): a floor with
+// every third and fourth row unseen is interpolated (a tilted floor exactly); a narrow
+// shadow between a floor and a step top gets the floor's height; a wide shadow and the map
+// beyond the last measured row (one side unseen) stay empty; no allocation.
+TEST(ElevationMap, FillGapsInterpolatesAcrossSmallGapsOfOneSurfaceOnly) {
+  ElevationMapSettings settings;
+  settings.length = 1.0;
+  settings.resolution = 0.02;  // 50 x 50 cells
+  ElevationMap map(settings), copy(settings);
+  const int n = map.size();
+  const auto floor = [&](int r, int c) { return static_cast<float>(0.001 * c + 0.0005 * r); };
+  for (int r = 0; r < 30; ++r) {
+    if (r % 4 == 2 || r % 4 == 3) continue;  // rings: two rows in four unseen
+    for (int c = 0; c < n; ++c) map.setCell(r, c, floor(r, c), 1e-4f);
+  }
+  for (int r = 36; r < 44; ++r) {  // a 0.2 m step top, 6 unseen rows below it (rows 30-35)
+    for (int c = 0; c < n; ++c) map.setCell(r, c, 0.2f, 1e-4f);
+  }
+  // A wide gap (rows 44-49 unseen on a row of its own: nothing beyond) and a gap of 6
+  // columns in row 0 (wider than allowed below) stay.
+  for (int c = 10; c < 16; ++c) map.setCell(0, c, std::numeric_limits<float>::quiet_NaN(), 0.f);
+  ASSERT_TRUE(copy.copyFrom(map));
+  int filled = 0;
+  {
+    rollstep::test::AllocationGuard guard;
+    filled = copy.fillGaps(4, 0.04);
+    EXPECT_EQ(guard.count(), 0u);
+  }
+  EXPECT_GT(filled, 0);
+  for (int r = 0; r < 30; ++r) {
+    for (int c = 0; c < n; ++c) {
+      const float h = copy.height(r, c);
+      if (r == 0 && c >= 10 && c < 16) continue;
+      ASSERT_FALSE(std::isnan(h)) << r << " " << c;
+      EXPECT_NEAR(h, floor(r, c), 1e-5) << r << " " << c;  // linear: exact on a plane
+    }
+  }
+  // The 6-row shadow below the step top (rows 30-35): wider than 4 cells, stays empty.
+  for (int r = 30; r < 36; ++r) {
+    for (int c = 0; c < n; ++c) EXPECT_TRUE(std::isnan(copy.height(r, c))) << r << " " << c;
+  }
+  // A 3-row shadow between a floor and a step top: the floor's height (the lower side).
+  ElevationMap shadow(settings);
+  for (int c = 0; c < n; ++c) {
+    for (int r = 0; r < 10; ++r) shadow.setCell(r, c, 0.01f, 1e-4f);
+    for (int r = 13; r < 20; ++r) shadow.setCell(r, c, 0.2f, 1e-4f);
+  }
+  EXPECT_EQ(shadow.fillGaps(4, 0.04), 3 * n);
+  for (int c = 0; c < n; ++c) {
+    for (int r = 10; r < 13; ++r) EXPECT_FLOAT_EQ(shadow.height(r, c), 0.01f) << r << " " << c;
+  }
+  for (int r = 44; r < n; ++r) {
+    for (int c = 0; c < n; ++c) EXPECT_TRUE(std::isnan(copy.height(r, c))) << r << " " << c;
+  }
+  // Row 0's 6-column gap: its cells lie in 2-row gaps along the columns (rows 0..1 are
+  // measured below... row 0 is the map's edge): only a vertical or diagonal gap of at most
+  // 4 cells with both ends measured may fill them; none exists (nothing below row 0).
+  for (int c = 12; c < 14; ++c) EXPECT_TRUE(std::isnan(copy.height(0, c))) << c;
+  // The original map is untouched; a map of another size is not copied.
+  EXPECT_TRUE(std::isnan(map.height(2, 5)));
+  ElevationMapSettings other = settings;
+  other.length = 2.0;
+  ElevationMap bigger(other);
+  EXPECT_FALSE(bigger.copyFrom(map));
+}
+
 TEST(TerrainPerception, BadDataGivesAStatusAndKeepsTheLastTerrain) {
   TerrainPerception perception(syntheticSettings());
   EXPECT_FALSE(perception.hasTerrain());

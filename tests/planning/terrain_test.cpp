@@ -282,4 +282,127 @@ TEST(TerrainModel, QueriesDoNotAllocate) {
   EXPECT_NE(sum, 0.0);  // the queries ran
 }
 
+// Shrinking (the foothold regions of a perceived terrain): every edge moves inwards by the
+// margin, heights follow a tilted plane, an edge shorter than the shrink vanishes, a region
+// the margin empties is dropped; swap exchanges without allocating.
+TEST(TerrainModel, ShrinkMovesEveryEdgeInwardsAndDropsVanishedRegions) {
+  const Vector3d tilt = Vector3d(0.0, -std::sin(0.1), std::cos(0.1));  // rises along +y
+  const ConvexRegion square =
+      ConvexRegion::fromPolygon({{0, 0}, {1, 0}, {1, 1}, {0, 1}}, 0.3, tilt);
+  // A pentagon whose short top-right edge (length 0.02 * sqrt 2) vanishes under 0.1.
+  const ConvexRegion cut =
+      ConvexRegion::fromPolygon({{2, 0}, {3, 0}, {3, 0.98}, {2.98, 1}, {2, 1}}, 0.0);
+  const ConvexRegion thin = ConvexRegion::fromPolygon({{5, 0}, {5.15, 0}, {5.15, 1}, {5, 1}}, 0.0);
+  const TerrainModel terrain({square, cut, thin});
+  const TerrainModel shrunk = rollstep::planning::shrinkTerrain(terrain, 0.1);
+  ASSERT_EQ(shrunk.size(), 2);  // the 0.15 m wide strip is gone
+  const ConvexRegion& s = shrunk.region(0);
+  ASSERT_EQ(s.vertices.size(), 4u);
+  for (const Vector2d& v : s.vertices) {
+    EXPECT_NEAR(std::min(v.x(), 1.0 - v.x()), 0.1, 1e-12);
+    EXPECT_NEAR(std::min(v.y(), 1.0 - v.y()), 0.1, 1e-12);
+  }
+  // Same plane: heights agree wherever both are defined.
+  for (const Vector2d& p : {Vector2d(0.5, 0.5), Vector2d(0.2, 0.8), Vector2d(0.9, 0.1)}) {
+    EXPECT_NEAR(s.heightAt(p), square.heightAt(p), 1e-12);
+  }
+  EXPECT_NEAR(s.normal.dot(tilt), 1.0, 1e-12);
+  // The pentagon: its far edges at 0.1 from the old ones, the corner cut gone.
+  const ConvexRegion& c = shrunk.region(1);
+  EXPECT_TRUE(c.contains({2.1 + 1e-9, 0.1 + 1e-9}));
+  EXPECT_TRUE(c.contains({2.9 - 1e-6, 0.9 - 1e-6}) || c.vertices.size() == 5u);
+  for (const Vector2d& v : c.vertices) {
+    EXPECT_GE(cut.margin(v), 0.1 - 1e-9) << v.transpose();
+  }
+  EXPECT_LE(c.vertices.size(), 5u);
+  // A vertex on a straight edge does not survive the shrink (no more edges than needed).
+  const ConvexRegion five =
+      ConvexRegion::fromPolygon({{0, 0}, {0.5, 0}, {1, 0}, {1, 1}, {0, 1}}, 0.0);
+  ASSERT_EQ(five.A.rows(), 5);
+  const TerrainModel s5 = rollstep::planning::shrinkTerrain(TerrainModel({five}), 0.1);
+  ASSERT_EQ(s5.size(), 1);
+  EXPECT_EQ(s5.region(0).vertices.size(), 4u);
+  EXPECT_EQ(s5.maxEdges(), 4);
+  // Margin 0 changes nothing; a bad margin throws.
+  const TerrainModel same = rollstep::planning::shrinkTerrain(terrain, 0.0);
+  ASSERT_EQ(same.size(), 3);
+  EXPECT_NEAR(same.region(0).margin({0.5, 0.5}), 0.5, 1e-12);
+  expectThrowsNaming([&] { rollstep::planning::shrinkTerrain(terrain, -0.1); }, "margin");
+  expectThrowsNaming(
+      [&] { rollstep::planning::shrinkTerrain(terrain, std::numeric_limits<double>::quiet_NaN()); },
+      "margin");
+
+  TerrainModel a = terrain, b = shrunk;
+  EXPECT_EQ(a.maxEdges(), 5);
+  rollstep::test::AllocationGuard guard;
+  a.swap(b);
+  EXPECT_EQ(guard.count(), 0u);
+  EXPECT_EQ(a.size(), 2);
+  EXPECT_EQ(b.size(), 3);
+}
+
+// Seams: two pieces of one floor keep the edges they share (no gap opens in the middle of
+// the floor); the same pieces at different heights (a step) shrink on both sides.
+TEST(TerrainModel, ShrinkKeepsSeamsBetweenPiecesOfOneSurface) {
+  for (const double rise : {0.0, 0.1}) {
+    const ConvexRegion left = ConvexRegion::fromPolygon({{0, 0}, {1, 0}, {1, 1}, {0, 1}}, 0.0);
+    const ConvexRegion right =
+        ConvexRegion::fromPolygon({{1.02, -0.2}, {2, -0.2}, {2, 1.2}, {1.02, 1.2}}, rise);
+    const TerrainModel shrunk =
+        rollstep::planning::shrinkTerrain(TerrainModel({left, right}), 0.1, 0.04, 0.02);
+    ASSERT_EQ(shrunk.size(), 2);
+    const ConvexRegion& l = shrunk.region(0);
+    const ConvexRegion& r = shrunk.region(1);
+    double l_max_x = -1, r_min_x = 10;
+    for (const Vector2d& v : l.vertices) l_max_x = std::max(l_max_x, v.x());
+    for (const Vector2d& v : r.vertices) r_min_x = std::min(r_min_x, v.x());
+    if (rise == 0.0) {
+      EXPECT_NEAR(l_max_x, 1.0, 1e-12) << "the seam of the left piece moved";
+      // The right piece is longer than the left: its left edge is not covered all along.
+      EXPECT_NEAR(r_min_x, 1.12, 1e-12);
+      // A foot anywhere on the floor between the pieces is inside one of them.
+      EXPECT_TRUE(l.contains({0.99, 0.5}));
+      EXPECT_TRUE(r.contains({1.13, 0.5}));
+    } else {
+      EXPECT_NEAR(l_max_x, 0.9, 1e-12);
+      EXPECT_NEAR(r_min_x, 1.12, 1e-12);
+    }
+    // The other edges moved in.
+    for (const Vector2d& v : l.vertices) {
+      EXPECT_NEAR(std::min(v.y(), 1.0 - v.y()), 0.1, 1e-12);
+    }
+  }
+  expectThrowsNaming([] { rollstep::planning::shrinkTerrain(TerrainModel(), 0.1, -1.0); },
+                     "seam_probe");
+}
+
+// Levelling (measured terrains): floor pieces a few millimetres apart and slightly tilted
+// become one level height (area-weighted), so swings between them are level; a step stays a
+// step and a real slope stays a slope.
+TEST(TerrainModel, LevelTerrainMergesNoisyFloorPiecesButKeepsStepsAndSlopes) {
+  const Vector3d tiny_tilt = Vector3d(0.01, 0.0, 1.0).normalized();       // 0.57 deg
+  const Vector3d slope = Vector3d(-std::sin(0.17), 0.0, std::cos(0.17));  // 10 deg
+  const TerrainModel terrain({
+      ConvexRegion::fromPolygon({{0, 0}, {1, 0}, {1, 1}, {0, 1}}, 0.002, tiny_tilt),  // 1 m^2
+      ConvexRegion::fromPolygon({{1, 0}, {2, 0}, {2, 3}, {1, 3}}, -0.002),            // 3 m^2
+      ConvexRegion::fromPolygon({{2, 0}, {3, 0}, {3, 1}, {2, 1}}, 0.2),               // a step
+      ConvexRegion::fromPolygon({{3, 0}, {4, 0}, {4, 1}, {3, 1}}, 0.3, slope),
+  });
+  EXPECT_EQ(terrain.classifySwing({0.5, 0.5}, {1.5, 0.5}), SwingDirection::Descending);
+  const TerrainModel level = rollstep::planning::levelTerrain(terrain, 2.0 * M_PI / 180.0, 0.01);
+  ASSERT_EQ(level.size(), 4);
+  const double merged = (1.0 * 0.002 + 3.0 * -0.002) / 4.0;
+  EXPECT_NEAR(level.region(0).height, merged, 1e-12);
+  EXPECT_NEAR(level.region(1).height, merged, 1e-12);
+  EXPECT_EQ(level.region(0).normal, Vector3d::UnitZ());
+  EXPECT_EQ(level.classifySwing({0.5, 0.5}, {1.5, 0.5}), SwingDirection::Level);
+  EXPECT_DOUBLE_EQ(level.region(2).height, 0.2);
+  EXPECT_EQ(level.classifySwing({1.5, 0.5}, {2.5, 0.5}), SwingDirection::Ascending);
+  EXPECT_EQ(level.region(3).normal, terrain.region(3).normal);  // 10 deg: kept
+  EXPECT_EQ(level.region(0).vertices, terrain.region(0).vertices);
+  expectThrowsNaming([&] { rollstep::planning::levelTerrain(terrain, -1.0, 0.01); }, "max_tilt");
+  expectThrowsNaming([&] { rollstep::planning::levelTerrain(terrain, 0.1, -0.01); },
+                     "height_tolerance");
+}
+
 }  // namespace

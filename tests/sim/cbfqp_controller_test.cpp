@@ -8,11 +8,14 @@
 
 #include "common/alloc_counter.hpp"
 #include "sim/cbfqp_run.hpp"
+#include "sim/closed_loop_ticks.hpp"
 
 namespace {
 
 using namespace rollstep;
 using namespace rollstep::sim;
+using sim::test::internalState;
+using sim::test::runTicks;
 
 TEST(CbfQpController, TickMakesNoAllocationAndRefusesBadStates) {
   SceneConfig scene;
@@ -26,18 +29,12 @@ TEST(CbfQpController, TickMakesNoAllocationAndRefusesBadStates) {
                              terrainFromScene(scene, settings.baseline.foothold_margin),
                              terrainFromScene(scene, 0.0), planning::GaitKind::Trot,
                              planning::BaseVelocityCommand{0.15, 0, 0});
-  PlantCommand command = plant.command();
-  for (int k = 0; k < 30; ++k) {
-    controller.compute(plant.time(), plant.sensors(), command);
-    plant.setCommand(command);
-    plant.step();
-  }
+  runTicks(controller, plant, 30);
   control::BaselinePipeline& pipeline = controller.pipeline();
   control::JointCommand out = pipeline.makeCommand();
   // The internal state moved to 8 cm before the block with the front wheels: collision rows
   // for them; one second spans a lift-off and a touch-down of each trot group.
-  control::RobotState s = pipeline.makeState();
-  control::fromModelState(plant.time(), pipeline.integrator().q(), pipeline.integrator().v(), s);
+  control::RobotState s = internalState(pipeline, plant.time());
   s.base_position.x() = 1.0 - 0.33 - 0.08;
   std::size_t count = 0;
   int max_rows = 0;
@@ -62,6 +59,77 @@ TEST(CbfQpController, TickMakesNoAllocationAndRefusesBadStates) {
   EXPECT_EQ(pipeline.counters().invalid_states, invalid + 1);
   EXPECT_EQ(out.joint_position, before.joint_position);
   EXPECT_EQ(out.wheel_velocity, before.wheel_velocity);
+}
+
+// A new terrain pair (perception's hand-over, BaselinePipeline::setTerrain) mid-trot: the next
+// tick swaps it in without allocating and moves the planner's region indices onto it (the
+// new terrain numbers its regions differently: the floor in front of the block first, in
+// two pieces); every foot then plans in a region of the new terrain that holds its target.
+TEST(CbfQpController, TerrainHandOverIsAllocationFreeAndRemapsTheRegions) {
+  SceneConfig scene;
+  scene.kind = SceneKind::kStep20;
+  Plant plant(scene);
+  const centroidal::RobotOcpDescription robot = centroidal::loadRobotOcpDescription(
+      std::string(ROLLSTEP_ROBOTS_DIR) + "/tachyon3/centroidal.yaml");
+  const control::ControlSettings settings =
+      control::loadControlSettings(sim::test::baselineConfig());
+  const double margin = settings.baseline.foothold_margin;
+  CbfQpController controller(plant, robot, settings, terrainFromScene(scene, margin),
+                             terrainFromScene(scene, 0.0), planning::GaitKind::Trot,
+                             planning::BaseVelocityCommand{0.15, 0, 0}, 0, 8);
+  runTicks(controller, plant, 500);  // into the first swings
+  control::BaselinePipeline& pipeline = controller.pipeline();
+  // The same surfaces, numbered and cut differently: floor before the block in two pieces
+  // (y < 0, y > 0), then the block, then the floor beyond.
+  const auto box = [](double x0, double x1, double y0, double y1, double h) {
+    return planning::ConvexRegion::fromPolygon({{x0, y0}, {x1, y0}, {x1, y1}, {x0, y1}}, h);
+  };
+  const planning::TerrainModel solids({box(-5, 1, -1.5, 0, 0), box(-5, 1, 0, 1.5, 0),
+                                       box(1, 2.2, -1.5, 1.5, 0.2), box(2.2, 10, -1.5, 1.5, 0)});
+  const planning::TerrainModel footholds = planning::shrinkTerrain(solids, margin, 0.04);
+  EXPECT_EQ(pipeline.setTerrain(footholds, solids), 1u);
+  // Refused: more solids than the capacity (8), or an empty foothold terrain.
+  std::vector<planning::ConvexRegion> many;
+  for (int k = 0; k < 9; ++k) many.push_back(box(k, k + 1, -1, 1, 0));
+  EXPECT_EQ(pipeline.setTerrain(footholds, planning::TerrainModel(many)), 0u);
+  EXPECT_EQ(pipeline.setTerrain(planning::TerrainModel(), solids), 0u);
+
+  control::JointCommand out = pipeline.makeCommand();
+  std::size_t count = 0;
+  runTicks(controller, plant, 20);  // real states, real plans
+  control::RobotState s = internalState(pipeline, plant.time());
+  EXPECT_EQ(pipeline.terrainVersion(), 1u);
+  EXPECT_EQ(pipeline.counters().terrain_updates, 1u);
+  // A second hand-over inside the guard: the swap and the remap allocate nothing.
+  EXPECT_EQ(pipeline.setTerrain(footholds, solids), 2u);
+  {
+    s.time += 0.001;
+    rollstep::test::AllocationGuard guard;
+    pipeline.tick(s, out);
+    count += guard.count();
+  }
+  EXPECT_EQ(count, 0u) << "the tick that took the new terrain allocated";
+  EXPECT_EQ(pipeline.terrainVersion(), 2u);
+  const control::ReactivePlan& plan = pipeline.plan();
+  const int nc = pipeline.robot().nc();
+  int stance = 0, swing = 0;
+  for (int i = 0; i < nc; ++i) {
+    const int region = plan.regions[static_cast<std::size_t>(i)].region;
+    ASSERT_GE(region, 0) << "foot " << i;
+    ASSERT_LT(region, pipeline.terrain().size()) << "foot " << i;
+    if (centroidal::CentroidalRobot::inStance(plan.mode, i)) {
+      // A stance target (wheel centre) lies in its region.
+      EXPECT_LT(pipeline.terrain().region(region).distance(plan.foot_position.col(i).head<2>()),
+                1e-9)
+          << "foot " << i;
+      ++stance;
+    } else {
+      ++swing;  // its touch-down region: checked by index above
+    }
+  }
+  EXPECT_GT(stance, 0);
+  EXPECT_GT(swing, 0);  // the hand-over happened mid-swing
+  EXPECT_EQ(pipeline.collisionTerrain().size(), 4);
 }
 
 }  // namespace

@@ -5,10 +5,12 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <memory>
 #include <string>
 
 #include "rollstep/control/control_settings.hpp"
 #include "rollstep/sim/cbfqp_controller.hpp"
+#include "rollstep/sim/online_perception.hpp"
 #include "rollstep/sim/plant.hpp"
 #include "rollstep/sim/scene.hpp"
 #include "rollstep/sim/scene_terrain.hpp"
@@ -21,6 +23,9 @@ struct CbfQpScenario {
   double duration = 10.0;
   /// The command drops to zero once the base is this far (x) [m]; +inf: never.
   double stop_at_x = 1e9;
+  /// Perception in closed loop (OnlinePerception, default settings) instead of the scene's
+  /// ground-truth terrain.
+  bool perception = false;
 };
 
 struct CbfQpOutcome {
@@ -53,9 +58,20 @@ inline CbfQpOutcome runCbfQp(const CbfQpScenario& sc) {
   const centroidal::RobotOcpDescription robot = centroidal::loadRobotOcpDescription(
       std::string(ROLLSTEP_ROBOTS_DIR) + "/tachyon3/centroidal.yaml");
   const control::ControlSettings settings = control::loadControlSettings(baselineConfig());
-  CbfQpController controller(plant, robot, settings,
-                             terrainFromScene(scene, settings.baseline.foothold_margin),
-                             terrainFromScene(scene, 0.0), planning::GaitKind::Trot, sc.command);
+  std::unique_ptr<OnlinePerception> perception;
+  if (sc.perception) {
+    perception = std::make_unique<OnlinePerception>(OnlinePerceptionOptions{});
+    perception->start(plant, plant.groundTruth().base_position,
+                      plant.groundTruth().base_orientation);
+  }
+  CbfQpController controller(
+      plant, robot, settings,
+      perception ? perception->footholdTerrain(settings.baseline.foothold_margin)
+                 : terrainFromScene(scene, settings.baseline.foothold_margin),
+      perception ? perception->terrain() : terrainFromScene(scene, 0.0), planning::GaitKind::Trot,
+      sc.command, perception ? perception->perception().settings().regions.directions : 0,
+      perception ? 64 : 0);
+  if (perception) controller.setPerception(std::move(perception));
   const planning::TerrainModel solids = terrainFromScene(scene, 0.0);
   const model::Model& m = controller.pipeline().robot().model();
   const GroundTruth& g = plant.groundTruth();

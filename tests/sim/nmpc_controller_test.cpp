@@ -3,9 +3,12 @@
 // for bit.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
+#include <thread>
 
 #include "common/alloc_counter.hpp"
+#include "sim/closed_loop_ticks.hpp"
 #include "sim/nmpc_run.hpp"
 
 namespace rollstep::sim::test {
@@ -40,18 +43,12 @@ TEST(NmpcController, TrotTickMakesNoAllocationAndRefusesBadStates) {
   control::ControlSettings settings = shortHorizon();
   NmpcController controller(plant, robot, settings, terrainFromScene(scene, 0.085),
                             planning::GaitKind::Trot, planning::BaseVelocityCommand{0.1, 0, 0});
-  PlantCommand command = plant.command();
-  for (int k = 0; k < 30; ++k) {  // warm up: first solves, first QP
-    controller.compute(plant.time(), plant.sensors(), command);
-    plant.setCommand(command);
-    plant.step();
-  }
+  runTicks(controller, plant, 30);  // warm up: first solves, first QP
   control::ControlPipeline& pipeline = controller.pipeline();
   control::JointCommand out = pipeline.makeCommand();
   // The tick itself, on the last real state moved along in time: 60 ticks span three MPC
   // solves (deterministic mode solves inside the tick) and three refinements.
-  control::RobotState s = pipeline.makeState();
-  control::fromModelState(plant.time(), pipeline.integrator().q(), pipeline.integrator().v(), s);
+  control::RobotState s = internalState(pipeline, plant.time());
   std::size_t count = 0;
   for (int k = 0; k < 60; ++k) {
     s.time += 0.001;
@@ -72,6 +69,115 @@ TEST(NmpcController, TrotTickMakesNoAllocationAndRefusesBadStates) {
   EXPECT_EQ(pipeline.counters().invalid_states, invalid + 1);
   EXPECT_EQ(out.joint_position, before.joint_position);
   EXPECT_EQ(out.wheel_velocity, before.wheel_velocity);
+}
+
+// A new terrain (perception's hand-over, ControlPipeline::setTerrain): the MPC solves on it
+// from its next solve, the real-time side changes to it with the first solution solved on
+// it, and neither allocates (the terrains are swapped in); a terrain the problem cannot take
+// is refused and the one in use stays.
+TEST(NmpcController, TerrainHandOverIsAllocationFreeAndRefusesUnfitTerrains) {
+  SceneConfig scene;
+  Plant plant(scene);
+  const centroidal::RobotOcpDescription robot =
+      centroidal::loadRobotOcpDescription(tachyon3Description());
+  control::ControlSettings settings = shortHorizon();
+  NmpcController controller(plant, robot, settings, terrainFromScene(scene, 0.085),
+                            planning::GaitKind::Trot, planning::BaseVelocityCommand{0.1, 0, 0},
+                            StateSourceOptions{}, 6);
+  runTicks(controller, plant, 30);
+  control::ControlPipeline& pipeline = controller.pipeline();
+  control::JointCommand out = pipeline.makeCommand();
+  control::RobotState s = internalState(pipeline, plant.time());
+  // The floor in two pieces, one a hexagon (6 edges, the capacity), 1 mm higher.
+  const planning::TerrainModel before = pipeline.ocp().terrain();
+  const planning::TerrainModel next({
+      planning::ConvexRegion::fromPolygon({{-3, -1}, {0.2, -1}, {0.2, 1}, {-3, 1}}, 0.001),
+      planning::ConvexRegion::fromPolygon(
+          {{0.2, -1}, {3, -1}, {3.2, -0.5}, {3.2, 0.5}, {3, 1}, {0.2, 1}}, 0.001),
+  });
+  const std::uint64_t version = pipeline.setTerrain(next);
+  EXPECT_EQ(version, 1u);
+  // Refused: empty, or a region with more edges than the capacity.
+  EXPECT_EQ(pipeline.setTerrain(planning::TerrainModel()), 0u);
+  std::vector<Eigen::Vector2d> octagon;
+  for (int k = 0; k < 8; ++k) {
+    octagon.emplace_back(std::cos(k * M_PI / 4), std::sin(k * M_PI / 4));
+  }
+  EXPECT_EQ(pipeline.setTerrain(
+                planning::TerrainModel({planning::ConvexRegion::fromPolygon(octagon, 0.0)})),
+            0u);
+  std::size_t count = 0;
+  std::uint64_t version_seen_by_rt = 0;
+  for (int k = 0; k < 60; ++k) {
+    s.time += 0.001;
+    rollstep::test::AllocationGuard guard;
+    pipeline.tick(s, out);
+    count += guard.count();
+    if (version_seen_by_rt == 0 && pipeline.terrainVersion() == version) {
+      // The real-time side changed with the solution solved on it, not before.
+      EXPECT_TRUE(pipeline.lastTick().solution_adopted);
+      EXPECT_EQ(pipeline.lastSolution().terrain_version, version);
+      version_seen_by_rt = version;
+    }
+  }
+  EXPECT_EQ(count, 0u) << "the real-time tick allocated around a terrain hand-over";
+  EXPECT_EQ(version_seen_by_rt, version);
+  EXPECT_EQ(pipeline.counters().terrain_updates, 1u);
+  EXPECT_EQ(pipeline.runner().terrainVersion(), version);
+  const planning::TerrainModel& now = pipeline.ocp().terrain();
+  ASSERT_EQ(now.size(), 2);
+  EXPECT_EQ(now.region(1).vertices.size(), 6u);
+  EXPECT_DOUBLE_EQ(now.heightAt({1.0, 0.0}), 0.001);
+  EXPECT_NE(before.size(), 2);  // it really changed
+  EXPECT_TRUE(out.joint_position.allFinite());
+}
+
+// The hand-over across threads (asynchronous MPC: its own thread swaps the terrain in at the
+// start of a solve while this thread publishes the next ones and ticks): every terrain
+// published reaches both sides, the newest in the end (the sanitizer trees run this too:
+// ThreadSanitizer checks the exchange).
+TEST(NmpcController, TerrainHandOverReachesAnAsynchronousMpc) {
+  SceneConfig scene;
+  Plant plant(scene);
+  const centroidal::RobotOcpDescription robot =
+      centroidal::loadRobotOcpDescription(tachyon3Description());
+  control::ControlSettings settings = shortHorizon();
+  settings.mpc.timing = control::MpcTiming::Asynchronous;
+  settings.mpc.max_solution_age = 100.0;  // a slow (sanitized) MPC must not trip the watchdog
+  NmpcController controller(plant, robot, settings, terrainFromScene(scene, 0.085),
+                            planning::GaitKind::Standing, planning::BaseVelocityCommand{},
+                            StateSourceOptions{}, 4);
+  control::ControlPipeline& pipeline = controller.pipeline();
+  control::JointCommand out = pipeline.makeCommand();
+  control::RobotState s = internalState(pipeline, plant.time());
+  const auto floorAt = [](double h) {
+    return planning::TerrainModel(
+        {planning::ConvexRegion::fromPolygon({{-3, -2}, {3, -2}, {3, 2}, {-3, 2}}, h)});
+  };
+  std::uint64_t last = 0;
+  for (int k = 0; k < 5; ++k) {
+    last = pipeline.setTerrain(floorAt(0.001 * (k + 1)));
+    ASSERT_EQ(last, static_cast<std::uint64_t>(k + 1));
+    for (int j = 0; j < 20; ++j) {
+      s.time += 0.001;
+      pipeline.tick(s, out);
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+  }
+  // Wait (wall clock) until the MPC solved on the last one and this side adopted a solution
+  // solved on it.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (pipeline.terrainVersion() != last && std::chrono::steady_clock::now() < deadline) {
+    s.time += 0.001;
+    pipeline.tick(s, out);
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  pipeline.stop();
+  EXPECT_EQ(pipeline.runner().terrainVersion(), last);
+  EXPECT_EQ(pipeline.terrainVersion(), last);
+  EXPECT_DOUBLE_EQ(pipeline.ocp().terrain().heightAt({0.0, 0.0}), 0.005);
+  EXPECT_GE(pipeline.counters().terrain_updates, 1u);
+  EXPECT_TRUE(out.joint_position.allFinite());
 }
 
 }  // namespace

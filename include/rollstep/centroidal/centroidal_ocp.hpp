@@ -55,8 +55,11 @@ class CentroidalOcp {
  public:
   /// Loads the URDF of `robot`, checks the description against it (frames, joint count of
   /// the nominal posture, gait groups the gait needs) and composes the problem.
+  /// `region_edge_capacity`: the most edges a region of any terrain given later
+  /// (swapTerrain) may have; 0 = the most of `terrain` (rows are sized for it).
   CentroidalOcp(const RobotOcpDescription& robot, const OcpSettings& settings,
-                planning::TerrainModel terrain, planning::GaitKind gait);
+                planning::TerrainModel terrain, planning::GaitKind gait,
+                int region_edge_capacity = 0);
   CentroidalOcp(const CentroidalOcp&) = delete;
   CentroidalOcp& operator=(const CentroidalOcp&) = delete;
 
@@ -70,6 +73,17 @@ class CentroidalOcp {
   /// Moves the horizon to start at t0 (same references): the problem's initial time and
   /// mode schedule.
   void advance(double t0);
+  /// Whether `terrain` can replace the current one: non-empty when the current one is (the
+  /// region constraints exist only then), empty when it is empty, regions of at most
+  /// regionEdgeCapacity() edges. Reads only what is fixed at construction: may be called
+  /// from another thread than the one that swaps.
+  bool acceptsTerrain(const planning::TerrainModel& terrain) const noexcept;
+  /// Replaces the terrain every term and planner reads by `terrain`'s regions (exchanged:
+  /// `terrain` receives the old ones), if acceptsTerrain(terrain); else changes nothing and
+  /// returns false. Never allocates: the hand-over of a new (perceived) terrain between
+  /// solves.
+  bool swapTerrain(planning::TerrainModel& terrain) noexcept;
+  int regionEdgeCapacity() const { return region_edge_capacity_; }
 
   /// The nominal standing state at the planar pose (x, y, yaw): base at the nominal height
   /// above the terrain under the feet, level, nominal joints, zero momentum.
@@ -114,6 +128,8 @@ class CentroidalOcp {
   std::shared_ptr<ocp::OptimalControlProblem> problem_;
   std::vector<Eigen::Vector2d> nominal_feet_;
   double nominal_height_ = 0.0;
+  int region_edge_capacity_ = 0;
+  bool has_regions_ = false;  // of the constructor's terrain (swapTerrain keeps it so)
   Eigen::VectorXd q_joint_ref_;
   std::vector<std::string> contact_names_;
   std::unique_ptr<CentroidalCache> scratch_;  // for the non-real-time helpers above

@@ -21,8 +21,13 @@
 // too (the drive wheels follow the commanded base: rolling on unfiltered would carry a
 // stance wheel over an edge).
 //
+// Terrain updates (perception; setTerrain from one producer thread, not real-time): the
+// next tick swaps the new foothold and collision terrains in (no allocation) and moves the
+// planner's region indices onto them (ReactivePlanner::remapRegions).
+//
 // Real-time contract: tick() never allocates, locks or throws (tests count allocations).
 #include <Eigen/Core>
+#include <cstdint>
 #include <memory>
 #include <vector>
 
@@ -33,6 +38,7 @@
 #include "rollstep/control/reactive_planner.hpp"
 #include "rollstep/control/robot_state.hpp"
 #include "rollstep/control/state_integrator.hpp"
+#include "rollstep/control/terrain_exchange.hpp"
 
 namespace rollstep::control {
 
@@ -41,9 +47,13 @@ class BaselinePipeline {
   /// `terrain`: the foothold regions (shrunk); `collision_terrain`: the solids of the
   /// collision barrier (unshrunk). Both are copied. Throws std::invalid_argument for bad
   /// settings or robot description.
+  /// `region_edge_capacity`, `collision_prism_capacity`: the most edges of a foothold region
+  /// and the most collision prisms of any terrain given later (setTerrain); 0: the initial
+  /// terrains'.
   BaselinePipeline(const centroidal::RobotOcpDescription& robot, const ControlSettings& settings,
                    const planning::TerrainModel& terrain,
-                   const planning::TerrainModel& collision_terrain, planning::GaitKind gait);
+                   const planning::TerrainModel& collision_terrain, planning::GaitKind gait,
+                   int region_edge_capacity = 0, int collision_prism_capacity = 0);
   ~BaselinePipeline();
   BaselinePipeline(const BaselinePipeline&) = delete;
   BaselinePipeline& operator=(const BaselinePipeline&) = delete;
@@ -53,6 +63,17 @@ class BaselinePipeline {
   void initialize(const RobotState& state, const planning::BaseVelocityCommand& command);
   /// One real-time tick at state.time. Never allocates, locks or throws.
   void tick(const RobotState& state, JointCommand& command) noexcept;
+
+  /// Producer of terrains (one thread, not real-time: copies them): the foothold regions
+  /// and the collision solids the next tick changes to. Returns the version (1, 2, ...), or
+  /// 0 if refused (an empty foothold terrain, a region with more edges or more solids than
+  /// the capacities): the terrains in use stay.
+  std::uint64_t setTerrain(const planning::TerrainModel& terrain,
+                           const planning::TerrainModel& collision_terrain);
+  /// Version of the terrains in use (0: the constructor's).
+  std::uint64_t terrainVersion() const { return terrain_version_; }
+  const planning::TerrainModel& terrain() const { return ocp_->terrain(); }
+  const planning::TerrainModel& collisionTerrain() const { return *collision_terrain_; }
 
   /// A new base velocity command from the next tick on. Never allocates.
   void setCommand(const planning::BaseVelocityCommand& command) { planner_->setCommand(command); }
@@ -89,6 +110,18 @@ class BaselinePipeline {
   Eigen::VectorXd q_meas_, v_meas_, a_, dq_;
   Eigen::Matrix3Xd foot_p_, foot_v_;
   bool initialized_ = false;
+
+  /// Foothold and collision terrains handed over together.
+  struct TerrainPair {
+    planning::TerrainModel footholds, solids;
+    void swap(TerrainPair& other) noexcept {
+      footholds.swap(other.footholds);
+      solids.swap(other.solids);
+    }
+  };
+  LatestValueExchange<TerrainPair> terrain_in_;
+  TerrainPair incoming_;
+  std::uint64_t terrain_version_ = 0;
 };
 
 }  // namespace rollstep::control

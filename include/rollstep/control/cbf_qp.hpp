@@ -134,10 +134,13 @@ class CbfQpFilter {
   /// the filter has no lateral rows: the MPC's plan weighs the slip a turn needs.
   /// `collision_terrain` (must outlive the filter; nullptr: `terrain`): the solids of the
   /// collision barrier, unshrunk (the foothold regions of `terrain` are usually shrunk).
+  /// `collision_prism_capacity`: the most prisms the collision terrain may have when it is
+  /// changed in place later (a perceived terrain); 0: its size now.
   CbfQpFilter(std::shared_ptr<const centroidal::CentroidalRobot> robot,
               const planning::TerrainModel& terrain, const CbfQpSettings& settings,
               double lateral_slip_weight = 0.0,
-              const planning::TerrainModel* collision_terrain = nullptr);
+              const planning::TerrainModel* collision_terrain = nullptr,
+              int collision_prism_capacity = 0);
   ~CbfQpFilter();  // out of line: Work is incomplete here
   CbfQpFilter(CbfQpFilter&&) noexcept;
   CbfQpFilter& operator=(CbfQpFilter&&) noexcept;
@@ -179,6 +182,8 @@ class CbfQpFilter {
   const Eigen::Matrix3Xd& footDrift() const;
   /// Most edges a region may have (see the file comment).
   int maxRegionEdges() const { return max_region_edges_; }
+  /// Most prisms the collision terrain may have (rows are sized for them).
+  int maxCollisionPrisms() const { return max_collision_prisms_; }
 
   const CbfQpSettings& settings() const { return settings_; }
   const centroidal::CentroidalRobot& robot() const { return *robot_; }
@@ -187,6 +192,7 @@ class CbfQpFilter {
   std::shared_ptr<const centroidal::CentroidalRobot> robot_;
   const planning::TerrainModel* terrain_;
   const planning::TerrainModel* collision_terrain_;
+  int max_collision_prisms_ = 0;
   int support_mask_ = -1;
   CbfQpSettings settings_;
   double lateral_slip_weight_ = 0.0;

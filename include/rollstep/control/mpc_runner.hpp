@@ -25,6 +25,7 @@
 
 #include "rollstep/centroidal/centroidal_ocp.hpp"
 #include "rollstep/control/control_settings.hpp"
+#include "rollstep/control/terrain_exchange.hpp"
 #include "rollstep/solver/solver.hpp"
 
 namespace rollstep::control {
@@ -48,6 +49,8 @@ struct MpcSolution {
   /// converging solve (its last entry holds the final residuals, no step).
   double primal_step = 0.0;
   double solve_time_ms = 0.0;  ///< wall time of the solve (not reproducible)
+  /// Version of the terrain it was solved on (MpcRunner::publishTerrain; 0: the initial).
+  std::uint64_t terrain_version = 0;
   /// Deterministic mode: loop time from which poll() hands it out (t0 + latency).
   /// Asynchronous mode and the first solution: t0 (handed out as soon as it is finished).
   double release_time = 0.0;
@@ -75,8 +78,10 @@ class MpcRunner {
   /// Builds the OCP (its own CentroidalOcp) and the solver in real-time mode from
   /// settings.ocp; settings.mpc gives the timing. Throws std::invalid_argument /
   /// std::runtime_error naming what is wrong.
+  /// `region_edge_capacity`: CentroidalOcp's (the most edges of a region of any terrain
+  /// published later; 0: the initial terrain's).
   MpcRunner(const centroidal::RobotOcpDescription& robot, const ControlSettings& settings,
-            planning::TerrainModel terrain, planning::GaitKind gait);
+            planning::TerrainModel terrain, planning::GaitKind gait, int region_edge_capacity = 0);
   ~MpcRunner();  ///< stops the thread (asynchronous mode)
   MpcRunner(const MpcRunner&) = delete;
   MpcRunner& operator=(const MpcRunner&) = delete;
@@ -103,6 +108,15 @@ class MpcRunner {
   /// Real-time thread: if a solution newer than out.sequence is available at loop time t,
   /// copies it into `out` (sized by makeSolution()) and returns true.
   bool poll(double t, MpcSolution& out) noexcept;
+
+  /// Producer of terrains (one thread, not real-time: copies `terrain`): the next solve
+  /// that starts after this call solves on it (in the solving thread, at the start of the
+  /// solve, without allocating). Returns its version (1, 2, ...; the solutions carry it),
+  /// or 0 when the OCP refuses it (CentroidalOcp::acceptsTerrain: empty, or regions with
+  /// more edges than the OCP's capacity; the terrain in use stays).
+  std::uint64_t publishTerrain(const planning::TerrainModel& terrain);
+  /// Version of the terrain the last solve started on (the solving side's; 0: initial).
+  std::uint64_t terrainVersion() const;
 
   /// An MpcSolution sized for this problem (allocates; for the caller's buffers).
   MpcSolution makeSolution() const;

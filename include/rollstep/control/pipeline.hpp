@@ -59,6 +59,13 @@
 //   adopted (a solution already older than the limit when it arrives is not adopted). Until
 //   the limit the last solution, refined, is used as usual.
 //
+// Terrain updates (perception, at its own rate; setTerrain from one producer thread, not
+// real-time): the MPC solves on a new terrain from the start of its next solve; the
+// real-time side (contact planner, CBF-QP) changes to it when it adopts the first solution
+// solved on it, so that the plan and the safety filter see the same regions. Both swap the
+// terrain in (no allocation). A terrain the problem cannot take (empty, or regions with
+// more edges than the capacity) is refused by setTerrain: the last one stays.
+//
 // Real-time contract: tick() never allocates, locks or throws (tests count allocations).
 // Construction and initialize() allocate and may throw.
 #include <Eigen/Core>
@@ -73,6 +80,7 @@
 #include "rollstep/control/reference_trajectory.hpp"
 #include "rollstep/control/robot_state.hpp"
 #include "rollstep/control/state_integrator.hpp"
+#include "rollstep/control/terrain_exchange.hpp"
 
 namespace rollstep::control {
 
@@ -95,8 +103,9 @@ struct TickRecord {
   DenseQpStatus qp_status = DenseQpStatus::Optimal;
   int qp_iterations = 0;
   int active_barriers = 0;
-  double correction = 0.0;  ///< CbfQpFilter::correction()
-  bool holding = false;     ///< stale-solution watchdog: holding the safe posture
+  double correction = 0.0;            ///< CbfQpFilter::correction()
+  bool holding = false;               ///< stale-solution watchdog: holding the safe posture
+  std::uint64_t terrain_version = 0;  ///< of the real-time side's terrain (0: the initial)
 };
 
 /// Counters over the run.
@@ -109,14 +118,18 @@ struct PipelineCounters {
   std::uint64_t watchdog_trips = 0;   ///< solution older than mpc.max_solution_age: hold began
   std::uint64_t holding_ticks = 0;    ///< ticks spent holding the safe posture
   std::uint64_t stale_solutions = 0;  ///< older than mpc.max_solution_age on arrival: ignored
+  std::uint64_t terrain_updates = 0;  ///< new terrains the real-time side changed to
 };
 
 class ControlPipeline {
  public:
   /// Builds the MPC runner (its own OCP) and the real-time side (a second instance of the
   /// OCP's model, planners and terrain: nothing is shared between the threads).
+  /// `region_edge_capacity`: the most edges of a region of any terrain given later
+  /// (setTerrain); 0: the initial terrain's (the CBF-QP takes at least 8 in any case).
   ControlPipeline(const centroidal::RobotOcpDescription& robot, const ControlSettings& settings,
-                  const planning::TerrainModel& terrain, planning::GaitKind gait);
+                  const planning::TerrainModel& terrain, planning::GaitKind gait,
+                  int region_edge_capacity = 0);
   ~ControlPipeline();
   ControlPipeline(const ControlPipeline&) = delete;
   ControlPipeline& operator=(const ControlPipeline&) = delete;
@@ -135,6 +148,13 @@ class ControlPipeline {
   void tick(const RobotState& state, JointCommand& command) noexcept;
   /// Stops the MPC thread (asynchronous mode); idempotent.
   void stop();
+  /// Producer of terrains (one thread, not real-time: copies it twice): hands a new terrain
+  /// to the MPC (next solve) and to the real-time side (with the first solution solved on
+  /// it). Returns its version (1, 2, ...), or 0 if refused (empty, or a region with more
+  /// edges than the capacity): the terrain in use stays.
+  std::uint64_t setTerrain(const planning::TerrainModel& terrain);
+  /// Version of the real-time side's terrain (0: the constructor's).
+  std::uint64_t terrainVersion() const { return rt_terrain_version_; }
 
   JointCommand makeCommand() const;
   RobotState makeState() const { return RobotState::zero(robot().nj()); }
@@ -175,6 +195,9 @@ class ControlPipeline {
   std::unique_ptr<model::Data> data_;
   std::vector<int> drive_wheels_;
   std::vector<FootRegionPlan> regions_;
+  LatestValueExchange<planning::TerrainModel> terrain_in_;  // setTerrain -> tick
+  planning::TerrainModel rt_incoming_;
+  std::uint64_t rt_terrain_version_ = 0;
 
   MpcSolution solution_;
   ReferenceSample sample_;

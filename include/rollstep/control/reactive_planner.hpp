@@ -90,6 +90,13 @@ class ReactivePlanner {
   void plan(double t, const Eigen::VectorXd& q_meas, const Eigen::VectorXd& q_int,
             const Eigen::Matrix3Xd& foot_positions, ReactivePlan& out) noexcept;
 
+  /// After the foothold terrain (the ocp's) and the collision terrain changed in place (a
+  /// new perceived terrain; `old_terrain`: the foothold terrain before): the region and
+  /// prism indices the planner holds are moved to the new terrains, each to the region
+  /// under the point it served (a swing's goal on the old terrain, its start); stance feet
+  /// take the region they stand in at the next plan(). Never allocates.
+  void remapRegions(const planning::TerrainModel& old_terrain) noexcept;
+
   ReactivePlan makePlan() const;
   const planning::Gait& gait() const { return scheduler_->gait(); }
   const BaselineSettings& settings() const { return settings_; }
@@ -108,6 +115,9 @@ class ReactivePlanner {
   /// shifted by `shift` along the command, projected onto `region`. With region < 0 it
   /// chooses the region (and the shift of a descent) first.
   Eigen::Vector2d footholdFor(int i, double t_td, int& region, double& shift) const;
+  /// footholdFor on a given terrain.
+  Eigen::Vector2d footholdOn(const planning::TerrainModel& terrain, int i, double t_td, int& region,
+                             double& shift) const;
 
   const centroidal::CentroidalOcp* ocp_;
   const planning::TerrainModel* solids_;

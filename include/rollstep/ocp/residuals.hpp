@@ -22,6 +22,10 @@ class StateErrorResidual : public Residual {
   void calc(const NodeContext& ctx, ConstVecRef x, ConstVecRef u, ResidualData& d) const override;
   void calcDiff(const NodeContext& ctx, ConstVecRef x, ConstVecRef u,
                 ResidualData& d) const override;
+  /// calcDiff restricted to the leading b x b block of Rx, b =
+  /// space().euclideanTangentOffset() (the rest of Rx is the identity and Ru is zero,
+  /// left as they are), for callers that exploit that structure. Needs calc() first.
+  void calcDiffHead(ConstVecRef x, ResidualData& d) const;
   const StateSpace& space() const { return *space_; }
 
  protected:

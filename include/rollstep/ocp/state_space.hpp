@@ -20,6 +20,13 @@ class StateSpace {
   virtual void integrateJacobians(ConstVecRef x, ConstVecRef dx, MatRef Jx, MatRef Jdx) const = 0;
   /// Jacobians of difference(x0, x1) w.r.t. x0 and x1 (tangent perturbations). ndx x ndx each.
   virtual void differenceJacobians(ConstVecRef x0, ConstVecRef x1, MatRef J0, MatRef J1) const = 0;
+  /// The same Jacobians restricted to their leading b x b blocks, b =
+  /// euclideanTangentOffset() (the rest is the identity, -I for J0 of the difference):
+  /// for callers that exploit this block structure. Each argument is b x b.
+  virtual void integrateJacobiansHead(ConstVecRef /*x*/, ConstVecRef /*dx*/, MatRef /*Jx*/,
+                                      MatRef /*Jdx*/) const {}
+  virtual void differenceJacobiansHead(ConstVecRef /*x0*/, ConstVecRef /*x1*/, MatRef /*J0*/,
+                                       MatRef /*J1*/) const {}
   /// True when nx() == ndx() and integrate is plain addition.
   virtual bool isEuclidean() const = 0;
   /// Offset of the Euclidean tail of the tangent (components that are plain coordinates);
@@ -59,6 +66,8 @@ class SE3xEuclideanSpace final : public StateSpace {
   void difference(ConstVecRef x0, ConstVecRef x1, VecRef out) const override;
   void integrateJacobians(ConstVecRef x, ConstVecRef dx, MatRef Jx, MatRef Jdx) const override;
   void differenceJacobians(ConstVecRef x0, ConstVecRef x1, MatRef J0, MatRef J1) const override;
+  void integrateJacobiansHead(ConstVecRef x, ConstVecRef dx, MatRef Jx, MatRef Jdx) const override;
+  void differenceJacobiansHead(ConstVecRef x0, ConstVecRef x1, MatRef J0, MatRef J1) const override;
   bool isEuclidean() const override { return false; }
   int euclideanTangentOffset() const override { return 6; }
 

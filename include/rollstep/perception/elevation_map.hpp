@@ -89,6 +89,20 @@ class ElevationMap {
   int fillFootprint(const Eigen::Vector3d* contacts, int count, double margin, double variance);
   /// Empties every cell.
   void clear();
+  /// This map becomes a copy of `other` (cells and placement); `other` must have the same
+  /// size (e.g. the same settings), else nothing is copied and false is returned. Never
+  /// allocates.
+  bool copyFrom(const ElevationMap& other);
+  /// Fills the empty cells that lie in a small gap between measured cells: the unseen strips
+  /// between the rings a multi-beam LiDAR draws on the ground, and the shadow behind a step
+  /// down. An empty cell whose nearest measured cells on both sides along a row, a column or
+  /// a diagonal have at most max_gap_cells empty cells between them (the shortest such gap
+  /// wins) gets the linear interpolation between them when they differ by at most max_step
+  /// [m] in height (one surface), else the lower one's height (a shadow behind an edge is the
+  /// lower surface going on under it: anything higher would have been seen), and the larger
+  /// of their variances. Never extrapolates: a cell with one side unseen stays empty.
+  /// Returns the cells filled. Never allocates.
+  int fillGaps(int max_gap_cells, double max_step);
 
   /// Row-major cells (index r * size() + c): height [m] (NaN: empty) and variance [m^2].
   const std::vector<float>& heights() const { return height_; }

@@ -37,6 +37,10 @@ struct SegmentationSettings {
   double grow_tolerance = 0.02;       ///< grow-back: distance to the region's plane [m]
   double min_region_area = 0.02;      ///< smaller regions are dropped [m^2]
   double max_hole_area = 0.01;        ///< smaller holes in a region are filled [m^2]
+  /// [m] Before segmenting, unseen gaps at most this wide are filled (ElevationMap::fillGaps:
+  /// interpolated on one surface, the lower side's height across more than step_height);
+  /// 0: off.
+  double fill_gap = 0.2;
 
   void validate() const;  ///< std::invalid_argument naming the bad parameter
 };

@@ -71,6 +71,7 @@ class TerrainPerception {
  private:
   PerceptionSettings settings_;
   ElevationMap map_;
+  ElevationMap filled_;  // map_ with its small gaps filled (segmentation.fill_gap)
   PlaneSegmenter segmenter_;
   ConvexRegionGrower grower_;
   Segmentation segmentation_;

@@ -53,6 +53,11 @@ class TerrainModel {
   explicit TerrainModel(std::vector<ConvexRegion> regions);
 
   int size() const { return static_cast<int>(regions_.size()); }
+  /// The most edges of any region (0 for an empty model).
+  int maxEdges() const;
+  /// Exchanges the regions with `other` in O(1), without allocating: how a new terrain
+  /// (e.g. from perception) replaces this one under the planners that point at it.
+  void swap(TerrainModel& other) noexcept { regions_.swap(other.regions_); }
   const ConvexRegion& region(int i) const { return regions_[static_cast<std::size_t>(i)]; }
   const std::vector<ConvexRegion>& regions() const { return regions_; }
 
@@ -100,5 +105,29 @@ class TerrainModel {
 /// non-finite values, empty ranges, a negative margin or one that empties a region.
 TerrainModel terrainFromBoxes(const TerrainBox& floor, double floor_height,
                               const std::vector<TerrainBox>& boxes, double margin = 0.0);
+
+/// Every region shrunk by `margin` [m] (each edge moved inwards, in the region's plane seen
+/// from above; the height is the old plane's at the new centroid): the foothold regions of
+/// a terrain whose surfaces are given unshrunk (e.g. a perceived terrain, whose unshrunk
+/// regions are a collision model's solids). Regions that vanish are dropped.
+///
+/// Seams (seam_probe > 0): a surface covered by several convex pieces (a perceived floor
+/// around holes) has edges between pieces where the surface goes on; moving those inwards
+/// would open gaps of 2 margin in the middle of a floor. An edge is a seam, and stays, when
+/// the points seam_probe beyond it (one every seam_probe along it, its ends included) all
+/// lie in other regions whose surface there is within seam_height_tolerance of this one's.
+/// Throws std::invalid_argument for a negative or non-finite margin, probe or tolerance.
+TerrainModel shrinkTerrain(const TerrainModel& terrain, double margin, double seam_probe = 0.0,
+                           double seam_height_tolerance = 0.02);
+
+/// Nearly level surfaces made level (for measured terrains, whose planes carry the sensor's
+/// noise): every region whose normal is within max_tilt [rad] of vertical gets the normal
+/// +z, and such regions whose heights (at their centroids) lie within height_tolerance [m]
+/// of the lowest of a group share one height, the area-weighted mean of the group's. Without
+/// it, two pieces of one floor a millimetre apart make every swing between them a climb
+/// (TerrainModel::classifySwing's tolerance is 1 mm) and tilt the friction cones. Other
+/// regions are kept as they are. Throws std::invalid_argument for negative or non-finite
+/// arguments.
+TerrainModel levelTerrain(const TerrainModel& terrain, double max_tilt, double height_tolerance);
 
 }  // namespace rollstep::planning

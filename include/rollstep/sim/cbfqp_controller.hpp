@@ -8,6 +8,7 @@
 
 #include "rollstep/control/baseline_pipeline.hpp"
 #include "rollstep/sim/nmpc_controller.hpp"
+#include "rollstep/sim/scenario.hpp"
 
 namespace rollstep::sim {
 
@@ -16,10 +17,13 @@ class CbfQpController final : public Controller {
   /// Builds the baseline pipeline and initialises it at the plant's ground-truth state.
   /// `terrain`: foothold regions (shrunk); `collision_terrain`: the terrain's solids
   /// (unshrunk). Throws std::invalid_argument naming what is wrong.
+  /// `region_edge_capacity`, `collision_prism_capacity`: BaselinePipeline's (for terrains
+  /// given later by setPerception; 0: the initial terrains').
   CbfQpController(const Plant& plant, const centroidal::RobotOcpDescription& robot,
                   const control::ControlSettings& settings, const planning::TerrainModel& terrain,
                   const planning::TerrainModel& collision_terrain, planning::GaitKind gait,
-                  const planning::BaseVelocityCommand& command);
+                  const planning::BaseVelocityCommand& command, int region_edge_capacity = 0,
+                  int collision_prism_capacity = 0);
 
   void compute(double t, const SensorReadings& sensors, PlantCommand& command) override;
   std::string_view name() const override { return "cbfqp"; }
@@ -34,6 +38,19 @@ class CbfQpController final : public Controller {
   /// Plant joint index of each model joint, in the model's order.
   const std::vector<int>& jointMap() const { return joint_map_; }
 
+  /// Perception in closed loop (online_perception.hpp; started already): every scan that is
+  /// due is fused at the state's base pose before the tick, and each new terrain goes to
+  /// the pipeline (BaselinePipeline::setTerrain): unshrunk as the collision solids, shrunk
+  /// by the baseline's foothold_margin as the foothold regions.
+  void setPerception(std::unique_ptr<OnlinePerception> perception);
+  const OnlinePerception* perception() const { return perception_.get(); }
+  OnlinePerception* perception() { return perception_.get(); }
+  /// New terrains the pipeline refused (setTerrain returned 0: too many solids...).
+  std::uint64_t terrainsRefused() const { return terrains_refused_; }
+  /// The reactive plan's foot ground points (stance: the foothold; swing: where the swing
+  /// is planned to be now), 3 x nc, world.
+  Eigen::Matrix3Xd plannedFootholds() const;
+
  private:
   std::unique_ptr<control::BaselinePipeline> pipeline_;
   std::unique_ptr<StateSource> source_;
@@ -41,6 +58,9 @@ class CbfQpController final : public Controller {
   std::vector<int> wheel_map_;
   control::RobotState state_;
   control::JointCommand command_;
+  const Plant* plant_ = nullptr;
+  std::unique_ptr<OnlinePerception> perception_;
+  std::uint64_t terrains_refused_ = 0;
 };
 
 }  // namespace rollstep::sim

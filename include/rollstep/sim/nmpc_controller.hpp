@@ -12,6 +12,7 @@
 
 #include "rollstep/control/pipeline.hpp"
 #include "rollstep/estimation/invariant_ekf.hpp"
+#include "rollstep/sim/online_perception.hpp"
 #include "rollstep/sim/plant.hpp"
 #include "rollstep/sim/simple_controllers.hpp"
 
@@ -90,12 +91,14 @@ class NmpcController final : public Controller {
   NmpcController(const Plant& plant, const centroidal::RobotOcpDescription& robot,
                  const control::ControlSettings& settings, const planning::TerrainModel& terrain,
                  planning::GaitKind gait, const planning::BaseVelocityCommand& command,
-                 const StateSourceOptions& source = {});
+                 const StateSourceOptions& source = {}, int region_edge_capacity = 0);
   /// Same with a base velocity command schedule (times from the plant's current time).
+  /// `region_edge_capacity`: the most edges of a foothold region of a terrain given later
+  /// (setPerception: the perception's regions.directions); 0: the initial terrain's.
   NmpcController(const Plant& plant, const centroidal::RobotOcpDescription& robot,
                  const control::ControlSettings& settings, const planning::TerrainModel& terrain,
                  planning::GaitKind gait, const std::vector<planning::TimedBaseCommand>& schedule,
-                 const StateSourceOptions& source = {});
+                 const StateSourceOptions& source = {}, int region_edge_capacity = 0);
   ~NmpcController() override;
 
   void compute(double t, const SensorReadings& sensors, PlantCommand& command) override;
@@ -132,8 +135,22 @@ class NmpcController final : public Controller {
   /// Status of the first (converging) solve.
   solver::SolverStatus initialStatus() const { return initial_status_; }
 
+  /// Perception in closed loop (online_perception.hpp; started already): every scan that is
+  /// due is fused at the state source's base pose before the tick, and each new terrain,
+  /// shrunk by `margin` [m] (planning::shrinkTerrain), goes to the pipeline
+  /// (ControlPipeline::setTerrain, outside its real-time tick).
+  void setPerception(std::unique_ptr<OnlinePerception> perception, double margin);
+  const OnlinePerception* perception() const { return perception_.get(); }
+  OnlinePerception* perception() { return perception_.get(); }
+  /// New terrains the pipeline refused (ControlPipeline::setTerrain returned 0).
+  std::uint64_t terrainsRefused() const { return terrains_refused_; }
+  /// The planned footholds of the newest MPC solution: each foot's ground point where the
+  /// plan touches it down in the horizon, or at node 0 for a stance foot (3 x n, world).
+  Eigen::Matrix3Xd plannedFootholds() const;
+
  private:
   void record(double t, bool adopted);
+  void updatePerception(double t);
 
   std::unique_ptr<control::ControlPipeline> pipeline_;
   std::unique_ptr<StateSource> source_;
@@ -145,6 +162,10 @@ class NmpcController final : public Controller {
   solver::SolverStatus initial_status_ = solver::SolverStatus::InvalidInput;
   std::string violations_csv_;
   std::vector<MpcUpdateRecord> updates_;
+  const Plant* plant_ = nullptr;
+  std::unique_ptr<OnlinePerception> perception_;
+  double perception_margin_ = 0.0;
+  std::uint64_t terrains_refused_ = 0;
 };
 
 }  // namespace rollstep::sim

@@ -192,8 +192,10 @@ class Solver {
   SolverStatus solve(ConstVecRef x0);
   /// Real-time update: sets the problem's initial time to t0, shifts the previous
   /// solution by the whole nodes t0 moved along the node grid of the last solve (the last
-  /// state and input are repeated; slacks and duals of the new tail nodes are
-  /// reinitialised), then runs one Newton iteration from x0 with the fixed barrier
+  /// state and input are repeated; the new tail nodes take the old last node's slacks
+  /// and duals), lets the problem refit the inputs of the appended nodes and of the nodes
+  /// whose contact mode changed (OptimalControlProblem::InputGuess), then runs
+  /// realtime_iterations Newton iterations (1 by default) from x0 with the fixed barrier
   /// barrier_realtime, whatever settings().mode is. Updates faster than dt add up: the
   /// grid moves by whole nodes only, so after any sequence of updates the solution has
   /// been shifted floor((t0 - t_solve) / dt) nodes in total. A t0 earlier than the grid

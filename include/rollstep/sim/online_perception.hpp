@@ -1,0 +1,135 @@
+#pragma once
+// Perception in closed loop (issue 15): the simulated LiDAR scans the scene at its rate
+// and each scan is fused into the elevation map at the sensor pose computed from the base
+// pose the controller uses (the state estimator's estimate, or the ground truth), then
+// segmented into a new terrain (perception::TerrainPerception). A scan with a bad status
+// (every ray missed, no finite point, a bad pose, no planar region) builds nothing: the
+// last valid terrain stays. The controllers hand each new terrain to their pipeline
+// (ControlPipeline / BaselinePipeline::setTerrain), outside the real-time tick.
+//
+// The terrain is built unshrunk (regions = the surfaces): a consumer shrinks it by its own
+// foothold margin (footholdTerrain: planning::shrinkTerrain, seams between the convex
+// pieces of one surface kept, so that no gap opens in the middle of a floor); the baseline
+// also takes it unshrunk as its collision solids.
+//
+// Map log (`rollstep sim --log-map DIR`): at a chosen rate, DIR/maps.csv (one row per
+// snapshot), DIR/heights_NNNN.npy (the elevation map, float32, NaN = empty, row r along
+// world y, column c along world x, NumPy's .npy format version 1.0), DIR/regions.csv (the
+// controller's foothold regions in use: every vertex of every region) and
+// DIR/footholds.csv (the controller's planned footholds). docs/PERCEPTION.md documents the columns.
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "rollstep/common/text_file.hpp"
+#include "rollstep/perception/terrain_perception.hpp"
+#include "rollstep/sim/lidar.hpp"
+#include "rollstep/sim/plant.hpp"
+
+namespace rollstep::sim {
+
+struct OnlinePerceptionOptions {
+  LidarSettings lidar;
+  perception::PerceptionSettings perception;  ///< regions.margin is set to 0 (see above)
+  /// At the start: scans fused from the start pose before the first terrain [-].
+  int warmup_scans = 10;
+  /// Around the wheels' ground contacts, the map cells the sensor cannot see at the start
+  /// (under the robot) are filled from them [m].
+  double footprint_margin = 0.15;
+  /// Fault drill: scans in [blind_from, blind_until) [s] return no point at all (a blinded
+  /// or failed sensor: every ray a NaN).
+  double blind_from = std::numeric_limits<double>::infinity();
+  double blind_until = std::numeric_limits<double>::infinity();
+  /// Perceived surfaces within this tilt of level are made level, and level ones within
+  /// level_height_tolerance of each other share one height (planning::levelTerrain): the
+  /// map's noise must not turn a floor into millimetre steps.
+  double level_max_tilt_deg = 2.0;
+  double level_height_tolerance = 0.01;  ///< [m]
+  /// Map log: directory ("" = none) and snapshots per second.
+  std::string log_dir;
+  double log_rate = 2.0;
+};
+
+/// Scans and their outcomes so far.
+struct OnlinePerceptionCounters {
+  std::uint64_t scans = 0;
+  std::uint64_t terrains = 0;    ///< scans that built a new terrain (status ok)
+  std::uint64_t kept = 0;        ///< scans with a bad status: the last terrain kept
+  std::uint64_t no_points = 0;   ///< ... of them NoPoints
+  std::uint64_t non_finite = 0;  ///< ... NonFinite
+  std::uint64_t invalid_pose = 0;
+  std::uint64_t no_planar_region = 0;
+  double max_update_ms = 0.0;  ///< wall time of the slowest scan's map update + segmentation
+  double total_update_ms = 0.0;
+};
+
+class OnlinePerception {
+ public:
+  /// Throws std::invalid_argument for bad settings. Writes nothing (openLog does).
+  explicit OnlinePerception(const OnlinePerceptionOptions& options);
+  /// Map log (options.log_dir set): creates the directory, removes an earlier run's
+  /// heights_*.npy and opens the CSV files; snapshots are written from then on. Call it when
+  /// the run's outputs may be written (after its inputs loaded). Throws OutputError.
+  void openLog();
+  ~OnlinePerception();
+
+  /// The first terrain: warmup_scans from the plant's current (ground-truth) sensor pose,
+  /// fused at the pose of the given base pose, and the cells under the robot filled from
+  /// its wheels' ground contacts. Throws std::runtime_error naming the status when no
+  /// terrain comes out. Scans then continue every 1 / rate from the plant's time.
+  void start(const Plant& plant, const Eigen::Vector3d& base_position,
+             const Eigen::Quaterniond& base_orientation);
+  /// True when a scan is due at time t (the LiDAR's rate).
+  bool due(double t) const { return started_ && t >= next_scan_ - 1e-9; }
+  /// One scan at time t (rays from the plant's true sensor pose), fused at the sensor pose
+  /// of the given base pose (the controller's). True if it built a new terrain.
+  bool step(double t, const Plant& plant, const Eigen::Vector3d& base_position,
+            const Eigen::Quaterniond& base_orientation);
+
+  /// The last valid terrain (unshrunk, levelled), and its count of updates (1: start()).
+  const planning::TerrainModel& terrain() const { return terrain_; }
+  std::uint64_t terrainCount() const { return counters_.terrains; }
+  /// The foothold regions of terrain(): shrunk by `margin` [m] except along the seams
+  /// between pieces of one surface (planning::shrinkTerrain, probed two map cells beyond
+  /// each edge, heights within a map cell's worth of 2 cm).
+  planning::TerrainModel footholdTerrain(double margin) const;
+  perception::PerceptionStatus lastStatus() const { return perception_.lastStatus(); }
+  const OnlinePerceptionCounters& counters() const { return counters_; }
+  const perception::TerrainPerception& perception() const { return perception_; }
+  const Lidar& lidar() const { return lidar_; }
+
+  /// Map log: true when a snapshot is due at t (after the scan that made it due).
+  bool logDue(double t) const;
+  /// Writes a snapshot at t: the map, `regions` (the controller's foothold regions in use),
+  /// `footholds` (3 x n world points, the controller's planned footholds) and the base
+  /// pose. Throws OutputError.
+  void writeSnapshot(double t, const planning::TerrainModel& regions,
+                     const Eigen::Matrix3Xd& footholds, const Eigen::Vector3d& base_position,
+                     double base_yaw);
+  /// Commits the map log's CSV files (throws OutputError); without it (a run that failed)
+  /// they are discarded.
+  void closeLog();
+  int snapshots() const { return snapshots_; }
+
+ private:
+  planning::TerrainModel levelTerrain() const;
+
+  OnlinePerceptionOptions options_;
+  Lidar lidar_;
+  perception::TerrainPerception perception_;
+  OnlinePerceptionCounters counters_;
+  planning::TerrainModel terrain_;
+  std::vector<Eigen::Vector3d> blind_;  // a scan of NaN points (blind_from .. blind_until)
+  bool started_ = false;
+  double next_scan_ = 0.0, period_ = 0.1;
+  // Map log.
+  std::unique_ptr<AtomicFileWriter> maps_, regions_, footholds_;
+  int snapshots_ = 0;
+  double next_log_ = 0.0;
+  bool scanned_since_log_ = false;
+};
+
+}  // namespace rollstep::sim
