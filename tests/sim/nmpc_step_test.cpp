@@ -1,6 +1,6 @@
 // Closed-loop NMPC runs of issue 14's scenarios (deterministic mode, MuJoCo), label
 // `closedloop`: the base velocity command schedule (there and back on flat) and the body
-// rising ahead of the step20 block with config/behaviours/climb.yaml.
+// rising ahead of the step20 block and the climb onto it with config/behaviours/climb.yaml.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -58,6 +58,43 @@ TEST(NmpcStep20, BodyRisesBeforeTheBlock) {
   expectUpright(o, 6.0);  // the body pitches up to 4.4 deg while it rises
   EXPECT_LT(o.max_x + 0.33 + 0.075, 1.0) << "a front wheel reached the block's face";
   EXPECT_GT(o.end.z() - o.start.z(), 0.1) << describe(o);
+}
+
+TEST(NmpcStep20, TrotsOntoTheBlock) {
+  // config/behaviours/climb.yaml, 12 s at 0.15 m/s: MF climbs at 4 s, the rear wheels at
+  // 9-10 s, and the front ones come down the block's far edge (x = 2.0) at 12-13 s: the
+  // base passes x = 1.6 with the rear wheels (0.33 m behind it) on the block. Its
+  // integrator blends the measured joint state in slowly; with control.yaml's 0.02 s
+  // velocity blend the commanded knee speed of a climbing swing was halved (the servos
+  // lag), the wheel struck the block's face and the robot was thrown back: the same run
+  // with those time constants must not get its base past the face (x = 1.0).
+  NmpcScenario sc;
+  sc.scene = SceneKind::kStep20;
+  sc.gait = planning::GaitKind::Trot;
+  sc.command = {0.15, 0.0, 0.0};
+  sc.duration = 12.0;
+  sc.settings = control::loadControlSettings(std::string(ROLLSTEP_SOURCE_DIR) +
+                                             "/config/behaviours/climb.yaml");
+  const NmpcOutcome o = runNmpc(sc);
+  std::printf("step20 climb: furthest base x %.3f m, end (%.3f, %.3f) m (%s)\n", o.max_x, o.end.x(),
+              o.end.z(), describe(o).c_str());
+  EXPECT_GT(o.max_x, 1.6) << describe(o);
+  EXPECT_GT(o.min_base_height, 0.3) << describe(o);
+  EXPECT_LT(o.max_pitch_deg, 15.0) << describe(o);
+  EXPECT_LT(o.max_roll_deg, 5.0) << describe(o);
+  // config/experiments.yaml's joint_limit_tolerance (MuJoCo's limits are soft).
+  EXPECT_LT(o.max_joint_limit_violation, 0.01) << describe(o);
+  EXPECT_EQ(o.counters.invalid_states, 0u);
+  EXPECT_EQ(o.warnings, 0) << describe(o);
+
+  const control::IntegratorSettings defaults;
+  ASSERT_NE(sc.settings.integrator.velocity_time_constant, defaults.velocity_time_constant);
+  sc.settings.integrator.velocity_time_constant = defaults.velocity_time_constant;
+  sc.settings.integrator.position_time_constant = defaults.position_time_constant;
+  const NmpcOutcome fast_blend = runNmpc(sc);
+  std::printf("step20 climb, control.yaml's integrator blend: furthest base x %.3f m (%s)\n",
+              fast_blend.max_x, describe(fast_blend).c_str());
+  EXPECT_LT(fast_blend.max_x, 1.0) << describe(fast_blend);
 }
 
 }  // namespace
