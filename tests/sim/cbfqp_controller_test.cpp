@@ -17,14 +17,25 @@ using namespace rollstep::sim;
 using sim::test::internalState;
 using sim::test::runTicks;
 
-TEST(CbfQpController, TickMakesNoAllocationAndRefusesBadStates) {
-  SceneConfig scene;
-  scene.kind = SceneKind::kStep20;
-  Plant plant(scene);
-  const centroidal::RobotOcpDescription robot = centroidal::loadRobotOcpDescription(
+/// The plant on step20, Tachyon 3's OCP description and the baseline's settings.
+struct Step20Baseline {
+  SceneConfig scene = [] {
+    SceneConfig s;
+    s.kind = SceneKind::kStep20;
+    return s;
+  }();
+  Plant plant{scene};
+  centroidal::RobotOcpDescription robot = centroidal::loadRobotOcpDescription(
       std::string(ROLLSTEP_ROBOTS_DIR) + "/tachyon3/centroidal.yaml");
-  const control::ControlSettings settings =
-      control::loadControlSettings(sim::test::baselineConfig());
+  control::ControlSettings settings = control::loadControlSettings(sim::test::baselineConfig());
+};
+
+TEST(CbfQpController, TickMakesNoAllocationAndRefusesBadStates) {
+  Step20Baseline f;
+  SceneConfig& scene = f.scene;
+  Plant& plant = f.plant;
+  const centroidal::RobotOcpDescription& robot = f.robot;
+  const control::ControlSettings& settings = f.settings;
   CbfQpController controller(plant, robot, settings,
                              terrainFromScene(scene, settings.baseline.foothold_margin),
                              terrainFromScene(scene, 0.0), planning::GaitKind::Trot,
@@ -66,13 +77,11 @@ TEST(CbfQpController, TickMakesNoAllocationAndRefusesBadStates) {
 // new terrain numbers its regions differently: the floor in front of the block first, in
 // two pieces); every foot then plans in a region of the new terrain that holds its target.
 TEST(CbfQpController, TerrainHandOverIsAllocationFreeAndRemapsTheRegions) {
-  SceneConfig scene;
-  scene.kind = SceneKind::kStep20;
-  Plant plant(scene);
-  const centroidal::RobotOcpDescription robot = centroidal::loadRobotOcpDescription(
-      std::string(ROLLSTEP_ROBOTS_DIR) + "/tachyon3/centroidal.yaml");
-  const control::ControlSettings settings =
-      control::loadControlSettings(sim::test::baselineConfig());
+  Step20Baseline f;
+  SceneConfig& scene = f.scene;
+  Plant& plant = f.plant;
+  const centroidal::RobotOcpDescription& robot = f.robot;
+  const control::ControlSettings& settings = f.settings;
   const double margin = settings.baseline.foothold_margin;
   CbfQpController controller(plant, robot, settings, terrainFromScene(scene, margin),
                              terrainFromScene(scene, 0.0), planning::GaitKind::Trot,

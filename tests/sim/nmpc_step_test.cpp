@@ -40,18 +40,24 @@ TEST(NmpcSchedule, TrotThereAndBack) {
   EXPECT_LT(o.mean_forward_speed, -0.1) << describe(o);  // second half: backwards
 }
 
+/// Trot at 0.15 m/s towards step20 with config/behaviours/climb.yaml, for `duration` s.
+NmpcScenario climbStep20(double duration) {
+  NmpcScenario sc;
+  sc.scene = SceneKind::kStep20;
+  sc.gait = planning::GaitKind::Trot;
+  sc.command = {0.15, 0.0, 0.0};
+  sc.duration = duration;
+  sc.settings = control::loadControlSettings(std::string(ROLLSTEP_SOURCE_DIR) +
+                                             "/config/behaviours/climb.yaml");
+  return sc;
+}
+
 TEST(NmpcStep20, BodyRisesBeforeTheBlock) {
   // config/behaviours/climb.yaml: the body height reference takes the block (0.2 m) within
   // base_height_reach of a nominal foot, with a ramp before; the body must be up by 0.1 m
   // and more before the front wheels (0.33 m ahead of the base) reach the block's face at
   // x = 1.0. Without these rules it sank 3 cm there (issue 14).
-  NmpcScenario sc;
-  sc.scene = SceneKind::kStep20;
-  sc.gait = planning::GaitKind::Trot;
-  sc.command = {0.15, 0.0, 0.0};
-  sc.duration = 3.0;
-  sc.settings = control::loadControlSettings(std::string(ROLLSTEP_SOURCE_DIR) +
-                                             "/config/behaviours/climb.yaml");
+  NmpcScenario sc = climbStep20(3.0);
   const NmpcOutcome o = runNmpc(sc);
   std::printf("step20 approach: base x %.3f m, height %.3f m at the end, max %.3f m (%s)\n",
               o.end.x(), o.end.z(), o.max_base_height, describe(o).c_str());
@@ -68,13 +74,7 @@ TEST(NmpcStep20, TrotsOntoTheBlock) {
   // velocity blend the commanded knee speed of a climbing swing was halved (the servos
   // lag), the wheel struck the block's face and the robot was thrown back: the same run
   // with those time constants must not get its base past the face (x = 1.0).
-  NmpcScenario sc;
-  sc.scene = SceneKind::kStep20;
-  sc.gait = planning::GaitKind::Trot;
-  sc.command = {0.15, 0.0, 0.0};
-  sc.duration = 12.0;
-  sc.settings = control::loadControlSettings(std::string(ROLLSTEP_SOURCE_DIR) +
-                                             "/config/behaviours/climb.yaml");
+  NmpcScenario sc = climbStep20(12.0);
   const NmpcOutcome o = runNmpc(sc);
   std::printf("step20 climb: furthest base x %.3f m, end (%.3f, %.3f) m (%s)\n", o.max_x, o.end.x(),
               o.end.z(), describe(o).c_str());
