@@ -8,23 +8,11 @@
 #include <cstdio>
 #include <string>
 
+#include "sim/nmpc_expect.hpp"
 #include "sim/nmpc_run.hpp"
 
 namespace rollstep::sim::test {
 namespace {
-
-void expectUpright(const NmpcOutcome& o) {
-  EXPECT_EQ(o.initial_status == solver::SolverStatus::Converged ||
-                o.initial_status == solver::SolverStatus::Acceptable,
-            true)
-      << describe(o);
-  EXPECT_LT(o.max_roll_deg, 5.0) << describe(o);
-  EXPECT_LT(o.max_pitch_deg, 5.0) << describe(o);
-  EXPECT_GT(o.min_base_height, 0.25) << describe(o);
-  EXPECT_LT(o.max_joint_limit_violation, 1e-3) << describe(o);
-  EXPECT_EQ(o.counters.invalid_states, 0u);
-  EXPECT_EQ(o.warnings, 0) << describe(o);
-}
 
 TEST(NmpcClosedLoop, StandTenSeconds) {
   NmpcScenario sc;

@@ -7,22 +7,11 @@
 #include <cstdio>
 #include <string>
 
+#include "sim/nmpc_expect.hpp"
 #include "sim/nmpc_run.hpp"
 
 namespace rollstep::sim::test {
 namespace {
-
-void expectUpright(const NmpcOutcome& o, double max_tilt_deg = 5.0) {
-  EXPECT_TRUE(o.initial_status == solver::SolverStatus::Converged ||
-              o.initial_status == solver::SolverStatus::Acceptable)
-      << describe(o);
-  EXPECT_LT(o.max_roll_deg, max_tilt_deg) << describe(o);
-  EXPECT_LT(o.max_pitch_deg, max_tilt_deg) << describe(o);
-  EXPECT_GT(o.min_base_height, 0.25) << describe(o);
-  EXPECT_LT(o.max_joint_limit_violation, 1e-3) << describe(o);
-  EXPECT_EQ(o.counters.invalid_states, 0u);
-  EXPECT_EQ(o.warnings, 0) << describe(o);
-}
 
 TEST(NmpcSchedule, TrotThereAndBack) {
   // 0.15 m/s forward for 4 s, then 0.15 m/s backwards for 4 s: the base reference chains
