@@ -47,12 +47,7 @@ sim::SceneConfig sceneOf(const Scenario& scenario) {
   return scene;
 }
 
-std::string robotOf(const Scenario& scenario) {
-  for (std::size_t i = 0; i + 1 < scenario.args.size(); ++i) {
-    if (scenario.args[i] == "--robot") return scenario.args[i + 1];
-  }
-  return "";
-}
+std::string robotOf(const Scenario& scenario) { return scenario.option("--robot"); }
 
 std::vector<JointLimit> jointLimits(const sim::SceneConfig& scene, const std::string& robot_file) {
   sim::PlantOptions options;

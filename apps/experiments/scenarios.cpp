@@ -42,6 +42,13 @@ std::vector<std::string> Scenario::simArgs(const std::string& out_dir,
   return a;
 }
 
+std::string Scenario::option(const std::string& flag) const {
+  for (std::size_t i = 0; i + 1 < args.size(); ++i) {
+    if (args[i] == flag) return args[i + 1];
+  }
+  return "";
+}
+
 const Scenario* ExperimentSet::find(const std::string& name) const {
   for (const Scenario& s : scenarios) {
     if (s.name == name) return &s;

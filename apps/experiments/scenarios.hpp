@@ -45,6 +45,8 @@ struct Scenario {
   bool feeds(const std::string& figure) const;
   /// "scene ground truth" or "perception (closed loop)".
   std::string terrainText() const;
+  /// The value given to `flag` in args ("--robot" -> its file), "" when absent.
+  std::string option(const std::string& flag) const;
   /// The `rollstep sim` arguments of this run with outputs in `out_dir` (no program name).
   std::vector<std::string> simArgs(const std::string& out_dir,
                                    const std::string& scene_config_override = "") const;

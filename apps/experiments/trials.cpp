@@ -88,12 +88,7 @@ std::vector<std::string> trialSimArgs(const std::string& sensor_file) {
   return {"--sensor-config", sensor_file};
 }
 
-bool readsSensors(const Scenario& s) {
-  for (std::size_t i = 0; i + 1 < s.args.size(); ++i) {
-    if (s.args[i] == "--state-source" && s.args[i + 1] == "inekf") return true;
-  }
-  return false;
-}
+bool readsSensors(const Scenario& s) { return s.option("--state-source") == "inekf"; }
 
 std::vector<std::uint64_t> parseSeeds(const std::string& text) {
   const auto bad = [&](const std::string& why) {
