@@ -52,10 +52,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-/// The most collision prisms (perceived regions) the baseline's CBF-QP is sized for; a
-/// perceived terrain with more is refused (counted; the last one stays).
-constexpr int kCollisionPrismCapacity = 64;
-
 struct SimOptions {
   std::string scene = "flat";
   std::string scene_config;
@@ -276,7 +272,7 @@ void runSim(const SimOptions& o, bool scene_given) {
       terrain_text = format(
           "perception in closed loop (%d convex regions at the start from %d "
           "LiDAR scans, then one terrain per scan)",
-          terrain.size(), sim::OnlinePerceptionOptions{}.warmup_scans);
+          terrain.size(), online->perception().settings().closed_loop.warmup_scans);
     } else {
       terrain = sim::terrainFromScene(scene, margin);
     }
@@ -334,7 +330,8 @@ void runSim(const SimOptions& o, bool scene_given) {
       cbfqp = std::make_unique<sim::CbfQpController>(
           plant, robot, settings, online->footholdTerrain(settings.baseline.foothold_margin),
           online->terrain(), centroidal::gaitKindFromString(o.gait), command,
-          online->perception().settings().regions.directions, kCollisionPrismCapacity);
+          online->perception().settings().regions.directions,
+          online->perception().settings().closed_loop.collision_capacity);
       terrain_text = format(
           "perception in closed loop (%d regions at the start, then one "
           "terrain per scan)",

@@ -12,10 +12,6 @@ namespace rollstep::sim {
 
 namespace {
 
-/// [m] Two pieces of one perceived surface meet within this height (the map's noise is
-/// millimetres; a step is centimetres).
-constexpr double kSeamHeightTolerance = 0.02;
-
 /// The .npy bytes (format version 1.0) of a row-major float32 n x n array.
 std::string npyFloatSquare(const std::vector<float>& values, int n) {
   std::string header = "{'descr': '<f4', 'fortran_order': False, 'shape': (" + std::to_string(n) +
@@ -46,19 +42,6 @@ OnlinePerception::OnlinePerception(const OnlinePerceptionOptions& options)
         s.regions.margin = 0.0;
         return s;
       }()) {
-  if (options_.warmup_scans < 1) {
-    throw std::invalid_argument("online perception: warmup_scans = " +
-                                std::to_string(options_.warmup_scans) + " must be >= 1");
-  }
-  if (!(options_.footprint_margin >= 0.0) || !std::isfinite(options_.footprint_margin)) {
-    throw std::invalid_argument("online perception: footprint_margin must be finite and >= 0");
-  }
-  if (!(options_.level_max_tilt_deg >= 0.0 && options_.level_max_tilt_deg < 90.0) ||
-      !(options_.level_height_tolerance >= 0.0 && options_.level_height_tolerance < 1.0)) {
-    throw std::invalid_argument(
-        "online perception: level_max_tilt_deg must be in [0, 90), level_height_tolerance in "
-        "[0, 1) m");
-  }
   if (!options_.log_dir.empty() && !(options_.log_rate > 0.0 && options_.log_rate <= 100.0)) {
     throw std::invalid_argument("--log-map-rate " + std::to_string(options_.log_rate) +
                                 ": must be in (0, 100] snapshots per second");
@@ -100,7 +83,8 @@ OnlinePerception::~OnlinePerception() = default;
 void OnlinePerception::start(const Plant& plant, const Eigen::Vector3d& base_position,
                              const Eigen::Quaterniond& base_orientation) {
   const double t0 = plant.time();
-  for (int k = 0; k < options_.warmup_scans; ++k) {
+  const perception::ClosedLoopSettings& cl = perception_.settings().closed_loop;
+  for (int k = 0; k < cl.warmup_scans; ++k) {
     const std::vector<Eigen::Vector3d>& points = lidar_.scan(plant);
     perception_.map().moveTo(
         lidar_.sensorPose(base_position, base_orientation).translation().head<2>());
@@ -113,7 +97,8 @@ void OnlinePerception::start(const Plant& plant, const Eigen::Vector3d& base_pos
         plant.groundTruth().wheel_center[static_cast<std::size_t>(leg)] -
         plant.wheelRadius(leg) * Eigen::Vector3d::UnitZ();
   }
-  perception_.map().fillFootprint(contacts.data(), kNumLegs, options_.footprint_margin, 1e-4);
+  perception_.map().fillFootprint(contacts.data(), kNumLegs, cl.footprint_margin,
+                                  cl.footprint_variance);
   const perception::PerceptionStatus status = perception_.rebuild();
   if (!perception_.hasTerrain()) {
     throw std::runtime_error(std::string("perception: no terrain from the LiDAR at the start "
@@ -168,13 +153,16 @@ bool OnlinePerception::step(double t, const Plant& plant, const Eigen::Vector3d&
 }
 
 planning::TerrainModel OnlinePerception::levelTerrain() const {
-  return planning::levelTerrain(perception_.terrain(), options_.level_max_tilt_deg * M_PI / 180.0,
-                                options_.level_height_tolerance);
+  const perception::ClosedLoopSettings& cl = perception_.settings().closed_loop;
+  return planning::levelTerrain(perception_.terrain(), cl.level_max_tilt_deg * M_PI / 180.0,
+                                cl.level_height_tolerance);
 }
 
 planning::TerrainModel OnlinePerception::footholdTerrain(double margin) const {
-  return planning::shrinkTerrain(terrain_, margin, 2.0 * perception_.map().resolution(),
-                                 kSeamHeightTolerance);
+  const perception::ClosedLoopSettings& cl = perception_.settings().closed_loop;
+  return planning::shrinkTerrain(terrain_, margin,
+                                 cl.seam_probe_cells * perception_.map().resolution(),
+                                 cl.seam_height_tolerance);
 }
 
 bool OnlinePerception::logDue(double t) const {

@@ -70,7 +70,7 @@ inline CbfQpOutcome runCbfQp(const CbfQpScenario& sc) {
                  : terrainFromScene(scene, settings.baseline.foothold_margin),
       perception ? perception->terrain() : terrainFromScene(scene, 0.0), planning::GaitKind::Trot,
       sc.command, perception ? perception->perception().settings().regions.directions : 0,
-      perception ? 64 : 0);
+      perception ? perception->perception().settings().closed_loop.collision_capacity : 0);
   if (perception) controller.setPerception(std::move(perception));
   const planning::TerrainModel solids = terrainFromScene(scene, 0.0);
   const model::Model& m = controller.pipeline().robot().model();

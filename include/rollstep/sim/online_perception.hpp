@@ -33,21 +33,13 @@ namespace rollstep::sim {
 
 struct OnlinePerceptionOptions {
   LidarSettings lidar;
-  perception::PerceptionSettings perception;  ///< regions.margin is set to 0 (see above)
-  /// At the start: scans fused from the start pose before the first terrain [-].
-  int warmup_scans = 10;
-  /// Around the wheels' ground contacts, the map cells the sensor cannot see at the start
-  /// (under the robot) are filled from them [m].
-  double footprint_margin = 0.15;
+  /// regions.margin is set to 0 (see above); closed_loop: the warm-up scans, the footprint
+  /// fill, levelling and seams (config/perception.yaml).
+  perception::PerceptionSettings perception;
   /// Fault drill: scans in [blind_from, blind_until) [s] return no point at all (a blinded
   /// or failed sensor: every ray a NaN).
   double blind_from = std::numeric_limits<double>::infinity();
   double blind_until = std::numeric_limits<double>::infinity();
-  /// Perceived surfaces within this tilt of level are made level, and level ones within
-  /// level_height_tolerance of each other share one height (planning::levelTerrain): the
-  /// map's noise must not turn a floor into millimetre steps.
-  double level_max_tilt_deg = 2.0;
-  double level_height_tolerance = 0.01;  ///< [m]
   /// Map log: directory ("" = none) and snapshots per second.
   std::string log_dir;
   double log_rate = 2.0;
@@ -76,10 +68,10 @@ class OnlinePerception {
   void openLog();
   ~OnlinePerception();
 
-  /// The first terrain: warmup_scans from the plant's current (ground-truth) sensor pose,
-  /// fused at the pose of the given base pose, and the cells under the robot filled from
-  /// its wheels' ground contacts. Throws std::runtime_error naming the status when no
-  /// terrain comes out. Scans then continue every 1 / rate from the plant's time.
+  /// The first terrain: closed_loop.warmup_scans from the plant's current (ground-truth) sensor
+  /// pose, fused at the pose of the given base pose, and the cells under the robot filled from its
+  /// wheels' ground contacts. Throws std::runtime_error naming the status when no terrain comes
+  /// out. Scans then continue every 1 / rate from the plant's time.
   void start(const Plant& plant, const Eigen::Vector3d& base_position,
              const Eigen::Quaterniond& base_orientation);
   /// True when a scan is due at time t (the LiDAR's rate).
@@ -93,8 +85,8 @@ class OnlinePerception {
   const planning::TerrainModel& terrain() const { return terrain_; }
   std::uint64_t terrainCount() const { return counters_.terrains; }
   /// The foothold regions of terrain(): shrunk by `margin` [m] except along the seams
-  /// between pieces of one surface (planning::shrinkTerrain, probed two map cells beyond
-  /// each edge, heights within a map cell's worth of 2 cm).
+  /// between pieces of one surface (planning::shrinkTerrain, probed closed_loop.
+  /// seam_probe_cells map cells beyond each edge, heights within seam_height_tolerance).
   planning::TerrainModel footholdTerrain(double margin) const;
   perception::PerceptionStatus lastStatus() const { return perception_.lastStatus(); }
   const OnlinePerceptionCounters& counters() const { return counters_; }
