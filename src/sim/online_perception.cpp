@@ -42,6 +42,11 @@ OnlinePerception::OnlinePerception(const OnlinePerceptionOptions& options)
         s.regions.margin = 0.0;
         return s;
       }()) {
+  if (!options_.log_dir.empty() && options_.asynchronous) {
+    throw std::invalid_argument(
+        "--log-map needs deterministic perception timing (the map belongs to the perception "
+        "thread in asynchronous runs)");
+  }
   if (!options_.log_dir.empty() && !(options_.log_rate > 0.0 && options_.log_rate <= 100.0)) {
     throw std::invalid_argument("--log-map-rate " + std::to_string(options_.log_rate) +
                                 ": must be in (0, 100] snapshots per second");
@@ -78,7 +83,43 @@ void OnlinePerception::openLog() {
   footholds_->write("snapshot[-],foot[-],x[m],y[m],z[m]\n");
 }
 
-OnlinePerception::~OnlinePerception() = default;
+OnlinePerception::~OnlinePerception() {
+  try {
+    stop();
+  } catch (...) {
+    // The worker's error was the run's to report (stop()); a destructor must not throw.
+  }
+}
+
+void OnlinePerception::connect(TerrainSink sink) {
+  if (!started_) throw std::logic_error("OnlinePerception::connect: call start() first");
+  if (sink_ || worker_) throw std::logic_error("OnlinePerception::connect: connected already");
+  sink_ = std::move(sink);
+  if (options_.asynchronous) {
+    worker_ = std::make_unique<perception::PerceptionWorker>(
+        perception_, static_cast<int>(blind_.size()),
+        [this](const perception::TerrainPerception&, perception::PerceptionStatus status, double) {
+          handle(status);
+        });
+  }
+}
+
+void OnlinePerception::stop() {
+  if (worker_ == nullptr) return;
+  const auto merge = [this] {
+    const perception::PerceptionWorkerCounters w = worker_->counters();
+    counters_.superseded = w.superseded;
+    counters_.max_update_ms = w.max_update_ms;
+    counters_.total_update_ms = w.total_update_ms;
+  };
+  try {
+    worker_->stop();
+  } catch (...) {
+    merge();
+    throw;
+  }
+  merge();
+}
 
 void OnlinePerception::start(const Plant& plant, const Eigen::Vector3d& base_position,
                              const Eigen::Quaterniond& base_orientation) {
@@ -123,17 +164,28 @@ bool OnlinePerception::step(double t, const Plant& plant, const Eigen::Vector3d&
   const bool blind = t >= options_.blind_from && t < options_.blind_until;
   const std::vector<Eigen::Vector3d>& points = blind ? blind_ : lidar_.scan(plant);
   const Eigen::Isometry3d pose = lidar_.sensorPose(base_position, base_orientation);
+  if (worker_ != nullptr) {
+    // The scan has the LiDAR's fixed size, which the worker's frames hold: post() refuses
+    // only after a failure, which stop() reports.
+    if (!worker_->post(points, pose, t)) stop();
+    return false;
+  }
+  scanned_since_log_ = true;
   const auto start = std::chrono::steady_clock::now();
   const perception::PerceptionStatus status = perception_.update(points, pose, t);
   const double ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   counters_.max_update_ms = std::max(counters_.max_update_ms, ms);
   counters_.total_update_ms += ms;
-  scanned_since_log_ = true;
+  return handle(status);
+}
+
+bool OnlinePerception::handle(perception::PerceptionStatus status) {
   switch (status) {
     case perception::PerceptionStatus::Ok:
       ++counters_.terrains;
       terrain_ = levelTerrain();
+      if (sink_) ++(sink_(*this) ? counters_.handed_over : counters_.refused);
       return true;
     case perception::PerceptionStatus::NoPoints:
       ++counters_.no_points;
