@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <memory>
+#include <vector>
 
 #include "common/alloc_counter.hpp"
 #include "sim/cbfqp_run.hpp"
@@ -189,6 +190,46 @@ TEST(CbfQpController, AsynchronousPerceptionLeavesTheTickSideAllocationFree) {
   EXPECT_EQ(controller.pipeline().counters().qp_fallbacks, 0u);
   EXPECT_LT(plant.groundTruth().base_orientation.angularDistance(Eigen::Quaterniond::Identity()),
             0.1);
+}
+
+// Deterministic perception (the default): the same run twice gives the same robot state and
+// the same terrains, bit for bit (the map update, segmentation and hand-over run in the
+// simulation thread at each scan's time).
+TEST(CbfQpController, DeterministicPerceptionIsBitwiseReproducible) {
+  struct Outcome {
+    GroundTruth truth;
+    std::vector<std::vector<Eigen::Vector2d>> regions;
+    std::uint64_t terrain_version = 0;
+  };
+  const auto run = [] {
+    Step20Baseline f;
+    Plant& plant = f.plant;
+    auto perception = std::make_unique<OnlinePerception>(OnlinePerceptionOptions{});
+    perception->start(plant, plant.groundTruth().base_position,
+                      plant.groundTruth().base_orientation);
+    const perception::PerceptionSettings& ps = perception->perception().settings();
+    CbfQpController controller(plant, f.robot, f.settings,
+                               perception->footholdTerrain(f.settings.baseline.foothold_margin),
+                               perception->terrain(), planning::GaitKind::Trot,
+                               planning::BaseVelocityCommand{0.15, 0, 0}, ps.regions.directions,
+                               ps.closed_loop.collision_capacity);
+    controller.setPerception(std::move(perception));
+    runTicks(controller, plant, 800);
+    Outcome o;
+    o.truth = plant.groundTruth();
+    for (int r = 0; r < controller.pipeline().terrain().size(); ++r) {
+      o.regions.push_back(controller.pipeline().terrain().region(r).vertices);
+    }
+    o.terrain_version = controller.pipeline().terrainVersion();
+    return o;
+  };
+  const Outcome a = run(), b = run();
+  EXPECT_GE(a.terrain_version, 7u);  // one per scan (0.1 ... 0.8 s)
+  EXPECT_EQ(a.terrain_version, b.terrain_version);
+  EXPECT_EQ(a.regions, b.regions);
+  EXPECT_EQ(a.truth.base_position, b.truth.base_position);
+  EXPECT_EQ(a.truth.base_orientation.coeffs(), b.truth.base_orientation.coeffs());
+  EXPECT_EQ(a.truth.joint_position, b.truth.joint_position);
 }
 
 }  // namespace
