@@ -269,6 +269,15 @@ void CentroidalOcp::advance(double t0) {
   scheduler_->fill(t0, settings_.horizon * settings_.dt, problem_->modeSchedule());
 }
 
+bool CentroidalOcp::followRobot(double t, const lie::SE3& base_pose, double max_distance,
+                                double max_yaw) {
+  return base_->follow(t, base_pose, max_distance, max_yaw);
+}
+
+bool CentroidalOcp::setReferenceCorrection(const lie::SE3& correction) noexcept {
+  return base_->setCorrection(correction);
+}
+
 bool CentroidalOcp::acceptsTerrain(const planning::TerrainModel& terrain) const noexcept {
   return (terrain.size() > 0) == has_regions_ && terrain.maxEdges() <= region_edge_capacity_;
 }

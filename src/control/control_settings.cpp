@@ -61,13 +61,15 @@ struct Field {
 const std::array<Field<ControlSettings>, 1> kTopFields{{
     {"control_period", &ControlSettings::control_period, 0, 0.1, true, false},
 }};
-const std::array<Field<MpcSettings>, 5> kMpcFields{{
+const std::array<Field<MpcSettings>, 7> kMpcFields{{
     {"timing", &MpcSettings::timing, 0, 0, false, false},
     // > 0 in deterministic timing (checked with the others in problemOf).
     {"period", &MpcSettings::period, 0, 10, false, false},
     {"latency", &MpcSettings::latency, 0, 1, false, false},
     {"initial_iterations", &MpcSettings::initial_iterations, 1, 1000000, false, false},
     {"max_solution_age", &MpcSettings::max_solution_age, 0, 100, true, false},
+    {"reference_leash", &MpcSettings::reference_leash, 0, 100, false, false},
+    {"reference_leash_yaw", &MpcSettings::reference_leash_yaw, 0, 4, false, false},
 }};
 const std::array<Field<RefinementSettings>, 2> kRefinementFields{{
     {"horizon", &RefinementSettings::horizon, 0, 10, false, false},

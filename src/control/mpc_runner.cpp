@@ -134,6 +134,7 @@ struct MpcRunner::Impl {
     out.solve_time_ms = solve_time_ms;
     out.release_time = release_time;
     out.terrain_version = terrain_version.load(std::memory_order_relaxed);
+    out.reference_correction = ocp.baseReference().correction();
   }
 
   /// One real-time iteration from x at t (never allocates).
@@ -143,6 +144,11 @@ struct MpcRunner::Impl {
     std::uint64_t version = 0;
     if (terrain_in.take(incoming_terrain, version) && ocp.swapTerrain(incoming_terrain)) {
       terrain_version.store(version, std::memory_order_relaxed);
+    }
+    if (settings.mpc.reference_leash > 0.0 || settings.mpc.reference_leash_yaw > 0.0) {
+      // x = (base position, base quaternion x y z w, ...): the measured base pose.
+      const lie::SE3 base(x.head<3>(), Eigen::Quaterniond(x[6], x[3], x[4], x[5]));
+      ocp.followRobot(t, base, settings.mpc.reference_leash, settings.mpc.reference_leash_yaw);
     }
     ocp.advance(t);
     const solver::SolverStatus status = solver->update(t, x);

@@ -197,6 +197,8 @@ void ControlPipeline::tick(const RobotState& state, JointCommand& command) noexc
         rt_terrain_version_ = version;
         ++counters_.terrain_updates;
       }
+      // The foothold regions follow the reference the solution was solved on.
+      rt_ocp_->setReferenceCorrection(solution_.reference_correction);
       adopted_t0_ = solution_.t0;
       holding_ = false;
       // Naive state feedback: the commands restart from the measurement with each plan.

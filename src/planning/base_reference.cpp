@@ -78,6 +78,7 @@ void BaseReference::resetSegments(double t0, const lie::SE3& start,
   const Eigen::Matrix3d r = start.rotation.normalized().toRotationMatrix();
   const double yaw = std::atan2(r(1, 0), r(0, 0));
   t0_ = t0;
+  correction_ = lie::SE3::Identity();
   segments_.clear();
   lie::SE3 pose(Eigen::Vector3d(start.translation.x(), start.translation.y(), 0.0),
                 Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ())));
@@ -103,7 +104,64 @@ lie::Vector6d BaseReference::twist() const { return twistOf(segments_.front().co
 
 lie::SE3 BaseReference::planarPoseAt(double t) const {
   const Segment& s = segmentAt(t);
-  return s.start * lie::expSE3((t - s.start_time) * twistOf(s.command));
+  return correction_ * (s.start * lie::expSE3((t - s.start_time) * twistOf(s.command)));
+}
+
+namespace {
+
+double yawOf(const Eigen::Quaterniond& q) {
+  const Eigen::Matrix3d r = q.toRotationMatrix();
+  return std::atan2(r(1, 0), r(0, 0));
+}
+
+}  // namespace
+
+bool BaseReference::follow(double t, const lie::SE3& measured, double max_distance,
+                           double max_yaw) {
+  const char* where = "BaseReference::follow";
+  detail::checkFinite(where, "t", t);
+  detail::checkFinite(where, "max_distance", max_distance);
+  detail::checkFinite(where, "max_yaw", max_yaw);
+  if (!measured.translation.allFinite() || !measured.rotation.coeffs().allFinite() ||
+      measured.rotation.norm() < 1e-9) {
+    detail::fail(where, "measured", "(non-finite or zero quaternion)", "must be a finite pose");
+  }
+  const lie::SE3 ref = planarPoseAt(t);
+  const Eigen::Vector2d robot_xy = measured.translation.head<2>();
+  const double robot_yaw = yawOf(measured.rotation.normalized());
+  const double ref_yaw = yawOf(ref.rotation);
+  Eigen::Vector2d target_xy = ref.translation.head<2>();
+  double target_yaw = ref_yaw;
+  bool moved = false;
+  const Eigen::Vector2d lead = target_xy - robot_xy;
+  const double distance = lead.norm();
+  if (max_distance > 0.0 && distance > max_distance) {
+    target_xy = robot_xy + lead * (max_distance / distance);
+    moved = true;
+  }
+  const double yaw_lead = std::remainder(ref_yaw - robot_yaw, 2.0 * M_PI);
+  if (max_yaw > 0.0 && std::abs(yaw_lead) > max_yaw) {
+    target_yaw = robot_yaw + std::copysign(max_yaw, yaw_lead);
+    moved = true;
+  }
+  if (!moved) return false;
+  const lie::SE3 target(
+      Eigen::Vector3d(target_xy.x(), target_xy.y(), 0.0),
+      Eigen::Quaterniond(Eigen::AngleAxisd(target_yaw, Eigen::Vector3d::UnitZ())));
+  // target = C' * schedule(t) and ref = C * schedule(t): C' = target * ref^-1 * C.
+  correction_ = target * ref.inverse() * correction_;
+  correction_.rotation.normalize();
+  return true;
+}
+
+bool BaseReference::setCorrection(const lie::SE3& correction) noexcept {
+  if (!correction.translation.allFinite() || !correction.rotation.coeffs().allFinite() ||
+      correction.rotation.norm() < 1e-9) {
+    return false;
+  }
+  correction_ = correction;
+  correction_.rotation.normalize();
+  return true;
 }
 
 Eigen::Vector2d BaseReference::worldPoint(const Eigen::Vector2d& body_xy, double t) const {

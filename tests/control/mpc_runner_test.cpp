@@ -349,6 +349,39 @@ TEST(MpcRunner, DeterministicPostAndPollDoNotAllocate) {
   EXPECT_EQ(runner->rejectedStates(), 1u);
 }
 
+TEST(MpcRunner, ReferenceLeashFollowsTheRobotAndTravelsWithTheSolution) {
+  // Commanded forward at 0.5 m/s, the robot held at the origin: with the leash off the
+  // reference runs away (correction identity); with a 0.05 m leash every solve moves it
+  // back to 0.05 m ahead of the measured base, and each solution carries that motion.
+  for (const double leash : {0.0, 0.05}) {
+    ControlSettings settings = shortHorizon(20);
+    settings.mpc.reference_leash = leash;
+    settings.mpc.reference_leash_yaw = leash > 0.0 ? 0.1 : 0.0;
+    auto runner = makeRunner(settings, planning::GaitKind::Standing);
+    const Eigen::VectorXd x0 = runner->ocp().standingState(0.0, 0.0, 0.0);
+    runner->initialize(0.0, lie::SE3::Identity(), planning::BaseVelocityCommand{0.5, 0.0, 0.0}, x0);
+    MpcSolution out = runner->makeSolution();
+    for (int i = 0; i <= 400; ++i) {
+      runner->post(1e-3 * i, x0);
+      runner->poll(1e-3 * i, out);
+    }
+    ASSERT_GT(out.sequence, 10u);
+    // The runner's reference as of its latest solve (at 0.4 s, one after `out`'s).
+    const double lead = runner->ocp().baseReference().poseAt(0.4).translation.x();
+    if (leash == 0.0) {
+      EXPECT_NEAR(lead, 0.5 * 0.4, 1e-12);
+      EXPECT_TRUE(out.reference_correction.translation.isZero(0.0));
+    } else {
+      EXPECT_NEAR(lead, 0.05, 1e-9);
+      // `out`'s: the reference at its t0 was 0.05 m ahead of the robot.
+      EXPECT_NEAR(out.reference_correction.translation.x(), 0.05 - 0.5 * out.t0, 1e-9);
+      EXPECT_TRUE(out.reference_correction.rotation.isApprox(Eigen::Quaterniond::Identity()));
+      // The plan's base stays near the robot instead of chasing a reference 0.2 m ahead.
+      EXPECT_LT(out.xs.back()[0], 0.2);
+    }
+  }
+}
+
 TEST(MpcRunner, AsynchronousPublishesAndStopsCleanly) {
   ControlSettings settings = shortHorizon(20);
   settings.mpc.timing = MpcTiming::Asynchronous;

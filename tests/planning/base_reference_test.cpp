@@ -185,6 +185,77 @@ TEST(BaseReference, CommandScheduleChainsTheSegments) {
       "schedule[1].v_x = nan");
 }
 
+TEST(BaseReference, FollowKeepsTheReferenceOnALeashOfTheRobot) {
+  const planning::TerrainModel step =
+      planning::terrainFromBoxes(kFloor, 0.0, {{1.0, 2.2, -3.0, 3.0, 0.20}});
+  BaseReference ref(step, {0.375, {Vector2d::Zero()}});
+  const std::vector<planning::TimedBaseCommand> schedule{{0.0, {0.2, 0.0, 0.1}},
+                                                         {3.0, {-0.1, 0.05, 0.0}}};
+  ref.resetSchedule(0.0, startPose(0.0, 0.0, 0.0), schedule);
+  BaseReference open_loop(step, {0.375, {Vector2d::Zero()}});
+  open_loop.resetSchedule(0.0, startPose(0.0, 0.0, 0.0), schedule);
+
+  // Within the leash: nothing moves.
+  const lie::SE3 at2 = ref.poseAt(2.0);
+  lie::SE3 robot(at2.translation + Vector3d(-0.03, 0.02, 0.1), at2.rotation);
+  EXPECT_FALSE(ref.follow(2.0, robot, 0.05, 0.1));
+  EXPECT_TRUE(ref.correction().translation.isZero(0.0));
+
+  // 0.3 m behind and 0.2 rad off: the reference at t comes to 0.05 m ahead of the robot
+  // along the same direction, and 0.1 rad off in yaw, the same side.
+  const Eigen::Quaterniond yaw_off(Eigen::AngleAxisd(-0.2, Vector3d::UnitZ()));
+  robot = lie::SE3(at2.translation - at2.rotation * Vector3d(0.3, 0.0, 0.0) + Vector3d(0, 0, 0.1),
+                   at2.rotation * yaw_off);
+  EXPECT_TRUE(ref.follow(2.0, robot, 0.05, 0.1));
+  const lie::SE3 moved = ref.poseAt(2.0);
+  const Vector2d lead = moved.translation.head<2>() - robot.translation.head<2>();
+  EXPECT_NEAR(lead.norm(), 0.05, 1e-12);
+  EXPECT_NEAR(lead.normalized().dot((at2.translation - robot.translation).head<2>().normalized()),
+              1.0, 1e-9);
+  EXPECT_NEAR(std::remainder(yawOf(moved) - yawOf(robot), 2 * M_PI), 0.1, 1e-12);
+  // The whole reference moved rigidly: the same motion at every time, both segments; the
+  // local command is unchanged, and the height follows the terrain under the moved pose.
+  const lie::SE3 c = ref.correction();
+  for (double t : {0.0, 1.0, 2.5, 4.0, 6.0}) {
+    const lie::SE3 expected = c * open_loop.planarPoseAt(t);
+    EXPECT_TRUE(ref.planarPoseAt(t).translation.isApprox(expected.translation, 1e-12));
+    EXPECT_TRUE(ref.planarPoseAt(t).rotation.isApprox(expected.rotation, 1e-12));
+    EXPECT_TRUE(ref.twistAt(t).isApprox(open_loop.twistAt(t)));
+    const Vector2d xy = ref.planarPoseAt(t).translation.head<2>();
+    EXPECT_NEAR(ref.poseAt(t).translation.z(), step.heightAt(xy) + 0.375, 1e-12);
+  }
+  // Only the distance on the leash (yaw free), and only the yaw.
+  ref.resetSchedule(0.0, startPose(0.0, 0.0, 0.0), schedule);
+  EXPECT_TRUE(ref.follow(2.0, robot, 0.05, 0.0));
+  EXPECT_NEAR(std::remainder(yawOf(ref.poseAt(2.0)) - yawOf(at2), 2 * M_PI), 0.0, 1e-12);
+  ref.resetSchedule(0.0, startPose(0.0, 0.0, 0.0), schedule);
+  EXPECT_TRUE(ref.follow(2.0, robot, 0.0, 0.1));
+  EXPECT_TRUE(ref.poseAt(2.0).translation.isApprox(at2.translation, 1e-12));
+  EXPECT_NEAR(std::remainder(yawOf(ref.poseAt(2.0)) - yawOf(robot), 2 * M_PI), 0.1, 1e-12);
+
+  // Another copy takes the correction; a reset drops it; bad values are refused.
+  ref.resetSchedule(0.0, startPose(0.0, 0.0, 0.0), schedule);
+  ASSERT_TRUE(ref.follow(2.0, robot, 0.05, 0.1));
+  EXPECT_TRUE(open_loop.setCorrection(ref.correction()));
+  EXPECT_TRUE(open_loop.poseAt(3.5).translation.isApprox(ref.poseAt(3.5).translation, 1e-12));
+  lie::SE3 bad = ref.correction();
+  bad.translation.x() = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(open_loop.setCorrection(bad));
+  EXPECT_TRUE(open_loop.poseAt(3.5).translation.isApprox(ref.poseAt(3.5).translation, 1e-12));
+  ref.resetSchedule(0.0, startPose(0.0, 0.0, 0.0), schedule);
+  EXPECT_TRUE(ref.poseAt(2.0).translation.isApprox(at2.translation, 1e-12));
+  EXPECT_THROW(ref.follow(std::numeric_limits<double>::quiet_NaN(), robot, 0.05, 0.1),
+               std::invalid_argument);
+  robot.translation.y() = std::numeric_limits<double>::infinity();
+  EXPECT_THROW(ref.follow(2.0, robot, 0.05, 0.1), std::invalid_argument);
+
+  // No allocation.
+  robot.translation.y() = 0.0;
+  test::AllocationGuard guard;
+  for (int k = 0; k < 100; ++k) ref.follow(0.02 * k, robot, 0.05, 0.1);
+  EXPECT_EQ(guard.count(), 0u);
+}
+
 TEST(BaseReference, BadInputThrowsNamingTheParameter) {
   const planning::TerrainModel flat = planning::terrainFromBoxes(kFloor, 0.0, {});
   auto expectNaming = [](auto f, const std::string& what) {

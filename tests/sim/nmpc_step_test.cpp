@@ -86,5 +86,36 @@ TEST(NmpcStep20, TrotsOntoTheBlock) {
   EXPECT_LT(fast_blend.max_x, 1.0) << describe(fast_blend);
 }
 
+TEST(NmpcStairs2, UpBothStepsAndBackDown) {
+  // The paper's hardware run in simulation: back and forth over the 0.20 m and 0.165 m
+  // steps of stairs2 (config/experiments.yaml's stairs2_nmpc): 0.2 m/s forward for 15 s
+  // (all six wheels on the top landing, 0.365 m up, by about 14 s), 2 s standing, then
+  // 0.2 m/s backwards down both steps to the floor. The top landing ends in a 0.365 m
+  // drop 3.7 m ahead: going on forwards falls off it.
+  NmpcScenario sc = climbStep20(36.0);
+  sc.scene = SceneKind::kStairs2;
+  sc.schedule = {{0.0, {0.2, 0.0, 0.0}}, {15.0, {0.0, 0.0, 0.0}}, {17.0, {-0.2, 0.0, 0.0}}};
+  const NmpcOutcome o = runNmpc(sc);
+  std::printf(
+      "stairs2 there and back: furthest base x %.3f m, base z up to %.3f m, end (%.3f, "
+      "%.3f) m (%s)\n",
+      o.max_x, o.max_base_height, o.end.x(), o.end.z(), describe(o).c_str());
+  const SceneConfig scene;
+  const double top = scene.step1_height + scene.step2_height;
+  // On the top landing: the base stood the nominal 0.3 m and more above it.
+  EXPECT_GT(o.max_base_height, top + 0.3) << describe(o);
+  EXPECT_LT(o.max_x + 0.33 + 0.075, scene.start_x + scene.step1_length + scene.step2_length)
+      << "a front wheel went over the top landing's far edge";
+  // Back on the floor, before the first step, facing the way it came.
+  EXPECT_LT(o.end.x() + 0.33 + 0.075, scene.start_x) << describe(o);
+  EXPECT_LT(o.end.z(), scene.step1_height + 0.3) << describe(o);  // not on a landing
+  EXPECT_GT(o.min_base_height, 0.3) << describe(o);
+  EXPECT_LT(o.max_pitch_deg, 15.0) << describe(o);
+  EXPECT_LT(o.max_roll_deg, 5.0) << describe(o);
+  EXPECT_LT(o.max_joint_limit_violation, 0.01) << describe(o);
+  EXPECT_EQ(o.counters.invalid_states, 0u);
+  EXPECT_EQ(o.warnings, 0) << describe(o);
+}
+
 }  // namespace
 }  // namespace rollstep::sim::test

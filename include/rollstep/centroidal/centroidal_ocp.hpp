@@ -73,6 +73,14 @@ class CentroidalOcp {
   /// Moves the horizon to start at t0 (same references): the problem's initial time and
   /// mode schedule.
   void advance(double t0);
+  /// Keeps the base reference within a leash of the robot's base pose at t (max_distance
+  /// [m], max_yaw [rad], 0: free; planning::BaseReference::follow): every term and planner
+  /// reads the moved reference from then on. Never allocates; returns whether it moved.
+  bool followRobot(double t, const lie::SE3& base_pose, double max_distance, double max_yaw);
+  /// Gives the base reference the planar correction of another copy of it (the MPC's, so
+  /// that the real-time side plans footholds on the reference the solution was solved on).
+  /// Refuses (false) a non-finite one.
+  bool setReferenceCorrection(const lie::SE3& correction) noexcept;
   /// Whether `terrain` can replace the current one: non-empty when the current one is (the
   /// region constraints exist only then), empty when it is empty, regions of at most
   /// regionEdgeCapacity() edges. Reads only what is fixed at construction: may be called

@@ -58,6 +58,12 @@ struct MpcSettings {
   /// time to now: a stalled or failing MPC), the pipeline holds a safe posture (the
   /// reference frozen at that moment, at rest) until a new solution arrives.
   double max_solution_age = 0.2;
+  /// [m] Reference leash: at every solve the base reference is kept within this distance of
+  /// the measured base (x, y), moved rigidly when the robot falls further behind or aside
+  /// (planning::BaseReference::follow); 0: off, the reference runs open loop from its start.
+  double reference_leash = 0.0;
+  /// [rad] The same for the yaw; 0: off.
+  double reference_leash_yaw = 0.0;
 };
 
 struct RefinementSettings {

@@ -51,6 +51,9 @@ struct MpcSolution {
   double solve_time_ms = 0.0;  ///< wall time of the solve (not reproducible)
   /// Version of the terrain it was solved on (MpcRunner::publishTerrain; 0: the initial).
   std::uint64_t terrain_version = 0;
+  /// The planar correction of the base reference it was solved on (MpcSettings::
+  /// reference_leash; identity with the leash off): the real-time side plans on the same.
+  lie::SE3 reference_correction;
   /// Deterministic mode: loop time from which poll() hands it out (t0 + latency).
   /// Asynchronous mode and the first solution: t0 (handed out as soon as it is finished).
   double release_time = 0.0;

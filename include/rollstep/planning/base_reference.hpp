@@ -17,7 +17,13 @@
 // last foot is height_reach past a step down, so the legs never have to lift a foot onto
 // a step by retracting alone.
 //
-// reset() with one command and the queries allocate nothing (a schedule of more segments
+// The reference may be kept within a leash of the robot (follow(): the whole reference moved
+// rigidly in the plane when the robot falls further behind, or strays further aside, than
+// the leash), so that a robot held back at a step or thrown back is not asked to catch up
+// with a reference that ran on without it; the motion is kept as correction() and can be
+// handed to another copy of the same reference (setCorrection()).
+//
+// reset() with one command, follow() and the queries allocate nothing (a schedule of more segments
 // than any before allocates in reset). The TerrainModel is held by pointer: it must
 // outlive the reference (and may be updated in place between queries).
 #include <Eigen/Core>
@@ -70,6 +76,21 @@ class BaseReference {
   void resetSchedule(double t0, const lie::SE3& start,
                      const std::vector<TimedBaseCommand>& schedule);
 
+  /// Keeps the reference within a leash of the robot at time t: when the planar reference
+  /// pose at t lies further than max_distance [m] from `measured`'s x, y, or its yaw further
+  /// than max_yaw [rad] from `measured`'s, the whole reference (every segment, past and
+  /// future) is moved rigidly in the plane so that it lies exactly that far, in the same
+  /// direction. max_distance or max_yaw 0 (or less) leaves that part free. Returns whether
+  /// the reference moved. Throws std::invalid_argument for non-finite arguments.
+  bool follow(double t, const lie::SE3& measured, double max_distance, double max_yaw);
+  /// The planar rigid motion follow() has applied since the last reset (identity after it):
+  /// poseAt(t) = correction() * (the pose of the reset's command schedule at t).
+  const lie::SE3& correction() const { return correction_; }
+  /// Sets that motion (e.g. the correction of another copy of this reference); it must be a
+  /// planar motion (rotation about z). A non-finite one (or a zero quaternion) is refused:
+  /// returns false and changes nothing.
+  bool setCorrection(const lie::SE3& correction) noexcept;
+
   /// q_b,ref(t) (any t; before t0 the command is extrapolated backwards).
   lie::SE3 poseAt(double t) const;
   /// The planar pose (x, y, yaw; z = 0) at t.
@@ -102,6 +123,7 @@ class BaseReference {
   BaseReferenceConfig config_;
   double t0_ = 0.0;
   std::vector<Segment> segments_;
+  lie::SE3 correction_;  // follow()'s planar motion, applied after the segments
 };
 
 }  // namespace rollstep::planning
