@@ -92,9 +92,9 @@ void PerceptionWorker::run() {
         }
         return;
       }
-      // Nothing waiting: the LiDAR posts every 0.1 s, a short nap keeps the latency small
-      // without a lock or a condition variable on the posting side.
-      std::this_thread::sleep_for(std::chrono::microseconds(200));
+      // Nothing waiting: the LiDAR posts every 0.1 s; a 1 ms nap adds at most 1 % of that
+      // to the latency, without a lock or a condition variable on the posting side.
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
     }
   } catch (...) {
     error_ = std::current_exception();
