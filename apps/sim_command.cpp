@@ -52,10 +52,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-/// The most collision prisms (perceived regions) the baseline's CBF-QP is sized for; a
-/// perceived terrain with more is refused (counted; the last one stays).
-constexpr int kCollisionPrismCapacity = 64;
-
 struct SimOptions {
   std::string scene = "flat";
   std::string scene_config;
@@ -77,6 +73,7 @@ struct SimOptions {
   std::string terrain = "scene";
   std::string lidar_config, perception_config;  // "" = the built-in defaults
   std::string log_map;                          // "" = no map log
+  std::string perception_timing;  // "" = the MPC's timing (nmpc), deterministic (cbfqp)
   double log_map_rate = 2.0;
   std::string state_source = "ground_truth";
   std::string estimator_config;  // "" = the defaults
@@ -190,9 +187,11 @@ std::vector<planning::TimedBaseCommand> parseCommandSchedule(const std::string& 
 
 /// Perception in closed loop (--terrain perception): the sensor and perception settings,
 /// started at the plant's pose (its first terrain built), with the map log if asked for.
-std::unique_ptr<sim::OnlinePerception> startPerception(const SimOptions& o,
-                                                       const sim::Plant& plant) {
+std::unique_ptr<sim::OnlinePerception> startPerception(const SimOptions& o, const sim::Plant& plant,
+                                                       bool asynchronous_default) {
   sim::OnlinePerceptionOptions options;
+  options.asynchronous =
+      o.perception_timing.empty() ? asynchronous_default : o.perception_timing == "asynchronous";
   if (!o.lidar_config.empty()) options.lidar = sim::loadLidarSettings(o.lidar_config);
   if (!o.perception_config.empty()) {
     options.perception = perception::loadPerceptionSettings(o.perception_config);
@@ -219,8 +218,15 @@ std::string perceptionText(const sim::OnlinePerception& p, std::uint64_t refused
       static_cast<unsigned long long>(c.no_points), static_cast<unsigned long long>(c.non_finite),
       static_cast<unsigned long long>(c.invalid_pose),
       static_cast<unsigned long long>(c.no_planar_region),
-      c.scans > 0 ? c.total_update_ms / static_cast<double>(c.scans) : 0.0, c.max_update_ms,
-      p.terrain().size());
+      c.scans > c.superseded ? c.total_update_ms / static_cast<double>(c.scans - c.superseded)
+                             : 0.0,
+      c.max_update_ms, p.terrain().size());
+  if (p.asynchronous()) {
+    text += format(
+        "  perception on its own thread: %llu scans superseded by a newer one before "
+        "processing\n",
+        static_cast<unsigned long long>(c.superseded));
+  }
   if (p.snapshots() > 0) text += format("  map log    %d snapshots\n", p.snapshots());
   return text;
 }
@@ -270,13 +276,13 @@ void runSim(const SimOptions& o, bool scene_given) {
     std::unique_ptr<sim::OnlinePerception> online;
     int edge_capacity = 0;
     if (o.terrain == "perception") {
-      online = startPerception(o, plant);
+      online = startPerception(o, plant, settings.mpc.timing == control::MpcTiming::Asynchronous);
       terrain = online->footholdTerrain(margin);
       edge_capacity = online->perception().settings().regions.directions;
       terrain_text = format(
           "perception in closed loop (%d convex regions at the start from %d "
           "LiDAR scans, then one terrain per scan)",
-          terrain.size(), sim::OnlinePerceptionOptions{}.warmup_scans);
+          terrain.size(), online->perception().settings().closed_loop.warmup_scans);
     } else {
       terrain = sim::terrainFromScene(scene, margin);
     }
@@ -330,11 +336,12 @@ void runSim(const SimOptions& o, bool scene_given) {
     std::string terrain_text = "scene ground truth";
     if (o.terrain == "perception") {
       // Perceived surfaces: unshrunk as the collision solids, shrunk as the footholds.
-      std::unique_ptr<sim::OnlinePerception> online = startPerception(o, plant);
+      std::unique_ptr<sim::OnlinePerception> online = startPerception(o, plant, false);
       cbfqp = std::make_unique<sim::CbfQpController>(
           plant, robot, settings, online->footholdTerrain(settings.baseline.foothold_margin),
           online->terrain(), centroidal::gaitKindFromString(o.gait), command,
-          online->perception().settings().regions.directions, kCollisionPrismCapacity);
+          online->perception().settings().regions.directions,
+          online->perception().settings().closed_loop.collision_capacity);
       terrain_text = format(
           "perception in closed loop (%d regions at the start, then one "
           "terrain per scan)",
@@ -401,6 +408,14 @@ void runSim(const SimOptions& o, bool scene_given) {
     };
     const sim::RunSummary s =
         sim::runScenario(plant, *controller, o.duration, &log, o.log_every, progress);
+    // Asynchronous perception: its thread finishes (and reports a failure) before the
+    // counters are read.
+    if (nmpc_controller != nullptr && nmpc_controller->perception() != nullptr) {
+      nmpc_controller->perception()->stop();
+    }
+    if (cbfqp_controller != nullptr && cbfqp_controller->perception() != nullptr) {
+      cbfqp_controller->perception()->stop();
+    }
     log.commit();
     std::string mpc_text;
     if (nmpc_controller != nullptr) {
@@ -608,6 +623,14 @@ void registerSimCommand(CLI::App& app) {
                       "--log-map-rate (docs/PERCEPTION.md: maps.csv, heights_NNNN.npy, "
                       "regions.csv, footholds.csv)")
           ->check(kNotEmpty));
+  perception_only.push_back(
+      cmd->add_option("--perception-timing", options->perception_timing,
+                      "--terrain perception only: deterministic (map update, segmentation and "
+                      "terrain in the simulation thread at each scan, reproducible) or "
+                      "asynchronous (on their own thread, the scan handed over without "
+                      "blocking the 1 kHz tick; no --log-map); default: the MPC's timing "
+                      "(nmpc), deterministic (cbfqp)")
+          ->check(CLI::IsMember({"deterministic", "asynchronous"})));
   perception_only.push_back(
       cmd->add_option("--log-map-rate", options->log_map_rate,
                       "--terrain perception only: map log snapshots per second")

@@ -79,10 +79,26 @@ function(rollstep_add_test name)
     ROLLSTEP_TEST_DATA_DIR="${PROJECT_SOURCE_DIR}/tests/data")
   rollstep_target_defaults(${name})
   include(GoogleTest)
+  # gtest_discover_tests cannot set a list-valued property (CMake 3.25 splits it: the
+  # second label became a property name and was lost), so it gets the first label and a
+  # ctest include file read after its own sets all of them on the discovered tests.
+  set(first_label "")
+  if(ARG_LABELS)
+    list(GET ARG_LABELS 0 first_label)
+  endif()
   if(ARG_SERIAL)
-    gtest_discover_tests(${name} PROPERTIES LABELS "${ARG_LABELS}" RUN_SERIAL TRUE
+    gtest_discover_tests(${name} PROPERTIES LABELS "${first_label}" RUN_SERIAL TRUE
       DISCOVERY_TIMEOUT 60)
   else()
-    gtest_discover_tests(${name} PROPERTIES LABELS "${ARG_LABELS}" DISCOVERY_TIMEOUT 60)
+    gtest_discover_tests(${name} PROPERTIES LABELS "${first_label}" DISCOVERY_TIMEOUT 60)
+  endif()
+  list(LENGTH ARG_LABELS label_count)
+  if(label_count GREATER 1)
+    set(labels_file "${CMAKE_CURRENT_BINARY_DIR}/${name}_labels.cmake")
+    file(WRITE "${labels_file}"
+      "if(DEFINED ${name}_TESTS)\n"
+      "  set_tests_properties(\${${name}_TESTS} PROPERTIES LABELS \"${ARG_LABELS}\")\n"
+      "endif()\n")
+    set_property(DIRECTORY APPEND PROPERTY TEST_INCLUDE_FILES "${labels_file}")
   endif()
 endfunction()

@@ -64,6 +64,17 @@ const std::array<Field<ConvexRegionSettings>, 8> kRegionFields{{
     {"min_piece_area", &ConvexRegionSettings::min_piece_area},
 }};
 
+const std::array<Field<ClosedLoopSettings>, 8> kClosedLoopFields{{
+    {"warmup_scans", &ClosedLoopSettings::warmup_scans},
+    {"footprint_margin", &ClosedLoopSettings::footprint_margin},
+    {"footprint_variance", &ClosedLoopSettings::footprint_variance},
+    {"level_max_tilt_deg", &ClosedLoopSettings::level_max_tilt_deg},
+    {"level_height_tolerance", &ClosedLoopSettings::level_height_tolerance},
+    {"seam_probe_cells", &ClosedLoopSettings::seam_probe_cells},
+    {"seam_height_tolerance", &ClosedLoopSettings::seam_height_tolerance},
+    {"collision_capacity", &ClosedLoopSettings::collision_capacity},
+}};
+
 template <typename S, std::size_t N>
 std::string knownKeys(const std::array<Field<S>, N>& fields) {
   std::string keys;
@@ -138,12 +149,41 @@ void writeSection(const S& section, const std::array<Field<S>, N>& fields, std::
   }
 }
 
+void require(bool ok, const char* name, double value, const char* what) {
+  if (!ok) {
+    throw std::invalid_argument(std::string("closed loop: ") + name + " = " +
+                                shortestNumberText(value) + ": " + what);
+  }
+}
+
 }  // namespace
+
+void ClosedLoopSettings::validate() const {
+  require(warmup_scans >= 1 && warmup_scans <= 100, "warmup_scans", warmup_scans,
+          "must be 1 to 100");
+  require(std::isfinite(footprint_margin) && footprint_margin >= 0 && footprint_margin <= 1,
+          "footprint_margin", footprint_margin, "must be in [0, 1] m");
+  require(std::isfinite(footprint_variance) && footprint_variance > 0 && footprint_variance <= 1,
+          "footprint_variance", footprint_variance, "must be in (0, 1] m^2");
+  require(std::isfinite(level_max_tilt_deg) && level_max_tilt_deg >= 0 && level_max_tilt_deg < 90,
+          "level_max_tilt_deg", level_max_tilt_deg, "must be in [0, 90) deg");
+  require(std::isfinite(level_height_tolerance) && level_height_tolerance >= 0 &&
+              level_height_tolerance < 1,
+          "level_height_tolerance", level_height_tolerance, "must be in [0, 1) m");
+  require(seam_probe_cells >= 1 && seam_probe_cells <= 50, "seam_probe_cells", seam_probe_cells,
+          "must be 1 to 50");
+  require(std::isfinite(seam_height_tolerance) && seam_height_tolerance >= 0 &&
+              seam_height_tolerance < 1,
+          "seam_height_tolerance", seam_height_tolerance, "must be in [0, 1) m");
+  require(collision_capacity >= 1 && collision_capacity <= 1000, "collision_capacity",
+          collision_capacity, "must be 1 to 1000");
+}
 
 void PerceptionSettings::validate() const {
   map.validate();
   segmentation.validate();
   regions.validate();
+  closed_loop.validate();
 }
 
 PerceptionSettings parsePerceptionSettings(std::string_view text, const std::string& source) {
@@ -169,8 +209,10 @@ PerceptionSettings parsePerceptionSettings(std::string_view text, const std::str
       readSection(value, k, s.segmentation, kSegmentationFields, lines, fail);
     } else if (k == "regions") {
       readSection(value, k, s.regions, kRegionFields, lines, fail);
+    } else if (k == "closed_loop") {
+      readSection(value, k, s.closed_loop, kClosedLoopFields, lines, fail);
     } else {
-      fail(key, "unknown key '" + k + "' (known: map, segmentation, regions)");
+      fail(key, "unknown key '" + k + "' (known: map, segmentation, regions, closed_loop)");
     }
   }
   // Ranges: each section's validate() names the parameter; report it at its line.
@@ -193,6 +235,7 @@ PerceptionSettings parsePerceptionSettings(std::string_view text, const std::str
   check("map", [&] { s.map.validate(); });
   check("segmentation", [&] { s.segmentation.validate(); });
   check("regions", [&] { s.regions.validate(); });
+  check("closed_loop", [&] { s.closed_loop.validate(); });
   return s;
 }
 
@@ -208,6 +251,8 @@ std::string toYaml(const PerceptionSettings& s) {
   writeSection(s.segmentation, kSegmentationFields, out);
   out += "regions:\n";
   writeSection(s.regions, kRegionFields, out);
+  out += "closed_loop:\n";
+  writeSection(s.closed_loop, kClosedLoopFields, out);
   return out;
 }
 

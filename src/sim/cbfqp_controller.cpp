@@ -51,8 +51,17 @@ void CbfQpController::logValues(std::string& out) const {
   out.assign(text);
 }
 
+CbfQpController::~CbfQpController() {
+  // The perception thread hands terrains to the pipeline: it stops first.
+  perception_.reset();
+}
+
 void CbfQpController::setPerception(std::unique_ptr<OnlinePerception> perception) {
   perception_ = std::move(perception);
+  perception_->connect([this](const OnlinePerception& p) {
+    return pipeline_->setTerrain(p.footholdTerrain(pipeline_->settings().baseline.foothold_margin),
+                                 p.terrain()) != 0;
+  });
 }
 
 Eigen::Matrix3Xd CbfQpController::plannedFootholds() const {
@@ -65,14 +74,7 @@ void CbfQpController::compute(double t, const SensorReadings& sensors, PlantComm
   const bool valid = source_->read(t, sensors, state_);
   // Perception (not real-time: the pipeline's tick below is) at the LiDAR's rate.
   if (valid && perception_ != nullptr && perception_->due(t)) {
-    if (perception_->step(t, *plant_, state_.base_position, state_.base_orientation)) {
-      const planning::TerrainModel& solids = perception_->terrain();
-      if (pipeline_->setTerrain(
-              perception_->footholdTerrain(pipeline_->settings().baseline.foothold_margin),
-              solids) == 0) {
-        ++terrains_refused_;
-      }
-    }
+    perception_->step(t, *plant_, state_.base_position, state_.base_orientation);
     if (perception_->logDue(t)) {
       perception_->writeSnapshot(t, pipeline_->terrain(), plannedFootholds(), state_.base_position,
                                  yawOf(state_.base_orientation));

@@ -220,20 +220,21 @@ void NmpcController::enableViolationLog() {
 }
 
 NmpcController::~NmpcController() {
+  // The perception thread hands terrains to the pipeline: it stops first.
+  perception_.reset();
   if (pipeline_) pipeline_->stop();
 }
 
 void NmpcController::setPerception(std::unique_ptr<OnlinePerception> perception, double margin) {
   perception_ = std::move(perception);
   perception_margin_ = margin;
+  perception_->connect([this](const OnlinePerception& p) {
+    return pipeline_->setTerrain(p.footholdTerrain(perception_margin_)) != 0;
+  });
 }
 
 void NmpcController::updatePerception(double t) {
-  if (perception_->step(t, *plant_, state_.base_position, state_.base_orientation)) {
-    if (pipeline_->setTerrain(perception_->footholdTerrain(perception_margin_)) == 0) {
-      ++terrains_refused_;
-    }
-  }
+  perception_->step(t, *plant_, state_.base_position, state_.base_orientation);
   if (perception_->logDue(t)) {
     perception_->writeSnapshot(t, pipeline_->ocp().terrain(), plannedFootholds(),
                                state_.base_position, yawOf(state_.base_orientation));

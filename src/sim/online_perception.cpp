@@ -12,10 +12,6 @@ namespace rollstep::sim {
 
 namespace {
 
-/// [m] Two pieces of one perceived surface meet within this height (the map's noise is
-/// millimetres; a step is centimetres).
-constexpr double kSeamHeightTolerance = 0.02;
-
 /// The .npy bytes (format version 1.0) of a row-major float32 n x n array.
 std::string npyFloatSquare(const std::vector<float>& values, int n) {
   std::string header = "{'descr': '<f4', 'fortran_order': False, 'shape': (" + std::to_string(n) +
@@ -46,18 +42,10 @@ OnlinePerception::OnlinePerception(const OnlinePerceptionOptions& options)
         s.regions.margin = 0.0;
         return s;
       }()) {
-  if (options_.warmup_scans < 1) {
-    throw std::invalid_argument("online perception: warmup_scans = " +
-                                std::to_string(options_.warmup_scans) + " must be >= 1");
-  }
-  if (!(options_.footprint_margin >= 0.0) || !std::isfinite(options_.footprint_margin)) {
-    throw std::invalid_argument("online perception: footprint_margin must be finite and >= 0");
-  }
-  if (!(options_.level_max_tilt_deg >= 0.0 && options_.level_max_tilt_deg < 90.0) ||
-      !(options_.level_height_tolerance >= 0.0 && options_.level_height_tolerance < 1.0)) {
+  if (!options_.log_dir.empty() && options_.asynchronous) {
     throw std::invalid_argument(
-        "online perception: level_max_tilt_deg must be in [0, 90), level_height_tolerance in "
-        "[0, 1) m");
+        "--log-map needs deterministic perception timing (the map belongs to the perception "
+        "thread in asynchronous runs)");
   }
   if (!options_.log_dir.empty() && !(options_.log_rate > 0.0 && options_.log_rate <= 100.0)) {
     throw std::invalid_argument("--log-map-rate " + std::to_string(options_.log_rate) +
@@ -95,12 +83,49 @@ void OnlinePerception::openLog() {
   footholds_->write("snapshot[-],foot[-],x[m],y[m],z[m]\n");
 }
 
-OnlinePerception::~OnlinePerception() = default;
+OnlinePerception::~OnlinePerception() {
+  try {
+    stop();
+  } catch (...) {
+    // The worker's error was the run's to report (stop()); a destructor must not throw.
+  }
+}
+
+void OnlinePerception::connect(TerrainSink sink) {
+  if (!started_) throw std::logic_error("OnlinePerception::connect: call start() first");
+  if (sink_ || worker_) throw std::logic_error("OnlinePerception::connect: connected already");
+  sink_ = std::move(sink);
+  if (options_.asynchronous) {
+    worker_ = std::make_unique<perception::PerceptionWorker>(
+        perception_, static_cast<int>(blind_.size()),
+        [this](const perception::TerrainPerception&, perception::PerceptionStatus status, double) {
+          handle(status);
+        });
+  }
+}
+
+void OnlinePerception::stop() {
+  if (worker_ == nullptr) return;
+  const auto merge = [this] {
+    const perception::PerceptionWorkerCounters w = worker_->counters();
+    counters_.superseded = w.superseded;
+    counters_.max_update_ms = w.max_update_ms;
+    counters_.total_update_ms = w.total_update_ms;
+  };
+  try {
+    worker_->stop();
+  } catch (...) {
+    merge();
+    throw;
+  }
+  merge();
+}
 
 void OnlinePerception::start(const Plant& plant, const Eigen::Vector3d& base_position,
                              const Eigen::Quaterniond& base_orientation) {
   const double t0 = plant.time();
-  for (int k = 0; k < options_.warmup_scans; ++k) {
+  const perception::ClosedLoopSettings& cl = perception_.settings().closed_loop;
+  for (int k = 0; k < cl.warmup_scans; ++k) {
     const std::vector<Eigen::Vector3d>& points = lidar_.scan(plant);
     perception_.map().moveTo(
         lidar_.sensorPose(base_position, base_orientation).translation().head<2>());
@@ -113,7 +138,8 @@ void OnlinePerception::start(const Plant& plant, const Eigen::Vector3d& base_pos
         plant.groundTruth().wheel_center[static_cast<std::size_t>(leg)] -
         plant.wheelRadius(leg) * Eigen::Vector3d::UnitZ();
   }
-  perception_.map().fillFootprint(contacts.data(), kNumLegs, options_.footprint_margin, 1e-4);
+  perception_.map().fillFootprint(contacts.data(), kNumLegs, cl.footprint_margin,
+                                  cl.footprint_variance);
   const perception::PerceptionStatus status = perception_.rebuild();
   if (!perception_.hasTerrain()) {
     throw std::runtime_error(std::string("perception: no terrain from the LiDAR at the start "
@@ -138,17 +164,28 @@ bool OnlinePerception::step(double t, const Plant& plant, const Eigen::Vector3d&
   const bool blind = t >= options_.blind_from && t < options_.blind_until;
   const std::vector<Eigen::Vector3d>& points = blind ? blind_ : lidar_.scan(plant);
   const Eigen::Isometry3d pose = lidar_.sensorPose(base_position, base_orientation);
+  if (worker_ != nullptr) {
+    // The scan has the LiDAR's fixed size, which the worker's frames hold: post() refuses
+    // only after a failure, which stop() reports.
+    if (!worker_->post(points, pose, t)) stop();
+    return false;
+  }
+  scanned_since_log_ = true;
   const auto start = std::chrono::steady_clock::now();
   const perception::PerceptionStatus status = perception_.update(points, pose, t);
   const double ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   counters_.max_update_ms = std::max(counters_.max_update_ms, ms);
   counters_.total_update_ms += ms;
-  scanned_since_log_ = true;
+  return handle(status);
+}
+
+bool OnlinePerception::handle(perception::PerceptionStatus status) {
   switch (status) {
     case perception::PerceptionStatus::Ok:
       ++counters_.terrains;
       terrain_ = levelTerrain();
+      if (sink_) ++(sink_(*this) ? counters_.handed_over : counters_.refused);
       return true;
     case perception::PerceptionStatus::NoPoints:
       ++counters_.no_points;
@@ -168,13 +205,16 @@ bool OnlinePerception::step(double t, const Plant& plant, const Eigen::Vector3d&
 }
 
 planning::TerrainModel OnlinePerception::levelTerrain() const {
-  return planning::levelTerrain(perception_.terrain(), options_.level_max_tilt_deg * M_PI / 180.0,
-                                options_.level_height_tolerance);
+  const perception::ClosedLoopSettings& cl = perception_.settings().closed_loop;
+  return planning::levelTerrain(perception_.terrain(), cl.level_max_tilt_deg * M_PI / 180.0,
+                                cl.level_height_tolerance);
 }
 
 planning::TerrainModel OnlinePerception::footholdTerrain(double margin) const {
-  return planning::shrinkTerrain(terrain_, margin, 2.0 * perception_.map().resolution(),
-                                 kSeamHeightTolerance);
+  const perception::ClosedLoopSettings& cl = perception_.settings().closed_loop;
+  return planning::shrinkTerrain(terrain_, margin,
+                                 cl.seam_probe_cells * perception_.map().resolution(),
+                                 cl.seam_height_tolerance);
 }
 
 bool OnlinePerception::logDue(double t) const {

@@ -7,6 +7,8 @@
 #include <cmath>
 #include <limits>
 #include <random>
+#include <string>
+#include <utility>
 
 #include "common/alloc_counter.hpp"
 #include "perception/synthetic_terrain.hpp"
@@ -290,12 +292,77 @@ TEST(PerceptionSettings, FileRoundTripsAndErrorsNameLineAndKey) {
       "perception settings 'p.yaml': line 2: regions.margin: expected a finite number, got '.nan'");
   EXPECT_EQ(error("lidar: {}\n"),
             "perception settings 'p.yaml': line 1: unknown key 'lidar' (known: map, segmentation, "
-            "regions)");
+            "regions, closed_loop)");
   EXPECT_EQ(error("map:\n  gate: 3\n  gate: 4\n"),
             "perception settings 'p.yaml': line 3: map.gate: given twice (first on line 2)");
   // The shipped file holds the defaults.
   const PerceptionSettings shipped = loadPerceptionSettings(ROLLSTEP_CONFIG_DIR "/perception.yaml");
   EXPECT_EQ(toYaml(shipped), toYaml(PerceptionSettings{}));
+}
+
+// The closed-loop glue's parameters (sim::OnlinePerception, the controllers): read, written
+// back, and each range checked at its line; the constructor refuses them too.
+TEST(PerceptionSettings, ClosedLoopKeysAreReadAndRangeChecked) {
+  const PerceptionSettings s = parsePerceptionSettings(
+      "closed_loop:\n  warmup_scans: 3\n  footprint_margin: 0.2\n  footprint_variance: 4e-4\n"
+      "  level_max_tilt_deg: 1.5\n  level_height_tolerance: 0.005\n  seam_probe_cells: 3\n"
+      "  seam_height_tolerance: 0.01\n  collision_capacity: 32\n",
+      "c.yaml");
+  const ClosedLoopSettings& c = s.closed_loop;
+  EXPECT_EQ(c.warmup_scans, 3);
+  EXPECT_EQ(c.footprint_margin, 0.2);
+  EXPECT_EQ(c.footprint_variance, 4e-4);
+  EXPECT_EQ(c.level_max_tilt_deg, 1.5);
+  EXPECT_EQ(c.level_height_tolerance, 0.005);
+  EXPECT_EQ(c.seam_probe_cells, 3);
+  EXPECT_EQ(c.seam_height_tolerance, 0.01);
+  EXPECT_EQ(c.collision_capacity, 32);
+  EXPECT_EQ(toYaml(parsePerceptionSettings(toYaml(s), "round trip")), toYaml(s));
+  // Untouched sections keep their defaults.
+  EXPECT_EQ(s.map.resolution, ElevationMapSettings{}.resolution);
+
+  const auto error = [](const std::string& text) {
+    try {
+      parsePerceptionSettings(text, "c.yaml");
+    } catch (const std::runtime_error& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  const std::string head = "perception settings 'c.yaml': ";
+  EXPECT_EQ(error("closed_loop:\n  warmup: 3\n"),
+            head +
+                "line 2: unknown key 'closed_loop.warmup' (known in closed_loop: warmup_scans, "
+                "footprint_margin, footprint_variance, level_max_tilt_deg, "
+                "level_height_tolerance, seam_probe_cells, seam_height_tolerance, "
+                "collision_capacity)");
+  EXPECT_EQ(error("closed_loop:\n  warmup_scans: 2.5\n"),
+            head + "line 2: closed_loop.warmup_scans: expected an integer, got '2.5'");
+  EXPECT_EQ(error("closed_loop:\n  collision_capacity: 8\n  collision_capacity: 9\n"),
+            head + "line 3: closed_loop.collision_capacity: given twice (first on line 2)");
+  EXPECT_EQ(error("closed_loop: 3\n"),
+            head + "line 1: closed_loop: expected a mapping, got a value");
+  const std::pair<const char*, const char*> ranges[] = {
+      {"warmup_scans: 0", "warmup_scans = 0: must be 1 to 100"},
+      {"warmup_scans: 101", "warmup_scans = 101: must be 1 to 100"},
+      {"footprint_margin: -0.01", "footprint_margin = -0.01: must be in [0, 1] m"},
+      {"footprint_variance: 0", "footprint_variance = 0: must be in (0, 1] m^2"},
+      {"level_max_tilt_deg: 90", "level_max_tilt_deg = 90: must be in [0, 90) deg"},
+      {"level_height_tolerance: -1e-9", "level_height_tolerance = -1e-09: must be in [0, 1) m"},
+      {"seam_probe_cells: 0", "seam_probe_cells = 0: must be 1 to 50"},
+      {"seam_height_tolerance: 1", "seam_height_tolerance = 1: must be in [0, 1) m"},
+      {"collision_capacity: 0", "collision_capacity = 0: must be 1 to 1000"},
+      {"collision_capacity: 1001", "collision_capacity = 1001: must be 1 to 1000"},
+  };
+  for (const auto& [line, message] : ranges) {
+    // The offending key on line 4, after valid ones.
+    const std::string got = error(std::string("map:\n  gate: 3\nclosed_loop:\n  ") + line + "\n");
+    EXPECT_EQ(got, head + "line 4: closed_loop." + message) << line;
+  }
+  // Settings built in code go through the same checks.
+  PerceptionSettings bad;
+  bad.closed_loop.warmup_scans = 0;
+  EXPECT_THROW(TerrainPerception{bad}, std::invalid_argument);
 }
 
 }  // namespace

@@ -1,10 +1,14 @@
 // The CBF-QP baseline's real-time tick (control::BaselinePipeline through
 // sim::CbfQpController): no heap allocation over a second of trot ticks in front of the
 // step20 block (swings planned at lift-off, collision, support and region rows in the QP);
-// a NaN state is refused and the command kept; the command can change mid-run.
+// a NaN state is refused and the command kept; the command can change mid-run; with
+// asynchronous perception the controller's side (rays, the scan's hand-over, the tick)
+// allocates nothing either.
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <memory>
+#include <vector>
 
 #include "common/alloc_counter.hpp"
 #include "sim/cbfqp_run.hpp"
@@ -139,6 +143,93 @@ TEST(CbfQpController, TerrainHandOverIsAllocationFreeAndRemapsTheRegions) {
   EXPECT_GT(stance, 0);
   EXPECT_GT(swing, 0);  // the hand-over happened mid-swing
   EXPECT_EQ(pipeline.collisionTerrain().size(), 4);
+}
+
+// Asynchronous perception (OnlinePerceptionOptions::asynchronous): the simulation thread
+// casts the LiDAR's rays and posts each scan, the map update, segmentation and terrain run
+// on the perception thread, which hands the terrains to the pipeline. Over 1.2 s of ticks
+// (12 scans) the simulation thread allocates nothing, every scan is accounted for, and
+// the terrains reach the tick.
+TEST(CbfQpController, AsynchronousPerceptionLeavesTheTickSideAllocationFree) {
+  Step20Baseline f;
+  Plant& plant = f.plant;
+  OnlinePerceptionOptions options;
+  options.asynchronous = true;
+  auto perception = std::make_unique<OnlinePerception>(options);
+  perception->start(plant, plant.groundTruth().base_position, plant.groundTruth().base_orientation);
+  const perception::PerceptionSettings& ps = perception->perception().settings();
+  CbfQpController controller(
+      plant, f.robot, f.settings, perception->footholdTerrain(f.settings.baseline.foothold_margin),
+      perception->terrain(), planning::GaitKind::Trot, planning::BaseVelocityCommand{0.15, 0, 0},
+      ps.regions.directions, ps.closed_loop.collision_capacity);
+  controller.setPerception(std::move(perception));
+  OnlinePerception& p = *controller.perception();
+  ASSERT_TRUE(p.asynchronous());
+  runTicks(controller, plant, 50);
+  PlantCommand command = plant.command();
+  std::size_t count = 0;
+  for (int k = 0; k < 1200; ++k) {
+    {
+      rollstep::test::AllocationGuard guard;
+      controller.compute(plant.time(), plant.sensors(), command);
+      count += guard.count();
+    }
+    plant.setCommand(command);
+    plant.step();
+  }
+  EXPECT_EQ(count, 0u) << "the simulation thread allocated with asynchronous perception";
+  p.stop();  // the scan still waiting is processed: the newest scan always is
+  const OnlinePerceptionCounters& c = p.counters();
+  EXPECT_EQ(c.scans, 12u);                                     // 0.1, 0.2, ..., 1.2 s
+  EXPECT_EQ(c.terrains - 1 + c.kept + c.superseded, c.scans);  // 1: start()'s
+  EXPECT_GE(c.handed_over, 1u);
+  EXPECT_EQ(c.refused, 0u);
+  EXPECT_EQ(c.handed_over, c.terrains - 1);
+  runTicks(controller, plant, 2);  // takes the last terrain handed over
+  EXPECT_GE(controller.pipeline().counters().terrain_updates, 1u);
+  EXPECT_EQ(controller.pipeline().counters().qp_fallbacks, 0u);
+  EXPECT_LT(plant.groundTruth().base_orientation.angularDistance(Eigen::Quaterniond::Identity()),
+            0.1);
+}
+
+// Deterministic perception (the default): the same run twice gives the same robot state and
+// the same terrains, bit for bit (the map update, segmentation and hand-over run in the
+// simulation thread at each scan's time).
+TEST(CbfQpController, DeterministicPerceptionIsBitwiseReproducible) {
+  struct Outcome {
+    GroundTruth truth;
+    std::vector<std::vector<Eigen::Vector2d>> regions;
+    std::uint64_t terrain_version = 0;
+  };
+  const auto run = [] {
+    Step20Baseline f;
+    Plant& plant = f.plant;
+    auto perception = std::make_unique<OnlinePerception>(OnlinePerceptionOptions{});
+    perception->start(plant, plant.groundTruth().base_position,
+                      plant.groundTruth().base_orientation);
+    const perception::PerceptionSettings& ps = perception->perception().settings();
+    CbfQpController controller(plant, f.robot, f.settings,
+                               perception->footholdTerrain(f.settings.baseline.foothold_margin),
+                               perception->terrain(), planning::GaitKind::Trot,
+                               planning::BaseVelocityCommand{0.15, 0, 0}, ps.regions.directions,
+                               ps.closed_loop.collision_capacity);
+    controller.setPerception(std::move(perception));
+    runTicks(controller, plant, 800);
+    Outcome o;
+    o.truth = plant.groundTruth();
+    for (int r = 0; r < controller.pipeline().terrain().size(); ++r) {
+      o.regions.push_back(controller.pipeline().terrain().region(r).vertices);
+    }
+    o.terrain_version = controller.pipeline().terrainVersion();
+    return o;
+  };
+  const Outcome a = run(), b = run();
+  EXPECT_GE(a.terrain_version, 7u);  // one per scan (0.1 ... 0.8 s)
+  EXPECT_EQ(a.terrain_version, b.terrain_version);
+  EXPECT_EQ(a.regions, b.regions);
+  EXPECT_EQ(a.truth.base_position, b.truth.base_position);
+  EXPECT_EQ(a.truth.base_orientation.coeffs(), b.truth.base_orientation.coeffs());
+  EXPECT_EQ(a.truth.joint_position, b.truth.joint_position);
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -26,6 +27,9 @@ struct CbfQpScenario {
   /// Perception in closed loop (OnlinePerception, default settings) instead of the scene's
   /// ground-truth terrain.
   bool perception = false;
+  OnlinePerceptionOptions perception_options;  ///< with perception: the sensor, the map...
+  /// Called after every simulation step (e.g. to look at the perceived map on the way).
+  std::function<void(const Plant&, const CbfQpController&)> observe;
 };
 
 struct CbfQpOutcome {
@@ -60,7 +64,7 @@ inline CbfQpOutcome runCbfQp(const CbfQpScenario& sc) {
   const control::ControlSettings settings = control::loadControlSettings(baselineConfig());
   std::unique_ptr<OnlinePerception> perception;
   if (sc.perception) {
-    perception = std::make_unique<OnlinePerception>(OnlinePerceptionOptions{});
+    perception = std::make_unique<OnlinePerception>(sc.perception_options);
     perception->start(plant, plant.groundTruth().base_position,
                       plant.groundTruth().base_orientation);
   }
@@ -70,7 +74,7 @@ inline CbfQpOutcome runCbfQp(const CbfQpScenario& sc) {
                  : terrainFromScene(scene, settings.baseline.foothold_margin),
       perception ? perception->terrain() : terrainFromScene(scene, 0.0), planning::GaitKind::Trot,
       sc.command, perception ? perception->perception().settings().regions.directions : 0,
-      perception ? 64 : 0);
+      perception ? perception->perception().settings().closed_loop.collision_capacity : 0);
   if (perception) controller.setPerception(std::move(perception));
   const planning::TerrainModel solids = terrainFromScene(scene, 0.0);
   const model::Model& m = controller.pipeline().robot().model();
@@ -97,6 +101,7 @@ inline CbfQpOutcome runCbfQp(const CbfQpScenario& sc) {
     controller.compute(plant.time(), plant.sensors(), command);
     plant.setCommand(command);
     plant.step();
+    if (sc.observe) sc.observe(plant, controller);
     const double t = plant.time();
     const Eigen::Matrix3d R = g.base_orientation.toRotationMatrix();
     const double roll = std::atan2(R(2, 1), R(2, 2));

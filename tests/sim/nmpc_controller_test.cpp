@@ -1,13 +1,16 @@
 // The NMPC pipeline as a plant controller, short runs (label sim; also in the sanitizer
 // trees): the real-time tick allocates nothing, bad states are refused, runs repeat bit
-// for bit.
+// for bit; terrains reach the pipeline, also from a perception thread beside an
+// asynchronous MPC.
 #include <gtest/gtest.h>
 
 #include <chrono>
 #include <cmath>
+#include <memory>
 #include <thread>
 
 #include "common/alloc_counter.hpp"
+#include "rollstep/sim/online_perception.hpp"
 #include "sim/closed_loop_ticks.hpp"
 #include "sim/nmpc_run.hpp"
 
@@ -178,6 +181,65 @@ TEST(NmpcController, TerrainHandOverReachesAnAsynchronousMpc) {
   EXPECT_DOUBLE_EQ(pipeline.ocp().terrain().heightAt({0.0, 0.0}), 0.005);
   EXPECT_GE(pipeline.counters().terrain_updates, 1u);
   EXPECT_TRUE(out.joint_position.allFinite());
+}
+
+// Asynchronous MPC and asynchronous perception together (three threads: this one ticks and
+// posts the scans, the perception thread builds terrains and hands them to the pipeline, the
+// MPC thread solves on them): this thread allocates nothing, every scan is accounted for,
+// and the real-time side ends on a terrain the perception thread built.
+TEST(NmpcController, AsynchronousPerceptionFeedsAnAsynchronousMpc) {
+  SceneConfig scene;
+  Plant plant(scene);
+  const centroidal::RobotOcpDescription robot =
+      centroidal::loadRobotOcpDescription(tachyon3Description());
+  control::ControlSettings settings = shortHorizon();
+  settings.mpc.timing = control::MpcTiming::Asynchronous;
+  settings.mpc.max_solution_age = 100.0;  // a slow (sanitized) MPC must not trip the watchdog
+  OnlinePerceptionOptions options;
+  options.asynchronous = true;
+  auto perception = std::make_unique<OnlinePerception>(options);
+  perception->start(plant, plant.groundTruth().base_position, plant.groundTruth().base_orientation);
+  const double margin = robot.contact_offset + 0.01;
+  NmpcController controller(plant, robot, settings, perception->footholdTerrain(margin),
+                            planning::GaitKind::Standing, planning::BaseVelocityCommand{},
+                            StateSourceOptions{}, options.perception.regions.directions);
+  controller.setPerception(std::move(perception), margin);
+  OnlinePerception& p = *controller.perception();
+  ASSERT_TRUE(p.asynchronous());
+  PlantCommand command = plant.command();
+  std::size_t count = 0;
+  for (int k = 0; k < 600; ++k) {  // 0.6 s: scans at 0.1, ..., 0.5 s
+    {
+      rollstep::test::AllocationGuard guard;
+      controller.compute(plant.time(), plant.sensors(), command);
+      count += guard.count();
+    }
+    plant.setCommand(command);
+    plant.step();
+    std::this_thread::sleep_for(std::chrono::microseconds(500));  // let the threads run
+  }
+  EXPECT_EQ(count, 0u) << "the simulation thread allocated";
+  p.stop();
+  const OnlinePerceptionCounters& c = p.counters();
+  EXPECT_EQ(c.scans, 5u);
+  EXPECT_EQ(c.terrains - 1 + c.kept + c.superseded, c.scans);  // 1: start()'s
+  EXPECT_GE(c.handed_over, 1u);
+  EXPECT_EQ(c.handed_over, c.terrains - 1);
+  EXPECT_EQ(c.refused, 0u);
+  // The MPC solves on the newest terrain handed over and the tick adopts it (wall clock).
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (controller.pipeline().terrainVersion() < c.handed_over &&
+         std::chrono::steady_clock::now() < deadline) {
+    controller.compute(plant.time(), plant.sensors(), command);
+    plant.setCommand(command);
+    plant.step();
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  controller.pipeline().stop();
+  EXPECT_EQ(controller.pipeline().runner().terrainVersion(), c.handed_over);
+  EXPECT_EQ(controller.pipeline().terrainVersion(), c.handed_over);
+  EXPECT_LT(plant.groundTruth().base_orientation.angularDistance(Eigen::Quaterniond::Identity()),
+            0.05);
 }
 
 }  // namespace

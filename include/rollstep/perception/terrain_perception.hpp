@@ -16,19 +16,47 @@
 
 namespace rollstep::perception {
 
+/// Perception in closed loop (sim::OnlinePerception and the controllers it feeds): how the
+/// first terrain is built and how each perceived terrain is made usable by the planners.
+/// config/perception.yaml's `closed_loop:` section documents every key.
+struct ClosedLoopSettings {
+  /// Scans fused from the start pose before the first terrain [-], 1 to 100.
+  int warmup_scans = 10;
+  /// At the start, the cells the sensor cannot see (under the robot) are filled from the
+  /// wheels' ground contacts over their bounding box grown by this [m], [0, 1] ...
+  double footprint_margin = 0.15;
+  /// ... with this variance [m^2], (0, 1].
+  double footprint_variance = 1e-4;
+  /// Perceived surfaces within this tilt of level are made level [deg], [0, 90) ...
+  double level_max_tilt_deg = 2.0;
+  /// ... and level ones within this of each other share one height [m], [0, 1).
+  double level_height_tolerance = 0.01;
+  /// Foothold regions are shrunk except along seams between convex pieces of one surface:
+  /// an edge whose points this many map cells beyond it lie on another piece [-], 1 to 50 ...
+  int seam_probe_cells = 2;
+  /// ... at a height within this of its own [m], [0, 1).
+  double seam_height_tolerance = 0.02;
+  /// The most collision solids (perceived regions) the baseline's CBF-QP is sized for; a
+  /// terrain with more is refused (the last stays) [-], 1 to 1000.
+  int collision_capacity = 64;
+
+  void validate() const;
+};
+
 struct PerceptionSettings {
   ElevationMapSettings map;
   SegmentationSettings segmentation;
   ConvexRegionSettings regions;
+  ClosedLoopSettings closed_loop;
 
   void validate() const;
 };
 
 /// Reads perception settings (config/perception.yaml documents every key): a mapping with
-/// optional sections map, segmentation, regions; absent keys keep their defaults. Throws
-/// std::runtime_error "perception settings '<source>': line L: <key>: <problem>" for
-/// YAML errors, unknown or repeated keys, values that are not numbers (booleans for the
-/// switches) or are out of range.
+/// optional sections map, segmentation, regions, closed_loop; absent keys keep their defaults.
+/// Throws std::runtime_error "perception settings '<source>': line L: <key>: <problem>" for YAML
+/// errors, unknown or repeated keys, values that are not numbers (booleans for the switches) or are
+/// out of range.
 PerceptionSettings parsePerceptionSettings(std::string_view text, const std::string& source);
 PerceptionSettings loadPerceptionSettings(const std::string& path);
 /// The settings as YAML text that parsePerceptionSettings reads back to the same values.

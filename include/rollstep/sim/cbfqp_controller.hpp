@@ -24,6 +24,7 @@ class CbfQpController final : public Controller {
                   const planning::TerrainModel& collision_terrain, planning::GaitKind gait,
                   const planning::BaseVelocityCommand& command, int region_edge_capacity = 0,
                   int collision_prism_capacity = 0);
+  ~CbfQpController() override;
 
   void compute(double t, const SensorReadings& sensors, PlantCommand& command) override;
   std::string_view name() const override { return "cbfqp"; }
@@ -39,14 +40,18 @@ class CbfQpController final : public Controller {
   const std::vector<int>& jointMap() const { return joint_map_; }
 
   /// Perception in closed loop (online_perception.hpp; started already): every scan that is
-  /// due is fused at the state's base pose before the tick, and each new terrain goes to
-  /// the pipeline (BaselinePipeline::setTerrain): unshrunk as the collision solids, shrunk
-  /// by the baseline's foothold_margin as the foothold regions.
+  /// due is taken at the state's base pose before the tick (deterministic perception: fused
+  /// there; asynchronous: posted to the perception thread), and each new terrain goes to
+  /// the pipeline (BaselinePipeline::setTerrain, on the thread that built it): unshrunk as
+  /// the collision solids, shrunk by the baseline's foothold_margin as the foothold regions.
   void setPerception(std::unique_ptr<OnlinePerception> perception);
   const OnlinePerception* perception() const { return perception_.get(); }
   OnlinePerception* perception() { return perception_.get(); }
-  /// New terrains the pipeline refused (setTerrain returned 0: too many solids...).
-  std::uint64_t terrainsRefused() const { return terrains_refused_; }
+  /// New terrains the pipeline refused (setTerrain returned 0: too many solids...;
+  /// asynchronous perception: complete after perception()->stop()).
+  std::uint64_t terrainsRefused() const {
+    return perception_ ? perception_->counters().refused : 0;
+  }
   /// The reactive plan's foot ground points (stance: the foothold; swing: where the swing
   /// is planned to be now), 3 x nc, world.
   Eigen::Matrix3Xd plannedFootholds() const;
@@ -60,7 +65,6 @@ class CbfQpController final : public Controller {
   control::JointCommand command_;
   const Plant* plant_ = nullptr;
   std::unique_ptr<OnlinePerception> perception_;
-  std::uint64_t terrains_refused_ = 0;
 };
 
 }  // namespace rollstep::sim

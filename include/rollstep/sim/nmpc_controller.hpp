@@ -136,14 +136,18 @@ class NmpcController final : public Controller {
   solver::SolverStatus initialStatus() const { return initial_status_; }
 
   /// Perception in closed loop (online_perception.hpp; started already): every scan that is
-  /// due is fused at the state source's base pose before the tick, and each new terrain,
+  /// due is taken at the state source's base pose before the tick (deterministic perception:
+  /// fused there; asynchronous: posted to the perception thread), and each new terrain,
   /// shrunk by `margin` [m] (planning::shrinkTerrain), goes to the pipeline
-  /// (ControlPipeline::setTerrain, outside its real-time tick).
+  /// (ControlPipeline::setTerrain, outside its real-time tick, on the thread that built it).
   void setPerception(std::unique_ptr<OnlinePerception> perception, double margin);
   const OnlinePerception* perception() const { return perception_.get(); }
   OnlinePerception* perception() { return perception_.get(); }
-  /// New terrains the pipeline refused (ControlPipeline::setTerrain returned 0).
-  std::uint64_t terrainsRefused() const { return terrains_refused_; }
+  /// New terrains the pipeline refused (ControlPipeline::setTerrain returned 0;
+  /// asynchronous perception: complete after perception()->stop()).
+  std::uint64_t terrainsRefused() const {
+    return perception_ ? perception_->counters().refused : 0;
+  }
   /// The planned footholds of the newest MPC solution: each foot's ground point where the
   /// plan touches it down in the horizon, or at node 0 for a stance foot (3 x n, world).
   Eigen::Matrix3Xd plannedFootholds() const;
@@ -165,7 +169,6 @@ class NmpcController final : public Controller {
   const Plant* plant_ = nullptr;
   std::unique_ptr<OnlinePerception> perception_;
   double perception_margin_ = 0.0;
-  std::uint64_t terrains_refused_ = 0;
 };
 
 }  // namespace rollstep::sim
