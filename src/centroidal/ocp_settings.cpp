@@ -111,8 +111,14 @@ OcpSettings parseOcpSettings(const std::string& yaml_text, const std::string& so
 
 OcpSettings parseOcpSettings(const yaml::Node& root, const std::string& source_name,
                              const std::string& key_path, const std::string& description) {
+  return parseOcpSettings(root, OcpSettings{}, source_name, key_path, description);
+}
+
+OcpSettings parseOcpSettings(const yaml::Node& root, const OcpSettings& base,
+                             const std::string& source_name, const std::string& key_path,
+                             const std::string& description) {
   const std::string prefix = description + " " + source_name + ": ";
-  OcpSettings settings;
+  OcpSettings settings = base;
   const auto fail = [&](const yaml::Node& at, const std::string& what) {
     throw std::runtime_error(prefix + lineOf(at) + what);
   };
@@ -144,7 +150,7 @@ OcpSettings parseOcpSettings(const yaml::Node& root, const std::string& source_n
           solver::parseSolverSettings(value,
                                       source_name + " (key '" + key_path + "solver', line " +
                                           std::to_string(value.line()) + ")",
-                                      OcpSettings::defaultSolverSettings());
+                                      base.solver);
       continue;
     }
     if (value.isNull()) fail(value, at + "no value");

@@ -2,6 +2,7 @@
 
 #include <array>
 #include <cmath>
+#include <filesystem>
 #include <map>
 #include <optional>
 #include <stdexcept>
@@ -130,8 +131,11 @@ const std::array<Field<BaselineSettings>, 10> kBaselineFields{{
 }};
 // The top-level keys, in file order: control_period, the sections, ocp (read and written by
 // the centroidal layer).
-const std::array<const char*, 9> kTopKeys{{"control_period", "mpc", "refinement", "feedback",
-                                           "cbf_qp", "integrator", "wheels", "baseline", "ocp"}};
+const std::array<const char*, 10> kTopKeys{{"extends", "control_period", "mpc", "refinement",
+                                            "feedback", "cbf_qp", "integrator", "wheels",
+                                            "baseline", "ocp"}};
+// extends: chains longer than this are refused (a file that extends itself, directly or not).
+constexpr int kMaxExtendsDepth = 8;
 
 constexpr std::array<MpcTiming, 2> kTimings{{MpcTiming::Deterministic, MpcTiming::Asynchronous}};
 constexpr std::array<IntegratorMode, 2> kModes{{IntegratorMode::Internal, IntegratorMode::Naive}};
@@ -380,7 +384,14 @@ void checkSettings(const ControlSettings& settings) {
   }
 }
 
-ControlSettings parseControlSettings(const std::string& yaml_text, const std::string& source_name) {
+namespace {
+
+ControlSettings loadControlSettingsAt(const std::string& yaml_file, int depth);
+
+/// The settings of yaml_text over the defaults, or over the file its `extends:` names
+/// (relative to base_directory, the directory of the file being read).
+ControlSettings parseControlSettingsAt(const std::string& yaml_text, const std::string& source_name,
+                                       const std::filesystem::path& base_directory, int depth) {
   const std::string prefix = "control settings " + source_name + ": ";
   const auto fail = [&](const yaml::Node& at, const std::string& what) {
     throw std::runtime_error(prefix + lineOf(at) + what);
@@ -391,6 +402,34 @@ ControlSettings parseControlSettings(const std::string& yaml_text, const std::st
     const yaml::Node root = document.root();
     if (root.isNull()) return settings;
     if (!root.isMapping()) fail(root, "expected a mapping of key: value");
+    // extends: first, wherever it stands: the keys of this file then override its values.
+    std::optional<std::size_t> extends;
+    for (std::size_t item = 0; item < root.size(); ++item) {
+      const yaml::Node key_node = root.key(item);
+      if (!key_node.isScalar() || key_node.scalar() != "extends") continue;
+      if (extends) {
+        fail(key_node, "extends: given twice (first on line " +
+                           std::to_string(root.key(*extends).line()) + ")");
+      }
+      extends = item;
+    }
+    if (extends) {
+      const yaml::Node value = root.value(*extends);
+      if (!value.isScalar() || value.scalar().empty()) {
+        fail(value, "extends: expected the path of another control settings file");
+      }
+      if (depth >= kMaxExtendsDepth) {
+        fail(value, "extends: more than " + std::to_string(kMaxExtendsDepth) +
+                        " files deep (does a file extend itself?)");
+      }
+      const std::filesystem::path named(value.scalar());
+      const std::filesystem::path file = named.is_absolute() ? named : base_directory / named;
+      try {
+        settings = loadControlSettingsAt(file.string(), depth + 1);
+      } catch (const std::runtime_error& e) {
+        fail(value, std::string("extends: ") + e.what());
+      }
+    }
     std::map<std::string, int> lines;  // full key path -> line, of every key read
     for (std::size_t item = 0; item < root.size(); ++item) {
       const yaml::Node key_node = root.key(item);
@@ -400,7 +439,8 @@ ControlSettings parseControlSettings(const std::string& yaml_text, const std::st
       bool known = false;
       for (const char* k : kTopKeys) known = known || key == k;
       if (!known) fail(key_node, "unknown key '" + key + "' (known: " + knownTopKeys() + ")");
-      if (key == "control_period") {  // the one top-level number, through its own table
+      if (key == "extends") continue;  // read above
+      if (key == "control_period") {   // the one top-level number, through its own table
         readEntry(key_node, value, settings, kTopFields, "", lines, fail);
         continue;
       }
@@ -413,7 +453,8 @@ ControlSettings parseControlSettings(const std::string& yaml_text, const std::st
           fail(value, "ocp: expected a mapping of OCP settings (config/ocp.yaml), got " +
                           std::string(value.kindName()));
         }
-        settings.ocp = centroidal::parseOcpSettings(value, source_name, "ocp.", "control settings");
+        settings.ocp = centroidal::parseOcpSettings(value, settings.ocp, source_name, "ocp.",
+                                                    "control settings");
         continue;
       }
       if (!value.isMapping() && !value.isNull()) {
@@ -452,9 +493,19 @@ ControlSettings parseControlSettings(const std::string& yaml_text, const std::st
   return settings;
 }
 
+ControlSettings loadControlSettingsAt(const std::string& yaml_file, int depth) {
+  return parseControlSettingsAt(readTextFile(yaml_file, "control settings", kMaxConfigBytes),
+                                yaml_file, std::filesystem::path(yaml_file).parent_path(), depth);
+}
+
+}  // namespace
+
+ControlSettings parseControlSettings(const std::string& yaml_text, const std::string& source_name) {
+  return parseControlSettingsAt(yaml_text, source_name, std::filesystem::current_path(), 0);
+}
+
 ControlSettings loadControlSettings(const std::string& yaml_file) {
-  return parseControlSettings(readTextFile(yaml_file, "control settings", kMaxConfigBytes),
-                              yaml_file);
+  return loadControlSettingsAt(yaml_file, 0);
 }
 
 std::string toYaml(const ControlSettings& settings) {

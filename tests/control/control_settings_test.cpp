@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <filesystem>
+#include <fstream>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -257,6 +259,59 @@ TEST(ControlSettings, LoadNamesTheFile) {
   } catch (const std::runtime_error& e) {
     EXPECT_TRUE(has(e.what(), "/nonexistent/control.yaml")) << e.what();
   }
+}
+
+TEST(ControlSettings, ExtendsStartsFromAnotherFileAndOverridesKeyByKey) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / "rollstep_control_settings_extends";
+  std::filesystem::create_directories(dir / "sub");
+  const auto write = [&](const std::filesystem::path& file, const std::string& text) {
+    std::ofstream(dir / file) << text;
+  };
+  write("base.yaml",
+        "mpc:\n  period: 0.04\n  latency: 0.02\nintegrator:\n  velocity_time_constant: 0.2\n"
+        "ocp:\n  gait_period: 1.8\n  swing_clearance: 0.04\n  solver:\n"
+        "    realtime_iterations: 2\n    barrier_realtime: 0.01\n");
+  write("sub/child.yaml",
+        "mpc:\n  latency: 0.03\nextends: ../base.yaml\nocp:\n  swing_clearance: 0.06\n"
+        "  solver:\n    realtime_iterations: 3\n");
+  write("sub/grandchild.yaml", "extends: child.yaml\nfeedback:\n  foot_kp: 300\n");
+  const ControlSettings defaults;
+  const ControlSettings c = loadControlSettings((dir / "sub/grandchild.yaml").string());
+  EXPECT_EQ(c.mpc.period, 0.04);   // base
+  EXPECT_EQ(c.mpc.latency, 0.03);  // child over base (extends stands after it)
+  EXPECT_EQ(c.integrator.velocity_time_constant, 0.2);
+  EXPECT_EQ(c.ocp.gait_period, 1.8);
+  EXPECT_EQ(c.ocp.swing_clearance, 0.06);
+  EXPECT_EQ(c.ocp.solver.realtime_iterations, 3);
+  EXPECT_EQ(c.ocp.solver.barrier_realtime, 0.01);  // the nested solver: key by key too
+  EXPECT_EQ(c.feedback.foot_kp, 300.0);
+  EXPECT_EQ(c.feedback.foot_kd, defaults.feedback.foot_kd);  // given nowhere
+  EXPECT_EQ(c.ocp.horizon, defaults.ocp.horizon);
+
+  // Errors name the file and line that extends, and the cause.
+  const auto errorOfFile = [&](const std::string& file) -> std::string {
+    try {
+      loadControlSettings((dir / file).string());
+    } catch (const std::runtime_error& e) {
+      return e.what();
+    }
+    return "";
+  };
+  write("missing.yaml", "extends: nowhere.yaml\n");
+  std::string e = errorOfFile("missing.yaml");
+  EXPECT_TRUE(has(e, "missing.yaml: line 1: extends: ") && has(e, "nowhere.yaml")) << e;
+  write("loop.yaml", "extends: loop.yaml\n");
+  e = errorOfFile("loop.yaml");
+  EXPECT_TRUE(has(e, "more than 8 files deep")) << e;
+  write("bad_base.yaml", "mpc:\n  periode: 1\n");
+  write("uses_bad.yaml", "\nextends: bad_base.yaml\n");
+  e = errorOfFile("uses_bad.yaml");
+  EXPECT_TRUE(has(e, "uses_bad.yaml: line 2: extends: ") && has(e, "mpc.periode")) << e;
+  EXPECT_TRUE(has(errorOf("extends: [a, b]\n"), "test.yaml: line 1: extends: expected the path"));
+  EXPECT_TRUE(has(errorOf("extends: a.yaml\nextends: b.yaml\n"), "given twice"))
+      << errorOf("extends: a.yaml\nextends: b.yaml\n");
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

@@ -135,6 +135,11 @@ OcpSettings loadOcpSettings(const std::string& yaml_file);
 OcpSettings parseOcpSettings(const yaml::Node& node, const std::string& source_name,
                              const std::string& key_path = "",
                              const std::string& description = "OCP settings");
+/// The same over `base` instead of the defaults: keys not given keep base's values (the
+/// nested `solver:` mapping too, key by key).
+OcpSettings parseOcpSettings(const yaml::Node& node, const OcpSettings& base,
+                             const std::string& source_name, const std::string& key_path,
+                             const std::string& description);
 /// Every key, one "key: value" line each (vectors as flow lists), `solver:` nested; read
 /// back by parseOcpSettings exactly.
 std::string toYaml(const OcpSettings& settings);

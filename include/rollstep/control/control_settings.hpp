@@ -194,6 +194,10 @@ void checkSettings(const ControlSettings& settings);
 
 /// Reads ControlSettings from YAML text (a mapping of the sections above, any subset of
 /// keys). Errors: std::runtime_error "control settings <source>: line L: <key>: <what>".
+/// A top-level `extends: FILE` starts from FILE's settings instead of the defaults (FILE
+/// relative to the directory of the file that names it; for text, to the working
+/// directory), and the keys given here override them one by one (`ocp:` and its `solver:`
+/// too); chains up to 8 files deep.
 ControlSettings parseControlSettings(const std::string& yaml_text, const std::string& source_name);
 ControlSettings loadControlSettings(const std::string& yaml_file);
 /// Every key with its value, read back by parseControlSettings exactly.
