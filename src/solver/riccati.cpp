@@ -1,6 +1,5 @@
 #include "rollstep/solver/riccati.hpp"
 
-#include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -37,6 +36,8 @@ RiccatiSolver::RiccatiSolver(int horizon, int nx, int nu, int ne_max)
     w.perm = Eigen::VectorXi::LinSpaced(nu, 0, nu - 1);
     w.rows = Eigen::VectorXi::LinSpaced(ne_max, 0, ne_max - 1);
     w.mark = Eigen::VectorXi::Zero(nu);
+    w.nnz = Eigen::VectorXi::Zero(ne_max);
+    w.col = Eigen::VectorXi::Zero(ne_max);
     w.tf = VectorXd::Zero(ne_max);
     w.reff = VectorXd::Zero(nu);
     w.qeff = VectorXd::Zero(nx);
@@ -75,32 +76,41 @@ bool RiccatiSolver::findFixedInputs(const LqStage& s, Work& w, double rank_toler
   const double* X = s.Ex.data();
   const Eigen::Index ldE = s.Eu.outerStride(), ldX = s.Ex.outerStride();
   w.mark.setZero();
+  // Per row, column by column (contiguous): the number of non-zero entries of Eu (2 as soon
+  // as Ex has one) and the column of the last one.
+  int* nnz = w.nnz.data();
+  int* col = w.col.data();
+  for (int i = 0; i < ne; ++i) nnz[i] = 0;
+  for (int c = 0; c < nu; ++c) {
+    const double* Ec = E + c * ldE;
+    for (int i = 0; i < ne; ++i) {
+      if (Ec[i] != 0.0) {
+        ++nnz[i];
+        col[i] = c;
+      }
+    }
+  }
+  for (int a = 0; a < nx; ++a) {
+    const double* Xa = X + a * ldX;
+    for (int i = 0; i < ne; ++i) {
+      if (Xa[i] != 0.0) nnz[i] = 2;
+    }
+  }
   int ng = 0, nf = 0;
   // Fixing rows go to the end of w.rows (in order), the others to the front.
   for (int i = 0; i < ne; ++i) {
-    int col = -1;
-    for (int c = 0; c < nu; ++c) {
-      if (E[i + c * ldE] == 0.0) continue;
-      if (col >= 0) {
-        col = -2;
-        break;
-      }
-      col = c;
-    }
-    bool fixing = col >= 0 && w.mark(col) == 0;
-    for (int a = 0; fixing && a < nx; ++a) fixing = X[i + a * ldX] == 0.0;
-    if (!fixing) {
+    if (nnz[i] != 1 || w.mark(col[i]) != 0) {
       w.rows(ng++) = i;
       continue;
     }
     const double r =
-        (scale > 0.0 && std::isfinite(scale)) ? std::abs(E[i + col * ldE]) / scale : 0.0;
+        (scale > 0.0 && std::isfinite(scale)) ? std::abs(E[i + col[i] * ldE]) / scale : 0.0;
     *ratio = std::min(*ratio, r);
     if (!(r > rank_tolerance)) {
       *ratio = r;
       return false;
     }
-    w.mark(col) = 1;
+    w.mark(col[i]) = 1;
     ++nf;
     w.rows(ne - nf) = i;
   }
@@ -112,12 +122,7 @@ bool RiccatiSolver::findFixedInputs(const LqStage& s, Work& w, double rank_toler
   for (int c = 0; c < nu; ++c) {
     if (w.mark(c) == 0) w.perm(free++) = c;
   }
-  for (int f = 0; f < nf; ++f) {
-    const int i = w.rows(ng + f);
-    int c = 0;
-    while (E[i + c * ldE] == 0.0) ++c;
-    w.perm(nu - nf + f) = c;
-  }
+  for (int f = 0; f < nf; ++f) w.perm(nu - nf + f) = col[w.rows(ng + f)];
   return true;
 }
 
@@ -326,6 +331,75 @@ void RiccatiSolver::beginBackward() {
   t.p = stages_[idx(N_)].q;
 }
 
+namespace {
+
+/// Cholesky of the first nw columns of the lower triangle of the n x n matrix M
+/// (column-major, leading dimension ld): [Mww .; Mxw Mxx] becomes [L .; Lxw P] with
+/// L L^T = Mww, Lxw = Mxw L^-T and P = Mxx - Lxw Lxw^T (the Schur complement: the next
+/// cost-to-go Hessian). Left-looking, column by column: each column takes the products of
+/// the columns before it (at most nw of them) in register accumulators (Eigen's packets,
+/// fused multiply-add where the target has it), two packets of rows at a time, and is
+/// stored once. This replaces a Cholesky, a triangular solve and a rank update, each of
+/// which paid Eigen's set-up and packing at these sizes. False when a pivot is not
+/// positive and finite (M is then partly overwritten).
+bool eliminateInputs(double* M, Eigen::Index ld, int n, int nw) {
+  namespace ei = Eigen::internal;
+  using Packet = ei::packet_traits<double>::type;
+  constexpr int P = ei::packet_traits<double>::size;
+  for (int j = 0; j < n; ++j) {
+    double* mj = M + j * ld;
+    const int kmax = std::min(j, nw);
+    // Rows j..n-1 of column j minus the products of the columns before it. A column whose
+    // length is not a multiple of P ends with a packet that overlaps the one before it:
+    // computed first (from the original values) and stored last, with the same arithmetic
+    // per row, so no scalar remainder loop runs.
+    const auto packet = [M, ld, j, kmax](const double* col, int i) {
+      Packet sum = ei::pset1<Packet>(0.0);
+      for (int k = 0; k < kmax; ++k) {
+        const double* mk = M + k * ld;
+        sum = ei::pmadd(ei::ploadu<Packet>(mk + i), ei::pset1<Packet>(mk[j]), sum);
+      }
+      return ei::psub(ei::ploadu<Packet>(col + i), sum);
+    };
+    const int len = n - j;
+    if (len >= P) {
+      const bool tail = len % P != 0;
+      const Packet t = tail ? packet(mj, n - P) : ei::pset1<Packet>(0.0);
+      int i = j;
+      for (; i + 2 * P <= n; i += 2 * P) {
+        Packet s0 = ei::pset1<Packet>(0.0), s1 = s0;
+        for (int k = 0; k < kmax; ++k) {
+          const double* mk = M + k * ld;
+          const Packet f = ei::pset1<Packet>(mk[j]);
+          s0 = ei::pmadd(ei::ploadu<Packet>(mk + i), f, s0);
+          s1 = ei::pmadd(ei::ploadu<Packet>(mk + i + P), f, s1);
+        }
+        ei::pstoreu(mj + i, ei::psub(ei::ploadu<Packet>(mj + i), s0));
+        ei::pstoreu(mj + i + P, ei::psub(ei::ploadu<Packet>(mj + i + P), s1));
+      }
+      if (i + P <= n) ei::pstoreu(mj + i, packet(mj, i));
+      if (tail) ei::pstoreu(mj + n - P, t);
+    } else {
+      for (int i = j; i < n; ++i) {
+        double sum = 0.0;
+        for (int k = 0; k < kmax; ++k) sum += M[i + k * ld] * M[j + k * ld];
+        mj[i] -= sum;
+      }
+    }
+    if (j < nw) {
+      const double d = mj[j];
+      if (!(d > 0.0) || !std::isfinite(d)) return false;
+      const double l = std::sqrt(d);
+      mj[j] = l;
+      const double inv = 1.0 / l;
+      for (int r = j + 1; r < n; ++r) mj[r] *= inv;
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
 bool RiccatiSolver::backwardStage(int k) {
   const int nx = nx_;
   Work& w = work_[idx(k)];
@@ -344,32 +418,28 @@ bool RiccatiSolver::backwardStage(int k) {
   h.noalias() += BA.transpose() * w.pb;
 
   if (nw > 0) {
-    Eigen::Ref<MatrixXd> Mww(w.M.topLeftCorner(nw, nw));
     bool ok = false;
     double reg = 0.0;
     for (int attempt = 0; attempt < 6 && !ok; ++attempt) {
       if (attempt > 0) {
-        // Rebuild the block and shift it (rare path: singular reduced Hessian).
+        // Rebuild and shift the input block (rare path: singular reduced Hessian).
         const double scale = 1.0 + w.Hr.topLeftCorner(nw, nw).diagonal().cwiseAbs().maxCoeff();
         reg = (attempt == 1) ? 1e-12 * scale : reg * 100.0;
-        Mww.triangularView<Eigen::Lower>() = w.Hr.topLeftCorner(nw, nw);
-        Mww.triangularView<Eigen::Lower>() += BA.leftCols(nw).transpose() * PBA.leftCols(nw);
-        Mww.diagonal().array() += reg;
+        M.triangularView<Eigen::Lower>() = w.Hr.topLeftCorner(nz, nz);
+        M.triangularView<Eigen::Lower>() += BA.transpose() * PBA;
+        M.diagonal().head(nw).array() += reg;
       }
-      Eigen::LLT<Eigen::Ref<MatrixXd>> llt(Mww);
-      ok = llt.info() == Eigen::Success && std::isfinite(Mww.diagonal().sum());
+      ok = eliminateInputs(w.M.data(), w.M.outerStride(), nz, nw);
     }
     if (!ok) {
       failed_stage_ = k;
       return false;
     }
     regularization_ = std::max(regularization_, reg);
-    auto Lxw = w.M.block(nw, 0, nx, nw);
-    Mww.transpose().triangularView<Eigen::Upper>().solveInPlace<Eigen::OnTheRight>(Lxw);
+    const auto Lxw = w.M.block(nw, 0, nx, nw);
     auto v = w.hm.head(nw);
-    Mww.triangularView<Eigen::Lower>().solveInPlace(v);
+    w.M.topLeftCorner(nw, nw).triangularView<Eigen::Lower>().solveInPlace(v);
     w.P.triangularView<Eigen::Lower>() = w.M.block(nw, nw, nx, nx);
-    w.P.selfadjointView<Eigen::Lower>().rankUpdate(Lxw, -1.0);
     w.p = w.hm.segment(nw, nx);
     w.p.noalias() -= Lxw * v;
   } else {

@@ -236,3 +236,41 @@ TEST(RiccatiProjection, ResolveVectorsMatchesAFreshSolve) {
     }
   }
 }
+
+// A reduced Hessian that is only semidefinite (an input that neither costs nor moves the
+// state) fails the first factorisation; the stage is rebuilt with a small diagonal shift,
+// which must give exactly the solution of the problem with that shift added to R. An
+// indefinite one is reported at its stage.
+TEST(RiccatiProjection, SemidefiniteStageIsShiftedAndIndefiniteIsReported) {
+  std::mt19937 rng(17u);
+  const int nx = 5, nu = 4, N = 6, ks = 3;
+  solver::RiccatiSolver ric(N, nx, nu, 1), ref(N, nx, nu, 1);
+  fillRandomStages(
+      ric, [](int) { return 0; }, rng);
+  randomVectors(ric, rng);
+  auto& s = ric.stage(ks);
+  s.R.row(0).setZero();
+  s.R.col(0).setZero();
+  s.S.row(0).setZero();
+  s.B.col(0).setZero();
+  s.r(0) = 0.0;
+  const VectorXd dx0 = randn(nx, 1, rng);
+  ASSERT_TRUE(ric.solve(dx0));
+  const double reg = ric.regularization();
+  EXPECT_GT(reg, 0.0);
+  EXPECT_LT(reg, 1e-10);
+  for (int k = 0; k <= N; ++k) ref.stage(k) = ric.stage(k);
+  ref.stage(ks).R.diagonal().array() += reg;
+  ASSERT_TRUE(ref.solve(dx0));
+  EXPECT_EQ(ref.regularization(), 0.0);
+  for (int k = 0; k <= N; ++k) {
+    EXPECT_LT((ric.dx(k) - ref.dx(k)).norm(), 1e-12 * (1.0 + ref.dx(k).norm())) << "k " << k;
+    EXPECT_LT((ric.costate(k) - ref.costate(k)).norm(), 1e-12 * (1.0 + ref.costate(k).norm()));
+    if (k < N) {
+      EXPECT_LT((ric.du(k) - ref.du(k)).norm(), 1e-12 * (1.0 + ref.du(k).norm()));
+    }
+  }
+  s.R.diagonal().array() -= 10.0;
+  EXPECT_FALSE(ric.solve(dx0));
+  EXPECT_EQ(ric.failedStage(), ks);
+}
