@@ -36,7 +36,6 @@ RiccatiSolver::RiccatiSolver(int horizon, int nx, int nu, int ne_max)
     w.perm = Eigen::VectorXi::LinSpaced(nu, 0, nu - 1);
     w.rows = Eigen::VectorXi::LinSpaced(ne_max, 0, ne_max - 1);
     w.mark = Eigen::VectorXi::Zero(nu);
-    w.nnz = Eigen::VectorXi::Zero(ne_max);
     w.col = Eigen::VectorXi::Zero(ne_max);
     w.tf = VectorXd::Zero(ne_max);
     w.reff = VectorXd::Zero(nu);
@@ -69,6 +68,116 @@ RiccatiSolver::RiccatiSolver(int horizon, int nx, int nu, int ne_max)
   }
 }
 
+namespace {
+
+/// lower(H) += V W^T + W V^T for n x k V and W (column-major): the reduced Hessian's
+/// T^T Y + Y^T T. Left-looking, column by column, into register accumulators (k is the
+/// number of equality rows, a handful): no product buffer, no transposed read, no
+/// symmetrisation pass.
+void addSymmetricProducts(double* H, Eigen::Index ldH, const double* V, Eigen::Index ldV,
+                          const double* W, Eigen::Index ldW, int n, int k) {
+  namespace ei = Eigen::internal;
+  using Packet = ei::packet_traits<double>::type;
+  constexpr int P = ei::packet_traits<double>::size;
+  for (int j = 0; j < n; ++j) {
+    double* hj = H + j * ldH;
+    const auto packet = [=](int i) {
+      Packet sum = ei::pset1<Packet>(0.0);
+      for (int c = 0; c < k; ++c) {
+        sum =
+            ei::pmadd(ei::ploadu<Packet>(V + c * ldV + i), ei::pset1<Packet>(W[j + c * ldW]), sum);
+        sum =
+            ei::pmadd(ei::ploadu<Packet>(W + c * ldW + i), ei::pset1<Packet>(V[j + c * ldV]), sum);
+      }
+      return ei::padd(ei::ploadu<Packet>(hj + i), sum);
+    };
+    const int len = n - j;
+    if (len < P) {
+      for (int i = j; i < n; ++i) {
+        double sum = 0.0;
+        for (int c = 0; c < k; ++c) {
+          sum += V[i + c * ldV] * W[j + c * ldW] + W[i + c * ldW] * V[j + c * ldV];
+        }
+        hj[i] += sum;
+      }
+      continue;
+    }
+    // As in eliminateInputs: an overlapping last packet instead of a scalar remainder.
+    const bool tail = len % P != 0;
+    const Packet t = tail ? packet(n - P) : ei::pset1<Packet>(0.0);
+    int i = j;
+    for (; i + P <= n; i += P) ei::pstoreu(hj + i, packet(i));
+    if (tail) ei::pstoreu(hj + n - P, t);
+  }
+}
+
+/// Cholesky of the first nw columns of the lower triangle of the n x n matrix M
+/// (column-major, leading dimension ld): [Mww .; Mxw Mxx] becomes [L .; Lxw P] with
+/// L L^T = Mww, Lxw = Mxw L^-T and P = Mxx - Lxw Lxw^T (the Schur complement: the next
+/// cost-to-go Hessian). Left-looking, column by column: each column takes the products of
+/// the columns before it (at most nw of them) in register accumulators (Eigen's packets,
+/// fused multiply-add where the target has it), two packets of rows at a time, and is
+/// stored once. This replaces a Cholesky, a triangular solve and a rank update, each of
+/// which paid Eigen's set-up and packing at these sizes. False when a pivot is not
+/// positive and finite (M is then partly overwritten).
+bool eliminateInputs(double* M, Eigen::Index ld, int n, int nw) {
+  namespace ei = Eigen::internal;
+  using Packet = ei::packet_traits<double>::type;
+  constexpr int P = ei::packet_traits<double>::size;
+  for (int j = 0; j < n; ++j) {
+    double* mj = M + j * ld;
+    const int kmax = std::min(j, nw);
+    // Rows j..n-1 of column j minus the products of the columns before it. A column whose
+    // length is not a multiple of P ends with a packet that overlaps the one before it:
+    // computed first (from the original values) and stored last, with the same arithmetic
+    // per row, so no scalar remainder loop runs.
+    const auto packet = [M, ld, j, kmax](const double* col, int i) {
+      Packet sum = ei::pset1<Packet>(0.0);
+      for (int k = 0; k < kmax; ++k) {
+        const double* mk = M + k * ld;
+        sum = ei::pmadd(ei::ploadu<Packet>(mk + i), ei::pset1<Packet>(mk[j]), sum);
+      }
+      return ei::psub(ei::ploadu<Packet>(col + i), sum);
+    };
+    const int len = n - j;
+    if (len >= P) {
+      const bool tail = len % P != 0;
+      const Packet t = tail ? packet(mj, n - P) : ei::pset1<Packet>(0.0);
+      int i = j;
+      for (; i + 2 * P <= n; i += 2 * P) {
+        Packet s0 = ei::pset1<Packet>(0.0), s1 = s0;
+        for (int k = 0; k < kmax; ++k) {
+          const double* mk = M + k * ld;
+          const Packet f = ei::pset1<Packet>(mk[j]);
+          s0 = ei::pmadd(ei::ploadu<Packet>(mk + i), f, s0);
+          s1 = ei::pmadd(ei::ploadu<Packet>(mk + i + P), f, s1);
+        }
+        ei::pstoreu(mj + i, ei::psub(ei::ploadu<Packet>(mj + i), s0));
+        ei::pstoreu(mj + i + P, ei::psub(ei::ploadu<Packet>(mj + i + P), s1));
+      }
+      if (i + P <= n) ei::pstoreu(mj + i, packet(mj, i));
+      if (tail) ei::pstoreu(mj + n - P, t);
+    } else {
+      for (int i = j; i < n; ++i) {
+        double sum = 0.0;
+        for (int k = 0; k < kmax; ++k) sum += M[i + k * ld] * M[j + k * ld];
+        mj[i] -= sum;
+      }
+    }
+    if (j < nw) {
+      const double d = mj[j];
+      if (!(d > 0.0) || !std::isfinite(d)) return false;
+      const double l = std::sqrt(d);
+      mj[j] = l;
+      const double inv = 1.0 / l;
+      for (int r = j + 1; r < n; ++r) mj[r] *= inv;
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
 bool RiccatiSolver::findFixedInputs(const LqStage& s, Work& w, double rank_tolerance, double scale,
                                     double* ratio) const {
   const int nx = nx_, nu = nu_, ne = s.ne;
@@ -76,30 +185,28 @@ bool RiccatiSolver::findFixedInputs(const LqStage& s, Work& w, double rank_toler
   const double* X = s.Ex.data();
   const Eigen::Index ldE = s.Eu.outerStride(), ldX = s.Ex.outerStride();
   w.mark.setZero();
-  // Per row, column by column (contiguous): the number of non-zero entries of Eu (2 as soon
-  // as Ex has one) and the column of the last one.
-  int* nnz = w.nnz.data();
+  // Per row: the column of its only non-zero Eu entry, -1 when it has none or more than
+  // one (the scan stops at the second: dense rows cost two reads) or when Ex has one.
   int* col = w.col.data();
-  for (int i = 0; i < ne; ++i) nnz[i] = 0;
-  for (int c = 0; c < nu; ++c) {
-    const double* Ec = E + c * ldE;
-    for (int i = 0; i < ne; ++i) {
-      if (Ec[i] != 0.0) {
-        ++nnz[i];
-        col[i] = c;
+  for (int i = 0; i < ne; ++i) {
+    int c1 = -1;
+    for (int c = 0; c < nu; ++c) {
+      if (E[i + c * ldE] == 0.0) continue;
+      if (c1 >= 0) {
+        c1 = -1;
+        break;
       }
+      c1 = c;
     }
-  }
-  for (int a = 0; a < nx; ++a) {
-    const double* Xa = X + a * ldX;
-    for (int i = 0; i < ne; ++i) {
-      if (Xa[i] != 0.0) nnz[i] = 2;
+    for (int a = 0; c1 >= 0 && a < nx; ++a) {
+      if (X[i + a * ldX] != 0.0) c1 = -1;
     }
+    col[i] = c1;
   }
   int ng = 0, nf = 0;
   // Fixing rows go to the end of w.rows (in order), the others to the front.
   for (int i = 0; i < ne; ++i) {
-    if (nnz[i] != 1 || w.mark(col[i]) != 0) {
+    if (col[i] < 0 || w.mark(col[i]) != 0) {
       w.rows(ng++) = i;
       continue;
     }
@@ -188,7 +295,11 @@ bool RiccatiSolver::projectStage(int k, double rank_tolerance, double* pivot_rat
     const Eigen::Index ldE = s.Eu.outerStride();
     for (int i = 0; i < ng; ++i) {
       const int row = rows[i];
-      for (int c = 0; c < nv; ++c) G[c + i * ldG] = E[row + w.perm(c) * ldE];
+      if (nf == 0) {
+        for (int c = 0; c < nv; ++c) G[c + i * ldG] = E[row + c * ldE];
+      } else {
+        for (int c = 0; c < nv; ++c) G[c + i * ldG] = E[row + w.perm(c) * ldE];
+      }
     }
     for (int j = 0; j < ng; ++j) {
       double* gj = G + j * ldG;
@@ -305,15 +416,22 @@ bool RiccatiSolver::projectStage(int k, double rank_tolerance, double* pivot_rat
       for (int j = 0; j < ng; ++j) Dc[j] = Rsym(pD[j], d);
     }
     W.noalias() += 0.5 * Vt * HDD;
-    // T^T Y = V W^T; its transpose is added too, on the lower triangle only.
-    auto TY = w.M.topLeftCorner(nz + 1, nz + 1);  // free until backward()
-    TY.noalias() = Vt * W.transpose();
-    const double* TYp = w.M.data();
-    const Eigen::Index ldT = w.M.outerStride();
-    for (int j = 0; j <= nz; ++j) {
-      double* Hc = Hp + j * ldH;
-      const double* Tc = TYp + j * ldT;
-      for (int i = j; i <= nz; ++i) Hc[i] += Tc[i] + TYp[j + i * ldT];
+    // T^T Y + Y^T T = V W^T + W V^T, on the lower triangle only. With few rows (the
+    // common case once the fixing rows are substituted) in register accumulators; with
+    // many, Eigen's packed product is faster, then the lower triangle of it and of its
+    // transpose.
+    if (ng <= 8) {
+      addSymmetricProducts(Hp, ldH, w.V.data(), ldV, Wp, ldW, nz + 1, ng);
+    } else {
+      auto TY = w.M.topLeftCorner(nz + 1, nz + 1);  // free until backward()
+      TY.noalias() = Vt * W.transpose();
+      const double* TYp = w.M.data();
+      const Eigen::Index ldT = w.M.outerStride();
+      for (int j = 0; j <= nz; ++j) {
+        double* Hc = Hp + j * ldH;
+        const double* Tc = TYp + j * ldT;
+        for (int i = j; i <= nz; ++i) Hc[i] += Tc[i] + TYp[j + i * ldT];
+      }
     }
     auto BD = w.BD.leftCols(ng);
     for (int i = 0; i < ng; ++i) BD.col(i) = s.B.col(pD[i]);
@@ -330,75 +448,6 @@ void RiccatiSolver::beginBackward() {
   t.P.triangularView<Eigen::Lower>() = stages_[idx(N_)].Q;
   t.p = stages_[idx(N_)].q;
 }
-
-namespace {
-
-/// Cholesky of the first nw columns of the lower triangle of the n x n matrix M
-/// (column-major, leading dimension ld): [Mww .; Mxw Mxx] becomes [L .; Lxw P] with
-/// L L^T = Mww, Lxw = Mxw L^-T and P = Mxx - Lxw Lxw^T (the Schur complement: the next
-/// cost-to-go Hessian). Left-looking, column by column: each column takes the products of
-/// the columns before it (at most nw of them) in register accumulators (Eigen's packets,
-/// fused multiply-add where the target has it), two packets of rows at a time, and is
-/// stored once. This replaces a Cholesky, a triangular solve and a rank update, each of
-/// which paid Eigen's set-up and packing at these sizes. False when a pivot is not
-/// positive and finite (M is then partly overwritten).
-bool eliminateInputs(double* M, Eigen::Index ld, int n, int nw) {
-  namespace ei = Eigen::internal;
-  using Packet = ei::packet_traits<double>::type;
-  constexpr int P = ei::packet_traits<double>::size;
-  for (int j = 0; j < n; ++j) {
-    double* mj = M + j * ld;
-    const int kmax = std::min(j, nw);
-    // Rows j..n-1 of column j minus the products of the columns before it. A column whose
-    // length is not a multiple of P ends with a packet that overlaps the one before it:
-    // computed first (from the original values) and stored last, with the same arithmetic
-    // per row, so no scalar remainder loop runs.
-    const auto packet = [M, ld, j, kmax](const double* col, int i) {
-      Packet sum = ei::pset1<Packet>(0.0);
-      for (int k = 0; k < kmax; ++k) {
-        const double* mk = M + k * ld;
-        sum = ei::pmadd(ei::ploadu<Packet>(mk + i), ei::pset1<Packet>(mk[j]), sum);
-      }
-      return ei::psub(ei::ploadu<Packet>(col + i), sum);
-    };
-    const int len = n - j;
-    if (len >= P) {
-      const bool tail = len % P != 0;
-      const Packet t = tail ? packet(mj, n - P) : ei::pset1<Packet>(0.0);
-      int i = j;
-      for (; i + 2 * P <= n; i += 2 * P) {
-        Packet s0 = ei::pset1<Packet>(0.0), s1 = s0;
-        for (int k = 0; k < kmax; ++k) {
-          const double* mk = M + k * ld;
-          const Packet f = ei::pset1<Packet>(mk[j]);
-          s0 = ei::pmadd(ei::ploadu<Packet>(mk + i), f, s0);
-          s1 = ei::pmadd(ei::ploadu<Packet>(mk + i + P), f, s1);
-        }
-        ei::pstoreu(mj + i, ei::psub(ei::ploadu<Packet>(mj + i), s0));
-        ei::pstoreu(mj + i + P, ei::psub(ei::ploadu<Packet>(mj + i + P), s1));
-      }
-      if (i + P <= n) ei::pstoreu(mj + i, packet(mj, i));
-      if (tail) ei::pstoreu(mj + n - P, t);
-    } else {
-      for (int i = j; i < n; ++i) {
-        double sum = 0.0;
-        for (int k = 0; k < kmax; ++k) sum += M[i + k * ld] * M[j + k * ld];
-        mj[i] -= sum;
-      }
-    }
-    if (j < nw) {
-      const double d = mj[j];
-      if (!(d > 0.0) || !std::isfinite(d)) return false;
-      const double l = std::sqrt(d);
-      mj[j] = l;
-      const double inv = 1.0 / l;
-      for (int r = j + 1; r < n; ++r) mj[r] *= inv;
-    }
-  }
-  return true;
-}
-
-}  // namespace
 
 bool RiccatiSolver::backwardStage(int k) {
   const int nx = nx_;

@@ -109,10 +109,10 @@ class RiccatiSolver {
     Eigen::MatrixXd lu;  // nu x ne_max: [L1\U; L2] of P Eu^T (unit L1 below U)
     // nu: input permutation [dependent (ne - nf); independent (nw); fixed (nf)]
     Eigen::VectorXi perm;
-    Eigen::VectorXi rows;      // ne_max: equality rows [in the LU (ne - nf); fixing (nf)]
-    Eigen::VectorXi mark;      // nu: scratch, 1 on fixed inputs
-    Eigen::VectorXi nnz, col;  // ne_max: scratch, non-zeros per row of Eu and the last one's column
-    Eigen::VectorXd tf;        // ne_max: the values of the fixed inputs
+    Eigen::VectorXi rows;  // ne_max: equality rows [in the LU (ne - nf); fixing (nf)]
+    Eigen::VectorXi mark;  // nu: scratch, 1 on fixed inputs
+    Eigen::VectorXi col;   // ne_max: scratch, the input a row fixes (-1: none)
+    Eigen::VectorXd tf;    // ne_max: the values of the fixed inputs
     // The vectors with the fixed inputs substituted: r + R_F tf (nu), q + S_F^T tf,
     // b + B_F tf (nx), e + Eu_F tf (ne_max, rows in the LU).
     Eigen::VectorXd reff, qeff, beff, eeff;
