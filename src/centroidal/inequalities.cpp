@@ -151,6 +151,11 @@ int StaticTorqueLimitResidual::rows(const ocp::NodeContext& /*ctx*/) const {
   return static_cast<int>(upper_rows_.size() + lower_rows_.size());
 }
 
+int StaticTorqueLimitResidual::mirroredRows(const ocp::NodeContext& /*ctx*/) const {
+  const auto nj = static_cast<std::size_t>(robot_->nj());
+  return upper_rows_.size() == nj && lower_rows_.size() == nj ? robot_->nj() : 0;
+}
+
 std::unique_ptr<ocp::ResidualData> StaticTorqueLimitResidual::createData() const {
   return std::make_unique<TorqueResidualData>(maxRows(), *robot_);
 }

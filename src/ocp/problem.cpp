@@ -185,6 +185,7 @@ std::unique_ptr<NodeData> OptimalControlProblem::createNodeData() const {
   d->state_only = Eigen::Matrix<bool, Eigen::Dynamic, 1>::Constant(max_ineq_, false);
   d->relaxation = VectorXd::Zero(max_ineq_);
   d->soft_weight = VectorXd::Zero(max_ineq_);
+  d->mirror = Eigen::VectorXi::Constant(max_ineq_, -1);
   d->zero_input = VectorXd::Zero(m);
   if (pre_) d->cache = pre_->createCache();
   d->dynamics_data = dynamics_->createData();
@@ -303,6 +304,14 @@ void OptimalControlProblem::run(int k, ConstVecRef x, ConstVecRef u_in, NodeData
     d.state_only.segment(ni, rows).setConstant(terminal || !entry.residual->dependsOnInput());
     d.relaxation.segment(ni, rows).setConstant(entry.options.relaxation);
     d.soft_weight.segment(ni, rows).setConstant(entry.options.weight);
+    d.mirror.segment(ni, rows).setConstant(-1);
+    const int m = entry.residual->mirroredRows(ctx);
+    if (m > 0 && 2 * m <= rows) {
+      for (int j = ni; j < ni + m; ++j) {
+        d.mirror(j) = j + m;
+        d.mirror(j + m) = j;
+      }
+    }
     if (curvature && entry.residual->isLinear()) {
       d.Gx.middleRows(ni, rows).setZero();
       d.Gu.middleRows(ni, rows).setZero();

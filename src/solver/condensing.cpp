@@ -55,7 +55,17 @@ void Solver::Impl::condenseNode(int k) {
     // contiguous runs of rows with an x (u) part. The terms' rows come in blocks (torque
     // rows act on x and u, friction rows on u only, region rows on x only). Gu is zero on
     // state-only rows, and a node without hard rows has only state-only rows.
+    // The two rows of a two-sided limit (NodeData::mirror: Jacobians g and -g) add
+    // (W_i + W_j) g g^T: one product with the summed weight on the first row, the second
+    // row left out.
     for (int i = 0; i < m; ++i) {
+      const int j = d.mirror(i);
+      if (j >= 0 && j < i) {
+        n.row_parts(i) = 0;
+        continue;
+      }
+      n.Wc(i) = j > i ? n.W(i) + n.W(j) : n.W(i);
+      n.gamc(i) = j > i ? n.gam(i) - n.gam(j) : n.gam(i);
       const bool on_x = !d.Gx.row(i).isZero(0.0);
       const bool on_u = running && !d.state_only(i);
       n.row_parts(i) = (on_x ? 1 : 0) | (on_u ? 2 : 0);
@@ -83,7 +93,7 @@ void Solver::Impl::condenseNode(int k) {
       while (c1 > c0 && zero(c1 - 1)) --c1;
       return std::pair<int, int>(c0, c1 - c0);
     };
-    const auto W = n.W.head(m);
+    const auto W = n.Wc.head(m);
     runs(1, [&](int i, int r) {
       const auto [a, s] = span(d.Gx, i, r);
       const auto Gx = d.Gx.block(i, a, r, s);
@@ -98,7 +108,7 @@ void Solver::Impl::condenseNode(int k) {
       n.WGu.block(i, a, r, s).noalias() = W.segment(i, r).asDiagonal() * Gu;
       st.R.block(a, a, s, s).triangularView<Eigen::Lower>() +=
           Gu.transpose() * n.WGu.block(i, a, r, s);
-      st.r.segment(a, s).noalias() += Gu.transpose() * n.gam.segment(i, r);
+      st.r.segment(a, s).noalias() += Gu.transpose() * n.gamc.segment(i, r);
     });
     runs(3, [&](int i, int r) {
       // The x span of these rows is within that of the run of mask 1 that holds them,

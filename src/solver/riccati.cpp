@@ -1,6 +1,5 @@
 #include "rollstep/solver/riccati.hpp"
 
-#include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -35,6 +34,14 @@ RiccatiSolver::RiccatiSolver(int horizon, int nx, int nu, int ne_max)
   for (auto& w : work_) {
     w.lu = MatrixXd::Zero(nu, ne_max);
     w.perm = Eigen::VectorXi::LinSpaced(nu, 0, nu - 1);
+    w.rows = Eigen::VectorXi::LinSpaced(ne_max, 0, ne_max - 1);
+    w.mark = Eigen::VectorXi::Zero(nu);
+    w.col = Eigen::VectorXi::Zero(ne_max);
+    w.tf = VectorXd::Zero(ne_max);
+    w.reff = VectorXd::Zero(nu);
+    w.qeff = VectorXd::Zero(nx);
+    w.beff = VectorXd::Zero(nx);
+    w.eeff = VectorXd::Zero(ne_max);
     w.V = MatrixXd::Zero(nz + 1, ne_max);
     w.W = MatrixXd::Zero(nz + 1, ne_max);
     w.HDD = MatrixXd::Zero(ne_max, ne_max);
@@ -61,6 +68,194 @@ RiccatiSolver::RiccatiSolver(int horizon, int nx, int nu, int ne_max)
   }
 }
 
+namespace {
+
+/// lower(H) += V W^T + W V^T for n x k V and W (column-major): the reduced Hessian's
+/// T^T Y + Y^T T. Left-looking, column by column, into register accumulators (k is the
+/// number of equality rows, a handful): no product buffer, no transposed read, no
+/// symmetrisation pass.
+void addSymmetricProducts(double* H, Eigen::Index ldH, const double* V, Eigen::Index ldV,
+                          const double* W, Eigen::Index ldW, int n, int k) {
+  namespace ei = Eigen::internal;
+  using Packet = ei::packet_traits<double>::type;
+  constexpr int P = ei::packet_traits<double>::size;
+  for (int j = 0; j < n; ++j) {
+    double* hj = H + j * ldH;
+    const auto packet = [=](int i) {
+      Packet sum = ei::pset1<Packet>(0.0);
+      for (int c = 0; c < k; ++c) {
+        sum =
+            ei::pmadd(ei::ploadu<Packet>(V + c * ldV + i), ei::pset1<Packet>(W[j + c * ldW]), sum);
+        sum =
+            ei::pmadd(ei::ploadu<Packet>(W + c * ldW + i), ei::pset1<Packet>(V[j + c * ldV]), sum);
+      }
+      return ei::padd(ei::ploadu<Packet>(hj + i), sum);
+    };
+    const int len = n - j;
+    if (len < P) {
+      for (int i = j; i < n; ++i) {
+        double sum = 0.0;
+        for (int c = 0; c < k; ++c) {
+          sum += V[i + c * ldV] * W[j + c * ldW] + W[i + c * ldW] * V[j + c * ldV];
+        }
+        hj[i] += sum;
+      }
+      continue;
+    }
+    // As in eliminateInputs: an overlapping last packet instead of a scalar remainder.
+    const bool tail = len % P != 0;
+    const Packet t = tail ? packet(n - P) : ei::pset1<Packet>(0.0);
+    int i = j;
+    for (; i + P <= n; i += P) ei::pstoreu(hj + i, packet(i));
+    if (tail) ei::pstoreu(hj + n - P, t);
+  }
+}
+
+/// Cholesky of the first nw columns of the lower triangle of the n x n matrix M
+/// (column-major, leading dimension ld): [Mww .; Mxw Mxx] becomes [L .; Lxw P] with
+/// L L^T = Mww, Lxw = Mxw L^-T and P = Mxx - Lxw Lxw^T (the Schur complement: the next
+/// cost-to-go Hessian). Left-looking, column by column: each column takes the products of
+/// the columns before it (at most nw of them) in register accumulators (Eigen's packets,
+/// fused multiply-add where the target has it), two packets of rows at a time, and is
+/// stored once. This replaces a Cholesky, a triangular solve and a rank update, each of
+/// which paid Eigen's set-up and packing at these sizes. False when a pivot is not
+/// positive and finite (M is then partly overwritten).
+bool eliminateInputs(double* M, Eigen::Index ld, int n, int nw) {
+  namespace ei = Eigen::internal;
+  using Packet = ei::packet_traits<double>::type;
+  constexpr int P = ei::packet_traits<double>::size;
+  for (int j = 0; j < n; ++j) {
+    double* mj = M + j * ld;
+    const int kmax = std::min(j, nw);
+    // Rows j..n-1 of column j minus the products of the columns before it. A column whose
+    // length is not a multiple of P ends with a packet that overlaps the one before it:
+    // computed first (from the original values) and stored last, with the same arithmetic
+    // per row, so no scalar remainder loop runs.
+    const auto packet = [M, ld, j, kmax](const double* col, int i) {
+      Packet sum = ei::pset1<Packet>(0.0);
+      for (int k = 0; k < kmax; ++k) {
+        const double* mk = M + k * ld;
+        sum = ei::pmadd(ei::ploadu<Packet>(mk + i), ei::pset1<Packet>(mk[j]), sum);
+      }
+      return ei::psub(ei::ploadu<Packet>(col + i), sum);
+    };
+    const int len = n - j;
+    if (len >= P) {
+      const bool tail = len % P != 0;
+      const Packet t = tail ? packet(mj, n - P) : ei::pset1<Packet>(0.0);
+      int i = j;
+      for (; i + 2 * P <= n; i += 2 * P) {
+        Packet s0 = ei::pset1<Packet>(0.0), s1 = s0;
+        for (int k = 0; k < kmax; ++k) {
+          const double* mk = M + k * ld;
+          const Packet f = ei::pset1<Packet>(mk[j]);
+          s0 = ei::pmadd(ei::ploadu<Packet>(mk + i), f, s0);
+          s1 = ei::pmadd(ei::ploadu<Packet>(mk + i + P), f, s1);
+        }
+        ei::pstoreu(mj + i, ei::psub(ei::ploadu<Packet>(mj + i), s0));
+        ei::pstoreu(mj + i + P, ei::psub(ei::ploadu<Packet>(mj + i + P), s1));
+      }
+      if (i + P <= n) ei::pstoreu(mj + i, packet(mj, i));
+      if (tail) ei::pstoreu(mj + n - P, t);
+    } else {
+      for (int i = j; i < n; ++i) {
+        double sum = 0.0;
+        for (int k = 0; k < kmax; ++k) sum += M[i + k * ld] * M[j + k * ld];
+        mj[i] -= sum;
+      }
+    }
+    if (j < nw) {
+      const double d = mj[j];
+      if (!(d > 0.0) || !std::isfinite(d)) return false;
+      const double l = std::sqrt(d);
+      mj[j] = l;
+      const double inv = 1.0 / l;
+      for (int r = j + 1; r < n; ++r) mj[r] *= inv;
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
+bool RiccatiSolver::findFixedInputs(const LqStage& s, Work& w, double rank_tolerance, double scale,
+                                    double* ratio) const {
+  const int nx = nx_, nu = nu_, ne = s.ne;
+  const double* E = s.Eu.data();
+  const double* X = s.Ex.data();
+  const Eigen::Index ldE = s.Eu.outerStride(), ldX = s.Ex.outerStride();
+  w.mark.setZero();
+  // Per row: the column of its only non-zero Eu entry, -1 when it has none or more than
+  // one (the scan stops at the second: dense rows cost two reads) or when Ex has one.
+  int* col = w.col.data();
+  for (int i = 0; i < ne; ++i) {
+    int c1 = -1;
+    for (int c = 0; c < nu; ++c) {
+      if (E[i + c * ldE] == 0.0) continue;
+      if (c1 >= 0) {
+        c1 = -1;
+        break;
+      }
+      c1 = c;
+    }
+    for (int a = 0; c1 >= 0 && a < nx; ++a) {
+      if (X[i + a * ldX] != 0.0) c1 = -1;
+    }
+    col[i] = c1;
+  }
+  int ng = 0, nf = 0;
+  // Fixing rows go to the end of w.rows (in order), the others to the front.
+  for (int i = 0; i < ne; ++i) {
+    if (col[i] < 0 || w.mark(col[i]) != 0) {
+      w.rows(ng++) = i;
+      continue;
+    }
+    const double r =
+        (scale > 0.0 && std::isfinite(scale)) ? std::abs(E[i + col[i] * ldE]) / scale : 0.0;
+    *ratio = std::min(*ratio, r);
+    if (!(r > rank_tolerance)) {
+      *ratio = r;
+      return false;
+    }
+    w.mark(col[i]) = 1;
+    ++nf;
+    w.rows(ne - nf) = i;
+  }
+  // The fixing rows were stored from the back: restore their order.
+  std::reverse(w.rows.data() + ng, w.rows.data() + ne);
+  w.nf = nf;
+  // perm: the free inputs in order, then the fixed ones in the order of their rows.
+  int free = 0;
+  for (int c = 0; c < nu; ++c) {
+    if (w.mark(c) == 0) w.perm(free++) = c;
+  }
+  for (int f = 0; f < nf; ++f) w.perm(nu - nf + f) = col[w.rows(ng + f)];
+  return true;
+}
+
+void RiccatiSolver::substituteFixedInputs(const LqStage& s, Work& w) const {
+  const int nf = w.nf, ng = s.ne - nf, nu = nu_;
+  if (nf == 0) return;
+  const int* pF = w.perm.data() + nu - nf;
+  const double* Rp = s.R.data();
+  const Eigen::Index ldR = s.R.outerStride();
+  w.reff = s.r;
+  w.qeff = s.q;
+  w.beff = s.b;
+  for (int i = 0; i < ng; ++i) w.eeff(i) = s.e(w.rows(i));
+  for (int f = 0; f < nf; ++f) {
+    const int i = w.rows(ng + f), c = pF[f];
+    const double t = -s.e(i) / s.Eu(i, c);
+    w.tf(f) = t;
+    // Column c of R from its lower triangle: R(c, 0..c) as a row, R(c..nu, c) as a column.
+    for (int j = 0; j < c; ++j) w.reff(j) += Rp[c + j * ldR] * t;
+    for (int j = c; j < nu; ++j) w.reff(j) += Rp[j + c * ldR] * t;
+    w.qeff.noalias() += s.S.row(c).transpose() * t;
+    w.beff.noalias() += s.B.col(c) * t;
+    for (int g = 0; g < ng; ++g) w.eeff(g) += s.Eu(w.rows(g), c) * t;
+  }
+}
+
 bool RiccatiSolver::projectStage(int k, double rank_tolerance, double* pivot_ratio) {
   const LqStage& s = stages_[idx(k)];
   Work& w = work_[idx(k)];
@@ -71,28 +266,46 @@ bool RiccatiSolver::projectStage(int k, double rank_tolerance, double* pivot_rat
     if (pivot_ratio) *pivot_ratio = 0.0;
     return false;
   }
+  w.nf = 0;
   for (int c = 0; c < nu; ++c) w.perm(c) = c;
+  const double scale = ne > 0 ? s.Eu.topRows(ne).cwiseAbs().maxCoeff() : 0.0;
+  double min_ratio = 1.0;
+  if (ne > 0 && !findFixedInputs(s, w, rank_tolerance, scale, &min_ratio)) {
+    if (pivot_ratio) *pivot_ratio = min_ratio;
+    return false;
+  }
+  substituteFixedInputs(s, w);
+  // The rows left for the LU (ng) and the inputs they act on (nv = ng + nw).
+  const int nf = w.nf, ng = ne - nf, nv = nu - nf;
   const int nw = nu - ne, nz = nw + nx;
+  const int* rows = w.rows.data();
+  const double* rv = nf > 0 ? w.reff.data() : s.r.data();
+  const double* bv = nf > 0 ? w.beff.data() : s.b.data();
+  const Eigen::Map<const VectorXd> qv(nf > 0 ? w.qeff.data() : s.q.data(), nx);
+  const auto ev = [&](int i) { return nf > 0 ? w.eeff(i) : s.e(rows[i]); };
 
-  // LU with partial pivoting of Eu^T (nu x ne): P Eu^T = [L1; L2] U. The row pivots pick
-  // the dependent inputs (the first ne of perm), and a pivot that is small against the
-  // largest entry of Eu reveals rank deficiency. Raw column loops: the blocks are tiny
-  // and every inner loop runs down a contiguous column.
+  // LU with partial pivoting of Eu^T (nv x ng, the rows and inputs left): P Eu^T =
+  // [L1; L2] U. The row pivots pick the dependent inputs (the first ng of perm), and a
+  // pivot that is small against the largest entry of Eu reveals rank deficiency. Raw
+  // column loops: the blocks are tiny and every inner loop runs down a contiguous column.
   double* G = w.lu.data();
   const Eigen::Index ldG = w.lu.outerStride();
-  if (ne > 0) {
+  if (ng > 0) {
     const double* E = s.Eu.data();
     const Eigen::Index ldE = s.Eu.outerStride();
-    for (int i = 0; i < ne; ++i) {
-      for (int c = 0; c < nu; ++c) G[c + i * ldG] = E[i + c * ldE];
+    for (int i = 0; i < ng; ++i) {
+      const int row = rows[i];
+      if (nf == 0) {
+        for (int c = 0; c < nv; ++c) G[c + i * ldG] = E[row + c * ldE];
+      } else {
+        for (int c = 0; c < nv; ++c) G[c + i * ldG] = E[row + w.perm(c) * ldE];
+      }
     }
-    const double scale = s.Eu.topRows(ne).cwiseAbs().maxCoeff();
-    double min_ratio = 1.0;
-    for (int j = 0; j < ne; ++j) {
+    for (int j = 0; j < ng; ++j) {
       double* gj = G + j * ldG;
       int p = j;
       double amax = std::abs(gj[j]);
-      for (int r = j + 1; r < nu; ++r) {
+      for (int r = j + 1; r < nv; ++r) {
         const double a = std::abs(gj[r]);
         if (a > amax) {
           amax = a;
@@ -106,40 +319,40 @@ bool RiccatiSolver::projectStage(int k, double rank_tolerance, double* pivot_rat
         return false;
       }
       if (p != j) {
-        for (int c = 0; c < ne; ++c) std::swap(G[j + c * ldG], G[p + c * ldG]);
+        for (int c = 0; c < ng; ++c) std::swap(G[j + c * ldG], G[p + c * ldG]);
         std::swap(w.perm(j), w.perm(p));
       }
       const double inv = 1.0 / gj[j];
-      for (int r = j + 1; r < nu; ++r) gj[r] *= inv;
-      for (int c = j + 1; c < ne; ++c) {
+      for (int r = j + 1; r < nv; ++r) gj[r] *= inv;
+      for (int c = j + 1; c < ng; ++c) {
         double* gc = G + c * ldG;
         const double f = gc[j];
-        for (int r = j + 1; r < nu; ++r) gc[r] -= f * gj[r];
+        for (int r = j + 1; r < nv; ++r) gc[r] -= f * gj[r];
       }
     }
-    if (pivot_ratio) *pivot_ratio = min_ratio;
   }
+  if (pivot_ratio) *pivot_ratio = min_ratio;
   w.nw = nw;
   const int* pD = w.perm.data();
-  const int* pI = w.perm.data() + ne;
+  const int* pI = w.perm.data() + ng;
 
   // Dependent inputs du_D = T [w; dx; 1], kept transposed (V = T^T, columns of length
   // nz + 1): Eu_D = U^T L1^T and Eu_I = U^T L2^T give
   //   T = -L1^-T [L2^T | U^-T [Ex e]],  i.e.  V L1 = -[L2; [Ex e]^T U^-1].
   double* V = w.V.data();
   const Eigen::Index ldV = w.V.outerStride();
-  if (ne > 0) {
+  if (ng > 0) {
     const double* Ex = s.Ex.data();
     const Eigen::Index ldX = s.Ex.outerStride();
-    for (int i = 0; i < ne; ++i) {
+    for (int i = 0; i < ng; ++i) {
       double* vi = V + i * ldV;
-      const double* li = G + i * ldG + ne;  // column i of L2
+      const double* li = G + i * ldG + ng;  // column i of L2
       for (int j = 0; j < nw; ++j) vi[j] = -li[j];
-      for (int a = 0; a < nx; ++a) vi[nw + a] = -Ex[i + a * ldX];
-      vi[nz] = -s.e(i);
+      for (int a = 0; a < nx; ++a) vi[nw + a] = -Ex[rows[i] + a * ldX];
+      vi[nz] = -ev(i);
     }
     // [Ex e]^T U^-1 (rows nw.. of V): column i -= U(c, i) column c (c < i), / U(i, i).
-    for (int i = 0; i < ne; ++i) {
+    for (int i = 0; i < ng; ++i) {
       double* vi = V + i * ldV + nw;
       const double* ui = G + i * ldG;
       for (int c = 0; c < i; ++c) {
@@ -151,10 +364,10 @@ bool RiccatiSolver::projectStage(int k, double rank_tolerance, double* pivot_rat
       for (int a = 0; a <= nx; ++a) vi[a] *= inv;
     }
     // V L1 = Z: column i -= L1(c, i) column c (c > i), from the last column.
-    for (int i = ne - 1; i >= 0; --i) {
+    for (int i = ng - 1; i >= 0; --i) {
       double* vi = V + i * ldV;
       const double* li = G + i * ldG;
-      for (int c = i + 1; c < ne; ++c) {
+      for (int c = i + 1; c < ng; ++c) {
         const double f = li[c];
         const double* vc = V + c * ldV;
         for (int a = 0; a <= nz; ++a) vi[a] -= f * vc[a];
@@ -177,44 +390,51 @@ bool RiccatiSolver::projectStage(int k, double rank_tolerance, double* pivot_rat
     const int b = pI[j];
     for (int i = j; i < nw; ++i) Hc[i] = Rsym(pI[i], b);
     for (int a = 0; a < nx; ++a) Hc[nw + a] = Sp[b + a * ldS];
-    Hc[nz] = s.r(b);
+    Hc[nz] = rv[b];
   }
   H.block(nw, nw, nx, nx).triangularView<Eigen::Lower>() = s.Q;
-  H.row(nz).segment(nw, nx) = s.q.transpose();
+  H.row(nz).segment(nw, nx) = qv.transpose();
   H(nz, nz) = 0.0;
   auto BA = w.BA.leftCols(nz + 1);
   for (int j = 0; j < nw; ++j) BA.col(j) = s.B.col(pI[j]);
   BA.middleCols(nw, nx) = s.A;
-  BA.col(nz) = s.b;
-  if (ne > 0) {
-    const auto Vt = w.V.topLeftCorner(nz + 1, ne);
-    auto W = w.W.topLeftCorner(nz + 1, ne);
-    auto HDD = w.HDD.topLeftCorner(ne, ne);
+  BA.col(nz) = Eigen::Map<const VectorXd>(bv, nx);
+  if (ng > 0) {
+    const auto Vt = w.V.topLeftCorner(nz + 1, ng);
+    auto W = w.W.topLeftCorner(nz + 1, ng);
+    auto HDD = w.HDD.topLeftCorner(ng, ng);
     double* Wp = w.W.data();
     double* Dp = w.HDD.data();
     const Eigen::Index ldW = w.W.outerStride(), ldD = w.HDD.outerStride();
-    for (int i = 0; i < ne; ++i) {
+    for (int i = 0; i < ng; ++i) {
       double* Wc = Wp + i * ldW;
       const int d = pD[i];
       for (int j = 0; j < nw; ++j) Wc[j] = Rsym(pI[j], d);
       for (int a = 0; a < nx; ++a) Wc[nw + a] = Sp[d + a * ldS];
-      Wc[nz] = s.r(d);
+      Wc[nz] = rv[d];
       double* Dc = Dp + i * ldD;
-      for (int j = 0; j < ne; ++j) Dc[j] = Rsym(pD[j], d);
+      for (int j = 0; j < ng; ++j) Dc[j] = Rsym(pD[j], d);
     }
     W.noalias() += 0.5 * Vt * HDD;
-    // T^T Y = V W^T; its transpose is added too, on the lower triangle only.
-    auto TY = w.M.topLeftCorner(nz + 1, nz + 1);  // free until backward()
-    TY.noalias() = Vt * W.transpose();
-    const double* TYp = w.M.data();
-    const Eigen::Index ldT = w.M.outerStride();
-    for (int j = 0; j <= nz; ++j) {
-      double* Hc = Hp + j * ldH;
-      const double* Tc = TYp + j * ldT;
-      for (int i = j; i <= nz; ++i) Hc[i] += Tc[i] + TYp[j + i * ldT];
+    // T^T Y + Y^T T = V W^T + W V^T, on the lower triangle only. With few rows (the
+    // common case once the fixing rows are substituted) in register accumulators; with
+    // many, Eigen's packed product is faster, then the lower triangle of it and of its
+    // transpose.
+    if (ng <= 8) {
+      addSymmetricProducts(Hp, ldH, w.V.data(), ldV, Wp, ldW, nz + 1, ng);
+    } else {
+      auto TY = w.M.topLeftCorner(nz + 1, nz + 1);  // free until backward()
+      TY.noalias() = Vt * W.transpose();
+      const double* TYp = w.M.data();
+      const Eigen::Index ldT = w.M.outerStride();
+      for (int j = 0; j <= nz; ++j) {
+        double* Hc = Hp + j * ldH;
+        const double* Tc = TYp + j * ldT;
+        for (int i = j; i <= nz; ++i) Hc[i] += Tc[i] + TYp[j + i * ldT];
+      }
     }
-    auto BD = w.BD.leftCols(ne);
-    for (int i = 0; i < ne; ++i) BD.col(i) = s.B.col(pD[i]);
+    auto BD = w.BD.leftCols(ng);
+    for (int i = 0; i < ng; ++i) BD.col(i) = s.B.col(pD[i]);
     BA.noalias() += BD * Vt.transpose();
   }
   w.gr.head(nz) = H.row(nz).head(nz).transpose();
@@ -247,32 +467,28 @@ bool RiccatiSolver::backwardStage(int k) {
   h.noalias() += BA.transpose() * w.pb;
 
   if (nw > 0) {
-    Eigen::Ref<MatrixXd> Mww(w.M.topLeftCorner(nw, nw));
     bool ok = false;
     double reg = 0.0;
     for (int attempt = 0; attempt < 6 && !ok; ++attempt) {
       if (attempt > 0) {
-        // Rebuild the block and shift it (rare path: singular reduced Hessian).
+        // Rebuild and shift the input block (rare path: singular reduced Hessian).
         const double scale = 1.0 + w.Hr.topLeftCorner(nw, nw).diagonal().cwiseAbs().maxCoeff();
         reg = (attempt == 1) ? 1e-12 * scale : reg * 100.0;
-        Mww.triangularView<Eigen::Lower>() = w.Hr.topLeftCorner(nw, nw);
-        Mww.triangularView<Eigen::Lower>() += BA.leftCols(nw).transpose() * PBA.leftCols(nw);
-        Mww.diagonal().array() += reg;
+        M.triangularView<Eigen::Lower>() = w.Hr.topLeftCorner(nz, nz);
+        M.triangularView<Eigen::Lower>() += BA.transpose() * PBA;
+        M.diagonal().head(nw).array() += reg;
       }
-      Eigen::LLT<Eigen::Ref<MatrixXd>> llt(Mww);
-      ok = llt.info() == Eigen::Success && std::isfinite(Mww.diagonal().sum());
+      ok = eliminateInputs(w.M.data(), w.M.outerStride(), nz, nw);
     }
     if (!ok) {
       failed_stage_ = k;
       return false;
     }
     regularization_ = std::max(regularization_, reg);
-    auto Lxw = w.M.block(nw, 0, nx, nw);
-    Mww.transpose().triangularView<Eigen::Upper>().solveInPlace<Eigen::OnTheRight>(Lxw);
+    const auto Lxw = w.M.block(nw, 0, nx, nw);
     auto v = w.hm.head(nw);
-    Mww.triangularView<Eigen::Lower>().solveInPlace(v);
+    w.M.topLeftCorner(nw, nw).triangularView<Eigen::Lower>().solveInPlace(v);
     w.P.triangularView<Eigen::Lower>() = w.M.block(nw, nw, nx, nx);
-    w.P.selfadjointView<Eigen::Lower>().rankUpdate(Lxw, -1.0);
     w.p = w.hm.segment(nw, nx);
     w.p.noalias() -= Lxw * v;
   } else {
@@ -325,33 +541,53 @@ void RiccatiSolver::recoverStage(int k) {
   if (k >= N_) return;
   const LqStage& s = stages_[idx(k)];
   Work& w = work_[idx(k)];
-  const int nx = nx_, ne = s.ne, nw = w.nw, nz = nw + nx;
+  const int nx = nx_, nu = nu_, ne = s.ne, nw = w.nw, nz = nw + nx;
+  const int nf = w.nf, ng = ne - nf;
   const int* pD = w.perm.data();
-  const int* pI = w.perm.data() + ne;
+  const int* pI = w.perm.data() + ng;
+  const int* pF = w.perm.data() + nu - nf;
   for (int j = 0; j < nw; ++j) w.du(pI[j]) = w.w(j);
+  for (int f = 0; f < nf; ++f) w.du(pF[f]) = w.tf(f);
   w.mult.setZero();
   if (ne == 0) return;
-  const auto Vt = w.V.topLeftCorner(nz + 1, ne);
-  auto t = w.t.head(ne);
-  t = Vt.row(nz).transpose();
-  t.noalias() += Vt.topRows(nw).transpose() * w.w.head(nw);
-  t.noalias() += Vt.middleRows(nw, nx).transpose() * w.dx;
-  for (int i = 0; i < ne; ++i) w.du(pD[i]) = t(i);
-  // Stationarity in du: rho + Eu^T nu = 0 with rho = R du + S dx + r + B^T lambda_{k+1}.
-  // Its dependent rows come from the projection's own blocks (no pass over R, S, B):
-  // rho_D = H_DD t + H_vD^T [w; dx; 1] + B_D^T lambda = 0.5 H_DD t + W^T [w; dx; 1] + ...
-  // (W = H_vD + 0.5 V H_DD), and Eu_D^T = L1 U gives nu = -U^-1 L1^-1 rho_D.
-  const auto Wt = w.W.topLeftCorner(nz + 1, ne);
-  auto y = w.mult.head(ne);
-  y = Wt.row(nz).transpose();
-  y.noalias() += Wt.topRows(nw).transpose() * w.w.head(nw);
-  y.noalias() += Wt.middleRows(nw, nx).transpose() * w.dx;
-  y.noalias() += 0.5 * w.HDD.topLeftCorner(ne, ne) * t;
-  y.noalias() += w.BD.leftCols(ne).transpose() * work_[idx(k + 1)].lam;
-  y = -y;
-  const auto LU = w.lu.topLeftCorner(ne, ne);
-  LU.triangularView<Eigen::UnitLower>().solveInPlace(y);
-  LU.triangularView<Eigen::Upper>().solveInPlace(y);
+  const auto& lam_next = work_[idx(k + 1)].lam;
+  if (ng > 0) {
+    const auto Vt = w.V.topLeftCorner(nz + 1, ng);
+    auto t = w.t.head(ng);
+    t = Vt.row(nz).transpose();
+    t.noalias() += Vt.topRows(nw).transpose() * w.w.head(nw);
+    t.noalias() += Vt.middleRows(nw, nx).transpose() * w.dx;
+    for (int i = 0; i < ng; ++i) w.du(pD[i]) = t(i);
+    // Stationarity in du: rho + Eu^T nu = 0 with rho = R du + S dx + r + B^T lambda_{k+1}.
+    // Its dependent rows come from the projection's own blocks (no pass over R, S, B):
+    // rho_D = H_DD t + H_vD^T [w; dx; 1] + B_D^T lambda = 0.5 H_DD t + W^T [w; dx; 1] + ...
+    // (W = H_vD + 0.5 V H_DD), and Eu_D^T = L1 U gives nu = -U^-1 L1^-1 rho_D.
+    // (The last row of W holds the substituted r, so rho includes R_DF du_F.)
+    const auto Wt = w.W.topLeftCorner(nz + 1, ng);
+    auto y = w.t1.head(ng);
+    y = Wt.row(nz).transpose();
+    y.noalias() += Wt.topRows(nw).transpose() * w.w.head(nw);
+    y.noalias() += Wt.middleRows(nw, nx).transpose() * w.dx;
+    y.noalias() += 0.5 * w.HDD.topLeftCorner(ng, ng) * t;
+    y.noalias() += w.BD.leftCols(ng).transpose() * lam_next;
+    y = -y;
+    const auto LU = w.lu.topLeftCorner(ng, ng);
+    LU.triangularView<Eigen::UnitLower>().solveInPlace(y);
+    LU.triangularView<Eigen::Upper>().solveInPlace(y);
+    for (int i = 0; i < ng; ++i) w.mult(w.rows(i)) = y(i);
+  }
+  // A fixing row's multiplier from the stationarity of its input c (the other fixing
+  // rows do not act on c): Eu_ic nu_i = -(rho_c + sum over the LU's rows of Eu_gc nu_g).
+  const double* Rp = s.R.data();
+  const Eigen::Index ldR = s.R.outerStride();
+  for (int f = 0; f < nf; ++f) {
+    const int i = w.rows(ng + f), c = pF[f];
+    double rho = s.r(c) + s.S.row(c).dot(w.dx) + s.B.col(c).dot(lam_next);
+    for (int j = 0; j < c; ++j) rho += Rp[c + j * ldR] * w.du(j);
+    for (int j = c; j < nu; ++j) rho += Rp[j + c * ldR] * w.du(j);
+    for (int g = 0; g < ng; ++g) rho += s.Eu(w.rows(g), c) * w.mult(w.rows(g));
+    w.mult(i) = -rho / s.Eu(i, c);
+  }
 }
 
 bool RiccatiSolver::solve(const Eigen::Ref<const VectorXd>& dx0, double rank_tolerance) {
@@ -372,30 +608,32 @@ void RiccatiSolver::resolveVectors(const Eigen::Ref<const VectorXd>& dx0) {
   for (int k = 0; k < N_; ++k) {
     const LqStage& s = stages_[idx(k)];
     Work& w = work_[idx(k)];
-    const int ne = s.ne, nw = w.nw, nz = nw + nx;
+    const int ne = s.ne, nw = w.nw, nz = nw + nx, nf = w.nf, ng = ne - nf;
     const int* pD = w.perm.data();
-    const int* pI = w.perm.data() + ne;
+    const int* pI = w.perm.data() + ng;
+    substituteFixedInputs(s, w);
+    const VectorXd& rv = nf > 0 ? w.reff : s.r;
     // Independent part of the reduced gradient and the reduced defect.
-    for (int j = 0; j < nw; ++j) w.gr(j) = s.r(pI[j]);
-    w.gr.segment(nw, nx) = s.q;
-    w.BA.col(nz) = s.b;
-    if (ne > 0) {
+    for (int j = 0; j < nw; ++j) w.gr(j) = rv(pI[j]);
+    w.gr.segment(nw, nx) = nf > 0 ? w.qeff : s.q;
+    w.BA.col(nz) = nf > 0 ? w.beff : s.b;
+    if (ng > 0) {
       // T_1 = -R11^-1 Q^T e (last column of T), then the terms of T^T Y + Y^T T in it:
       // gr += Y_v^T T_1 + T_v^T Y_1, Y_1 = r_D + 0.5 H_DD T_1.
       // Last row of V: t1 = -L1^-T U^-T e.
-      const auto LU = w.lu.topLeftCorner(ne, ne);
-      auto t1 = w.t1.head(ne);
-      t1 = -s.e.head(ne);
+      const auto LU = w.lu.topLeftCorner(ng, ng);
+      auto t1 = w.t1.head(ng);
+      for (int i = 0; i < ng; ++i) t1(i) = -(nf > 0 ? w.eeff(i) : s.e(w.rows(i)));
       LU.triangularView<Eigen::Upper>().transpose().solveInPlace(t1);
       LU.triangularView<Eigen::UnitLower>().transpose().solveInPlace(t1);
-      w.V.row(nz).head(ne) = t1.transpose();
-      auto y1 = w.t.head(ne);
-      for (int i = 0; i < ne; ++i) y1(i) = s.r(pD[i]);
-      y1.noalias() += 0.5 * w.HDD.topLeftCorner(ne, ne) * t1;
-      w.W.row(nz).head(ne) = y1.transpose();
-      w.gr.head(nz).noalias() += w.W.topLeftCorner(nz, ne) * t1;
-      w.gr.head(nz).noalias() += w.V.topLeftCorner(nz, ne) * y1;
-      w.BA.col(nz).noalias() += w.BD.leftCols(ne) * t1;
+      w.V.row(nz).head(ng) = t1.transpose();
+      auto y1 = w.t.head(ng);
+      for (int i = 0; i < ng; ++i) y1(i) = rv(pD[i]);
+      y1.noalias() += 0.5 * w.HDD.topLeftCorner(ng, ng) * t1;
+      w.W.row(nz).head(ng) = y1.transpose();
+      w.gr.head(nz).noalias() += w.W.topLeftCorner(nz, ng) * t1;
+      w.gr.head(nz).noalias() += w.V.topLeftCorner(nz, ng) * y1;
+      w.BA.col(nz).noalias() += w.BD.leftCols(ng) * t1;
     }
   }
   work_[idx(N_)].p = stages_[idx(N_)].q;
@@ -421,7 +659,7 @@ void RiccatiSolver::resolveVectors(const Eigen::Ref<const VectorXd>& dx0) {
 
 void RiccatiSolver::feedbackGain(int k, MatrixXd& K) const {
   const Work& w = work_[idx(k)];
-  const int nx = nx_, nw = w.nw, ne = stages_[idx(k)].ne;
+  const int nx = nx_, nu = nu_, nw = w.nw, nf = w.nf, ne = stages_[idx(k)].ne - nf;
   auto Kw = w.Kw.topRows(nw);
   if (nw > 0) {
     Kw = -w.M.block(nw, 0, nx, nw).transpose();
@@ -430,6 +668,7 @@ void RiccatiSolver::feedbackGain(int k, MatrixXd& K) const {
   const int* pD = w.perm.data();
   const int* pI = w.perm.data() + ne;
   for (int j = 0; j < nw; ++j) K.row(pI[j]) = Kw.row(j);
+  for (int f = 0; f < nf; ++f) K.row(w.perm(nu - nf + f)).setZero();  // du_F is constant
   if (ne > 0) {
     auto KD = w.KD.topRows(ne);
     KD = w.V.block(nw, 0, nx, ne).transpose();

@@ -91,6 +91,8 @@ struct Solver::Impl {
     // Per general row: 1 if Gx != 0, | 2 if it acts on u (condensing scratch).
     Eigen::VectorXi row_parts;
     VectorXd W, gam;
+    // W and gam with each mirrored pair merged on its first row: W_i + W_j, gam_i - gam_j.
+    VectorXd Wc, gamc;
     VectorXd soft_dual;  // -weight beta'(c) of soft rows (reporting)
     // Constraint curvature (converging mode, Euclidean): central differences of the
     // constraint part of the Lagrangian gradient, evaluated into dp.

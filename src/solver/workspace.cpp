@@ -51,6 +51,8 @@ Solver::Impl::Impl(std::shared_ptr<ocp::OptimalControlProblem> p, SolverSettings
     n.WGx = MatrixXd::Zero(ni_max, ndx);
     n.row_parts = Eigen::VectorXi::Zero(ni_max);
     n.W = VectorXd::Zero(ni_max);
+    n.Wc = VectorXd::Zero(ni_max);
+    n.gamc = VectorXd::Zero(ni_max);
     n.gam = VectorXd::Zero(ni_max);
     n.soft_dual = VectorXd::Zero(nrows);
     n.dp = prob->createNodeData();

@@ -212,6 +212,26 @@ TEST_F(Fixture, TorqueJacobiansMatchFiniteDifferences) {
   const StaticTorqueLimitResidual centres(robot, at_frames);
   EXPECT_TRUE(res.dependsOnInput());
   EXPECT_FALSE(res.isLinear());
+  // Both sides of every joint: row j + nj is the lower limit of row j's joint, whose
+  // Jacobians are the exact negatives (the solver condenses the pair with one product).
+  const int nj = robot->nj();
+  const ocp::NodeContext ctx = makeContext(kAllStance, 0.0, nullptr, nullptr);
+  EXPECT_EQ(res.mirroredRows(ctx), nj);
+  {
+    auto d = res.createData();
+    const VectorXd x = randomState(*robot, rng), u = randomInput(*robot, rng);
+    d->rows = res.rows(ctx);
+    res.calc(ctx, x, u, *d);
+    res.calcDiff(ctx, x, u, *d);
+    EXPECT_TRUE(d->Rx.middleRows(nj, nj) == -d->Rx.topRows(nj));
+    EXPECT_TRUE(d->Ru.middleRows(nj, nj) == -d->Ru.topRows(nj));
+    EXPECT_FALSE(d->Ru.topRows(nj).isZero(0.0));
+  }
+  TorqueLimitOptions one_sided;
+  one_sided.upper = VectorXd::Constant(nj, 50.0);
+  one_sided.lower = VectorXd::Constant(nj, -kInf);
+  one_sided.lower[1] = -10.0;
+  EXPECT_EQ(StaticTorqueLimitResidual(robot, one_sided).mirroredRows(ctx), 0);
   for (int trial = 0; trial < 5; ++trial) {
     const VectorXd x = randomState(*robot, rng), u = randomInput(*robot, rng);
     for (int mode : {kAllStance, maskOf({LF, RF, MR}), maskOf({MF, LR, RR})}) {

@@ -500,6 +500,44 @@ TEST(Problem, StacksActiveRowsByMode) {
   EXPECT_EQ(p->equalityNames()[1], "mode1");
 }
 
+/// An affine residual whose first 2 m rows are m two-sided limits (row j + m = -row j + c).
+class MirroredAffine final : public ocp::AffineResidual {
+ public:
+  MirroredAffine(std::shared_ptr<const ocp::StateSpace> s, const MatrixXd& C, const MatrixXd& D,
+                 const VectorXd& c, int m)
+      : AffineResidual(std::move(s), VectorXd::Zero(C.cols()), C, D, c), m_(m) {}
+  int mirroredRows(const ocp::NodeContext&) const override { return m_; }
+
+ private:
+  int m_;
+};
+
+TEST(Problem, MirroredRowsAreMarkedAtTheirStackedPositions) {
+  auto p = stackingProblem();
+  auto s = p->dynamics().spacePtr();
+  const auto mirror = [](const ocp::NodeData& nd) {
+    return std::vector<int>(nd.mirror.data(), nd.mirror.data() + nd.ni);
+  };
+  MatrixXd C(5, 2), D(5, 1);
+  C << 1, 2, 3, 4, -1, -2, -3, -4, 5, 6;
+  D << 1, -1, -1, 1, 0;
+  p->addInequality("two-sided", std::make_shared<MirroredAffine>(s, C, D, VectorXd::Ones(5), 2));
+  p->modeSchedule().set({0.45}, {0, 1});
+  auto d = p->createNodeData();
+  const VectorXd x = (VectorXd(2) << 0.3, -0.2).finished();
+  const VectorXd u = (VectorXd(1) << 0.7).finished();
+  p->linearize(2, x, u, *d);  // mode 0: the ModeResidual has no rows, the pairs come first
+  ASSERT_EQ(d->ni, 5);
+  EXPECT_EQ(mirror(*d), (std::vector<int>{2, 3, 0, 1, -1}));
+  p->linearize(6, x, u, *d);  // mode 1: after the 3 rows of the ModeResidual
+  ASSERT_EQ(d->ni, 8);
+  EXPECT_EQ(mirror(*d), (std::vector<int>{-1, -1, -1, 5, 6, 3, 4, -1}));
+  for (int j = 3; j < 5; ++j) {
+    EXPECT_TRUE(d->Gx.row(j + 2) == -d->Gx.row(j));
+    EXPECT_TRUE(d->Gu.row(j + 2) == -d->Gu.row(j));
+  }
+}
+
 TEST(Problem, CurvaturePassKeepsOnlyTermsWithSecondDerivatives) {
   // Pendulum (nonlinear dynamics), quadratic state/input costs (exact Hessians), an
   // affine inequality (linear) and ModeResidual (linear in fact, but not declared so).

@@ -19,8 +19,11 @@ using ocp::VectorXd;
 /// Random time-varying stages (positive definite Hessians, stable-ish dynamics, a
 /// well-conditioned Eu = [I 0] + noise) with ne_of(k) equality rows at node k. The upper
 /// triangles of Q and R are poisoned: only the lower ones are part of the contract.
+/// The first `nfix` rows of a stage (when it has more) fix one input each (Ex row zero, one
+/// non-zero in Eu, as a swing foot's zero force): inputs nu - 1, nu - 3, ..., scaled by
+/// 0.5 + row; the other rows keep their entries on those inputs.
 template <class NeOf>
-void fillRandomStages(solver::RiccatiSolver& ric, NeOf ne_of, std::mt19937& rng) {
+void fillRandomStages(solver::RiccatiSolver& ric, NeOf ne_of, std::mt19937& rng, int nfix = 0) {
   const int nx = ric.nx(), nu = ric.nu(), N = ric.horizon();
   for (int k = 0; k <= N; ++k) {
     auto& s = ric.stage(k);
@@ -40,6 +43,11 @@ void fillRandomStages(solver::RiccatiSolver& ric, NeOf ne_of, std::mt19937& rng)
       s.Ex.topRows(s.ne) = randn(s.ne, nx, rng, 0.3);
       s.Eu.topRows(s.ne) = randn(s.ne, nu, rng, 0.3);
       s.Eu.topLeftCorner(s.ne, s.ne) += MatrixXd::Identity(s.ne, s.ne);
+      for (int i = 0; i < std::min(nfix, s.ne); ++i) {
+        s.Ex.row(i).setZero();
+        s.Eu.row(i).setZero();
+        s.Eu(i, nu - 1 - 2 * i) = 0.5 + i;
+      }
     }
   }
 }
@@ -56,7 +64,7 @@ void randomVectors(solver::RiccatiSolver& ric, std::mt19937& rng) {
 }
 
 struct Case {
-  int nx, nu, N, ne;
+  int nx, nu, N, ne, nfix = 0;  // nfix: rows that fix one input each
 };
 
 class RiccatiDense : public ::testing::TestWithParam<Case> {};
@@ -68,7 +76,7 @@ TEST_P(RiccatiDense, MatchesDenseKkt) {
   solver::RiccatiSolver ric(N, nx, nu, c.ne);
   // Random time-varying stages; the number of equality rows varies with k.
   fillRandomStages(
-      ric, [&](int k) { return c.ne == 0 ? 0 : (k % 3 == 1 ? c.ne - 1 : c.ne); }, rng);
+      ric, [&](int k) { return c.ne == 0 ? 0 : (k % 3 == 1 ? c.ne - 1 : c.ne); }, rng, c.nfix);
   randomVectors(ric, rng);
   std::vector<int> nes(static_cast<std::size_t>(N));
   for (int k = 0; k < N; ++k) nes[static_cast<std::size_t>(k)] = ric.stage(k).ne;
@@ -162,7 +170,8 @@ TEST_P(RiccatiDense, MatchesDenseKkt) {
 
 INSTANTIATE_TEST_SUITE_P(Sizes, RiccatiDense,
                          ::testing::Values(Case{4, 2, 10, 0}, Case{4, 3, 12, 2}, Case{6, 5, 8, 5},
-                                           Case{24, 30, 6, 15}));
+                                           Case{24, 30, 6, 15}, Case{6, 7, 8, 4, 2},
+                                           Case{5, 6, 6, 3, 3}, Case{24, 30, 6, 15, 9}));
 
 TEST(RiccatiProjection, RankDeficientEqualitiesAreDetected) {
   const int nx = 3, nu = 4;
@@ -179,6 +188,21 @@ TEST(RiccatiProjection, RankDeficientEqualitiesAreDetected) {
   s.Eu.row(2) << 0, 0, 0, 1;
   EXPECT_TRUE(ric.projectStage(0, 1e-9, &ratio));
   EXPECT_GT(ratio, 1e-3);
+  // Two rows fixing the same input, and a fixing entry below the tolerance.
+  s.Ex.setZero();
+  s.Eu.setZero();
+  s.Eu(0, 2) = 1.0;
+  s.Eu.row(1) << 1, 0, 0, 1;
+  s.Eu(2, 2) = -3.0;
+  EXPECT_FALSE(ric.projectStage(0, 1e-9, &ratio));
+  EXPECT_LT(ratio, 1e-9);
+  s.Eu(2, 2) = 0.0;
+  s.Eu(2, 1) = 1e-12;
+  s.Eu(1, 0) = 1e3;
+  EXPECT_FALSE(ric.projectStage(0, 1e-9, &ratio));
+  EXPECT_NEAR(ratio, 1e-15, 1e-20);
+  s.Eu(2, 1) = 1.0;
+  EXPECT_TRUE(ric.projectStage(0, 1e-9, &ratio));
   s.ne = 0;
   EXPECT_TRUE(ric.projectStage(0, 1e-9));
 }
@@ -188,12 +212,13 @@ TEST(RiccatiProjection, RankDeficientEqualitiesAreDetected) {
 // A second right-hand side through the stored projection and factorisation gives what a
 // full solve from scratch gives.
 TEST(RiccatiProjection, ResolveVectorsMatchesAFreshSolve) {
-  for (const int ne : {0, 3, 7}) {
-    std::mt19937 rng(5u + static_cast<unsigned>(ne));
+  for (const int ne : {0, 3, 7, -5}) {  // -5: 5 rows, 2 of which fix an input
+    const int nfix = ne < 0 ? 2 : 0, ner = std::abs(ne);
+    std::mt19937 rng(5u + static_cast<unsigned>(ner));
     const int nx = 6, nu = 8, N = 9;
     solver::RiccatiSolver ric(N, nx, nu, 7), ref(N, nx, nu, 7);
     fillRandomStages(
-        ric, [ne](int k) { return k % 4 == 2 ? 0 : ne; }, rng);
+        ric, [ner](int k) { return k % 4 == 2 ? 0 : ner; }, rng, nfix);
     randomVectors(ric, rng);
     ASSERT_TRUE(ric.solve(randn(nx, 1, rng), 1e-12));
     randomVectors(ric, rng);
@@ -210,4 +235,42 @@ TEST(RiccatiProjection, ResolveVectorsMatchesAFreshSolve) {
       }
     }
   }
+}
+
+// A reduced Hessian that is only semidefinite (an input that neither costs nor moves the
+// state) fails the first factorisation; the stage is rebuilt with a small diagonal shift,
+// which must give exactly the solution of the problem with that shift added to R. An
+// indefinite one is reported at its stage.
+TEST(RiccatiProjection, SemidefiniteStageIsShiftedAndIndefiniteIsReported) {
+  std::mt19937 rng(17u);
+  const int nx = 5, nu = 4, N = 6, ks = 3;
+  solver::RiccatiSolver ric(N, nx, nu, 1), ref(N, nx, nu, 1);
+  fillRandomStages(
+      ric, [](int) { return 0; }, rng);
+  randomVectors(ric, rng);
+  auto& s = ric.stage(ks);
+  s.R.row(0).setZero();
+  s.R.col(0).setZero();
+  s.S.row(0).setZero();
+  s.B.col(0).setZero();
+  s.r(0) = 0.0;
+  const VectorXd dx0 = randn(nx, 1, rng);
+  ASSERT_TRUE(ric.solve(dx0));
+  const double reg = ric.regularization();
+  EXPECT_GT(reg, 0.0);
+  EXPECT_LT(reg, 1e-10);
+  for (int k = 0; k <= N; ++k) ref.stage(k) = ric.stage(k);
+  ref.stage(ks).R.diagonal().array() += reg;
+  ASSERT_TRUE(ref.solve(dx0));
+  EXPECT_EQ(ref.regularization(), 0.0);
+  for (int k = 0; k <= N; ++k) {
+    EXPECT_LT((ric.dx(k) - ref.dx(k)).norm(), 1e-12 * (1.0 + ref.dx(k).norm())) << "k " << k;
+    EXPECT_LT((ric.costate(k) - ref.costate(k)).norm(), 1e-12 * (1.0 + ref.costate(k).norm()));
+    if (k < N) {
+      EXPECT_LT((ric.du(k) - ref.du(k)).norm(), 1e-12 * (1.0 + ref.du(k).norm()));
+    }
+  }
+  s.R.diagonal().array() -= 10.0;
+  EXPECT_FALSE(ric.solve(dx0));
+  EXPECT_EQ(ric.failedStage(), ks);
 }

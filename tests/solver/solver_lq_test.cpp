@@ -189,6 +189,67 @@ INSTANTIATE_TEST_SUITE_P(Cases, SolverBoxLq,
                                            BoxCase{1, 0, true}, BoxCase{1, 2, true},
                                            BoxCase{0, 3, false}));
 
+/// An affine residual whose first 2 m rows are declared two-sided limits (row j + m has
+/// the negated Jacobian of row j).
+class MirroredAffine final : public ocp::AffineResidual {
+ public:
+  MirroredAffine(std::shared_ptr<const ocp::StateSpace> s, const MatrixXd& C, const MatrixXd& D,
+                 const VectorXd& c, int m)
+      : AffineResidual(std::move(s), VectorXd::Zero(C.cols()), C, D, c), m_(m) {}
+  int mirroredRows(const ocp::NodeContext&) const override { return m_; }
+
+ private:
+  int m_;
+};
+
+// Two-sided limits lo <= Hx x + Hu u <= hi condensed pairwise (one product with the summed
+// weights) give the solution and duals of the same rows condensed one by one.
+TEST(SolverLq, MirroredRowsGiveTheSameSolutionAsSeparateRows) {
+  auto d = lqtest::randomLq(11, 5, 3, 15, 0, 0);
+  d.x0 *= 3.0;
+  std::mt19937 rng(4);
+  const int m = 3;
+  const MatrixXd Hx = lqtest::randn(m, d.nx, rng, 0.3);
+  const MatrixXd Hu = MatrixXd::Identity(m, d.nu) + lqtest::randn(m, d.nu, rng, 0.1);
+  const VectorXd lo = VectorXd::Constant(m, -0.35), hi = VectorXd::Constant(m, 0.25);
+  // Rows: h - lo (m), hi - h (m), and one unpaired row.
+  MatrixXd Gx(2 * m + 1, d.nx), Gu(2 * m + 1, d.nu);
+  VectorXd g(2 * m + 1);
+  Gx << Hx, -Hx, lqtest::randn(1, d.nx, rng, 0.2);
+  Gu << Hu, -Hu, lqtest::randn(1, d.nu, rng, 0.2);
+  g << -lo, hi, 2.0;
+  const auto build = [&](bool declared) {
+    auto p = lqtest::buildProblem(d);
+    const auto& s = p->dynamics().spacePtr();
+    if (declared) {
+      p->addInequality("limits", std::make_shared<MirroredAffine>(s, Gx, Gu, g, m));
+    } else {
+      p->addInequality("limits",
+                       std::make_shared<ocp::AffineResidual>(s, VectorXd::Zero(d.nx), Gx, Gu, g));
+    }
+    return p;
+  };
+  Solver pairs(build(true), tight()), rows(build(false), tight());
+  ASSERT_EQ(pairs.solve(d.x0), SolverStatus::Converged) << pairs.message();
+  ASSERT_EQ(rows.solve(d.x0), SolverStatus::Converged) << rows.message();
+  EXPECT_EQ(pairs.stats().size(), rows.stats().size());
+  EXPECT_LT((stackSolution(pairs, d) - stackSolution(rows, d)).lpNorm<Eigen::Infinity>(), 1e-9);
+  int active_lo = 0, active_hi = 0;
+  for (int k = 0; k < d.N; ++k) {
+    const VectorXd& z = pairs.inequalityDuals(k);
+    EXPECT_LT((z - rows.inequalityDuals(k)).lpNorm<Eigen::Infinity>(),
+              1e-8 * (1.0 + z.lpNorm<Eigen::Infinity>()))
+        << "node " << k;
+    for (int j = 0; j < m; ++j) {
+      active_lo += z(j) > pairs.slacks(k)(j) ? 1 : 0;
+      active_hi += z(j + m) > pairs.slacks(k)(j + m) ? 1 : 0;
+    }
+  }
+  // Both sides of the limits bind somewhere, so both weights of a pair matter.
+  EXPECT_GT(active_lo, 0);
+  EXPECT_GT(active_hi, 0);
+}
+
 TEST(SolverLq, RankDeficientEqualitiesAreReported) {
   auto d = lqtest::randomLq(3, 4, 3, 10, 2, 0);
   d.Eu.row(1) = 3.0 * d.Eu.row(0);  // dependent rows in u

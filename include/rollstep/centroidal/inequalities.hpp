@@ -86,6 +86,9 @@ class StaticTorqueLimitResidual final : public ocp::Residual {
   const Eigen::VectorXd& upperLimits() const { return upper_; }
   const Eigen::VectorXd& lowerLimits() const { return lower_; }
   int rows(const ocp::NodeContext& ctx) const override;
+  /// nj when every joint is limited on both sides (row j + nj is the lower limit of the
+  /// joint of row j), 0 otherwise.
+  int mirroredRows(const ocp::NodeContext& ctx) const override;
   std::unique_ptr<ocp::ResidualData> createData() const override;
   void calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
             ocp::ResidualData& d) const override;

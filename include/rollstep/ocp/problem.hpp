@@ -70,6 +70,9 @@ struct NodeData {
   Eigen::Matrix<bool, Eigen::Dynamic, 1> state_only;  ///< per inequality row: Gu == 0
   VectorXd relaxation;                                ///< per inequality row (soft rows)
   VectorXd soft_weight;                               ///< per inequality row (soft rows)
+  /// Per inequality row: the row whose Jacobians are its exact negatives (the other side
+  /// of a two-sided limit, Residual::mirroredRows), -1 for none.
+  Eigen::VectorXi mirror;
   VectorXd zero_input;  ///< the u passed to terms at the terminal node
 
   // Owned workspaces of the terms (opaque to the solver).

@@ -46,6 +46,12 @@ class Residual {
   /// Declaring a nonlinear residual linear silently drops curvature: when unsure, keep
   /// the default.
   virtual bool isLinear() const { return false; }
+  /// m > 0 when the first 2 m rows at this node are m two-sided limits lo <= h <= hi:
+  /// row j and row j + m (j < m) are h_j - lo_j and hi_j - h_j, in either order, so that
+  /// their Jacobians are exact negatives (Rx, Ru of row j + m = -those of row j, bit for
+  /// bit). The solver then condenses each pair with one product and the summed barrier
+  /// weight. 2 m <= rows(ctx); 0 (default) declares nothing. Must not allocate.
+  virtual int mirroredRows(const NodeContext& /*ctx*/) const { return 0; }
 
   virtual std::unique_ptr<ResidualData> createData() const {
     return std::make_unique<ResidualData>(max_rows_, ndx_, nu_);

@@ -16,6 +16,11 @@
 // of L bounded by 1. A pivot below rank_tolerance times the largest |Eu| entry means the
 // rows are rank deficient (after the elimination of the earlier rows, the row has
 // nothing left in u).
+// Rows that fix one input (Ex row zero, one non-zero entry in the Eu row: du_c = -e / Eu_c,
+// such as a swing foot's zero force) are eliminated first by substitution: their inputs
+// take no part in the LU, T, or the reduced Hessian, whose vectors r, q, b, e absorb the
+// fixed values. A second row fixing the same input stays in the LU, which reports the rank
+// deficiency.
 // Multipliers: costates lambda_k (lambda_k = P_k dx_k + p_k, the multiplier of the
 // dynamics constraint that defines dx_k) and nu_k of the equalities, with the
 // Lagrangian sum cost + lambda_{k+1}^T (A dx + B du + b - dx_{k+1}) + nu^T (e + Ex dx + Eu du).
@@ -99,26 +104,43 @@ class RiccatiSolver {
 
  private:
   struct Work {
-    int nw = 0;            // reduced input size nu - ne
-    Eigen::MatrixXd lu;    // nu x ne_max: [L1\U; L2] of P Eu^T (unit L1 below U)
-    Eigen::VectorXi perm;  // nu: input permutation [dependent (ne); independent (nw)]
-    Eigen::MatrixXd V;     // (nu + nx + 1) x ne_max: T^T, du_D = T [w; dx; 1]
-    Eigen::MatrixXd W;     // (nu + nx + 1) x ne_max: (H_Dv + 0.5 H_DD T)^T
-    Eigen::MatrixXd HDD;   // ne_max x ne_max
-    Eigen::MatrixXd BD;    // nx x ne_max: dependent columns of B
-    Eigen::MatrixXd Hr;    // (nu + nx + 1)^2: reduced augmented Hessian [w; dx; 1] (lower)
-    Eigen::VectorXd cn;    // nu: QR column norms
-    Eigen::VectorXd gr;    // nu + nx: reduced gradient
-    Eigen::MatrixXd BA;    // nx x (nu + nx + 1): reduced [B A | b]
-    Eigen::MatrixXd M;     // (nu + nx)^2: [L 0; Lxw Lxx] after backward
-    Eigen::VectorXd hm;    // nu + nx; its head(nw) becomes v = L^-1 h_w
-    Eigen::VectorXd pb;    // nx
-    Eigen::MatrixXd P;     // nx x nx (lower triangle valid)
-    Eigen::VectorXd p;     // nx
+    int nw = 0;          // reduced input size nu - ne
+    int nf = 0;          // rows that fix one input each (substituted, not in the LU)
+    Eigen::MatrixXd lu;  // nu x ne_max: [L1\U; L2] of P Eu^T (unit L1 below U)
+    // nu: input permutation [dependent (ne - nf); independent (nw); fixed (nf)]
+    Eigen::VectorXi perm;
+    Eigen::VectorXi rows;  // ne_max: equality rows [in the LU (ne - nf); fixing (nf)]
+    Eigen::VectorXi mark;  // nu: scratch, 1 on fixed inputs
+    Eigen::VectorXi col;   // ne_max: scratch, the input a row fixes (-1: none)
+    Eigen::VectorXd tf;    // ne_max: the values of the fixed inputs
+    // The vectors with the fixed inputs substituted: r + R_F tf (nu), q + S_F^T tf,
+    // b + B_F tf (nx), e + Eu_F tf (ne_max, rows in the LU).
+    Eigen::VectorXd reff, qeff, beff, eeff;
+    Eigen::MatrixXd V;    // (nu + nx + 1) x ne_max: T^T, du_D = T [w; dx; 1]
+    Eigen::MatrixXd W;    // (nu + nx + 1) x ne_max: (H_Dv + 0.5 H_DD T)^T
+    Eigen::MatrixXd HDD;  // ne_max x ne_max
+    Eigen::MatrixXd BD;   // nx x ne_max: dependent columns of B
+    Eigen::MatrixXd Hr;   // (nu + nx + 1)^2: reduced augmented Hessian [w; dx; 1] (lower)
+    Eigen::VectorXd cn;   // nu: QR column norms
+    Eigen::VectorXd gr;   // nu + nx: reduced gradient
+    Eigen::MatrixXd BA;   // nx x (nu + nx + 1): reduced [B A | b]
+    Eigen::MatrixXd M;    // (nu + nx)^2: [L 0; Lxw P] after backward (lower)
+    Eigen::VectorXd hm;   // nu + nx; its head(nw) becomes v = L^-1 h_w
+    Eigen::VectorXd pb;   // nx
+    Eigen::MatrixXd P;    // nx x nx (lower triangle valid)
+    Eigen::VectorXd p;    // nx
     Eigen::VectorXd dx, w, du, lam, mult, t, t1;
     mutable Eigen::MatrixXd Kw, KD;  // feedbackGain scratch
   };
   std::size_t idx(int k) const { return static_cast<std::size_t>(k); }
+  /// Finds the rows of stage k that fix one input each (w.nf, w.rows, w.perm: free
+  /// inputs in order, then the fixed ones). False when a fixing entry is below
+  /// rank_tolerance * scale (then *ratio is its ratio).
+  bool findFixedInputs(const LqStage& s, Work& w, double rank_tolerance, double scale,
+                       double* ratio) const;
+  /// The fixed values w.tf and the substituted vectors w.reff, qeff, beff, eeff from the
+  /// stage's current vectors (no-op without fixed inputs).
+  void substituteFixedInputs(const LqStage& s, Work& w) const;
 
   int N_, nx_, nu_, ne_max_;
   std::vector<LqStage> stages_;
