@@ -7,6 +7,7 @@
 
 #include "common/alloc_counter.hpp"
 #include "common/malloc_guard.hpp"
+#include "common/mirrored_affine.hpp"
 #include "rollstep/lie/so3.hpp"
 #include "rollstep/ocp/cost.hpp"
 #include "rollstep/ocp/problem.hpp"
@@ -500,17 +501,7 @@ TEST(Problem, StacksActiveRowsByMode) {
   EXPECT_EQ(p->equalityNames()[1], "mode1");
 }
 
-/// An affine residual whose first 2 m rows are m two-sided limits (row j + m = -row j + c).
-class MirroredAffine final : public ocp::AffineResidual {
- public:
-  MirroredAffine(std::shared_ptr<const ocp::StateSpace> s, const MatrixXd& C, const MatrixXd& D,
-                 const VectorXd& c, int m)
-      : AffineResidual(std::move(s), VectorXd::Zero(C.cols()), C, D, c), m_(m) {}
-  int mirroredRows(const ocp::NodeContext&) const override { return m_; }
-
- private:
-  int m_;
-};
+using test::MirroredAffine;
 
 TEST(Problem, MirroredRowsAreMarkedAtTheirStackedPositions) {
   auto p = stackingProblem();

@@ -23,6 +23,14 @@ control::ControlSettings shortHorizon() {
   return s;
 }
 
+/// shortHorizon() with the MPC on its own thread.
+control::ControlSettings asynchronousMpc() {
+  control::ControlSettings s = shortHorizon();
+  s.mpc.timing = control::MpcTiming::Asynchronous;
+  s.mpc.max_solution_age = 100.0;  // a slow (sanitized) MPC must not trip the watchdog
+  return s;
+}
+
 TEST(NmpcController, StandsAndRepeatsBitForBit) {
   NmpcScenario sc;
   sc.settings = shortHorizon();
@@ -144,9 +152,7 @@ TEST(NmpcController, TerrainHandOverReachesAnAsynchronousMpc) {
   Plant plant(scene);
   const centroidal::RobotOcpDescription robot =
       centroidal::loadRobotOcpDescription(tachyon3Description());
-  control::ControlSettings settings = shortHorizon();
-  settings.mpc.timing = control::MpcTiming::Asynchronous;
-  settings.mpc.max_solution_age = 100.0;  // a slow (sanitized) MPC must not trip the watchdog
+  const control::ControlSettings settings = asynchronousMpc();
   NmpcController controller(plant, robot, settings, terrainFromScene(scene, 0.085),
                             planning::GaitKind::Standing, planning::BaseVelocityCommand{},
                             StateSourceOptions{}, 4);
@@ -192,9 +198,7 @@ TEST(NmpcController, AsynchronousPerceptionFeedsAnAsynchronousMpc) {
   Plant plant(scene);
   const centroidal::RobotOcpDescription robot =
       centroidal::loadRobotOcpDescription(tachyon3Description());
-  control::ControlSettings settings = shortHorizon();
-  settings.mpc.timing = control::MpcTiming::Asynchronous;
-  settings.mpc.max_solution_age = 100.0;  // a slow (sanitized) MPC must not trip the watchdog
+  const control::ControlSettings settings = asynchronousMpc();
   OnlinePerceptionOptions options;
   options.asynchronous = true;
   auto perception = std::make_unique<OnlinePerception>(options);

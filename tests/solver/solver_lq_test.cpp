@@ -8,6 +8,7 @@
 
 #include "common/alloc_counter.hpp"
 #include "common/malloc_guard.hpp"
+#include "common/mirrored_affine.hpp"
 #include "lq_problems.hpp"
 #include "robot_size_lq.hpp"
 #include "rollstep/solver/solver.hpp"
@@ -189,18 +190,7 @@ INSTANTIATE_TEST_SUITE_P(Cases, SolverBoxLq,
                                            BoxCase{1, 0, true}, BoxCase{1, 2, true},
                                            BoxCase{0, 3, false}));
 
-/// An affine residual whose first 2 m rows are declared two-sided limits (row j + m has
-/// the negated Jacobian of row j).
-class MirroredAffine final : public ocp::AffineResidual {
- public:
-  MirroredAffine(std::shared_ptr<const ocp::StateSpace> s, const MatrixXd& C, const MatrixXd& D,
-                 const VectorXd& c, int m)
-      : AffineResidual(std::move(s), VectorXd::Zero(C.cols()), C, D, c), m_(m) {}
-  int mirroredRows(const ocp::NodeContext&) const override { return m_; }
-
- private:
-  int m_;
-};
+using test::MirroredAffine;
 
 // Two-sided limits lo <= Hx x + Hu u <= hi condensed pairwise (one product with the summed
 // weights) give the solution and duals of the same rows condensed one by one.
