@@ -82,6 +82,49 @@ TEST(NmpcController, TrotTickMakesNoAllocationAndRefusesBadStates) {
   EXPECT_EQ(out.wheel_velocity, before.wheel_velocity);
 }
 
+// The reference leash (mpc.reference_leash): a robot held where it started while the
+// command asks for 0.5 m/s. The MPC moves its base reference to stay 0.05 m ahead of the
+// measured base, and the real-time side adopts the same correction with each solution (its
+// foothold regions follow the reference the plan was solved on); with the leash off both
+// references run away from the robot.
+TEST(NmpcController, ReferenceLeashReachesTheRealTimeSide) {
+  for (const double leash : {0.0, 0.05}) {
+    SceneConfig scene;
+    Plant plant(scene);
+    const centroidal::RobotOcpDescription robot =
+        centroidal::loadRobotOcpDescription(tachyon3Description());
+    control::ControlSettings settings = shortHorizon();
+    settings.mpc.reference_leash = leash;
+    NmpcController controller(plant, robot, settings, terrainFromScene(scene, 0.085),
+                              planning::GaitKind::Standing,
+                              planning::BaseVelocityCommand{0.5, 0, 0});
+    control::ControlPipeline& pipeline = controller.pipeline();
+    control::JointCommand out = pipeline.makeCommand();
+    control::RobotState s = internalState(pipeline, plant.time());
+    const control::RobotState held = s;
+    for (int k = 0; k < 300; ++k) {
+      s = held;  // the measured robot stays where it started
+      s.time = plant.time() + 0.001 * (k + 1);
+      pipeline.tick(s, out);
+    }
+    const double t = s.time;
+    const lie::SE3 rt = pipeline.ocp().baseReference().correction();
+    const double ahead =
+        pipeline.ocp().baseReference().poseAt(t).translation.x() - held.base_position.x();
+    if (leash == 0.0) {
+      EXPECT_TRUE(rt.translation.isZero(0.0));
+      EXPECT_NEAR(ahead, 0.5 * (t - plant.time()), 1e-9);
+    } else {
+      // The last adopted solution was solved at most a period and its latency earlier:
+      // the real-time side's reference is within 0.5 m/s x 0.03 s of the leash.
+      EXPECT_LT(rt.translation.x(), -0.05);
+      EXPECT_NEAR(ahead, 0.05, 0.5 * 0.03 + 1e-9);
+    }
+    EXPECT_EQ(pipeline.counters().invalid_states, 0u);
+    EXPECT_TRUE(out.joint_position.allFinite());
+  }
+}
+
 // A new terrain (perception's hand-over, ControlPipeline::setTerrain): the MPC solves on it
 // from its next solve, the real-time side changes to it with the first solution solved on
 // it, and neither allocates (the terrains are swapped in); a terrain the problem cannot take
