@@ -36,6 +36,21 @@ lie::Vector6d twistOf(const BaseVelocityCommand& c) {
   return v;
 }
 
+bool finitePose(const lie::SE3& x) {
+  return x.translation.allFinite() && x.rotation.coeffs().allFinite() && x.rotation.norm() >= 1e-9;
+}
+
+double yawOf(const Eigen::Quaterniond& q) {
+  const Eigen::Matrix3d r = q.toRotationMatrix();
+  return std::atan2(r(1, 0), r(0, 0));
+}
+
+/// The planar pose (x, y, yaw), z = 0.
+lie::SE3 planarPose(const Eigen::Vector2d& xy, double yaw) {
+  return lie::SE3(Eigen::Vector3d(xy.x(), xy.y(), 0.0),
+                  Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ())));
+}
+
 }  // namespace
 
 void BaseReference::reset(double t0, const lie::SE3& start, const BaseVelocityCommand& command) {
@@ -71,17 +86,13 @@ void BaseReference::resetSegments(double t0, const lie::SE3& start,
                                   const TimedBaseCommand* schedule, std::size_t n) {
   const char* where = "BaseReference::reset";
   detail::checkFinite(where, "t0", t0);
-  if (!start.translation.allFinite() || !start.rotation.coeffs().allFinite() ||
-      start.rotation.norm() < 1e-9) {
+  if (!finitePose(start)) {
     detail::fail(where, "start", "(non-finite or zero quaternion)", "must be a finite pose");
   }
-  const Eigen::Matrix3d r = start.rotation.normalized().toRotationMatrix();
-  const double yaw = std::atan2(r(1, 0), r(0, 0));
   t0_ = t0;
   correction_ = lie::SE3::Identity();
   segments_.clear();
-  lie::SE3 pose(Eigen::Vector3d(start.translation.x(), start.translation.y(), 0.0),
-                Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ())));
+  lie::SE3 pose = planarPose(start.translation.head<2>(), yawOf(start.rotation.normalized()));
   for (std::size_t k = 0; k < n; ++k) {
     if (k > 0) {
       const Segment& prev = segments_.back();
@@ -107,23 +118,13 @@ lie::SE3 BaseReference::planarPoseAt(double t) const {
   return correction_ * (s.start * lie::expSE3((t - s.start_time) * twistOf(s.command)));
 }
 
-namespace {
-
-double yawOf(const Eigen::Quaterniond& q) {
-  const Eigen::Matrix3d r = q.toRotationMatrix();
-  return std::atan2(r(1, 0), r(0, 0));
-}
-
-}  // namespace
-
 bool BaseReference::follow(double t, const lie::SE3& measured, double max_distance,
                            double max_yaw) {
   const char* where = "BaseReference::follow";
   detail::checkFinite(where, "t", t);
   detail::checkFinite(where, "max_distance", max_distance);
   detail::checkFinite(where, "max_yaw", max_yaw);
-  if (!measured.translation.allFinite() || !measured.rotation.coeffs().allFinite() ||
-      measured.rotation.norm() < 1e-9) {
+  if (!finitePose(measured)) {
     detail::fail(where, "measured", "(non-finite or zero quaternion)", "must be a finite pose");
   }
   const lie::SE3 ref = planarPoseAt(t);
@@ -145,20 +146,14 @@ bool BaseReference::follow(double t, const lie::SE3& measured, double max_distan
     moved = true;
   }
   if (!moved) return false;
-  const lie::SE3 target(
-      Eigen::Vector3d(target_xy.x(), target_xy.y(), 0.0),
-      Eigen::Quaterniond(Eigen::AngleAxisd(target_yaw, Eigen::Vector3d::UnitZ())));
   // target = C' * schedule(t) and ref = C * schedule(t): C' = target * ref^-1 * C.
-  correction_ = target * ref.inverse() * correction_;
+  correction_ = planarPose(target_xy, target_yaw) * ref.inverse() * correction_;
   correction_.rotation.normalize();
   return true;
 }
 
 bool BaseReference::setCorrection(const lie::SE3& correction) noexcept {
-  if (!correction.translation.allFinite() || !correction.rotation.coeffs().allFinite() ||
-      correction.rotation.norm() < 1e-9) {
-    return false;
-  }
+  if (!finitePose(correction)) return false;
   correction_ = correction;
   correction_.rotation.normalize();
   return true;
