@@ -25,6 +25,29 @@ using test::Approach;
 using test::evaluate;
 using test::expectMatch;
 
+// config/lidar.yaml says which of its values are the built-in defaults: all but the mast
+// height and the range noise (the file's header). Keeps the file and the code from
+// drifting apart unnoticed.
+TEST(Lidar, TheDesignSensorFileDiffersFromTheBuiltInDefaultsOnlyWhereItSaysSo) {
+  const LidarSettings file = loadLidarSettings(ROLLSTEP_CONFIG_DIR "/lidar.yaml");
+  const LidarSettings built_in;
+  EXPECT_EQ(file.mount_position.head<2>(), built_in.mount_position.head<2>());
+  EXPECT_DOUBLE_EQ(file.mount_position.z(), 0.25);
+  EXPECT_DOUBLE_EQ(built_in.mount_position.z(), 0.12);
+  EXPECT_DOUBLE_EQ(file.range_noise, 0.005);
+  EXPECT_DOUBLE_EQ(built_in.range_noise, 0.01);
+  EXPECT_DOUBLE_EQ(file.mount_pitch_deg, built_in.mount_pitch_deg);
+  EXPECT_EQ(file.beams, built_in.beams);
+  EXPECT_DOUBLE_EQ(file.min_elevation_deg, built_in.min_elevation_deg);
+  EXPECT_DOUBLE_EQ(file.max_elevation_deg, built_in.max_elevation_deg);
+  EXPECT_DOUBLE_EQ(file.horizontal_fov_deg, built_in.horizontal_fov_deg);
+  EXPECT_DOUBLE_EQ(file.horizontal_resolution_deg, built_in.horizontal_resolution_deg);
+  EXPECT_DOUBLE_EQ(file.rate, built_in.rate);
+  EXPECT_DOUBLE_EQ(file.max_range, built_in.max_range);
+  EXPECT_DOUBLE_EQ(file.dropout, built_in.dropout);
+  EXPECT_EQ(file.seed, built_in.seed);
+}
+
 TEST(Lidar, ScansTheFloorAtItsHeightWithNoiseAndDropouts) {
   SceneConfig c;
   c.kind = SceneKind::kFlat;
