@@ -131,30 +131,6 @@ void ElevationMap::fuse(std::size_t i, double z, double var) {
   v = static_cast<float>(std::max(settings_.min_variance, vd * var / s));
 }
 
-bool ElevationMap::onNeighbourRiser(int r, int c, double u, double v, double reach, double z,
-                                    double var) const {
-  const int k = static_cast<int>(std::ceil(reach));
-  for (int dr = -k; dr <= k; ++dr) {
-    const int rr = r + dr;
-    if (rr < 0 || rr >= n_) continue;
-    for (int dc = -k; dc <= k; ++dc) {
-      const int cc = c + dc;
-      if ((dr == 0 && dc == 0) || cc < 0 || cc >= n_) continue;
-      // Distance from the point to the neighbour's square, in cells.
-      const double gu = std::max({0.0, cc - u, u - (cc + 1)});
-      const double gv = std::max({0.0, rr - v, v - (rr + 1)});
-      if (gu * gu + gv * gv > reach * reach) continue;
-      const auto j = static_cast<std::size_t>(rr * n_ + cc);
-      const double below = static_cast<double>(height_[j]) - z;  // NaN compares false
-      if (below > 0.0 && below * below > settings_.gate * settings_.gate *
-                                             (static_cast<double>(variance_[j]) + var)) {
-        return true;
-      }
-    }
-  }
-  return false;
-}
-
 int ElevationMap::clearAlongRay(const Eigen::Vector3d& from, const Eigen::Vector3d& to,
                                 double top) {
   const Eigen::Vector3d d = to - from;
@@ -227,28 +203,7 @@ MapUpdateStats ElevationMap::update(const Eigen::Vector3d* points, int count,
     }
     top = std::max(top, p.z());
     const double sigma = settings_.sensor_noise + settings_.range_noise_slope * range;
-    const double var = sigma * sigma;
-    const auto i = static_cast<std::size_t>(r * n_ + c);
-    // Riser attribution: only a point that would raise a measured cell past the gate is in
-    // question (an empty cell starts from any point: a floor point beside a step lies
-    // below the step's top just as a riser's point does).
-    if (settings_.riser_attribution && !std::isnan(height_[i])) {
-      const double rise = p.z() - static_cast<double>(height_[i]);
-      if (rise > 0.0 && rise * rise > settings_.gate * settings_.gate *
-                                          (static_cast<double>(variance_[i]) + var)) {
-        // The range noise along the ray, seen from above: a slanted ray moves a riser's
-        // point sideways by up to gate * sigma * (horizontal share of the ray).
-        const double horizontal = (p.head<2>() - origin.head<2>()).norm() / range;
-        const double reach = settings_.gate * sigma * horizontal / res_;
-        const double u = p.x() / res_ - static_cast<double>(gx0_);
-        const double v = p.y() / res_ - static_cast<double>(gy0_);
-        if (reach > 0.0 && onNeighbourRiser(r, c, u, v, reach, p.z(), var)) {
-          ++stats.attributed;
-          continue;
-        }
-      }
-    }
-    fuse(i, p.z(), var);
+    fuse(static_cast<std::size_t>(r * n_ + c), p.z(), sigma * sigma);
     ++stats.fused;
   }
   return stats;

@@ -25,7 +25,7 @@ struct Field {
 
 // The keys of each section, in config/perception.yaml's order (ranges: the settings'
 // validate(), which names the key).
-const std::array<Field<ElevationMapSettings>, 14> kMapFields{{
+const std::array<Field<ElevationMapSettings>, 13> kMapFields{{
     {"length", &ElevationMapSettings::length},
     {"resolution", &ElevationMapSettings::resolution},
     {"sensor_noise", &ElevationMapSettings::sensor_noise},
@@ -37,7 +37,6 @@ const std::array<Field<ElevationMapSettings>, 14> kMapFields{{
     {"visibility_cleanup", &ElevationMapSettings::visibility_cleanup},
     {"visibility_stride", &ElevationMapSettings::visibility_stride},
     {"visibility_margin", &ElevationMapSettings::visibility_margin},
-    {"riser_attribution", &ElevationMapSettings::riser_attribution},
     {"max_range", &ElevationMapSettings::max_range},
     {"min_range", &ElevationMapSettings::min_range},
 }};

@@ -66,45 +66,6 @@ TEST(ElevationMap, AHigherSurfaceReplacesAndALowerOutlierOnlyInflatesTheVariance
   EXPECT_GT(map.variance(r, c), v);
 }
 
-// A riser at x = 0.50 (floor 0 before it, a 0.2 m step after it), seen by a slanted ray
-// from a sensor 1.5 m before it and 0.5 m up: a riser point that the range noise moved
-// 1 cm in front of the face does not raise the measured floor cell; the same point far
-// from any higher cell, a point at the step's own height (a cell the edge crosses), a
-// vertical ray and the switch turned off all raise it as before.
-TEST(ElevationMap, RiserPointsInFrontOfAHigherCellDoNotRaiseTheFloor) {
-  const Eigen::Vector3d sensor(-1.0, 0.01, 0.5);
-  const auto run = [&](bool attribution, const Eigen::Vector3d& sensor_at, double neighbour,
-                       const Eigen::Vector3d& point, MapUpdateStats* stats = nullptr) {
-    ElevationMapSettings s;
-    s.visibility_cleanup = false;
-    s.riser_attribution = attribution;
-    ElevationMap map(s);
-    int r = 0, c = 0, rn = 0, cn = 0;
-    EXPECT_TRUE(map.cellOf({0.49, 0.01}, r, c));
-    EXPECT_TRUE(map.cellOf({0.51, 0.01}, rn, cn));
-    EXPECT_EQ(cn, c + 1);
-    map.setCell(r, c, 0.0f, 1e-5f);
-    map.setCell(rn, cn, static_cast<float>(neighbour), 1e-5f);
-    const std::vector<Eigen::Vector3d> pts{point - sensor_at};
-    const MapUpdateStats st = map.update(pts, sensorPose(sensor_at));
-    if (stats != nullptr) *stats = st;
-    return map.height(r, c);
-  };
-  const Eigen::Vector3d riser_point(0.49, 0.01, 0.1);  // mid-riser, 1 cm in front of it
-  MapUpdateStats stats;
-  EXPECT_FLOAT_EQ(run(true, sensor, 0.2, riser_point, &stats), 0.0f);
-  EXPECT_EQ(stats.attributed, 1);
-  EXPECT_EQ(stats.fused, 0);
-  // No higher neighbour within reach (the next cell is floor too): a new obstacle.
-  EXPECT_FLOAT_EQ(run(true, sensor, 0.0, riser_point), 0.1f);
-  // At the step's height: the higher surface wins in a cell the edge crosses.
-  EXPECT_FLOAT_EQ(run(true, sensor, 0.2, {0.49, 0.01, 0.2}), 0.2f);
-  // A vertical ray carries no range noise sideways.
-  EXPECT_FLOAT_EQ(run(true, {0.49, 0.01, 3.0}, 0.2, riser_point), 0.1f);
-  // Switched off: the higher point replaces the cell as it always did.
-  EXPECT_FLOAT_EQ(run(false, sensor, 0.2, riser_point), 0.1f);
-}
-
 TEST(ElevationMap, VisibilityCleanupClearsCellsARayPassedThrough) {
   ElevationMap map;
   map.setCell(100, 125, 0.5f, 1e-4f);  // a phantom 50 cm obstacle at x = 0.51, y = 0.01
@@ -313,8 +274,7 @@ TEST(PerceptionSettings, FileRoundTripsAndErrorsNameLineAndKey) {
       "perception settings 'p.yaml': line 2: unknown key 'map.resolutoin' (known in map: length, "
       "resolution, sensor_noise, range_noise_slope, gate, process_noise, max_variance, "
       "min_variance, "
-      "visibility_cleanup, visibility_stride, visibility_margin, riser_attribution, max_range, "
-      "min_range)");
+      "visibility_cleanup, visibility_stride, visibility_margin, max_range, min_range)");
   EXPECT_EQ(error("map:\n  gate: 3\nsegmentation:\n  max_residual: -1\n"),
             "perception settings 'p.yaml': line 4: segmentation.max_residual = -1: must be > 0");
   // The value as given (shortest round-trip text), not rounded to six decimals: a tiny

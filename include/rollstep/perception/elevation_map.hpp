@@ -10,14 +10,7 @@
 // height): a point within `gate` standard deviations of the estimate is fused; a point
 // clearly above it replaces it (a surface seen for the first time, e.g. the top of a step
 // whose face was hit before); a point clearly below it only inflates the variance (it may
-// be noise or a ray grazing an edge; repeated ones then fuse). Riser attribution: a ray
-// that hits a vertical face (a riser) at a slant carries its range noise sideways, so the
-// face's points land up to a few centimetres in front of it. A point that would raise a
-// measured cell but lies below a neighbouring cell's surface, that cell within `gate`
-// horizontal standard deviations of the point, is such a riser point and is not fused
-// (else the floor in front of every riser reads high and its region comes out a few cells
-// short). A point at the neighbour's height still raises the cell: in a cell that a step
-// edge crosses, the higher surface wins as before. Visibility clean-up: a ray
+// be noise or a ray grazing an edge; repeated ones then fuse). Visibility clean-up: a ray
 // that passes below a cell's height on its way to its hit proves that the cell's surface
 // is not there (it moved, or was an outlier): the cell is cleared.
 //
@@ -42,9 +35,6 @@ struct ElevationMapSettings {
   int visibility_stride = 4;
   /// Clear a cell only if the ray passed this far below its height [m].
   double visibility_margin = 0.03;
-  /// Riser attribution (see above): the horizontal standard deviation of a point is its
-  /// height's (sensor_noise + range_noise_slope * range) times its ray's horizontal share.
-  bool riser_attribution = true;
   /// Points further than this from the sensor, or nearer than min_range, are ignored [m].
   double max_range = 10.0;
   double min_range = 0.1;
@@ -59,7 +49,6 @@ struct MapUpdateStats {
   int non_finite = 0;  ///< NaN / infinite points or sensor pose (ignored)
   int out_of_map = 0;  ///< outside the map or outside [min_range, max_range]
   int fused = 0;       ///< fused into or replaced a cell
-  int attributed = 0;  ///< riser points left to a neighbouring cell (not fused)
   int cleared = 0;     ///< cells cleared by visibility clean-up
 };
 
@@ -127,10 +116,6 @@ class ElevationMap {
 
  private:
   void fuse(std::size_t i, double z, double var);
-  /// Whether a point at fractional cell coordinates (u, v) (column, row) of cell (r, c),
-  /// height z and variance var lies below the surface of a measured neighbouring cell
-  /// within `reach` cells of it (beyond the gate): a riser point of that cell.
-  bool onNeighbourRiser(int r, int c, double u, double v, double reach, double z, double var) const;
   int clearAlongRay(const Eigen::Vector3d& from, const Eigen::Vector3d& to, double top);
 
   ElevationMapSettings settings_;
