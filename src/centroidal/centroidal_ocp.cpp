@@ -112,6 +112,13 @@ CentroidalOcp::CentroidalOcp(const RobotOcpDescription& description, const OcpSe
                                 std::to_string(nj) + " joints");
   }
   q_joint_ref_ = description.nominal_joint_positions;
+  if (description.servo_stiffness.size() != 0 && description.servo_stiffness.size() != nj) {
+    throw std::invalid_argument("robot description: servo_stiffness has " +
+                                std::to_string(description.servo_stiffness.size()) +
+                                " entries, the URDF " + description.urdf + " has " +
+                                std::to_string(nj) + " joints");
+  }
+  servo_stiffness_ = description.servo_stiffness;
   // The nodes' precomputation; it also caches every foot's planner reference once the
   // planner exists (below): the terrain and swing terms read them instead of querying the
   // planner once per term and call.

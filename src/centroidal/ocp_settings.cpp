@@ -277,8 +277,9 @@ RobotOcpDescription parseRobotOcpDescription(const std::string& yaml_text,
     };
     std::map<std::string, yaml::Node> given;
     const std::vector<std::string> known = {
-        "urdf",           "contact_frames",          "drive_wheels", "side_pairs",
-        "contact_offset", "nominal_joint_positions", "trot_groups",  "walk_order"};
+        "urdf",           "contact_frames",          "drive_wheels",    "side_pairs",
+        "contact_offset", "nominal_joint_positions", "servo_stiffness", "trot_groups",
+        "walk_order"};
     for (std::size_t item = 0; item < root.size(); ++item) {
       const yaml::Node key_node = root.key(item);
       const std::string key = text(key_node, "key");
@@ -366,6 +367,19 @@ RobotOcpDescription parseRobotOcpDescription(const std::string& yaml_text,
              "nominal_joint_positions: '" + q.item(i).scalar() + "' is not a finite number");
       }
       d.nominal_joint_positions[static_cast<Eigen::Index>(i)] = v;
+    }
+    if (given.count("servo_stiffness") != 0) {
+      const yaml::Node k = given.at("servo_stiffness");
+      if (!k.isSequence() || k.size() == 0) fail(k, "servo_stiffness: expected a list of numbers");
+      d.servo_stiffness.resize(static_cast<Eigen::Index>(k.size()));
+      for (std::size_t i = 0; i < k.size(); ++i) {
+        double v = 0.0;
+        if (!k.item(i).toDouble(v) || !std::isfinite(v) || v <= 0.0) {
+          fail(k.item(i),
+               "servo_stiffness: '" + k.item(i).scalar() + "' is not a finite number > 0");
+        }
+        d.servo_stiffness[static_cast<Eigen::Index>(i)] = v;
+      }
     }
   });
   return d;

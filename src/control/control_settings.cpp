@@ -107,11 +107,12 @@ const std::array<Field<CbfQpSettings>, 21> kCbfQpFields{{
     {"collision_clearance", &CbfQpSettings::collision_clearance, 0, 1, false, false},
     {"collision_range", &CbfQpSettings::collision_range, 0, 10, true, false},
 }};
-const std::array<Field<IntegratorSettings>, 3> kIntegratorFields{{
+const std::array<Field<IntegratorSettings>, 4> kIntegratorFields{{
     {"mode", &IntegratorSettings::mode, 0, 0, false, false},
     // 0: take the measured value every tick.
     {"position_time_constant", &IntegratorSettings::position_time_constant, 0, 1000, false, false},
     {"velocity_time_constant", &IntegratorSettings::velocity_time_constant, 0, 1000, false, false},
+    {"deflection_compensation", &IntegratorSettings::deflection_compensation, 0, 2, false, false},
 }};
 const std::array<Field<WheelSettings>, 2> kWheelFields{{
     {"skid_track_factor", &WheelSettings::skid_track_factor, 0, 100, true, false},

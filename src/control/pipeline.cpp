@@ -6,6 +6,7 @@
 
 #include "rollstep/control/wheel_speed.hpp"
 #include "rollstep/model/centroidal.hpp"
+#include "rollstep/model/gravity.hpp"
 #include "rollstep/model/kinematics.hpp"
 
 namespace rollstep::control {
@@ -41,6 +42,12 @@ ControlPipeline::ControlPipeline(const centroidal::RobotOcpDescription& robot,
                                           settings_.ocp.lateral_slip_weight);
   integrator_ = std::make_unique<StateIntegrator>(r.modelPtr(), settings_.integrator,
                                                   settings_.control_period);
+  if (settings_.integrator.deflection_compensation > 0.0 &&
+      rt_ocp_->servoStiffness().size() != r.nj()) {
+    throw std::invalid_argument(
+        "ControlPipeline: integrator.deflection_compensation needs the robot description's "
+        "servo_stiffness (one per joint)");
+  }
   data_ = std::make_unique<model::Data>(r.model());
   for (int i = 0; i < r.nc(); ++i) {
     if (r.contact(i).drive_wheel) drive_wheels_.push_back(i);
@@ -252,6 +259,15 @@ void ControlPipeline::tick(const RobotState& state, JointCommand& command) noexc
   command.joint_position = integrator_->q().tail(r.nj());
   command.joint_velocity = integrator_->v().tail(r.nj());
   computeWheelCommands(command);
+  const double compensation = settings_.integrator.deflection_compensation;
+  if (compensation > 0.0) {
+    // Each servo carries the static torque of the planned contact forces and sits tau / K
+    // short of its command: command that much further.
+    const Eigen::VectorXd& tau = model::computeStaticTorque(r.model(), *data_, integrator_->q(),
+                                                            r.frameIds(), sample_.forces);
+    command.joint_position.array() +=
+        compensation * tau.tail(r.nj()).array() / rt_ocp_->servoStiffness().array();
+  }
 }
 
 }  // namespace rollstep::control

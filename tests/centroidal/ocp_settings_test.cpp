@@ -102,6 +102,9 @@ TEST(RobotOcpDescription, Tachyon3FileReadsAndErrorsAreNamed) {
   EXPECT_EQ(d.drive_wheels.size(), 4u);
   EXPECT_EQ(d.side_pairs.size(), 2u);
   EXPECT_EQ(d.nominal_joint_positions.size(), 12);
+  ASSERT_EQ(d.servo_stiffness.size(), 12);
+  EXPECT_EQ(d.servo_stiffness[0], 3000.0);   // LF hip
+  EXPECT_EQ(d.servo_stiffness[1], 60000.0);  // LF knee
   EXPECT_EQ(d.trot_group_a.size(), 3u);
   EXPECT_TRUE(has(d.urdf, "tachyon3/tachyon3.urdf"));
   const auto error = [](const std::string& text) {
@@ -125,6 +128,10 @@ TEST(RobotOcpDescription, Tachyon3FileReadsAndErrorsAreNamed) {
                   "'A' given twice"));
   EXPECT_TRUE(has(error("urdf: a\ncontact_frames: [A]\nnominal_joint_positions: [x]\n"),
                   "not a finite number"));
+  EXPECT_EQ(error(base + "servo_stiffness: [100]\n"), "");
+  EXPECT_TRUE(has(error(base + "servo_stiffness: [0]\n"),
+                  "line 4: servo_stiffness: '0' is not a finite number > 0"));
+  EXPECT_TRUE(has(error(base + "servo_stiffness: 5\n"), "servo_stiffness: expected a list"));
 }
 
 }  // namespace

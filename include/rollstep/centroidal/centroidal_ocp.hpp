@@ -122,6 +122,8 @@ class CentroidalOcp {
   const std::vector<Eigen::Vector2d>& nominalFeet() const { return nominal_feet_; }
   double nominalHeight() const { return nominal_height_; }
   const Eigen::VectorXd& nominalJointPositions() const { return q_joint_ref_; }
+  /// The joints' servo stiffness of the robot description (nj), empty if not given.
+  const Eigen::VectorXd& servoStiffness() const { return servo_stiffness_; }
   /// Contact frame names in mode-mask order.
   const std::vector<std::string>& contactNames() const { return contact_names_; }
 
@@ -139,6 +141,7 @@ class CentroidalOcp {
   int region_edge_capacity_ = 0;
   bool has_regions_ = false;  // of the constructor's terrain (swapTerrain keeps it so)
   Eigen::VectorXd q_joint_ref_;
+  Eigen::VectorXd servo_stiffness_;
   std::vector<std::string> contact_names_;
   std::unique_ptr<CentroidalCache> scratch_;  // for the non-real-time helpers above
 };

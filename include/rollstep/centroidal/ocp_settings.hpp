@@ -152,13 +152,17 @@ struct RobotOcpDescription {
   std::vector<std::array<std::string, 2>> side_pairs;  ///< first keeps the velocity rows
   double contact_offset = 0.0;              ///< [m] wheel radius if the frames are centres
   Eigen::VectorXd nominal_joint_positions;  ///< q_J,ref (nj, URDF joint order)
+  /// Stiffness of each joint's position servo (nj, URDF joint order) [N m/rad or N/m], for
+  /// the controller's deflection compensation; empty: not known.
+  Eigen::VectorXd servo_stiffness;
   std::vector<std::string> trot_group_a, trot_group_b;  ///< the two trot groups
   std::vector<std::string> walk_order;                  ///< static walk: one foot at a time
 };
 
 /// Reads a robot description (keys: urdf, contact_frames, drive_wheels, side_pairs,
-/// contact_offset, nominal_joint_positions, trot_groups, walk_order; all required but
-/// drive_wheels, side_pairs, contact_offset, trot_groups and walk_order). Names are checked
+/// contact_offset, nominal_joint_positions, servo_stiffness, trot_groups, walk_order; all
+/// required but drive_wheels, side_pairs, contact_offset, servo_stiffness, trot_groups and
+/// walk_order). Names are checked
 /// against each other here and against the URDF when the OCP is built. Errors:
 /// std::runtime_error "robot description <source>: line L: <key>: <what>".
 RobotOcpDescription parseRobotOcpDescription(const std::string& yaml_text,

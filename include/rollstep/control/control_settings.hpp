@@ -158,6 +158,13 @@ struct IntegratorSettings {
   /// moves the internal position (velocity) by dt / tau of its difference to the measured one.
   double position_time_constant = 0.1;
   double velocity_time_constant = 0.02;
+  /// [-] Share of the servos' static deflection added to the joint position commands: a
+  /// position servo of stiffness K carrying torque tau sits tau / K short of its command, so
+  /// the command becomes q + gain tau / K with tau the static joint torque of the planned
+  /// contact forces (model::computeStaticTorque) and K the robot description's
+  /// servo_stiffness. Without it the body sags under the servos' compliance, more on three
+  /// legs than on six, i.e. at every lift-off of a trot. 0: off.
+  double deflection_compensation = 0.0;
 };
 
 /// Drive-wheel velocity commands under skid steering (pipeline.hpp, "Skid steering"). Used
