@@ -43,15 +43,21 @@ void SwingForceResidual::calc(const ocp::NodeContext& ctx, ocp::ConstVecRef /*x*
   }
 }
 
-void SwingForceResidual::calcDiff(const ocp::NodeContext& ctx, ocp::ConstVecRef /*x*/,
-                                  ocp::ConstVecRef /*u*/, ocp::ResidualData& d) const {
+void SwingForceResidual::calcDiff(const ocp::NodeContext& ctx, ocp::ConstVecRef x,
+                                  ocp::ConstVecRef u, ocp::ResidualData& d) const {
   const int n = rows(ctx);
-  d.Rx.topRows(n).setZero();
-  d.Ru.topRows(n).setZero();
+  calcDiffInto(ctx, x, u, d, d.Rx.topRows(n), d.Ru.topRows(n));
+}
+
+void SwingForceResidual::calcDiffInto(const ocp::NodeContext& ctx, ocp::ConstVecRef /*x*/,
+                                      ocp::ConstVecRef /*u*/, ocp::ResidualData& /*d*/,
+                                      ocp::MatRef Rx, ocp::MatRef Ru) const {
+  Rx.setZero();
+  Ru.setZero();
   int row = 0;
   for (int i = 0; i < robot_->nc(); ++i) {
     if (CentroidalRobot::inStance(ctx.mode, i)) continue;
-    d.Ru.block<3, 3>(row, robot_->inputForceIndex(i)).setIdentity();
+    Ru.block<3, 3>(row, robot_->inputForceIndex(i)).setIdentity();
     row += 3;
   }
 }
@@ -109,8 +115,15 @@ void StanceVelocityResidual::calc(const ocp::NodeContext& ctx, ocp::ConstVecRef 
 
 void StanceVelocityResidual::calcDiff(const ocp::NodeContext& ctx, ocp::ConstVecRef x,
                                       ocp::ConstVecRef u, ocp::ResidualData& d) const {
+  const int n = rows(ctx);
+  if (n > 0) calcDiffInto(ctx, x, u, d, d.Rx.topRows(n), d.Ru.topRows(n));
+}
+
+void StanceVelocityResidual::calcDiffInto(const ocp::NodeContext& ctx, ocp::ConstVecRef x,
+                                          ocp::ConstVecRef u, ocp::ResidualData& d, ocp::MatRef Rx,
+                                          ocp::MatRef Ru) const {
   const CentroidalRobot& r = pre_->robot();
-  if (rows(ctx) == 0) return;
+  if (Rx.rows() == 0) return;
   auto& data = static_cast<CentroidalResidualData&>(d);
   const CentroidalCache& c = nodeCache(ctx, x, u, true, *pre_, data.fallback);
   const int nj = r.nj();
@@ -120,9 +133,9 @@ void StanceVelocityResidual::calcDiff(const ocp::NodeContext& ctx, ocp::ConstVec
     if (!selected(ctx.mode, i)) continue;
     const int k = 3 * i;
     if (vertical()) {
-      d.Rx.row(row) = c.footVelocity_dx.row(k + 2);
-      d.Ru.row(row).head(nj) = c.footVelocity_du.row(k + 2).head(nj);
-      d.Ru.row(row).tail(nf).setZero();
+      Rx.row(row) = c.footVelocity_dx.row(k + 2);
+      Ru.row(row).head(nj) = c.footVelocity_du.row(k + 2).head(nj);
+      Ru.row(row).tail(nf).setZero();
       ++row;
     }
     if (lateral(i)) {
@@ -130,11 +143,11 @@ void StanceVelocityResidual::calcDiff(const ocp::NodeContext& ctx, ocp::ConstVec
       const double s = std::sin(c.footYaw[i]), co = std::cos(c.footYaw[i]);
       const auto v = c.footVelocity(i);
       const double dyaw = -(co * v.x() + s * v.y());
-      d.Rx.row(row) = -s * c.footVelocity_dx.row(k) + co * c.footVelocity_dx.row(k + 1) +
-                      dyaw * c.footYaw_dx.row(i);
-      d.Ru.row(row).head(nj) =
+      Rx.row(row) = -s * c.footVelocity_dx.row(k) + co * c.footVelocity_dx.row(k + 1) +
+                    dyaw * c.footYaw_dx.row(i);
+      Ru.row(row).head(nj) =
           -s * c.footVelocity_du.row(k).head(nj) + co * c.footVelocity_du.row(k + 1).head(nj);
-      d.Ru.row(row).tail(nf).setZero();
+      Ru.row(row).tail(nf).setZero();
       ++row;
     }
   }

@@ -201,6 +201,13 @@ void StaticTorqueLimitResidual::calc(const ocp::NodeContext& ctx, ocp::ConstVecR
 
 void StaticTorqueLimitResidual::calcDiff(const ocp::NodeContext& ctx, ocp::ConstVecRef x,
                                          ocp::ConstVecRef u, ocp::ResidualData& d) const {
+  const int n = rows(ctx);
+  calcDiffInto(ctx, x, u, d, d.Rx.topRows(n), d.Ru.topRows(n));
+}
+
+void StaticTorqueLimitResidual::calcDiffInto(const ocp::NodeContext& ctx, ocp::ConstVecRef x,
+                                             ocp::ConstVecRef u, ocp::ResidualData& d,
+                                             ocp::MatRef Rx, ocp::MatRef Ru) const {
   auto& td = static_cast<TorqueResidualData&>(d);
   const CentroidalCache& c = nodeCache(ctx, x, u, true, pre_, td.fallback);
   const int base = robot_->model().nvBase;
@@ -233,20 +240,20 @@ void StaticTorqueLimitResidual::calcDiff(const ocp::NodeContext& ctx, ocp::Const
   }
   if (static_cast<int>(upper_rows_.size()) == nj && static_cast<int>(lower_rows_.size()) == nj) {
     // Every joint limited on both sides (Tachyon 3): two block copies, no row gathering.
-    d.Rx.topRows(nj) = -td.tau_dx;
-    d.Ru.topRows(nj) = -td.tau_du;
-    d.Rx.middleRows(nj, nj) = td.tau_dx;
-    d.Ru.middleRows(nj, nj) = td.tau_du;
+    Rx.topRows(nj) = -td.tau_dx;
+    Ru.topRows(nj) = -td.tau_du;
+    Rx.middleRows(nj, nj) = td.tau_dx;
+    Ru.middleRows(nj, nj) = td.tau_du;
     return;
   }
   int row = 0;
   for (int j : upper_rows_) {
-    d.Rx.row(row) = -td.tau_dx.row(j);
-    d.Ru.row(row++) = -td.tau_du.row(j);
+    Rx.row(row) = -td.tau_dx.row(j);
+    Ru.row(row++) = -td.tau_du.row(j);
   }
   for (int j : lower_rows_) {
-    d.Rx.row(row) = td.tau_dx.row(j);
-    d.Ru.row(row++) = td.tau_du.row(j);
+    Rx.row(row) = td.tau_dx.row(j);
+    Ru.row(row++) = td.tau_du.row(j);
   }
 }
 
@@ -324,16 +331,22 @@ void FrictionPyramidResidual::calc(const ocp::NodeContext& ctx, ocp::ConstVecRef
   }
 }
 
-void FrictionPyramidResidual::calcDiff(const ocp::NodeContext& ctx, ocp::ConstVecRef /*x*/,
-                                       ocp::ConstVecRef /*u*/, ocp::ResidualData& d) const {
+void FrictionPyramidResidual::calcDiff(const ocp::NodeContext& ctx, ocp::ConstVecRef x,
+                                       ocp::ConstVecRef u, ocp::ResidualData& d) const {
+  const int n = rows(ctx);
+  calcDiffInto(ctx, x, u, d, d.Rx.topRows(n), d.Ru.topRows(n));
+}
+
+void FrictionPyramidResidual::calcDiffInto(const ocp::NodeContext& ctx, ocp::ConstVecRef /*x*/,
+                                           ocp::ConstVecRef /*u*/, ocp::ResidualData& d,
+                                           ocp::MatRef Rx, ocp::MatRef Ru) const {
   const auto& fd = static_cast<const FrictionResidualData&>(d);
-  const int rows = this->rows(ctx);
-  d.Rx.topRows(rows).setZero();
-  d.Ru.topRows(rows).setZero();
+  Rx.setZero();
+  Ru.setZero();
   int row = 0;
   for (int i = 0; i < robot_->nc(); ++i) {
     if (!CentroidalRobot::inStance(ctx.mode, i)) continue;
-    d.Ru.block<kRowsPerFoot, 3>(row, robot_->inputForceIndex(i)) =
+    Ru.block<kRowsPerFoot, 3>(row, robot_->inputForceIndex(i)) =
         fd.blocks.middleRows<kRowsPerFoot>(row);
     row += kRowsPerFoot;
   }
@@ -407,6 +420,18 @@ void FootRegionResidual::calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x, o
 
 void FootRegionResidual::calcDiff(const ocp::NodeContext& ctx, ocp::ConstVecRef x,
                                   ocp::ConstVecRef u, ocp::ResidualData& d) const {
+  const auto& kd = static_cast<const RegionResidualData&>(d);
+  int n = 0;  // the rows of the regions calc found
+  for (int i = 0; i < robot_->nc(); ++i) {
+    const int region = kd.region[static_cast<std::size_t>(i)];
+    if (region >= 0) n += static_cast<int>(terrain_.terrain->region(region).A.rows());
+  }
+  calcDiffInto(ctx, x, u, d, d.Rx.topRows(n), d.Ru.topRows(n));
+}
+
+void FootRegionResidual::calcDiffInto(const ocp::NodeContext& ctx, ocp::ConstVecRef x,
+                                      ocp::ConstVecRef u, ocp::ResidualData& d, ocp::MatRef Rx,
+                                      ocp::MatRef Ru) const {
   auto& kd = static_cast<RegionResidualData&>(d);
   const CentroidalCache* c = nullptr;
   int row = 0;
@@ -418,8 +443,8 @@ void FootRegionResidual::calcDiff(const ocp::NodeContext& ctx, ocp::ConstVecRef 
     const auto px = c->footPosition_dx.row(3 * i);
     const auto py = c->footPosition_dx.row(3 * i + 1);
     for (int k = 0; k < reg.A.rows(); ++k) {
-      d.Rx.row(row) = reg.A(k, 0) * px + reg.A(k, 1) * py;
-      d.Ru.row(row).setZero();
+      Rx.row(row) = reg.A(k, 0) * px + reg.A(k, 1) * py;
+      Ru.row(row).setZero();
       ++row;
     }
   }

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "rollstep/ocp/small_products.hpp"
+
 namespace rollstep::centroidal {
 
 CentroidalCache::CentroidalCache(const CentroidalRobot& robot)
@@ -20,8 +22,6 @@ CentroidalCache::CentroidalCache(const CentroidalRobot& robot)
       footPosition_dx(Eigen::MatrixXd::Zero(3 * robot.nc(), robot.ndx())),
       footAngular_dx(Eigen::MatrixXd::Zero(3 * robot.nc(), robot.ndx())),
       footYaw_dx(Eigen::MatrixXd::Zero(robot.nc(), robot.ndx())),
-      Rdvb_dx(Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, robot.ndx())),
-      Rdvb_du(Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, robot.nj())),
       nq_(robot.nq()),
       nj_(robot.nj()),
       nc_(robot.nc()) {}
@@ -97,30 +97,15 @@ void CentroidalPrecomputation::compute(ocp::ConstVecRef x, ocp::ConstVecRef u, b
   c.dvb_dx.rightCols<6>() = nq.AbInverse;
   c.dvb_du.leftCols(nj) = nq.dvb_dvJ;  // force columns stay zero
   // Total derivatives of the contact velocities through v_b: d v_i = (partial) + J_i,b dv_b
-  // with the base columns of the (LOCAL_WORLD_ALIGNED) contact Jacobian
-  // J_i,b = [R, -hat(p_i - p_b) R], so J_i,b M = R M_lin + (R M_ang) x (p_i - p_b) column by
-  // column: R M is formed once for all contacts, then one cross product per column.
+  // with J_i,b the base columns of the (LOCAL_WORLD_ALIGNED) contact Jacobian: one
+  // 3nc x 6 x (ndx + nj) product of depth 6 for all contacts.
   const int nf = 3 * nc;
-  const Eigen::Matrix3d& R = c.data.oRb[0];
-  c.Rdvb_dx.topRows<3>().noalias() = R * c.dvb_dx.topRows<3>();
-  c.Rdvb_dx.bottomRows<3>().noalias() = R * c.dvb_dx.bottomRows<3>();
-  c.Rdvb_du.topRows<3>().noalias() = R * c.dvb_du.leftCols(nj).topRows<3>();
-  c.Rdvb_du.bottomRows<3>().noalias() = R * c.dvb_du.leftCols(nj).bottomRows<3>();
+  const auto Jb = nq.contactJacobians.leftCols<6>();
   c.footVelocity_dx.leftCols(nv) = nq.contactVelocityDerivatives;
   c.footVelocity_dx.rightCols<6>().setZero();
+  ocp::smallDepthProduct(c.footVelocity_dx, Jb, c.dvb_dx, 1.0, true);
   c.footVelocity_du.leftCols(nj) = nq.contactJacobians.rightCols(nj);
-  const int ndx = robot.ndx();
-  for (int i = 0; i < nc; ++i) {
-    const Eigen::Vector3d r = c.footPosition(i) - c.data.opb[0];
-    auto vdx = c.footVelocity_dx.middleRows<3>(3 * i);
-    for (int col = 0; col < ndx; ++col) {
-      vdx.col(col) += c.Rdvb_dx.col(col).head<3>() + c.Rdvb_dx.col(col).tail<3>().cross(r);
-    }
-    auto vdu = c.footVelocity_du.middleRows<3>(3 * i);
-    for (int col = 0; col < nj; ++col) {
-      vdu.col(col) += c.Rdvb_du.col(col).head<3>() + c.Rdvb_du.col(col).tail<3>().cross(r);
-    }
-  }
+  ocp::smallDepthProduct(c.footVelocity_du.leftCols(nj), Jb, c.dvb_du.leftCols(nj), 1.0, true);
   c.footPosition_dx.topLeftCorner(nf, nv) = nq.contactJacobians;
   for (int i = 0; i < nc; ++i) {
     const int r = 3 * i;

@@ -73,7 +73,14 @@ void SwingHeightResidual::calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x, 
 
 void SwingHeightResidual::calcDiff(const ocp::NodeContext& ctx, ocp::ConstVecRef x,
                                    ocp::ConstVecRef u, ocp::ResidualData& d) const {
-  if (rows(ctx) == 0) return;
+  const int n = rows(ctx);
+  if (n > 0) calcDiffInto(ctx, x, u, d, d.Rx.topRows(n), d.Ru.topRows(n));
+}
+
+void SwingHeightResidual::calcDiffInto(const ocp::NodeContext& ctx, ocp::ConstVecRef x,
+                                       ocp::ConstVecRef u, ocp::ResidualData& d, ocp::MatRef Rx,
+                                       ocp::MatRef Ru) const {
+  if (Rx.rows() == 0) return;
   const CentroidalRobot& r = pre_->robot();
   auto& data = static_cast<CentroidalResidualData&>(d);
   const CentroidalCache& c = nodeCache(ctx, x, u, true, *pre_, data.fallback);
@@ -88,9 +95,9 @@ void SwingHeightResidual::calcDiff(const ocp::NodeContext& ctx, ocp::ConstVecRef
       const planning::FootReference ref = footReference(ctx, *planner_, i);
       slope = correctionSlope(c.footPosition(i).z() - ref.z_ref);
     }
-    d.Rx.row(row) = c.footVelocity_dx.row(k) + slope * c.footPosition_dx.row(k);
-    d.Ru.row(row).head(nj) = c.footVelocity_du.row(k).head(nj);
-    d.Ru.row(row).tail(nf).setZero();
+    Rx.row(row) = c.footVelocity_dx.row(k) + slope * c.footPosition_dx.row(k);
+    Ru.row(row).head(nj) = c.footVelocity_du.row(k).head(nj);
+    Ru.row(row).tail(nf).setZero();
     ++row;
   }
 }

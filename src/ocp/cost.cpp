@@ -3,6 +3,7 @@
 #include <stdexcept>
 
 #include "rollstep/ocp/residuals.hpp"
+#include "rollstep/ocp/small_products.hpp"
 
 namespace rollstep::ocp {
 
@@ -12,11 +13,18 @@ struct LsqData final : CostData {
       : res(std::move(r)),
         wr(VectorXd::Zero(max_rows)),
         WRx(MatrixXd::Zero(max_rows, ndx)),
-        WRu(MatrixXd::Zero(max_rows, nu)) {}
+        WRu(MatrixXd::Zero(max_rows, nu)),
+        RxT(MatrixXd::Zero(ndx, max_rows)),
+        RuT(MatrixXd::Zero(nu, max_rows)) {}
   std::unique_ptr<ResidualData> res;
   VectorXd wr;        // W r
   MatrixXd WRx, WRu;  // W Rx, W Ru
+  MatrixXd RxT, RuT;  // Rx^T, Ru^T (the left operands of the small-depth products)
 };
+
+// Residuals with at most this many rows take the small-depth products (small_products.hpp)
+// for R^T W R; larger ones Eigen's general product.
+constexpr int kSmallDepth = 8;
 }  // namespace
 
 LeastSquaresCost::LeastSquaresCost(std::shared_ptr<const Residual> residual,
@@ -86,10 +94,12 @@ void LeastSquaresCost::calcDiff(const NodeContext& ctx, ConstVecRef x, ConstVecR
     const int b = block_, n = m - b;
     const auto J = s.res->Rx.topLeftCorner(b, b);
     s.wr.head(m) = scale * weights_.head(m).cwiseProduct(s.res->r.head(m));
-    lx.head(b).noalias() += J.transpose() * s.wr.head(b);
-    lx.tail(n) += s.wr.tail(n);
     s.WRx.topLeftCorner(b, b).noalias() = (scale * weights_.head(b)).asDiagonal() * J;
-    Lxx.topLeftCorner(b, b).noalias() += J.transpose() * s.WRx.topLeftCorner(b, b);
+    s.RxT.topLeftCorner(b, b) = J.transpose();
+    smallDepthProduct(lx.head(b), s.RxT.topLeftCorner(b, b), s.wr.head(b), 1.0, true);
+    lx.tail(n) += s.wr.tail(n);
+    smallDepthProduct(Lxx.topLeftCorner(b, b), s.RxT.topLeftCorner(b, b), s.WRx.topLeftCorner(b, b),
+                      1.0, true);
     Lxx.diagonal().tail(n) += scale * weights_.tail(n);
     return;
   }
@@ -98,10 +108,17 @@ void LeastSquaresCost::calcDiff(const NodeContext& ctx, ConstVecRef x, ConstVecR
   const auto Rx = s.res->Rx.topRows(m);
   const bool on_x = residual_->dependsOnState(), on_u = residual_->dependsOnInput();
   s.wr.head(m) = scale * w.cwiseProduct(s.res->r.head(m));
+  const bool small = m <= kSmallDepth;
   if (on_x) {
     s.WRx.topRows(m).noalias() = (scale * w).asDiagonal() * Rx;
-    lx.noalias() += Rx.transpose() * s.wr.head(m);
-    Lxx.noalias() += Rx.transpose() * s.WRx.topRows(m);
+    if (small) {
+      s.RxT.leftCols(m) = Rx.transpose();
+      smallDepthProduct(lx, s.RxT.leftCols(m), s.wr.head(m), 1.0, true);
+      smallDepthProduct(Lxx, s.RxT.leftCols(m), s.WRx.topRows(m), 1.0, true);
+    } else {
+      lx.noalias() += Rx.transpose() * s.wr.head(m);
+      Lxx.noalias() += Rx.transpose() * s.WRx.topRows(m);
+    }
   }
   if (on_u) {
     // Trailing input columns of Ru that are exactly zero (e.g. a base velocity residual
@@ -110,9 +127,17 @@ void LeastSquaresCost::calcDiff(const NodeContext& ctx, ConstVecRef x, ConstVecR
     while (cu > 0 && s.res->Ru.col(cu - 1).head(m).isZero(0.0)) --cu;
     const auto Ru = s.res->Ru.topLeftCorner(m, cu);
     s.WRu.topLeftCorner(m, cu).noalias() = (scale * w).asDiagonal() * Ru;
-    lu.head(cu).noalias() += Ru.transpose() * s.wr.head(m);
-    Luu.topLeftCorner(cu, cu).noalias() += Ru.transpose() * s.WRu.topLeftCorner(m, cu);
-    if (on_x) Lux.topRows(cu).noalias() += Ru.transpose() * s.WRx.topRows(m);
+    if (small) {
+      const auto RuT = s.RuT.topLeftCorner(cu, m);
+      s.RuT.topLeftCorner(cu, m) = Ru.transpose();
+      smallDepthProduct(lu.head(cu), RuT, s.wr.head(m), 1.0, true);
+      smallDepthProduct(Luu.topLeftCorner(cu, cu), RuT, s.WRu.topLeftCorner(m, cu), 1.0, true);
+      if (on_x) smallDepthProduct(Lux.topRows(cu), RuT, s.WRx.topRows(m), 1.0, true);
+    } else {
+      lu.head(cu).noalias() += Ru.transpose() * s.wr.head(m);
+      Luu.topLeftCorner(cu, cu).noalias() += Ru.transpose() * s.WRu.topLeftCorner(m, cu);
+      if (on_x) Lux.topRows(cu).noalias() += Ru.transpose() * s.WRx.topRows(m);
+    }
   }
 }
 

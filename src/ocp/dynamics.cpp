@@ -2,6 +2,8 @@
 
 #include <stdexcept>
 
+#include "rollstep/ocp/small_products.hpp"
+
 namespace rollstep::ocp {
 
 namespace {
@@ -79,11 +81,11 @@ void ExplicitEuler::calcDiff(const NodeContext& ctx, ConstVecRef x, ConstVecRef 
   const int b = space().euclideanTangentOffset(), n = space().ndx() - b;
   space().integrateJacobiansHead(x, e.v, e.Jx.topLeftCorner(b, b), e.Jv.topLeftCorner(b, b));
   const double dt = ctx.dt;
-  Fx.topRows(b).noalias() = dt * (e.Jv.topLeftCorner(b, b) * e.fx.topRows(b));
+  smallDepthProduct(Fx.topRows(b), e.Jv.topLeftCorner(b, b), e.fx.topRows(b), dt, false);
   Fx.topLeftCorner(b, b) += e.Jx.topLeftCorner(b, b);
   Fx.bottomRows(n) = dt * e.fx.bottomRows(n);
   Fx.bottomRightCorner(n, n).diagonal().array() += 1.0;
-  Fu.topRows(b).noalias() = dt * (e.Jv.topLeftCorner(b, b) * e.fu.topRows(b));
+  smallDepthProduct(Fu.topRows(b), e.Jv.topLeftCorner(b, b), e.fu.topRows(b), dt, false);
   Fu.bottomRows(n) = dt * e.fu.bottomRows(n);
 }
 

@@ -282,9 +282,7 @@ void OptimalControlProblem::run(int k, ConstVecRef x, ConstVecRef u_in, NodeData
       r.calc(ctx, x, u, rd);
       d.e.segment(ne, rows) = rd.r.head(rows);
       if (derivatives) {
-        r.calcDiff(ctx, x, u, rd);
-        d.Ex.middleRows(ne, rows) = rd.Rx.topRows(rows);
-        d.Eu.middleRows(ne, rows) = rd.Ru.topRows(rows);
+        r.calcDiffInto(ctx, x, u, rd, d.Ex.middleRows(ne, rows), d.Eu.middleRows(ne, rows));
       }
       ne += rows;
     }
@@ -321,13 +319,12 @@ void OptimalControlProblem::run(int k, ConstVecRef x, ConstVecRef u_in, NodeData
     entry.residual->calc(ctx, x, u, rd);
     d.g.segment(ni, rows) = rd.r.head(rows);
     if (derivatives) {
-      entry.residual->calcDiff(ctx, x, u, rd);
-      d.Gx.middleRows(ni, rows) = rd.Rx.topRows(rows);
-      if (terminal || entry.options.soft) {
-        d.Gu.middleRows(ni, rows).setZero();
-      } else {
-        d.Gu.middleRows(ni, rows) = rd.Ru.topRows(rows);
-      }
+      // Terminal and soft rows are state-only: their Gu rows are zero whatever Ru is.
+      const bool no_input = terminal || entry.options.soft;
+      entry.residual->calcDiffInto(
+          ctx, x, u, rd, d.Gx.middleRows(ni, rows),
+          no_input ? MatRef(rd.Ru.topRows(rows)) : MatRef(d.Gu.middleRows(ni, rows)));
+      if (no_input) d.Gu.middleRows(ni, rows).setZero();
     }
     ni += rows;
   }

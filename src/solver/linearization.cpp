@@ -2,6 +2,7 @@
 // Jacobians, the inequality rows (general rows, input and state bounds), the KKT residuals
 // of every node and, in converging mode, the constraint curvature added to the
 // Gauss-Newton Hessian.
+#include "rollstep/ocp/small_products.hpp"
 #include "solver_impl.hpp"
 
 namespace rollstep::solver {
@@ -66,9 +67,11 @@ void Solver::Impl::linearizeNode(int k) {
       const int b = prob->stateSpace().euclideanTangentOffset(), m = ndx - b;
       prob->stateSpace().differenceJacobiansHead(xn, d.xnext, n.J0.topLeftCorner(b, b),
                                                  n.J1.topLeftCorner(b, b));
-      st.A.topRows(b).noalias() = n.J1.topLeftCorner(b, b) * d.Fx.topRows(b);
+      ocp::smallDepthProduct(st.A.topRows(b), n.J1.topLeftCorner(b, b), d.Fx.topRows(b), 1.0,
+                             false);
       st.A.bottomRows(m) = d.Fx.bottomRows(m);
-      st.B.topRows(b).noalias() = n.J1.topLeftCorner(b, b) * d.Fu.topRows(b);
+      ocp::smallDepthProduct(st.B.topRows(b), n.J1.topLeftCorner(b, b), d.Fu.topRows(b), 1.0,
+                             false);
       st.B.bottomRows(m) = d.Fu.bottomRows(m);
     }
     st.b = n.defect;

@@ -343,6 +343,23 @@ TEST(Equalities, AllocationFree) {
   }
 }
 
+TEST(Equalities, CalcDiffIntoWritesTheRowsOfCalcDiffAndNothingElse) {
+  for (const ModeCase& c : modeClasses()) {
+    Fixture s(c.gait);
+    std::mt19937 rng(31);
+    const Eigen::VectorXd x = randomState(*s.robot, rng);
+    const Eigen::VectorXd u = randomInput(*s.robot, rng);
+    const auto ctx =
+        makeContext(c.mode, s.scene.timeInMode(c.mode), s.scene.schedule.get(), s.cache.get());
+    s.pre->compute(ctx, x, u, true, *s.cache);
+    const std::vector<const ocp::Residual*> terms = s.all();
+    for (std::size_t k = 0; k < terms.size(); ++k) {
+      expectCalcDiffIntoMatchesCalcDiff(
+          *terms[k], ctx, x, u, "term " + std::to_string(k) + " mode " + std::to_string(c.mode));
+    }
+  }
+}
+
 TEST(Equalities, RejectsBadArguments) {
   Fixture s;
   EXPECT_THROW(SwingForceResidual(nullptr), std::invalid_argument);

@@ -10,6 +10,7 @@
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <random>
 #include <sstream>
@@ -102,6 +103,28 @@ inline Eigen::VectorXd randomState(const CentroidalRobot& robot, std::mt19937& r
 }
 
 /// Random input: v_J ~ N(0, 0.5), forces ~ weight / nc + N(0, 30) in z, N(0, 30) in x, y.
+/// Residual::calcDiffInto writes exactly the rows calcDiff writes (bit for bit), into
+/// blocks of larger matrices pre-filled with NaN (as the problem's stacked rows hold
+/// other nodes' values), touching no entry outside them and leaving none of them unset.
+inline void expectCalcDiffIntoMatchesCalcDiff(const ocp::Residual& r, const ocp::NodeContext& ctx,
+                                              const Eigen::VectorXd& x, const Eigen::VectorXd& u,
+                                              const std::string& what) {
+  const auto a = r.createData(), b = r.createData();
+  const int rows = r.rows(ctx);
+  a->rows = b->rows = rows;
+  r.calc(ctx, x, u, *a);
+  r.calcDiff(ctx, x, u, *a);
+  r.calc(ctx, x, u, *b);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  Eigen::MatrixXd X = Eigen::MatrixXd::Constant(rows + 5, r.ndx() + 2, nan);
+  Eigen::MatrixXd U = Eigen::MatrixXd::Constant(rows + 4, r.nu(), nan);
+  r.calcDiffInto(ctx, x, u, *b, X.block(3, 1, rows, r.ndx()), U.middleRows(2, rows));
+  EXPECT_TRUE(X.block(3, 1, rows, r.ndx()) == a->Rx.topRows(rows)) << what;
+  EXPECT_TRUE(U.middleRows(2, rows) == a->Ru.topRows(rows)) << what;
+  EXPECT_EQ(X.array().isNaN().count(), X.size() - rows * r.ndx()) << what;
+  EXPECT_EQ(U.array().isNaN().count(), U.size() - rows * r.nu()) << what;
+}
+
 inline Eigen::VectorXd randomInput(const CentroidalRobot& robot, std::mt19937& rng) {
   std::normal_distribution<double> n(0.0, 1.0);
   Eigen::VectorXd u(robot.nu());

@@ -516,6 +516,31 @@ TEST_F(Fixture, RowsCalcAndCalcDiffDoNotAllocate) {
   EXPECT_GT(guard.count(), 0u);
 }
 
+TEST_F(Fixture, CalcDiffIntoWritesTheRowsOfCalcDiffAndNothingElse) {
+  StepScene s;
+  const StaticTorqueLimitResidual torque(robot);
+  TorqueLimitOptions upper_limits;  // no lower limits: the rows are gathered one by one
+  upper_limits.lower = Eigen::VectorXd::Constant(robot->nj(), -kInf);
+  upper_limits.upper = Eigen::VectorXd::Constant(robot->nj(), 30.0);
+  const StaticTorqueLimitResidual upper_only(robot, upper_limits);
+  const FrictionPyramidResidual friction(robot, s.references());
+  const FootRegionResidual stance(robot, s.references(), RegionUse::Stance);
+  const FootRegionResidual swing(robot, s.references(), RegionUse::Swing);
+  const std::vector<const ocp::Residual*> terms{&torque, &upper_only, &friction, &stance, &swing};
+  const VectorXd x = randomState(*robot, rng), u = randomInput(*robot, rng);
+  int swing_rows = 0;
+  for (double t = 0.0; t < 7.5; t += 0.1) {
+    const ocp::NodeContext ctx = makeContext(s.schedule.modeAt(t), t, &s.schedule, cache.get());
+    pre.compute(ctx, x, u, true, *cache);
+    for (std::size_t k = 0; k < terms.size(); ++k) {
+      expectCalcDiffIntoMatchesCalcDiff(*terms[k], ctx, x, u,
+                                        "term " + std::to_string(k) + " t " + std::to_string(t));
+    }
+    swing_rows += swing.rows(ctx);
+  }
+  EXPECT_GT(swing_rows, 0);
+}
+
 // ---- joint limit bounds ----------------------------------------------------------------------
 
 TEST_F(Fixture, JointLimitBoundsFromTheModel) {

@@ -12,6 +12,7 @@
 #include "rollstep/ocp/cost.hpp"
 #include "rollstep/ocp/problem.hpp"
 #include "rollstep/ocp/residuals.hpp"
+#include "rollstep/ocp/small_products.hpp"
 #include "test_models.hpp"
 
 namespace {
@@ -386,6 +387,81 @@ TEST(Cost, StructuredTrackingPathsMatchTheGenericProducts) {
                 1e-12);
     }
   }
+}
+
+TEST(Cost, GenericPathMatchesTheDenseProductsForSmallAndLargeResiduals) {
+  // Residuals of up to 8 rows take the small-depth products, larger ones Eigen's; both
+  // with trailing zero input columns (left out) and on accumulators that are not zero.
+  std::mt19937 rng(33);
+  auto s = std::make_shared<ocp::SE3xEuclideanSpace>(5);
+  const int n = s->ndx(), nu = 9;
+  for (int rows : {1, 3, 6, 8, 9, 14}) {
+    const MatrixXd C = MatrixXd::Random(rows, n);
+    MatrixXd D = MatrixXd::Random(rows, nu);
+    D.rightCols(3).setZero();
+    auto res = std::make_shared<ocp::AffineResidual>(s, randomState(*s, rng), C, D,
+                                                     VectorXd::Random(rows));
+    const VectorXd w = randomVec(rows, rng).cwiseAbs();
+    ocp::LeastSquaresCost cost(res, w);
+    auto cd = cost.createData();
+    auto rd = res->createData();
+    ocp::NodeContext ctx;
+    const VectorXd x = randomState(*s, rng), u = randomVec(nu, rng);
+    const VectorXd lx0 = VectorXd::Random(n), lu0 = VectorXd::Random(nu);
+    const MatrixXd Lxx0 = MatrixXd::Random(n, n), Luu0 = MatrixXd::Random(nu, nu),
+                   Lux0 = MatrixXd::Random(nu, n);
+    VectorXd lx = lx0, lu = lu0;
+    MatrixXd Lxx = Lxx0, Luu = Luu0, Lux = Lux0;
+    cost.calc(ctx, x, u, *cd);
+    cost.calcDiff(ctx, x, u, *cd, 0.25, lx, lu, Lxx, Luu, Lux);
+    rd->rows = rows;
+    res->calc(ctx, x, u, *rd);
+    res->calcDiff(ctx, x, u, *rd);
+    const MatrixXd W = 0.25 * MatrixXd(w.asDiagonal());
+    EXPECT_LT((lx - lx0 - rd->Rx.transpose() * W * rd->r).norm(), 1e-12) << rows;
+    EXPECT_LT((lu - lu0 - rd->Ru.transpose() * W * rd->r).norm(), 1e-12) << rows;
+    EXPECT_LT((Lxx - Lxx0 - rd->Rx.transpose() * W * rd->Rx).norm(), 1e-12) << rows;
+    EXPECT_LT((Luu - Luu0 - rd->Ru.transpose() * W * rd->Ru).norm(), 1e-12) << rows;
+    EXPECT_LT((Lux - Lux0 - rd->Ru.transpose() * W * rd->Rx).norm(), 1e-12) << rows;
+  }
+}
+
+TEST(SmallProducts, EqualEigensProductOnBlocksWithoutTouchingTheRest) {
+  std::mt19937 rng(5);
+  for (int rows : {1, 2, 3, 4, 5, 6, 7, 8, 9, 13, 24, 30}) {
+    for (int depth : {0, 1, 2, 3, 4, 5, 6, 7, 9, 12}) {
+      for (int cols : {1, 2, 7, 24}) {
+        for (bool accumulate : {false, true}) {
+          // Operands as blocks of larger matrices (outer stride > rows).
+          const MatrixXd Abig = MatrixXd::Random(rows + 3, depth + 2);
+          const MatrixXd Bbig = MatrixXd::Random(depth + 4, cols + 1);
+          const MatrixXd C0 = MatrixXd::Random(rows + 5, cols + 2);
+          const auto A = Abig.block(1, 1, rows, depth);
+          const auto B = Bbig.block(2, 0, depth, cols);
+          MatrixXd C = C0;
+          const double alpha = -0.7;
+          {
+            test::MallocGuard mguard;
+            ocp::smallDepthProduct(C.block(2, 1, rows, cols), A, B, alpha, accumulate);
+            EXPECT_EQ(mguard.count(), 0u);
+          }
+          MatrixXd expected = C0;
+          expected.block(2, 1, rows, cols) =
+              (accumulate ? MatrixXd(C0.block(2, 1, rows, cols)) : MatrixXd::Zero(rows, cols)) +
+              alpha * A * B;
+          EXPECT_LT((C - expected).cwiseAbs().maxCoeff(), 1e-12)
+              << rows << " x " << depth << " x " << cols << " accumulate " << accumulate;
+        }
+      }
+    }
+  }
+  // A vector right-hand side (a gradient: C += A^T r with A^T stored).
+  const MatrixXd At = MatrixXd::Random(11, 6);
+  const VectorXd r = VectorXd::Random(8);
+  VectorXd g = VectorXd::Random(11);
+  const VectorXd g0 = g;
+  ocp::smallDepthProduct(g, At, r.segment(1, 6), 2.0, true);
+  EXPECT_LT((g - g0 - 2.0 * At * r.segment(1, 6)).norm(), 1e-12);
 }
 
 // ---- mode schedule ---------------------------------------------------------------------------

@@ -46,6 +46,9 @@ class SwingForceResidual final : public ocp::Residual {
             ocp::ResidualData& d) const override;
   void calcDiff(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
                 ocp::ResidualData& d) const override;
+  /// Writes every entry of Rx and Ru (rows(ctx) rows).
+  void calcDiffInto(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
+                    ocp::ResidualData& d, ocp::MatRef Rx, ocp::MatRef Ru) const override;
 
  private:
   std::shared_ptr<const CentroidalRobot> robot_;
@@ -84,6 +87,9 @@ class StanceVelocityResidual final : public ocp::Residual {
             ocp::ResidualData& d) const override;
   void calcDiff(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
                 ocp::ResidualData& d) const override;
+  /// Writes every entry of Rx and Ru (rows(ctx) rows).
+  void calcDiffInto(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
+                    ocp::ResidualData& d, ocp::MatRef Rx, ocp::MatRef Ru) const override;
 
  private:
   /// Contact i has rows at `mode`.
@@ -117,6 +123,9 @@ class SwingHeightResidual final : public ocp::Residual {
             ocp::ResidualData& d) const override;
   void calcDiff(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
                 ocp::ResidualData& d) const override;
+  /// Writes every entry of Rx and Ru (rows(ctx) rows).
+  void calcDiffInto(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
+                    ocp::ResidualData& d, ocp::MatRef Rx, ocp::MatRef Ru) const override;
 
  private:
   std::shared_ptr<const CentroidalPrecomputation> pre_;

@@ -94,6 +94,9 @@ class StaticTorqueLimitResidual final : public ocp::Residual {
             ocp::ResidualData& d) const override;
   void calcDiff(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
                 ocp::ResidualData& d) const override;
+  /// Writes every entry of Rx and Ru (rows(ctx) rows).
+  void calcDiffInto(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
+                    ocp::ResidualData& d, ocp::MatRef Rx, ocp::MatRef Ru) const override;
 
  private:
   void staticTorques(const CentroidalCache& c, Eigen::VectorXd& tau) const;
@@ -140,6 +143,9 @@ class FrictionPyramidResidual final : public ocp::Residual {
             ocp::ResidualData& d) const override;
   void calcDiff(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
                 ocp::ResidualData& d) const override;
+  /// Writes every entry of Rx and Ru (rows(ctx) rows).
+  void calcDiffInto(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
+                    ocp::ResidualData& d, ocp::MatRef Rx, ocp::MatRef Ru) const override;
 
  private:
   /// The 5 x 3 row block of foot i at ctx: rows(f_i) - [0 0 0 0 min_normal_force].
@@ -178,6 +184,9 @@ class FootRegionResidual final : public ocp::Residual {
             ocp::ResidualData& d) const override;
   void calcDiff(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
                 ocp::ResidualData& d) const override;
+  /// Writes every entry of Rx and Ru (rows(ctx) rows).
+  void calcDiffInto(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
+                    ocp::ResidualData& d, ocp::MatRef Rx, ocp::MatRef Ru) const override;
 
  private:
   int regionOf(const ocp::NodeContext& ctx, int foot) const;

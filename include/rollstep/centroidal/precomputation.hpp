@@ -53,8 +53,6 @@ struct CentroidalCache : ocp::NodeCache {
   /// 3nc x ndx: world angular Jacobian of each contact frame (dR_i = hat(w) R_i), 0 in dh.
   Eigen::MatrixXd footAngular_dx;
   Eigen::MatrixXd footYaw_dx;  ///< nc x ndx
-  /// Scratch: the world-axes base twist derivatives [R dv_lin; R dw] (6 x ndx, 6 x nj).
-  Eigen::Matrix<double, 6, Eigen::Dynamic> Rdvb_dx, Rdvb_du;
 
   // ---- Filled by compute(ctx, ...) when the precomputation has a foot planner and ctx a
   // schedule: every foot's planner reference at the node (what the terrain and swing terms

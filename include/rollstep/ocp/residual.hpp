@@ -63,6 +63,17 @@ class Residual {
   /// arguments, so it may reuse what calc stored in d.
   virtual void calcDiff(const NodeContext& ctx, ConstVecRef x, ConstVecRef u,
                         ResidualData& d) const = 0;
+  /// Same Jacobians, written into Rx (rows(ctx) x ndx) and Ru (rows(ctx) x nu) instead of
+  /// d.Rx, d.Ru: the problem passes the blocks of its stacked constraint matrices, so that
+  /// a residual that overrides this writes its rows once instead of into d and then again
+  /// by a copy. An override must write every entry of Rx and Ru (they hold other nodes'
+  /// values). Default: calcDiff, then the copy. Called right after calc, like calcDiff.
+  virtual void calcDiffInto(const NodeContext& ctx, ConstVecRef x, ConstVecRef u, ResidualData& d,
+                            MatRef Rx, MatRef Ru) const {
+    calcDiff(ctx, x, u, d);
+    Rx = d.Rx.topRows(Rx.rows());
+    Ru = d.Ru.topRows(Ru.rows());
+  }
 
  private:
   int ndx_, nu_, max_rows_;
