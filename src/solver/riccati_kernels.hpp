@@ -106,21 +106,30 @@ EIGEN_ALWAYS_INLINE void tile(const Term& t1, const Term& t2, Index r, Index c0,
   }
 }
 
-/// Rows [i0, m) of columns [c0, c0 + NR): tiles of kMaxMP, 2, 1 packets, then the overlapping
-/// packet for a remainder. Needs m >= kP.
+/// Rows [i0, m) of columns [c0, c0 + NR): tiles of kMaxMP packets, then the rest by one
+/// tile of as many packets as it needs, ending at row m (it overlaps rows already done, or
+/// rows above i0, with the same values). A short tile at the end would be bound by the
+/// latency of its few accumulators. Needs m >= kP.
 template <int NR, Store S>
 void columnTile(int i0, int m, Index c0, const Term& t1, const Term& t2, const double* Cin,
                 Index ldi, double* C, Index ldc) {
   int i = i0;
-  if constexpr (kMaxMP == 3) {
-    for (; i + 3 * kP <= m; i += 3 * kP) tile<3, NR, S>(t1, t2, i, c0, Cin, ldi, C, ldc);
+  for (; i + kMaxMP * kP <= m; i += kMaxMP * kP) {
+    tile<kMaxMP, NR, S>(t1, t2, i, c0, Cin, ldi, C, ldc);
   }
-  for (; i + 2 * kP <= m; i += 2 * kP) tile<2, NR, S>(t1, t2, i, c0, Cin, ldi, C, ldc);
-  if (i + kP <= m) {
-    tile<1, NR, S>(t1, t2, i, c0, Cin, ldi, C, ldc);
-    i += kP;
+  if (i == m) return;
+  const int mp = (m - i + kP - 1) / kP;
+  const int start = m - mp * kP;
+  if (mp == 1) {
+    tile<1, NR, S>(t1, t2, start, c0, Cin, ldi, C, ldc);
+  } else if (start < 0) {  // a column shorter than mp packets: single packets
+    for (; i + kP <= m; i += kP) tile<1, NR, S>(t1, t2, i, c0, Cin, ldi, C, ldc);
+    if (i < m) tile<1, NR, S>(t1, t2, m - kP, c0, Cin, ldi, C, ldc);
+  } else if (mp == 2) {
+    tile<2, NR, S>(t1, t2, start, c0, Cin, ldi, C, ldc);
+  } else if constexpr (kMaxMP == 3) {
+    tile<3, NR, S>(t1, t2, start, c0, Cin, ldi, C, ldc);
   }
-  if (i < m) tile<1, NR, S>(t1, t2, m - kP, c0, Cin, ldi, C, ldc);
 }
 
 /// Columns [c0, c1) of C (rows [0, m), or [column, m) with `lower`), at most 4 at a time.
