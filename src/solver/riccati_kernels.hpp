@@ -30,8 +30,10 @@ struct Term {
   Index bk = 0, bj = 0;
 };
 
-/// How a tile's sum s of the terms reaches C: C = s, C = -s, C = Cin + s, C = Cin - s.
-enum class Store { Set, Negate, Add, Subtract };
+/// How a tile's sum s of the terms reaches C: C = s, C = -s, C = Cin + s, C = Cin - s,
+/// or C += s in place (Accumulate: an overlapping tile leaves the rows it overlaps as
+/// they are, by zeroing those lanes of s).
+enum class Store { Set, Negate, Add, Subtract, Accumulate };
 
 namespace detail {
 
@@ -82,21 +84,31 @@ EIGEN_ALWAYS_INLINE void accumulate(Packet (&acc)[MP][NR], const Term& t, Index 
   }
 }
 
-/// Rows [r, r + MP kP) x columns [c0, c0 + NR) of C from the terms t1 (and t2).
+// Lanes [0, 8) zero, [8, 16) one: ploadu(kMask + 8 - skip) zeroes the first `skip` lanes.
+alignas(64) constexpr double kMask[16] = {0, 0, 0, 0, 0, 0, 0, 0, 1, 1, 1, 1, 1, 1, 1, 1};
+static_assert(kP <= 8, "kMask covers packets of up to 8 doubles");
+
+/// Rows [r, r + MP kP) x columns [c0, c0 + NR) of C from the terms t1 (and t2); with
+/// Accumulate, the first `skip` rows are left as they are.
 template <int MP, int NR, Store S>
 EIGEN_ALWAYS_INLINE void tile(const Term& t1, const Term& t2, Index r, Index c0, const double* Cin,
-                              Index ldi, double* C, Index ldc) {
+                              Index ldi, double* C, Index ldc, int skip = 0) {
   Packet acc[MP][NR];
   for (int m = 0; m < MP; ++m) {
     for (int c = 0; c < NR; ++c) acc[m][c] = ei::pset1<Packet>(0.0);
   }
   accumulate<MP, NR>(acc, t1, r, c0);
   if (t2.K > 0) accumulate<MP, NR>(acc, t2, r, c0);
+  if (S == Store::Accumulate && skip > 0) {
+    const Packet mask = ei::ploadu<Packet>(kMask + 8 - skip);
+    for (int c = 0; c < NR; ++c) acc[0][c] = ei::pmul(acc[0][c], mask);
+  }
   for (int c = 0; c < NR; ++c) {
     double* out = C + r + (c0 + c) * ldc;
     for (int m = 0; m < MP; ++m) {
       Packet v = acc[m][c];
       if constexpr (S == Store::Negate) v = ei::pnegate(v);
+      if constexpr (S == Store::Accumulate) v = ei::padd(ei::ploadu<Packet>(out + m * kP), v);
       if constexpr (S == Store::Add || S == Store::Subtract) {
         const Packet in = ei::ploadu<Packet>(Cin + r + (c0 + c) * ldi + m * kP);
         v = S == Store::Add ? ei::padd(in, v) : ei::psub(in, v);
@@ -121,14 +133,14 @@ void columnTile(int i0, int m, Index c0, const Term& t1, const Term& t2, const d
   const int mp = (m - i + kP - 1) / kP;
   const int start = m - mp * kP;
   if (mp == 1) {
-    tile<1, NR, S>(t1, t2, start, c0, Cin, ldi, C, ldc);
+    tile<1, NR, S>(t1, t2, start, c0, Cin, ldi, C, ldc, i - start);
   } else if (start < 0) {  // a column shorter than mp packets: single packets
     for (; i + kP <= m; i += kP) tile<1, NR, S>(t1, t2, i, c0, Cin, ldi, C, ldc);
-    if (i < m) tile<1, NR, S>(t1, t2, m - kP, c0, Cin, ldi, C, ldc);
+    if (i < m) tile<1, NR, S>(t1, t2, m - kP, c0, Cin, ldi, C, ldc, i - (m - kP));
   } else if (mp == 2) {
-    tile<2, NR, S>(t1, t2, start, c0, Cin, ldi, C, ldc);
+    tile<2, NR, S>(t1, t2, start, c0, Cin, ldi, C, ldc, i - start);
   } else if constexpr (kMaxMP == 3) {
-    tile<3, NR, S>(t1, t2, start, c0, Cin, ldi, C, ldc);
+    tile<3, NR, S>(t1, t2, start, c0, Cin, ldi, C, ldc, i - start);
   }
 }
 
@@ -148,6 +160,7 @@ void columns(int m, int c0, int c1, bool lower, const Term& t1, const Term& t2, 
         if constexpr (S == Store::Negate) out = -s;
         if constexpr (S == Store::Add) out = Cin[i + j * ldi] + s;
         if constexpr (S == Store::Subtract) out = Cin[i + j * ldi] - s;
+        if constexpr (S == Store::Accumulate) out += s;
       }
     }
     return;
@@ -193,6 +206,23 @@ inline void gemmtLower(int n, int K, const double* A, Index lda, const double* B
   if (n <= 0) return;
   const Term t{K, A, lda, B, bk, bj};
   detail::columns<Store::Add>(n, 0, n, true, t, Term{}, Cin, ldi, C, ldc);
+}
+
+/// C += A B in place (m x n; A m x K as in Term).
+inline void gemmAccumulate(int m, int n, int K, const double* A, Index lda, const double* B,
+                           Index bk, Index bj, double* C, Index ldc) {
+  if (m <= 0 || n <= 0 || K <= 0) return;
+  const Term t{K, A, lda, B, bk, bj};
+  detail::columns<Store::Accumulate>(m, 0, n, false, t, Term{}, nullptr, 0, C, ldc);
+}
+
+/// lower(C) += lower(A B) in place for n x n C (A n x K). Entries above the diagonal
+/// within C's diagonal 4 x 4 blocks receive their part of A B too; none further above.
+inline void gemmtLowerAccumulate(int n, int K, const double* A, Index lda, const double* B,
+                                 Index bk, Index bj, double* C, Index ldc) {
+  if (n <= 0 || K <= 0) return;
+  const Term t{K, A, lda, B, bk, bj};
+  detail::columns<Store::Accumulate>(n, 0, n, true, t, Term{}, nullptr, 0, C, ldc);
 }
 
 /// The backward Riccati step's factorisation, fused with the product that forms its

@@ -17,7 +17,9 @@ namespace {
 using Eigen::MatrixXd;
 using rollstep::solver::kernels::factorSchur;
 using rollstep::solver::kernels::gemm;
+using rollstep::solver::kernels::gemmAccumulate;
 using rollstep::solver::kernels::gemmtLower;
+using rollstep::solver::kernels::gemmtLowerAccumulate;
 using Strided = Eigen::Map<MatrixXd, Eigen::Unaligned, Eigen::OuterStride<>>;
 
 constexpr double kSentinel = 12345.678;
@@ -100,6 +102,48 @@ TEST(RiccatiKernels, GemmtLowerEqualsEigenProductOnTheLowerTriangle) {
     got.triangularView<Eigen::StrictlyUpper>() = want.triangularView<Eigen::StrictlyUpper>();
     EXPECT_LT(relativeError(got, want), 1e-12) << n << " x " << K;
     EXPECT_TRUE(c.untouchedOutside()) << n << " x " << K;
+  }
+}
+
+/// The in-place forms (the condensing's weighted products): C += A B, with B's rows read
+/// in place (bk = 1) as the condensing does; lower(C) += lower(A B), and nothing above
+/// C's diagonal 4 x 4 blocks changes.
+TEST(RiccatiKernels, AccumulatingProductsEqualEigen) {
+  std::mt19937 rng(19u);
+  for (int trial = 0; trial < 300; ++trial) {
+    const int m = uniform(rng, 1, 60), n = uniform(rng, 1, 60), K = uniform(rng, 1, 60);
+    Buffer a(m, K, uniform(rng, 0, 3), uniform(rng, 0, 3));
+    Buffer b(K, n, uniform(rng, 0, 3), uniform(rng, 0, 3));
+    Buffer c(m, n, uniform(rng, 0, 3), uniform(rng, 0, 3));
+    a.map() = random(m, K, rng);
+    b.map() = random(K, n, rng);
+    const MatrixXd C0 = random(m, n, rng);
+    c.map() = C0;
+    gemmAccumulate(m, n, K, a.ptr(), a.ld, b.ptr(), 1, b.ld, c.ptr(), c.ld);
+    const MatrixXd want = C0 + MatrixXd(a.map()) * MatrixXd(b.map());
+    EXPECT_LT(relativeError(c.map(), want), 1e-12) << m << " x " << n << " x " << K;
+    EXPECT_TRUE(c.untouchedOutside());
+
+    Buffer at(n, K, uniform(rng, 0, 3), uniform(rng, 0, 3));
+    Buffer bt(K, n, uniform(rng, 0, 3), uniform(rng, 0, 3));
+    Buffer s(n, n, uniform(rng, 0, 3), uniform(rng, 0, 3));
+    at.map() = random(n, K, rng);
+    bt.map() = random(K, n, rng);
+    const MatrixXd S0 = random(n, n, rng);
+    s.map() = S0;
+    gemmtLowerAccumulate(n, K, at.ptr(), at.ld, bt.ptr(), 1, bt.ld, s.ptr(), s.ld);
+    const MatrixXd full = S0 + MatrixXd(at.map()) * MatrixXd(bt.map());
+    MatrixXd got = s.map();
+    for (int j = 0; j < n; ++j) {
+      for (int i = 0; i < j; ++i) {
+        if (i < j / 4 * 4) {
+          EXPECT_EQ(got(i, j), S0(i, j)) << "above the diagonal block: " << i << ", " << j;
+        }
+        got(i, j) = full(i, j);
+      }
+    }
+    EXPECT_LT(relativeError(got, full), 1e-12) << n << " x " << K;
+    EXPECT_TRUE(s.untouchedOutside());
   }
 }
 
