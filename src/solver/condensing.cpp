@@ -2,6 +2,7 @@
 // into its LQ stage and its equality rows projected out (condenseNode), the backward
 // Riccati sweep factorises the result (pipelined over the threads), and an Ipopt-style
 // inertia correction shifts the Hessian when the exact curvature makes it indefinite.
+#include "riccati_kernels.hpp"
 #include "solver_impl.hpp"
 
 namespace rollstep::solver {
@@ -93,30 +94,45 @@ void Solver::Impl::condenseNode(int k) {
       while (c1 > c0 && zero(c1 - 1)) --c1;
       return std::pair<int, int>(c0, c1 - c0);
     };
+    // The weighted rows, transposed (W_k G(k, :)^T as column k, in the memory of n.WGx and
+    // n.WGu), are the left operands of the products: the kernels read them down contiguous
+    // columns and the unweighted rows entry by entry.
     const auto W = n.Wc.head(m);
+    const int ldtx = static_cast<int>(d.Gx.cols()), ldtu = static_cast<int>(d.Gu.cols());
+    double* Tx = n.WGx.data();  // ndx x m
+    double* Tu = n.WGu.data();  // nu x m
+    const double* Gx = d.Gx.data();
+    const double* Gu = d.Gu.data();
+    const Eigen::Index ldx = d.Gx.outerStride(), ldu = d.Gu.outerStride();
+    const auto weighted = [&W](double* T, int ld, const double* G, Eigen::Index ldg, int i, int r,
+                               int a, int s) {
+      for (int row = i; row < i + r; ++row) {
+        const double w = W(row);
+        double* t = T + row * ld;
+        for (int c = a; c < a + s; ++c) t[c] = w * G[row + c * ldg];
+      }
+    };
     runs(1, [&](int i, int r) {
       const auto [a, s] = span(d.Gx, i, r);
-      const auto Gx = d.Gx.block(i, a, r, s);
-      n.WGx.block(i, a, r, s).noalias() = W.segment(i, r).asDiagonal() * Gx;
-      st.Q.block(a, a, s, s).triangularView<Eigen::Lower>() +=
-          Gx.transpose() * n.WGx.block(i, a, r, s);
+      weighted(Tx, ldtx, Gx, ldx, i, r, a, s);
+      kernels::gemmtLowerAccumulate(s, r, Tx + a + i * ldtx, ldtx, Gx + i + a * ldx, 1, ldx,
+                                    st.Q.data() + a + a * st.Q.outerStride(), st.Q.outerStride());
     });
     st.q.noalias() += d.Gx.topRows(m).transpose() * n.gam.head(m);
     runs(2, [&](int i, int r) {
       const auto [a, s] = span(d.Gu, i, r);
-      const auto Gu = d.Gu.block(i, a, r, s);
-      n.WGu.block(i, a, r, s).noalias() = W.segment(i, r).asDiagonal() * Gu;
-      st.R.block(a, a, s, s).triangularView<Eigen::Lower>() +=
-          Gu.transpose() * n.WGu.block(i, a, r, s);
-      st.r.segment(a, s).noalias() += Gu.transpose() * n.gamc.segment(i, r);
+      weighted(Tu, ldtu, Gu, ldu, i, r, a, s);
+      kernels::gemmtLowerAccumulate(s, r, Tu + a + i * ldtu, ldtu, Gu + i + a * ldu, 1, ldu,
+                                    st.R.data() + a + a * st.R.outerStride(), st.R.outerStride());
+      st.r.segment(a, s).noalias() += d.Gu.block(i, a, r, s).transpose() * n.gamc.segment(i, r);
     });
     runs(3, [&](int i, int r) {
-      // The x span of these rows is within that of the run of mask 1 that holds them,
-      // whose columns of WGx were written above.
+      // These rows are within a run of mask 2, whose weighted columns of Tu (a span that
+      // holds this one) were written above.
       const auto [a, s] = span(d.Gx, i, r);
       const auto [b, t] = span(d.Gu, i, r);
-      st.S.block(b, a, t, s).noalias() +=
-          d.Gu.block(i, b, r, t).transpose() * n.WGx.block(i, a, r, s);
+      kernels::gemmAccumulate(t, s, r, Tu + b + i * ldtu, ldtu, Gx + i + a * ldx, 1, ldx,
+                              st.S.data() + b + a * st.S.outerStride(), st.S.outerStride());
     });
   }
   // Bounds: diagonal terms only.

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "riccati_kernels.hpp"
+
 namespace rollstep::solver {
 
 using Eigen::MatrixXd;
@@ -15,7 +17,8 @@ RiccatiSolver::RiccatiSolver(int horizon, int nx, int nu, int ne_max)
     throw std::invalid_argument("RiccatiSolver: bad dimensions");
   }
   stages_.resize(static_cast<std::size_t>(N_) + 1);
-  PBA_ = MatrixXd::Zero(nx, nu + nx + 1);
+  BAt_ = MatrixXd::Zero(nu + nx + 1, nx);
+  PBAt_ = MatrixXd::Zero(nu + nx + 1, nx);
   work_.resize(static_cast<std::size_t>(N_) + 1);
   const int nz = nu + nx;
   for (auto& s : stages_) {
@@ -70,6 +73,14 @@ RiccatiSolver::RiccatiSolver(int horizon, int nx, int nu, int ne_max)
 
 namespace {
 
+/// P = the symmetric matrix whose lower triangle is that of L (both triangles stored:
+/// the backward step's product reads P whole).
+template <class Src>
+void storeWhole(MatrixXd& P, const Src& L) {
+  P.triangularView<Eigen::Lower>() = L;
+  P.triangularView<Eigen::StrictlyUpper>() = P.transpose();
+}
+
 /// lower(H) += V W^T + W V^T for n x k V and W (column-major): the reduced Hessian's
 /// T^T Y + Y^T T. Left-looking, column by column, into register accumulators (k is the
 /// number of equality rows, a handful): no product buffer, no transposed read, no
@@ -109,71 +120,6 @@ void addSymmetricProducts(double* H, Eigen::Index ldH, const double* V, Eigen::I
     for (; i + P <= n; i += P) ei::pstoreu(hj + i, packet(i));
     if (tail) ei::pstoreu(hj + n - P, t);
   }
-}
-
-/// Cholesky of the first nw columns of the lower triangle of the n x n matrix M
-/// (column-major, leading dimension ld): [Mww .; Mxw Mxx] becomes [L .; Lxw P] with
-/// L L^T = Mww, Lxw = Mxw L^-T and P = Mxx - Lxw Lxw^T (the Schur complement: the next
-/// cost-to-go Hessian). Left-looking, column by column: each column takes the products of
-/// the columns before it (at most nw of them) in register accumulators (Eigen's packets,
-/// fused multiply-add where the target has it), two packets of rows at a time, and is
-/// stored once. This replaces a Cholesky, a triangular solve and a rank update, each of
-/// which paid Eigen's set-up and packing at these sizes. False when a pivot is not
-/// positive and finite (M is then partly overwritten).
-bool eliminateInputs(double* M, Eigen::Index ld, int n, int nw) {
-  namespace ei = Eigen::internal;
-  using Packet = ei::packet_traits<double>::type;
-  constexpr int P = ei::packet_traits<double>::size;
-  for (int j = 0; j < n; ++j) {
-    double* mj = M + j * ld;
-    const int kmax = std::min(j, nw);
-    // Rows j..n-1 of column j minus the products of the columns before it. A column whose
-    // length is not a multiple of P ends with a packet that overlaps the one before it:
-    // computed first (from the original values) and stored last, with the same arithmetic
-    // per row, so no scalar remainder loop runs.
-    const auto packet = [M, ld, j, kmax](const double* col, int i) {
-      Packet sum = ei::pset1<Packet>(0.0);
-      for (int k = 0; k < kmax; ++k) {
-        const double* mk = M + k * ld;
-        sum = ei::pmadd(ei::ploadu<Packet>(mk + i), ei::pset1<Packet>(mk[j]), sum);
-      }
-      return ei::psub(ei::ploadu<Packet>(col + i), sum);
-    };
-    const int len = n - j;
-    if (len >= P) {
-      const bool tail = len % P != 0;
-      const Packet t = tail ? packet(mj, n - P) : ei::pset1<Packet>(0.0);
-      int i = j;
-      for (; i + 2 * P <= n; i += 2 * P) {
-        Packet s0 = ei::pset1<Packet>(0.0), s1 = s0;
-        for (int k = 0; k < kmax; ++k) {
-          const double* mk = M + k * ld;
-          const Packet f = ei::pset1<Packet>(mk[j]);
-          s0 = ei::pmadd(ei::ploadu<Packet>(mk + i), f, s0);
-          s1 = ei::pmadd(ei::ploadu<Packet>(mk + i + P), f, s1);
-        }
-        ei::pstoreu(mj + i, ei::psub(ei::ploadu<Packet>(mj + i), s0));
-        ei::pstoreu(mj + i + P, ei::psub(ei::ploadu<Packet>(mj + i + P), s1));
-      }
-      if (i + P <= n) ei::pstoreu(mj + i, packet(mj, i));
-      if (tail) ei::pstoreu(mj + n - P, t);
-    } else {
-      for (int i = j; i < n; ++i) {
-        double sum = 0.0;
-        for (int k = 0; k < kmax; ++k) sum += M[i + k * ld] * M[j + k * ld];
-        mj[i] -= sum;
-      }
-    }
-    if (j < nw) {
-      const double d = mj[j];
-      if (!(d > 0.0) || !std::isfinite(d)) return false;
-      const double l = std::sqrt(d);
-      mj[j] = l;
-      const double inv = 1.0 / l;
-      for (int r = j + 1; r < n; ++r) mj[r] *= inv;
-    }
-  }
-  return true;
 }
 
 }  // namespace
@@ -445,7 +391,7 @@ void RiccatiSolver::beginBackward() {
   failed_stage_ = -1;
   regularization_ = 0.0;
   Work& t = work_[idx(N_)];
-  t.P.triangularView<Eigen::Lower>() = stages_[idx(N_)].Q;
+  storeWhole(t.P, stages_[idx(N_)].Q);
   t.p = stages_[idx(N_)].q;
 }
 
@@ -454,46 +400,41 @@ bool RiccatiSolver::backwardStage(int k) {
   Work& w = work_[idx(k)];
   const Work& n = work_[idx(k + 1)];
   const int nw = w.nw, nz = nw + nx;
-  const auto BA = w.BA.leftCols(nz);
-  // P [B A b] in one product; its last column gives P b.
-  PBA_.leftCols(nz + 1).noalias() = n.P.selfadjointView<Eigen::Lower>() * w.BA.leftCols(nz + 1);
-  const auto PBA = PBA_.leftCols(nz);
-  auto M = w.M.topLeftCorner(nz, nz);
-  M.triangularView<Eigen::Lower>() = w.Hr.topLeftCorner(nz, nz);
-  M.triangularView<Eigen::Lower>() += BA.transpose() * PBA;
-  w.pb = n.p + PBA_.col(nz);
+  // [B A b]^T, so that both products read their left operand down contiguous columns:
+  // Yn = -[B A b]^T P (P is stored whole, so this is -(P [B A b])^T; its last row is
+  // -(P b)^T), then M = H + [B A]^T P [B A] and its factorisation in one fused pass.
+  BAt_.topRows(nz + 1) = w.BA.leftCols(nz + 1).transpose();
+  const Eigen::Index ldt = BAt_.outerStride(), ldy = PBAt_.outerStride();
+  kernels::gemm(nz + 1, nx, nx, BAt_.data(), ldt, n.P.data(), 1, n.P.outerStride(), PBAt_.data(),
+                ldy, true);
+  w.pb = n.p - PBAt_.row(nz).transpose();
   auto h = w.hm.head(nz);
   h = w.gr.head(nz);
-  h.noalias() += BA.transpose() * w.pb;
+  h.noalias() += BAt_.topRows(nz) * w.pb;
 
+  bool ok = false;
+  double reg = 0.0;
+  for (int attempt = 0; attempt < 6 && !ok; ++attempt) {
+    if (attempt > 0) {
+      // Shift the input block (rare path: singular reduced Hessian).
+      const double scale = 1.0 + w.Hr.topLeftCorner(nw, nw).diagonal().cwiseAbs().maxCoeff();
+      reg = (attempt == 1) ? 1e-12 * scale : reg * 100.0;
+    }
+    ok = kernels::factorSchur(nz, nw, nx, BAt_.data(), ldt, PBAt_.data(), ldy, w.Hr.data(),
+                              w.Hr.outerStride(), w.M.data(), w.M.outerStride(), reg);
+    if (nw == 0) break;
+  }
+  if (!ok) {
+    failed_stage_ = k;
+    return false;
+  }
+  regularization_ = std::max(regularization_, reg);
+  storeWhole(w.P, w.M.block(nw, nw, nx, nx));
+  w.p = w.hm.segment(nw, nx);
   if (nw > 0) {
-    bool ok = false;
-    double reg = 0.0;
-    for (int attempt = 0; attempt < 6 && !ok; ++attempt) {
-      if (attempt > 0) {
-        // Rebuild and shift the input block (rare path: singular reduced Hessian).
-        const double scale = 1.0 + w.Hr.topLeftCorner(nw, nw).diagonal().cwiseAbs().maxCoeff();
-        reg = (attempt == 1) ? 1e-12 * scale : reg * 100.0;
-        M.triangularView<Eigen::Lower>() = w.Hr.topLeftCorner(nz, nz);
-        M.triangularView<Eigen::Lower>() += BA.transpose() * PBA;
-        M.diagonal().head(nw).array() += reg;
-      }
-      ok = eliminateInputs(w.M.data(), w.M.outerStride(), nz, nw);
-    }
-    if (!ok) {
-      failed_stage_ = k;
-      return false;
-    }
-    regularization_ = std::max(regularization_, reg);
-    const auto Lxw = w.M.block(nw, 0, nx, nw);
     auto v = w.hm.head(nw);
     w.M.topLeftCorner(nw, nw).triangularView<Eigen::Lower>().solveInPlace(v);
-    w.P.triangularView<Eigen::Lower>() = w.M.block(nw, nw, nx, nx);
-    w.p = w.hm.segment(nw, nx);
-    w.p.noalias() -= Lxw * v;
-  } else {
-    w.P.triangularView<Eigen::Lower>() = w.M.block(0, 0, nx, nx);
-    w.p = w.hm.head(nx);
+    w.p.noalias() -= w.M.block(nw, 0, nx, nw) * v;
   }
   return true;
 }

@@ -127,7 +127,7 @@ class RiccatiSolver {
     Eigen::MatrixXd M;    // (nu + nx)^2: [L 0; Lxw P] after backward (lower)
     Eigen::VectorXd hm;   // nu + nx; its head(nw) becomes v = L^-1 h_w
     Eigen::VectorXd pb;   // nx
-    Eigen::MatrixXd P;    // nx x nx (lower triangle valid)
+    Eigen::MatrixXd P;    // nx x nx (both triangles)
     Eigen::VectorXd p;    // nx
     Eigen::VectorXd dx, w, du, lam, mult, t, t1;
     mutable Eigen::MatrixXd Kw, KD;  // feedbackGain scratch
@@ -145,7 +145,8 @@ class RiccatiSolver {
   int N_, nx_, nu_, ne_max_;
   std::vector<LqStage> stages_;
   std::vector<Work> work_;
-  Eigen::MatrixXd PBA_;  // nx x (nu + nx + 1): backward scratch P [B A b] (sequential)
+  // Backward scratch (sequential): [B A b]^T and [B A b]^T P, (nu + nx + 1) x nx.
+  Eigen::MatrixXd BAt_, PBAt_;
   int failed_stage_ = -1;
   double regularization_ = 0.0;
 };
