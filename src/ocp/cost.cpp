@@ -19,7 +19,7 @@ struct LsqData final : CostData {
   std::unique_ptr<ResidualData> res;
   VectorXd wr;        // W r
   MatrixXd WRx, WRu;  // W Rx, W Ru
-  MatrixXd RxT, RuT;  // Rx^T, Ru^T (the left operands of the small-depth products)
+  MatrixXd RxT, RuT;  // (W Rx)^T, (W Ru)^T: the left operands of the small-depth products
 };
 
 // Residuals with at most this many rows take the small-depth products (small_products.hpp)
@@ -93,13 +93,13 @@ void LeastSquaresCost::calcDiff(const NodeContext& ctx, ConstVecRef x, ConstVecR
     // Rx = blockdiag(J, I) with J = d(x_ref (-) x)/dx on the pose (block_ x block_).
     const int b = block_, n = m - b;
     const auto J = s.res->Rx.topLeftCorner(b, b);
-    s.wr.head(m) = scale * weights_.head(m).cwiseProduct(s.res->r.head(m));
-    s.WRx.topLeftCorner(b, b).noalias() = (scale * weights_.head(b)).asDiagonal() * J;
-    s.RxT.topLeftCorner(b, b) = J.transpose();
-    smallDepthProduct(lx.head(b), s.RxT.topLeftCorner(b, b), s.wr.head(b), 1.0, true);
-    lx.tail(n) += s.wr.tail(n);
-    smallDepthProduct(Lxx.topLeftCorner(b, b), s.RxT.topLeftCorner(b, b), s.WRx.topLeftCorner(b, b),
-                      1.0, true);
+    const auto r = s.res->r.head(m);
+    // (W J)^T once; the right operands are J and r themselves.
+    auto WJT = s.RxT.topLeftCorner(b, b);
+    WJT.noalias() = J.transpose() * (scale * weights_.head(b)).asDiagonal();
+    smallDepthProduct(lx.head(b), WJT, r.head(b), 1.0, true);
+    lx.tail(n) += scale * weights_.tail(n).cwiseProduct(r.tail(n));
+    smallDepthProduct(Lxx.topLeftCorner(b, b), WJT, J, 1.0, true);
     Lxx.diagonal().tail(n) += scale * weights_.tail(n);
     return;
   }
@@ -107,37 +107,44 @@ void LeastSquaresCost::calcDiff(const NodeContext& ctx, ConstVecRef x, ConstVecR
   const auto w = weights_.head(m);
   const auto Rx = s.res->Rx.topRows(m);
   const bool on_x = residual_->dependsOnState(), on_u = residual_->dependsOnInput();
+  // Trailing input columns of Ru that are exactly zero (e.g. a base velocity residual
+  // does not depend on the contact forces) add exactly zero: they are left out.
+  int cu = 0;
+  if (on_u) {
+    cu = nu();
+    while (cu > 0 && s.res->Ru.col(cu - 1).head(m).isZero(0.0)) --cu;
+  }
+  const auto Ru = s.res->Ru.topLeftCorner(m, cu);
+  if (m <= kSmallDepth) {
+    // (W R)^T formed once per block (the left operands); the right operands are R and r
+    // themselves.
+    const auto r = s.res->r.head(m);
+    if (on_x) {
+      auto WRxT = s.RxT.leftCols(m);
+      WRxT.noalias() = Rx.transpose() * (scale * w).asDiagonal();
+      smallDepthProduct(lx, WRxT, r, 1.0, true);
+      smallDepthProduct(Lxx, WRxT, Rx, 1.0, true);
+    }
+    if (cu > 0) {
+      auto WRuT = s.RuT.topLeftCorner(cu, m);
+      WRuT.noalias() = Ru.transpose() * (scale * w).asDiagonal();
+      smallDepthProduct(lu.head(cu), WRuT, r, 1.0, true);
+      smallDepthProduct(Luu.topLeftCorner(cu, cu), WRuT, Ru, 1.0, true);
+      if (on_x) smallDepthProduct(Lux.topRows(cu), WRuT, Rx, 1.0, true);
+    }
+    return;
+  }
   s.wr.head(m) = scale * w.cwiseProduct(s.res->r.head(m));
-  const bool small = m <= kSmallDepth;
   if (on_x) {
     s.WRx.topRows(m).noalias() = (scale * w).asDiagonal() * Rx;
-    if (small) {
-      s.RxT.leftCols(m) = Rx.transpose();
-      smallDepthProduct(lx, s.RxT.leftCols(m), s.wr.head(m), 1.0, true);
-      smallDepthProduct(Lxx, s.RxT.leftCols(m), s.WRx.topRows(m), 1.0, true);
-    } else {
-      lx.noalias() += Rx.transpose() * s.wr.head(m);
-      Lxx.noalias() += Rx.transpose() * s.WRx.topRows(m);
-    }
+    lx.noalias() += Rx.transpose() * s.wr.head(m);
+    Lxx.noalias() += Rx.transpose() * s.WRx.topRows(m);
   }
-  if (on_u) {
-    // Trailing input columns of Ru that are exactly zero (e.g. a base velocity residual
-    // does not depend on the contact forces) add exactly zero: they are left out.
-    int cu = nu();
-    while (cu > 0 && s.res->Ru.col(cu - 1).head(m).isZero(0.0)) --cu;
-    const auto Ru = s.res->Ru.topLeftCorner(m, cu);
+  if (cu > 0) {
     s.WRu.topLeftCorner(m, cu).noalias() = (scale * w).asDiagonal() * Ru;
-    if (small) {
-      const auto RuT = s.RuT.topLeftCorner(cu, m);
-      s.RuT.topLeftCorner(cu, m) = Ru.transpose();
-      smallDepthProduct(lu.head(cu), RuT, s.wr.head(m), 1.0, true);
-      smallDepthProduct(Luu.topLeftCorner(cu, cu), RuT, s.WRu.topLeftCorner(m, cu), 1.0, true);
-      if (on_x) smallDepthProduct(Lux.topRows(cu), RuT, s.WRx.topRows(m), 1.0, true);
-    } else {
-      lu.head(cu).noalias() += Ru.transpose() * s.wr.head(m);
-      Luu.topLeftCorner(cu, cu).noalias() += Ru.transpose() * s.WRu.topLeftCorner(m, cu);
-      if (on_x) Lux.topRows(cu).noalias() += Ru.transpose() * s.WRx.topRows(m);
-    }
+    lu.head(cu).noalias() += Ru.transpose() * s.wr.head(m);
+    Luu.topLeftCorner(cu, cu).noalias() += Ru.transpose() * s.WRu.topLeftCorner(m, cu);
+    if (on_x) Lux.topRows(cu).noalias() += Ru.transpose() * s.WRx.topRows(m);
   }
 }
 
