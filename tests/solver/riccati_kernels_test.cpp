@@ -32,7 +32,7 @@ struct Buffer {
   std::vector<double> data;
   int rows, cols, ld, offset;
   Buffer(int r, int c, int pad, int off)
-      : data(static_cast<std::size_t>(off + (r + pad) * c + 8), kSentinel),
+      : data(static_cast<std::size_t>(off + (r + pad) * c), kSentinel),
         rows(r),
         cols(c),
         ld(r + pad),
