@@ -81,47 +81,6 @@ void storeWhole(MatrixXd& P, const Src& L) {
   P.triangularView<Eigen::StrictlyUpper>() = P.transpose();
 }
 
-/// lower(H) += V W^T + W V^T for n x k V and W (column-major): the reduced Hessian's
-/// T^T Y + Y^T T. Left-looking, column by column, into register accumulators (k is the
-/// number of equality rows, a handful): no product buffer, no transposed read, no
-/// symmetrisation pass.
-void addSymmetricProducts(double* H, Eigen::Index ldH, const double* V, Eigen::Index ldV,
-                          const double* W, Eigen::Index ldW, int n, int k) {
-  namespace ei = Eigen::internal;
-  using Packet = ei::packet_traits<double>::type;
-  constexpr int P = ei::packet_traits<double>::size;
-  for (int j = 0; j < n; ++j) {
-    double* hj = H + j * ldH;
-    const auto packet = [=](int i) {
-      Packet sum = ei::pset1<Packet>(0.0);
-      for (int c = 0; c < k; ++c) {
-        sum =
-            ei::pmadd(ei::ploadu<Packet>(V + c * ldV + i), ei::pset1<Packet>(W[j + c * ldW]), sum);
-        sum =
-            ei::pmadd(ei::ploadu<Packet>(W + c * ldW + i), ei::pset1<Packet>(V[j + c * ldV]), sum);
-      }
-      return ei::padd(ei::ploadu<Packet>(hj + i), sum);
-    };
-    const int len = n - j;
-    if (len < P) {
-      for (int i = j; i < n; ++i) {
-        double sum = 0.0;
-        for (int c = 0; c < k; ++c) {
-          sum += V[i + c * ldV] * W[j + c * ldW] + W[i + c * ldW] * V[j + c * ldV];
-        }
-        hj[i] += sum;
-      }
-      continue;
-    }
-    // As in eliminateInputs: an overlapping last packet instead of a scalar remainder.
-    const bool tail = len % P != 0;
-    const Packet t = tail ? packet(n - P) : ei::pset1<Packet>(0.0);
-    int i = j;
-    for (; i + P <= n; i += P) ei::pstoreu(hj + i, packet(i));
-    if (tail) ei::pstoreu(hj + n - P, t);
-  }
-}
-
 }  // namespace
 
 bool RiccatiSolver::findFixedInputs(const LqStage& s, Work& w, double rank_tolerance, double scale,
@@ -362,26 +321,13 @@ bool RiccatiSolver::projectStage(int k, double rank_tolerance, double* pivot_rat
       for (int j = 0; j < ng; ++j) Dc[j] = Rsym(pD[j], d);
     }
     W.noalias() += 0.5 * Vt * HDD;
-    // T^T Y + Y^T T = V W^T + W V^T, on the lower triangle only. With few rows (the
-    // common case once the fixing rows are substituted) in register accumulators; with
-    // many, Eigen's packed product is faster, then the lower triangle of it and of its
-    // transpose.
-    if (ng <= 8) {
-      addSymmetricProducts(Hp, ldH, w.V.data(), ldV, Wp, ldW, nz + 1, ng);
-    } else {
-      auto TY = w.M.topLeftCorner(nz + 1, nz + 1);  // free until backward()
-      TY.noalias() = Vt * W.transpose();
-      const double* TYp = w.M.data();
-      const Eigen::Index ldT = w.M.outerStride();
-      for (int j = 0; j <= nz; ++j) {
-        double* Hc = Hp + j * ldH;
-        const double* Tc = TYp + j * ldT;
-        for (int i = j; i <= nz; ++i) Hc[i] += Tc[i] + TYp[j + i * ldT];
-      }
-    }
+    // T^T Y + Y^T T = V W^T + W V^T, on the lower triangle only, both products in the
+    // same register accumulators.
+    kernels::syr2kLowerAccumulate(nz + 1, ng, w.V.data(), ldV, Wp, ldW, Hp, ldH);
     auto BD = w.BD.leftCols(ng);
     for (int i = 0; i < ng; ++i) BD.col(i) = s.B.col(pD[i]);
-    BA.noalias() += BD * Vt.transpose();
+    kernels::gemmAccumulate(nx, nz + 1, ng, w.BD.data(), w.BD.outerStride(), w.V.data(), ldV, 1,
+                            w.BA.data(), w.BA.outerStride());
   }
   w.gr.head(nz) = H.row(nz).head(nz).transpose();
   return true;

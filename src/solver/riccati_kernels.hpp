@@ -225,6 +225,15 @@ inline void gemmtLowerAccumulate(int n, int K, const double* A, Index lda, const
   detail::columns<Store::Accumulate>(n, 0, n, true, t, Term{}, nullptr, 0, C, ldc);
 }
 
+/// lower(H) += lower(V W^T + W V^T) in place for n x n H (V, W: n x K column-major), as
+/// gemmtLowerAccumulate (the two products in the same accumulators).
+inline void syr2kLowerAccumulate(int n, int K, const double* V, Index ldv, const double* W,
+                                 Index ldw, double* H, Index ldh) {
+  if (n <= 0 || K <= 0) return;
+  const Term t1{K, V, ldv, W, ldw, 1}, t2{K, W, ldw, V, ldv, 1};
+  detail::columns<Store::Accumulate>(n, 0, n, true, t1, t2, nullptr, 0, H, ldh);
+}
+
 /// The backward Riccati step's factorisation, fused with the product that forms its
 /// matrix. With G = A Y^T (A: n x K, Y: n x K, both column-major; the caller passes
 /// Yneg = -Y), the lower triangle of the n x n matrix

@@ -20,6 +20,7 @@ using rollstep::solver::kernels::gemm;
 using rollstep::solver::kernels::gemmAccumulate;
 using rollstep::solver::kernels::gemmtLower;
 using rollstep::solver::kernels::gemmtLowerAccumulate;
+using rollstep::solver::kernels::syr2kLowerAccumulate;
 using Strided = Eigen::Map<MatrixXd, Eigen::Unaligned, Eigen::OuterStride<>>;
 
 constexpr double kSentinel = 12345.678;
@@ -31,7 +32,7 @@ struct Buffer {
   std::vector<double> data;
   int rows, cols, ld, offset;
   Buffer(int r, int c, int pad, int off)
-      : data(static_cast<std::size_t>(off + (r + pad) * c + 8), kSentinel),
+      : data(static_cast<std::size_t>(off + (r + pad) * c), kSentinel),
         rows(r),
         cols(c),
         ld(r + pad),
@@ -144,6 +145,28 @@ TEST(RiccatiKernels, AccumulatingProductsEqualEigen) {
     }
     EXPECT_LT(relativeError(got, full), 1e-12) << n << " x " << K;
     EXPECT_TRUE(s.untouchedOutside());
+  }
+}
+
+/// The projection's lower(H) += V W^T + W V^T.
+TEST(RiccatiKernels, SymmetricRank2kEqualsEigenOnTheLowerTriangle) {
+  std::mt19937 rng(23u);
+  for (int trial = 0; trial < 300; ++trial) {
+    const int n = uniform(rng, 1, 60), K = uniform(rng, 1, 20);
+    Buffer v(n, K, uniform(rng, 0, 3), uniform(rng, 0, 3));
+    Buffer w(n, K, uniform(rng, 0, 3), uniform(rng, 0, 3));
+    Buffer h(n, n, uniform(rng, 0, 3), uniform(rng, 0, 3));
+    v.map() = random(n, K, rng);
+    w.map() = random(n, K, rng);
+    const MatrixXd H0 = random(n, n, rng);
+    h.map() = H0;
+    syr2kLowerAccumulate(n, K, v.ptr(), v.ld, w.ptr(), w.ld, h.ptr(), h.ld);
+    const MatrixXd V = v.map(), W = w.map();
+    const MatrixXd want = H0 + V * W.transpose() + W * V.transpose();
+    MatrixXd got = h.map();
+    got.triangularView<Eigen::StrictlyUpper>() = want.triangularView<Eigen::StrictlyUpper>();
+    EXPECT_LT(relativeError(got, want), 1e-12) << n << " x " << K;
+    EXPECT_TRUE(h.untouchedOutside());
   }
 }
 
