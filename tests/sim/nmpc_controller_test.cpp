@@ -272,10 +272,13 @@ TEST(NmpcController, TerrainHandOverReachesAnAsynchronousMpc) {
       std::this_thread::sleep_for(std::chrono::milliseconds(1));
     }
   }
-  // Wait (wall clock) until the MPC solved on the last one and this side adopted a solution
-  // solved on it.
+  // Wait (wall clock) until the MPC solved on the last one and this side adopted it. This
+  // side adopts the newest published terrain with the first solution solved on a newer one
+  // than its own, so it can reach the last version one solve before the MPC takes it (a
+  // terrain published between a solve's start and its solution's arrival): wait for both.
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
-  while (pipeline.terrainVersion() != last && std::chrono::steady_clock::now() < deadline) {
+  while ((pipeline.terrainVersion() != last || pipeline.runner().terrainVersion() != last) &&
+         std::chrono::steady_clock::now() < deadline) {
     s.time += 0.001;
     pipeline.tick(s, out);
     std::this_thread::sleep_for(std::chrono::milliseconds(1));

@@ -197,9 +197,13 @@ TEST(RiccatiKernels, FactorSchurEqualsCholeskyAndSchurComplement) {
     const int nx = n - nw;
     const Eigen::LLT<MatrixXd> llt(Mf.topLeftCorner(nw, nw));
     const MatrixXd Lw = llt.matrixL();
-    const MatrixXd Lxw = Lw.triangularView<Eigen::Lower>()
-                             .solve(Mf.bottomLeftCorner(nx, nw).transpose())
-                             .transpose();
+    // (Eigen's triangular solve binds a reference to the data of an empty right-hand side:
+    // undefined behaviour for UBSan, so the empty cases are written out.)
+    const MatrixXd Lxw = nw > 0 && nx > 0
+                             ? MatrixXd(Lw.triangularView<Eigen::Lower>()
+                                            .solve(Mf.bottomLeftCorner(nx, nw).transpose())
+                                            .transpose())
+                             : MatrixXd::Zero(nx, nw);
     const MatrixXd Pn = Mf.bottomRightCorner(nx, nx) - Lxw * Lxw.transpose();
     const MatrixXd got = m.map();
     const MatrixXd gotL = got.topLeftCorner(nw, nw).triangularView<Eigen::Lower>();
