@@ -105,18 +105,17 @@ CentroidalOcp::CentroidalOcp(const RobotOcpDescription& description, const OcpSe
   robot_ =
       std::make_shared<const CentroidalRobot>(model, contacts, pairs, description.contact_offset);
   const int nj = robot_->nj(), nc = robot_->nc(), ndx = robot_->ndx(), nu = robot_->nu();
-  if (description.nominal_joint_positions.size() != nj) {
-    throw std::invalid_argument("robot description: nominal_joint_positions has " +
-                                std::to_string(description.nominal_joint_positions.size()) +
-                                " entries, the URDF " + description.urdf + " has " +
-                                std::to_string(nj) + " joints");
-  }
+  const auto requireOnePerJoint = [&](const char* key, const Eigen::VectorXd& values) {
+    if (values.size() != nj) {
+      throw std::invalid_argument("robot description: " + std::string(key) + " has " +
+                                  std::to_string(values.size()) + " entries, the URDF " +
+                                  description.urdf + " has " + std::to_string(nj) + " joints");
+    }
+  };
+  requireOnePerJoint("nominal_joint_positions", description.nominal_joint_positions);
   q_joint_ref_ = description.nominal_joint_positions;
-  if (description.servo_stiffness.size() != 0 && description.servo_stiffness.size() != nj) {
-    throw std::invalid_argument("robot description: servo_stiffness has " +
-                                std::to_string(description.servo_stiffness.size()) +
-                                " entries, the URDF " + description.urdf + " has " +
-                                std::to_string(nj) + " joints");
+  if (description.servo_stiffness.size() != 0) {
+    requireOnePerJoint("servo_stiffness", description.servo_stiffness);
   }
   servo_stiffness_ = description.servo_stiffness;
   // The nodes' precomputation; it also caches every foot's planner reference once the

@@ -355,31 +355,24 @@ RobotOcpDescription parseRobotOcpDescription(const std::string& yaml_text,
         fail(node, "contact_offset: expected a distance in [0, 10] m, got '" + node.scalar() + "'");
       }
     }
-    const yaml::Node q = given.at("nominal_joint_positions");
-    if (!q.isSequence() || q.size() == 0) {
-      fail(q, "nominal_joint_positions: expected a list of numbers");
-    }
-    d.nominal_joint_positions.resize(static_cast<Eigen::Index>(q.size()));
-    for (std::size_t i = 0; i < q.size(); ++i) {
-      double v = 0.0;
-      if (!q.item(i).toDouble(v) || !std::isfinite(v)) {
-        fail(q.item(i),
-             "nominal_joint_positions: '" + q.item(i).scalar() + "' is not a finite number");
-      }
-      d.nominal_joint_positions[static_cast<Eigen::Index>(i)] = v;
-    }
-    if (given.count("servo_stiffness") != 0) {
-      const yaml::Node k = given.at("servo_stiffness");
-      if (!k.isSequence() || k.size() == 0) fail(k, "servo_stiffness: expected a list of numbers");
-      d.servo_stiffness.resize(static_cast<Eigen::Index>(k.size()));
-      for (std::size_t i = 0; i < k.size(); ++i) {
+    // A per-joint list of finite numbers (> 0 where `positive`).
+    const auto jointNumbers = [&](const std::string& key, bool positive) {
+      const yaml::Node node = given.at(key);
+      if (!node.isSequence() || node.size() == 0) fail(node, key + ": expected a list of numbers");
+      Eigen::VectorXd out(static_cast<Eigen::Index>(node.size()));
+      for (std::size_t i = 0; i < node.size(); ++i) {
         double v = 0.0;
-        if (!k.item(i).toDouble(v) || !std::isfinite(v) || v <= 0.0) {
-          fail(k.item(i),
-               "servo_stiffness: '" + k.item(i).scalar() + "' is not a finite number > 0");
+        if (!node.item(i).toDouble(v) || !std::isfinite(v) || (positive && v <= 0.0)) {
+          fail(node.item(i), key + ": '" + node.item(i).scalar() + "' is not a finite number" +
+                                 (positive ? " > 0" : ""));
         }
-        d.servo_stiffness[static_cast<Eigen::Index>(i)] = v;
+        out[static_cast<Eigen::Index>(i)] = v;
       }
+      return out;
+    };
+    d.nominal_joint_positions = jointNumbers("nominal_joint_positions", false);
+    if (given.count("servo_stiffness") != 0) {
+      d.servo_stiffness = jointNumbers("servo_stiffness", true);
     }
   });
   return d;
