@@ -433,10 +433,11 @@ void runSim(const SimOptions& o, bool scene_given) {
       const double updates_n = updates.size() > 1 ? static_cast<double>(updates.size() - 1) : 1.0;
       mpc_text = format(
           "  MPC        %zu solutions (%llu rejected), solve time mean %.2f ms, max %.2f ms; %s\n"
-          "  CBF-QP     %llu fallbacks in %llu ticks\n",
+          "  CBF-QP     %llu fallbacks, %llu relaxed in %llu ticks\n",
           updates.size(), static_cast<unsigned long long>(c.solutions_rejected),
           solve_sum / updates_n, solve_max, files.mpc.c_str(),
           static_cast<unsigned long long>(c.qp_fallbacks),
+          static_cast<unsigned long long>(c.qp_relaxations),
           static_cast<unsigned long long>(c.ticks));
       mpc_text += format("  watchdog   %llu trips, %llu ticks holding, %llu stale solutions\n",
                          static_cast<unsigned long long>(c.watchdog_trips),
@@ -463,8 +464,9 @@ void runSim(const SimOptions& o, bool scene_given) {
 
     if (cbfqp_controller != nullptr) {
       const control::PipelineCounters& c = cbfqp_controller->pipeline().counters();
-      mpc_text = format("  CBF-QP     %llu fallbacks in %llu ticks\n",
+      mpc_text = format("  CBF-QP     %llu fallbacks, %llu relaxed in %llu ticks\n",
                         static_cast<unsigned long long>(c.qp_fallbacks),
+                        static_cast<unsigned long long>(c.qp_relaxations),
                         static_cast<unsigned long long>(c.ticks));
       if (sim::OnlinePerception* p = cbfqp_controller->perception(); p != nullptr) {
         p->closeLog();

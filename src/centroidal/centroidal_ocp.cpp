@@ -124,6 +124,8 @@ CentroidalOcp::CentroidalOcp(const RobotOcpDescription& description, const OcpSe
   auto pre = std::make_shared<CentroidalPrecomputation>(robot_);
   pre_ = pre;
   scratch_ = std::make_unique<CentroidalCache>(*robot_);
+  anchor_cache_ = std::make_unique<CentroidalCache>(*robot_);
+  zero_input_ = Eigen::VectorXd::Zero(robot_->nu());
 
   // --- nominal footholds and height, from the URDF at the nominal posture -------------------
   {
@@ -261,12 +263,14 @@ CentroidalOcp::CentroidalOcp(const RobotOcpDescription& description, const OcpSe
 void CentroidalOcp::reset(double t0, const lie::SE3& start,
                           const planning::BaseVelocityCommand& command) {
   base_->reset(t0, start, command);
+  feet_->clearAnchors();
   advance(t0);
 }
 
 void CentroidalOcp::resetSchedule(double t0, const lie::SE3& start,
                                   const std::vector<planning::TimedBaseCommand>& schedule) {
   base_->resetSchedule(t0, start, schedule);
+  feet_->clearAnchors();
   advance(t0);
 }
 
@@ -292,6 +296,19 @@ bool CentroidalOcp::swapTerrain(planning::TerrainModel& terrain) noexcept {
   if (!acceptsTerrain(terrain)) return false;
   terrain_->swap(terrain);
   return true;
+}
+
+void CentroidalOcp::anchorStanceFeet(const ocp::ModeSchedule& schedule, double t,
+                                     const Eigen::VectorXd& x) noexcept {
+  if (!settings_.anchor_stance_feet) return;
+  if (x.size() != robot_->nx() || !x.allFinite() || !std::isfinite(t)) return;
+  if (schedule.modes().empty()) return;
+  pre_->compute(x, zero_input_, false, *anchor_cache_);
+  for (int i = 0; i < robot_->nc(); ++i) {
+    const double start = planning::FootReferencePlanner::stanceStartAt(schedule, i, t);
+    if (std::isnan(start)) continue;  // in swing: its lift-off anchor stays
+    feet_->anchorStance(i, start, anchor_cache_->footPosition(i).head<2>());
+  }
 }
 
 Eigen::VectorXd CentroidalOcp::standingState(double x, double y, double yaw) const {

@@ -154,7 +154,8 @@ void BaselinePipeline::tick(const RobotState& state, JointCommand& command) noex
   record_.qp_iterations = filter_->qpIterations();
   record_.active_barriers = filter_->activeBarriers();
   record_.correction = filter_->correction();
-  if (record_.cbf_status != CbfQpStatus::Optimal) {
+  if (record_.cbf_status == CbfQpStatus::Relaxed) ++counters_.qp_relaxations;
+  if (record_.cbf_status != CbfQpStatus::Optimal && record_.cbf_status != CbfQpStatus::Relaxed) {
     // The filter's fallback keeps the base velocity; here the commanded base brakes as well:
     // the drive wheels follow the commanded base, and rolling on unfiltered carries a
     // stance wheel over an edge.

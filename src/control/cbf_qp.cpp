@@ -120,6 +120,8 @@ const char* toString(CbfQpStatus status) {
   switch (status) {
     case CbfQpStatus::Optimal:
       return "Optimal";
+    case CbfQpStatus::Relaxed:
+      return "Relaxed";
     case CbfQpStatus::Fallback:
       return "Fallback";
     case CbfQpStatus::InvalidInput:
@@ -149,7 +151,9 @@ struct CbfQpFilter::Work {
         hull(static_cast<size_t>(robot.nc()) + 1),
         support_feet(static_cast<size_t>(robot.nc())),
         free_qp({dims.n, dims.n_eq, 0}),
-        free_solver({dims.n, dims.n_eq, 0}) {}
+        free_solver({dims.n, dims.n_eq, 0}),
+        relaxed_qp({dims.n + dims.n_ineq, dims.n_eq, dims.n_ineq}),
+        relaxed_solver({dims.n + dims.n_ineq, dims.n_eq, dims.n_ineq}) {}
 
   model::Data data;
   Eigen::MatrixXd frame_jacobian;  ///< 6 x nv scratch
@@ -168,6 +172,9 @@ struct CbfQpFilter::Work {
   int hull_size = 0;
   DenseQpProblem free_qp;  ///< same cost and equalities, no inequality: correction()
   DenseQpSolver free_solver;
+  /// The barriers relaxed by one slack per row (CbfQpSettings::relaxation_weight).
+  DenseQpProblem relaxed_qp;
+  DenseQpSolver relaxed_solver;
 };
 
 CbfQpFilter::CbfQpFilter(std::shared_ptr<const centroidal::CentroidalRobot> robot,
@@ -201,6 +208,9 @@ CbfQpFilter::CbfQpFilter(std::shared_ptr<const centroidal::CentroidalRobot> robo
   work_ = std::make_unique<Work>(*robot_, dims);
   Work& w = *work_;
   w.free_solver.settings().max_iterations = std::max(settings_.max_iterations, 2 * dims.n_eq + 10);
+  // Every slack may enter and leave the active set once on a cold start.
+  w.relaxed_solver.settings().max_iterations =
+      std::max(settings_.max_iterations, 2 * (dims.n + 2 * dims.n_ineq) + 10);
   for (int j = 0; j < robot_->nj(); ++j) {
     const double lo = model.lowerPositionLimit[j], up = model.upperPositionLimit[j];
     w.joint_lower[j] = std::isfinite(lo) ? lo + settings_.joint_position_margin : -kInf;
@@ -245,6 +255,7 @@ CbfQpStatus CbfQpFilter::filter(const Eigen::Ref<const Eigen::VectorXd>& q,
       a[6 + j] = std::isfinite(vj) ? -vj / s.fallback_brake_time : 0.0;
     }
   };
+  relaxation_ = 0.0;
   auto refuse = [&]() {
     qp_status_ = DenseQpStatus::InvalidInput;
     qp_iterations_ = 0;
@@ -540,12 +551,51 @@ CbfQpStatus CbfQpFilter::filter(const Eigen::Ref<const Eigen::VectorXd>& q,
   qp_status_ = st;
   qp_iterations_ = qp_solver_.iterations();
   active_barriers_ = st == DenseQpStatus::Optimal ? qp_solver_.numActiveInequalities() : 0;
-  if (st != DenseQpStatus::Optimal) {
+  CbfQpStatus result = CbfQpStatus::Optimal;
+  if (st == DenseQpStatus::Optimal) {
+    a = qp_solver_.x();
+  } else if (st != DenseQpStatus::InvalidInput && n_ineq > 0 && s.relaxation_weight > 0.0) {
+    // The barriers have no common point (or the active-set cap was hit): the same QP with
+    // one slack per barrier row, C a + s >= l, s >= 0, cost + 0.5 w |s|^2. The contact rows
+    // and the joint bounds stay exact; if they alone are inconsistent, brake.
+    const int nr = nv + n_ineq;
+    DenseQpProblem& rq = w.relaxed_qp;
+    rq.setDimensions(nr, n_eq, n_ineq);
+    rq.clear();
+    rq.H().topLeftCorner(nv, nv) = qp_.H();
+    rq.H().diagonal().tail(n_ineq).setConstant(s.relaxation_weight);
+    rq.g().head(nv) = qp_.g();
+    rq.Aeq().leftCols(nv) = qp_.Aeq();
+    rq.beq() = qp_.beq();
+    rq.C().leftCols(nv) = qp_.C();
+    rq.C().rightCols(n_ineq).setIdentity();
+    rq.l() = qp_.l();
+    rq.u() = qp_.u();
+    rq.lb().head(nv) = qp_.lb();
+    rq.ub().head(nv) = qp_.ub();
+    rq.lb().tail(n_ineq).setZero();
+    const DenseQpStatus rst = w.relaxed_solver.solve(rq);
+    if (rst != DenseQpStatus::Optimal) {
+      correction_ = kInf;
+      writeFallback();
+      return CbfQpStatus::Fallback;
+    }
+    a = w.relaxed_solver.x().head(nv);
+    relaxation_ = w.relaxed_solver.x().tail(n_ineq).maxCoeff();
+    qp_iterations_ += w.relaxed_solver.iterations();
+    active_barriers_ = 0;
+    for (int r = 0; r < n_ineq; ++r) {
+      active_barriers_ += w.relaxed_solver.rowSide(r) != ActiveSide::Inactive ? 1 : 0;
+    }
+    for (int j = 0; j < nv; ++j) {
+      active_barriers_ += w.relaxed_solver.boundSide(j) != ActiveSide::Inactive ? 1 : 0;
+    }
+    result = CbfQpStatus::Relaxed;
+  } else {
     correction_ = kInf;
     writeFallback();
     return CbfQpStatus::Fallback;
   }
-  a = qp_solver_.x();
   correction_ = 0.0;
   if (active_barriers_ > 0) {
     // The minimiser of the same cost and equalities without the barriers.
@@ -558,7 +608,7 @@ CbfQpStatus CbfQpFilter::filter(const Eigen::Ref<const Eigen::VectorXd>& q,
                       ? (a - w.free_solver.x()).lpNorm<Eigen::Infinity>()
                       : kInf;
   }
-  return CbfQpStatus::Optimal;
+  return result;
 }
 
 }  // namespace rollstep::control

@@ -84,7 +84,7 @@ const std::array<Field<FeedbackSettings>, 6> kFeedbackFields{{
     {"joint_kp", &FeedbackSettings::joint_kp, 0, kBig, false, false},
     {"joint_kd", &FeedbackSettings::joint_kd, 0, kBig, false, false},
 }};
-const std::array<Field<CbfQpSettings>, 21> kCbfQpFields{{
+const std::array<Field<CbfQpSettings>, 22> kCbfQpFields{{
     {"base_weight", &CbfQpSettings::base_weight, 0, kBig, false, false},
     {"foot_weight", &CbfQpSettings::foot_weight, 0, kBig, false, false},
     {"joint_weight", &CbfQpSettings::joint_weight, 0, kBig, false, false},
@@ -100,6 +100,7 @@ const std::array<Field<CbfQpSettings>, 21> kCbfQpFields{{
     {"clearance", &CbfQpSettings::clearance, 0, 2, false, false},
     {"max_iterations", &CbfQpSettings::max_iterations, 1, 100000, false, false},
     {"fallback_brake_time", &CbfQpSettings::fallback_brake_time, 0, 100, true, false},
+    {"relaxation_weight", &CbfQpSettings::relaxation_weight, 0, 1e12, false, false},
     {"support_gamma", &CbfQpSettings::support_gamma, 0, 1e6, false, false},
     {"support_margin", &CbfQpSettings::support_margin, 0, 1, false, false},
     {"collision_gamma", &CbfQpSettings::collision_gamma, 0, 1e6, false, false},

@@ -151,6 +151,7 @@ struct MpcRunner::Impl {
       ocp.followRobot(t, base, settings.mpc.reference_leash, settings.mpc.reference_leash_yaw);
     }
     ocp.advance(t);
+    ocp.anchorStanceFeet(ocp.problem()->modeSchedule(), t, x);
     const solver::SolverStatus status = solver->update(t, x);
     if (observer) observer(t, *ocp.problem(), solver->states(), solver->inputs());
     return status;
@@ -342,6 +343,7 @@ solver::SolverStatus MpcRunner::initializeSchedule(
 
   // The converging solve from a cold start (as `rollstep plan` does).
   ocp_->resetSchedule(t0, start, schedule);
+  ocp_->anchorStanceFeet(ocp_->problem()->modeSchedule(), t0, x0);
   solver::SolverSettings converging = m.realtime_settings;
   converging.mode = solver::SolverMode::Converging;
   converging.max_iterations = settings_.mpc.initial_iterations;

@@ -229,6 +229,7 @@ void ControlPipeline::tick(const RobotState& state, JointCommand& command) noexc
   // Contact planner: the gait at t and each foot's regions.
   scheduler_->fill(t_plan, schedule_horizon_, schedule_);
   record_.mode = schedule_.modeAt(t_plan);
+  rt_ocp_->anchorStanceFeet(schedule_, t_plan, x_meas_);
   for (int i = 0; i < r.nc(); ++i) {
     const planning::FootReference ref = rt_ocp_->footPlanner().query(schedule_, i, t_plan);
     FootRegionPlan& plan = regions_[static_cast<size_t>(i)];
@@ -252,7 +253,10 @@ void ControlPipeline::tick(const RobotState& state, JointCommand& command) noexc
   record_.qp_iterations = filter_->qpIterations();
   record_.active_barriers = filter_->activeBarriers();
   record_.correction = filter_->correction();
-  if (record_.cbf_status != CbfQpStatus::Optimal) ++counters_.qp_fallbacks;
+  if (record_.cbf_status == CbfQpStatus::Relaxed) ++counters_.qp_relaxations;
+  if (record_.cbf_status != CbfQpStatus::Optimal && record_.cbf_status != CbfQpStatus::Relaxed) {
+    ++counters_.qp_fallbacks;
+  }
   integrator_->step(a_, q_meas_, v_meas_);
 
   // Commands.

@@ -280,8 +280,10 @@ bool ElevationMap::copyFrom(const ElevationMap& other) {
   return true;
 }
 
-int ElevationMap::fillGaps(int max_gap_cells, double max_step) {
-  if (max_gap_cells < 1 || !(max_step >= 0.0)) return 0;
+int ElevationMap::fillGaps(int max_gap_cells, double max_step, int max_shadow_cells) {
+  if (max_shadow_cells < 0) max_shadow_cells = max_gap_cells;
+  if ((max_gap_cells < 1 && max_shadow_cells < 1) || !(max_step >= 0.0)) return 0;
+  const int reach = std::max(max_gap_cells, max_shadow_cells);
   // Decided on the map as it is (scratch copies), written back at the end.
   std::copy(height_.begin(), height_.end(), scratch_h_.begin());
   std::copy(variance_.begin(), variance_.end(), scratch_v_.begin());
@@ -291,17 +293,17 @@ int ElevationMap::fillGaps(int max_gap_cells, double max_step) {
     for (int c = 0; c < n_; ++c) {
       const auto i = static_cast<std::size_t>(r * n_ + c);
       if (!std::isnan(height_[i])) continue;
-      int best_gap = max_gap_cells + 1;
+      int best_gap = reach + 1;
       float best_h = kNaN, best_v = kNaN;
       for (const auto& d : kDirections) {
-        // The nearest measured cell each way, at most max_gap_cells steps (a gap of at most
-        // max_gap_cells empty cells has both ends within that many steps of any of its cells).
+        // The nearest measured cell each way, at most `reach` steps (a gap of at most reach
+        // empty cells has both ends within that many steps of any of its cells).
         int steps[2] = {0, 0};
         std::size_t end[2] = {0, 0};
         bool found[2] = {false, false};
         for (int side = 0; side < 2; ++side) {
           const int sign = side == 0 ? 1 : -1;
-          for (int k = 1; k <= max_gap_cells; ++k) {
+          for (int k = 1; k <= reach; ++k) {
             const int rr = r + sign * k * d[0], cc = c + sign * k * d[1];
             if (rr < 0 || cc < 0 || rr >= n_ || cc >= n_) break;
             const auto j = static_cast<std::size_t>(rr * n_ + cc);
@@ -315,9 +317,10 @@ int ElevationMap::fillGaps(int max_gap_cells, double max_step) {
         }
         if (!found[0] || !found[1]) continue;
         const int gap = steps[0] + steps[1] - 1;  // empty cells between the two ends
-        if (gap > max_gap_cells || gap >= best_gap) continue;
+        if (gap >= best_gap) continue;
         const double h0 = static_cast<double>(height_[end[0]]);
         const double h1 = static_cast<double>(height_[end[1]]);
+        if (gap > (std::abs(h0 - h1) <= max_step ? max_gap_cells : max_shadow_cells)) continue;
         const double w = static_cast<double>(steps[1]) / (steps[0] + steps[1]);
         best_gap = gap;
         // Across a step: the lower side (the shadow behind an edge is the lower surface
@@ -326,7 +329,7 @@ int ElevationMap::fillGaps(int max_gap_cells, double max_step) {
                                                                   : std::min(h0, h1));
         best_v = std::max(variance_[end[0]], variance_[end[1]]);
       }
-      if (best_gap <= max_gap_cells) {
+      if (best_gap <= reach) {
         scratch_h_[i] = best_h;
         scratch_v_[i] = best_v;
         ++filled;

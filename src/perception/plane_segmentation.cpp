@@ -52,6 +52,10 @@ void SegmentationSettings::validate() const {
           "must be in [0, 1] m");
   require(std::isfinite(max_hole_area) && max_hole_area >= 0, "max_hole_area", max_hole_area,
           "must be >= 0");
+  require(std::isfinite(fill_shadow) && fill_shadow >= 0 && fill_shadow <= 1, "fill_shadow",
+          fill_shadow, "must be in [0, 1] m");
+  require(std::isfinite(max_level_hole_area) && max_level_hole_area >= 0, "max_level_hole_area",
+          max_level_hole_area, "must be >= 0");
 }
 
 int Segmentation::regionAt(const Eigen::Vector2d& p) const {
@@ -68,8 +72,11 @@ struct PlaneSegmenter::Workspace {
   std::vector<float> gx, gy;  // local gradient [m/m]
   std::vector<unsigned char> planar;
   std::vector<int> queue, depth;
-  cv::Mat hmax, hmin, step;  // CV_32F, CV_32F, CV_8U
-  cv::Mat region_mask;       // CV_8U
+  cv::Mat hmax, hmin, step;                 // CV_32F, CV_32F, CV_8U
+  cv::Mat region_mask;                      // CV_8U
+  cv::Mat hole_fill;                        // CV_8U, one hole of a region's mask
+  std::vector<int> rmin, rmax, cmin, cmax;  // bounding box of each region's cells
+  std::vector<int> remap;                   // old region index -> new (-1: dropped)
   std::vector<std::vector<cv::Point>> contours;
   std::vector<cv::Vec4i> hierarchy;
 
@@ -386,61 +393,123 @@ void PlaneSegmenter::segment(const ElevationMap& map, Segmentation& out) {
     }
   }
 
-  // 4. Per region: bounding box, small holes filled, polygons.
-  std::vector<int> rmin(static_cast<std::size_t>(nreg), n),
-      rmax(static_cast<std::size_t>(nreg), -1);
-  std::vector<int> cmin(static_cast<std::size_t>(nreg), n),
-      cmax(static_cast<std::size_t>(nreg), -1);
-  for (int r = 0; r < n; ++r) {
-    for (int c = 0; c < n; ++c) {
-      const int L = labels[static_cast<std::size_t>(r * n + c)];
-      if (L < 0) continue;
-      const auto k = static_cast<std::size_t>(L);
-      rmin[k] = std::min(rmin[k], r);
-      rmax[k] = std::max(rmax[k], r);
-      cmin[k] = std::min(cmin[k], c);
-      cmax[k] = std::max(cmax[k], c);
+  // 4. Per region: holes filled, then polygons. A hole (cells the region encloses) is
+  // filled when it is small (max_hole_area), or level (max_level_hole_area): every cell in
+  // it measured (or gap-filled), within step_height of the region's plane, no step edge. A
+  // level hole is the surface itself: noisy cells the window fit rejected (the few, steep
+  // rays at the rim of the sensor's blind spot), a patch that grew into a region of its own;
+  // an obstacle or a pit in it has a step edge or cells off the plane, and an unseen patch
+  // stays a hole (never a foothold). Cells of other regions inside a level hole join the
+  // region (a region left without cells is dropped).
+  auto boundingBoxes = [&]() {
+    w.rmin.assign(static_cast<std::size_t>(nreg), n);
+    w.rmax.assign(static_cast<std::size_t>(nreg), -1);
+    w.cmin.assign(static_cast<std::size_t>(nreg), n);
+    w.cmax.assign(static_cast<std::size_t>(nreg), -1);
+    for (int r = 0; r < n; ++r) {
+      for (int c = 0; c < n; ++c) {
+        const int L = labels[static_cast<std::size_t>(r * n + c)];
+        if (L < 0) continue;
+        const auto k = static_cast<std::size_t>(L);
+        w.rmin[k] = std::min(w.rmin[k], r);
+        w.rmax[k] = std::max(w.rmax[k], r);
+        w.cmin[k] = std::min(w.cmin[k], c);
+        w.cmax[k] = std::max(w.cmax[k], c);
+      }
     }
-  }
-  const double max_hole_cells = settings_.max_hole_area / (res * res);
-  for (int k = 0; k < nreg; ++k) {
+  };
+  // Region k's mask in its box with a one-pixel zero border: pixel (u, v) = cell
+  // (rmin + v - 1, cmin + u - 1). Empty (0 x 0) for a region without cells.
+  auto regionMask = [&](int k) {
     const auto kk = static_cast<std::size_t>(k);
-    const int rows = rmax[kk] - rmin[kk] + 1, cols = cmax[kk] - cmin[kk] + 1;
-    // The ROI with a one-pixel zero border: mask pixel (u, v) = cell (rmin + v - 1, cmin + u - 1).
+    if (w.rmax[kk] < 0) return cv::Mat();
+    const int rows = w.rmax[kk] - w.rmin[kk] + 1, cols = w.cmax[kk] - w.cmin[kk] + 1;
     cv::Mat mask = w.region_mask(cv::Rect(0, 0, cols + 2, rows + 2));
     mask.setTo(0);
     for (int r = 0; r < rows; ++r) {
       unsigned char* row = mask.ptr<unsigned char>(r + 1);
       for (int c = 0; c < cols; ++c) {
         row[c + 1] =
-            labels[static_cast<std::size_t>((rmin[kk] + r) * n + cmin[kk] + c)] == k ? 1 : 0;
+            labels[static_cast<std::size_t>((w.rmin[kk] + r) * n + w.cmin[kk] + c)] == k ? 1 : 0;
       }
     }
+    return mask;
+  };
+  boundingBoxes();
+  const double max_hole_cells = settings_.max_hole_area / (res * res);
+  const double max_level_cells = settings_.max_level_hole_area / (res * res);
+  bool absorbed = false;
+  for (int k = 0; k < nreg; ++k) {
+    const auto kk = static_cast<std::size_t>(k);
+    cv::Mat mask = regionMask(k);
+    if (mask.empty()) continue;
+    const PlanarRegion& reg = out.regions[kk];
     w.contours.clear();
     w.hierarchy.clear();
     cv::findContours(mask, w.contours, w.hierarchy, cv::RETR_CCOMP, cv::CHAIN_APPROX_NONE);
-    bool filled = false;
     for (std::size_t h = 0; h < w.contours.size(); ++h) {
       if (w.hierarchy[h][3] < 0) continue;
       const cv::Rect box = cv::boundingRect(w.contours[h]);
-      if (box.area() > max_hole_cells + 2 * (box.width + box.height) + 4) continue;
-      cv::Mat fill = cv::Mat::zeros(mask.size(), CV_8U);
-      cv::drawContours(fill, w.contours, static_cast<int>(h), 1, cv::FILLED);
+      const bool small = box.area() <= max_hole_cells + 2 * (box.width + box.height) + 4;
+      if (!small && box.area() > max_level_cells + 2 * (box.width + box.height) + 4) continue;
+      w.hole_fill.create(mask.size(), CV_8U);
+      w.hole_fill.setTo(0);
+      cv::drawContours(w.hole_fill, w.contours, static_cast<int>(h), 1, cv::FILLED);
+      auto cellOf = [&](int u, int v) {
+        return static_cast<std::size_t>((w.rmin[kk] + v - 1) * n + w.cmin[kk] + u - 1);
+      };
+      bool level = !small;
+      for (int v = box.y; level && v < box.y + box.height; ++v) {
+        for (int u = box.x; u < box.x + box.width; ++u) {
+          if (!w.hole_fill.at<unsigned char>(v, u)) continue;
+          const std::size_t i = cellOf(u, v);
+          if (labels[i] == k) continue;
+          const int r = static_cast<int>(i) / n, c = static_cast<int>(i) % n;
+          if (std::isnan(H[i]) || w.step.at<unsigned char>(r, c) ||
+              std::abs(static_cast<double>(H[i]) - reg.heightAt(out.cellCenter(r, c))) >
+                  settings_.step_height) {
+            level = false;
+            break;
+          }
+        }
+      }
+      if (!small && !level) continue;
       for (int v = box.y; v < box.y + box.height; ++v) {
         for (int u = box.x; u < box.x + box.width; ++u) {
-          if (!fill.at<unsigned char>(v, u)) continue;
-          int& l = labels[static_cast<std::size_t>((rmin[kk] + v - 1) * n + cmin[kk] + u - 1)];
-          if (l == -1) {
+          if (!w.hole_fill.at<unsigned char>(v, u)) continue;
+          int& l = labels[cellOf(u, v)];
+          if (l == -1 || (level && l != k)) {
+            absorbed = absorbed || l != -1;
             l = k;
-            mask.at<unsigned char>(v, u) = 1;
-            filled = true;
           }
         }
       }
     }
-    (void)filled;
+  }
+  // Regions emptied by a level hole around them are dropped (labels renumbered).
+  int kept = nreg;
+  if (absorbed) {
+    boundingBoxes();
+    w.remap.assign(static_cast<std::size_t>(nreg), -1);
+    kept = 0;
+    for (int k = 0; k < nreg; ++k) {
+      const auto kk = static_cast<std::size_t>(k);
+      if (w.rmax[kk] < 0) continue;
+      w.remap[kk] = kept;
+      if (kept != k) out.regions[static_cast<std::size_t>(kept)] = std::move(out.regions[kk]);
+      ++kept;
+    }
+    out.regions.resize(static_cast<std::size_t>(kept));
+    for (int& l : labels) {
+      if (l >= 0) l = w.remap[static_cast<std::size_t>(l)];
+    }
+  }
+  boundingBoxes();
+  for (int k = 0; k < kept; ++k) {
+    const auto kk = static_cast<std::size_t>(k);
+    cv::Mat mask = regionMask(k);
     PlanarRegion& reg = out.regions[kk];
-    const Eigen::Vector2d roi_origin = out.origin + res * Eigen::Vector2d(cmin[kk], rmin[kk]);
+    const Eigen::Vector2d roi_origin = out.origin + res * Eigen::Vector2d(w.cmin[kk], w.rmin[kk]);
     reg.polygons = tracePolygons(mask, roi_origin, res, w.contours, w.hierarchy);
   }
   for (std::size_t i = 0; i < cells; ++i) {

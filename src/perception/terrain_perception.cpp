@@ -40,7 +40,7 @@ const std::array<Field<ElevationMapSettings>, 13> kMapFields{{
     {"max_range", &ElevationMapSettings::max_range},
     {"min_range", &ElevationMapSettings::min_range},
 }};
-const std::array<Field<SegmentationSettings>, 11> kSegmentationFields{{
+const std::array<Field<SegmentationSettings>, 13> kSegmentationFields{{
     {"window_half", &SegmentationSettings::window_half},
     {"min_window_fill", &SegmentationSettings::min_window_fill},
     {"max_residual", &SegmentationSettings::max_residual},
@@ -51,7 +51,9 @@ const std::array<Field<SegmentationSettings>, 11> kSegmentationFields{{
     {"grow_tolerance", &SegmentationSettings::grow_tolerance},
     {"min_region_area", &SegmentationSettings::min_region_area},
     {"max_hole_area", &SegmentationSettings::max_hole_area},
+    {"max_level_hole_area", &SegmentationSettings::max_level_hole_area},
     {"fill_gap", &SegmentationSettings::fill_gap},
+    {"fill_shadow", &SegmentationSettings::fill_shadow},
 }};
 const std::array<Field<ConvexRegionSettings>, 8> kRegionFields{{
     {"directions", &ConvexRegionSettings::directions},
@@ -304,12 +306,13 @@ PerceptionStatus TerrainPerception::update(const std::vector<Eigen::Vector3d>& p
 
 PerceptionStatus TerrainPerception::rebuild() {
   const SegmentationSettings& seg = settings_.segmentation;
-  if (seg.fill_gap > 0.0) {
+  if (seg.fill_gap > 0.0 || seg.fill_shadow > 0.0) {
     // The unseen strips between the LiDAR's rings on the ground, filled across (a copy:
     // the fused map keeps only what was measured).
     filled_.copyFrom(map_);
     filled_.fillGaps(static_cast<int>(std::floor(seg.fill_gap / map_.resolution() + 1e-9)),
-                     seg.step_height);
+                     seg.step_height,
+                     static_cast<int>(std::floor(seg.fill_shadow / map_.resolution() + 1e-9)));
     segmenter_.segment(filled_, segmentation_);
   } else {
     segmenter_.segment(map_, segmentation_);

@@ -43,6 +43,36 @@ FootReferencePlanner::FootReferencePlanner(const TerrainModel& terrain, const Ba
   if (!(config_.swing_apex_margin > 0.0 && config_.swing_apex_margin <= 0.5)) {
     detail::fail(where, "swing_apex_margin", config_.swing_apex_margin, "must be in (0, 0.5]");
   }
+  anchors_.resize(n);
+}
+
+void FootReferencePlanner::anchorStance(int foot, double stance_start,
+                                        const Eigen::Vector2d& p) noexcept {
+  if (foot < 0 || foot >= numFeet()) return;
+  Anchor& a = anchors_[static_cast<std::size_t>(foot)];
+  a.valid = p.allFinite() && !std::isnan(stance_start);
+  a.start = stance_start;
+  a.p = p;
+}
+
+void FootReferencePlanner::clearAnchors() noexcept {
+  for (Anchor& a : anchors_) a.valid = false;
+}
+
+const FootReferencePlanner::Anchor* FootReferencePlanner::anchorFor(int foot, double start) const {
+  const Anchor& a = anchors_[static_cast<std::size_t>(foot)];
+  if (!a.valid) return nullptr;
+  const bool same = std::isinf(a.start) || std::isinf(start) ? a.start == start
+                                                             : std::abs(a.start - start) <= 1e-6;
+  return same ? &a : nullptr;
+}
+
+double FootReferencePlanner::stanceStartAt(const ocp::ModeSchedule& schedule, int foot, double t) {
+  const int phase = schedule.phaseAt(t);
+  if (!inContact(schedule.modes()[static_cast<std::size_t>(phase)], foot)) {
+    return std::numeric_limits<double>::quiet_NaN();
+  }
+  return stanceStart(schedule, foot, phase);
 }
 
 int FootReferencePlanner::footholdRegion(const Eigen::Vector2d& p, double t) const {
@@ -81,6 +111,7 @@ Eigen::Vector2d FootReferencePlanner::stanceFoothold(const ocp::ModeSchedule& sc
     return nominalFoothold(foot, t);
   }
   const double start = stanceStart(schedule, foot, phase);
+  if (const Anchor* a = anchorFor(foot, start)) return a->p;
   return nominalFoothold(foot, start > -1e300 ? start : t);
 }
 
@@ -92,8 +123,9 @@ FootReference FootReferencePlanner::query(const ocp::ModeSchedule& schedule, int
     const int phase = schedule.phaseAt(t);
     const double start = stanceStart(schedule, foot, phase);
     const double t_chosen = start > -1e300 ? start : t;  // stanceFoothold's time
-    const Eigen::Vector2d p = nominalFoothold(foot, t_chosen);
-    r.region = footholdRegion(p, t_chosen);
+    const Anchor* a = anchorFor(foot, start);
+    const Eigen::Vector2d p = a != nullptr ? a->p : nominalFoothold(foot, t_chosen);
+    r.region = a != nullptr ? terrain_->regionAt(p) : footholdRegion(p, t_chosen);
     r.z_ref = heightIn(r.region, p) + config_.foot_height_offset;
     return r;
   }
@@ -110,9 +142,12 @@ FootReference FootReferencePlanner::query(const ocp::ModeSchedule& schedule, int
                               ? stanceStart(schedule, foot, lo_phase)
                               : before;
   const double t_lo = lo_start > -1e300 ? lo_start : before;  // stanceFoothold's time
-  const Eigen::Vector2d p_lo = nominalFoothold(foot, t_lo);
+  const Anchor* a_lo = inContact(schedule.modes()[static_cast<std::size_t>(lo_phase)], foot)
+                           ? anchorFor(foot, lo_start)
+                           : nullptr;
+  const Eigen::Vector2d p_lo = a_lo != nullptr ? a_lo->p : nominalFoothold(foot, t_lo);
   const Eigen::Vector2d p_td = nominalFoothold(foot, r.timing.touchdown);
-  const int region_lo = footholdRegion(p_lo, t_lo);
+  const int region_lo = a_lo != nullptr ? terrain_->regionAt(p_lo) : footholdRegion(p_lo, t_lo);
   r.region = footholdRegion(p_td, r.timing.touchdown);
   const double z_lo = heightIn(region_lo, p_lo), z_td = heightIn(r.region, p_td);
   r.direction = classifySwing(z_lo, z_td, config_.level_tolerance);

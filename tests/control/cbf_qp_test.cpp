@@ -89,6 +89,17 @@ Vector3d frameVelocity(const model::Model& m, model::Data& d, int f, const Vecto
   return model::getFrameVelocity(m, d, f, model::ReferenceFrame::LOCAL_WORLD_ALIGNED).head<3>();
 }
 
+/// The same as a dynamic vector (for the finite differences). Entry by entry: GCC 12 warns
+/// (-Warray-bounds, a false positive) on the 4-wide AVX copy of a Vector3d temporary into a
+/// VectorXd when the copy gets inlined.
+VectorXd frameVelocityX(const model::Model& m, model::Data& d, int f, const VectorXd& q,
+                        const VectorXd& v) {
+  const Vector3d w = frameVelocity(m, d, f, q, v);
+  VectorXd out(3);
+  for (int k = 0; k < 3; ++k) out[k] = w[k];
+  return out;
+}
+
 /// Lateral unit vector of frame f's yaw frame (x axis projected on the ground plane).
 Vector3d lateralAxis(const model::Model& m, model::Data& d, int f, const VectorXd& q) {
   model::forwardKinematics(m, d, q);
@@ -171,7 +182,7 @@ VectorXd referenceMinimiser(const CentroidalRobot& robot, const CbfQpSettings& s
     MatrixXd J(6, nv);
     model::getFrameJacobian(m, d, f, model::ReferenceFrame::LOCAL_WORLD_ALIGNED, J);
     const VectorXd drift = alongMotion(m, q, v, zero, [&](const VectorXd& qq, const VectorXd& vv) {
-      return VectorXd(frameVelocity(m, d, f, qq, vv));
+      return frameVelocityX(m, d, f, qq, vv);
     });
     H += s.foot_weight * J.topRows<3>().transpose() * J.topRows<3>();
     g += s.foot_weight * J.topRows<3>().transpose() * (drift - t.feet.col(i));
@@ -299,7 +310,7 @@ void expectDriftMatchesFiniteDifferences(const std::shared_ptr<const CentroidalR
     for (int i = 0; i < robot->nc(); ++i) {
       const int f = robot->frameIds()[static_cast<size_t>(i)];
       auto vel = [&](const VectorXd& qq, const VectorXd& vv) {
-        return VectorXd(frameVelocity(m, d, f, qq, vv));
+        return frameVelocityX(m, d, f, qq, vv);
       };
       const Vector3d drift = filter.footDrift().col(i);
       const Vector3d fd0 = alongMotion(m, q, v, VectorXd::Zero(robot->nv()), vel);
@@ -613,13 +624,67 @@ TEST(CbfQp, ClosedLoopSwingWheelStaysAboveTheGround) {
 
 // ---- (4) infeasible barriers, invalid input -----------------------------------------------
 
-TEST(CbfQp, InfeasibleBarriersGiveTheFallback) {
+// Barriers without a common point: relaxed (the default), the contact rows and joint
+// bounds exact, every barrier row broken by as little as the weights allow; the slacks are
+// those of the relaxed problem's optimum (checked by its optimality conditions).
+TEST(CbfQp, InfeasibleBarriersAreRelaxedWithTheContactRowsAndJointBoundsExact) {
+  const auto robot = ct::tachyon3Robot();
+  const planning::TerrainModel terrain(std::vector<planning::ConvexRegion>{
+      rectangle(-1.0, 1.0, 49.5, 50.5), rectangle(-1.0, 1.0, -50.5, -49.5)});
+  const CbfQpSettings s;
+  CbfQpFilter filter(robot, terrain, s);
+  std::vector<FootRegionPlan> plan(6);
+  plan[ct::LF].region = 0;
+  plan[ct::RF].region = 1;
+  std::mt19937 rng(5);
+  const VectorXd q = tachyonConfiguration(*robot);
+  const VectorXd v = randomVelocity(robot->nv(), rng, 0.5);
+  const AccelerationTargets targets = randomTargets(filter, rng);
+  VectorXd a(robot->nv());
+  ASSERT_EQ(filter.filter(q, v, ct::kAllStance, plan.data(), targets, a), CbfQpStatus::Relaxed);
+  EXPECT_TRUE(filter.qpStatus() == DenseQpStatus::Infeasible ||
+              filter.qpStatus() == DenseQpStatus::MaxIterations)
+      << control::toString(filter.qpStatus());
+  EXPECT_TRUE(std::isfinite(filter.correction()));
+  const control::DenseQpProblem& p = filter.lastProblem();
+  ASSERT_GT(p.nIneq(), 0);
+  EXPECT_LE((p.Aeq() * a - p.beq()).lpNorm<Eigen::Infinity>(), 1e-8);
+  for (int j = 0; j < robot->nv(); ++j) {
+    EXPECT_GE(a[j], p.lb()[j] - 1e-9) << j;
+    EXPECT_LE(a[j], p.ub()[j] + 1e-9) << j;
+  }
+  // Slack of each barrier row at a, and the optimality of a for the relaxed problem: with
+  // the slacks eliminated, a minimises f(a) + w/2 sum max(0, l - C a)^2 subject to the
+  // equalities and the bounds, so the gradient H a + g - w C^T max(0, l - C a) lies in the
+  // span of the equality rows and the active bounds.
+  const VectorXd viol = (p.l() - p.C() * a).cwiseMax(0.0);
+  EXPECT_NEAR(filter.relaxation(), viol.maxCoeff(), 1e-9);
+  EXPECT_GT(filter.relaxation(), 1e-3);
+  const VectorXd grad = p.H() * a + p.g() - s.relaxation_weight * p.C().transpose() * viol;
+  // It must be a combination of the equality rows and the unit vectors of the active bounds
+  // (least-squares residual ~ 0 against its size).
+  std::vector<int> active;
+  for (int j = 0; j < robot->nv(); ++j) {
+    if (a[j] <= p.lb()[j] + 1e-9 || a[j] >= p.ub()[j] - 1e-9) active.push_back(j);
+  }
+  Eigen::MatrixXd span =
+      Eigen::MatrixXd::Zero(robot->nv(), p.nEq() + static_cast<int>(active.size()));
+  span.leftCols(p.nEq()) = p.Aeq().transpose();
+  for (std::size_t k = 0; k < active.size(); ++k)
+    span(active[k], p.nEq() + static_cast<int>(k)) = 1.0;
+  const VectorXd y = span.colPivHouseholderQr().solve(grad);
+  const double scale = (s.relaxation_weight * p.C().transpose() * viol).lpNorm<Eigen::Infinity>();
+  EXPECT_LE((span * y - grad).lpNorm<Eigen::Infinity>(), 1e-9 * scale);
+}
+
+TEST(CbfQp, InfeasibleBarriersWithoutRelaxationGiveTheFallback) {
   const auto robot = ct::tachyon3Robot();
   // LF's region 50 m to the left, RF's 50 m to the right: the hips (about y) cannot move
   // the feet apart sideways at all.
   const planning::TerrainModel terrain(std::vector<planning::ConvexRegion>{
       rectangle(-1.0, 1.0, 49.5, 50.5), rectangle(-1.0, 1.0, -50.5, -49.5)});
-  const CbfQpSettings s;
+  CbfQpSettings s;
+  s.relaxation_weight = 0.0;
   CbfQpFilter filter(robot, terrain, s);
   std::vector<FootRegionPlan> plan(6);
   plan[ct::LF].region = 0;
@@ -792,6 +857,9 @@ TEST(CbfQp, FilterDoesNotAllocate) {
       rectangle(-3.0, 0.40, -3.0, 3.0), rectangle(-1.0, 1.0, 49.5, 50.5),
       rectangle(-1.0, 1.0, -50.5, -49.5)});
   CbfQpFilter filter(robot, terrain, CbfQpSettings{});
+  CbfQpSettings brake_settings;
+  brake_settings.relaxation_weight = 0.0;  // infeasible barriers: the brake fallback
+  CbfQpFilter brake(robot, terrain, brake_settings);
   std::mt19937 rng(7);
   const VectorXd q = tachyonConfiguration(*robot, 0.38);
   const VectorXd v = randomVelocity(robot->nv(), rng, 0.5);
@@ -805,7 +873,8 @@ TEST(CbfQp, FilterDoesNotAllocate) {
   bad_v[0] = std::nan("");
   VectorXd a(robot->nv());
   filter.filter(q, v, 63, plan.data(), t, a);  // warm-up
-  int statuses[3] = {0, 0, 0};
+  brake.filter(q, v, 63, plan.data(), t, a);
+  int statuses[4] = {0, 0, 0, 0};
   double checksum = 0.0;
   {
     test::AllocationGuard guard;
@@ -815,14 +884,17 @@ TEST(CbfQp, FilterDoesNotAllocate) {
         checksum += a.sum() + filter.correction();
       }
       ++statuses[static_cast<int>(filter.filter(q, v, 63, infeasible.data(), t, a))];
+      checksum += a.sum() + filter.relaxation();
+      ++statuses[static_cast<int>(brake.filter(q, v, 63, infeasible.data(), t, a))];
       ++statuses[static_cast<int>(filter.filter(q, bad_v, 63, nullptr, t, a))];
       checksum += a.sum();
     }
     EXPECT_EQ(guard.count(), 0u);
   }
-  EXPECT_EQ(statuses[0], 12);
-  EXPECT_EQ(statuses[1], 3);
-  EXPECT_EQ(statuses[2], 3);
+  EXPECT_EQ(statuses[static_cast<int>(CbfQpStatus::Optimal)], 12);
+  EXPECT_EQ(statuses[static_cast<int>(CbfQpStatus::Relaxed)], 3);
+  EXPECT_EQ(statuses[static_cast<int>(CbfQpStatus::Fallback)], 3);
+  EXPECT_EQ(statuses[static_cast<int>(CbfQpStatus::InvalidInput)], 3);
   EXPECT_FALSE(std::isnan(checksum));
 }
 

@@ -159,6 +159,60 @@ TEST(PlaneSegmentation, FlatWithNoiseDropoutsAndAHoleIsOneRegionWithTheHole) {
   }
 }
 
+// A patch of the floor whose points scatter by up to 3 cm (less than step_height: the
+// few steep rays at the rim of a LiDAR's blind spot) fails the local fit's residual test:
+// a hole in the floor region. Level (every cell measured, near the floor's plane, no step
+// edge), it is filled; a pit of the same size beside it (10 cm deep) stays a hole. (An
+// unseen patch stays a hole too: FlatWithNoiseDropoutsAndAHoleIsOneRegionWithTheHole.)
+TEST(PlaneSegmentation, LevelHolesAreFilledButPitsAndUnseenPatchesStayHoles) {
+  SyntheticTerrain terrain;
+  terrain.boxes = {{-0.9, -0.6, -0.3, 0.0, -0.10}};    // the pit
+  terrain.no_data = {rectangle(0.5, 0.7, -0.3, 0.1)};  // the patch's own points below
+  Extracted e;
+  auto extractWithNoisyPatch = [&](double max_level_hole_area) {
+    e.map.moveTo(Eigen::Vector2d::Zero());
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    pose.translation() = kSensor;
+    std::vector<Eigen::Vector3d> pts = terrain.cloud(0.01, 0.005, 0.1, kSensor, 1);
+    // The noisy patch x [0.5, 0.7], y [-0.3, 0.1]: a checkerboard of 2 x 2 cell blocks,
+    // every other one 3 cm high.
+    for (double y = -0.295; y < 0.1; y += 0.01) {
+      for (double x = 0.505; x < 0.7; x += 0.01) {
+        const long ix = std::lround((x - 0.505) / 0.01), iy = std::lround((y + 0.295) / 0.01);
+        const double z = (ix / 4 + iy / 4) % 2 == 0 ? 0.03 : 0.0;
+        pts.push_back(Eigen::Vector3d(x, y, z) - kSensor);
+      }
+    }
+    e.map.update(pts, pose);
+    SegmentationSettings settings;
+    settings.max_level_hole_area = max_level_hole_area;
+    PlaneSegmenter segmenter(settings);
+    segmenter.segment(e.map, e.seg);
+  };
+  auto holesOfFloor = [&]() {
+    const int floor = e.seg.regionAt({0.0, 0.5});
+    EXPECT_GE(floor, 0);
+    int holes = 0;
+    for (const PolygonWithHoles& p : e.seg.regions[static_cast<std::size_t>(floor)].polygons) {
+      holes += static_cast<int>(p.holes.size());
+    }
+    return holes;
+  };
+  // Without the rule the noisy patch is a hole of the floor, as the pit is.
+  extractWithNoisyPatch(0.0);
+  const int floor_without = e.seg.regionAt({0.0, 0.5});
+  EXPECT_NE(e.seg.regionAt({0.6, -0.1}), floor_without);
+  EXPECT_EQ(holesOfFloor(), 2);
+  // With it (default area) the patch is floor; the pit is still a hole of the floor.
+  extractWithNoisyPatch(SegmentationSettings{}.max_level_hole_area);
+  const int floor = e.seg.regionAt({0.0, 0.5});
+  for (double y = -0.28; y <= 0.08; y += 0.04) {
+    for (double x = 0.52; x <= 0.68; x += 0.04) EXPECT_EQ(e.seg.regionAt({x, y}), floor);
+  }
+  EXPECT_NE(e.seg.regionAt({-0.75, -0.15}), floor);
+  EXPECT_EQ(holesOfFloor(), 1);
+}
+
 TEST(PlaneSegmentation, BlocksMatchTheirTopsAndTheFloor) {
   const SyntheticTerrain terrain = test::blocksTerrain();
   Extracted e;

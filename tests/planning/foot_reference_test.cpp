@@ -97,6 +97,76 @@ TEST(FootReference, GapReachSendsAFootholdInAGapOntoTheRegionAhead) {
   EXPECT_GT(crossings, 0) << "no touch-down fell into the gap";
 }
 
+// A robot lagging its base reference lands short of the nominal foothold. A stance whose
+// nominal foothold lies in the gap before the block belongs to the block (gap_reach), so the
+// swing after it would be planned level at the block's height; anchored where the foot
+// actually stands (on the floor, 3.5 cm short of the gap), the stance is on the floor and
+// the swing after it climbs onto the block from the floor.
+TEST(FootReference, AnchoredStanceUsesTheSurfaceTheFootStandsOn) {
+  const planning::TerrainModel terrain = planning::terrainFromBoxes(
+      {-5.0, 10.0, -1.5, 1.5, 0.0}, 0.0, {{1.0, 2.2, -1.5, 1.5, 0.20}}, 0.085);
+  planning::BaseReference base{terrain, {0.375, kNominal}};
+  base.reset(0.0, lie::SE3(), planning::BaseVelocityCommand{0.5, 0.0, 0.0});
+  planning::FootReferenceConfig config{kNominal, kClearance, kWheelRadius};
+  config.gap_reach = 0.2;
+  planning::FootReferencePlanner planner(terrain, base, config);
+  planning::GaitScheduler scheduler{
+      planning::Gait::trot(6, 0.8, 0.6, planning::contactMask(kFeet, {"LF", "RF", "MR"}),
+                           planning::contactMask(kFeet, {"MF", "LR", "RR"})),
+      3.0};
+  ocp::ModeSchedule schedule{scheduler.requiredCapacity()};
+  scheduler.fill(0.0, 3.0, schedule);
+  const int floor = terrain.regionAt({0.5, 0.0}), block = terrain.regionAt({1.5, 0.0});
+  int checked = 0;
+  for (int f : {0, 1, 2}) {  // front feet: find a stance whose nominal foothold is in the gap
+    for (double t = 0.0; t < 2.0; t += 0.005) {
+      const planning::FootReference nominal = planner.query(schedule, f, t);
+      if (!nominal.timing.stance) continue;
+      const double start = planning::FootReferencePlanner::stanceStartAt(schedule, f, t);
+      ASSERT_FALSE(std::isnan(start));
+      EXPECT_NEAR(start, stanceStart(Scene{}, f, t), 1e-6);
+      const Vector2d p_nominal = planner.stanceFoothold(schedule, f, t);
+      if (!(p_nominal.x() > 0.915 && p_nominal.x() < 1.0)) continue;
+      ASSERT_EQ(nominal.region, block);
+      // The swing after this stance, nominally level on the block.
+      double t_swing = t;
+      while (planner.query(schedule, f, t_swing).timing.stance) t_swing += 0.005;
+      t_swing += 0.01;
+      const planning::FootReference swing_nominal = planner.query(schedule, f, t_swing);
+      ASSERT_FALSE(swing_nominal.timing.stance);
+      EXPECT_EQ(swing_nominal.direction, SwingDirection::Level);
+
+      const Vector2d stands(0.88, p_nominal.y());
+      planner.anchorStance(f, start, stands);
+      const planning::FootReference anchored = planner.query(schedule, f, t);
+      EXPECT_EQ(anchored.region, floor);
+      EXPECT_NEAR(anchored.z_ref, kWheelRadius, 1e-12);
+      EXPECT_EQ(planner.stanceFoothold(schedule, f, t), stands);
+      const planning::FootReference swing = planner.query(schedule, f, t_swing);
+      EXPECT_EQ(swing.direction, SwingDirection::Ascending);
+      EXPECT_EQ(swing.swing_region, floor);
+      EXPECT_EQ(swing.region, block);
+      // An anchor of another stance, or none, leaves the footholds nominal.
+      planner.anchorStance(f, start - 0.8, stands);
+      EXPECT_EQ(planner.query(schedule, f, t).region, block);
+      planner.anchorStance(f, start, stands);
+      planner.clearAnchors();
+      EXPECT_EQ(planner.query(schedule, f, t_swing).direction, SwingDirection::Level);
+      planner.anchorStance(f, start, Vector2d(std::nan(""), 0.0));  // refused: nominal
+      EXPECT_EQ(planner.query(schedule, f, t).region, block);
+      ++checked;
+      break;
+    }
+  }
+  EXPECT_GT(checked, 0) << "no stance's nominal foothold fell into the gap";
+  // A foot in swing has no stance start.
+  for (double t = 0.0; t < 1.0; t += 0.01) {
+    if (!planner.query(schedule, 0, t).timing.stance) {
+      EXPECT_TRUE(std::isnan(planning::FootReferencePlanner::stanceStartAt(schedule, 0, t)));
+    }
+  }
+}
+
 TEST(FootReference, TrotOverTheStep) {
   Scene s;
   const int floor_before = s.terrain.regionAt({0.0, 0.0});

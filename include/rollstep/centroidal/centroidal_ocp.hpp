@@ -91,6 +91,13 @@ class CentroidalOcp {
   /// returns false. Never allocates: the hand-over of a new (perceived) terrain between
   /// solves.
   bool swapTerrain(planning::TerrainModel& terrain) noexcept;
+  /// Anchors every foot in stance at t under `schedule` at its position in state x (the
+  /// measured state): that stance's region and height, and the lift-off end of the swing
+  /// after it, are taken where the foot stands (planning::FootReferencePlanner::
+  /// anchorStance), not at its nominal foothold. A non-finite or wrongly sized x changes
+  /// nothing. Never allocates.
+  void anchorStanceFeet(const ocp::ModeSchedule& schedule, double t,
+                        const Eigen::VectorXd& x) noexcept;
   int regionEdgeCapacity() const { return region_edge_capacity_; }
 
   /// The nominal standing state at the planar pose (x, y, yaw): base at the nominal height
@@ -143,7 +150,9 @@ class CentroidalOcp {
   Eigen::VectorXd q_joint_ref_;
   Eigen::VectorXd servo_stiffness_;
   std::vector<std::string> contact_names_;
-  std::unique_ptr<CentroidalCache> scratch_;  // for the non-real-time helpers above
+  std::unique_ptr<CentroidalCache> scratch_;       // for the non-real-time helpers above
+  std::unique_ptr<CentroidalCache> anchor_cache_;  // anchorStanceFeet
+  Eigen::VectorXd zero_input_;
 };
 
 }  // namespace rollstep::centroidal

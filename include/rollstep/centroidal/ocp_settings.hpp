@@ -94,6 +94,13 @@ struct OcpSettings {
   /// body rises before a step up and comes down after a step down. In [0, 10].
   double base_height_reach = 0.0;
   double base_height_slope = 0.0;  ///< [-] grade of that ramp, in [0, 100]
+  /// The current stances' regions and heights, and the lift-off end of the swings under
+  /// way, from where the feet stand in the measured state (CentroidalOcp::anchorStanceFeet,
+  /// planning::FootReferencePlanner::anchorStance) instead of their nominal footholds,
+  /// which a robot lagging its base reference has not reached. Off by default (session 14:
+  /// on, the step20 climb on the estimator's state fell; on perception it helps, see
+  /// config/behaviours/climb_perception.yaml).
+  bool anchor_stance_feet = false;
   /// [m] A nominal foothold in a gap between (shrunk) regions goes onto the region ahead
   /// along the travel when that begins within this distance (planning::FootReferenceConfig::
   /// gap_reach); 0: onto the nearest region, which at a step edge is the one the foot is

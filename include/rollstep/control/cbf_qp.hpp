@@ -78,10 +78,17 @@
 //
 // The state (q, v) is the internal integrator's: the filter keeps the COMMANDED motion
 // safe. Solved by DenseQpSolver (dense_qp.hpp), warm-started from the last tick.
-// Fallback (a documented rule): when the QP does not end Optimal (infeasible barriers,
-// iteration cap, bad data), a = fallback: zero base acceleration and joint accelerations
-// -v_J / fallback_brake_time, so the commanded joints come to rest where they are; the
-// status says so.
+// Relaxation: when the QP is infeasible (the barriers have no common point with the contact
+// rows and joint bounds: a foot asked to stay in a region that its joint limits pull it out
+// of, a swing wheel under a rising clearance plane) or hits its iteration cap, a second QP
+// gives every barrier row a slack s_r >= 0, C_r a + s_r >= l_r, at the cost
+// 0.5 relaxation_weight s_r^2: the command that breaks the barriers least, by weight,
+// while the contact rows and the joint bounds hold exactly (status Relaxed). Braking the
+// joints instead (the fallback below) stops a climbing swing in mid-air.
+// Fallback (a documented rule): when neither QP ends Optimal (the contact rows and joint
+// bounds alone inconsistent, bad data; or relaxation_weight = 0), a = fallback: zero base
+// acceleration and joint accelerations -v_J / fallback_brake_time, so the commanded joints
+// come to rest where they are; the status says so.
 // InvalidInput (the QP is not solved): a non-finite or wrongly sized q, v or target, a
 // quaternion whose norm is not 1 within 1e-3, a mode outside [0, 2^nc), a bad region
 // index; a gets the fallback with 0 for every non-finite (or missing) v_J. When a itself is
@@ -120,6 +127,8 @@ struct AccelerationTargets {
 
 enum class CbfQpStatus {
   Optimal,       ///< the QP's solution
+  Relaxed,       ///< the barriers had no common point: the relaxed QP's solution (the least
+                 ///< weighted violation of the barrier rows; relaxation() says how much)
   Fallback,      ///< the QP failed (qpStatus() says how); the fallback acceleration
   InvalidInput,  ///< non-finite state or targets; the fallback acceleration (with v = 0 where
                  ///< v is not finite)
@@ -175,6 +184,9 @@ class CbfQpFilter {
   double correction() const { return correction_; }
   /// Rows of the last QP: equalities and inequality rows (for logs and tests).
   const DenseQpProblem& lastProblem() const { return qp_; }
+  /// Largest slack of the last filter() [m/s^2]: how far the command breaks a barrier row
+  /// (0 unless the status was Relaxed).
+  double relaxation() const { return relaxation_; }
   /// Foot kinematics of the last filter() that got past its input checks: J_i (rows 3 i ..
   /// 3 i + 2, nv columns, world linear velocity of contact frame i's origin) and the drift
   /// dJ_i v (column i, the frame origin's classical acceleration at a = 0, world axes).
@@ -196,6 +208,7 @@ class CbfQpFilter {
   int support_mask_ = -1;
   CbfQpSettings settings_;
   double lateral_slip_weight_ = 0.0;
+  double relaxation_ = 0.0;
   DenseQpProblem qp_;
   DenseQpSolver qp_solver_;
   int max_region_edges_ = 0;

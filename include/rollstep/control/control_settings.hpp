@@ -112,6 +112,12 @@ struct CbfQpSettings {
   /// [s] Fallback when the QP fails: joint accelerations -v_J / fallback_brake_time (the
   /// commanded joints brake to rest where they are), base acceleration 0.
   double fallback_brake_time = 0.1;
+  /// When the barriers have no common point (the QP is infeasible), a second QP relaxes
+  /// them instead of braking: every barrier row r gets a slack s_r >= 0 (C_r a + s_r >= l_r)
+  /// with the cost 0.5 relaxation_weight s_r^2 (rows are in m/s^2 of a point's
+  /// acceleration, as the foot cost), so the command breaks the barriers as little as it
+  /// can while the contact rows and joint bounds hold exactly. 0: off (brake at once).
+  double relaxation_weight = 1e4;
   // Barrier families of the CBF-QP baseline (DESIGN.md section 6), each off when its gamma
   // is 0 (the defaults: the NMPC pipeline does not use them). clearance_gamma = 0 also
   // turns the region-plane clearance above off (its height jumps at a region edge; the

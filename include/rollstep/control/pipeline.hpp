@@ -114,11 +114,12 @@ struct PipelineCounters {
   std::uint64_t invalid_states = 0;
   std::uint64_t solutions_received = 0;
   std::uint64_t solutions_rejected = 0;  ///< unusable, reference kept
-  std::uint64_t qp_fallbacks = 0;
-  std::uint64_t watchdog_trips = 0;   ///< solution older than mpc.max_solution_age: hold began
-  std::uint64_t holding_ticks = 0;    ///< ticks spent holding the safe posture
-  std::uint64_t stale_solutions = 0;  ///< older than mpc.max_solution_age on arrival: ignored
-  std::uint64_t terrain_updates = 0;  ///< new terrains the real-time side changed to
+  std::uint64_t qp_fallbacks = 0;        ///< ticks on the CBF-QP's brake fallback
+  std::uint64_t qp_relaxations = 0;      ///< ticks on its relaxed barriers (CbfQpStatus::Relaxed)
+  std::uint64_t watchdog_trips = 0;      ///< solution older than mpc.max_solution_age: hold began
+  std::uint64_t holding_ticks = 0;       ///< ticks spent holding the safe posture
+  std::uint64_t stale_solutions = 0;     ///< older than mpc.max_solution_age on arrival: ignored
+  std::uint64_t terrain_updates = 0;     ///< new terrains the real-time side changed to
 };
 
 class ControlPipeline {

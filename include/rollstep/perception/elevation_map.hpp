@@ -101,8 +101,10 @@ class ElevationMap {
   /// [m] in height (one surface), else the lower one's height (a shadow behind an edge is the
   /// lower surface going on under it: anything higher would have been seen), and the larger
   /// of their variances. Never extrapolates: a cell with one side unseen stays empty.
+  /// `max_shadow_cells` (< 0: max_gap_cells) is the same limit for a gap whose sides differ
+  /// by more than max_step (a shadow: the lower side's height); the shortest gap still wins.
   /// Returns the cells filled. Never allocates.
-  int fillGaps(int max_gap_cells, double max_step);
+  int fillGaps(int max_gap_cells, double max_step, int max_shadow_cells = -1);
 
   /// Row-major cells (index r * size() + c): height [m] (NaN: empty) and variance [m^2].
   const std::vector<float>& heights() const { return height_; }

@@ -37,10 +37,18 @@ struct SegmentationSettings {
   double grow_tolerance = 0.02;       ///< grow-back: distance to the region's plane [m]
   double min_region_area = 0.02;      ///< smaller regions are dropped [m^2]
   double max_hole_area = 0.01;        ///< smaller holes in a region are filled [m^2]
-  /// [m] Before segmenting, unseen gaps at most this wide are filled (ElevationMap::fillGaps:
-  /// interpolated on one surface, the lower side's height across more than step_height);
-  /// 0: off.
+  /// [m^2] Larger holes up to this area are filled when they are level: every cell in them
+  /// measured (or gap-filled), within step_height of the region's plane, no step edge (noise
+  /// the local fit rejected; other regions inside join the region; unseen patches stay
+  /// holes); 0: off.
+  double max_level_hole_area = 0.25;
+  /// [m] Before segmenting, unseen gaps on one surface (ends within step_height) at most
+  /// this wide are filled, interpolated (ElevationMap::fillGaps); 0: off.
   double fill_gap = 0.2;
+  /// [m] The same for an unseen gap between surfaces more than step_height apart, filled
+  /// with the lower one (the shadow behind a step down: a LiDAR mounted at the front and
+  /// looking back over a step down never sees the floor right behind it); 0: off.
+  double fill_shadow = 0.4;
 
   void validate() const;  ///< std::invalid_argument naming the bad parameter
 };

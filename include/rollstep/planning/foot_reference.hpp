@@ -14,6 +14,15 @@
 // (which moves on with the base and would switch region mid-stance at an edge). Built once
 // (allocates); query() allocates nothing. The terrain and base reference are held by pointer and
 // must outlive the planner.
+//
+// Anchors: the nominal foothold of a stance is where the foot should have landed; a robot
+// lagging its base reference (a climb slows it down) lands short of it, and near a step's
+// edge the two are on different surfaces: the foot stands on the landing while the nominal
+// foothold already lies on the step, and its swing would be planned level at the step's
+// height instead of up onto it. anchorStance() records where a stance foot actually stands
+// (the controller measures it); that stance's region and height, and the lift-off end of
+// the swing after it, are then taken at the measured point (TerrainModel::regionAt: the
+// region under it, or the nearest), and every later stance stays nominal.
 #include <Eigen/Core>
 #include <vector>
 
@@ -89,8 +98,28 @@ class FootReferencePlanner {
   /// direction of travel at t, with gap_reach), -1 for an empty terrain.
   int footholdRegion(const Eigen::Vector2d& p, double t) const;
 
+  /// Anchors the stance of `foot` that began at `stance_start` (the schedule's switching
+  /// time that began it, -inf for one that began before the schedule's first switch) at the
+  /// measured world (x, y) `p` of the foot (see the file comment). One anchor per foot, the
+  /// last given; it applies to the stance whose start matches within 1e-6 s. A non-finite
+  /// p or an out-of-range foot clears that foot's anchor. Never allocates.
+  void anchorStance(int foot, double stance_start, const Eigen::Vector2d& p) noexcept;
+  /// Forgets every anchor (all footholds nominal).
+  void clearAnchors() noexcept;
+  /// The start time of the stance of `foot` containing t under `schedule` (as
+  /// anchorStance() takes it), or NaN when the foot is not in stance at t.
+  static double stanceStartAt(const ocp::ModeSchedule& schedule, int foot, double t);
+
  private:
+  struct Anchor {
+    bool valid = false;
+    double start = 0.0;
+    Eigen::Vector2d p = Eigen::Vector2d::Zero();
+  };
   double heightIn(int region, const Eigen::Vector2d& p) const;
+  /// The anchor of `foot`'s stance that began at `start`, or nullptr.
+  const Anchor* anchorFor(int foot, double start) const;
+  std::vector<Anchor> anchors_;
 
   const TerrainModel* terrain_;
   const BaseReference* base_;
