@@ -186,6 +186,23 @@ TEST(ElevationMap, FillGapsInterpolatesAcrossSmallGapsOfOneSurfaceOnly) {
   for (int r = 44; r < n; ++r) {
     for (int c = 0; c < n; ++c) EXPECT_TRUE(std::isnan(copy.height(r, c))) << r << " " << c;
   }
+  // The 6-row shadow with a wider limit for shadows (max_shadow_cells 8, the one-surface
+  // limit still 4): the floor's height below the step; the 2-row ring gaps as before; the
+  // 6-column gap of row 0 (one surface) still too wide.
+  ElevationMap wide(settings);
+  ASSERT_TRUE(wide.copyFrom(map));
+  {
+    rollstep::test::AllocationGuard guard;
+    EXPECT_GT(wide.fillGaps(4, 0.04, 8), filled);
+    EXPECT_EQ(guard.count(), 0u);
+  }
+  for (int r = 30; r < 36; ++r) {
+    for (int c = 0; c < n; ++c) {
+      ASSERT_FALSE(std::isnan(wide.height(r, c))) << r << " " << c;
+      EXPECT_LT(wide.height(r, c), 0.1f) << r << " " << c;  // the floor side, not the top
+    }
+  }
+  for (int c = 12; c < 14; ++c) EXPECT_TRUE(std::isnan(wide.height(0, c))) << c;
   // Row 0's 6-column gap: its cells lie in 2-row gaps along the columns (rows 0..1 are
   // measured below... row 0 is the map's edge): only a vertical or diagonal gap of at most
   // 4 cells with both ends measured may fill them; none exists (nothing below row 0).
