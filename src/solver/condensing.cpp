@@ -11,6 +11,20 @@ using detail::kHard;
 using detail::kInactive;
 using detail::relaxedLog;
 
+namespace {
+
+/// Whether one of the n entries p[0], p[stride], ... is non-zero (NaN counts as non-zero,
+/// as in Eigen's isZero(0.0)); stops at the first. A raw loop: Eigen's isZero goes
+/// through a relative comparison per entry.
+bool anyNonZero(const double* p, Eigen::Index stride, Eigen::Index n) {
+  for (Eigen::Index j = 0; j < n; ++j) {
+    if (!(p[j * stride] == 0.0)) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
 void Solver::Impl::condenseNode(int k) {
   Node& n = node(k);
   const NodeData& d = *n.d;
@@ -67,7 +81,7 @@ void Solver::Impl::condenseNode(int k) {
       }
       n.Wc(i) = j > i ? n.W(i) + n.W(j) : n.W(i);
       n.gamc(i) = j > i ? n.gam(i) - n.gam(j) : n.gam(i);
-      const bool on_x = !d.Gx.row(i).isZero(0.0);
+      const bool on_x = anyNonZero(d.Gx.data() + i, d.Gx.outerStride(), d.Gx.cols());
       const bool on_u = running && !d.state_only(i);
       n.row_parts(i) = (on_x ? 1 : 0) | (on_u ? 2 : 0);
     }
@@ -88,7 +102,9 @@ void Solver::Impl::condenseNode(int k) {
     // rotation, the leg joints and the contact forces, not on the momentum or the joint
     // velocities; a friction row on the contact forces only).
     const auto span = [](const MatrixXd& G, int i, int r) {
-      const auto zero = [&](int c) { return G.col(c).segment(i, r).isZero(0.0); };
+      const auto zero = [&](int c) {
+        return !anyNonZero(G.data() + i + c * G.outerStride(), 1, r);
+      };
       int c0 = 0, c1 = static_cast<int>(G.cols());
       while (c0 < c1 && zero(c0)) ++c0;
       while (c1 > c0 && zero(c1 - 1)) --c1;
@@ -99,8 +115,12 @@ void Solver::Impl::condenseNode(int k) {
     // columns and the unweighted rows entry by entry.
     const auto W = n.Wc.head(m);
     const int ldtx = static_cast<int>(d.Gx.cols()), ldtu = static_cast<int>(d.Gu.cols());
-    double* Tx = n.WGx.data();  // ndx x m
-    double* Tu = n.WGu.data();  // nu x m
+    // With one thread the nodes are condensed one after the other, and all share node 0's
+    // scratch: one block stays in cache instead of a fresh 35 KB per node (the threads of
+    // the pipeline condense different nodes at once and keep their own).
+    Node& scratch = pool.size() == 1 ? node(0) : n;
+    double* Tx = scratch.WGx.data();  // ndx x m
+    double* Tu = scratch.WGu.data();  // nu x m
     const double* Gx = d.Gx.data();
     const double* Gu = d.Gu.data();
     const Eigen::Index ldx = d.Gx.outerStride(), ldu = d.Gu.outerStride();
