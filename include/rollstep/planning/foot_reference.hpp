@@ -91,6 +91,10 @@ class FootReferencePlanner {
 
  private:
   double heightIn(int region, const Eigen::Vector2d& p) const;
+  /// nominalFoothold(foot, t) and footholdRegion of it at t, from one evaluation of the
+  /// base reference's pose at t (query() needs both at the same times).
+  Eigen::Vector2d footholdAt(int foot, double t, int& region) const;
+  int regionOf(const Eigen::Vector2d& p, double t, const lie::SE3& pose) const;
 
   const TerrainModel* terrain_;
   const BaseReference* base_;
