@@ -13,14 +13,16 @@ using detail::relaxedLog;
 
 namespace {
 
-/// Whether one of the n entries p[0], p[stride], ... is non-zero (NaN counts as non-zero,
-/// as in Eigen's isZero(0.0)); stops at the first. A raw loop: Eigen's isZero goes
-/// through a relative comparison per entry.
-bool anyNonZero(const double* p, Eigen::Index stride, Eigen::Index n) {
-  for (Eigen::Index j = 0; j < n; ++j) {
-    if (!(p[j * stride] == 0.0)) return true;
+/// a[i] = sum over the n columns of |G(i, c)| for the m rows of the column-major block G
+/// (outer stride ld): zero exactly on the rows that are zero (a sum of non-negative terms
+/// is zero only if every term is; NaN stays NaN). Down contiguous columns, no branch: it
+/// vectorises, where a scan along each row reads one cache line per entry.
+void rowAbsSums(const double* G, Eigen::Index ld, int m, Eigen::Index n, double* a) {
+  for (int i = 0; i < m; ++i) a[i] = 0.0;
+  for (Eigen::Index c = 0; c < n; ++c) {
+    const double* g = G + c * ld;
+    for (int i = 0; i < m; ++i) a[i] += std::abs(g[i]);
   }
-  return false;
 }
 
 }  // namespace
@@ -73,6 +75,7 @@ void Solver::Impl::condenseNode(int k) {
     // The two rows of a two-sided limit (NodeData::mirror: Jacobians g and -g) add
     // (W_i + W_j) g g^T: one product with the summed weight on the first row, the second
     // row left out.
+    rowAbsSums(d.Gx.data(), d.Gx.outerStride(), m, d.Gx.cols(), n.tmp.data());
     for (int i = 0; i < m; ++i) {
       const int j = d.mirror(i);
       if (j >= 0 && j < i) {
@@ -81,7 +84,7 @@ void Solver::Impl::condenseNode(int k) {
       }
       n.Wc(i) = j > i ? n.W(i) + n.W(j) : n.W(i);
       n.gamc(i) = j > i ? n.gam(i) - n.gam(j) : n.gam(i);
-      const bool on_x = anyNonZero(d.Gx.data() + i, d.Gx.outerStride(), d.Gx.cols());
+      const bool on_x = !(n.tmp(i) == 0.0);
       const bool on_u = running && !d.state_only(i);
       n.row_parts(i) = (on_x ? 1 : 0) | (on_u ? 2 : 0);
     }
@@ -103,7 +106,12 @@ void Solver::Impl::condenseNode(int k) {
     // velocities; a friction row on the contact forces only).
     const auto span = [](const MatrixXd& G, int i, int r) {
       const auto zero = [&](int c) {
-        return !anyNonZero(G.data() + i + c * G.outerStride(), 1, r);
+        // The sum of |entries| down the contiguous segment, without a branch per entry
+        // (vectorised); zero only if every entry is (NaN stays NaN).
+        const double* g = G.data() + i + c * G.outerStride();
+        double a = 0.0;
+        for (int j = 0; j < r; ++j) a += std::abs(g[j]);
+        return a == 0.0;
       };
       int c0 = 0, c1 = static_cast<int>(G.cols());
       while (c0 < c1 && zero(c0)) ++c0;
