@@ -210,15 +210,42 @@ void StaticTorqueLimitResidual::calcDiffInto(const ocp::NodeContext& ctx, ocp::C
                                              ocp::MatRef Rx, ocp::MatRef Ru) const {
   auto& td = static_cast<TorqueResidualData&>(d);
   const CentroidalCache& c = nodeCache(ctx, x, u, true, pre_, td.fallback);
+  const int nj = robot_->nj();
+  if (static_cast<int>(upper_rows_.size()) == nj && static_cast<int>(lower_rows_.size()) == nj) {
+    // Every joint limited on both sides (Tachyon 3): the lower-limit rows are d tau itself,
+    // written in place, and the upper-limit rows their negatives (no scratch, no gathering).
+    auto lx = Rx.middleRows(nj, nj);
+    auto lu = Ru.middleRows(nj, nj);
+    torqueDerivatives(c, lx, lu);
+    Rx.topRows(nj) = -lx;
+    Ru.topRows(nj) = -lu;
+    return;
+  }
+  torqueDerivatives(c, td.tau_dx, td.tau_du);
+  int row = 0;
+  for (int j : upper_rows_) {
+    Rx.row(row) = -td.tau_dx.row(j);
+    Ru.row(row++) = -td.tau_du.row(j);
+  }
+  for (int j : lower_rows_) {
+    Rx.row(row) = td.tau_dx.row(j);
+    Ru.row(row++) = td.tau_du.row(j);
+  }
+}
+
+void StaticTorqueLimitResidual::torqueDerivatives(const CentroidalCache& c, ocp::MatRef tau_dx,
+                                                  ocp::MatRef tau_du) const {
   const int base = robot_->model().nvBase;
   const int nv = robot_->nv();
   const int nj = robot_->nj();
   const int nc = robot_->nc();
-  // d tau / dq = dg_dq - d(J^T f)/dq at fixed f; d tau / df_i = -J_i^T (actuated rows).
-  td.tau_dx.leftCols(nv) = c.nq.dg_dq.bottomRows(nj) - c.nq.dContactTorque_dq.bottomRows(nj);
+  // d tau / dq = dg_dq - d(J^T f)/dq at fixed f; d tau / df_i = -J_i^T (actuated rows); the
+  // torques do not depend on the momentum or the joint velocities.
+  tau_dx.leftCols(nv) = c.nq.dg_dq.bottomRows(nj) - c.nq.dContactTorque_dq.bottomRows(nj);
+  tau_dx.rightCols(tau_dx.cols() - nv).setZero();
+  tau_du.leftCols(nj).setZero();
   for (int i = 0; i < nc; ++i) {
-    td.tau_du.middleCols<3>(nj + 3 * i) =
-        -c.nq.contactJacobians.block(3 * i, base, 3, nj).transpose();
+    tau_du.middleCols<3>(nj + 3 * i) = -c.nq.contactJacobians.block(3 * i, base, 3, nj).transpose();
   }
   if (at_contact_point_) {
     const double r = robot_->contactOffset();
@@ -232,28 +259,11 @@ void StaticTorqueLimitResidual::calcDiffInto(const ocp::NodeContext& ctx, ocp::C
         const Eigen::Vector3d a = c.data.J.block<3, 1>(3, m);
         const Eigen::Vector3d axw = a.cross(w);
         for (std::size_t l = 0; l < k; ++l) {
-          td.tau_dx(m - base, support[l]) += axw.dot(c.data.J.block<3, 1>(3, support[l]));
+          tau_dx(m - base, support[l]) += axw.dot(c.data.J.block<3, 1>(3, support[l]));
         }
-        td.tau_du.block<1, 3>(m - base, nj + 3 * i) += r * a.cross(ez).transpose();
+        tau_du.block<1, 3>(m - base, nj + 3 * i) += r * a.cross(ez).transpose();
       }
     }
-  }
-  if (static_cast<int>(upper_rows_.size()) == nj && static_cast<int>(lower_rows_.size()) == nj) {
-    // Every joint limited on both sides (Tachyon 3): two block copies, no row gathering.
-    Rx.topRows(nj) = -td.tau_dx;
-    Ru.topRows(nj) = -td.tau_du;
-    Rx.middleRows(nj, nj) = td.tau_dx;
-    Ru.middleRows(nj, nj) = td.tau_du;
-    return;
-  }
-  int row = 0;
-  for (int j : upper_rows_) {
-    Rx.row(row) = -td.tau_dx.row(j);
-    Ru.row(row++) = -td.tau_du.row(j);
-  }
-  for (int j : lower_rows_) {
-    Rx.row(row) = td.tau_dx.row(j);
-    Ru.row(row++) = td.tau_du.row(j);
   }
 }
 

@@ -77,12 +77,25 @@ double FootReferencePlanner::stanceStartAt(const ocp::ModeSchedule& schedule, in
 
 int FootReferencePlanner::footholdRegion(const Eigen::Vector2d& p, double t) const {
   if (config_.gap_reach <= 0.0) return terrain_->regionAt(p);
+  return regionOf(p, t, base_->planarPoseAt(t));
+}
+
+int FootReferencePlanner::regionOf(const Eigen::Vector2d& p, double t, const lie::SE3& pose) const {
+  if (config_.gap_reach <= 0.0) return terrain_->regionAt(p);
   const lie::Vector6d v = base_->twistAt(t);
-  Eigen::Vector2d e =
-      (base_->planarPoseAt(t).rotation * Eigen::Vector3d(v[0], v[1], 0.0)).head<2>();
+  Eigen::Vector2d e = (pose.rotation * Eigen::Vector3d(v[0], v[1], 0.0)).head<2>();
   const double speed = e.norm();
   if (speed < 1e-9) return terrain_->regionAt(p);
   return terrain_->regionAhead(p, e / speed, config_.gap_reach);
+}
+
+Eigen::Vector2d FootReferencePlanner::footholdAt(int foot, double t, int& region) const {
+  const lie::SE3 pose = base_->planarPoseAt(t);
+  const Eigen::Vector2d& xy = config_.nominal_feet[static_cast<std::size_t>(foot)];
+  // As BaseReference::worldPoint(xy, t).
+  const Eigen::Vector2d p = pose.act(Eigen::Vector3d(xy.x(), xy.y(), 0.0)).head<2>();
+  region = regionOf(p, t, pose);
+  return p;
 }
 
 double FootReferencePlanner::heightIn(int region, const Eigen::Vector2d& p) const {
@@ -124,14 +137,18 @@ FootReference FootReferencePlanner::query(const ocp::ModeSchedule& schedule, int
     const double start = stanceStart(schedule, foot, phase);
     const double t_chosen = start > -1e300 ? start : t;  // stanceFoothold's time
     const Anchor* a = anchorFor(foot, start);
-    const Eigen::Vector2d p = a != nullptr ? a->p : nominalFoothold(foot, t_chosen);
-    r.region = a != nullptr ? terrain_->regionAt(p) : footholdRegion(p, t_chosen);
+    Eigen::Vector2d p;
+    if (a != nullptr) {
+      p = a->p;
+      r.region = terrain_->regionAt(p);
+    } else {
+      p = footholdAt(foot, t_chosen, r.region);
+    }
     r.z_ref = heightIn(r.region, p) + config_.foot_height_offset;
     return r;
   }
-  const Eigen::Vector2d p = nominalFoothold(foot, t);
   if (!r.timing.bounded()) {
-    r.region = footholdRegion(p, t);
+    const Eigen::Vector2d p = footholdAt(foot, t, r.region);
     r.z_ref = heightIn(r.region, p) + config_.foot_height_offset + config_.swing_clearance;
     return r;
   }
@@ -145,10 +162,15 @@ FootReference FootReferencePlanner::query(const ocp::ModeSchedule& schedule, int
   const Anchor* a_lo = inContact(schedule.modes()[static_cast<std::size_t>(lo_phase)], foot)
                            ? anchorFor(foot, lo_start)
                            : nullptr;
-  const Eigen::Vector2d p_lo = a_lo != nullptr ? a_lo->p : nominalFoothold(foot, t_lo);
-  const Eigen::Vector2d p_td = nominalFoothold(foot, r.timing.touchdown);
-  const int region_lo = a_lo != nullptr ? terrain_->regionAt(p_lo) : footholdRegion(p_lo, t_lo);
-  r.region = footholdRegion(p_td, r.timing.touchdown);
+  int region_lo = -1;
+  Eigen::Vector2d p_lo;
+  if (a_lo != nullptr) {
+    p_lo = a_lo->p;
+    region_lo = terrain_->regionAt(p_lo);
+  } else {
+    p_lo = footholdAt(foot, t_lo, region_lo);
+  }
+  const Eigen::Vector2d p_td = footholdAt(foot, r.timing.touchdown, r.region);
   const double z_lo = heightIn(region_lo, p_lo), z_td = heightIn(r.region, p_td);
   r.direction = classifySwing(z_lo, z_td, config_.level_tolerance);
   r.swing_region = r.direction == SwingDirection::Ascending    ? region_lo

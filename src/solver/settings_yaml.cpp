@@ -24,7 +24,7 @@ struct Entry {
   Field field;
 };
 // A new SolverSettings field goes here and into config/solver.yaml.
-const std::array<Entry, 20> kFields{{
+const std::array<Entry, 21> kFields{{
     {"mode", &SolverSettings::mode},
     {"max_iterations", &SolverSettings::max_iterations},
     {"kkt_tolerance", &SolverSettings::kkt_tolerance},
@@ -45,6 +45,7 @@ const std::array<Entry, 20> kFields{{
     {"acceptable_tolerance", &SolverSettings::acceptable_tolerance},
     {"acceptable_iterations", &SolverSettings::acceptable_iterations},
     {"predictor_corrector", &SolverSettings::predictor_corrector},
+    {"huge_pages", &SolverSettings::huge_pages},
 }};
 constexpr std::size_t kNumFields = kFields.size();
 

@@ -66,5 +66,28 @@ TEST(CentroidalProblem, ShortTrotConvergesWithTheEqualitiesSatisfied) {
   EXPECT_NEAR(s.states()[16][a.robot->stateMomentumIndex()] / a.robot->mass(), 0.3, 0.1);
 }
 
+// SolverSettings::huge_pages is advice to the kernel about the solver's memory: the
+// iterates must be bit for bit those of a solver without it (N = 100, a span of memory
+// above the 4 MB below which the advice is skipped).
+TEST(CentroidalProblem, HugePageAdviceLeavesEveryIterateAsItWas) {
+  Assembly a("trot", 0.15, 100);
+  std::vector<Eigen::VectorXd> xs, us;
+  nominalGuess(*a.robot, a.problem->horizon(), xs, us);
+  std::vector<std::vector<Eigen::VectorXd>> states, inputs;
+  for (const bool huge : {true, false}) {
+    solver::SolverSettings settings;
+    settings.max_iterations = 4;
+    settings.exact_hessian = false;
+    settings.huge_pages = huge;
+    solver::Solver s(a.problem, settings);
+    s.setInitialGuess(xs, us);
+    s.solve(xs[0]);
+    states.push_back(s.states());
+    inputs.push_back(s.inputs());
+  }
+  for (std::size_t k = 0; k < states[0].size(); ++k) EXPECT_EQ(states[0][k], states[1][k]) << k;
+  for (std::size_t k = 0; k < inputs[0].size(); ++k) EXPECT_EQ(inputs[0][k], inputs[1][k]) << k;
+}
+
 }  // namespace
 }  // namespace rollstep::centroidal::test

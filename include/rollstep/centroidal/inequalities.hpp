@@ -100,6 +100,9 @@ class StaticTorqueLimitResidual final : public ocp::Residual {
 
  private:
   void staticTorques(const CentroidalCache& c, Eigen::VectorXd& tau) const;
+  /// d tau / dx (nj x ndx) and d tau / du (nj x nu) of the joints' static torques, every
+  /// entry written.
+  void torqueDerivatives(const CentroidalCache& c, ocp::MatRef tau_dx, ocp::MatRef tau_du) const;
   std::shared_ptr<const CentroidalRobot> robot_;
   CentroidalPrecomputation pre_;  // for nodes without a shared cache
   Eigen::VectorXd lower_, upper_;

@@ -119,6 +119,10 @@ class FootReferencePlanner {
   double heightIn(int region, const Eigen::Vector2d& p) const;
   /// The anchor of `foot`'s stance that began at `start`, or nullptr.
   const Anchor* anchorFor(int foot, double start) const;
+  /// nominalFoothold(foot, t) and footholdRegion of it at t, from one evaluation of the
+  /// base reference's pose at t (query() needs both at the same times).
+  Eigen::Vector2d footholdAt(int foot, double t, int& region) const;
+  int regionOf(const Eigen::Vector2d& p, double t, const lie::SE3& pose) const;
   std::vector<Anchor> anchors_;
 
   const TerrainModel* terrain_;
