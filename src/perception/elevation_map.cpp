@@ -302,6 +302,7 @@ int ElevationMap::fillGaps(int max_gap_cells, double max_step, int max_shadow_ce
         std::size_t end[2] = {0, 0};
         bool found[2] = {false, false};
         for (int side = 0; side < 2; ++side) {
+          if (side == 1 && !found[0]) break;  // one side unseen: never extrapolated
           const int sign = side == 0 ? 1 : -1;
           for (int k = 1; k <= reach; ++k) {
             const int rr = r + sign * k * d[0], cc = c + sign * k * d[1];
