@@ -627,15 +627,25 @@ TEST(CbfQp, ClosedLoopSwingWheelStaysAboveTheGround) {
 // Barriers without a common point: relaxed (the default), the contact rows and joint
 // bounds exact, every barrier row broken by as little as the weights allow; the slacks are
 // those of the relaxed problem's optimum (checked by its optimality conditions).
-TEST(CbfQp, InfeasibleBarriersAreRelaxedWithTheContactRowsAndJointBoundsExact) {
-  const auto robot = ct::tachyon3Robot();
-  const planning::TerrainModel terrain(std::vector<planning::ConvexRegion>{
+/// LF's region 50 m to the left, RF's 50 m to the right: the hips (about y) cannot move the
+/// feet apart sideways at all; the plan that asks for it.
+planning::TerrainModel farApartRegions() {
+  return planning::TerrainModel(std::vector<planning::ConvexRegion>{
       rectangle(-1.0, 1.0, 49.5, 50.5), rectangle(-1.0, 1.0, -50.5, -49.5)});
-  const CbfQpSettings s;
-  CbfQpFilter filter(robot, terrain, s);
+}
+std::vector<FootRegionPlan> farApartPlan() {
   std::vector<FootRegionPlan> plan(6);
   plan[ct::LF].region = 0;
   plan[ct::RF].region = 1;
+  return plan;
+}
+
+TEST(CbfQp, InfeasibleBarriersAreRelaxedWithTheContactRowsAndJointBoundsExact) {
+  const auto robot = ct::tachyon3Robot();
+  const planning::TerrainModel terrain = farApartRegions();
+  const CbfQpSettings s;
+  CbfQpFilter filter(robot, terrain, s);
+  const std::vector<FootRegionPlan> plan = farApartPlan();
   std::mt19937 rng(5);
   const VectorXd q = tachyonConfiguration(*robot);
   const VectorXd v = randomVelocity(robot->nv(), rng, 0.5);
@@ -679,16 +689,11 @@ TEST(CbfQp, InfeasibleBarriersAreRelaxedWithTheContactRowsAndJointBoundsExact) {
 
 TEST(CbfQp, InfeasibleBarriersWithoutRelaxationGiveTheFallback) {
   const auto robot = ct::tachyon3Robot();
-  // LF's region 50 m to the left, RF's 50 m to the right: the hips (about y) cannot move
-  // the feet apart sideways at all.
-  const planning::TerrainModel terrain(std::vector<planning::ConvexRegion>{
-      rectangle(-1.0, 1.0, 49.5, 50.5), rectangle(-1.0, 1.0, -50.5, -49.5)});
+  const planning::TerrainModel terrain = farApartRegions();
   CbfQpSettings s;
   s.relaxation_weight = 0.0;
   CbfQpFilter filter(robot, terrain, s);
-  std::vector<FootRegionPlan> plan(6);
-  plan[ct::LF].region = 0;
-  plan[ct::RF].region = 1;
+  const std::vector<FootRegionPlan> plan = farApartPlan();
   std::mt19937 rng(5);
   const VectorXd q = tachyonConfiguration(*robot);
   const VectorXd v = randomVelocity(robot->nv(), rng, 0.5);

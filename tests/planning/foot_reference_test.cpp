@@ -56,25 +56,38 @@ double stanceStart(const Scene& s, int foot, double t) {
   return hi;
 }
 
-TEST(FootReference, GapReachSendsAFootholdInAGapOntoTheRegionAhead) {
-  // Regions shrunk by 0.085 m: a gap [0.915, 1.085] before the block. A touch-down whose
-  // nominal foothold falls 1 cm into the gap goes onto the block (ascending, its spline ends
-  // on the top) with gap_reach 0.2, onto the floor (level) with the nearest rule.
-  const planning::TerrainModel terrain = planning::terrainFromBoxes(
-      {-5.0, 10.0, -1.5, 1.5, 0.0}, 0.0, {{1.0, 2.2, -1.5, 1.5, 0.20}}, 0.085);
+/// step20's block with regions shrunk by 0.085 m (a gap [0.915, 1.085] before the block),
+/// a base reference at 0.5 m/s and a 0.8 s trot over 3 s.
+struct ShrunkStepScene {
+  planning::TerrainModel terrain = planning::terrainFromBoxes({-5.0, 10.0, -1.5, 1.5, 0.0}, 0.0,
+                                                              {{1.0, 2.2, -1.5, 1.5, 0.20}}, 0.085);
   planning::BaseReference base{terrain, {0.375, kNominal}};
-  base.reset(0.0, lie::SE3(), planning::BaseVelocityCommand{0.5, 0.0, 0.0});
-  planning::FootReferenceConfig near{kNominal, kClearance, kWheelRadius};
-  planning::FootReferenceConfig ahead = near;
-  ahead.gap_reach = 0.2;
-  const planning::FootReferencePlanner nearest(terrain, base, near), forward(terrain, base, ahead);
   planning::GaitScheduler scheduler{
       planning::Gait::trot(6, 0.8, 0.6, planning::contactMask(kFeet, {"LF", "RF", "MR"}),
                            planning::contactMask(kFeet, {"MF", "LR", "RR"})),
       3.0};
   ocp::ModeSchedule schedule{scheduler.requiredCapacity()};
-  scheduler.fill(0.0, 3.0, schedule);
-  const int floor = terrain.regionAt({0.5, 0.0}), block = terrain.regionAt({1.5, 0.0});
+  int floor = -1, block = -1;
+  ShrunkStepScene() {
+    base.reset(0.0, lie::SE3(), planning::BaseVelocityCommand{0.5, 0.0, 0.0});
+    scheduler.fill(0.0, 3.0, schedule);
+    floor = terrain.regionAt({0.5, 0.0});
+    block = terrain.regionAt({1.5, 0.0});
+  }
+};
+
+TEST(FootReference, GapReachSendsAFootholdInAGapOntoTheRegionAhead) {
+  // Regions shrunk by 0.085 m: a gap [0.915, 1.085] before the block. A touch-down whose
+  // nominal foothold falls 1 cm into the gap goes onto the block (ascending, its spline ends
+  // on the top) with gap_reach 0.2, onto the floor (level) with the nearest rule.
+  const ShrunkStepScene sc;
+  const ocp::ModeSchedule& schedule = sc.schedule;
+  const int floor = sc.floor, block = sc.block;
+  planning::FootReferenceConfig near{kNominal, kClearance, kWheelRadius};
+  planning::FootReferenceConfig ahead = near;
+  ahead.gap_reach = 0.2;
+  const planning::FootReferencePlanner nearest(sc.terrain, sc.base, near),
+      forward(sc.terrain, sc.base, ahead);
   int crossings = 0;
   for (double t = 0.0; t < 2.5; t += 0.005) {
     for (int f : {0, 1, 2}) {  // front feet
@@ -103,20 +116,12 @@ TEST(FootReference, GapReachSendsAFootholdInAGapOntoTheRegionAhead) {
 // actually stands (on the floor, 3.5 cm short of the gap), the stance is on the floor and
 // the swing after it climbs onto the block from the floor.
 TEST(FootReference, AnchoredStanceUsesTheSurfaceTheFootStandsOn) {
-  const planning::TerrainModel terrain = planning::terrainFromBoxes(
-      {-5.0, 10.0, -1.5, 1.5, 0.0}, 0.0, {{1.0, 2.2, -1.5, 1.5, 0.20}}, 0.085);
-  planning::BaseReference base{terrain, {0.375, kNominal}};
-  base.reset(0.0, lie::SE3(), planning::BaseVelocityCommand{0.5, 0.0, 0.0});
+  const ShrunkStepScene sc;
+  const ocp::ModeSchedule& schedule = sc.schedule;
+  const int floor = sc.floor, block = sc.block;
   planning::FootReferenceConfig config{kNominal, kClearance, kWheelRadius};
   config.gap_reach = 0.2;
-  planning::FootReferencePlanner planner(terrain, base, config);
-  planning::GaitScheduler scheduler{
-      planning::Gait::trot(6, 0.8, 0.6, planning::contactMask(kFeet, {"LF", "RF", "MR"}),
-                           planning::contactMask(kFeet, {"MF", "LR", "RR"})),
-      3.0};
-  ocp::ModeSchedule schedule{scheduler.requiredCapacity()};
-  scheduler.fill(0.0, 3.0, schedule);
-  const int floor = terrain.regionAt({0.5, 0.0}), block = terrain.regionAt({1.5, 0.0});
+  planning::FootReferencePlanner planner(sc.terrain, sc.base, config);
   int checked = 0;
   for (int f : {0, 1, 2}) {  // front feet: find a stance whose nominal foothold is in the gap
     for (double t = 0.0; t < 2.0; t += 0.005) {
