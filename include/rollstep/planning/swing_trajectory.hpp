@@ -5,8 +5,11 @@
 // t_lo up to the apex z_apex = max(z_lo, z_td) + clearance at the apex time t_m, then down
 // to the touch-down height z_td at t_td. Each piece is monotone (3 s^2 - 2 s^3 is), so z
 // rises before the apex and falls after it: the property the swing collision-avoidance
-// region rule relies on (ascending swings are constrained up to the apex, descending ones
-// from it). The apex is at mid-swing by default (the paper's halves). With an apex margin
+// region rule relies on (ascending swings are constrained over their first half, descending
+// ones over their second: FootReferencePlanner calls swingRegionActive with apex_phase 1/2,
+// the paper's halves, also when the apex margin moves the apex later; session 14 measured
+// a window up to a later apex, or up to where the reference clears the upper surface, and
+// the climbs fell with both). The apex is at mid-swing by default. With an apex margin
 // m < 1/2 it moves towards the end that needs the longer way, to the phase
 // rise / (rise + fall) clamped to [m, 1 - m], which equalises the two pieces' peak
 // speeds (1.5 rise / t_up and 1.5 fall / t_down): a 0.22 m climb with 0.02 m clearance in
