@@ -78,7 +78,8 @@ void checkCbfSettings(const CbfQpSettings& s, const model::Model& model) {
   nonNegative("clearance_gamma", s.clearance_gamma);  // 0: off
   nonNegative("clearance", s.clearance);
   positive("fallback_brake_time", s.fallback_brake_time);
-  nonNegative("support_gamma", s.support_gamma);  // 0: off
+  nonNegative("relaxation_weight", s.relaxation_weight);  // 0: brake at once
+  nonNegative("support_gamma", s.support_gamma);          // 0: off
   nonNegative("support_margin", s.support_margin);
   nonNegative("collision_gamma", s.collision_gamma);  // 0: off
   positive("collision_sharpness", s.collision_sharpness);

@@ -777,6 +777,8 @@ TEST(CbfQp, BadSettingsThrow) {
   expectThrow([](CbfQpSettings& s) { s.damping = -1.0; });
   expectThrow([](CbfQpSettings& s) { s.foot_weight = std::nan(""); });
   expectThrow([](CbfQpSettings& s) { s.velocity_limit_scale = 1.5; });
+  expectThrow([](CbfQpSettings& s) { s.relaxation_weight = -1.0; });
+  expectThrow([](CbfQpSettings& s) { s.relaxation_weight = std::nan(""); });
   expectThrow([](CbfQpSettings& s) { s.region_gamma = 0.0; });
   expectThrow([](CbfQpSettings& s) { s.fallback_brake_time = 0.0; });
   expectThrow([](CbfQpSettings& s) { s.max_iterations = 0; });
