@@ -8,6 +8,7 @@
 #include "rollstep/centroidal/dynamics.hpp"
 #include "rollstep/centroidal/equalities.hpp"
 #include "rollstep/centroidal/inequalities.hpp"
+#include "rollstep/model/kinematics.hpp"
 #include "rollstep/ocp/cost.hpp"
 #include "rollstep/ocp/dynamics.hpp"
 
@@ -124,8 +125,7 @@ CentroidalOcp::CentroidalOcp(const RobotOcpDescription& description, const OcpSe
   auto pre = std::make_shared<CentroidalPrecomputation>(robot_);
   pre_ = pre;
   scratch_ = std::make_unique<CentroidalCache>(*robot_);
-  anchor_cache_ = std::make_unique<CentroidalCache>(*robot_);
-  zero_input_ = Eigen::VectorXd::Zero(robot_->nu());
+  anchor_data_ = std::make_unique<model::Data>(robot_->model());
 
   // --- nominal footholds and height, from the URDF at the nominal posture -------------------
   {
@@ -303,11 +303,14 @@ void CentroidalOcp::anchorStanceFeet(const ocp::ModeSchedule& schedule, double t
   if (!settings_.anchor_stance_feet) return;
   if (x.size() != robot_->nx() || !x.allFinite() || !std::isfinite(t)) return;
   if (schedule.modes().empty()) return;
-  pre_->compute(x, zero_input_, false, *anchor_cache_);
+  const model::Model& model = robot_->model();
+  model::forwardKinematics(model, *anchor_data_, x.head(robot_->nq()));
   for (int i = 0; i < robot_->nc(); ++i) {
     const double start = planning::FootReferencePlanner::stanceStartAt(schedule, i, t);
     if (std::isnan(start)) continue;  // in swing: its lift-off anchor stays
-    feet_->anchorStance(i, start, anchor_cache_->footPosition(i).head<2>());
+    const model::FrameIndex f = robot_->frameIds()[static_cast<std::size_t>(i)];
+    model::updateFramePlacement(model, *anchor_data_, f);
+    feet_->anchorStance(i, start, anchor_data_->opf[static_cast<std::size_t>(f)].head<2>());
   }
 }
 

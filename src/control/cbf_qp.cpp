@@ -552,6 +552,11 @@ CbfQpStatus CbfQpFilter::filter(const Eigen::Ref<const Eigen::VectorXd>& q,
   qp_status_ = st;
   qp_iterations_ = qp_solver_.iterations();
   active_barriers_ = st == DenseQpStatus::Optimal ? qp_solver_.numActiveInequalities() : 0;
+  auto brake = [&]() {
+    correction_ = kInf;
+    writeFallback();
+    return CbfQpStatus::Fallback;
+  };
   CbfQpStatus result = CbfQpStatus::Optimal;
   if (st == DenseQpStatus::Optimal) {
     a = qp_solver_.x();
@@ -575,12 +580,7 @@ CbfQpStatus CbfQpFilter::filter(const Eigen::Ref<const Eigen::VectorXd>& q,
     rq.lb().head(nv) = qp_.lb();
     rq.ub().head(nv) = qp_.ub();
     rq.lb().tail(n_ineq).setZero();
-    const DenseQpStatus rst = w.relaxed_solver.solve(rq);
-    if (rst != DenseQpStatus::Optimal) {
-      correction_ = kInf;
-      writeFallback();
-      return CbfQpStatus::Fallback;
-    }
+    if (w.relaxed_solver.solve(rq) != DenseQpStatus::Optimal) return brake();
     a = w.relaxed_solver.x().head(nv);
     relaxation_ = w.relaxed_solver.x().tail(n_ineq).maxCoeff();
     qp_iterations_ += w.relaxed_solver.iterations();
@@ -593,9 +593,7 @@ CbfQpStatus CbfQpFilter::filter(const Eigen::Ref<const Eigen::VectorXd>& q,
     }
     result = CbfQpStatus::Relaxed;
   } else {
-    correction_ = kInf;
-    writeFallback();
-    return CbfQpStatus::Fallback;
+    return brake();
   }
   correction_ = 0.0;
   if (active_barriers_ > 0) {

@@ -503,8 +503,9 @@ void PlaneSegmenter::segment(const ElevationMap& map, Segmentation& out) {
     for (int& l : labels) {
       if (l >= 0) l = w.remap[static_cast<std::size_t>(l)];
     }
+    boundingBoxes();
   }
-  boundingBoxes();
+  // Otherwise the boxes stand: a filled hole lies inside its region's box.
   for (int k = 0; k < kept; ++k) {
     const auto kk = static_cast<std::size_t>(k);
     cv::Mat mask = regionMask(k);

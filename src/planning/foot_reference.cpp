@@ -67,6 +67,15 @@ const FootReferencePlanner::Anchor* FootReferencePlanner::anchorFor(int foot, do
   return same ? &a : nullptr;
 }
 
+Eigen::Vector2d FootReferencePlanner::stanceFootholdAt(int foot, double start, double t_nominal,
+                                                       int& region) const {
+  if (const Anchor* a = anchorFor(foot, start)) {
+    region = terrain_->regionAt(a->p);
+    return a->p;
+  }
+  return footholdAt(foot, t_nominal, region);
+}
+
 double FootReferencePlanner::stanceStartAt(const ocp::ModeSchedule& schedule, int foot, double t) {
   const int phase = schedule.phaseAt(t);
   if (!inContact(schedule.modes()[static_cast<std::size_t>(phase)], foot)) {
@@ -136,14 +145,7 @@ FootReference FootReferencePlanner::query(const ocp::ModeSchedule& schedule, int
     const int phase = schedule.phaseAt(t);
     const double start = stanceStart(schedule, foot, phase);
     const double t_chosen = start > -1e300 ? start : t;  // stanceFoothold's time
-    const Anchor* a = anchorFor(foot, start);
-    Eigen::Vector2d p;
-    if (a != nullptr) {
-      p = a->p;
-      r.region = terrain_->regionAt(p);
-    } else {
-      p = footholdAt(foot, t_chosen, r.region);
-    }
+    const Eigen::Vector2d p = stanceFootholdAt(foot, start, t_chosen, r.region);
     r.z_ref = heightIn(r.region, p) + config_.foot_height_offset;
     return r;
   }
@@ -159,17 +161,10 @@ FootReference FootReferencePlanner::query(const ocp::ModeSchedule& schedule, int
                               ? stanceStart(schedule, foot, lo_phase)
                               : before;
   const double t_lo = lo_start > -1e300 ? lo_start : before;  // stanceFoothold's time
-  const Anchor* a_lo = inContact(schedule.modes()[static_cast<std::size_t>(lo_phase)], foot)
-                           ? anchorFor(foot, lo_start)
-                           : nullptr;
+  const bool lo_stance = inContact(schedule.modes()[static_cast<std::size_t>(lo_phase)], foot);
   int region_lo = -1;
-  Eigen::Vector2d p_lo;
-  if (a_lo != nullptr) {
-    p_lo = a_lo->p;
-    region_lo = terrain_->regionAt(p_lo);
-  } else {
-    p_lo = footholdAt(foot, t_lo, region_lo);
-  }
+  const Eigen::Vector2d p_lo = stanceFootholdAt(
+      foot, lo_stance ? lo_start : std::numeric_limits<double>::quiet_NaN(), t_lo, region_lo);
   const Eigen::Vector2d p_td = footholdAt(foot, r.timing.touchdown, r.region);
   const double z_lo = heightIn(region_lo, p_lo), z_td = heightIn(r.region, p_td);
   r.direction = classifySwing(z_lo, z_td, config_.level_tolerance);

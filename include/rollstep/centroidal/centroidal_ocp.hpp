@@ -26,6 +26,7 @@
 #include "rollstep/centroidal/precomputation.hpp"
 #include "rollstep/centroidal/robot.hpp"
 #include "rollstep/lie/se3.hpp"
+#include "rollstep/model/data.hpp"
 #include "rollstep/ocp/problem.hpp"
 #include "rollstep/planning/base_reference.hpp"
 #include "rollstep/planning/contact_schedule.hpp"
@@ -150,9 +151,10 @@ class CentroidalOcp {
   Eigen::VectorXd q_joint_ref_;
   Eigen::VectorXd servo_stiffness_;
   std::vector<std::string> contact_names_;
-  std::unique_ptr<CentroidalCache> scratch_;       // for the non-real-time helpers above
-  std::unique_ptr<CentroidalCache> anchor_cache_;  // anchorStanceFeet
-  Eigen::VectorXd zero_input_;
+  std::unique_ptr<CentroidalCache> scratch_;  // for the non-real-time helpers above
+  // anchorStanceFeet: placements only (the node quantities' gravity and centroidal
+  // derivative passes are not needed for foot positions, on the 1 kHz tick).
+  std::unique_ptr<model::Data> anchor_data_;
 };
 
 }  // namespace rollstep::centroidal

@@ -119,6 +119,10 @@ class FootReferencePlanner {
   double heightIn(int region, const Eigen::Vector2d& p) const;
   /// The anchor of `foot`'s stance that began at `start`, or nullptr.
   const Anchor* anchorFor(int foot, double start) const;
+  /// The foothold (and its region) of `foot`'s stance that began at `start`: its anchor
+  /// (the region under it), else the nominal foothold at t_nominal (footholdAt). A NaN
+  /// start has no anchor.
+  Eigen::Vector2d stanceFootholdAt(int foot, double start, double t_nominal, int& region) const;
   /// nominalFoothold(foot, t) and footholdRegion of it at t, from one evaluation of the
   /// base reference's pose at t (query() needs both at the same times).
   Eigen::Vector2d footholdAt(int foot, double t, int& region) const;
