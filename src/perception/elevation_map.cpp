@@ -1,6 +1,7 @@
 #include "rollstep/perception/elevation_map.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -209,23 +210,20 @@ MapUpdateStats ElevationMap::update(const Eigen::Vector3d* points, int count,
   return stats;
 }
 
-int ElevationMap::fillFootprint(const Eigen::Vector3d* contacts, int count, double margin,
-                                double variance) {
-  if (count <= 0 || !std::isfinite(margin) || margin < 0 || !std::isfinite(variance) ||
-      variance <= 0) {
-    return 0;
-  }
-  Eigen::Vector2d lo = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
-  Eigen::Vector2d hi = -lo;
-  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+namespace {
+
+// The plane through contact points: z = mean.z + g . (p - mean.xy), g by least squares when
+// they span an area (level through their mean height otherwise). False for no or
+// non-finite contacts.
+bool contactPlane(const Eigen::Vector3d* contacts, int count, Eigen::Vector3d& mean,
+                  Eigen::Vector2d& g) {
+  if (count <= 0) return false;
+  mean.setZero();
   for (int k = 0; k < count; ++k) {
-    if (!contacts[k].allFinite()) return 0;
-    lo = lo.cwiseMin(contacts[k].head<2>());
-    hi = hi.cwiseMax(contacts[k].head<2>());
+    if (!contacts[k].allFinite()) return false;
     mean += contacts[k];
   }
   mean /= count;
-  // z = mean.z + g . (p - mean.xy), g by least squares when the contacts span an area.
   Eigen::Matrix2d C = Eigen::Matrix2d::Zero();
   Eigen::Vector2d rhs = Eigen::Vector2d::Zero();
   for (int k = 0; k < count; ++k) {
@@ -233,8 +231,27 @@ int ElevationMap::fillFootprint(const Eigen::Vector3d* contacts, int count, doub
     C += d * d.transpose();
     rhs += d * (contacts[k].z() - mean.z());
   }
-  Eigen::Vector2d g = Eigen::Vector2d::Zero();
+  g.setZero();
   if (count >= 3 && C.determinant() > 1e-8) g = C.ldlt().solve(rhs);
+  return true;
+}
+
+}  // namespace
+
+int ElevationMap::fillFootprint(const Eigen::Vector3d* contacts, int count, double margin,
+                                double variance) {
+  Eigen::Vector3d mean;
+  Eigen::Vector2d g;
+  if (!std::isfinite(margin) || margin < 0 || !std::isfinite(variance) || variance <= 0 ||
+      !contactPlane(contacts, count, mean, g)) {
+    return 0;
+  }
+  Eigen::Vector2d lo = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector2d hi = -lo;
+  for (int k = 0; k < count; ++k) {
+    lo = lo.cwiseMin(contacts[k].head<2>());
+    hi = hi.cwiseMax(contacts[k].head<2>());
+  }
   lo.array() -= margin;
   hi.array() += margin;
   int filled = 0;
@@ -245,6 +262,59 @@ int ElevationMap::fillFootprint(const Eigen::Vector3d* contacts, int count, doub
       const auto i = static_cast<std::size_t>(r * n_ + c);
       if (!std::isnan(height_[i])) continue;
       height_[i] = static_cast<float>(mean.z() + g.dot(p - mean.head<2>()));
+      variance_[i] = static_cast<float>(variance);
+      ++filled;
+    }
+  }
+  return filled;
+}
+
+int ElevationMap::fillBlindZone(const Eigen::Vector2d& sensor_xy, const Eigen::Vector3d* contacts,
+                                int count, double max_radius, double max_step, double variance) {
+  Eigen::Vector3d mean;
+  Eigen::Vector2d g;
+  if (!sensor_xy.allFinite() || !std::isfinite(max_radius) || max_radius <= 0 ||
+      !std::isfinite(max_step) || max_step < 0 || !std::isfinite(variance) || variance <= 0 ||
+      !contactPlane(contacts, count, mean, g)) {
+    return 0;
+  }
+  const auto plane = [&](const Eigen::Vector2d& p) { return mean.z() + g.dot(p - mean.head<2>()); };
+  // Azimuth sectors of kBlindZoneSectors around the sensor; per sector the nearest measured
+  // cell, and whether it continues the contact plane.
+  std::array<double, kBlindZoneSectors> nearest;
+  std::array<bool, kBlindZoneSectors> level;
+  nearest.fill(std::numeric_limits<double>::infinity());
+  level.fill(false);
+  const double per_radian = kBlindZoneSectors / (2 * EIGEN_PI);
+  const auto sectorOf = [&](const Eigen::Vector2d& d) {
+    const int s = static_cast<int>(std::floor((std::atan2(d.y(), d.x()) + EIGEN_PI) * per_radian));
+    return std::clamp(s, 0, kBlindZoneSectors - 1);
+  };
+  for (int r = 0; r < n_; ++r) {
+    for (int c = 0; c < n_; ++c) {
+      const float h = height_[static_cast<std::size_t>(r * n_ + c)];
+      if (std::isnan(h)) continue;
+      const Eigen::Vector2d p = cellCenter(r, c);
+      const Eigen::Vector2d d = p - sensor_xy;
+      const double dist = d.norm();
+      if (dist > max_radius) continue;
+      const auto s = static_cast<std::size_t>(sectorOf(d));
+      if (dist < nearest[s]) {
+        nearest[s] = dist;
+        level[s] = std::abs(static_cast<double>(h) - plane(p)) <= max_step;
+      }
+    }
+  }
+  int filled = 0;
+  for (int r = 0; r < n_; ++r) {
+    for (int c = 0; c < n_; ++c) {
+      const auto i = static_cast<std::size_t>(r * n_ + c);
+      if (!std::isnan(height_[i])) continue;
+      const Eigen::Vector2d p = cellCenter(r, c);
+      const Eigen::Vector2d d = p - sensor_xy;
+      const auto s = static_cast<std::size_t>(sectorOf(d));
+      if (!level[s] || d.norm() >= nearest[s]) continue;
+      height_[i] = static_cast<float>(plane(p));
       variance_[i] = static_cast<float>(variance);
       ++filled;
     }

@@ -66,10 +66,11 @@ const std::array<Field<ConvexRegionSettings>, 8> kRegionFields{{
     {"min_piece_area", &ConvexRegionSettings::min_piece_area},
 }};
 
-const std::array<Field<ClosedLoopSettings>, 8> kClosedLoopFields{{
+const std::array<Field<ClosedLoopSettings>, 9> kClosedLoopFields{{
     {"warmup_scans", &ClosedLoopSettings::warmup_scans},
     {"footprint_margin", &ClosedLoopSettings::footprint_margin},
     {"footprint_variance", &ClosedLoopSettings::footprint_variance},
+    {"blind_zone_radius", &ClosedLoopSettings::blind_zone_radius},
     {"level_max_tilt_deg", &ClosedLoopSettings::level_max_tilt_deg},
     {"level_height_tolerance", &ClosedLoopSettings::level_height_tolerance},
     {"seam_probe_cells", &ClosedLoopSettings::seam_probe_cells},
@@ -167,6 +168,8 @@ void ClosedLoopSettings::validate() const {
           "footprint_margin", footprint_margin, "must be in [0, 1] m");
   require(std::isfinite(footprint_variance) && footprint_variance > 0 && footprint_variance <= 1,
           "footprint_variance", footprint_variance, "must be in (0, 1] m^2");
+  require(std::isfinite(blind_zone_radius) && blind_zone_radius >= 0 && blind_zone_radius <= 5,
+          "blind_zone_radius", blind_zone_radius, "must be in [0, 5] m");
   require(std::isfinite(level_max_tilt_deg) && level_max_tilt_deg >= 0 && level_max_tilt_deg < 90,
           "level_max_tilt_deg", level_max_tilt_deg, "must be in [0, 90) deg");
   require(std::isfinite(level_height_tolerance) && level_height_tolerance >= 0 &&
@@ -302,6 +305,18 @@ PerceptionStatus TerrainPerception::update(const std::vector<Eigen::Vector3d>& p
   const PerceptionStatus s = rebuild();
   if (s == PerceptionStatus::Ok) terrain_time_ = time;
   return s;
+}
+
+int TerrainPerception::fillStartArea(const Eigen::Vector3d* contacts, int count,
+                                     const Eigen::Vector3d& sensor_position) {
+  const ClosedLoopSettings& cl = settings_.closed_loop;
+  int filled = 0;
+  // The blind zone first: it looks at measured cells only.
+  if (cl.blind_zone_radius > 0) {
+    filled += map_.fillBlindZone(sensor_position.head<2>(), contacts, count, cl.blind_zone_radius,
+                                 settings_.segmentation.step_height, cl.footprint_variance);
+  }
+  return filled + map_.fillFootprint(contacts, count, cl.footprint_margin, cl.footprint_variance);
 }
 
 PerceptionStatus TerrainPerception::rebuild() {

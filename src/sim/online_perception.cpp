@@ -131,15 +131,16 @@ void OnlinePerception::start(const Plant& plant, const Eigen::Vector3d& base_pos
         lidar_.sensorPose(base_position, base_orientation).translation().head<2>());
     perception_.map().update(points, lidar_.sensorPose(base_position, base_orientation));
   }
-  // Under the robot the sensor sees nothing: the wheels' ground contacts fill it.
+  // Under the robot and in the LiDAR's blind zone the sensor sees nothing: the wheels'
+  // ground contacts fill them.
   std::array<Eigen::Vector3d, kNumLegs> contacts;
   for (int leg = 0; leg < kNumLegs; ++leg) {
     contacts[static_cast<std::size_t>(leg)] =
         plant.groundTruth().wheel_center[static_cast<std::size_t>(leg)] -
         plant.wheelRadius(leg) * Eigen::Vector3d::UnitZ();
   }
-  perception_.map().fillFootprint(contacts.data(), kNumLegs, cl.footprint_margin,
-                                  cl.footprint_variance);
+  perception_.fillStartArea(contacts.data(), kNumLegs,
+                            lidar_.sensorPose(base_position, base_orientation).translation());
   const perception::PerceptionStatus status = perception_.rebuild();
   if (!perception_.hasTerrain()) {
     throw std::runtime_error(std::string("perception: no terrain from the LiDAR at the start "

@@ -120,6 +120,74 @@ TEST(ElevationMap, FootprintFillsOnlyEmptyCellsOnThePlaneOfTheContacts) {
   EXPECT_EQ(map.fillFootprint(bad.data(), 1, 0.1, 1e-4), 0);
 }
 
+TEST(ElevationMap, BlindZoneIsFilledOnlyUpToLevelGroundSeenBeyondIt) {
+  // A sensor over (0.5, 0) that sees the ground from 0.6 m on (its lowest beam's ring), the
+  // robot standing on the plane z = 0.1 x. Seen beyond the ring: that plane, except a step
+  // 0.2 m up in the +y sector (80 to 100 deg) and nothing at all in the -y sector.
+  ElevationMap map;
+  const Eigen::Vector2d sensor(0.5, 0.0);
+  const auto azimuthDeg = [&](const Eigen::Vector2d& p) {
+    return std::atan2(p.y() - sensor.y(), p.x() - sensor.x()) * 180 / EIGEN_PI;
+  };
+  for (int r = 0; r < map.size(); ++r) {
+    for (int c = 0; c < map.size(); ++c) {
+      const Eigen::Vector2d p = map.cellCenter(r, c);
+      const double d = (p - sensor).norm(), a = azimuthDeg(p);
+      if (d < 0.6 || d > 1.2 || (a > -100 && a < -80)) continue;
+      const double step = a > 80 && a < 100 ? 0.2 : 0.0;
+      map.setCell(r, c, static_cast<float>(0.1 * p.x() + step), 1e-4f);
+    }
+  }
+  const std::vector<Eigen::Vector3d> contacts{
+      {-0.3, -0.2, -0.03}, {0.3, -0.2, 0.03}, {0.3, 0.2, 0.03}, {-0.3, 0.2, -0.03}};
+  const int measured = map.validCells();
+  std::vector<float> before = map.heights();
+  int filled = 0;
+  {
+    rollstep::test::AllocationGuard guard;
+    filled = map.fillBlindZone(sensor, contacts.data(), 4, 1.5, 0.04, 2e-4);
+    EXPECT_EQ(guard.count(), 0u);
+  }
+  EXPECT_EQ(map.validCells(), measured + filled);
+  // The disc of 0.6 m less the two 20 deg sectors: about 0.89 of pi 0.36 m^2 in 4 cm^2 cells.
+  EXPECT_NEAR(filled, 0.89 * EIGEN_PI * 0.36 / 4e-4, 60);
+  const auto heightAt = [&](double x, double y) {
+    int r = 0, c = 0;
+    EXPECT_TRUE(map.cellOf({x, y}, r, c));
+    return map.height(r, c);
+  };
+  const auto cellX = [&](double x, double y) {
+    int r = 0, c = 0;
+    map.cellOf({x, y}, r, c);
+    return map.cellCenter(r, c).x();
+  };
+  for (const Eigen::Vector2d& p : {Eigen::Vector2d(0.95, 0.0), Eigen::Vector2d(0.1, 0.2),
+                                   Eigen::Vector2d(0.5, 0.0), Eigen::Vector2d(0.3, -0.45)}) {
+    EXPECT_NEAR(heightAt(p.x(), p.y()), 0.1 * cellX(p.x(), p.y()), 1e-6) << p.transpose();
+  }
+  EXPECT_TRUE(std::isnan(heightAt(0.5, 0.4)));   // before the step: unknown
+  EXPECT_TRUE(std::isnan(heightAt(0.5, -0.4)));  // nothing seen that way
+  EXPECT_TRUE(std::isnan(heightAt(1.9, 0.0)));   // beyond the seen ring
+  // Measured cells are kept.
+  for (std::size_t i = 0; i < before.size(); ++i) {
+    if (!std::isnan(before[i])) {
+      ASSERT_EQ(map.heights()[i], before[i]);
+    }
+  }
+  // Nothing measured within the radius, or bad arguments: nothing filled.
+  ElevationMap again;
+  for (std::size_t i = 0; i < before.size(); ++i) {
+    again.setCell(static_cast<int>(i) / map.size(), static_cast<int>(i) % map.size(), before[i],
+                  std::isnan(before[i]) ? NAN : 1e-4f);
+  }
+  EXPECT_EQ(again.fillBlindZone(sensor, contacts.data(), 4, 0.55, 0.04, 2e-4), 0);
+  EXPECT_EQ(again.fillBlindZone({NAN, 0.0}, contacts.data(), 4, 1.5, 0.04, 2e-4), 0);
+  EXPECT_EQ(again.fillBlindZone(sensor, contacts.data(), 0, 1.5, 0.04, 2e-4), 0);
+  EXPECT_EQ(again.fillBlindZone(sensor, contacts.data(), 4, 1.5, -0.1, 2e-4), 0);
+  EXPECT_EQ(again.fillBlindZone(sensor, contacts.data(), 4, 1.5, 0.04, 0.0), 0);
+  EXPECT_EQ(again.validCells(), measured);
+}
+
 TEST(ElevationMap, UpdateMoveAndPredictDoNotAllocate) {
   ElevationMap map;
   const std::vector<Eigen::Vector3d> pts =
@@ -322,13 +390,15 @@ TEST(PerceptionSettings, FileRoundTripsAndErrorsNameLineAndKey) {
 TEST(PerceptionSettings, ClosedLoopKeysAreReadAndRangeChecked) {
   const PerceptionSettings s = parsePerceptionSettings(
       "closed_loop:\n  warmup_scans: 3\n  footprint_margin: 0.2\n  footprint_variance: 4e-4\n"
-      "  level_max_tilt_deg: 1.5\n  level_height_tolerance: 0.005\n  seam_probe_cells: 3\n"
+      "  blind_zone_radius: 0.8\n  level_max_tilt_deg: 1.5\n  level_height_tolerance: 0.005\n  "
+      "seam_probe_cells: 3\n"
       "  seam_height_tolerance: 0.01\n  collision_capacity: 32\n",
       "c.yaml");
   const ClosedLoopSettings& c = s.closed_loop;
   EXPECT_EQ(c.warmup_scans, 3);
   EXPECT_EQ(c.footprint_margin, 0.2);
   EXPECT_EQ(c.footprint_variance, 4e-4);
+  EXPECT_EQ(c.blind_zone_radius, 0.8);
   EXPECT_EQ(c.level_max_tilt_deg, 1.5);
   EXPECT_EQ(c.level_height_tolerance, 0.005);
   EXPECT_EQ(c.seam_probe_cells, 3);
@@ -350,7 +420,7 @@ TEST(PerceptionSettings, ClosedLoopKeysAreReadAndRangeChecked) {
   EXPECT_EQ(error("closed_loop:\n  warmup: 3\n"),
             head +
                 "line 2: unknown key 'closed_loop.warmup' (known in closed_loop: warmup_scans, "
-                "footprint_margin, footprint_variance, level_max_tilt_deg, "
+                "footprint_margin, footprint_variance, blind_zone_radius, level_max_tilt_deg, "
                 "level_height_tolerance, seam_probe_cells, seam_height_tolerance, "
                 "collision_capacity)");
   EXPECT_EQ(error("closed_loop:\n  warmup_scans: 2.5\n"),
@@ -364,6 +434,7 @@ TEST(PerceptionSettings, ClosedLoopKeysAreReadAndRangeChecked) {
       {"warmup_scans: 101", "warmup_scans = 101: must be 1 to 100"},
       {"footprint_margin: -0.01", "footprint_margin = -0.01: must be in [0, 1] m"},
       {"footprint_variance: 0", "footprint_variance = 0: must be in (0, 1] m^2"},
+      {"blind_zone_radius: 5.5", "blind_zone_radius = 5.5: must be in [0, 5] m"},
       {"level_max_tilt_deg: 90", "level_max_tilt_deg = 90: must be in [0, 90) deg"},
       {"level_height_tolerance: -1e-9", "level_height_tolerance = -1e-09: must be in [0, 1) m"},
       {"seam_probe_cells: 0", "seam_probe_cells = 0: must be 1 to 50"},

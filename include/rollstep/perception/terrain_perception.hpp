@@ -27,6 +27,12 @@ struct ClosedLoopSettings {
   double footprint_margin = 0.15;
   /// ... with this variance [m^2], (0, 1].
   double footprint_variance = 1e-4;
+  /// At the start, the empty cells of the sensor's blind zone (the ground near it that its
+  /// lowest beam passes over) within this distance of the sensor are filled from the
+  /// wheels' contact plane too, in each direction up to the nearest measured ground and only
+  /// where that ground is level with the contacts (within segmentation.step_height); see
+  /// ElevationMap::fillBlindZone. 0 (the default): off [m], [0, 5].
+  double blind_zone_radius = 0.0;
   /// Perceived surfaces within this tilt of level are made level [deg], [0, 90) ...
   double level_max_tilt_deg = 2.0;
   /// ... and level ones within this of each other share one height [m], [0, 1).
@@ -81,6 +87,13 @@ class TerrainPerception {
   /// segments and rebuilds the terrain. Only Ok replaces terrain().
   PerceptionStatus update(const std::vector<Eigen::Vector3d>& points,
                           const Eigen::Isometry3d& sensor_pose, double time);
+  /// The start of closed-loop perception, after the scans from the start pose are fused:
+  /// fills the cells the sensor cannot see from the robot's ground contacts (world; e.g. the
+  /// wheels' from the leg kinematics): its blind zone around `sensor_position` (world,
+  /// closed_loop.blind_zone_radius), then the footprint (closed_loop.footprint_margin).
+  /// Returns the cells filled (0 for no or non-finite contacts). Call rebuild() after.
+  int fillStartArea(const Eigen::Vector3d* contacts, int count,
+                    const Eigen::Vector3d& sensor_position);
   /// Segmentation and terrain from the map as it is (e.g. after fusing several scans with
   /// map().update); Ok or NoPlanarRegion.
   PerceptionStatus rebuild();
