@@ -192,7 +192,10 @@ TEST(LidarPerception, TheStartFillsTheSensorsBlindZoneUpToLevelGroundOnly) {
     Plant plant(config);
     OnlinePerceptionOptions options;
     options.lidar = loadLidarSettings(ROLLSTEP_CONFIG_DIR "/lidar.yaml");
-    options.perception = perception::loadPerceptionSettings(ROLLSTEP_CONFIG_DIR "/perception.yaml");
+    // The file made for this sensor, with the fill on or off.
+    options.perception =
+        perception::loadPerceptionSettings(ROLLSTEP_CONFIG_DIR "/perception_design_lidar.yaml");
+    EXPECT_EQ(options.perception.closed_loop.blind_zone_radius, 1.5);
     options.perception.closed_loop.blind_zone_radius = blind_zone_radius;
     auto p = std::make_unique<OnlinePerception>(options);
     p->start(plant, plant.groundTruth().base_position, plant.groundTruth().base_orientation);
