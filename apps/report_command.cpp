@@ -399,6 +399,20 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
       row("mean |v_z|", cm.mean_abs_vz, bm.mean_abs_vz, a.mean_abs_vz);
       row("mean |w_y|", cm.mean_abs_wy, bm.mean_abs_wy, a.mean_abs_wy);
       doc.table({a.candidate + " vs " + a.baseline, "change", "required", "result"}, rows);
+      // The traverse time is bounded by the distance the window spans and the speed the
+      // robot may go: say what the margin asks of the candidate.
+      if (cm.traverse_time > 0 && bm.traverse_time > 0 && a.traverse_time > -1) {
+        doc.paragraph(
+            "Mean speed over the traverse window (base travel / traverse time): " + a.candidate +
+            " " + fixed(cm.distance, 3) + " m in " + fixed(cm.traverse_time, 2) + " s, " +
+            fixed(cm.distance / cm.traverse_time, 3) + " m/s; " + a.baseline + " " +
+            fixed(bm.distance, 3) + " m in " + fixed(bm.traverse_time, 2) + " s, " +
+            fixed(bm.distance / bm.traverse_time, 3) + " m/s. The traverse margin asks " +
+            a.candidate + " to cover its window in " +
+            fixed((1 + a.traverse_time) * bm.traverse_time, 2) + " s, a mean speed of " +
+            fixed(cm.distance / ((1 + a.traverse_time) * bm.traverse_time), 3) +
+            " m/s; compare the commanded speed in the scenarios' commands below.");
+      }
     }
   }
 

@@ -119,13 +119,19 @@ Table1Metrics table1Metrics(const LogTable& log, const TraverseWindow& window) {
   const std::vector<double> vz = localVz(log);
   Table1Metrics m;
   m.traverse_time = window.end - window.start;
+  const auto& x = log.column("base_x[m]");
+  const auto& y = log.column("base_y[m]");
   double vz_sum = 0.0, wy_sum = 0.0;
+  std::size_t first = t.size(), last = 0;
   for (std::size_t i = 0; i < t.size(); ++i) {
     if (t[i] < window.start - 1e-9 || t[i] > window.end + 1e-9) continue;
     vz_sum += std::abs(vz[i]);
     wy_sum += std::abs(wy[i]);
     ++m.samples;
+    first = std::min(first, i);
+    last = i;
   }
+  if (m.samples > 0) m.distance = std::hypot(x[last] - x[first], y[last] - y[first]);
   if (m.samples > 0) {
     m.mean_abs_vz = vz_sum / m.samples;
     m.mean_abs_wy = wy_sum / m.samples;

@@ -41,6 +41,7 @@ struct Table1Metrics {
   double mean_abs_vz = 0.0;    ///< [m/s] base local
   double mean_abs_wy = 0.0;    ///< [rad/s] base local
   int samples = 0;             ///< log rows in the window
+  double distance = 0.0;       ///< [m] horizontal base travel from the window's start to end
 };
 
 /// Base local linear velocity z of every row: R(q)^T v_world (columns base_q*, base_v*).

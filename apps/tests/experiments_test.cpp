@@ -82,7 +82,8 @@ TEST(TraverseWindow, SaysWhyWhenThereIsNone) {
 std::string syntheticLog(double pitch, bool body_touch, double knee_peak) {
   const Synthetic s;
   std::string text =
-      "time[s],base_qw[-],base_qx[-],base_qy[-],base_qz[-],base_vx[m/s],base_vy[m/s],base_vz[m/s],"
+      "time[s],base_x[m],base_y[m],base_qw[-],base_qx[-],base_qy[-],base_qz[-],base_vx[m/s],"
+      "base_vy[m/s],base_vz[m/s],"
       "base_wy[rad/s],foot_z_MF[m],contact_MF[0/1],foot_z_MR[m],contact_MR[0/1],"
       "body_contact_periods[-],q_MF_knee[m],qp_status\n";
   const double qw = std::cos(pitch / 2), qy = std::sin(pitch / 2);
@@ -98,9 +99,9 @@ std::string syntheticLog(double pitch, bool body_touch, double knee_peak) {
     const long body = body_touch && s.t[i] > 5.0 ? 3 : 0;
     const double knee = i == 700 ? knee_peak : 0.2;
     std::snprintf(row, sizeof row,
-                  "%.2f,%.9f,0,%.9f,0,%.9f,0,%.9f,%.3f,%.4f,%.0f,%.4f,%.0f,%ld,%.4f,%s\n", s.t[i],
-                  qw, qy, vx, vz, wy, s.mf_z[i], s.mf_c[i], s.mr_z[i], s.mr_c[i], body, knee,
-                  i % 3 == 0 ? "optimal" : "fallback");
+                  "%.2f,%.6f,%.6f,%.9f,0,%.9f,0,%.9f,0,%.9f,%.3f,%.4f,%.0f,%.4f,%.0f,%ld,%.4f,%s\n",
+                  s.t[i], 0.15 * s.t[i], -0.02 * s.t[i], qw, qy, vx, vz, wy, s.mf_z[i], s.mf_c[i],
+                  s.mr_z[i], s.mr_c[i], body, knee, i % 3 == 0 ? "optimal" : "fallback");
     text += row;
   }
   return text;
@@ -115,6 +116,7 @@ TEST(Table1, MeansInTheBaseFrameOverTheWindow) {
   EXPECT_EQ(m.samples, 751);               // rows 2.00 .. 9.50
   EXPECT_NEAR(m.mean_abs_vz, 0.02, 1e-6);  // local, not the world's (which mixes in v_x)
   EXPECT_NEAR(m.mean_abs_wy, 0.1, 1e-9);   // absolute values, outside rows excluded
+  EXPECT_NEAR(m.distance, 7.5 * std::hypot(0.15, 0.02), 1e-6);  // from 2.00 to 9.50 s
   const std::vector<double> vz = localVz(log);
   EXPECT_NEAR(vz[0], 0.3, 1e-6);
   EXPECT_THROW(table1Metrics(log, TraverseWindow{}), std::invalid_argument);
