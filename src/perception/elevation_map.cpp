@@ -14,6 +14,7 @@ namespace rollstep::perception {
 namespace {
 
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+constexpr double kPi = 3.14159265358979323846;
 
 void require(bool ok, const char* name, double value, const char* what) {
   if (!ok) {
@@ -285,9 +286,9 @@ int ElevationMap::fillBlindZone(const Eigen::Vector2d& sensor_xy, const Eigen::V
   std::array<bool, kBlindZoneSectors> level;
   nearest.fill(std::numeric_limits<double>::infinity());
   level.fill(false);
-  const double per_radian = kBlindZoneSectors / (2 * EIGEN_PI);
+  const double per_radian = kBlindZoneSectors / (2 * kPi);
   const auto sectorOf = [&](const Eigen::Vector2d& d) {
-    const int s = static_cast<int>(std::floor((std::atan2(d.y(), d.x()) + EIGEN_PI) * per_radian));
+    const int s = static_cast<int>(std::floor((std::atan2(d.y(), d.x()) + kPi) * per_radian));
     return std::clamp(s, 0, kBlindZoneSectors - 1);
   };
   for (int r = 0; r < n_; ++r) {

@@ -127,7 +127,7 @@ TEST(ElevationMap, BlindZoneIsFilledOnlyUpToLevelGroundSeenBeyondIt) {
   ElevationMap map;
   const Eigen::Vector2d sensor(0.5, 0.0);
   const auto azimuthDeg = [&](const Eigen::Vector2d& p) {
-    return std::atan2(p.y() - sensor.y(), p.x() - sensor.x()) * 180 / EIGEN_PI;
+    return std::atan2(p.y() - sensor.y(), p.x() - sensor.x()) * 180 / M_PI;
   };
   for (int r = 0; r < map.size(); ++r) {
     for (int c = 0; c < map.size(); ++c) {
@@ -150,7 +150,7 @@ TEST(ElevationMap, BlindZoneIsFilledOnlyUpToLevelGroundSeenBeyondIt) {
   }
   EXPECT_EQ(map.validCells(), measured + filled);
   // The disc of 0.6 m less the two 20 deg sectors: about 0.89 of pi 0.36 m^2 in 4 cm^2 cells.
-  EXPECT_NEAR(filled, 0.89 * EIGEN_PI * 0.36 / 4e-4, 60);
+  EXPECT_NEAR(filled, 0.89 * M_PI * 0.36 / 4e-4, 60);
   const auto heightAt = [&](double x, double y) {
     int r = 0, c = 0;
     EXPECT_TRUE(map.cellOf({x, y}, r, c));
