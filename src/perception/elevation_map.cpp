@@ -306,6 +306,22 @@ int ElevationMap::fillBlindZone(const Eigen::Vector2d& sensor_xy, const Eigen::V
       }
     }
   }
+  // A sector is narrower than a cell beyond about 2 m, and near a diagonal of the grid the
+  // cells' centres leave some sectors empty even nearer: each sector is bounded by the
+  // nearest measured cell over kBlindZoneWindow sectors on either side, and filled only if
+  // every measured one of them is level.
+  std::array<double, kBlindZoneSectors> bound;
+  for (int k = 0; k < kBlindZoneSectors; ++k) {
+    double b = std::numeric_limits<double>::infinity();
+    bool ok = true;
+    for (int j = k - kBlindZoneWindow; j <= k + kBlindZoneWindow; ++j) {
+      const auto n = static_cast<std::size_t>((j + kBlindZoneSectors) % kBlindZoneSectors);
+      if (!std::isfinite(nearest[n])) continue;
+      b = std::min(b, nearest[n]);
+      ok = ok && level[n];
+    }
+    bound[static_cast<std::size_t>(k)] = ok && std::isfinite(b) ? b : 0.0;  // none seen: none filled
+  }
   int filled = 0;
   for (int r = 0; r < n_; ++r) {
     for (int c = 0; c < n_; ++c) {
@@ -313,8 +329,7 @@ int ElevationMap::fillBlindZone(const Eigen::Vector2d& sensor_xy, const Eigen::V
       if (!std::isnan(height_[i])) continue;
       const Eigen::Vector2d p = cellCenter(r, c);
       const Eigen::Vector2d d = p - sensor_xy;
-      const auto s = static_cast<std::size_t>(sectorOf(d));
-      if (!level[s] || d.norm() >= nearest[s]) continue;
+      if (d.norm() >= bound[static_cast<std::size_t>(sectorOf(d))]) continue;
       height_[i] = static_cast<float>(plane(p));
       variance_[i] = static_cast<float>(variance);
       ++filled;

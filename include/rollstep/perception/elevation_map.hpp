@@ -87,19 +87,21 @@ class ElevationMap {
   /// bounding box grown by `margin` [m], with variance `variance` [m^2]. Measured cells are
   /// kept. Returns the cells filled (0 for no or non-finite contacts).
   int fillFootprint(const Eigen::Vector3d* contacts, int count, double margin, double variance);
-  /// Azimuth sectors of fillBlindZone (half a degree each).
+  /// Azimuth sectors of fillBlindZone (half a degree each), and the sectors on either side
+  /// that bound each one together with it (2 degrees: a cell at 0.6 m).
   static constexpr int kBlindZoneSectors = 720;
+  static constexpr int kBlindZoneWindow = 4;
   /// Fills the empty cells of a sensor's blind zone: the ground near a LiDAR that its lowest
   /// beam passes over (a disc, off-centre when the sensor is tilted), which no scan taken
   /// from the start pose can see and a robot walking on never will. In each azimuth sector
   /// around the sensor's ground point `sensor_xy`, the nearest measured cell (within
-  /// `max_radius` [m]) bounds the zone; the empty cells nearer than it are filled from the
-  /// contact plane (as fillFootprint) with variance `variance` [m^2], but only when that
-  /// nearest cell lies within `max_step` [m] of the plane: the ground seen just beyond the
-  /// zone continues the ground the robot stands on. A sector whose nearest surface is higher
-  /// or lower (a step, an obstacle or a pit that begins inside the zone) or that has no
-  /// measured cell within max_radius stays empty. Call it on measured cells only (before
-  /// fillFootprint or gap filling). Returns the cells filled (0 for bad arguments). Never
+  /// `max_radius` [m]) of the sector and its neighbours within 2 degrees bounds the zone; the empty
+  /// cells nearer than it are filled from the contact plane (as fillFootprint) with variance
+  /// `variance` [m^2], but only when that nearest cells lie within `max_step` [m] of the plane: the
+  /// ground seen just beyond the zone continues the ground the robot stands on. A sector whose
+  /// nearest surface is higher or lower (a step, an obstacle or a pit that begins inside the zone)
+  /// or that has no measured cell within max_radius stays empty. Call it on measured cells only
+  /// (before fillFootprint or gap filling). Returns the cells filled (0 for bad arguments). Never
   /// allocates.
   int fillBlindZone(const Eigen::Vector2d& sensor_xy, const Eigen::Vector3d* contacts, int count,
                     double max_radius, double max_step, double variance);
