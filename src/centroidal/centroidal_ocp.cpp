@@ -300,9 +300,16 @@ bool CentroidalOcp::swapTerrain(planning::TerrainModel& terrain) noexcept {
 
 void CentroidalOcp::anchorStanceFeet(const ocp::ModeSchedule& schedule, double t,
                                      const Eigen::VectorXd& x) noexcept {
-  if (!settings_.anchor_stance_feet) return;
+  if (!settings_.anchor_stance_feet && !settings_.latch_touchdowns) return;
   if (x.size() != robot_->nx() || !x.allFinite() || !std::isfinite(t)) return;
   if (schedule.modes().empty()) return;
+  if (settings_.latch_touchdowns) {
+    for (int i = 0; i < robot_->nc(); ++i) {
+      const planning::FootPhase phase = planning::footPhase(schedule, i, t);
+      if (!phase.stance && phase.bounded()) feet_->latchTouchdown(i, phase.touchdown);
+    }
+  }
+  if (!settings_.anchor_stance_feet) return;
   const model::Model& model = robot_->model();
   model::forwardKinematics(model, *anchor_data_, x.head(robot_->nq()));
   for (int i = 0; i < robot_->nc(); ++i) {

@@ -320,7 +320,8 @@ int ElevationMap::fillBlindZone(const Eigen::Vector2d& sensor_xy, const Eigen::V
       b = std::min(b, nearest[n]);
       ok = ok && level[n];
     }
-    bound[static_cast<std::size_t>(k)] = ok && std::isfinite(b) ? b : 0.0;  // none seen: none filled
+    bound[static_cast<std::size_t>(k)] =
+        ok && std::isfinite(b) ? b : 0.0;  // none seen: none filled
   }
   int filled = 0;
   for (int r = 0; r < n_; ++r) {

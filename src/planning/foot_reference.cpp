@@ -1,5 +1,6 @@
 #include "rollstep/planning/foot_reference.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -44,6 +45,7 @@ FootReferencePlanner::FootReferencePlanner(const TerrainModel& terrain, const Ba
     detail::fail(where, "swing_apex_margin", config_.swing_apex_margin, "must be in (0, 0.5]");
   }
   anchors_.resize(n);
+  latches_.resize(n);
 }
 
 void FootReferencePlanner::anchorStance(int foot, double stance_start,
@@ -57,6 +59,70 @@ void FootReferencePlanner::anchorStance(int foot, double stance_start,
 
 void FootReferencePlanner::clearAnchors() noexcept {
   for (Anchor& a : anchors_) a.valid = false;
+  for (Latch& l : latches_) l.valid = false;
+}
+
+void FootReferencePlanner::latchTouchdown(int foot, double touchdown) noexcept {
+  if (foot < 0 || foot >= numFeet()) return;
+  Latch& l = latches_[static_cast<std::size_t>(foot)];
+  if (!std::isfinite(touchdown) || terrain_->size() == 0) {
+    l.valid = false;
+    return;
+  }
+  if (l.valid && std::abs(l.touchdown - touchdown) <= 1e-6) return;  // the first choice stays
+  int region = -1;
+  Eigen::Vector2d p = footholdAt(foot, touchdown, region);
+  if (region < 0 || !p.allFinite()) {
+    l.valid = false;
+    return;
+  }
+  // Into the chosen region: the nearest point of its polygon (p itself inside it).
+  const ConvexRegion& R = terrain_->region(region);
+  if (!R.contains(p)) {
+    const std::size_t n = R.vertices.size();
+    double best = std::numeric_limits<double>::infinity();
+    Eigen::Vector2d q = p;
+    for (std::size_t k = 0; k < n; ++k) {
+      const Eigen::Vector2d& a = R.vertices[k];
+      const Eigen::Vector2d ab = R.vertices[(k + 1) % n] - a;
+      const double s = std::clamp((p - a).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
+      const Eigen::Vector2d c = a + s * ab;
+      if ((p - c).squaredNorm() < best) {
+        best = (p - c).squaredNorm();
+        q = c;
+      }
+    }
+    p = q;
+  }
+  l.valid = true;
+  l.touchdown = touchdown;
+  l.p = p;
+  l.z = R.heightAt(p);
+}
+
+int FootReferencePlanner::latchedRegion(const Latch& l) const {
+  // The same surface on this terrain: the nearest region at the latched height; the nearest
+  // of all when none is (the surface is gone).
+  int best = -1, any = -1;
+  double best_d = std::numeric_limits<double>::infinity(), any_d = best_d;
+  for (int i = 0; i < terrain_->size(); ++i) {
+    const ConvexRegion& R = terrain_->region(i);
+    const double d = R.distance(l.p);
+    if (d < any_d) {
+      any_d = d;
+      any = i;
+    }
+    if (d < best_d && std::abs(R.heightAt(l.p) - l.z) <= kLatchHeightTolerance) {
+      best_d = d;
+      best = i;
+    }
+  }
+  return best >= 0 ? best : any;
+}
+
+const FootReferencePlanner::Latch* FootReferencePlanner::latchFor(int foot, double t) const {
+  const Latch& l = latches_[static_cast<std::size_t>(foot)];
+  return l.valid && std::isfinite(t) && std::abs(l.touchdown - t) <= 1e-6 ? &l : nullptr;
 }
 
 const FootReferencePlanner::Anchor* FootReferencePlanner::anchorFor(int foot, double start) const {
@@ -72,6 +138,10 @@ Eigen::Vector2d FootReferencePlanner::stanceFootholdAt(int foot, double start, d
   if (const Anchor* a = anchorFor(foot, start)) {
     region = terrain_->regionAt(a->p);
     return a->p;
+  }
+  if (const Latch* l = latchFor(foot, start)) {
+    region = latchedRegion(*l);
+    return l->p;
   }
   return footholdAt(foot, t_nominal, region);
 }
@@ -134,6 +204,7 @@ Eigen::Vector2d FootReferencePlanner::stanceFoothold(const ocp::ModeSchedule& sc
   }
   const double start = stanceStart(schedule, foot, phase);
   if (const Anchor* a = anchorFor(foot, start)) return a->p;
+  if (const Latch* l = latchFor(foot, start)) return l->p;
   return nominalFoothold(foot, start > -1e300 ? start : t);
 }
 
@@ -165,7 +236,13 @@ FootReference FootReferencePlanner::query(const ocp::ModeSchedule& schedule, int
   int region_lo = -1;
   const Eigen::Vector2d p_lo = stanceFootholdAt(
       foot, lo_stance ? lo_start : std::numeric_limits<double>::quiet_NaN(), t_lo, region_lo);
-  const Eigen::Vector2d p_td = footholdAt(foot, r.timing.touchdown, r.region);
+  Eigen::Vector2d p_td;
+  if (const Latch* l = latchFor(foot, r.timing.touchdown)) {
+    p_td = l->p;
+    r.region = latchedRegion(*l);
+  } else {
+    p_td = footholdAt(foot, r.timing.touchdown, r.region);
+  }
   const double z_lo = heightIn(region_lo, p_lo), z_td = heightIn(r.region, p_td);
   r.direction = classifySwing(z_lo, z_td, config_.level_tolerance);
   r.swing_region = r.direction == SwingDirection::Ascending    ? region_lo

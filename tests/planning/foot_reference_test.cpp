@@ -172,6 +172,60 @@ TEST(FootReference, AnchoredStanceUsesTheSurfaceTheFootStandsOn) {
   }
 }
 
+TEST(FootReference, ALatchedTouchDownKeepsItsRegionWhenTheTerrainMoves) {
+  // A front swing whose nominal touch-down falls into the gap before the block goes up onto
+  // it (gap_reach 0.2). Then the perceived block "moves" 0.2 m away: the nominal choice
+  // becomes level onto the floor, mid-swing; latched, the swing still goes up onto the
+  // block, and the stance it begins stands there.
+  ShrunkStepScene sc;
+  const ocp::ModeSchedule& schedule = sc.schedule;
+  planning::FootReferenceConfig config{kNominal, kClearance, kWheelRadius};
+  config.gap_reach = 0.2;
+  planning::FootReferencePlanner planner(sc.terrain, sc.base, config);
+  planning::TerrainModel moved = planning::terrainFromBoxes({-5.0, 10.0, -1.5, 1.5, 0.0}, 0.0,
+                                                            {{1.2, 2.4, -1.5, 1.5, 0.20}}, 0.085);
+  int checked = 0;
+  for (int f : {0, 1, 2}) {
+    for (double t = 0.0; t < 2.5 && checked <= f; t += 0.005) {
+      const planning::FootReference r = planner.query(schedule, f, t);
+      if (r.timing.stance || !r.timing.bounded() || r.timing.phase > 0.3) continue;
+      const double x_td = planner.nominalFoothold(f, r.timing.touchdown).x();
+      if (!(x_td > 0.915 && x_td < 1.0)) continue;
+      ASSERT_EQ(r.direction, SwingDirection::Ascending);
+      const double t_stance = r.timing.touchdown + 0.05;  // in the stance it begins
+      planner.latchTouchdown(f, r.timing.touchdown);
+      sc.terrain.swap(moved);  // the block now begins at 1.285 (shrunk): out of reach
+      const int floor = sc.terrain.regionAt({0.5, 0.0}), block = sc.terrain.regionAt({1.5, 0.0});
+      const planning::FootReference latched = planner.query(schedule, f, t);
+      EXPECT_EQ(latched.direction, SwingDirection::Ascending);
+      EXPECT_EQ(latched.region, block);
+      const planning::FootReference stance = planner.query(schedule, f, t_stance);
+      ASSERT_TRUE(stance.timing.stance);
+      EXPECT_EQ(stance.region, block);
+      EXPECT_NEAR(stance.z_ref, 0.20 + kWheelRadius, 1e-9);
+      // The latch point lies in the region chosen (the nominal foothold moved into it).
+      EXPECT_TRUE(
+          sc.terrain.region(block).contains(planner.stanceFoothold(schedule, f, t_stance), 0.2));
+      // Latching the same touch-down again keeps the first choice.
+      planner.latchTouchdown(f, r.timing.touchdown);
+      EXPECT_EQ(planner.query(schedule, f, t).region, block);
+      // Without the latch the same query is level onto the floor.
+      planner.clearAnchors();
+      const planning::FootReference nominal = planner.query(schedule, f, t);
+      EXPECT_EQ(nominal.direction, SwingDirection::Level);
+      EXPECT_EQ(nominal.region, floor);
+      // Latched now, on this terrain: the floor; a NaN time clears it.
+      planner.latchTouchdown(f, r.timing.touchdown);
+      EXPECT_EQ(planner.query(schedule, f, t).region, floor);
+      planner.latchTouchdown(f, std::nan(""));
+      sc.terrain.swap(moved);  // back to the scene's terrain
+      EXPECT_EQ(planner.query(schedule, f, t).direction, SwingDirection::Ascending);
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 0) << "no front swing's touch-down fell into the gap";
+}
+
 TEST(FootReference, TrotOverTheStep) {
   Scene s;
   const int floor_before = s.terrain.regionAt({0.0, 0.0});

@@ -95,8 +95,10 @@ class CentroidalOcp {
   /// Anchors every foot in stance at t under `schedule` at its position in state x (the
   /// measured state): that stance's region and height, and the lift-off end of the swing
   /// after it, are taken where the foot stands (planning::FootReferencePlanner::
-  /// anchorStance), not at its nominal foothold. A non-finite or wrongly sized x changes
-  /// nothing. Never allocates.
+  /// anchorStance), not at its nominal foothold (settings anchor_stance_feet). With
+  /// latch_touchdowns, every foot in swing at t keeps the touch-down region chosen at the
+  /// first call in that swing (FootReferencePlanner::latchTouchdown). A non-finite or
+  /// wrongly sized x changes nothing. Never allocates.
   void anchorStanceFeet(const ocp::ModeSchedule& schedule, double t,
                         const Eigen::VectorXd& x) noexcept;
   int regionEdgeCapacity() const { return region_edge_capacity_; }

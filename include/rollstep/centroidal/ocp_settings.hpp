@@ -101,6 +101,12 @@ struct OcpSettings {
   /// on, the step20 climb on the estimator's state fell; on perception it helps, see
   /// config/behaviours/climb_perception.yaml).
   bool anchor_stance_feet = false;
+  /// The touch-down region of each swing under way stays the one chosen when the swing was
+  /// first planned after its lift-off (planning::FootReferencePlanner::latchTouchdown, by
+  /// CentroidalOcp::anchorStanceFeet): a new terrain or the gap rule cannot switch it mid-
+  /// swing from up onto a step to level before it. Off by default (see
+  /// config/behaviours/climb_perception.yaml).
+  bool latch_touchdowns = false;
   /// [m] A nominal foothold in a gap between (shrunk) regions goes onto the region ahead
   /// along the travel when that begins within this distance (planning::FootReferenceConfig::
   /// gap_reach); 0: onto the nearest region, which at a step edge is the one the foot is

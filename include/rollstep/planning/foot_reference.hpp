@@ -23,6 +23,14 @@
 // (the controller measures it); that stance's region and height, and the lift-off end of
 // the swing after it, are then taken at the measured point (TerrainModel::regionAt: the
 // region under it, or the nearest), and every later stance stays nominal.
+//
+// Touch-down latches: the touch-down region of a swing is chosen from the nominal foothold
+// at the touch-down time, and near an edge a new terrain (the perceived edge moves by a
+// cell) or a gap rule can switch it mid-swing, from up onto a step to level before it: the
+// swing's height reference drops and the wheel strikes the riser. latchTouchdown() keeps
+// the choice made at that moment for the rest of the swing and the stance after it, as a
+// point of the chosen region (the nominal foothold moved into it) and its height, which
+// later terrains resolve to the same surface: the nearest region at that height.
 #include <Eigen/Core>
 #include <vector>
 
@@ -104,7 +112,13 @@ class FootReferencePlanner {
   /// last given; it applies to the stance whose start matches within 1e-6 s. A non-finite
   /// p or an out-of-range foot clears that foot's anchor. Never allocates.
   void anchorStance(int foot, double stance_start, const Eigen::Vector2d& p) noexcept;
-  /// Forgets every anchor (all footholds nominal).
+  /// Latches the touch-down of the swing of `foot` that ends at `touchdown` [s] (see the
+  /// file comment): its region is the one chosen now, and stays so for that swing and the
+  /// stance it begins. One latch per foot; calling again for the same touch-down (within
+  /// 1e-6 s) keeps the first choice, another touch-down replaces it. A non-finite time, an
+  /// out-of-range foot or an empty terrain clears that foot's latch. Never allocates.
+  void latchTouchdown(int foot, double touchdown) noexcept;
+  /// Forgets every anchor and touch-down latch (all footholds nominal).
   void clearAnchors() noexcept;
   /// The start time of the stance of `foot` containing t under `schedule` (as
   /// anchorStance() takes it), or NaN when the foot is not in stance at t.
@@ -116,18 +130,32 @@ class FootReferencePlanner {
     double start = 0.0;
     Eigen::Vector2d p = Eigen::Vector2d::Zero();
   };
+  struct Latch {
+    bool valid = false;
+    double touchdown = 0.0;
+    Eigen::Vector2d p = Eigen::Vector2d::Zero();  ///< a point of the chosen region
+    double z = 0.0;                               ///< its surface's height there [m]
+  };
+  /// Latched surfaces are found again on a new terrain by height within this [m].
+  static constexpr double kLatchHeightTolerance = 0.02;
+  /// The region of a latch on the current terrain: the nearest one at its height (a new
+  /// terrain renumbers regions and moves their edges), else the nearest.
+  int latchedRegion(const Latch& l) const;
+  /// The latch of `foot`'s swing ending at (or stance starting at) `t`, or nullptr.
+  const Latch* latchFor(int foot, double t) const;
   double heightIn(int region, const Eigen::Vector2d& p) const;
   /// The anchor of `foot`'s stance that began at `start`, or nullptr.
   const Anchor* anchorFor(int foot, double start) const;
   /// The foothold (and its region) of `foot`'s stance that began at `start`: its anchor
-  /// (the region under it), else the nominal foothold at t_nominal (footholdAt). A NaN
-  /// start has no anchor.
+  /// (the region under it), else its touch-down latch, else the nominal foothold at
+  /// t_nominal (footholdAt). A NaN start has no anchor or latch.
   Eigen::Vector2d stanceFootholdAt(int foot, double start, double t_nominal, int& region) const;
   /// nominalFoothold(foot, t) and footholdRegion of it at t, from one evaluation of the
   /// base reference's pose at t (query() needs both at the same times).
   Eigen::Vector2d footholdAt(int foot, double t, int& region) const;
   int regionOf(const Eigen::Vector2d& p, double t, const lie::SE3& pose) const;
   std::vector<Anchor> anchors_;
+  std::vector<Latch> latches_;
 
   const TerrainModel* terrain_;
   const BaseReference* base_;
