@@ -322,6 +322,17 @@ TEST(FootReference, QueriesDoNotAllocate) {
   for (int k = 0; k <= 100; ++k) {
     for (int f = 0; f < 6; ++f) sum += s.feet.query(s.schedule, f, 1.2 + 0.015 * k).z_ref;
   }
+  // Anchors and touch-down latches, as the 1 kHz tick sets them.
+  for (int f = 0; f < 6; ++f) {
+    const planning::FootPhase phase = planning::footPhase(s.schedule, f, 1.5);
+    if (phase.stance) {
+      s.feet.anchorStance(f, planning::FootReferencePlanner::stanceStartAt(s.schedule, f, 1.5),
+                          s.feet.nominalFoothold(f, 1.5));
+    } else if (phase.bounded()) {
+      s.feet.latchTouchdown(f, phase.touchdown);
+    }
+    sum += s.feet.query(s.schedule, f, 1.5).z_ref;
+  }
   EXPECT_EQ(guard.count(), 0u);
   EXPECT_GT(sum, 0.0);
 }
