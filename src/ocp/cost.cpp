@@ -62,6 +62,11 @@ std::unique_ptr<CostData> LeastSquaresCost::createData() const {
   return std::make_unique<LsqData>(residual_->createData(), residual_->maxRows(), ndx(), nu());
 }
 
+std::unique_ptr<CostData> LeastSquaresCost::createDataWithNodeCache() const {
+  return std::make_unique<LsqData>(residual_->createDataWithNodeCache(), residual_->maxRows(),
+                                   ndx(), nu());
+}
+
 double LeastSquaresCost::calc(const NodeContext& ctx, ConstVecRef x, ConstVecRef u,
                               CostData& d) const {
   auto& s = static_cast<LsqData&>(d);
