@@ -121,11 +121,12 @@ struct SolverSettings {
   /// filter line search.
   bool predictor_corrector = true;
   /// Linux: ask for the solver's memory (the nodes' data, the terms' workspaces, the
-  /// Riccati stages: tens to hundreds of MB at N = 100) to be backed by transparent huge
-  /// pages, collapsing the pages already there at construction (madvise MADV_HUGEPAGE and
-  /// MADV_COLLAPSE). An iteration touches a few kB in each of many 4 kB pages, and the TLB
-  /// misses cost several percent of it (docs/PERFORMANCE.md). Advice only: results are the
-  /// same; it costs up to some 100 ms at construction and is skipped for spans under
+  /// Riccati stages: about 60 MB for the Tachyon 3 OCP at N = 100) to be backed by
+  /// transparent huge pages, collapsing the pages already there at construction (madvise
+  /// MADV_HUGEPAGE and MADV_COLLAPSE). An iteration touches a few kB in each of many 4 kB
+  /// pages, and the TLB misses cost several percent of it (docs/PERFORMANCE.md). Advice
+  /// only: results are the same; it costs up to some 30 ms at construction (more when the
+  /// kernel must compact memory first) and is skipped for spans under
   /// 4 MB, in sanitizer builds and where the system has no transparent huge pages.
   /// Fixed at construction.
   bool huge_pages = true;
