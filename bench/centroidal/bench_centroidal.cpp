@@ -5,6 +5,8 @@
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
+#include <cstdlib>
+#include <string>
 
 #include "centroidal/assembly.hpp"
 #include "rollstep/centroidal/centroidal_ocp.hpp"
@@ -176,10 +178,14 @@ BENCHMARK(BM_RealTimeIterationN100)->Unit(benchmark::kMillisecond);
 /// inequality, joint bounds; config defaults) on flat ground, trotting at 0.15 m/s, solved
 /// to convergence once; then one real-time iteration per benchmark iteration (linearise
 /// every node and term, condense, project, Riccati, update), from the same x0 and time so
-/// that every iteration does the same work. Arg: solver threads.
+/// that every iteration does the same work. Arg: solver threads. The environment variable
+/// ROLLSTEP_BENCH_HUGE_PAGES=0 turns SolverSettings::huge_pages off (on by default), to
+/// measure what the advice gains.
 void BM_Tachyon3RtiUpdateN100(benchmark::State& state) {
   OcpSettings settings;
   settings.solver.num_threads = static_cast<int>(state.range(0));
+  const char* huge = std::getenv("ROLLSTEP_BENCH_HUGE_PAGES");
+  if (huge != nullptr && std::string(huge) == "0") settings.solver.huge_pages = false;
   const RobotOcpDescription robot =
       loadRobotOcpDescription(std::string(ROLLSTEP_ROBOTS_DIR) + "/tachyon3/centroidal.yaml");
   CentroidalOcp ocp(robot, settings, planning::terrainFromBoxes({-20, 20, -5, 5, 0}, 0.0, {}),

@@ -92,7 +92,11 @@ int StanceVelocityResidual::rows(const ocp::NodeContext& ctx) const {
 }
 
 std::unique_ptr<ocp::ResidualData> StanceVelocityResidual::createData() const {
-  return std::make_unique<CentroidalResidualData>(pre_->robot(), maxRows());
+  return std::make_unique<CentroidalResidualData>(pre_->robot(), maxRows(), false);
+}
+
+std::unique_ptr<ocp::ResidualData> StanceVelocityResidual::createDataWithNodeCache() const {
+  return std::make_unique<CentroidalResidualData>(pre_->robot(), maxRows(), true);
 }
 
 void StanceVelocityResidual::calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x,
@@ -100,7 +104,7 @@ void StanceVelocityResidual::calc(const ocp::NodeContext& ctx, ocp::ConstVecRef 
   const CentroidalRobot& r = pre_->robot();
   if (rows(ctx) == 0) return;
   auto& data = static_cast<CentroidalResidualData&>(d);
-  const CentroidalCache& c = nodeCache(ctx, x, u, false, *pre_, data.fallback);
+  const CentroidalCache& c = nodeCache(ctx, x, u, false, *pre_, data.fallback.get());
   int row = 0;
   for (int i = 0; i < r.nc(); ++i) {
     if (!selected(ctx.mode, i)) continue;
@@ -125,7 +129,7 @@ void StanceVelocityResidual::calcDiffInto(const ocp::NodeContext& ctx, ocp::Cons
   const CentroidalRobot& r = pre_->robot();
   if (Rx.rows() == 0) return;
   auto& data = static_cast<CentroidalResidualData&>(d);
-  const CentroidalCache& c = nodeCache(ctx, x, u, true, *pre_, data.fallback);
+  const CentroidalCache& c = nodeCache(ctx, x, u, true, *pre_, data.fallback.get());
   const int nj = r.nj();
   const int nf = 3 * r.nc();
   int row = 0;

@@ -21,20 +21,24 @@ lie::Vector6d BaseVelocityResidual::reference(const ocp::NodeContext& ctx) const
 }
 
 std::unique_ptr<ocp::ResidualData> BaseVelocityResidual::createData() const {
-  return std::make_unique<CentroidalResidualData>(pre_->robot(), maxRows());
+  return std::make_unique<CentroidalResidualData>(pre_->robot(), maxRows(), false);
+}
+
+std::unique_ptr<ocp::ResidualData> BaseVelocityResidual::createDataWithNodeCache() const {
+  return std::make_unique<CentroidalResidualData>(pre_->robot(), maxRows(), true);
 }
 
 void BaseVelocityResidual::calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
                                 ocp::ResidualData& d) const {
   auto& data = static_cast<CentroidalResidualData&>(d);
-  const CentroidalCache& c = nodeCache(ctx, x, u, false, *pre_, data.fallback);
+  const CentroidalCache& c = nodeCache(ctx, x, u, false, *pre_, data.fallback.get());
   d.r.head<6>() = c.vb - reference(ctx);
 }
 
 void BaseVelocityResidual::calcDiff(const ocp::NodeContext& ctx, ocp::ConstVecRef x,
                                     ocp::ConstVecRef u, ocp::ResidualData& d) const {
   auto& data = static_cast<CentroidalResidualData&>(d);
-  const CentroidalCache& c = nodeCache(ctx, x, u, true, *pre_, data.fallback);
+  const CentroidalCache& c = nodeCache(ctx, x, u, true, *pre_, data.fallback.get());
   d.Rx.topRows<6>() = c.dvb_dx;
   d.Ru.topRows<6>() = c.dvb_du;
 }

@@ -8,10 +8,10 @@ namespace rollstep::centroidal {
 
 namespace {
 struct CentroidalDynamicsData final : ocp::DynamicsData {
-  explicit CentroidalDynamicsData(const CentroidalRobot& robot)
-      : fallback(robot), angular_dq(3, robot.nv()) {}
-  CentroidalCache fallback;     ///< used when the node has no shared cache
-  Eigen::Matrix3Xd angular_dq;  ///< d(sum of contact torques)/dq
+  CentroidalDynamicsData(const CentroidalRobot& robot, bool node_cache)
+      : fallback(makeFallbackCache(robot, node_cache)), angular_dq(3, robot.nv()) {}
+  std::unique_ptr<CentroidalCache> fallback;  ///< used when the node has no shared cache
+  Eigen::Matrix3Xd angular_dq;                ///< d(sum of contact torques)/dq
 };
 }  // namespace
 
@@ -22,13 +22,17 @@ CentroidalDynamics::CentroidalDynamics(std::shared_ptr<const CentroidalPrecomput
 }
 
 std::unique_ptr<ocp::DynamicsData> CentroidalDynamics::createData() const {
-  return std::make_unique<CentroidalDynamicsData>(robot());
+  return std::make_unique<CentroidalDynamicsData>(robot(), false);
+}
+
+std::unique_ptr<ocp::DynamicsData> CentroidalDynamics::createDataWithNodeCache() const {
+  return std::make_unique<CentroidalDynamicsData>(robot(), true);
 }
 
 void CentroidalDynamics::calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
                               ocp::DynamicsData& d, ocp::VecRef xdot) const {
   auto& data = static_cast<CentroidalDynamicsData&>(d);
-  const CentroidalCache& c = nodeCache(ctx, x, u, false, *pre_, data.fallback);
+  const CentroidalCache& c = nodeCache(ctx, x, u, false, *pre_, data.fallback.get());
   const CentroidalRobot& r = robot();
   const int nj = r.nj();
   const int ih = r.tangentMomentumIndex();
@@ -50,7 +54,7 @@ void CentroidalDynamics::calcDiff(const ocp::NodeContext& ctx, ocp::ConstVecRef 
                                   ocp::ConstVecRef u, ocp::DynamicsData& d, ocp::MatRef fx,
                                   ocp::MatRef fu) const {
   auto& data = static_cast<CentroidalDynamicsData&>(d);
-  const CentroidalCache& c = nodeCache(ctx, x, u, true, *pre_, data.fallback);
+  const CentroidalCache& c = nodeCache(ctx, x, u, true, *pre_, data.fallback.get());
   const CentroidalRobot& r = robot();
   const int nj = r.nj();
   const int nv = r.nv();

@@ -16,18 +16,20 @@ namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 /// Residual workspace of the terms that read the robot's kinematics: a cache of their own
-/// for when the node has no shared one (ctx.cache == nullptr, e.g. a term evaluated alone).
+/// for when the node has no shared one (ctx.cache == nullptr, e.g. a term evaluated alone),
+/// none when made for nodes that always have one (makeFallbackCache).
 struct KinematicResidualData : ocp::ResidualData {
-  KinematicResidualData(int max_rows, const CentroidalRobot& robot)
-      : ocp::ResidualData(max_rows, robot.ndx(), robot.nu()), fallback(robot) {}
-  CentroidalCache fallback;
+  KinematicResidualData(int max_rows, const CentroidalRobot& robot, bool node_cache)
+      : ocp::ResidualData(max_rows, robot.ndx(), robot.nu()),
+        fallback(makeFallbackCache(robot, node_cache)) {}
+  std::unique_ptr<CentroidalCache> fallback;
 };
 
 /// The region term's workspace: the region of each foot found by calc, reused by calcDiff
 /// (called right after calc with the same arguments, ocp::Residual), -1 for none.
 struct RegionResidualData final : KinematicResidualData {
-  RegionResidualData(int max_rows, const CentroidalRobot& robot)
-      : KinematicResidualData(max_rows, robot) {
+  RegionResidualData(int max_rows, const CentroidalRobot& robot, bool node_cache)
+      : KinematicResidualData(max_rows, robot, node_cache) {
     region.fill(-1);
   }
   std::array<int, kMaxContacts> region{};
@@ -45,8 +47,8 @@ struct FrictionResidualData final : ocp::ResidualData {
 
 /// The torque term's workspace: the joint torques and their Jacobians before row selection.
 struct TorqueResidualData final : KinematicResidualData {
-  TorqueResidualData(int max_rows, const CentroidalRobot& robot)
-      : KinematicResidualData(max_rows, robot),
+  TorqueResidualData(int max_rows, const CentroidalRobot& robot, bool node_cache)
+      : KinematicResidualData(max_rows, robot, node_cache),
         tau(Eigen::VectorXd::Zero(robot.nj())),
         tau_dx(Eigen::MatrixXd::Zero(robot.nj(), robot.ndx())),
         tau_du(Eigen::MatrixXd::Zero(robot.nj(), robot.nu())) {}
@@ -157,7 +159,11 @@ int StaticTorqueLimitResidual::mirroredRows(const ocp::NodeContext& /*ctx*/) con
 }
 
 std::unique_ptr<ocp::ResidualData> StaticTorqueLimitResidual::createData() const {
-  return std::make_unique<TorqueResidualData>(maxRows(), *robot_);
+  return std::make_unique<TorqueResidualData>(maxRows(), *robot_, false);
+}
+
+std::unique_ptr<ocp::ResidualData> StaticTorqueLimitResidual::createDataWithNodeCache() const {
+  return std::make_unique<TorqueResidualData>(maxRows(), *robot_, true);
 }
 
 // The force f_i at the contact point p_i - r e_z, seen as a point of contact i's body:
@@ -186,14 +192,14 @@ void StaticTorqueLimitResidual::staticTorques(const CentroidalCache& c,
 Eigen::VectorXd StaticTorqueLimitResidual::torques(const ocp::NodeContext& ctx, ocp::ConstVecRef x,
                                                    ocp::ConstVecRef u, ocp::ResidualData& d) const {
   auto& td = static_cast<TorqueResidualData&>(d);
-  staticTorques(nodeCache(ctx, x, u, false, pre_, td.fallback), td.tau);
+  staticTorques(nodeCache(ctx, x, u, false, pre_, td.fallback.get()), td.tau);
   return td.tau;
 }
 
 void StaticTorqueLimitResidual::calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x,
                                      ocp::ConstVecRef u, ocp::ResidualData& d) const {
   auto& td = static_cast<TorqueResidualData&>(d);
-  staticTorques(nodeCache(ctx, x, u, false, pre_, td.fallback), td.tau);
+  staticTorques(nodeCache(ctx, x, u, false, pre_, td.fallback.get()), td.tau);
   int row = 0;
   for (int j : upper_rows_) d.r[row++] = upper_[j] - td.tau[j];
   for (int j : lower_rows_) d.r[row++] = td.tau[j] - lower_[j];
@@ -209,7 +215,7 @@ void StaticTorqueLimitResidual::calcDiffInto(const ocp::NodeContext& ctx, ocp::C
                                              ocp::ConstVecRef u, ocp::ResidualData& d,
                                              ocp::MatRef Rx, ocp::MatRef Ru) const {
   auto& td = static_cast<TorqueResidualData&>(d);
-  const CentroidalCache& c = nodeCache(ctx, x, u, true, pre_, td.fallback);
+  const CentroidalCache& c = nodeCache(ctx, x, u, true, pre_, td.fallback.get());
   const int nj = robot_->nj();
   if (static_cast<int>(upper_rows_.size()) == nj && static_cast<int>(lower_rows_.size()) == nj) {
     // Every joint limited on both sides (Tachyon 3): the lower-limit rows are d tau itself,
@@ -407,7 +413,11 @@ int FootRegionResidual::rows(const ocp::NodeContext& ctx) const {
 }
 
 std::unique_ptr<ocp::ResidualData> FootRegionResidual::createData() const {
-  return std::make_unique<RegionResidualData>(maxRows(), *robot_);
+  return std::make_unique<RegionResidualData>(maxRows(), *robot_, false);
+}
+
+std::unique_ptr<ocp::ResidualData> FootRegionResidual::createDataWithNodeCache() const {
+  return std::make_unique<RegionResidualData>(maxRows(), *robot_, true);
 }
 
 void FootRegionResidual::calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
@@ -419,7 +429,7 @@ void FootRegionResidual::calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x, o
     const int region = regionOf(ctx, i);
     kd.region[static_cast<std::size_t>(i)] = region;
     if (region < 0) continue;
-    if (c == nullptr) c = &nodeCache(ctx, x, u, false, pre_, kd.fallback);
+    if (c == nullptr) c = &nodeCache(ctx, x, u, false, pre_, kd.fallback.get());
     const planning::ConvexRegion& reg = terrain_.terrain->region(region);
     const Eigen::Vector2d p = c->footPosition(i).head<2>();
     for (int k = 0; k < reg.A.rows(); ++k) {
@@ -448,7 +458,7 @@ void FootRegionResidual::calcDiffInto(const ocp::NodeContext& ctx, ocp::ConstVec
   for (int i = 0; i < robot_->nc(); ++i) {
     const int region = kd.region[static_cast<std::size_t>(i)];  // found by calc
     if (region < 0) continue;
-    if (c == nullptr) c = &nodeCache(ctx, x, u, true, pre_, kd.fallback);
+    if (c == nullptr) c = &nodeCache(ctx, x, u, true, pre_, kd.fallback.get());
     const planning::ConvexRegion& reg = terrain_.terrain->region(region);
     const auto px = c->footPosition_dx.row(3 * i);
     const auto py = c->footPosition_dx.row(3 * i + 1);

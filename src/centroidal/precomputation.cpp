@@ -125,7 +125,7 @@ void CentroidalPrecomputation::compute(ocp::ConstVecRef x, ocp::ConstVecRef u, b
 
 const CentroidalCache& nodeCache(const ocp::NodeContext& ctx, ocp::ConstVecRef x,
                                  ocp::ConstVecRef u, bool derivatives,
-                                 const CentroidalPrecomputation& pre, CentroidalCache& fallback) {
+                                 const CentroidalPrecomputation& pre, CentroidalCache* fallback) {
   if (ctx.cache != nullptr) {
     const auto& c = static_cast<const CentroidalCache&>(*ctx.cache);
     if (derivatives && !c.has_derivatives) {
@@ -135,12 +135,17 @@ const CentroidalCache& nodeCache(const ocp::NodeContext& ctx, ocp::ConstVecRef x
     }
     return c;
   }
+  if (fallback == nullptr) {
+    throw std::logic_error(
+        "centroidal: a term's workspace made for nodes with a shared cache "
+        "(createDataWithNodeCache) was used without one");
+  }
   // No shared cache: compute our own, with derivatives so that calcDiff (called right
   // after calc with the same x, u) reuses it.
-  if (!(fallback.has_derivatives && fallback.x == x && fallback.u == u)) {
-    pre.compute(x, u, true, fallback);
+  if (!(fallback->has_derivatives && fallback->x == x && fallback->u == u)) {
+    pre.compute(x, u, true, *fallback);
   }
-  return fallback;
+  return *fallback;
 }
 
 }  // namespace rollstep::centroidal

@@ -50,7 +50,11 @@ int SwingHeightResidual::rows(const ocp::NodeContext& ctx) const {
 }
 
 std::unique_ptr<ocp::ResidualData> SwingHeightResidual::createData() const {
-  return std::make_unique<CentroidalResidualData>(pre_->robot(), maxRows());
+  return std::make_unique<CentroidalResidualData>(pre_->robot(), maxRows(), false);
+}
+
+std::unique_ptr<ocp::ResidualData> SwingHeightResidual::createDataWithNodeCache() const {
+  return std::make_unique<CentroidalResidualData>(pre_->robot(), maxRows(), true);
 }
 
 void SwingHeightResidual::calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
@@ -61,7 +65,7 @@ void SwingHeightResidual::calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x, 
   }
   const CentroidalRobot& r = pre_->robot();
   auto& data = static_cast<CentroidalResidualData&>(d);
-  const CentroidalCache& c = nodeCache(ctx, x, u, false, *pre_, data.fallback);
+  const CentroidalCache& c = nodeCache(ctx, x, u, false, *pre_, data.fallback.get());
   int row = 0;
   for (int i = 0; i < r.nc(); ++i) {
     if (CentroidalRobot::inStance(ctx.mode, i)) continue;
@@ -83,7 +87,7 @@ void SwingHeightResidual::calcDiffInto(const ocp::NodeContext& ctx, ocp::ConstVe
   if (Rx.rows() == 0) return;
   const CentroidalRobot& r = pre_->robot();
   auto& data = static_cast<CentroidalResidualData&>(d);
-  const CentroidalCache& c = nodeCache(ctx, x, u, true, *pre_, data.fallback);
+  const CentroidalCache& c = nodeCache(ctx, x, u, true, *pre_, data.fallback.get());
   const int nj = r.nj();
   const int nf = 3 * r.nc();
   int row = 0;

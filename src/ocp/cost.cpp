@@ -8,23 +8,32 @@
 namespace rollstep::ocp {
 
 namespace {
+// Residuals with at most this many rows take the small-depth products (small_products.hpp)
+// for R^T W R; larger ones Eigen's general product.
+constexpr int kSmallDepth = 8;
+
+/// Which scratch of LsqData a cost's path uses (calcDiff).
+struct LsqScratch {
+  bool general;  // wr, WRx, WRu: the generic path with more than kSmallDepth rows
+  bool small;    // RxT, RuT: the generic path with at most kSmallDepth rows
+  bool block;    // RxT: the pose block of a state error on SE(3) x R^n
+};
+
 struct LsqData final : CostData {
-  LsqData(std::unique_ptr<ResidualData> r, int max_rows, int ndx, int nu)
+  // Only the scratch the cost's path uses: the rest, in the middle of the node's data,
+  // would spread what an iteration touches over more pages (tens of kB per node).
+  LsqData(std::unique_ptr<ResidualData> r, int max_rows, int ndx, int nu, LsqScratch use)
       : res(std::move(r)),
-        wr(VectorXd::Zero(max_rows)),
-        WRx(MatrixXd::Zero(max_rows, ndx)),
-        WRu(MatrixXd::Zero(max_rows, nu)),
-        RxT(MatrixXd::Zero(ndx, max_rows)),
-        RuT(MatrixXd::Zero(nu, max_rows)) {}
+        wr(VectorXd::Zero(use.general ? max_rows : 0)),
+        WRx(MatrixXd::Zero(use.general ? max_rows : 0, ndx)),
+        WRu(MatrixXd::Zero(use.general ? max_rows : 0, nu)),
+        RxT(MatrixXd::Zero(ndx, use.small || use.block ? max_rows : 0)),
+        RuT(MatrixXd::Zero(nu, use.small ? max_rows : 0)) {}
   std::unique_ptr<ResidualData> res;
   VectorXd wr;        // W r
   MatrixXd WRx, WRu;  // W Rx, W Ru
   MatrixXd RxT, RuT;  // (W Rx)^T, (W Ru)^T: the left operands of the small-depth products
 };
-
-// Residuals with at most this many rows take the small-depth products (small_products.hpp)
-// for R^T W R; larger ones Eigen's general product.
-constexpr int kSmallDepth = 8;
 }  // namespace
 
 LeastSquaresCost::LeastSquaresCost(std::shared_ptr<const Residual> residual,
@@ -58,8 +67,24 @@ void LeastSquaresCost::setWeights(const VectorXd& weights) {
   weights_ = weights;
 }
 
+namespace {
+LsqScratch scratchOf(bool generic, bool block, int max_rows) {
+  return {generic && max_rows > kSmallDepth, generic, block};
+}
+}  // namespace
+
 std::unique_ptr<CostData> LeastSquaresCost::createData() const {
-  return std::make_unique<LsqData>(residual_->createData(), residual_->maxRows(), ndx(), nu());
+  return std::make_unique<LsqData>(
+      residual_->createData(), residual_->maxRows(), ndx(), nu(),
+      scratchOf(structure_ == Structure::Generic, structure_ == Structure::StateBlock,
+                residual_->maxRows()));
+}
+
+std::unique_ptr<CostData> LeastSquaresCost::createDataWithNodeCache() const {
+  return std::make_unique<LsqData>(
+      residual_->createDataWithNodeCache(), residual_->maxRows(), ndx(), nu(),
+      scratchOf(structure_ == Structure::Generic, structure_ == Structure::StateBlock,
+                residual_->maxRows()));
 }
 
 double LeastSquaresCost::calc(const NodeContext& ctx, ConstVecRef x, ConstVecRef u,

@@ -57,6 +57,10 @@ std::unique_ptr<DynamicsData> ExplicitEuler::createData() const {
   return std::make_unique<EulerData>(f_->createData(), space().ndx(), nu());
 }
 
+std::unique_ptr<DynamicsData> ExplicitEuler::createDataWithNodeCache() const {
+  return std::make_unique<EulerData>(f_->createDataWithNodeCache(), space().ndx(), nu());
+}
+
 void ExplicitEuler::calc(const NodeContext& ctx, ConstVecRef x, ConstVecRef u, DynamicsData& d,
                          VecRef xnext) const {
   auto& e = static_cast<EulerData&>(d);

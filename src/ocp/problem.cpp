@@ -187,11 +187,21 @@ std::unique_ptr<NodeData> OptimalControlProblem::createNodeData() const {
   d->soft_weight = VectorXd::Zero(max_ineq_);
   d->mirror = Eigen::VectorXi::Constant(max_ineq_, -1);
   d->zero_input = VectorXd::Zero(m);
-  if (pre_) d->cache = pre_->createCache();
-  d->dynamics_data = dynamics_->createData();
-  for (const auto& c : costs_) d->cost_data.push_back(c.term->createData());
-  for (const auto& e : equalities_) d->equality_data.push_back(e->createData());
-  for (const auto& g : inequalities_) d->inequality_data.push_back(g.residual->createData());
+  if (!pre_) {
+    d->dynamics_data = dynamics_->createData();
+    for (const auto& c : costs_) d->cost_data.push_back(c.term->createData());
+    for (const auto& e : equalities_) d->equality_data.push_back(e->createData());
+    for (const auto& g : inequalities_) d->inequality_data.push_back(g.residual->createData());
+    return d;
+  }
+  // run() passes the node cache to every call: the terms need no caches of their own.
+  d->cache = pre_->createCache();
+  d->dynamics_data = dynamics_->createDataWithNodeCache();
+  for (const auto& c : costs_) d->cost_data.push_back(c.term->createDataWithNodeCache());
+  for (const auto& e : equalities_) d->equality_data.push_back(e->createDataWithNodeCache());
+  for (const auto& g : inequalities_) {
+    d->inequality_data.push_back(g.residual->createDataWithNodeCache());
+  }
   return d;
 }
 

@@ -18,7 +18,8 @@ using detail::relaxedLog;
 /// order, so that they do not depend on the thread count).
 Solver::Impl::Kkt Solver::Impl::linearize(bool realtime, IterationStats& it) {
   auto t_lin = Clock::now();
-  use_curvature = !realtime && set.exact_hessian && has_curvature;
+  // The workspace exists for such settings (constructor, setSettings).
+  use_curvature = !realtime && needsCurvature(set) && curvature_reserved;
   forNodes([this](int k) { linearizeNode(k); });
   prob->stateSpace().difference(xs[0], x0, dx0);
   // Residuals (fixed order reduction).

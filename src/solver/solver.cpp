@@ -264,6 +264,7 @@ void Solver::setSettings(const SolverSettings& s) {
         "Solver::setSettings: num_threads and thread_spin_us cannot change after construction");
   }
   impl_->set = s;
+  if (impl_->needsCurvature(s)) impl_->reserveCurvature();
   impl_->stats.reserve(static_cast<std::size_t>(std::max(s.max_iterations, 1)) + 2);
   impl_->filter.reserve(static_cast<std::size_t>(std::max(s.max_iterations, 1)) + 2);
 }

@@ -94,8 +94,9 @@ struct Solver::Impl {
     // W and gam with each mirrored pair merged on its first row: W_i + W_j, gam_i - gam_j.
     VectorXd Wc, gamc;
     VectorXd soft_dual;  // -weight beta'(c) of soft rows (reporting)
-    // Constraint curvature (converging mode, Euclidean): central differences of the
-    // constraint part of the Lagrangian gradient, evaluated into dp.
+    // Constraint curvature (converging mode with exact_hessian): central differences of the
+    // constraint part of the Lagrangian gradient, evaluated into dp. Allocated by
+    // reserveCurvature() only for settings that use it (empty otherwise).
     std::unique_ptr<NodeData> dp;
     MatrixXd H2;                     // (ndx + nu)^2, symmetric
     VectorXd hp, hm, xp, up, hcoef;  // gradients +-, perturbed point, row coefficients
@@ -176,11 +177,23 @@ struct Solver::Impl {
   bool has_guess = false;
   bool has_curvature = true;   // the problem has terms with curvature (hasCurvature())
   bool use_curvature = false;  // this iteration adds the constraint curvature (H2)
-  double last_delta = 0.0;     // last inertia correction
-  bool pc_active = false;      // this solve uses Mehrotra's predictor-corrector
-  bool tiny_step = false;      // the last step was tiny: decrease the barrier
-  int acceptable_count = 0;    // consecutive acceptable iterations
-  double prox = 0.0;           // proximal shift of the Hessian after short steps (line_search.cpp)
+  /// Settings whose solve() adds the constraint curvature (converging mode, exact_hessian,
+  /// a problem with curvature): they need the curvature workspace.
+  bool needsCurvature(const SolverSettings& s) const {
+    return s.mode == SolverMode::Converging && s.exact_hessian && has_curvature;
+  }
+  /// Allocates the curvature workspace of every node (a second NodeData each: half of the
+  /// solver's memory), once; called at construction and by setSettings for settings that
+  /// need it, so that solve() never allocates and a real-time-only solver never holds it.
+  void reserveCurvature();
+  bool curvature_reserved = false;
+  /// SolverSettings::huge_pages: the advice for the span of the nodes' data and stages.
+  void adviseHugePagesForNodes();
+  double last_delta = 0.0;   // last inertia correction
+  bool pc_active = false;    // this solve uses Mehrotra's predictor-corrector
+  bool tiny_step = false;    // the last step was tiny: decrease the barrier
+  int acceptable_count = 0;  // consecutive acceptable iterations
+  double prox = 0.0;         // proximal shift of the Hessian after short steps (line_search.cpp)
   // Complementarity target of the Newton step: s_i z_i -> target_mu (the barrier), minus
   // ds_aff_i dz_aff_i in Mehrotra's corrector.
   double target_mu = 0.0;

@@ -102,23 +102,11 @@ Solver::Impl::Impl(std::shared_ptr<ocp::OptimalControlProblem> p, SolverSettings
     n.gam = VectorXd::Zero(ni_max);
     n.soft_dual = VectorXd::Zero(nrows);
   }
-  // The constraint-curvature workspace (converging mode with the exact Hessian) and the
-  // condensing scratch in a second pass: allocated between the nodes, they would spread the
-  // memory that every iteration touches (a second NodeData per node, 35 KB of scratch) over
-  // more than twice the pages (TLB misses: about 2 % of a real-time iteration).
+  // The condensing scratch in a second pass: allocated between the nodes, it would spread
+  // the memory that every iteration touches (35 KB per node) over more pages (TLB misses).
   for (auto& n : nodes) {
     n.WGu = MatrixXd::Zero(ni_max, nu);  // with one thread only node 0's is used
     n.WGx = MatrixXd::Zero(ni_max, ndx);
-    n.dp = prob->createNodeData();
-    n.H2 = MatrixXd::Zero(ndx + nu, ndx + nu);
-    n.hp = VectorXd::Zero(ndx + nu);
-    n.hm = VectorXd::Zero(ndx + nu);
-    n.xp = VectorXd::Zero(nx);
-    n.up = VectorXd::Zero(nu);
-    n.hcoef = VectorXd::Zero(std::max(ni_max, 1));
-    n.dxv = VectorXd::Zero(ndx);
-    n.Ap = MatrixXd::Zero(ndx, ndx);
-    n.Bp = MatrixXd::Zero(ndx, nu);
   }
   xs.assign(static_cast<std::size_t>(N) + 1, VectorXd::Zero(nx));
   for (auto& x : xs) prob->stateSpace().neutral(x);
@@ -133,7 +121,29 @@ Solver::Impl::Impl(std::shared_ptr<ocp::OptimalControlProblem> p, SolverSettings
   stats.reserve(static_cast<std::size_t>(std::max(set.max_iterations, 1)) + 2);
   filter.reserve(static_cast<std::size_t>(std::max(set.max_iterations, 1)) + 2);
   scaled.assign(static_cast<std::size_t>(N) + 1, VectorXd::Zero(ndx));
-  if (!set.huge_pages) return;
+  if (set.huge_pages) adviseHugePagesForNodes();
+  // After all that an iteration touches, outside the span advised to huge pages.
+  if (needsCurvature(set)) reserveCurvature();
+}
+
+void Solver::Impl::reserveCurvature() {
+  if (curvature_reserved) return;
+  for (auto& n : nodes) {
+    n.dp = prob->createNodeData();
+    n.H2 = MatrixXd::Zero(ndx + nu, ndx + nu);
+    n.hp = VectorXd::Zero(ndx + nu);
+    n.hm = VectorXd::Zero(ndx + nu);
+    n.xp = VectorXd::Zero(nx);
+    n.up = VectorXd::Zero(nu);
+    n.hcoef = VectorXd::Zero(std::max(ni_max, 1));
+    n.dxv = VectorXd::Zero(ndx);
+    n.Ap = MatrixXd::Zero(ndx, ndx);
+    n.Bp = MatrixXd::Zero(ndx, nu);
+  }
+  curvature_reserved = true;
+}
+
+void Solver::Impl::adviseHugePagesForNodes() {
   // The span of the heap that holds the Riccati stages and the nodes' data.
   std::uintptr_t lo = ~std::uintptr_t{0}, hi = 0;
   const auto span = [&lo, &hi](const void* ptr) {

@@ -38,6 +38,7 @@ TEST(Costs, BaseVelocityResidual) {
     EXPECT_TRUE(
         checkResidualDerivatives(*s.velocity, space, {s.pre.get(), s.cache.get(), ctx}, x, u));
     EXPECT_TRUE(checkResidualDerivatives(*s.velocity, space, {nullptr, nullptr, ctx}, x, u));
+    EXPECT_TRUE(refusesCallsWithoutNodeCache(*s.velocity, ctx, x, u));
     // Value: v_b - twist of the base reference.
     auto d = s.velocity->createData();
     d->rows = 6;

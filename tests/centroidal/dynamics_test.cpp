@@ -155,6 +155,11 @@ TEST(CentroidalDynamics, CalcDiffNeedsACacheWithDerivatives) {
   auto d = s.f->createData();
   Eigen::MatrixXd fx(24, 24), fu(24, 30);
   EXPECT_THROW(s.f->calcDiff(ctx, x, u, *d, fx, fu), std::logic_error);
+  // A workspace made for nodes with a shared cache has none of its own.
+  auto shared = s.f->createDataWithNodeCache();
+  Eigen::VectorXd xdot(24);
+  EXPECT_THROW(s.f->calc(makeContext(kAllStance, 0.0, nullptr, nullptr), x, u, *shared, xdot),
+               std::logic_error);
   EXPECT_THROW(CentroidalDynamics(nullptr), std::invalid_argument);
 }
 

@@ -125,6 +125,10 @@ TEST(Equalities, JacobiansMatchFiniteDifferencesInEveryModeClass) {
   for (const ocp::Residual* r : s.all()) {
     EXPECT_TRUE(checkResidualDerivatives(*r, *s.robot->space(), ev, x, u));
   }
+  // The terms that read the kinematics keep no cache of their own for nodes that have one.
+  const auto stance = makeContext(kAllStance, 0.0, s.scene.schedule.get(), nullptr);
+  EXPECT_TRUE(refusesCallsWithoutNodeCache(s.velocity, stance, x, u));
+  EXPECT_TRUE(refusesCallsWithoutNodeCache(s.height, ev.ctx, x, u));
 }
 
 TEST(Equalities, TheFiniteDifferenceCheckCatchesAWrongJacobian) {

@@ -14,6 +14,7 @@
 #include <memory>
 #include <random>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 
 #include "rollstep/centroidal/precomputation.hpp"
@@ -245,13 +246,39 @@ struct NodeEvaluator {
   ocp::NodeCache* cache = nullptr;
   ocp::NodeContext ctx;
 
+  bool hasCache() const { return pre != nullptr && cache != nullptr; }
   ocp::NodeContext at(ocp::ConstVecRef x, ocp::ConstVecRef u, bool derivatives) const {
     ocp::NodeContext c = ctx;
     c.cache = (pre != nullptr) ? cache : nullptr;
-    if (pre != nullptr && cache != nullptr) pre->compute(c, x, u, derivatives, *cache);
+    if (hasCache()) pre->compute(c, x, u, derivatives, *cache);
     return c;
   }
 };
+
+/// The workspace a term gets where it is evaluated with ev: createDataWithNodeCache() when
+/// every call carries a node cache (as in OptimalControlProblem::createNodeData with a
+/// precomputation), createData() otherwise.
+template <class Term>
+auto workspaceFor(const Term& term, const NodeEvaluator& ev) {
+  return ev.hasCache() ? term.createDataWithNodeCache() : term.createData();
+}
+
+/// A term that keeps a cache of its own for calls without a node cache leaves it out of
+/// its createDataWithNodeCache() workspace: such a workspace refuses a call without one.
+inline ::testing::AssertionResult refusesCallsWithoutNodeCache(const ocp::Residual& res,
+                                                               ocp::NodeContext ctx,
+                                                               const Eigen::VectorXd& x,
+                                                               const Eigen::VectorXd& u) {
+  ctx.cache = nullptr;
+  auto d = res.createDataWithNodeCache();
+  d->rows = res.rows(ctx);
+  try {
+    res.calc(ctx, x, u, *d);
+  } catch (const std::logic_error&) {
+    return ::testing::AssertionSuccess();
+  }
+  return ::testing::AssertionFailure() << "calc without a node cache did not throw";
+}
 
 /// Perturbs x along tangent direction i by `step`.
 inline Eigen::VectorXd perturbState(const ocp::StateSpace& space, const Eigen::VectorXd& x, int i,
@@ -278,7 +305,7 @@ inline Eigen::VectorXd residualValue(const ocp::Residual& res, const NodeEvaluat
 inline ::testing::AssertionResult checkResidualDerivatives(
     const ocp::Residual& res, const ocp::StateSpace& space, const NodeEvaluator& ev,
     const Eigen::VectorXd& x, const Eigen::VectorXd& u, const FdTolerance& tol = {}) {
-  auto d = res.createData();
+  auto d = workspaceFor(res, ev);
   const ocp::NodeContext c = ev.at(x, u, true);
   const int rows = res.rows(c);
   if (rows < 0 || rows > res.maxRows()) {
@@ -291,8 +318,20 @@ inline ::testing::AssertionResult checkResidualDerivatives(
   const Eigen::MatrixXd Rx = d->Rx.topRows(rows);
   const Eigen::MatrixXd Ru = d->Ru.topRows(rows);
   const Eigen::VectorXd r0 = d->r.head(rows);
+  if (ev.hasCache()) {
+    // Alone (no node cache, the term's own): the same rows, bit for bit.
+    auto a = res.createData();
+    ocp::NodeContext alone = c;
+    alone.cache = nullptr;
+    a->rows = rows;
+    res.calc(alone, x, u, *a);
+    res.calcDiff(alone, x, u, *a);
+    if (a->r.head(rows) != r0 || a->Rx.topRows(rows) != Rx || a->Ru.topRows(rows) != Ru) {
+      return ::testing::AssertionFailure() << "alone and with the node cache differ";
+    }
+  }
 
-  auto dn = res.createData();
+  auto dn = workspaceFor(res, ev);
   Eigen::MatrixXd Nx(rows, space.ndx()), Nu(rows, u.size());
   for (int i = 0; i < space.ndx(); ++i) {
     const Eigen::VectorXd rp = residualValue(res, ev, perturbState(space, x, i, tol.eps), u, *dn);
@@ -329,12 +368,25 @@ inline ::testing::AssertionResult checkContinuousDynamicsDerivatives(
     const Eigen::VectorXd& u, const FdTolerance& tol = {}) {
   const ocp::StateSpace& space = f.space();
   const int ndx = space.ndx(), nu = f.nu();
-  auto d = f.createData();
+  auto d = workspaceFor(f, ev);
   Eigen::VectorXd xdot(ndx);
   Eigen::MatrixXd fx(ndx, ndx), fu(ndx, nu);
   ocp::NodeContext c = ev.at(x, u, true);
   f.calc(c, x, u, *d, xdot);
   f.calcDiff(c, x, u, *d, fx, fu);
+  if (ev.hasCache()) {
+    // Alone (no node cache, the term's own): the same values, bit for bit.
+    auto a = f.createData();
+    ocp::NodeContext alone = c;
+    alone.cache = nullptr;
+    Eigen::VectorXd xdot_a(ndx);
+    Eigen::MatrixXd fx_a(ndx, ndx), fu_a(ndx, nu);
+    f.calc(alone, x, u, *a, xdot_a);
+    f.calcDiff(alone, x, u, *a, fx_a, fu_a);
+    if (xdot_a != xdot || fx_a != fx || fu_a != fu) {
+      return ::testing::AssertionFailure() << "alone and with the node cache differ";
+    }
+  }
   auto value = [&](const Eigen::VectorXd& xx, const Eigen::VectorXd& uu) {
     Eigen::VectorXd out(ndx);
     const ocp::NodeContext cc = ev.at(xx, uu, false);
@@ -368,7 +420,7 @@ inline ::testing::AssertionResult checkDynamicsDerivatives(const ocp::Dynamics& 
                                                            const FdTolerance& tol = {}) {
   const ocp::StateSpace& space = F.space();
   const int ndx = space.ndx(), nx = space.nx(), nu = F.nu();
-  auto d = F.createData();
+  auto d = workspaceFor(F, ev);
   Eigen::VectorXd x1(nx);
   Eigen::MatrixXd Fx(ndx, ndx), Fu(ndx, nu);
   ocp::NodeContext c = ev.at(x, u, true);
@@ -404,7 +456,7 @@ inline ::testing::AssertionResult checkCostGradient(
     const ocp::CostTerm& cost, const ocp::StateSpace& space, const NodeEvaluator& ev,
     const Eigen::VectorXd& x, const Eigen::VectorXd& u, const FdTolerance& tol = {}) {
   const int ndx = space.ndx(), nu = cost.nu();
-  auto d = cost.createData();
+  auto d = workspaceFor(cost, ev);
   Eigen::VectorXd lx = Eigen::VectorXd::Zero(ndx), lu = Eigen::VectorXd::Zero(nu);
   Eigen::MatrixXd Lxx = Eigen::MatrixXd::Zero(ndx, ndx), Luu = Eigen::MatrixXd::Zero(nu, nu),
                   Lux = Eigen::MatrixXd::Zero(nu, ndx);

@@ -247,6 +247,8 @@ TEST_F(Fixture, TorqueJacobiansMatchFiniteDifferences) {
   alone.ctx = makeContext(kAllStance, 0.0, nullptr, nullptr);
   EXPECT_TRUE(checkResidualDerivatives(res, *robot->space(), alone, randomState(*robot, rng),
                                        randomInput(*robot, rng)));
+  EXPECT_TRUE(refusesCallsWithoutNodeCache(res, alone.ctx, randomState(*robot, rng),
+                                           randomInput(*robot, rng)));
 }
 
 // ---- friction pyramid ----------------------------------------------------------------------
@@ -374,6 +376,8 @@ TEST_F(Fixture, StanceRegionRowsAreTheSignedEdgeDistances) {
   EXPECT_FALSE(res.dependsOnInput());
   EXPECT_EQ(res.maxEdges(), 4);  // rectangles
   EXPECT_EQ(res.maxRows(), 6 * 4);
+  EXPECT_TRUE(refusesCallsWithoutNodeCache(res, evaluator(kAllStance, 0.0, &s.schedule).ctx,
+                                           randomState(*robot, rng), randomInput(*robot, rng)));
   auto d = res.createData();
   int checked = 0;
   for (double t = 0.0; t < 6.0; t += 0.05) {

@@ -4,6 +4,7 @@
 
 #include <limits>
 #include <random>
+#include <stdexcept>
 
 #include "common/alloc_counter.hpp"
 #include "common/malloc_guard.hpp"
@@ -695,6 +696,140 @@ TEST(Problem, Se3ProblemDoesNotAllocate) {
   p->linearize(5, x, u, *d);
   EXPECT_EQ(guard.count(), 0u);
   EXPECT_EQ(mguard.count(), 0u);
+}
+
+// ---- workspaces for nodes with a shared cache -------------------------------------------
+
+/// The shared work of a node: s = x(0)^2.
+struct SquareCache final : ocp::NodeCache {
+  double s = 0.0;
+};
+class SquarePrecomputation final : public ocp::NodePrecomputation {
+ public:
+  std::unique_ptr<ocp::NodeCache> createCache() const override {
+    return std::make_unique<SquareCache>();
+  }
+  void compute(const ocp::NodeContext&, ocp::ConstVecRef x, ocp::ConstVecRef, bool,
+               ocp::NodeCache& cache) const override {
+    static_cast<SquareCache&>(cache).s = x(0) * x(0);
+  }
+};
+
+/// A workspace with its own SquareCache for calls without a node cache, or none.
+struct SquareData final : ocp::ResidualData {
+  SquareData(int ndx, int nu, bool own_cache)
+      : ResidualData(1, ndx, nu), own(own_cache ? std::make_unique<SquareCache>() : nullptr) {}
+  std::unique_ptr<SquareCache> own;
+};
+/// The cache a Square term reads: the node's, else its own (computed here), else an error.
+const SquareCache& squareCache(const ocp::NodeContext& ctx, ocp::ConstVecRef x, SquareCache* own) {
+  if (ctx.cache != nullptr) return static_cast<const SquareCache&>(*ctx.cache);
+  if (own == nullptr) throw std::logic_error("no node cache and none of its own");
+  own->s = x(0) * x(0);
+  return *own;
+}
+
+/// r = x(0)^2 + u(0), read from the node cache when the call has one. Counts the
+/// workspaces made by each factory.
+class SquareResidual final : public ocp::Residual {
+ public:
+  SquareResidual() : Residual(2, 1, 1) {}
+  std::unique_ptr<ocp::ResidualData> createData() const override {
+    ++alone;
+    return std::make_unique<SquareData>(ndx(), nu(), true);
+  }
+  std::unique_ptr<ocp::ResidualData> createDataWithNodeCache() const override {
+    ++with_cache;
+    return std::make_unique<SquareData>(ndx(), nu(), false);
+  }
+  void calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
+            ocp::ResidualData& d) const override {
+    d.r(0) = squareCache(ctx, x, static_cast<SquareData&>(d).own.get()).s + u(0);
+  }
+  void calcDiff(const ocp::NodeContext&, ocp::ConstVecRef x, ocp::ConstVecRef,
+                ocp::ResidualData& d) const override {
+    d.Rx(0, 0) = 2.0 * x(0);
+    d.Rx(0, 1) = 0.0;
+    d.Ru(0, 0) = 1.0;
+  }
+  mutable int alone = 0, with_cache = 0;
+};
+
+/// The pendulum, its sin(x(0)) replaced by x(0)^2 read like SquareResidual does.
+class SquarePendulum final : public ocp::ContinuousDynamics {
+ public:
+  struct Data final : ocp::DynamicsData {
+    explicit Data(bool own_cache) : own(own_cache ? std::make_unique<SquareCache>() : nullptr) {}
+    std::unique_ptr<SquareCache> own;
+  };
+  SquarePendulum() : ContinuousDynamics(std::make_shared<ocp::EuclideanSpace>(2), 1) {}
+  std::unique_ptr<ocp::DynamicsData> createData() const override {
+    ++alone;
+    return std::make_unique<Data>(true);
+  }
+  std::unique_ptr<ocp::DynamicsData> createDataWithNodeCache() const override {
+    ++with_cache;
+    return std::make_unique<Data>(false);
+  }
+  void calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
+            ocp::DynamicsData& d, ocp::VecRef xdot) const override {
+    xdot(0) = x(1);
+    xdot(1) = -squareCache(ctx, x, static_cast<Data&>(d).own.get()).s + u(0);
+  }
+  void calcDiff(const ocp::NodeContext&, ocp::ConstVecRef x, ocp::ConstVecRef, ocp::DynamicsData&,
+                ocp::MatRef fx, ocp::MatRef fu) const override {
+    fx << 0.0, 1.0, -2.0 * x(0), 0.0;
+    fu << 0.0, 1.0;
+  }
+  mutable int alone = 0, with_cache = 0;
+};
+
+// A problem with a precomputation passes its node cache to every call: the terms' workspaces
+// come from createDataWithNodeCache (through LeastSquaresCost and ExplicitEuler too), and
+// evaluate the same as those of createData without a precomputation.
+TEST(Problem, TermWorkspacesOfNodesWithACacheComeFromCreateDataWithNodeCache) {
+  auto f = std::make_shared<SquarePendulum>();
+  auto res = std::make_shared<SquareResidual>();
+  auto make = [&](bool with_pre) {
+    auto p = std::make_shared<ocp::OptimalControlProblem>(std::make_shared<ocp::ExplicitEuler>(f),
+                                                          4, 0.1);
+    p->addCost("square", std::make_shared<ocp::LeastSquaresCost>(res, VectorXd::Ones(1)));
+    p->addEquality("square", res);
+    p->addInequality("square", res);
+    if (with_pre) p->setPrecomputation(std::make_shared<SquarePrecomputation>());
+    return p;
+  };
+  const VectorXd x = (VectorXd(2) << 0.3, -0.2).finished();
+  const VectorXd u = (VectorXd(1) << 0.7).finished();
+  auto alone = make(false);
+  auto da = alone->createNodeData();
+  EXPECT_EQ(res->alone, 3);
+  EXPECT_EQ(f->alone, 1);
+  EXPECT_EQ(res->with_cache + f->with_cache, 0);
+  auto shared = make(true);
+  auto ds = shared->createNodeData();
+  EXPECT_EQ(res->alone, 3);
+  EXPECT_EQ(f->alone, 1);
+  EXPECT_EQ(res->with_cache, 3);
+  EXPECT_EQ(f->with_cache, 1);
+  for (int k : {0, 4}) {
+    alone->linearize(k, x, u, *da);
+    shared->linearize(k, x, u, *ds);
+    EXPECT_EQ(ds->cost, da->cost) << k;
+    EXPECT_EQ(ds->lx, da->lx) << k;
+    EXPECT_EQ(ds->Lxx, da->Lxx) << k;
+    EXPECT_EQ(ds->xnext, da->xnext) << k;
+    EXPECT_EQ(ds->Fx, da->Fx) << k;
+    EXPECT_EQ(ds->e, da->e) << k;
+    EXPECT_EQ(ds->g, da->g) << k;
+    EXPECT_EQ(ds->Gx, da->Gx) << k;
+  }
+  EXPECT_NEAR(ds->e(0), 0.09 + 0.7, 1e-15);
+  // Such a workspace used without the node cache has nothing to fall back on.
+  ocp::NodeContext bare = shared->context(0);
+  ASSERT_EQ(bare.cache, nullptr);
+  EXPECT_THROW(res->calc(bare, x, u, *ds->equality_data[0]), std::logic_error);
+  EXPECT_NO_THROW(res->calc(bare, x, u, *da->equality_data[0]));
 }
 
 TEST(Problem, RejectsInvalidComposition) {

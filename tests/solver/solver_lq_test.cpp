@@ -474,6 +474,64 @@ TEST(SolverNonlinear, SolveAndUpdateDoNotAllocate) {
   }
 }
 
+// The curvature workspace of exact_hessian (a second NodeData per node, half of the
+// solver's memory) exists only for settings that use it: a solver built for real-time
+// iterations has none; setSettings (not real-time) allocates it the first time it asks for
+// converging mode with the exact Hessian, and only then; the solver then converges exactly
+// as one built in that mode, and its solve() allocates nothing.
+TEST(SolverNonlinear, CurvatureWorkspaceOnlyForSettingsThatUseIt) {
+  auto p = pendulumProblem();
+  const VectorXd x0 = (VectorXd(2) << 1.0, 0.0).finished();
+  const SolverSettings conv = tight();
+  SolverSettings rt = tight(), gauss_newton = tight();
+  rt.mode = solver::SolverMode::RealTime;
+  gauss_newton.exact_hessian = false;
+  std::size_t with = 0, without = 0;
+  {
+    test::AllocationGuard guard;
+    Solver s(p, conv);
+    with = guard.count();
+  }
+  {
+    test::AllocationGuard guard;
+    Solver s(p, rt);
+    without = guard.count();
+  }
+  EXPECT_GE(with, without + static_cast<std::size_t>(p->horizon()) + 1);
+  Solver ref(p, conv);
+  ASSERT_EQ(ref.solve(x0), SolverStatus::Converged) << ref.message();
+  Solver s(p, rt);
+  {
+    test::AllocationGuard guard;
+    s.setSettings(gauss_newton);  // no curvature: nothing to allocate
+    EXPECT_EQ(guard.count(), 0u);
+  }
+  {
+    test::AllocationGuard guard;
+    s.setSettings(conv);
+    EXPECT_EQ(guard.count(), with - without);
+  }
+  {
+    test::AllocationGuard guard;
+    s.setSettings(rt);
+    s.setSettings(conv);  // kept
+    EXPECT_EQ(guard.count(), 0u);
+  }
+  {
+    test::AllocationGuard guard;
+    test::MallocGuard mguard;
+    ASSERT_EQ(s.solve(x0), SolverStatus::Converged) << s.message();
+    EXPECT_EQ(guard.count(), 0u);
+    EXPECT_EQ(mguard.count(), 0u);
+  }
+  EXPECT_EQ(s.iterations(), ref.iterations());
+  for (int k = 0; k <= p->horizon(); ++k) {
+    EXPECT_TRUE(s.states()[static_cast<std::size_t>(k)] ==
+                ref.states()[static_cast<std::size_t>(k)])
+        << k;
+  }
+}
+
 TEST(SolverLq, ConstrainedSolveDoesNotAllocate) {
   auto d = lqtest::randomLq(7, 4, 3, 20, 1, 2);
   d.Ex *= 0.1;

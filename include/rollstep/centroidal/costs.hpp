@@ -31,6 +31,7 @@ class BaseVelocityResidual final : public ocp::Residual {
   /// The reference at this node.
   lie::Vector6d reference(const ocp::NodeContext& ctx) const;
   std::unique_ptr<ocp::ResidualData> createData() const override;
+  std::unique_ptr<ocp::ResidualData> createDataWithNodeCache() const override;
   void calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
             ocp::ResidualData& d) const override;
   void calcDiff(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,

@@ -28,6 +28,7 @@ class CentroidalDynamics final : public ocp::ContinuousDynamics {
   const CentroidalRobot& robot() const { return pre_->robot(); }
 
   std::unique_ptr<ocp::DynamicsData> createData() const override;
+  std::unique_ptr<ocp::DynamicsData> createDataWithNodeCache() const override;
   void calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
             ocp::DynamicsData& d, ocp::VecRef xdot) const override;
   void calcDiff(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,

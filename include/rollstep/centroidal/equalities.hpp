@@ -28,11 +28,13 @@
 
 namespace rollstep::centroidal {
 
-/// Workspace of the centroidal residuals: a fallback cache for nodes without one.
+/// Workspace of the centroidal residuals: a fallback cache for calls without a node cache
+/// (none when made for nodes that always have one, makeFallbackCache).
 struct CentroidalResidualData : ocp::ResidualData {
-  CentroidalResidualData(const CentroidalRobot& robot, int max_rows)
-      : ocp::ResidualData(max_rows, robot.ndx(), robot.nu()), fallback(robot) {}
-  CentroidalCache fallback;
+  CentroidalResidualData(const CentroidalRobot& robot, int max_rows, bool node_cache)
+      : ocp::ResidualData(max_rows, robot.ndx(), robot.nu()),
+        fallback(makeFallbackCache(robot, node_cache)) {}
+  std::unique_ptr<CentroidalCache> fallback;
 };
 
 /// f_i = 0 for every swing contact. Affine, input only.
@@ -83,6 +85,7 @@ class StanceVelocityResidual final : public ocp::Residual {
                                   StanceComponents components = StanceComponents::All);
   int rows(const ocp::NodeContext& ctx) const override;
   std::unique_ptr<ocp::ResidualData> createData() const override;
+  std::unique_ptr<ocp::ResidualData> createDataWithNodeCache() const override;
   void calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
             ocp::ResidualData& d) const override;
   void calcDiff(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
@@ -118,6 +121,7 @@ class SwingHeightResidual final : public ocp::Residual {
   double kp() const { return kp_; }
   double maxCorrection() const { return max_correction_; }
   std::unique_ptr<ocp::ResidualData> createData() const override;
+  std::unique_ptr<ocp::ResidualData> createDataWithNodeCache() const override;
   /// Throws std::invalid_argument if ctx.schedule is null and some contact swings.
   void calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
             ocp::ResidualData& d) const override;

@@ -90,6 +90,7 @@ class StaticTorqueLimitResidual final : public ocp::Residual {
   /// joint of row j), 0 otherwise.
   int mirroredRows(const ocp::NodeContext& ctx) const override;
   std::unique_ptr<ocp::ResidualData> createData() const override;
+  std::unique_ptr<ocp::ResidualData> createDataWithNodeCache() const override;
   void calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
             ocp::ResidualData& d) const override;
   void calcDiff(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
@@ -183,6 +184,7 @@ class FootRegionResidual final : public ocp::Residual {
   RegionUse use() const { return use_; }
   int maxEdges() const { return max_edges_; }
   std::unique_ptr<ocp::ResidualData> createData() const override;
+  std::unique_ptr<ocp::ResidualData> createDataWithNodeCache() const override;
   void calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
             ocp::ResidualData& d) const override;
   void calcDiff(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,

@@ -115,10 +115,19 @@ planning::FootReference footReference(const ocp::NodeContext& ctx,
 
 /// The cache a term reads at this node: ctx.cache when present (it must be a
 /// CentroidalCache computed at (x, u), with derivatives if `derivatives`), otherwise
-/// `fallback`, computed here. Throws std::logic_error if ctx.cache lacks derivatives that
-/// are asked for.
+/// `*fallback`, computed here. Throws std::logic_error if ctx.cache lacks derivatives that
+/// are asked for, or if there is neither ctx.cache nor a fallback (a workspace from a
+/// term's createDataWithNodeCache() used without the node cache).
 const CentroidalCache& nodeCache(const ocp::NodeContext& ctx, ocp::ConstVecRef x,
                                  ocp::ConstVecRef u, bool derivatives,
-                                 const CentroidalPrecomputation& pre, CentroidalCache& fallback);
+                                 const CentroidalPrecomputation& pre, CentroidalCache* fallback);
+
+/// A term's own cache for calls without a node cache (createData(): a term evaluated
+/// alone), or none (createDataWithNodeCache(): every call carries ctx.cache; a cache is
+/// 55 kB for Tachyon 3, and an OCP node has about ten such terms).
+inline std::unique_ptr<CentroidalCache> makeFallbackCache(const CentroidalRobot& robot,
+                                                          bool node_cache) {
+  return node_cache ? nullptr : std::make_unique<CentroidalCache>(robot);
+}
 
 }  // namespace rollstep::centroidal

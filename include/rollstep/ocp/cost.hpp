@@ -28,6 +28,9 @@ class CostTerm {
   /// may be indefinite: the solver's inertia correction handles it.
   virtual bool hessianIsExact() const { return false; }
   virtual std::unique_ptr<CostData> createData() const = 0;
+  /// Workspace for a node whose every call carries the problem's node cache (see
+  /// Residual::createDataWithNodeCache). Default: createData().
+  virtual std::unique_ptr<CostData> createDataWithNodeCache() const { return createData(); }
   /// Value l(x, u).
   virtual double calc(const NodeContext& ctx, ConstVecRef x, ConstVecRef u, CostData& d) const = 0;
   /// ADDS scale * (gradient, Gauss-Newton Hessian) to the given accumulators (the
@@ -52,6 +55,8 @@ class LeastSquaresCost final : public CostTerm {
   /// R^T W R is exact when the residual is linear.
   bool hessianIsExact() const override { return residual_->isLinear(); }
   std::unique_ptr<CostData> createData() const override;
+  /// The residual's createDataWithNodeCache() workspace.
+  std::unique_ptr<CostData> createDataWithNodeCache() const override;
   double calc(const NodeContext& ctx, ConstVecRef x, ConstVecRef u, CostData& d) const override;
   void calcDiff(const NodeContext& ctx, ConstVecRef x, ConstVecRef u, CostData& d, double scale,
                 VecRef lx, VecRef lu, MatRef Lxx, MatRef Luu, MatRef Lux) const override;

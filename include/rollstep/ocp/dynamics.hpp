@@ -23,6 +23,9 @@ class Dynamics {
   /// (F(x + dx, u + du) = F(x, u) + Fx dx + Fu du): no curvature is computed for it.
   virtual bool isLinear() const { return false; }
   virtual std::unique_ptr<DynamicsData> createData() const = 0;
+  /// Workspace for a node whose every call carries the problem's node cache (see
+  /// Residual::createDataWithNodeCache). Default: createData().
+  virtual std::unique_ptr<DynamicsData> createDataWithNodeCache() const { return createData(); }
   /// xnext = F(x, u) over ctx.dt.
   virtual void calc(const NodeContext& ctx, ConstVecRef x, ConstVecRef u, DynamicsData& d,
                     VecRef xnext) const = 0;
@@ -48,6 +51,9 @@ class ContinuousDynamics {
   /// then affine too.
   virtual bool isLinear() const { return false; }
   virtual std::unique_ptr<DynamicsData> createData() const = 0;
+  /// Workspace for calls that all carry the node cache of the point (x, u) they evaluate
+  /// (see Residual::createDataWithNodeCache). Default: createData().
+  virtual std::unique_ptr<DynamicsData> createDataWithNodeCache() const { return createData(); }
   virtual void calc(const NodeContext& ctx, ConstVecRef x, ConstVecRef u, DynamicsData& d,
                     VecRef xdot) const = 0;
   /// fx = d f / d x (tangent), fu = d f / d u. Called right after calc.
@@ -65,6 +71,8 @@ class ExplicitEuler final : public Dynamics {
   explicit ExplicitEuler(std::shared_ptr<const ContinuousDynamics> f);
   bool isLinear() const override { return f_->isLinear() && f_->space().isEuclidean(); }
   std::unique_ptr<DynamicsData> createData() const override;
+  /// f evaluates at the node's own (x, u): its createDataWithNodeCache() workspace.
+  std::unique_ptr<DynamicsData> createDataWithNodeCache() const override;
   void calc(const NodeContext& ctx, ConstVecRef x, ConstVecRef u, DynamicsData& d,
             VecRef xnext) const override;
   void calcDiff(const NodeContext& ctx, ConstVecRef x, ConstVecRef u, DynamicsData& d, MatRef Fx,

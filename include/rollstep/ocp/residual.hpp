@@ -53,9 +53,16 @@ class Residual {
   /// weight. 2 m <= rows(ctx); 0 (default) declares nothing. Must not allocate.
   virtual int mirroredRows(const NodeContext& /*ctx*/) const { return 0; }
 
+  /// Workspace of this residual at one node, for calls with or without a node cache.
   virtual std::unique_ptr<ResidualData> createData() const {
     return std::make_unique<ResidualData>(max_rows_, ndx_, nu_);
   }
+  /// Workspace for a node whose every call carries the problem's node cache
+  /// (NodeContext::cache set; OptimalControlProblem::createNodeData uses this when the
+  /// problem has a NodePrecomputation). A residual that keeps a cache of its own for calls
+  /// without one may leave it out (tens of kB per term and node for a robot's kinematics);
+  /// such a workspace then refuses calls without ctx.cache. Default: createData().
+  virtual std::unique_ptr<ResidualData> createDataWithNodeCache() const { return createData(); }
   /// Writes d.r.head(d.rows). At terminal nodes u is a zero vector of size nu.
   virtual void calc(const NodeContext& ctx, ConstVecRef x, ConstVecRef u,
                     ResidualData& d) const = 0;

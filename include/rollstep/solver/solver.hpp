@@ -1,7 +1,9 @@
 #pragma once
 // Multiple-shooting primal-dual interior-point solver, equality constraints eliminated by
 // projection and a Riccati recursion for the search direction (paper Sec. 3.1-3.2). All
-// memory is sized at construction; solve() and update() never allocate.
+// memory is sized at construction (the curvature workspace of exact_hessian, a second copy
+// of every node's data, only for settings that use it: at construction or in setSettings);
+// solve() and update() never allocate.
 //
 // Method, per iteration: linearise every node (in parallel), defects on the manifold
 // b_k = F(x_k, u_k) (-) x_{k+1} with A = J Fx, B = J Fu (J: Jacobian of the difference at
@@ -119,11 +121,12 @@ struct SolverSettings {
   /// filter line search.
   bool predictor_corrector = true;
   /// Linux: ask for the solver's memory (the nodes' data, the terms' workspaces, the
-  /// Riccati stages: tens to hundreds of MB at N = 100) to be backed by transparent huge
-  /// pages, collapsing the pages already there at construction (madvise MADV_HUGEPAGE and
-  /// MADV_COLLAPSE). An iteration touches a few kB in each of many 4 kB pages, and the TLB
-  /// misses cost several percent of it (docs/PERFORMANCE.md). Advice only: results are the
-  /// same; it costs up to some 100 ms at construction and is skipped for spans under
+  /// Riccati stages: about 60 MB for the Tachyon 3 OCP at N = 100) to be backed by
+  /// transparent huge pages, collapsing the pages already there at construction (madvise
+  /// MADV_HUGEPAGE and MADV_COLLAPSE). An iteration touches a few kB in each of many 4 kB
+  /// pages, and the TLB misses cost several percent of it (docs/PERFORMANCE.md). Advice
+  /// only: results are the same; it costs up to some 30 ms at construction (more when the
+  /// kernel must compact memory first) and is skipped for spans under
   /// 4 MB, in sanitizer builds and where the system has no transparent huge pages.
   /// Fixed at construction.
   bool huge_pages = true;
@@ -245,7 +248,10 @@ class Solver {
   /// Human-readable reason of the last non-successful status ("" otherwise).
   const char* message() const;
   const SolverSettings& settings() const;
-  void setSettings(const SolverSettings& s);  ///< same num_threads as before; not real-time
+  /// Same num_threads and thread_spin_us as before. Not real-time: the first settings in
+  /// converging mode with exact_hessian (on a problem with curvature) allocate the
+  /// curvature workspace, kept from then on.
+  void setSettings(const SolverSettings& s);
   ocp::OptimalControlProblem& problem();
   /// The Riccati workspace of the last iteration (search direction dx, du; for tests).
   const RiccatiSolver& riccati() const;
