@@ -131,8 +131,8 @@ Table1Metrics table1Metrics(const LogTable& log, const TraverseWindow& window) {
     first = std::min(first, i);
     last = i;
   }
-  if (m.samples > 0) m.distance = std::hypot(x[last] - x[first], y[last] - y[first]);
   if (m.samples > 0) {
+    m.distance = std::hypot(x[last] - x[first], y[last] - y[first]);
     m.mean_abs_vz = vz_sum / m.samples;
     m.mean_abs_wy = wy_sum / m.samples;
   }

@@ -1,6 +1,5 @@
 #include "rollstep/planning/foot_reference.hpp"
 
-#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -78,22 +77,7 @@ void FootReferencePlanner::latchTouchdown(int foot, double touchdown) noexcept {
   }
   // Into the chosen region: the nearest point of its polygon (p itself inside it).
   const ConvexRegion& R = terrain_->region(region);
-  if (!R.contains(p)) {
-    const std::size_t n = R.vertices.size();
-    double best = std::numeric_limits<double>::infinity();
-    Eigen::Vector2d q = p;
-    for (std::size_t k = 0; k < n; ++k) {
-      const Eigen::Vector2d& a = R.vertices[k];
-      const Eigen::Vector2d ab = R.vertices[(k + 1) % n] - a;
-      const double s = std::clamp((p - a).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
-      const Eigen::Vector2d c = a + s * ab;
-      if ((p - c).squaredNorm() < best) {
-        best = (p - c).squaredNorm();
-        q = c;
-      }
-    }
-    p = q;
-  }
+  p = R.closestPoint(p);
   l.valid = true;
   l.touchdown = touchdown;
   l.p = p;
@@ -101,23 +85,20 @@ void FootReferencePlanner::latchTouchdown(int foot, double touchdown) noexcept {
 }
 
 int FootReferencePlanner::latchedRegion(const Latch& l) const {
-  // The same surface on this terrain: the nearest region at the latched height; the nearest
-  // of all when none is (the surface is gone).
-  int best = -1, any = -1;
-  double best_d = std::numeric_limits<double>::infinity(), any_d = best_d;
+  // The same surface on this terrain: the nearest region at the latched height; when none
+  // is (the surface is gone), the region under the point or the nearest.
+  int best = -1;
+  double best_d = std::numeric_limits<double>::infinity();
   for (int i = 0; i < terrain_->size(); ++i) {
     const ConvexRegion& R = terrain_->region(i);
+    if (std::abs(R.heightAt(l.p) - l.z) > kLatchHeightTolerance) continue;
     const double d = R.distance(l.p);
-    if (d < any_d) {
-      any_d = d;
-      any = i;
-    }
-    if (d < best_d && std::abs(R.heightAt(l.p) - l.z) <= kLatchHeightTolerance) {
+    if (d < best_d) {
       best_d = d;
       best = i;
     }
   }
-  return best >= 0 ? best : any;
+  return best >= 0 ? best : terrain_->regionAt(l.p);
 }
 
 const FootReferencePlanner::Latch* FootReferencePlanner::latchFor(int foot, double t) const {

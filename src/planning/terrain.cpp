@@ -18,11 +18,11 @@ double cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
   return a.x() * b.y() - a.y() * b.x();
 }
 
-double segmentDistance(const Eigen::Vector2d& p, const Eigen::Vector2d& a,
-                       const Eigen::Vector2d& b) {
+Eigen::Vector2d segmentClosestPoint(const Eigen::Vector2d& p, const Eigen::Vector2d& a,
+                                    const Eigen::Vector2d& b) {
   const Eigen::Vector2d e = b - a;
   const double s = std::clamp((p - a).dot(e) / e.squaredNorm(), 0.0, 1.0);
-  return (p - (a + s * e)).norm();
+  return a + s * e;
 }
 
 std::string str(const Eigen::Vector2d& v) {
@@ -111,14 +111,24 @@ double ConvexRegion::margin(const Eigen::Vector2d& p) const {
   return m;
 }
 
-double ConvexRegion::distance(const Eigen::Vector2d& p) const {
-  if (margin(p) >= 0.0) return 0.0;
-  double d = std::numeric_limits<double>::infinity();
+Eigen::Vector2d ConvexRegion::closestPoint(const Eigen::Vector2d& p) const {
+  if (margin(p) >= 0.0) return p;
+  double best = std::numeric_limits<double>::infinity();
+  Eigen::Vector2d q = p;
   const std::size_t n = vertices.size();
   for (std::size_t k = 0; k < n; ++k) {
-    d = std::min(d, segmentDistance(p, vertices[k], vertices[(k + 1) % n]));
+    const Eigen::Vector2d c = segmentClosestPoint(p, vertices[k], vertices[(k + 1) % n]);
+    const double d = (p - c).norm();
+    if (d < best) {
+      best = d;
+      q = c;
+    }
   }
-  return d;
+  return q;
+}
+
+double ConvexRegion::distance(const Eigen::Vector2d& p) const {
+  return (p - closestPoint(p)).norm();
 }
 
 double ConvexRegion::heightAt(const Eigen::Vector2d& p) const {

@@ -34,6 +34,8 @@ struct ConvexRegion {
   bool contains(const Eigen::Vector2d& p, double tolerance = 1e-9) const {
     return margin(p) >= -tolerance;
   }
+  /// The point of the polygon nearest to p (p itself inside).
+  Eigen::Vector2d closestPoint(const Eigen::Vector2d& p) const;
   /// Euclidean distance from p to the polygon (0 inside).
   double distance(const Eigen::Vector2d& p) const;
   /// z of the region's plane above (x, y) = p.
