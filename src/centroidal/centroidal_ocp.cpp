@@ -151,6 +151,7 @@ CentroidalOcp::CentroidalOcp(const RobotOcpDescription& description, const OcpSe
   base_config.height_samples = nominal_feet_;  // the body rises as the feet climb
   base_config.height_reach = settings.base_height_reach;
   base_config.height_slope = settings.base_height_slope;
+  base_config.height_rate = settings.base_height_rate;
   base_ = std::make_shared<planning::BaseReference>(*terrain_, base_config);
   planning::FootReferenceConfig foot_config;
   foot_config.nominal_feet = nominal_feet_;

@@ -17,7 +17,7 @@ BaseVelocityResidual::BaseVelocityResidual(std::shared_ptr<const CentroidalPreco
 }
 
 lie::Vector6d BaseVelocityResidual::reference(const ocp::NodeContext& ctx) const {
-  return base_ ? base_->twistAt(ctx.time) : v_ref_;
+  return base_ ? base_->velocityAt(ctx.time) : v_ref_;
 }
 
 std::unique_ptr<ocp::ResidualData> BaseVelocityResidual::createData() const {

@@ -31,7 +31,7 @@ struct Field {
 };
 
 // The one table of keys (config/ocp.yaml documents each, in this order).
-const std::array<Field, 35> kFields{{
+const std::array<Field, 36> kFields{{
     {"horizon", &OcpSettings::horizon, 1, 10000, false, false},
     {"dt", &OcpSettings::dt, 0, 10, true, false},
     {"base_velocity_weight", &OcpSettings::base_velocity_weight, 0, 1e12, false, false},
@@ -61,6 +61,7 @@ const std::array<Field, 35> kFields{{
     {"swing_apex_margin", &OcpSettings::swing_apex_margin, 0, 0.5, true, false},
     {"base_height_reach", &OcpSettings::base_height_reach, 0, 10, false, false},
     {"base_height_slope", &OcpSettings::base_height_slope, 0, 100, false, false},
+    {"base_height_rate", &OcpSettings::base_height_rate, 0, 0, false, false},
     {"foothold_gap_reach", &OcpSettings::foothold_gap_reach, 0, 10, false, false},
     {"anchor_stance_feet", &OcpSettings::anchor_stance_feet, 0, 0, false, false},
     {"latch_touchdowns", &OcpSettings::latch_touchdowns, 0, 0, false, false},

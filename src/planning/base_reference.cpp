@@ -113,6 +113,14 @@ lie::Vector6d BaseReference::twistAt(double t) const { return twistOf(segmentAt(
 
 lie::Vector6d BaseReference::twist() const { return twistOf(segments_.front().command); }
 
+lie::Vector6d BaseReference::velocityAt(double t) const {
+  lie::Vector6d v = twistAt(t);
+  if (config_.height_rate && config_.height_reach > 0.0) {
+    v[2] = (terrainHeightAt(t + kRateStep) - terrainHeightAt(t - kRateStep)) / (2.0 * kRateStep);
+  }
+  return v;
+}
+
 lie::SE3 BaseReference::planarPoseAt(double t) const {
   const Segment& s = segmentAt(t);
   return correction_ * (s.start * lie::expSE3((t - s.start_time) * twistOf(s.command)));

@@ -153,6 +153,55 @@ TEST(BaseReference, EnvelopeRisesBeforeAStepUpAndComesDownAfterAStepDown) {
   EXPECT_NEAR(ref.poseAt(3.0).translation.z(), 0.575, 1e-12);
 }
 
+TEST(BaseReference, VelocityCarriesTheRateOfTheHeightRamp) {
+  const planning::TerrainModel step =
+      planning::terrainFromBoxes(kFloor, 0.0, {{1.0, 2.2, -3.0, 3.0, 0.20}}, 0.085);
+  BaseReferenceConfig config{0.375, {{0.33, 0.0}, {-0.33, 0.0}}, 0.25, 0.5};
+  config.height_rate = true;
+  BaseReference ref(step, config);
+  const double speed = 0.4;
+  ref.reset(0.0, startPose(0.0, 0.0, 0.0), {speed, 0.0, 0.0});
+  const double up = 1.085 - 0.33;  // front foot at the block's region (previous test)
+  const double down = 2.115 + 0.33;
+  const auto at = [&](double x) { return x / speed; };
+  // The planar part is the command's, whatever the height does.
+  for (const double x : {0.0, up - 0.5, up, down + 0.4}) {
+    const lie::Vector6d v = ref.velocityAt(at(x));
+    EXPECT_EQ(v[0], speed);
+    EXPECT_EQ(v[1], 0.0);
+    EXPECT_EQ(v[5], 0.0);
+  }
+  // Level before the ramp and on the block; grade x speed on the ramps, up then down.
+  EXPECT_NEAR(ref.velocityAt(at(up - 0.8)).z(), 0.0, 1e-12);
+  EXPECT_NEAR(ref.velocityAt(at(up - 0.45)).z(), 0.5 * speed, 1e-9);
+  EXPECT_NEAR(ref.velocityAt(at(up + 0.5)).z(), 0.0, 1e-9);
+  EXPECT_NEAR(ref.velocityAt(at(down + 0.45)).z(), -0.5 * speed, 1e-9);
+  EXPECT_NEAR(ref.velocityAt(at(down + 0.9)).z(), 0.0, 1e-12);
+  // Everywhere it is the rate of poseAt's height (central differences; the kinks of the
+  // ramp are where the two may differ, by at most the grade x speed).
+  const double h = 1e-4;
+  for (double x = 0.0; x < 3.5; x += 0.013) {
+    const double rate =
+        (ref.poseAt(at(x) + h).translation.z() - ref.poseAt(at(x) - h).translation.z()) / (2 * h);
+    EXPECT_NEAR(ref.velocityAt(at(x)).z(), rate, 0.5 * speed + 1e-9) << "x " << x;
+    const bool near_kink = std::abs(x - (up - 0.65)) < 0.02 || std::abs(x - (up - 0.25)) < 0.02 ||
+                           std::abs(x - (down + 0.25)) < 0.02 || std::abs(x - (down + 0.65)) < 0.02;
+    if (!near_kink) {
+      EXPECT_NEAR(ref.velocityAt(at(x)).z(), rate, 1e-6) << "x " << x;
+    }
+  }
+  // Off, or without a ramp (height_reach 0: the height steps at an edge), no vertical rate.
+  config.height_rate = false;
+  BaseReference off(step, config);
+  off.reset(0.0, startPose(0.0, 0.0, 0.0), {speed, 0.0, 0.0});
+  EXPECT_EQ(off.velocityAt(at(up - 0.45)), off.twistAt(at(up - 0.45)));
+  BaseReferenceConfig mean_config{0.375, {{0.33, 0.0}, {-0.33, 0.0}}};
+  mean_config.height_rate = true;
+  BaseReference mean(step, mean_config);
+  mean.reset(0.0, startPose(0.0, 0.0, 0.0), {speed, 0.0, 0.0});
+  for (double x = 0.0; x < 3.5; x += 0.013) EXPECT_EQ(mean.velocityAt(at(x)).z(), 0.0);
+}
+
 TEST(BaseReference, CommandScheduleChainsTheSegments) {
   const planning::TerrainModel flat = planning::terrainFromBoxes(kFloor, 0.0, {});
   BaseReference ref(flat, {0.375, {Vector2d::Zero()}});
@@ -304,11 +353,16 @@ TEST(BaseReference, QueriesDoNotAllocate) {
   const planning::TerrainModel step =
       planning::terrainFromBoxes(kFloor, 0.0, {{1.0, 2.2, -3.0, 3.0, 0.20}});
   BaseReference ref(step, {0.375, {{0.33, 0.0}, {-0.33, 0.0}}});
+  BaseReferenceConfig ramp{0.375, {{0.33, 0.0}, {-0.33, 0.0}}, 0.25, 0.5};
+  ramp.height_rate = true;
+  BaseReference rate(step, ramp);
   test::AllocationGuard guard;
   double sum = 0.0;
   for (int k = 0; k <= 100; ++k) {
     ref.reset(0.01 * k, startPose(0.0, 0.0, 0.1), {0.5, 0.0, 0.1});
-    sum += ref.poseAt(0.015 * k).translation.z() + ref.worldPoint({0.3, 0.2}, 0.1).x();
+    rate.reset(0.01 * k, startPose(0.0, 0.0, 0.1), {0.5, 0.0, 0.1});
+    sum += ref.poseAt(0.015 * k).translation.z() + ref.worldPoint({0.3, 0.2}, 0.1).x() +
+           rate.velocityAt(0.015 * k).x();
   }
   EXPECT_EQ(guard.count(), 0u);
   EXPECT_GT(sum, 0.0);

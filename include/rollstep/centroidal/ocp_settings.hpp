@@ -94,6 +94,11 @@ struct OcpSettings {
   /// body rises before a step up and comes down after a step down. In [0, 10].
   double base_height_reach = 0.0;
   double base_height_slope = 0.0;  ///< [-] grade of that ramp, in [0, 100]
+  /// The base velocity cost's vertical reference is that ramp's rate (planning::
+  /// BaseReference::velocityAt) instead of 0, so that a large vertical-rate weight damps
+  /// the trot's bobbing without holding the body back on the ramps. Needs
+  /// base_height_reach > 0 (otherwise the reference has no rate and this changes nothing).
+  bool base_height_rate = false;
   /// The current stances' regions and heights, and the lift-off end of the swings under
   /// way, from where the feet stand in the measured state (CentroidalOcp::anchorStanceFeet,
   /// planning::FootReferencePlanner::anchorStance) instead of their nominal footholds,

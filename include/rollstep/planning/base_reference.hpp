@@ -59,6 +59,9 @@ struct BaseReferenceConfig {
   double height_reach = 0.0;
   /// Height lost per metre beyond height_reach [-] (the ramp's grade), >= 0.
   double height_slope = 0.0;
+  /// velocityAt() carries the rate of the height reference as its vertical velocity (with
+  /// height_reach > 0 only: the mean of height_reach = 0 steps at an edge and has no rate).
+  bool height_rate = false;
 };
 
 class BaseReference {
@@ -99,6 +102,14 @@ class BaseReference {
   lie::Vector6d twistAt(double t) const;
   /// twistAt(startTime()): the first segment's.
   lie::Vector6d twist() const;
+  /// The velocity of poseAt(t) in its own (local) frame: twistAt(t), plus the height
+  /// reference's rate [m/s] as v_z when config().height_rate and height_reach > 0 (the
+  /// reference has no roll or pitch, so its local z is the world's). The rate is a central
+  /// difference over +-kRateStep: the height is piecewise linear along the travel, so it is
+  /// exact except within kRateStep of a kink of the ramp.
+  lie::Vector6d velocityAt(double t) const;
+  /// [s] half step of velocityAt()'s difference.
+  static constexpr double kRateStep = 0.01;
   /// World (x, y) of a body-frame (x, y) point at time t (nominal footholds).
   Eigen::Vector2d worldPoint(const Eigen::Vector2d& body_xy, double t) const;
   /// Averaged terrain height under the sample points at time t.
