@@ -165,6 +165,15 @@ NodeContext OptimalControlProblem::context(int k) const {
 }
 
 std::unique_ptr<NodeData> OptimalControlProblem::createNodeData() const {
+  return createNodeData(nullptr);
+}
+
+std::shared_ptr<NodeCache> OptimalControlProblem::createNodeCache() const {
+  return pre_ ? std::shared_ptr<NodeCache>(pre_->createCache()) : nullptr;
+}
+
+std::unique_ptr<NodeData> OptimalControlProblem::createNodeData(
+    std::shared_ptr<NodeCache> cache) const {
   auto d = std::make_unique<NodeData>();
   const int n = ndx(), m = nu();
   d->lx = VectorXd::Zero(n);
@@ -195,7 +204,7 @@ std::unique_ptr<NodeData> OptimalControlProblem::createNodeData() const {
     return d;
   }
   // run() passes the node cache to every call: the terms need no caches of their own.
-  d->cache = pre_->createCache();
+  d->cache = cache ? std::move(cache) : createNodeCache();
   d->dynamics_data = dynamics_->createDataWithNodeCache();
   for (const auto& c : costs_) d->cost_data.push_back(c.term->createDataWithNodeCache());
   for (const auto& e : equalities_) d->equality_data.push_back(e->createDataWithNodeCache());

@@ -3,7 +3,10 @@
 // satisfied (no inequalities here: those are tested with their own terms).
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <iostream>
+#include <memory>
+#include <set>
 
 #include "centroidal/assembly.hpp"
 #include "rollstep/solver/solver.hpp"
@@ -87,6 +90,66 @@ TEST(CentroidalProblem, HugePageAdviceLeavesEveryIterateAsItWas) {
   }
   for (std::size_t k = 0; k < states[0].size(); ++k) EXPECT_EQ(states[0][k], states[1][k]) << k;
   for (std::size_t k = 0; k < inputs[0].size(); ++k) EXPECT_EQ(inputs[0][k], inputs[1][k]) << k;
+}
+
+// Nodes that one thread linearises in turn share one precomputation cache (the solver
+// gives each thread's nodes one): every derivative must be bit for bit that of a node
+// with a cache of its own, whichever node the shared cache held before.
+TEST(CentroidalProblem, NodesSharingACacheLinearizeAsWithTheirOwn) {
+  Assembly a("trot", 0.15, 20);
+  std::vector<Eigen::VectorXd> xs, us;
+  nominalGuess(*a.robot, a.problem->horizon(), xs, us);
+  // Different points at each node, so that a stale cache would show.
+  for (std::size_t k = 0; k < us.size(); ++k) {
+    xs[k](0) += 0.01 * static_cast<double>(k);
+    us[k] += 0.05 * std::sin(static_cast<double>(k)) * Eigen::VectorXd::Ones(us[k].size());
+  }
+  const auto shared = a.problem->createNodeCache();
+  ASSERT_NE(shared, nullptr);
+  const int N = a.problem->horizon();
+  std::vector<std::unique_ptr<ocp::NodeData>> sharing, own;
+  for (int k = 0; k <= N; ++k) {
+    sharing.push_back(a.problem->createNodeData(shared));
+    own.push_back(a.problem->createNodeData());
+    EXPECT_EQ(sharing.back()->cache, shared);
+  }
+  EXPECT_NE(own[0]->cache, own[1]->cache);
+  const auto at = [&](const std::vector<Eigen::VectorXd>& v, int k) -> const Eigen::VectorXd& {
+    return v[static_cast<std::size_t>(std::min(k, static_cast<int>(v.size()) - 1))];
+  };
+  // Forwards, then backwards (the cache holds node k + 1's data when node k runs).
+  for (const bool forwards : {true, false}) {
+    for (int i = 0; i <= N; ++i) {
+      const int k = forwards ? i : N - i;
+      const auto ku = static_cast<std::size_t>(k);
+      a.problem->linearize(k, at(xs, k), at(us, k), *sharing[ku]);
+      a.problem->linearize(k, at(xs, k), at(us, k), *own[ku]);
+      const ocp::NodeData& s = *sharing[ku];
+      const ocp::NodeData& o = *own[ku];
+      EXPECT_EQ(s.cost, o.cost) << k;
+      EXPECT_EQ(s.lx, o.lx) << k;
+      EXPECT_EQ(s.lu, o.lu) << k;
+      EXPECT_EQ(s.Lxx, o.Lxx) << k;
+      EXPECT_EQ(s.Luu, o.Luu) << k;
+      EXPECT_EQ(s.Lux, o.Lux) << k;
+      EXPECT_EQ(s.xnext, o.xnext) << k;
+      EXPECT_EQ(s.Fx, o.Fx) << k;
+      EXPECT_EQ(s.Fu, o.Fu) << k;
+      ASSERT_EQ(s.ne, o.ne) << k;
+      ASSERT_EQ(s.ni, o.ni) << k;
+      EXPECT_EQ(s.e, o.e) << k;
+      EXPECT_EQ(s.Ex, o.Ex) << k;
+      EXPECT_EQ(s.Eu, o.Eu) << k;
+      EXPECT_EQ(s.g, o.g) << k;
+      EXPECT_EQ(s.Gx, o.Gx) << k;
+      EXPECT_EQ(s.Gu, o.Gu) << k;
+    }
+  }
+  // The comparison above saw nodes of more than one kind (trot: the equality rows of
+  // the stance and swing feet differ in number between the modes).
+  std::set<int> rows;
+  for (const auto& d : own) rows.insert(d->ne);
+  EXPECT_GT(rows.size(), 1u);
 }
 
 }  // namespace

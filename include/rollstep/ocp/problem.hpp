@@ -75,8 +75,9 @@ struct NodeData {
   Eigen::VectorXi mirror;
   VectorXd zero_input;  ///< the u passed to terms at the terminal node
 
-  // Owned workspaces of the terms (opaque to the solver).
-  std::unique_ptr<NodeCache> cache;
+  // Workspaces of the terms (opaque to the solver). The cache may be shared with other
+  // NodeData (OptimalControlProblem::createNodeData(cache)).
+  std::shared_ptr<NodeCache> cache;
   std::unique_ptr<DynamicsData> dynamics_data;
   std::vector<std::unique_ptr<CostData>> cost_data;
   std::vector<std::unique_ptr<ResidualData>> equality_data;
@@ -155,7 +156,16 @@ class OptimalControlProblem {
 
   // --- evaluation (never allocates) ------------------------------------------------------
   NodeContext context(int k) const;
+  /// A node's workspace with a cache of its own.
   std::unique_ptr<NodeData> createNodeData() const;
+  /// A node's workspace whose precomputation goes to `cache` (from createNodeCache()).
+  /// Every evaluation fills the cache at its start and its terms read it only within
+  /// that evaluation, so NodeData that are never evaluated at the same time (the nodes
+  /// one thread runs through in turn) may share one: one warm cache instead of a cold
+  /// one per node. A null `cache`, or a problem without precomputation: as createNodeData().
+  std::unique_ptr<NodeData> createNodeData(std::shared_ptr<NodeCache> cache) const;
+  /// A cache for createNodeData(cache); null when the problem has no precomputation.
+  std::shared_ptr<NodeCache> createNodeCache() const;
   /// Values only: cost, xnext (running), e, g. At k == horizon() u is ignored.
   void evaluate(int k, ConstVecRef x, ConstVecRef u, NodeData& d) const;
   /// Values and first derivatives (Gauss-Newton Hessian of the cost).
