@@ -78,15 +78,17 @@ Solver::Impl::Impl(std::shared_ptr<ocp::OptimalControlProblem> p, SolverSettings
     bound_rows.push_back(
         detail::boundRow(i, ni_max, nbu, nbx, prob->inputBounds(), prob->stateBounds()));
   }
-  // The nodes of one thread's chunk (forNodes' static partition) are linearised one after
-  // the other and share one precomputation cache: it stays in cache from node to node,
-  // where one per node (55 kB for the Tachyon 3 OCP) is cold memory at every node.
-  std::vector<std::shared_ptr<ocp::NodeCache>> caches;
-  for (int t = 0; t < pool.size(); ++t) caches.push_back(prob->createNodeCache());
-  for (int k = 0, t = 0; k <= N; ++k) {
-    while (k >= chunkBegin(t + 1)) ++t;
-    Node& n = node(k);
-    n.d = prob->createNodeData(caches[static_cast<std::size_t>(t)]);
+  // The nodes of one thread's chunk (forNodes' static partition) are evaluated one after
+  // the other and share their terms' workspaces and precomputation cache: one set stays
+  // in cache from node to node, where one per node is cold memory at every node.
+  for (int t = 0; t < pool.size(); ++t) {
+    const int first = chunkBegin(t);
+    for (int k = first; k < chunkBegin(t + 1); ++k) {
+      node(k).d = k == first ? prob->createNodeData()
+                             : prob->createNodeDataSharingWorkspaces(*node(first).d);
+    }
+  }
+  for (auto& n : nodes) {
     for (VectorXd* v :
          {&n.s, &n.z, &n.ds, &n.dz, &n.c, &n.s_bak, &n.z_bak, &n.s_trial, &n.ds_aff, &n.dz_aff}) {
       *v = VectorXd::Zero(nrows);

@@ -9,6 +9,7 @@
 #include <set>
 
 #include "centroidal/assembly.hpp"
+#include "centroidal/plan_fixture.hpp"
 #include "rollstep/solver/solver.hpp"
 
 namespace rollstep::centroidal::test {
@@ -92,40 +93,49 @@ TEST(CentroidalProblem, HugePageAdviceLeavesEveryIterateAsItWas) {
   for (std::size_t k = 0; k < inputs[0].size(); ++k) EXPECT_EQ(inputs[0][k], inputs[1][k]) << k;
 }
 
-// Nodes that one thread linearises in turn share one precomputation cache (the solver
-// gives each thread's nodes one): every derivative must be bit for bit that of a node
-// with a cache of its own, whichever node the shared cache held before.
-TEST(CentroidalProblem, NodesSharingACacheLinearizeAsWithTheirOwn) {
-  Assembly a("trot", 0.15, 20);
+// Nodes that one thread linearises in turn share their terms' workspaces and cache (the
+// solver gives each thread's nodes one set): every value and derivative must be bit for
+// bit that of a node with workspaces of its own, whichever node (stance or swing, running
+// or terminal) the shared ones served before. The OCP of `rollstep plan`: every term.
+TEST(CentroidalProblem, NodesSharingWorkspacesLinearizeAsWithTheirOwn) {
+  const RobotOcpDescription robot = test::tachyon3Description();
+  OcpSettings settings;
+  settings.horizon = 40;
+  CentroidalOcp ocp(robot, settings,
+                    planning::terrainFromBoxes({-20, 20, -5, 5, 0}, 0.0, {{0.1, 2, -5, 5, 0.2}}),
+                    planning::GaitKind::Trot);
+  ocp.reset(0.0, lie::SE3::Identity(), planning::BaseVelocityCommand{0.3, 0.0, 0.0});
+  const ocp::OptimalControlProblem& p = *ocp.problem();
   std::vector<Eigen::VectorXd> xs, us;
-  nominalGuess(*a.robot, a.problem->horizon(), xs, us);
-  // Different points at each node, so that a stale cache would show.
+  ocp.initialGuess(xs, us);
+  // Different points at each node, so that anything stale would show.
   for (std::size_t k = 0; k < us.size(); ++k) {
-    xs[k](0) += 0.01 * static_cast<double>(k);
+    xs[k](0) += 0.02 * static_cast<double>(k);
     us[k] += 0.05 * std::sin(static_cast<double>(k)) * Eigen::VectorXd::Ones(us[k].size());
   }
-  const auto shared = a.problem->createNodeCache();
-  ASSERT_NE(shared, nullptr);
-  const int N = a.problem->horizon();
+  const int N = p.horizon();
   std::vector<std::unique_ptr<ocp::NodeData>> sharing, own;
   for (int k = 0; k <= N; ++k) {
-    sharing.push_back(a.problem->createNodeData(shared));
-    own.push_back(a.problem->createNodeData());
-    EXPECT_EQ(sharing.back()->cache, shared);
+    sharing.push_back(k == 0 ? p.createNodeData() : p.createNodeDataSharingWorkspaces(*sharing[0]));
+    own.push_back(p.createNodeData());
   }
+  ASSERT_NE(sharing[0]->cache, nullptr);
+  EXPECT_EQ(sharing[N]->cache, sharing[0]->cache);
+  EXPECT_EQ(sharing[N]->inequality_data[0], sharing[0]->inequality_data[0]);
+  EXPECT_NE(sharing[N]->Gx.data(), sharing[0]->Gx.data());
   EXPECT_NE(own[0]->cache, own[1]->cache);
-  const auto at = [&](const std::vector<Eigen::VectorXd>& v, int k) -> const Eigen::VectorXd& {
-    return v[static_cast<std::size_t>(std::min(k, static_cast<int>(v.size()) - 1))];
-  };
-  // Forwards, then backwards (the cache holds node k + 1's data when node k runs).
+  const Eigen::VectorXd zero_u = Eigen::VectorXd::Zero(p.nu());
+  std::set<int> rows;
+  // Forwards, then backwards: the shared workspaces hold another node's data each time.
   for (const bool forwards : {true, false}) {
     for (int i = 0; i <= N; ++i) {
       const int k = forwards ? i : N - i;
-      const auto ku = static_cast<std::size_t>(k);
-      a.problem->linearize(k, at(xs, k), at(us, k), *sharing[ku]);
-      a.problem->linearize(k, at(xs, k), at(us, k), *own[ku]);
-      const ocp::NodeData& s = *sharing[ku];
-      const ocp::NodeData& o = *own[ku];
+      const auto kk = static_cast<std::size_t>(k);
+      const Eigen::VectorXd& u = k < N ? us[kk] : zero_u;
+      p.linearize(k, xs[kk], u, *sharing[kk]);
+      p.linearize(k, xs[kk], u, *own[kk]);
+      const ocp::NodeData& s = *sharing[kk];
+      const ocp::NodeData& o = *own[kk];
       EXPECT_EQ(s.cost, o.cost) << k;
       EXPECT_EQ(s.lx, o.lx) << k;
       EXPECT_EQ(s.lu, o.lu) << k;
@@ -143,13 +153,16 @@ TEST(CentroidalProblem, NodesSharingACacheLinearizeAsWithTheirOwn) {
       EXPECT_EQ(s.g, o.g) << k;
       EXPECT_EQ(s.Gx, o.Gx) << k;
       EXPECT_EQ(s.Gu, o.Gu) << k;
+      rows.insert(o.ni);
     }
   }
-  // The comparison above saw nodes of more than one kind (trot: the equality rows of
-  // the stance and swing feet differ in number between the modes).
-  std::set<int> rows;
-  for (const auto& d : own) rows.insert(d->ne);
+  // Nodes of more than one kind took part (the trot's stance and swing feet have
+  // different inequality rows: friction on stance feet, regions).
   EXPECT_GT(rows.size(), 1u);
+  // Workspaces of another problem are refused.
+  Assembly other("stand", 0.0, 4);
+  EXPECT_THROW(p.createNodeDataSharingWorkspaces(*other.problem->createNodeData()),
+               std::invalid_argument);
 }
 
 }  // namespace

@@ -75,13 +75,13 @@ struct NodeData {
   Eigen::VectorXi mirror;
   VectorXd zero_input;  ///< the u passed to terms at the terminal node
 
-  // Workspaces of the terms (opaque to the solver). The cache may be shared with other
-  // NodeData (OptimalControlProblem::createNodeData(cache)).
+  // Workspaces of the terms (opaque to the solver), possibly shared with other nodes'
+  // data (OptimalControlProblem::createNodeDataSharingWorkspaces).
   std::shared_ptr<NodeCache> cache;
-  std::unique_ptr<DynamicsData> dynamics_data;
-  std::vector<std::unique_ptr<CostData>> cost_data;
-  std::vector<std::unique_ptr<ResidualData>> equality_data;
-  std::vector<std::unique_ptr<ResidualData>> inequality_data;
+  std::shared_ptr<DynamicsData> dynamics_data;
+  std::vector<std::shared_ptr<CostData>> cost_data;
+  std::vector<std::shared_ptr<ResidualData>> equality_data;
+  std::vector<std::shared_ptr<ResidualData>> inequality_data;
 };
 
 /// Simple bounds on a set of coordinates: lower <= v[index[j]] <= upper (j-th bound).
@@ -156,16 +156,15 @@ class OptimalControlProblem {
 
   // --- evaluation (never allocates) ------------------------------------------------------
   NodeContext context(int k) const;
-  /// A node's workspace with a cache of its own.
   std::unique_ptr<NodeData> createNodeData() const;
-  /// A node's workspace whose precomputation goes to `cache` (from createNodeCache()).
-  /// Every evaluation fills the cache at its start and its terms read it only within
-  /// that evaluation, so NodeData that are never evaluated at the same time (the nodes
-  /// one thread runs through in turn) may share one: one warm cache instead of a cold
-  /// one per node. A null `cache`, or a problem without precomputation: as createNodeData().
-  std::unique_ptr<NodeData> createNodeData(std::shared_ptr<NodeCache> cache) const;
-  /// A cache for createNodeData(cache); null when the problem has no precomputation.
-  std::shared_ptr<NodeCache> createNodeCache() const;
+  /// A node's data whose terms' workspaces and precomputation cache are those of `other`
+  /// (from this problem's createNodeData). An evaluation fills them at its start and reads
+  /// them only within it (a node's results are its own blocks: derivatives, values), so
+  /// the data of nodes that are never evaluated at the same time (the nodes one thread
+  /// runs through in turn) may share them: one set that stays in cache from node to node
+  /// instead of a cold one per node (about 100 kB for the Tachyon 3 OCP). The shared
+  /// workspaces hold what the last of those evaluations left there.
+  std::unique_ptr<NodeData> createNodeDataSharingWorkspaces(const NodeData& other) const;
   /// Values only: cost, xnext (running), e, g. At k == horizon() u is ignored.
   void evaluate(int k, ConstVecRef x, ConstVecRef u, NodeData& d) const;
   /// Values and first derivatives (Gauss-Newton Hessian of the cost).
@@ -190,6 +189,8 @@ class OptimalControlProblem {
  private:
   enum class Pass { Values, Derivatives, Curvature };
   void run(int k, ConstVecRef x, ConstVecRef u, NodeData& d, Pass pass) const;
+  /// A node's data without the terms' workspaces (the blocks the solver reads).
+  std::unique_ptr<NodeData> createNodeBlocks() const;
 
   std::shared_ptr<const Dynamics> dynamics_;
   int horizon_;
