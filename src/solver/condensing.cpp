@@ -297,12 +297,11 @@ bool Solver::Impl::correctInertia(bool factored, bool& shifted) {
   double delta = last_delta > 0.0 ? std::max(1e-8, last_delta / 3.0) : 1e-4;
   delta = std::max(delta, 2.0 * prox);
   factored = false;
+  // The equality rows are those that passed condenseAndFactor's rank test before: only
+  // the Hessian changes here.
   for (int attempt = 0; attempt < 12 && !factored; ++attempt) {
-    forNodes([this, delta](int k) {
-      shiftDiagonal(k, node(k), delta);
-      condenseNode(k);
-    });
-    factored = lq.backward() && lq.regularization() == 0.0;
+    forNodes([this, delta](int k) { shiftDiagonal(k, node(k), delta); });
+    factored = condenseAndFactor() == Factorization::Ok && lq.regularization() == 0.0;
     if (!factored) delta *= last_delta > 0.0 ? 8.0 : 100.0;
   }
   last_delta = factored ? delta : 0.0;
@@ -312,9 +311,8 @@ bool Solver::Impl::correctInertia(bool factored, bool& shifted) {
       shiftDiagonal(k, n, 0.0);
       if (n.h2_added) shiftHessian(k, n, -1.0);
       n.h2_added = false;
-      condenseNode(k);
     });
-    factored = lq.backward();
+    factored = condenseAndFactor() == Factorization::Ok;
   }
   return factored;
 }

@@ -74,10 +74,9 @@ double Solver::Impl::feasibilityStep(double theta0) {
       d.Lux.setZero();
       d.lu.setZero();
     }
-    condenseNode(k);
   });
   prob->stateSpace().difference(xs[0], x0, dx0);
-  if (!lq.backward()) return 0.0;
+  if (condenseAndFactor() != Factorization::Ok) return 0.0;
   lq.forward(dx0);
   forNodes([this](int k) { recoverNode(k); });
   double alpha = 1.0;
