@@ -2,6 +2,8 @@
 // into its LQ stage and its equality rows projected out (condenseNode), the backward
 // Riccati sweep factorises the result (pipelined over the threads), and an Ipopt-style
 // inertia correction shifts the Hessian when the exact curvature makes it indefinite.
+#include <utility>
+
 #include "riccati_kernels.hpp"
 #include "solver_impl.hpp"
 
@@ -28,6 +30,18 @@ void rowAbsSums(const double* G, Eigen::Index ld, int m, Eigen::Index n, double*
 }  // namespace
 
 void Solver::Impl::condenseNode(int k) {
+  condenseRows(k);
+  projectNode(k);
+}
+
+void Solver::Impl::projectNode(int k) {
+  Node& n = node(k);
+  n.rank_ok = true;
+  n.pivot_ratio = 1.0;
+  if (k < N) n.rank_ok = lq.projectStage(k, set.rank_tolerance, &n.pivot_ratio);
+}
+
+void Solver::Impl::condenseRows(int k) {
   Node& n = node(k);
   const NodeData& d = *n.d;
   LqStage& st = lq.stage(k);
@@ -186,9 +200,6 @@ void Solver::Impl::condenseNode(int k) {
       st.q(idx) += lower ? gam : -gam;
     }
   }
-  n.rank_ok = true;
-  n.pivot_ratio = 1.0;
-  if (running) n.rank_ok = lq.projectStage(k, set.rank_tolerance, &n.pivot_ratio);
 }
 
 /// The gradient part of condenseNode alone, for a new complementarity target with the
@@ -233,11 +244,14 @@ Solver::Impl::Factorization Solver::Impl::condenseAndFactor() {
     if (!node(k).rank_ok) rank_failed = k;
     if (rank_failed < 0 && pd) pd = lq.backwardStage(k);
   };
+  // Nodes condensed by the linearisation are only projected here (once: the inertia
+  // correction shifts the Hessian and condenses again).
+  const bool early = std::exchange(condensed_early, false);
   if (pool.size() == 1) {
-    condenseNode(N);
+    early ? projectNode(N) : condenseNode(N);
     lq.beginBackward();
     for (int k = N - 1; k >= 0; --k) {
-      condenseNode(k);
+      early ? projectNode(k) : condenseNode(k);
       sweep(k);
     }
   } else {

@@ -64,6 +64,7 @@ bool Solver::Impl::stepRejected(const Kkt& kkt, double theta0, double dphi, Cloc
 /// violation theta0 by at least 0.1 %, else keeps the iterate and returns 0.
 double Solver::Impl::feasibilityStep(double theta0) {
   use_curvature = false;
+  condensed_early = false;  // the Hessian is replaced below: condense every node again
   forNodes([this](int k) {
     linearizeNode(k);
     NodeData& d = *node(k).d;

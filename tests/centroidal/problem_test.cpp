@@ -165,5 +165,39 @@ TEST(CentroidalProblem, NodesSharingWorkspacesLinearizeAsWithTheirOwn) {
                std::invalid_argument);
 }
 
+// Real-time iterations on the OCP of `rollstep plan` (every term): one thread shares the
+// workspaces of all nodes, condenses each node inside the linearisation and keeps one
+// reduced Hessian; two threads do none of that. Every iterate must be bit for bit the same.
+TEST(CentroidalProblem, RealTimeIterationsAreTheSameWithOneAndTwoThreads) {
+  const RobotOcpDescription robot = test::tachyon3Description();
+  std::vector<std::vector<Eigen::VectorXd>> states, inputs;
+  for (const int threads : {1, 2}) {
+    OcpSettings settings;
+    settings.horizon = 40;
+    settings.solver.num_threads = threads;
+    settings.solver.max_iterations = 3;
+    CentroidalOcp ocp(robot, settings,
+                      planning::terrainFromBoxes({-20, 20, -5, 5, 0}, 0.0, {{0.3, 2, -5, 5, 0.2}}),
+                      planning::GaitKind::Trot);
+    ocp.reset(0.0, lie::SE3::Identity(), planning::BaseVelocityCommand{0.3, 0.0, 0.0});
+    solver::Solver s(ocp.problem(), settings.solver);
+    std::vector<Eigen::VectorXd> xs, us;
+    ocp.initialGuess(xs, us);
+    s.setInitialGuess(xs, us);
+    const Eigen::VectorXd x0 = ocp.standingState(0.0, 0.0, 0.0);
+    s.solve(x0);
+    solver::SolverSettings rt = s.settings();
+    rt.mode = solver::SolverMode::RealTime;
+    s.setSettings(rt);
+    for (int i = 1; i <= 3; ++i) {
+      ASSERT_EQ(s.update(0.0, s.states()[1]), solver::SolverStatus::IterationDone) << s.message();
+    }
+    states.push_back(s.states());
+    inputs.push_back(s.inputs());
+  }
+  for (std::size_t k = 0; k < states[0].size(); ++k) EXPECT_EQ(states[0][k], states[1][k]) << k;
+  for (std::size_t k = 0; k < inputs[0].size(); ++k) EXPECT_EQ(inputs[0][k], inputs[1][k]) << k;
+}
+
 }  // namespace
 }  // namespace rollstep::centroidal::test
