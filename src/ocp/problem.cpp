@@ -164,7 +164,7 @@ NodeContext OptimalControlProblem::context(int k) const {
   return c;
 }
 
-std::unique_ptr<NodeData> OptimalControlProblem::createNodeData() const {
+std::unique_ptr<NodeData> OptimalControlProblem::createNodeBlocks() const {
   auto d = std::make_unique<NodeData>();
   const int n = ndx(), m = nu();
   d->lx = VectorXd::Zero(n);
@@ -187,6 +187,11 @@ std::unique_ptr<NodeData> OptimalControlProblem::createNodeData() const {
   d->soft_weight = VectorXd::Zero(max_ineq_);
   d->mirror = Eigen::VectorXi::Constant(max_ineq_, -1);
   d->zero_input = VectorXd::Zero(m);
+  return d;
+}
+
+std::unique_ptr<NodeData> OptimalControlProblem::createNodeData() const {
+  auto d = createNodeBlocks();
   if (!pre_) {
     d->dynamics_data = dynamics_->createData();
     for (const auto& c : costs_) d->cost_data.push_back(c.term->createData());
@@ -202,6 +207,23 @@ std::unique_ptr<NodeData> OptimalControlProblem::createNodeData() const {
   for (const auto& g : inequalities_) {
     d->inequality_data.push_back(g.residual->createDataWithNodeCache());
   }
+  return d;
+}
+
+std::unique_ptr<NodeData> OptimalControlProblem::createNodeDataSharingWorkspaces(
+    const NodeData& other) const {
+  if (other.cost_data.size() != costs_.size() || other.equality_data.size() != equalities_.size() ||
+      other.inequality_data.size() != inequalities_.size() || !other.dynamics_data ||
+      (pre_ != nullptr) != (other.cache != nullptr)) {
+    throw std::invalid_argument(
+        "OptimalControlProblem::createNodeDataSharingWorkspaces: workspaces of another problem");
+  }
+  auto d = createNodeBlocks();
+  d->cache = other.cache;
+  d->dynamics_data = other.dynamics_data;
+  d->cost_data = other.cost_data;
+  d->equality_data = other.equality_data;
+  d->inequality_data = other.inequality_data;
   return d;
 }
 

@@ -2,6 +2,8 @@
 // into its LQ stage and its equality rows projected out (condenseNode), the backward
 // Riccati sweep factorises the result (pipelined over the threads), and an Ipopt-style
 // inertia correction shifts the Hessian when the exact curvature makes it indefinite.
+#include <utility>
+
 #include "riccati_kernels.hpp"
 #include "solver_impl.hpp"
 
@@ -28,6 +30,18 @@ void rowAbsSums(const double* G, Eigen::Index ld, int m, Eigen::Index n, double*
 }  // namespace
 
 void Solver::Impl::condenseNode(int k) {
+  condenseRows(k);
+  projectNode(k);
+}
+
+void Solver::Impl::projectNode(int k) {
+  Node& n = node(k);
+  n.rank_ok = true;
+  n.pivot_ratio = 1.0;
+  if (k < N) n.rank_ok = lq.projectStage(k, set.rank_tolerance, &n.pivot_ratio);
+}
+
+void Solver::Impl::condenseRows(int k) {
   Node& n = node(k);
   const NodeData& d = *n.d;
   LqStage& st = lq.stage(k);
@@ -186,9 +200,6 @@ void Solver::Impl::condenseNode(int k) {
       st.q(idx) += lower ? gam : -gam;
     }
   }
-  n.rank_ok = true;
-  n.pivot_ratio = 1.0;
-  if (running) n.rank_ok = lq.projectStage(k, set.rank_tolerance, &n.pivot_ratio);
 }
 
 /// The gradient part of condenseNode alone, for a new complementarity target with the
@@ -233,11 +244,14 @@ Solver::Impl::Factorization Solver::Impl::condenseAndFactor() {
     if (!node(k).rank_ok) rank_failed = k;
     if (rank_failed < 0 && pd) pd = lq.backwardStage(k);
   };
+  // Nodes condensed by the linearisation are only projected here (once: the inertia
+  // correction shifts the Hessian and condenses again).
+  const bool early = std::exchange(condensed_early, false);
   if (pool.size() == 1) {
-    condenseNode(N);
+    early ? projectNode(N) : condenseNode(N);
     lq.beginBackward();
     for (int k = N - 1; k >= 0; --k) {
-      condenseNode(k);
+      early ? projectNode(k) : condenseNode(k);
       sweep(k);
     }
   } else {
@@ -297,12 +311,11 @@ bool Solver::Impl::correctInertia(bool factored, bool& shifted) {
   double delta = last_delta > 0.0 ? std::max(1e-8, last_delta / 3.0) : 1e-4;
   delta = std::max(delta, 2.0 * prox);
   factored = false;
+  // The equality rows are those that passed condenseAndFactor's rank test before: only
+  // the Hessian changes here.
   for (int attempt = 0; attempt < 12 && !factored; ++attempt) {
-    forNodes([this, delta](int k) {
-      shiftDiagonal(k, node(k), delta);
-      condenseNode(k);
-    });
-    factored = lq.backward() && lq.regularization() == 0.0;
+    forNodes([this, delta](int k) { shiftDiagonal(k, node(k), delta); });
+    factored = condenseAndFactor() == Factorization::Ok && lq.regularization() == 0.0;
     if (!factored) delta *= last_delta > 0.0 ? 8.0 : 100.0;
   }
   last_delta = factored ? delta : 0.0;
@@ -312,9 +325,8 @@ bool Solver::Impl::correctInertia(bool factored, bool& shifted) {
       shiftDiagonal(k, n, 0.0);
       if (n.h2_added) shiftHessian(k, n, -1.0);
       n.h2_added = false;
-      condenseNode(k);
     });
-    factored = lq.backward();
+    factored = condenseAndFactor() == Factorization::Ok;
   }
   return factored;
 }

@@ -20,7 +20,14 @@ Solver::Impl::Kkt Solver::Impl::linearize(bool realtime, IterationStats& it) {
   auto t_lin = Clock::now();
   // The workspace exists for such settings (constructor, setSettings).
   use_curvature = !realtime && needsCurvature(set) && curvature_reserved;
+  // A real-time iteration condenses with the barrier and targets it linearises with (no
+  // barrier update, no proximal shift, no predictor-corrector in between): with one
+  // thread, each node right after its linearisation, its derivatives still in cache.
+  condense_in_linearize = realtime && pool.size() == 1 && !pc_active && !corrector;
+  if (condense_in_linearize) target_mu = mu;
   forNodes([this](int k) { linearizeNode(k); });
+  condensed_early = condense_in_linearize;
+  condense_in_linearize = false;
   prob->stateSpace().difference(xs[0], x0, dx0);
   // Residuals (fixed order reduction).
   Kkt r;
@@ -85,6 +92,7 @@ void Solver::Impl::linearizeNode(int k) {
   n.h2_added = false;
   n.delta = 0.0;
   if (use_curvature && n.finite) addCurvature(k, n);
+  if (condense_in_linearize) condenseRows(k);
 }
 
 /// Sets kind and value c of every row of node k from d (general rows) and (x, u).

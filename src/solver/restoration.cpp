@@ -64,6 +64,7 @@ bool Solver::Impl::stepRejected(const Kkt& kkt, double theta0, double dphi, Cloc
 /// violation theta0 by at least 0.1 %, else keeps the iterate and returns 0.
 double Solver::Impl::feasibilityStep(double theta0) {
   use_curvature = false;
+  condensed_early = false;  // the Hessian is replaced below: condense every node again
   forNodes([this](int k) {
     linearizeNode(k);
     NodeData& d = *node(k).d;
@@ -74,10 +75,9 @@ double Solver::Impl::feasibilityStep(double theta0) {
       d.Lux.setZero();
       d.lu.setZero();
     }
-    condenseNode(k);
   });
   prob->stateSpace().difference(xs[0], x0, dx0);
-  if (!lq.backward()) return 0.0;
+  if (condenseAndFactor() != Factorization::Ok) return 0.0;
   lq.forward(dx0);
   forNodes([this](int k) { recoverNode(k); });
   double alpha = 1.0;

@@ -18,6 +18,7 @@ RiccatiSolver::RiccatiSolver(int horizon, int nx, int nu, int ne_max)
   }
   stages_.resize(static_cast<std::size_t>(N_) + 1);
   BAt_ = MatrixXd::Zero(nu + nx + 1, nx);
+  Hr_shared_ = MatrixXd::Zero(nu + nx + 1, nu + nx + 1);
   PBAt_ = MatrixXd::Zero(nu + nx + 1, nx);
   work_.resize(static_cast<std::size_t>(N_) + 1);
   const int nz = nu + nx;
@@ -287,9 +288,10 @@ bool RiccatiSolver::projectStage(int k, double rank_tolerance, double* pivot_rat
   const double* Sp = s.S.data();
   const Eigen::Index ldR = s.R.outerStride(), ldS = s.S.outerStride();
   const auto Rsym = [Rp, ldR](int a, int b) { return a >= b ? Rp[a + b * ldR] : Rp[b + a * ldR]; };
-  auto H = w.Hr.topLeftCorner(nz + 1, nz + 1);
-  double* Hp = w.Hr.data();
-  const Eigen::Index ldH = w.Hr.outerStride();
+  MatrixXd& Hr = reducedHessian(w);
+  auto H = Hr.topLeftCorner(nz + 1, nz + 1);
+  double* Hp = Hr.data();
+  const Eigen::Index ldH = Hr.outerStride();
   for (int j = 0; j < nw; ++j) {
     double* Hc = Hp + j * ldH;
     const int b = pI[j];
@@ -358,16 +360,17 @@ bool RiccatiSolver::backwardStage(int k) {
   h = w.gr.head(nz);
   h.noalias() += BAt_.topRows(nz) * w.pb;
 
+  MatrixXd& Hr = reducedHessian(w);
   bool ok = false;
   double reg = 0.0;
   for (int attempt = 0; attempt < 6 && !ok; ++attempt) {
     if (attempt > 0) {
       // Shift the input block (rare path: singular reduced Hessian).
-      const double scale = 1.0 + w.Hr.topLeftCorner(nw, nw).diagonal().cwiseAbs().maxCoeff();
+      const double scale = 1.0 + Hr.topLeftCorner(nw, nw).diagonal().cwiseAbs().maxCoeff();
       reg = (attempt == 1) ? 1e-12 * scale : reg * 100.0;
     }
-    ok = kernels::factorSchur(nz, nw, nx, BAt_.data(), ldt, PBAt_.data(), ldy, w.Hr.data(),
-                              w.Hr.outerStride(), w.M.data(), w.M.outerStride(), reg);
+    ok = kernels::factorSchur(nz, nw, nx, BAt_.data(), ldt, PBAt_.data(), ldy, Hr.data(),
+                              Hr.outerStride(), w.M.data(), w.M.outerStride(), reg);
     if (nw == 0) break;
   }
   if (!ok) {
@@ -385,7 +388,14 @@ bool RiccatiSolver::backwardStage(int k) {
   return true;
 }
 
+void RiccatiSolver::shareReducedHessian(bool on) { share_hr_ = on; }
+
 bool RiccatiSolver::backward() {
+  if (share_hr_) {
+    throw std::logic_error(
+        "RiccatiSolver::backward: the stages share one reduced Hessian (shareReducedHessian): "
+        "run backwardStage(k) right after projectStage(k)");
+  }
   beginBackward();
   for (int k = N_ - 1; k >= 0; --k) {
     if (!backwardStage(k)) return false;
@@ -478,6 +488,9 @@ void RiccatiSolver::recoverStage(int k) {
 }
 
 bool RiccatiSolver::solve(const Eigen::Ref<const VectorXd>& dx0, double rank_tolerance) {
+  if (share_hr_) {
+    throw std::logic_error("RiccatiSolver::solve: the stages share one reduced Hessian");
+  }
   for (int k = 0; k < N_; ++k) {
     if (!projectStage(k, rank_tolerance)) {
       failed_stage_ = k;

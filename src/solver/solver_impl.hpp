@@ -177,6 +177,10 @@ struct Solver::Impl {
   bool has_guess = false;
   bool has_curvature = true;   // the problem has terms with curvature (hasCurvature())
   bool use_curvature = false;  // this iteration adds the constraint curvature (H2)
+  // One thread, real time: linearizeNode condenses the node's Hessian and gradient while
+  // its derivatives are in cache; the next condenseAndFactor only projects those nodes.
+  bool condense_in_linearize = false;
+  bool condensed_early = false;
   /// Settings whose solve() adds the constraint curvature (converging mode, exact_hessian,
   /// a problem with curvature): they need the curvature workspace.
   bool needsCurvature(const SolverSettings& s) const {
@@ -294,7 +298,11 @@ struct Solver::Impl {
 
   // ---- condensing, projection, factorisation (condensing.cpp) --------------------------------
   enum class Factorization { Ok, RankDeficient, NotPositiveDefinite };
+  /// Condensing of node k (condenseRows) and the projection of its equalities.
   void condenseNode(int k);
+  /// The barrier rows and the node's cost Hessian and gradient into its LQ stage.
+  void condenseRows(int k);
+  void projectNode(int k);
   void condenseGradient(int k);
   Factorization condenseAndFactor();
   bool correctInertia(bool factored, bool& shifted);

@@ -72,14 +72,25 @@ Solver::Impl::Impl(std::shared_ptr<ocp::OptimalControlProblem> p, SolverSettings
       ready(new std::atomic<std::uint64_t>[static_cast<std::size_t>(N) + 1]),
       chunk_next(new std::atomic<int>[static_cast<std::size_t>(pool.size())]) {
   has_curvature = prob->hasCurvature();
+  // One thread projects and factorises each stage in turn (condenseAndFactor).
+  lq.shareReducedHessian(pool.size() == 1);
   for (int k = 0; k <= N; ++k) ready[static_cast<std::size_t>(k)].store(0);
   nodes.resize(static_cast<std::size_t>(N) + 1);
   for (int i = ni_max; i < nrows; ++i) {
     bound_rows.push_back(
         detail::boundRow(i, ni_max, nbu, nbx, prob->inputBounds(), prob->stateBounds()));
   }
+  // The nodes of one thread's chunk (forNodes' static partition) are evaluated one after
+  // the other and share their terms' workspaces and precomputation cache: one set stays
+  // in cache from node to node, where one per node is cold memory at every node.
+  for (int t = 0; t < pool.size(); ++t) {
+    const int first = chunkBegin(t);
+    for (int k = first; k < chunkBegin(t + 1); ++k) {
+      node(k).d = k == first ? prob->createNodeData()
+                             : prob->createNodeDataSharingWorkspaces(*node(first).d);
+    }
+  }
   for (auto& n : nodes) {
-    n.d = prob->createNodeData();
     for (VectorXd* v :
          {&n.s, &n.z, &n.ds, &n.dz, &n.c, &n.s_bak, &n.z_bak, &n.s_trial, &n.ds_aff, &n.dz_aff}) {
       *v = VectorXd::Zero(nrows);

@@ -3,9 +3,13 @@
 // satisfied (no inequalities here: those are tested with their own terms).
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <iostream>
+#include <memory>
+#include <set>
 
 #include "centroidal/assembly.hpp"
+#include "centroidal/plan_fixture.hpp"
 #include "rollstep/solver/solver.hpp"
 
 namespace rollstep::centroidal::test {
@@ -82,6 +86,112 @@ TEST(CentroidalProblem, HugePageAdviceLeavesEveryIterateAsItWas) {
     solver::Solver s(a.problem, settings);
     s.setInitialGuess(xs, us);
     s.solve(xs[0]);
+    states.push_back(s.states());
+    inputs.push_back(s.inputs());
+  }
+  for (std::size_t k = 0; k < states[0].size(); ++k) EXPECT_EQ(states[0][k], states[1][k]) << k;
+  for (std::size_t k = 0; k < inputs[0].size(); ++k) EXPECT_EQ(inputs[0][k], inputs[1][k]) << k;
+}
+
+// Nodes that one thread linearises in turn share their terms' workspaces and cache (the
+// solver gives each thread's nodes one set): every value and derivative must be bit for
+// bit that of a node with workspaces of its own, whichever node (stance or swing, running
+// or terminal) the shared ones served before. The OCP of `rollstep plan`: every term.
+TEST(CentroidalProblem, NodesSharingWorkspacesLinearizeAsWithTheirOwn) {
+  const RobotOcpDescription robot = test::tachyon3Description();
+  OcpSettings settings;
+  settings.horizon = 40;
+  CentroidalOcp ocp(robot, settings,
+                    planning::terrainFromBoxes({-20, 20, -5, 5, 0}, 0.0, {{0.1, 2, -5, 5, 0.2}}),
+                    planning::GaitKind::Trot);
+  ocp.reset(0.0, lie::SE3::Identity(), planning::BaseVelocityCommand{0.3, 0.0, 0.0});
+  const ocp::OptimalControlProblem& p = *ocp.problem();
+  std::vector<Eigen::VectorXd> xs, us;
+  ocp.initialGuess(xs, us);
+  // Different points at each node, so that anything stale would show.
+  for (std::size_t k = 0; k < us.size(); ++k) {
+    xs[k](0) += 0.02 * static_cast<double>(k);
+    us[k] += 0.05 * std::sin(static_cast<double>(k)) * Eigen::VectorXd::Ones(us[k].size());
+  }
+  const int N = p.horizon();
+  std::vector<std::unique_ptr<ocp::NodeData>> sharing, own;
+  for (int k = 0; k <= N; ++k) {
+    sharing.push_back(k == 0 ? p.createNodeData() : p.createNodeDataSharingWorkspaces(*sharing[0]));
+    own.push_back(p.createNodeData());
+  }
+  ASSERT_NE(sharing[0]->cache, nullptr);
+  EXPECT_EQ(sharing[N]->cache, sharing[0]->cache);
+  EXPECT_EQ(sharing[N]->inequality_data[0], sharing[0]->inequality_data[0]);
+  EXPECT_NE(sharing[N]->Gx.data(), sharing[0]->Gx.data());
+  EXPECT_NE(own[0]->cache, own[1]->cache);
+  const Eigen::VectorXd zero_u = Eigen::VectorXd::Zero(p.nu());
+  std::set<int> rows;
+  // Forwards, then backwards: the shared workspaces hold another node's data each time.
+  for (const bool forwards : {true, false}) {
+    for (int i = 0; i <= N; ++i) {
+      const int k = forwards ? i : N - i;
+      const auto kk = static_cast<std::size_t>(k);
+      const Eigen::VectorXd& u = k < N ? us[kk] : zero_u;
+      p.linearize(k, xs[kk], u, *sharing[kk]);
+      p.linearize(k, xs[kk], u, *own[kk]);
+      const ocp::NodeData& s = *sharing[kk];
+      const ocp::NodeData& o = *own[kk];
+      EXPECT_EQ(s.cost, o.cost) << k;
+      EXPECT_EQ(s.lx, o.lx) << k;
+      EXPECT_EQ(s.lu, o.lu) << k;
+      EXPECT_EQ(s.Lxx, o.Lxx) << k;
+      EXPECT_EQ(s.Luu, o.Luu) << k;
+      EXPECT_EQ(s.Lux, o.Lux) << k;
+      EXPECT_EQ(s.xnext, o.xnext) << k;
+      EXPECT_EQ(s.Fx, o.Fx) << k;
+      EXPECT_EQ(s.Fu, o.Fu) << k;
+      ASSERT_EQ(s.ne, o.ne) << k;
+      ASSERT_EQ(s.ni, o.ni) << k;
+      EXPECT_EQ(s.e, o.e) << k;
+      EXPECT_EQ(s.Ex, o.Ex) << k;
+      EXPECT_EQ(s.Eu, o.Eu) << k;
+      EXPECT_EQ(s.g, o.g) << k;
+      EXPECT_EQ(s.Gx, o.Gx) << k;
+      EXPECT_EQ(s.Gu, o.Gu) << k;
+      rows.insert(o.ni);
+    }
+  }
+  // Nodes of more than one kind took part (the trot's stance and swing feet have
+  // different inequality rows: friction on stance feet, regions).
+  EXPECT_GT(rows.size(), 1u);
+  // Workspaces of another problem are refused.
+  Assembly other("stand", 0.0, 4);
+  EXPECT_THROW(p.createNodeDataSharingWorkspaces(*other.problem->createNodeData()),
+               std::invalid_argument);
+}
+
+// Real-time iterations on the OCP of `rollstep plan` (every term): one thread shares the
+// workspaces of all nodes, condenses each node inside the linearisation and keeps one
+// reduced Hessian; two threads do none of that. Every iterate must be bit for bit the same.
+TEST(CentroidalProblem, RealTimeIterationsAreTheSameWithOneAndTwoThreads) {
+  const RobotOcpDescription robot = test::tachyon3Description();
+  std::vector<std::vector<Eigen::VectorXd>> states, inputs;
+  for (const int threads : {1, 2}) {
+    OcpSettings settings;
+    settings.horizon = 40;
+    settings.solver.num_threads = threads;
+    settings.solver.max_iterations = 3;
+    CentroidalOcp ocp(robot, settings,
+                      planning::terrainFromBoxes({-20, 20, -5, 5, 0}, 0.0, {{0.3, 2, -5, 5, 0.2}}),
+                      planning::GaitKind::Trot);
+    ocp.reset(0.0, lie::SE3::Identity(), planning::BaseVelocityCommand{0.3, 0.0, 0.0});
+    solver::Solver s(ocp.problem(), settings.solver);
+    std::vector<Eigen::VectorXd> xs, us;
+    ocp.initialGuess(xs, us);
+    s.setInitialGuess(xs, us);
+    const Eigen::VectorXd x0 = ocp.standingState(0.0, 0.0, 0.0);
+    s.solve(x0);
+    solver::SolverSettings rt = s.settings();
+    rt.mode = solver::SolverMode::RealTime;
+    s.setSettings(rt);
+    for (int i = 1; i <= 3; ++i) {
+      ASSERT_EQ(s.update(0.0, s.states()[1]), solver::SolverStatus::IterationDone) << s.message();
+    }
     states.push_back(s.states());
     inputs.push_back(s.inputs());
   }

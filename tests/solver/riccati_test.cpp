@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <random>
+#include <stdexcept>
 
 #include "lq_problems.hpp"
 
@@ -232,6 +233,42 @@ TEST(RiccatiProjection, ResolveVectorsMatchesAFreshSolve) {
       if (k < N) {
         EXPECT_LT((ric.du(k) - ref.du(k)).norm(), 1e-10) << "ne " << ne << " k " << k;
         EXPECT_LT((ric.equalityMultipliers(k) - ref.equalityMultipliers(k)).norm(), 1e-10);
+      }
+    }
+  }
+}
+
+// With one shared reduced Hessian (the Solver's single-thread sweep), projecting and
+// factorising each stage in turn gives bit for bit the solution of solve(); backward()
+// and solve(), which project every stage first, refuse to run.
+TEST(RiccatiProjection, SharedReducedHessianGivesTheSameSolution) {
+  for (const int ne : {0, 3, -5}) {  // -5: 5 rows, 2 of which fix an input
+    const int nfix = ne < 0 ? 2 : 0, ner = std::abs(ne);
+    std::mt19937 rng(11u + static_cast<unsigned>(ner));
+    const int nx = 6, nu = 8, N = 9;
+    solver::RiccatiSolver ric(N, nx, nu, 7), ref(N, nx, nu, 7);
+    fillRandomStages(
+        ref, [ner](int k) { return k % 4 == 2 ? 0 : ner; }, rng, nfix);
+    randomVectors(ref, rng);
+    for (int k = 0; k <= N; ++k) ric.stage(k) = ref.stage(k);
+    const VectorXd dx0 = randn(nx, 1, rng);
+    ASSERT_TRUE(ref.solve(dx0, 1e-12));
+    ric.shareReducedHessian(true);
+    EXPECT_THROW(ric.solve(dx0, 1e-12), std::logic_error);
+    EXPECT_THROW(ric.backward(), std::logic_error);
+    ric.beginBackward();
+    for (int k = N - 1; k >= 0; --k) {
+      ASSERT_TRUE(ric.projectStage(k, 1e-12));
+      ASSERT_TRUE(ric.backwardStage(k));
+    }
+    ric.forward(dx0);
+    for (int k = 0; k < N; ++k) ric.recoverStage(k);
+    for (int k = 0; k <= N; ++k) {
+      EXPECT_EQ(ric.dx(k), ref.dx(k)) << "ne " << ne << " k " << k;
+      EXPECT_EQ(ric.costate(k), ref.costate(k)) << "ne " << ne << " k " << k;
+      if (k < N) {
+        EXPECT_EQ(ric.du(k), ref.du(k)) << "ne " << ne << " k " << k;
+        EXPECT_EQ(ric.equalityMultipliers(k), ref.equalityMultipliers(k)) << "ne " << ne;
       }
     }
   }

@@ -81,6 +81,12 @@ class RiccatiSolver {
   void forwardStage(int k);
   /// du_k and the equality multipliers nu_k (needs forward()).
   void recoverStage(int k);
+  /// On: every stage's reduced Hessian goes to one buffer, for a caller that runs
+  /// backwardStage(k) right after projectStage(k) for k = N-1 .. 0 (as the Solver does
+  /// with one thread): it stays in cache, where one per stage ((nu + nx + 1)^2, 24 kB for
+  /// the Tachyon 3 OCP) is written and read cold. Then backward() and solve(), which
+  /// project every stage first, throw std::logic_error. Off by default.
+  void shareReducedHessian(bool on);
   /// Convenience: projectStage for every k, backward, forward, recoverStage for every k.
   bool solve(const Eigen::Ref<const Eigen::VectorXd>& dx0, double rank_tolerance = 1e-9);
   /// Re-solves with the same matrices (Q, S, R, A, B, Ex, Eu, ne unchanged since the last
@@ -133,6 +139,7 @@ class RiccatiSolver {
     mutable Eigen::MatrixXd Kw, KD;  // feedbackGain scratch
   };
   std::size_t idx(int k) const { return static_cast<std::size_t>(k); }
+  Eigen::MatrixXd& reducedHessian(Work& w) { return share_hr_ ? Hr_shared_ : w.Hr; }
   /// Finds the rows of stage k that fix one input each (w.nf, w.rows, w.perm: free
   /// inputs in order, then the fixed ones). False when a fixing entry is below
   /// rank_tolerance * scale (then *ratio is its ratio).
@@ -147,6 +154,8 @@ class RiccatiSolver {
   std::vector<Work> work_;
   // Backward scratch (sequential): [B A b]^T and [B A b]^T P, (nu + nx + 1) x nx.
   Eigen::MatrixXd BAt_, PBAt_;
+  Eigen::MatrixXd Hr_shared_;  // every stage's Hr when share_hr_
+  bool share_hr_ = false;
   int failed_stage_ = -1;
   double regularization_ = 0.0;
 };
