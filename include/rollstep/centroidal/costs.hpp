@@ -3,8 +3,9 @@
 // in an ocp::LeastSquaresCost with its weights.
 //
 //  - BaseVelocityResidual: v_b(x, u) - v_ref (6 rows), v_b = A_b^-1 (h - A_J v_J) the base
-//    twist in the base LOCAL frame [linear; angular]; v_ref = BaseReference::twist() when
-//    a base reference is given, else the constant set by setReference (default 0).
+//    twist in the base LOCAL frame [linear; angular]; v_ref = BaseReference::velocityAt(t)
+//    when a base reference is given (the command's twist, plus the height ramp's rate as
+//    v_z with ocp.base_height_rate), else the constant set by setReference (default 0).
 //  - StateTrackingResidual: x (-) x_ref(t), x_ref(t) = (q_b,ref(t) = BaseReference::poseAt(t),
 //    q_J,ref, h = 0); without a base reference the base pose reference is constant.
 //  - InputTrackingResidual: u - u_ref(t), u_ref zero except the stance contacts' forces,
