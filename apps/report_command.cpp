@@ -135,6 +135,8 @@ std::vector<std::size_t> rowsBetween(const LogTable& log, double t0, double t1, 
 int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
   // Inputs first: nothing is written before they load.
   ExperimentSet set = loadExperimentSet(o.experiments);
+  // The file's acceptance, whatever --only keeps: its trial part is judged on trial results.
+  const Acceptance file_acceptance = set.acceptance;
   if (!o.only.empty()) {
     std::vector<Scenario> chosen;
     for (const std::string& name : o.only) {
@@ -167,8 +169,12 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
   }
 
   // Trial results to include (read now: a bad folder is an input error, before any run).
+  std::vector<TrialResult> trial_results;
   std::vector<TrialAggregate> trial_aggregates;
-  if (!o.trials.empty()) trial_aggregates = aggregate(collectResults(o.trials));
+  if (!o.trials.empty()) {
+    trial_results = collectResults(o.trials);
+    trial_aggregates = aggregate(trial_results);
+  }
 
   // 1. The runs.
   std::vector<RunOutcome> outcomes;
@@ -475,6 +481,7 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
   for (const auto& [file, caption] : videos) doc.video(file, caption);
   for (const std::string& f : video_failures) doc.paragraph("Pictures failed: " + f);
 
+  bool trials_met = true;
   doc.heading(2, "Randomized trials");
   if (o.trials.empty()) {
     doc.paragraph(
@@ -509,6 +516,53 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
         doc.bullets(a.failures);
       }
     }
+    if (file_acceptance.given) {
+      // The acceptance's trial part: the candidate's success rate; beside it the Table 1
+      // margins over the seeds both controllers passed (the same terrains), for reference.
+      const Acceptance& a = file_acceptance;
+      const PairedComparison c = compareTrials(trial_results, a.candidate, a.baseline);
+      doc.heading(3, "Acceptance over the trials");
+      if (c.candidate_trials == 0) {
+        trials_met = false;
+        doc.paragraph("**Not met**: no trials of " + a.candidate + " among the results.");
+      } else {
+        const bool ok = c.candidateSuccessRate() >= a.trial_success_rate;
+        trials_met = ok;
+        std::string text = a.candidate + ": " + std::to_string(c.candidate_passed) + " of " +
+                           std::to_string(c.candidate_trials) + " trials passed (" +
+                           fixed(100.0 * c.candidateSuccessRate(), 1) + " %; required at least " +
+                           fixed(100.0 * a.trial_success_rate, 1) + " %): " +
+                           (ok ? "met" : "**not met**") + ".";
+        if (c.baseline_trials > 0) {
+          text += " " + a.baseline + ": " + std::to_string(c.baseline_passed) + " of " +
+                  std::to_string(c.baseline_trials) + " passed (" +
+                  fixed(100.0 * c.baselineSuccessRate(), 1) + " %).";
+        }
+        doc.paragraph(text);
+      }
+      if (c.paired > 0) {
+        std::vector<std::vector<std::string>> paired_rows;
+        const auto row = [&](const char* what, double cv, double bv, double need, int digits) {
+          const double change = relativeChange(cv, bv);
+          const bool ok = std::isfinite(change) && change <= need;
+          paired_rows.push_back({what, fixed(cv, digits), fixed(bv, digits), percent(change),
+                          "at most " + percent(need), ok ? "met" : "not met"});
+        };
+        row("traverse time [s]", c.candidate_traverse_time, c.baseline_traverse_time,
+            a.traverse_time, 2);
+        row("mean |v_z| [m/s]", c.candidate_mean_abs_vz, c.baseline_mean_abs_vz, a.mean_abs_vz, 4);
+        row("mean |w_y| [rad/s]", c.candidate_mean_abs_wy, c.baseline_mean_abs_wy, a.mean_abs_wy,
+            4);
+        doc.paragraph("Table 1 over the " + std::to_string(c.paired) +
+                      " seeds that both controllers passed (the same step height, friction and "
+                      "start offset for both; means). For reference: the margins are judged on "
+                      "the single runs above.");
+        doc.table({"metric", a.candidate, a.baseline, "change", "margin", "result"}, paired_rows);
+      } else if (c.baseline_trials > 0) {
+        doc.paragraph("No seed passed by both " + a.candidate + " and " + a.baseline +
+                      " (of " + std::to_string(c.common) + " run by both): no paired Table 1.");
+      }
+    }
   }
 
   doc.heading(2, "How each run was made");
@@ -534,7 +588,10 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
   for (const RunOutcome& r : outcomes) failed += r.passed() ? 0 : 1;
   std::printf("rollstep report: %zu runs, %d passed, %d failed", outcomes.size(),
               static_cast<int>(outcomes.size()) - failed, failed);
-  if (set.acceptance.given) std::printf("; acceptance %s", acceptance_met ? "met" : "NOT met");
+  // The runs' margins and, when trials were given, the candidate's trial success rate.
+  const bool judged = set.acceptance.given || (file_acceptance.given && !o.trials.empty());
+  acceptance_met = acceptance_met && trials_met;
+  if (judged) std::printf("; acceptance %s", acceptance_met ? "met" : "NOT met");
   std::printf("\n");
   for (std::size_t i = 0; i < outcomes.size(); ++i) {
     std::printf("  %-22s %s%s\n", outcomes[i].name.c_str(),

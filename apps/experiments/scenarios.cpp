@@ -188,8 +188,12 @@ ExperimentSet parseExperimentSet(const std::string& text, const std::string& sou
                   [&](const yaml::Node& v, const std::string& k) {
                     number(r, -1.0, 1.0)(v, k, a.mean_abs_vz);
                   }},
-                 {"mean_abs_wy", [&](const yaml::Node& v, const std::string& k) {
+                 {"mean_abs_wy",
+                  [&](const yaml::Node& v, const std::string& k) {
                     number(r, -1.0, 1.0)(v, k, a.mean_abs_wy);
+                  }},
+                 {"trial_success_rate", [&](const yaml::Node& v, const std::string& k) {
+                    number(r, 0.0, 1.0)(v, k, a.trial_success_rate);
                   }}});
          if (a.candidate.empty() || a.baseline.empty()) {
            r.fail(n, key, "needs candidate and baseline");

@@ -59,6 +59,9 @@ struct Acceptance {
   double traverse_time = -0.20;
   double mean_abs_vz = -0.50;
   double mean_abs_wy = -0.10;
+  /// The least share of the candidate's randomized trials that must pass (checked when the
+  /// report is given trial results of the candidate).
+  double trial_success_rate = 0.95;
   bool given = false;
 };
 

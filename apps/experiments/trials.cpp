@@ -278,6 +278,48 @@ std::vector<TrialAggregate> aggregate(std::vector<TrialResult> results) {
   return out;
 }
 
+PairedComparison compareTrials(const std::vector<TrialResult>& results,
+                               const std::string& candidate, const std::string& baseline) {
+  PairedComparison c;
+  c.candidate = candidate;
+  c.baseline = baseline;
+  std::map<std::uint64_t, const TrialResult*> base;
+  for (const TrialResult& r : results) {
+    if (r.scenario != baseline) continue;
+    ++c.baseline_trials;
+    c.baseline_passed += r.passed ? 1 : 0;
+    base[r.parameters.seed] = &r;
+  }
+  const auto complete = [](const TrialResult& r) {
+    return r.passed && r.traverse_time && r.mean_abs_vz && r.mean_abs_wy;
+  };
+  for (const TrialResult& r : results) {
+    if (r.scenario != candidate) continue;
+    ++c.candidate_trials;
+    c.candidate_passed += r.passed ? 1 : 0;
+    const auto it = base.find(r.parameters.seed);
+    if (it == base.end()) continue;
+    ++c.common;
+    const TrialResult& b = *it->second;
+    if (!complete(r) || !complete(b)) continue;
+    ++c.paired;
+    c.candidate_traverse_time += *r.traverse_time;
+    c.baseline_traverse_time += *b.traverse_time;
+    c.candidate_mean_abs_vz += *r.mean_abs_vz;
+    c.baseline_mean_abs_vz += *b.mean_abs_vz;
+    c.candidate_mean_abs_wy += *r.mean_abs_wy;
+    c.baseline_mean_abs_wy += *b.mean_abs_wy;
+  }
+  if (c.paired > 0) {
+    for (double* v : {&c.candidate_traverse_time, &c.baseline_traverse_time,
+                      &c.candidate_mean_abs_vz, &c.baseline_mean_abs_vz,
+                      &c.candidate_mean_abs_wy, &c.baseline_mean_abs_wy}) {
+      *v /= c.paired;
+    }
+  }
+  return c;
+}
+
 std::string aggregateMarkdown(const std::vector<TrialAggregate>& aggregates) {
   std::string out;
   char line[600];

@@ -78,6 +78,29 @@ std::vector<TrialAggregate> aggregate(std::vector<TrialResult> results);
 /// Every result.yaml under the folders (recursively, sorted by path), read. Throws
 /// InputError for a folder that is not one, std::runtime_error for a malformed file.
 std::vector<TrialResult> collectResults(const std::vector<std::string>& dirs);
+/// Two scenarios' trials compared seed by seed: the means of each Table 1 metric over the
+/// seeds that both passed (the same step height, friction and start offset for both), so
+/// that the draw of the terrain does not weigh on one side only.
+struct PairedComparison {
+  std::string candidate, baseline;
+  int candidate_trials = 0, baseline_trials = 0;  ///< results found of each
+  int candidate_passed = 0, baseline_passed = 0;
+  int common = 0;  ///< seeds both ran
+  int paired = 0;  ///< seeds both passed, with all three metrics: the means below
+  double candidate_traverse_time = 0.0, baseline_traverse_time = 0.0;
+  double candidate_mean_abs_vz = 0.0, baseline_mean_abs_vz = 0.0;
+  double candidate_mean_abs_wy = 0.0, baseline_mean_abs_wy = 0.0;
+  double candidateSuccessRate() const {
+    return candidate_trials > 0 ? static_cast<double>(candidate_passed) / candidate_trials : 0.0;
+  }
+  double baselineSuccessRate() const {
+    return baseline_trials > 0 ? static_cast<double>(baseline_passed) / baseline_trials : 0.0;
+  }
+};
+/// The comparison of the results of scenario `candidate` against those of `baseline`.
+PairedComparison compareTrials(const std::vector<TrialResult>& results,
+                               const std::string& candidate, const std::string& baseline);
+
 /// Markdown text of the aggregates.
 std::string aggregateMarkdown(const std::vector<TrialAggregate>& aggregates);
 

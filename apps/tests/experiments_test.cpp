@@ -199,6 +199,7 @@ TEST(ExperimentSet, LoadsTheProjectsFileAndRefusesMistakes) {
   EXPECT_EQ(set.find("step20_nmpc")->paper.traverse_time, 14.0);
   EXPECT_EQ(set.find("step20_cbfqp")->paper.mean_abs_vz, 0.055);
   EXPECT_EQ(set.acceptance.traverse_time, -0.20);
+  EXPECT_EQ(set.acceptance.trial_success_rate, 0.95);
   EXPECT_EQ(set.trials.step_height_min, 0.10);
   const std::vector<std::string> args = set.find("step20_nmpc")->simArgs("/o");
   EXPECT_EQ(shellCommand(args).substr(0, 53),
@@ -247,6 +248,8 @@ TEST(ExperimentSet, LoadsTheProjectsFileAndRefusesMistakes) {
             "f: line 4: criteria.max_tilt: 9 is outside [0.01, 3.141592653589793]");
   EXPECT_EQ(error(ok + "acceptance: {candidate: a, baseline: b}\n"),
             "f: line 3: acceptance: no scenario named 'b'");
+  EXPECT_EQ(error(ok + "acceptance: {candidate: a, baseline: a, trial_success_rate: 1.5}\n"),
+            "f: line 3: acceptance.trial_success_rate: 1.5 is outside [0, 1]");
   EXPECT_EQ(error(ok + "trials: {friction: [1.0, 0.6]}\n"),
             "f: line 3: trials.friction: min is above max");
   EXPECT_EQ(error("scenarios:\n  - {name: a/b, scene: flat, controller: x}\n"),
@@ -381,6 +384,53 @@ TEST(Trials, ResultFilesRoundTripAndAggregate) {
   EXPECT_THROW(parseTrialResult("scenario: a\nseed: 1\n", "x"), std::runtime_error);
   EXPECT_THROW(parseTrialResult("scenario: a\nseed: 1\npassed: true\nextra: 1\n", "x"),
                std::runtime_error);
+}
+
+TEST(Trials, ComparisonPairsTheSeedsBothPassed) {
+  const auto result = [](const char* scenario, std::uint64_t seed, bool passed, double t,
+                         double vz, double wy) {
+    TrialResult r;
+    r.scenario = scenario;
+    r.parameters.seed = seed;
+    r.passed = passed;
+    if (passed) {
+      r.traverse_time = t;
+      r.mean_abs_vz = vz;
+      r.mean_abs_wy = wy;
+    }
+    return r;
+  };
+  const std::vector<TrialResult> results = {
+      result("cand", 0, true, 10.0, 0.02, 0.04),  // paired with base seed 0
+      result("cand", 1, true, 12.0, 0.03, 0.05),  // base seed 1 failed: not paired
+      result("cand", 2, false, 0, 0, 0),         // failed: not paired
+      result("cand", 3, true, 14.0, 0.04, 0.06),  // paired with base seed 3
+      result("cand", 9, true, 99.0, 9.0, 9.0),    // no base trial of seed 9
+      result("base", 0, true, 20.0, 0.08, 0.10), result("base", 1, false, 0, 0, 0),
+      result("base", 2, true, 50.0, 5.0, 5.0),   result("base", 3, true, 16.0, 0.04, 0.06),
+      result("other", 0, true, 1.0, 1.0, 1.0),
+  };
+  const PairedComparison c = compareTrials(results, "cand", "base");
+  EXPECT_EQ(c.candidate_trials, 5);
+  EXPECT_EQ(c.candidate_passed, 4);
+  EXPECT_EQ(c.baseline_trials, 4);
+  EXPECT_EQ(c.baseline_passed, 3);
+  EXPECT_DOUBLE_EQ(c.candidateSuccessRate(), 0.8);
+  EXPECT_DOUBLE_EQ(c.baselineSuccessRate(), 0.75);
+  EXPECT_EQ(c.common, 4);
+  EXPECT_EQ(c.paired, 2);
+  EXPECT_DOUBLE_EQ(c.candidate_traverse_time, 12.0);
+  EXPECT_DOUBLE_EQ(c.baseline_traverse_time, 18.0);
+  EXPECT_DOUBLE_EQ(c.candidate_mean_abs_vz, 0.03);
+  EXPECT_DOUBLE_EQ(c.baseline_mean_abs_vz, 0.06);
+  EXPECT_DOUBLE_EQ(c.candidate_mean_abs_wy, 0.05);
+  EXPECT_DOUBLE_EQ(c.baseline_mean_abs_wy, 0.08);
+  // Nothing of the baseline: success rate only.
+  const PairedComparison alone = compareTrials(results, "cand", "missing");
+  EXPECT_EQ(alone.candidate_trials, 5);
+  EXPECT_EQ(alone.baseline_trials, 0);
+  EXPECT_EQ(alone.paired, 0);
+  EXPECT_EQ(alone.candidate_traverse_time, 0.0);
 }
 
 TEST(Document, MarkdownAndHtmlCarryTheSameContent) {
