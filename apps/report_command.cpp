@@ -531,8 +531,8 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
         std::string text = a.candidate + ": " + std::to_string(c.candidate_passed) + " of " +
                            std::to_string(c.candidate_trials) + " trials passed (" +
                            fixed(100.0 * c.candidateSuccessRate(), 1) + " %; required at least " +
-                           fixed(100.0 * a.trial_success_rate, 1) + " %): " +
-                           (ok ? "met" : "**not met**") + ".";
+                           fixed(100.0 * a.trial_success_rate, 1) +
+                           " %): " + (ok ? "met" : "**not met**") + ".";
         if (c.baseline_trials > 0) {
           text += " " + a.baseline + ": " + std::to_string(c.baseline_passed) + " of " +
                   std::to_string(c.baseline_trials) + " passed (" +
@@ -546,7 +546,7 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
           const double change = relativeChange(cv, bv);
           const bool ok = std::isfinite(change) && change <= need;
           paired_rows.push_back({what, fixed(cv, digits), fixed(bv, digits), percent(change),
-                          "at most " + percent(need), ok ? "met" : "not met"});
+                                 "at most " + percent(need), ok ? "met" : "not met"});
         };
         row("traverse time [s]", c.candidate_traverse_time, c.baseline_traverse_time,
             a.traverse_time, 2);
@@ -559,8 +559,8 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
                       "the single runs above.");
         doc.table({"metric", a.candidate, a.baseline, "change", "margin", "result"}, paired_rows);
       } else if (c.baseline_trials > 0) {
-        doc.paragraph("No seed passed by both " + a.candidate + " and " + a.baseline +
-                      " (of " + std::to_string(c.common) + " run by both): no paired Table 1.");
+        doc.paragraph("No seed passed by both " + a.candidate + " and " + a.baseline + " (of " +
+                      std::to_string(c.common) + " run by both): no paired Table 1.");
       }
     }
   }

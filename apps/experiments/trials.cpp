@@ -311,9 +311,9 @@ PairedComparison compareTrials(const std::vector<TrialResult>& results,
     c.baseline_mean_abs_wy += *b.mean_abs_wy;
   }
   if (c.paired > 0) {
-    for (double* v : {&c.candidate_traverse_time, &c.baseline_traverse_time,
-                      &c.candidate_mean_abs_vz, &c.baseline_mean_abs_vz,
-                      &c.candidate_mean_abs_wy, &c.baseline_mean_abs_wy}) {
+    for (double* v :
+         {&c.candidate_traverse_time, &c.baseline_traverse_time, &c.candidate_mean_abs_vz,
+          &c.baseline_mean_abs_vz, &c.candidate_mean_abs_wy, &c.baseline_mean_abs_wy}) {
       *v /= c.paired;
     }
   }

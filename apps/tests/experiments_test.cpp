@@ -387,8 +387,8 @@ TEST(Trials, ResultFilesRoundTripAndAggregate) {
 }
 
 TEST(Trials, ComparisonPairsTheSeedsBothPassed) {
-  const auto result = [](const char* scenario, std::uint64_t seed, bool passed, double t,
-                         double vz, double wy) {
+  const auto result = [](const char* scenario, std::uint64_t seed, bool passed, double t, double vz,
+                         double wy) {
     TrialResult r;
     r.scenario = scenario;
     r.parameters.seed = seed;
@@ -403,7 +403,7 @@ TEST(Trials, ComparisonPairsTheSeedsBothPassed) {
   const std::vector<TrialResult> results = {
       result("cand", 0, true, 10.0, 0.02, 0.04),  // paired with base seed 0
       result("cand", 1, true, 12.0, 0.03, 0.05),  // base seed 1 failed: not paired
-      result("cand", 2, false, 0, 0, 0),         // failed: not paired
+      result("cand", 2, false, 0, 0, 0),          // failed: not paired
       result("cand", 3, true, 14.0, 0.04, 0.06),  // paired with base seed 3
       result("cand", 9, true, 99.0, 9.0, 9.0),    // no base trial of seed 9
       result("base", 0, true, 20.0, 0.08, 0.10), result("base", 1, false, 0, 0, 0),
