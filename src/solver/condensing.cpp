@@ -244,14 +244,14 @@ Solver::Impl::Factorization Solver::Impl::condenseAndFactor() {
     if (!node(k).rank_ok) rank_failed = k;
     if (rank_failed < 0 && pd) pd = lq.backwardStage(k);
   };
-  // Nodes condensed by the linearisation are only projected here (once: the inertia
+  // Nodes factorised by the linearisation are not factorised again (once: the inertia
   // correction shifts the Hessian and condenses again).
-  const bool early = std::exchange(condensed_early, false);
+  if (std::exchange(condensed_early, false)) return early_factorization;
   if (pool.size() == 1) {
-    early ? projectNode(N) : condenseNode(N);
+    condenseNode(N);
     lq.beginBackward();
     for (int k = N - 1; k >= 0; --k) {
-      early ? projectNode(k) : condenseNode(k);
+      condenseNode(k);
       sweep(k);
     }
   } else {
@@ -288,11 +288,36 @@ Solver::Impl::Factorization Solver::Impl::condenseAndFactor() {
     };
     pool.run(pool.size(), body);
   }
+  return sweepResult(rank_failed, pd);
+}
+
+Solver::Impl::Factorization Solver::Impl::sweepResult(int rank_failed, bool pd) {
   if (rank_failed >= 0) {
     failed_node = rank_failed;
     return Factorization::RankDeficient;
   }
   return pd ? Factorization::Ok : Factorization::NotPositiveDefinite;
+}
+
+/// From the last node down, each node's linearisation (which condenses it), projection
+/// and backward step, while its derivatives and LQ stage are in cache: where linearize
+/// then condenseAndFactor write a node's stage in one pass and read it cold in the next.
+/// The nodes are evaluated in the opposite order, each by the same arithmetic (their
+/// shared workspaces are filled at the start of every evaluation), and the sweep is the
+/// one condenseAndFactor runs.
+Solver::Impl::Factorization Solver::Impl::linearizeAndFactor() {
+  int rank_failed = -1;
+  bool pd = true;
+  linearizeNode(N);
+  projectNode(N);
+  lq.beginBackward();
+  for (int k = N - 1; k >= 0; --k) {
+    linearizeNode(k);
+    projectNode(k);
+    if (!node(k).rank_ok) rank_failed = k;
+    if (rank_failed < 0 && pd) pd = lq.backwardStage(k);
+  }
+  return sweepResult(rank_failed, pd);
 }
 
 /// Inertia correction (Ipopt), in every mode: when the factorisation failed or needed
