@@ -45,13 +45,15 @@ void Solver::Impl::condenseRows(int k) {
   Node& n = node(k);
   const NodeData& d = *n.d;
   LqStage& st = lq.stage(k);
+  // With one thread, one set of Q, R, S for every stage (shareStageHessians).
+  const RiccatiSolver::StageHessian h = lq.hessian(k);
   const bool running = k < N;
   // The Riccati solver reads the lower triangles of Q and R only.
-  st.Q.triangularView<Eigen::Lower>() = d.Lxx;
+  h.Q.triangularView<Eigen::Lower>() = d.Lxx;
   st.q = d.lx;
   if (running) {
-    st.R.triangularView<Eigen::Lower>() = d.Luu;
-    st.S = d.Lux;
+    h.R.triangularView<Eigen::Lower>() = d.Luu;
+    h.S = d.Lux;
     st.r = d.lu;
     st.ne = d.ne;
     if (d.ne > 0) {
@@ -158,14 +160,14 @@ void Solver::Impl::condenseRows(int k) {
       const auto [a, s] = span(d.Gx, i, r);
       weighted(Tx, ldtx, Gx, ldx, i, r, a, s);
       kernels::gemmtLowerAccumulate(s, r, Tx + a + i * ldtx, ldtx, Gx + i + a * ldx, 1, ldx,
-                                    st.Q.data() + a + a * st.Q.outerStride(), st.Q.outerStride());
+                                    h.Q.data() + a + a * h.Q.outerStride(), h.Q.outerStride());
     });
     st.q.noalias() += d.Gx.topRows(m).transpose() * n.gam.head(m);
     runs(2, [&](int i, int r) {
       const auto [a, s] = span(d.Gu, i, r);
       weighted(Tu, ldtu, Gu, ldu, i, r, a, s);
       kernels::gemmtLowerAccumulate(s, r, Tu + a + i * ldtu, ldtu, Gu + i + a * ldu, 1, ldu,
-                                    st.R.data() + a + a * st.R.outerStride(), st.R.outerStride());
+                                    h.R.data() + a + a * h.R.outerStride(), h.R.outerStride());
       st.r.segment(a, s).noalias() += d.Gu.block(i, a, r, s).transpose() * n.gamc.segment(i, r);
     });
     runs(3, [&](int i, int r) {
@@ -174,7 +176,7 @@ void Solver::Impl::condenseRows(int k) {
       const auto [a, s] = span(d.Gx, i, r);
       const auto [b, t] = span(d.Gu, i, r);
       kernels::gemmAccumulate(t, s, r, Tu + b + i * ldtu, ldtu, Gx + i + a * ldx, 1, ldx,
-                              st.S.data() + b + a * st.S.outerStride(), st.S.outerStride());
+                              h.S.data() + b + a * h.S.outerStride(), h.S.outerStride());
     });
   }
   // Bounds: diagonal terms only.
@@ -193,10 +195,10 @@ void Solver::Impl::condenseRows(int k) {
       n.soft_dual(i) = -softWeight(n, i) * d1;
     }
     if (input) {
-      st.R(idx, idx) += W;
+      h.R(idx, idx) += W;
       st.r(idx) += lower ? gam : -gam;
     } else {
-      st.Q(idx, idx) += W;
+      h.Q(idx, idx) += W;
       st.q(idx) += lower ? gam : -gam;
     }
   }
