@@ -48,11 +48,12 @@ void Solver::Impl::condenseRows(int k) {
   // With one thread, one set of Q, R, S for every stage (shareStageHessians).
   const RiccatiSolver::StageHessian h = lq.hessian(k);
   const bool running = k < N;
-  // The Riccati solver reads the lower triangles of Q and R only.
-  h.Q.triangularView<Eigen::Lower>() = d.Lxx;
+  // The Riccati solver reads the lower triangles of Q and R only; whole copies are
+  // contiguous (one pass, vectorised) where a triangle is a loop per column.
+  h.Q = d.Lxx;
   st.q = d.lx;
   if (running) {
-    h.R.triangularView<Eigen::Lower>() = d.Luu;
+    h.R = d.Luu;
     h.S = d.Lux;
     st.r = d.lu;
     st.ne = d.ne;

@@ -20,6 +20,7 @@ RiccatiSolver::RiccatiSolver(int horizon, int nx, int nu, int ne_max)
   BAt_ = MatrixXd::Zero(nu + nx + 1, nx);
   Hr_shared_ = MatrixXd::Zero(nu + nx + 1, nu + nx + 1);
   PBAt_ = MatrixXd::Zero(nu + nx + 1, nx);
+  M_ = MatrixXd::Zero(nu + nx, nu + nx);
   Q_shared_ = MatrixXd::Zero(nx, nx);
   R_shared_ = MatrixXd::Zero(nu, nu);
   S_shared_ = MatrixXd::Zero(nu, nx);
@@ -59,7 +60,7 @@ RiccatiSolver::RiccatiSolver(int horizon, int nx, int nu, int ne_max)
     w.cn = VectorXd::Zero(nu);
     w.gr = VectorXd::Zero(nz);
     w.BA = MatrixXd::Zero(nx, nz + 1);
-    w.M = MatrixXd::Zero(nz, nz);
+    w.L = MatrixXd::Zero(nz, nu);
     w.hm = VectorXd::Zero(nz);
     w.pb = VectorXd::Zero(nx);
     w.P = MatrixXd::Zero(nx, nx);
@@ -392,7 +393,7 @@ bool RiccatiSolver::backwardStage(int k) {
       reg = (attempt == 1) ? 1e-12 * scale : reg * 100.0;
     }
     ok = kernels::factorSchur(nz, nw, nx, BAt_.data(), ldt, PBAt_.data(), ldy, Hr.data(),
-                              Hr.outerStride(), w.M.data(), w.M.outerStride(), reg);
+                              Hr.outerStride(), M_.data(), M_.outerStride(), reg);
     if (nw == 0) break;
   }
   if (!ok) {
@@ -400,12 +401,14 @@ bool RiccatiSolver::backwardStage(int k) {
     return false;
   }
   regularization_ = std::max(regularization_, reg);
-  storeWhole(w.P, w.M.block(nw, nw, nx, nx));
+  storeWhole(w.P, M_.block(nw, nw, nx, nx));
   w.p = w.hm.segment(nw, nx);
   if (nw > 0) {
     auto v = w.hm.head(nw);
-    w.M.topLeftCorner(nw, nw).triangularView<Eigen::Lower>().solveInPlace(v);
-    w.p.noalias() -= w.M.block(nw, 0, nx, nw) * v;
+    M_.topLeftCorner(nw, nw).triangularView<Eigen::Lower>().solveInPlace(v);
+    w.p.noalias() -= M_.block(nw, 0, nx, nw) * v;
+    // The later passes read only M's first nw columns.
+    w.L.topLeftCorner(nz, nw) = M_.topLeftCorner(nz, nw);
   }
   return true;
 }
@@ -453,8 +456,8 @@ void RiccatiSolver::forwardStage(int k) {
   auto wk = w.w.head(nw);
   if (nw > 0) {
     wk = w.hm.head(nw);
-    wk.noalias() += w.M.block(nw, 0, nx, nw).transpose() * w.dx;
-    w.M.topLeftCorner(nw, nw).transpose().triangularView<Eigen::Upper>().solveInPlace(wk);
+    wk.noalias() += w.L.block(nw, 0, nx, nw).transpose() * w.dx;
+    w.L.topLeftCorner(nw, nw).transpose().triangularView<Eigen::Upper>().solveInPlace(wk);
     wk = -wk;
   }
   n.dx = w.BA.col(nz);
@@ -592,8 +595,8 @@ void RiccatiSolver::resolveVectors(const Eigen::Ref<const VectorXd>& dx0) {
     w.p = h.segment(nw, nx);
     if (nw > 0) {
       auto v = w.hm.head(nw);
-      w.M.topLeftCorner(nw, nw).triangularView<Eigen::Lower>().solveInPlace(v);
-      w.p.noalias() -= w.M.block(nw, 0, nx, nw) * v;
+      w.L.topLeftCorner(nw, nw).triangularView<Eigen::Lower>().solveInPlace(v);
+      w.p.noalias() -= w.L.block(nw, 0, nx, nw) * v;
     }
   }
   forward(dx0);
@@ -605,8 +608,8 @@ void RiccatiSolver::feedbackGain(int k, MatrixXd& K) const {
   const int nx = nx_, nu = nu_, nw = w.nw, nf = w.nf, ne = stages_[idx(k)].ne - nf;
   auto Kw = w.Kw.topRows(nw);
   if (nw > 0) {
-    Kw = -w.M.block(nw, 0, nx, nw).transpose();
-    w.M.topLeftCorner(nw, nw).transpose().triangularView<Eigen::Upper>().solveInPlace(Kw);
+    Kw = -w.L.block(nw, 0, nx, nw).transpose();
+    w.L.topLeftCorner(nw, nw).transpose().triangularView<Eigen::Upper>().solveInPlace(Kw);
   }
   const int* pD = w.perm.data();
   const int* pI = w.perm.data() + ne;

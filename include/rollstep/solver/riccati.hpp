@@ -148,11 +148,13 @@ class RiccatiSolver {
     Eigen::VectorXd cn;   // nu: QR column norms
     Eigen::VectorXd gr;   // nu + nx: reduced gradient
     Eigen::MatrixXd BA;   // nx x (nu + nx + 1): reduced [B A | b]
-    Eigen::MatrixXd M;    // (nu + nx)^2: [L 0; Lxw P] after backward (lower)
-    Eigen::VectorXd hm;   // nu + nx; its head(nw) becomes v = L^-1 h_w
-    Eigen::VectorXd pb;   // nx
-    Eigen::MatrixXd P;    // nx x nx (both triangles)
-    Eigen::VectorXd p;    // nx
+    // (nu + nx) x nu: the first nw columns of M = [L 0; Lxw P] after backward (lower):
+    // [L; Lxw], all that the forward sweep, resolveVectors and feedbackGain read.
+    Eigen::MatrixXd L;
+    Eigen::VectorXd hm;  // nu + nx; its head(nw) becomes v = L^-1 h_w
+    Eigen::VectorXd pb;  // nx
+    Eigen::MatrixXd P;   // nx x nx (both triangles)
+    Eigen::VectorXd p;   // nx
     Eigen::VectorXd dx, w, du, lam, mult, t, t1;
     mutable Eigen::MatrixXd Kw, KD;  // feedbackGain scratch
   };
@@ -174,6 +176,10 @@ class RiccatiSolver {
   std::vector<Work> work_;
   // Backward scratch (sequential): [B A b]^T and [B A b]^T P, (nu + nx + 1) x nx.
   Eigen::MatrixXd BAt_, PBAt_;
+  // Backward scratch: M of the stage being factorised, (nu + nx)^2 (its Schur block gives
+  // P; its first nw columns are kept in Work::L). One, where one per stage (23 kB for the
+  // Tachyon 3 OCP) was written cold and mostly never read again.
+  Eigen::MatrixXd M_;
   Eigen::MatrixXd Hr_shared_;  // every stage's Hr when share_hr_
   bool share_hr_ = false;
   Eigen::MatrixXd Q_shared_, R_shared_, S_shared_;  // every stage's Q, R, S when share_h_
