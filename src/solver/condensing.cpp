@@ -45,13 +45,16 @@ void Solver::Impl::condenseRows(int k) {
   Node& n = node(k);
   const NodeData& d = *n.d;
   LqStage& st = lq.stage(k);
+  // With one thread, one set of Q, R, S for every stage (shareStageHessians).
+  const RiccatiSolver::StageHessian h = lq.hessian(k);
   const bool running = k < N;
-  // The Riccati solver reads the lower triangles of Q and R only.
-  st.Q.triangularView<Eigen::Lower>() = d.Lxx;
+  // The Riccati solver reads the lower triangles of Q and R only; whole copies are
+  // contiguous (one pass, vectorised) where a triangle is a loop per column.
+  h.Q = d.Lxx;
   st.q = d.lx;
   if (running) {
-    st.R.triangularView<Eigen::Lower>() = d.Luu;
-    st.S = d.Lux;
+    h.R = d.Luu;
+    h.S = d.Lux;
     st.r = d.lu;
     st.ne = d.ne;
     if (d.ne > 0) {
@@ -158,14 +161,14 @@ void Solver::Impl::condenseRows(int k) {
       const auto [a, s] = span(d.Gx, i, r);
       weighted(Tx, ldtx, Gx, ldx, i, r, a, s);
       kernels::gemmtLowerAccumulate(s, r, Tx + a + i * ldtx, ldtx, Gx + i + a * ldx, 1, ldx,
-                                    st.Q.data() + a + a * st.Q.outerStride(), st.Q.outerStride());
+                                    h.Q.data() + a + a * h.Q.outerStride(), h.Q.outerStride());
     });
     st.q.noalias() += d.Gx.topRows(m).transpose() * n.gam.head(m);
     runs(2, [&](int i, int r) {
       const auto [a, s] = span(d.Gu, i, r);
       weighted(Tu, ldtu, Gu, ldu, i, r, a, s);
       kernels::gemmtLowerAccumulate(s, r, Tu + a + i * ldtu, ldtu, Gu + i + a * ldu, 1, ldu,
-                                    st.R.data() + a + a * st.R.outerStride(), st.R.outerStride());
+                                    h.R.data() + a + a * h.R.outerStride(), h.R.outerStride());
       st.r.segment(a, s).noalias() += d.Gu.block(i, a, r, s).transpose() * n.gamc.segment(i, r);
     });
     runs(3, [&](int i, int r) {
@@ -174,7 +177,7 @@ void Solver::Impl::condenseRows(int k) {
       const auto [a, s] = span(d.Gx, i, r);
       const auto [b, t] = span(d.Gu, i, r);
       kernels::gemmAccumulate(t, s, r, Tu + b + i * ldtu, ldtu, Gx + i + a * ldx, 1, ldx,
-                              st.S.data() + b + a * st.S.outerStride(), st.S.outerStride());
+                              h.S.data() + b + a * h.S.outerStride(), h.S.outerStride());
     });
   }
   // Bounds: diagonal terms only.
@@ -193,10 +196,10 @@ void Solver::Impl::condenseRows(int k) {
       n.soft_dual(i) = -softWeight(n, i) * d1;
     }
     if (input) {
-      st.R(idx, idx) += W;
+      h.R(idx, idx) += W;
       st.r(idx) += lower ? gam : -gam;
     } else {
-      st.Q(idx, idx) += W;
+      h.Q(idx, idx) += W;
       st.q(idx) += lower ? gam : -gam;
     }
   }
@@ -244,14 +247,14 @@ Solver::Impl::Factorization Solver::Impl::condenseAndFactor() {
     if (!node(k).rank_ok) rank_failed = k;
     if (rank_failed < 0 && pd) pd = lq.backwardStage(k);
   };
-  // Nodes condensed by the linearisation are only projected here (once: the inertia
+  // Nodes factorised by the linearisation are not factorised again (once: the inertia
   // correction shifts the Hessian and condenses again).
-  const bool early = std::exchange(condensed_early, false);
+  if (std::exchange(condensed_early, false)) return early_factorization;
   if (pool.size() == 1) {
-    early ? projectNode(N) : condenseNode(N);
+    condenseNode(N);
     lq.beginBackward();
     for (int k = N - 1; k >= 0; --k) {
-      early ? projectNode(k) : condenseNode(k);
+      condenseNode(k);
       sweep(k);
     }
   } else {
@@ -288,11 +291,36 @@ Solver::Impl::Factorization Solver::Impl::condenseAndFactor() {
     };
     pool.run(pool.size(), body);
   }
+  return sweepResult(rank_failed, pd);
+}
+
+Solver::Impl::Factorization Solver::Impl::sweepResult(int rank_failed, bool pd) {
   if (rank_failed >= 0) {
     failed_node = rank_failed;
     return Factorization::RankDeficient;
   }
   return pd ? Factorization::Ok : Factorization::NotPositiveDefinite;
+}
+
+/// From the last node down, each node's linearisation (which condenses it), projection
+/// and backward step, while its derivatives and LQ stage are in cache: where linearize
+/// then condenseAndFactor write a node's stage in one pass and read it cold in the next.
+/// The nodes are evaluated in the opposite order, each by the same arithmetic (their
+/// shared workspaces are filled at the start of every evaluation), and the sweep is the
+/// one condenseAndFactor runs.
+Solver::Impl::Factorization Solver::Impl::linearizeAndFactor() {
+  int rank_failed = -1;
+  bool pd = true;
+  linearizeNode(N);
+  projectNode(N);
+  lq.beginBackward();
+  for (int k = N - 1; k >= 0; --k) {
+    linearizeNode(k);
+    projectNode(k);
+    if (!node(k).rank_ok) rank_failed = k;
+    if (rank_failed < 0 && pd) pd = lq.backwardStage(k);
+  }
+  return sweepResult(rank_failed, pd);
 }
 
 /// Inertia correction (Ipopt), in every mode: when the factorisation failed or needed

@@ -22,10 +22,16 @@ Solver::Impl::Kkt Solver::Impl::linearize(bool realtime, IterationStats& it) {
   use_curvature = !realtime && needsCurvature(set) && curvature_reserved;
   // A real-time iteration condenses with the barrier and targets it linearises with (no
   // barrier update, no proximal shift, no predictor-corrector in between): with one
-  // thread, each node right after its linearisation, its derivatives still in cache.
+  // thread, each node right after its linearisation, its derivatives still in cache, and
+  // from the last node down, projected and factorised (backward Riccati step) at once,
+  // its LQ stage still in cache too.
   condense_in_linearize = realtime && pool.size() == 1 && !pc_active && !corrector;
-  if (condense_in_linearize) target_mu = mu;
-  forNodes([this](int k) { linearizeNode(k); });
+  if (condense_in_linearize) {
+    target_mu = mu;
+    early_factorization = linearizeAndFactor();
+  } else {
+    forNodes([this](int k) { linearizeNode(k); });
+  }
   condensed_early = condense_in_linearize;
   condense_in_linearize = false;
   prob->stateSpace().difference(xs[0], x0, dx0);

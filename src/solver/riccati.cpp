@@ -20,6 +20,10 @@ RiccatiSolver::RiccatiSolver(int horizon, int nx, int nu, int ne_max)
   BAt_ = MatrixXd::Zero(nu + nx + 1, nx);
   Hr_shared_ = MatrixXd::Zero(nu + nx + 1, nu + nx + 1);
   PBAt_ = MatrixXd::Zero(nu + nx + 1, nx);
+  M_ = MatrixXd::Zero(nu + nx, nu + nx);
+  Q_shared_ = MatrixXd::Zero(nx, nx);
+  R_shared_ = MatrixXd::Zero(nu, nu);
+  S_shared_ = MatrixXd::Zero(nu, nx);
   work_.resize(static_cast<std::size_t>(N_) + 1);
   const int nz = nu + nx;
   for (auto& s : stages_) {
@@ -46,6 +50,8 @@ RiccatiSolver::RiccatiSolver(int horizon, int nx, int nu, int ne_max)
     w.qeff = VectorXd::Zero(nx);
     w.beff = VectorXd::Zero(nx);
     w.eeff = VectorXd::Zero(ne_max);
+    w.RF = MatrixXd::Zero(nu, ne_max);
+    w.SF = MatrixXd::Zero(nx, ne_max);
     w.V = MatrixXd::Zero(nz + 1, ne_max);
     w.W = MatrixXd::Zero(nz + 1, ne_max);
     w.HDD = MatrixXd::Zero(ne_max, ne_max);
@@ -54,7 +60,7 @@ RiccatiSolver::RiccatiSolver(int horizon, int nx, int nu, int ne_max)
     w.cn = VectorXd::Zero(nu);
     w.gr = VectorXd::Zero(nz);
     w.BA = MatrixXd::Zero(nx, nz + 1);
-    w.M = MatrixXd::Zero(nz, nz);
+    w.L = MatrixXd::Zero(nz, nu);
     w.hm = VectorXd::Zero(nz);
     w.pb = VectorXd::Zero(nx);
     w.P = MatrixXd::Zero(nx, nx);
@@ -139,12 +145,27 @@ bool RiccatiSolver::findFixedInputs(const LqStage& s, Work& w, double rank_toler
   return true;
 }
 
+void RiccatiSolver::keepFixedColumns(const MatrixXd& R, const MatrixXd& S, Work& w) const {
+  const int nf = w.nf, nu = nu_, nx = nx_;
+  const int* pF = w.perm.data() + nu - nf;
+  const double* Rp = R.data();
+  const double* Sp = S.data();
+  const Eigen::Index ldR = R.outerStride(), ldS = S.outerStride();
+  for (int f = 0; f < nf; ++f) {
+    const int c = pF[f];
+    double* rf = w.RF.data() + f * w.RF.outerStride();
+    double* sf = w.SF.data() + f * w.SF.outerStride();
+    // Column c of R from its lower triangle: R(c, 0..c) as a row, R(c..nu, c) as a column.
+    for (int j = 0; j < c; ++j) rf[j] = Rp[c + j * ldR];
+    for (int j = c; j < nu; ++j) rf[j] = Rp[j + c * ldR];
+    for (int a = 0; a < nx; ++a) sf[a] = Sp[c + a * ldS];
+  }
+}
+
 void RiccatiSolver::substituteFixedInputs(const LqStage& s, Work& w) const {
-  const int nf = w.nf, ng = s.ne - nf, nu = nu_;
+  const int nf = w.nf, ng = s.ne - nf, nu = nu_, nx = nx_;
   if (nf == 0) return;
   const int* pF = w.perm.data() + nu - nf;
-  const double* Rp = s.R.data();
-  const Eigen::Index ldR = s.R.outerStride();
   w.reff = s.r;
   w.qeff = s.q;
   w.beff = s.b;
@@ -153,10 +174,10 @@ void RiccatiSolver::substituteFixedInputs(const LqStage& s, Work& w) const {
     const int i = w.rows(ng + f), c = pF[f];
     const double t = -s.e(i) / s.Eu(i, c);
     w.tf(f) = t;
-    // Column c of R from its lower triangle: R(c, 0..c) as a row, R(c..nu, c) as a column.
-    for (int j = 0; j < c; ++j) w.reff(j) += Rp[c + j * ldR] * t;
-    for (int j = c; j < nu; ++j) w.reff(j) += Rp[j + c * ldR] * t;
-    w.qeff.noalias() += s.S.row(c).transpose() * t;
+    const double* rf = w.RF.data() + f * w.RF.outerStride();
+    const double* sf = w.SF.data() + f * w.SF.outerStride();
+    for (int j = 0; j < nu; ++j) w.reff(j) += rf[j] * t;
+    for (int a = 0; a < nx; ++a) w.qeff(a) += sf[a] * t;
     w.beff.noalias() += s.B.col(c) * t;
     for (int g = 0; g < ng; ++g) w.eeff(g) += s.Eu(w.rows(g), c) * t;
   }
@@ -165,6 +186,7 @@ void RiccatiSolver::substituteFixedInputs(const LqStage& s, Work& w) const {
 bool RiccatiSolver::projectStage(int k, double rank_tolerance, double* pivot_ratio) {
   const LqStage& s = stages_[idx(k)];
   Work& w = work_[idx(k)];
+  const StageHessian h = hessian(k);
   const int nx = nx_, nu = nu_, ne = s.ne;
   if (pivot_ratio) *pivot_ratio = 1.0;
   if (ne < 0 || ne > ne_max_) throw std::out_of_range("RiccatiSolver::projectStage: bad ne");
@@ -180,6 +202,7 @@ bool RiccatiSolver::projectStage(int k, double rank_tolerance, double* pivot_rat
     if (pivot_ratio) *pivot_ratio = min_ratio;
     return false;
   }
+  keepFixedColumns(h.R, h.S, w);
   substituteFixedInputs(s, w);
   // The rows left for the LU (ng) and the inputs they act on (nv = ng + nw).
   const int nf = w.nf, ng = ne - nf, nv = nu - nf;
@@ -284,9 +307,9 @@ bool RiccatiSolver::projectStage(int k, double rank_tolerance, double* pivot_rat
   // Reduced augmented Hessian in [w; dx; 1] (lower triangle): gather the independent
   // part, then add T^T Y + Y^T T with Y = H_Dv + 0.5 H_DD T (kept transposed too,
   // W = Y^T = H_vD + 0.5 V H_DD). Only the lower triangle of R is read.
-  const double* Rp = s.R.data();
-  const double* Sp = s.S.data();
-  const Eigen::Index ldR = s.R.outerStride(), ldS = s.S.outerStride();
+  const double* Rp = h.R.data();
+  const double* Sp = h.S.data();
+  const Eigen::Index ldR = h.R.outerStride(), ldS = h.S.outerStride();
   const auto Rsym = [Rp, ldR](int a, int b) { return a >= b ? Rp[a + b * ldR] : Rp[b + a * ldR]; };
   MatrixXd& Hr = reducedHessian(w);
   auto H = Hr.topLeftCorner(nz + 1, nz + 1);
@@ -299,7 +322,7 @@ bool RiccatiSolver::projectStage(int k, double rank_tolerance, double* pivot_rat
     for (int a = 0; a < nx; ++a) Hc[nw + a] = Sp[b + a * ldS];
     Hc[nz] = rv[b];
   }
-  H.block(nw, nw, nx, nx).triangularView<Eigen::Lower>() = s.Q;
+  H.block(nw, nw, nx, nx).triangularView<Eigen::Lower>() = h.Q;
   H.row(nz).segment(nw, nx) = qv.transpose();
   H(nz, nz) = 0.0;
   auto BA = w.BA.leftCols(nz + 1);
@@ -339,7 +362,7 @@ void RiccatiSolver::beginBackward() {
   failed_stage_ = -1;
   regularization_ = 0.0;
   Work& t = work_[idx(N_)];
-  storeWhole(t.P, stages_[idx(N_)].Q);
+  storeWhole(t.P, hessian(N_).Q);
   t.p = stages_[idx(N_)].q;
 }
 
@@ -370,7 +393,7 @@ bool RiccatiSolver::backwardStage(int k) {
       reg = (attempt == 1) ? 1e-12 * scale : reg * 100.0;
     }
     ok = kernels::factorSchur(nz, nw, nx, BAt_.data(), ldt, PBAt_.data(), ldy, Hr.data(),
-                              Hr.outerStride(), w.M.data(), w.M.outerStride(), reg);
+                              Hr.outerStride(), M_.data(), M_.outerStride(), reg);
     if (nw == 0) break;
   }
   if (!ok) {
@@ -378,19 +401,34 @@ bool RiccatiSolver::backwardStage(int k) {
     return false;
   }
   regularization_ = std::max(regularization_, reg);
-  storeWhole(w.P, w.M.block(nw, nw, nx, nx));
+  storeWhole(w.P, M_.block(nw, nw, nx, nx));
   w.p = w.hm.segment(nw, nx);
   if (nw > 0) {
     auto v = w.hm.head(nw);
-    w.M.topLeftCorner(nw, nw).triangularView<Eigen::Lower>().solveInPlace(v);
-    w.p.noalias() -= w.M.block(nw, 0, nx, nw) * v;
+    M_.topLeftCorner(nw, nw).triangularView<Eigen::Lower>().solveInPlace(v);
+    w.p.noalias() -= M_.block(nw, 0, nx, nw) * v;
+    // The later passes read only M's first nw columns.
+    w.L.topLeftCorner(nz, nw) = M_.topLeftCorner(nz, nw);
   }
   return true;
 }
 
 void RiccatiSolver::shareReducedHessian(bool on) { share_hr_ = on; }
 
+void RiccatiSolver::shareStageHessians(bool on) { share_h_ = on; }
+
+RiccatiSolver::StageHessian RiccatiSolver::hessian(int k) {
+  if (share_h_) return {Q_shared_, R_shared_, S_shared_};
+  LqStage& s = stages_[idx(k)];
+  return {s.Q, s.R, s.S};
+}
+
 bool RiccatiSolver::backward() {
+  if (share_h_) {
+    throw std::logic_error(
+        "RiccatiSolver::backward: the stages share one set of Hessian blocks "
+        "(shareStageHessians): run projectStage(k) right after writing stage k's");
+  }
   if (share_hr_) {
     throw std::logic_error(
         "RiccatiSolver::backward: the stages share one reduced Hessian (shareReducedHessian): "
@@ -418,8 +456,8 @@ void RiccatiSolver::forwardStage(int k) {
   auto wk = w.w.head(nw);
   if (nw > 0) {
     wk = w.hm.head(nw);
-    wk.noalias() += w.M.block(nw, 0, nx, nw).transpose() * w.dx;
-    w.M.topLeftCorner(nw, nw).transpose().triangularView<Eigen::Upper>().solveInPlace(wk);
+    wk.noalias() += w.L.block(nw, 0, nx, nw).transpose() * w.dx;
+    w.L.topLeftCorner(nw, nw).transpose().triangularView<Eigen::Upper>().solveInPlace(wk);
     wk = -wk;
   }
   n.dx = w.BA.col(nz);
@@ -475,21 +513,29 @@ void RiccatiSolver::recoverStage(int k) {
   }
   // A fixing row's multiplier from the stationarity of its input c (the other fixing
   // rows do not act on c): Eu_ic nu_i = -(rho_c + sum over the LU's rows of Eu_gc nu_g).
-  const double* Rp = s.R.data();
-  const Eigen::Index ldR = s.R.outerStride();
+  // R's column and S's row of c are those projectStage kept (RF, SF).
   for (int f = 0; f < nf; ++f) {
     const int i = w.rows(ng + f), c = pF[f];
-    double rho = s.r(c) + s.S.row(c).dot(w.dx) + s.B.col(c).dot(lam_next);
-    for (int j = 0; j < c; ++j) rho += Rp[c + j * ldR] * w.du(j);
-    for (int j = c; j < nu; ++j) rho += Rp[j + c * ldR] * w.du(j);
+    const double* rf = w.RF.data() + f * w.RF.outerStride();
+    const double* sf = w.SF.data() + f * w.SF.outerStride();
+    // S(c, :) dx, summed in index order.
+    double sdx = 0.0;
+    if (nx > 0) {
+      sdx = sf[0] * w.dx(0);
+      for (int a = 1; a < nx; ++a) sdx += sf[a] * w.dx(a);
+    }
+    double rho = s.r(c) + sdx + s.B.col(c).dot(lam_next);
+    for (int j = 0; j < nu; ++j) rho += rf[j] * w.du(j);
     for (int g = 0; g < ng; ++g) rho += s.Eu(w.rows(g), c) * w.mult(w.rows(g));
     w.mult(i) = -rho / s.Eu(i, c);
   }
 }
 
 bool RiccatiSolver::solve(const Eigen::Ref<const VectorXd>& dx0, double rank_tolerance) {
-  if (share_hr_) {
-    throw std::logic_error("RiccatiSolver::solve: the stages share one reduced Hessian");
+  if (share_hr_ || share_h_) {
+    throw std::logic_error(
+        "RiccatiSolver::solve: the stages share one reduced Hessian or one set of Hessian "
+        "blocks");
   }
   for (int k = 0; k < N_; ++k) {
     if (!projectStage(k, rank_tolerance)) {
@@ -549,8 +595,8 @@ void RiccatiSolver::resolveVectors(const Eigen::Ref<const VectorXd>& dx0) {
     w.p = h.segment(nw, nx);
     if (nw > 0) {
       auto v = w.hm.head(nw);
-      w.M.topLeftCorner(nw, nw).triangularView<Eigen::Lower>().solveInPlace(v);
-      w.p.noalias() -= w.M.block(nw, 0, nx, nw) * v;
+      w.L.topLeftCorner(nw, nw).triangularView<Eigen::Lower>().solveInPlace(v);
+      w.p.noalias() -= w.L.block(nw, 0, nx, nw) * v;
     }
   }
   forward(dx0);
@@ -562,8 +608,8 @@ void RiccatiSolver::feedbackGain(int k, MatrixXd& K) const {
   const int nx = nx_, nu = nu_, nw = w.nw, nf = w.nf, ne = stages_[idx(k)].ne - nf;
   auto Kw = w.Kw.topRows(nw);
   if (nw > 0) {
-    Kw = -w.M.block(nw, 0, nx, nw).transpose();
-    w.M.topLeftCorner(nw, nw).transpose().triangularView<Eigen::Upper>().solveInPlace(Kw);
+    Kw = -w.L.block(nw, 0, nx, nw).transpose();
+    w.L.topLeftCorner(nw, nw).transpose().triangularView<Eigen::Upper>().solveInPlace(Kw);
   }
   const int* pD = w.perm.data();
   const int* pI = w.perm.data() + ne;

@@ -178,7 +178,8 @@ struct Solver::Impl {
   bool has_curvature = true;   // the problem has terms with curvature (hasCurvature())
   bool use_curvature = false;  // this iteration adds the constraint curvature (H2)
   // One thread, real time: linearizeNode condenses the node's Hessian and gradient while
-  // its derivatives are in cache; the next condenseAndFactor only projects those nodes.
+  // its derivatives are in cache, and the linearisation projects and factorises each node
+  // right after (linearizeAndFactor); the next condenseAndFactor returns its result.
   bool condense_in_linearize = false;
   bool condensed_early = false;
   /// Settings whose solve() adds the constraint curvature (converging mode, exact_hessian,
@@ -305,6 +306,13 @@ struct Solver::Impl {
   void projectNode(int k);
   void condenseGradient(int k);
   Factorization condenseAndFactor();
+  /// One thread, real time: linearizeNode(k), projection and backward Riccati step of each
+  /// node k = N .. 0 in one pass (the same arithmetic as linearize then condenseAndFactor).
+  Factorization linearizeAndFactor();
+  /// The backward sweep's bookkeeping: the first node (in the sweep's order) whose
+  /// equalities are rank deficient stops it; so does a failed factorisation.
+  Factorization sweepResult(int rank_failed, bool pd);
+  Factorization early_factorization = Factorization::Ok;
   bool correctInertia(bool factored, bool& shifted);
 
   // ---- search direction (direction.cpp) ------------------------------------------------------

@@ -72,8 +72,10 @@ Solver::Impl::Impl(std::shared_ptr<ocp::OptimalControlProblem> p, SolverSettings
       ready(new std::atomic<std::uint64_t>[static_cast<std::size_t>(N) + 1]),
       chunk_next(new std::atomic<int>[static_cast<std::size_t>(pool.size())]) {
   has_curvature = prob->hasCurvature();
-  // One thread projects and factorises each stage in turn (condenseAndFactor).
+  // One thread condenses, projects and factorises each stage in turn (condenseAndFactor,
+  // linearizeAndFactor).
   lq.shareReducedHessian(pool.size() == 1);
+  lq.shareStageHessians(pool.size() == 1);
   for (int k = 0; k <= N; ++k) ready[static_cast<std::size_t>(k)].store(0);
   nodes.resize(static_cast<std::size_t>(N) + 1);
   for (int i = ni_max; i < nrows; ++i) {

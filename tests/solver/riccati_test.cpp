@@ -274,6 +274,75 @@ TEST(RiccatiProjection, SharedReducedHessianGivesTheSameSolution) {
   }
 }
 
+// With one shared set of Hessian blocks Q, R, S (the Solver's single-thread sweep), each
+// stage's written into it right before its projection, and the shared reduced Hessian:
+// bit for bit the solution of solve(), also the multipliers of the rows that fix an input
+// (which need R's column and S's row of that input after the set was overwritten), and
+// after resolveVectors with new vectors. The blocks left in the stages are poisoned: they
+// must not be read. backward() and solve() refuse to run.
+TEST(RiccatiProjection, SharedStageHessiansGiveTheSameSolution) {
+  for (const int ne : {0, 3, -5}) {  // -5: 5 rows, 2 of which fix an input
+    const int nfix = ne < 0 ? 2 : 0, ner = std::abs(ne);
+    std::mt19937 rng(23u + static_cast<unsigned>(ner));
+    const int nx = 6, nu = 8, N = 9;
+    solver::RiccatiSolver ric(N, nx, nu, 7), ref(N, nx, nu, 7);
+    fillRandomStages(
+        ref, [ner](int k) { return k % 4 == 2 ? 0 : ner; }, rng, nfix);
+    randomVectors(ref, rng);
+    for (int k = 0; k <= N; ++k) {
+      ric.stage(k) = ref.stage(k);
+      ric.stage(k).Q.setConstant(std::nan(""));
+      ric.stage(k).R.setConstant(std::nan(""));
+      ric.stage(k).S.setConstant(std::nan(""));
+    }
+    const VectorXd dx0 = randn(nx, 1, rng);
+    ASSERT_TRUE(ref.solve(dx0, 1e-12));
+    ric.shareStageHessians(true);
+    ric.shareReducedHessian(true);
+    EXPECT_THROW(ric.solve(dx0, 1e-12), std::logic_error);
+    EXPECT_THROW(ric.backward(), std::logic_error);
+    const auto write = [&](int k) {
+      const solver::RiccatiSolver::StageHessian h = ric.hessian(k);
+      h.Q = ref.stage(k).Q;
+      h.R = ref.stage(k).R;
+      h.S = ref.stage(k).S;
+    };
+    write(N);
+    ric.beginBackward();
+    for (int k = N - 1; k >= 0; --k) {
+      write(k);
+      ASSERT_TRUE(ric.projectStage(k, 1e-12));
+      ASSERT_TRUE(ric.backwardStage(k));
+    }
+    ric.hessian(0).R.setConstant(std::nan(""));  // nothing after the sweep reads it
+    ric.hessian(0).S.setConstant(std::nan(""));
+    ric.forward(dx0);
+    for (int k = 0; k < N; ++k) ric.recoverStage(k);
+    const auto same = [&](const char* what) {
+      for (int k = 0; k <= N; ++k) {
+        EXPECT_EQ(ric.dx(k), ref.dx(k)) << what << " ne " << ne << " k " << k;
+        EXPECT_EQ(ric.costate(k), ref.costate(k)) << what << " ne " << ne << " k " << k;
+        if (k < N) {
+          EXPECT_EQ(ric.du(k), ref.du(k)) << what << " ne " << ne << " k " << k;
+          EXPECT_EQ(ric.equalityMultipliers(k), ref.equalityMultipliers(k))
+              << what << " ne " << ne << " k " << k;
+        }
+      }
+    };
+    same("solve");
+    randomVectors(ref, rng);
+    for (int k = 0; k <= N; ++k) {
+      ric.stage(k).q = ref.stage(k).q;
+      ric.stage(k).r = ref.stage(k).r;
+      ric.stage(k).b = ref.stage(k).b;
+      ric.stage(k).e = ref.stage(k).e;
+    }
+    ref.resolveVectors(dx0);
+    ric.resolveVectors(dx0);
+    same("resolveVectors");
+  }
+}
+
 // A reduced Hessian that is only semidefinite (an input that neither costs nor moves the
 // state) fails the first factorisation; the stage is rebuilt with a small diagonal shift,
 // which must give exactly the solution of the problem with that shift added to R. An

@@ -87,6 +87,21 @@ class RiccatiSolver {
   /// the Tachyon 3 OCP) is written and read cold. Then backward() and solve(), which
   /// project every stage first, throw std::logic_error. Off by default.
   void shareReducedHessian(bool on);
+  /// The Hessian blocks of a stage, as the caller writes them: the stage's own Q, R, S,
+  /// or with shareStageHessians one set for every stage.
+  struct StageHessian {
+    Eigen::MatrixXd& Q;
+    Eigen::MatrixXd& R;
+    Eigen::MatrixXd& S;
+  };
+  StageHessian hessian(int k);
+  /// On: every stage's Q, R, S are one set (hessian(k); the stages' own are not read), for
+  /// a caller that writes stage k's right before projectStage(k) (k = N: before
+  /// beginBackward) and runs backwardStage(k) right after, as the Solver does with one
+  /// thread: 17.6 kB per stage of the Tachyon 3 OCP that an iteration wrote and read cold.
+  /// projectStage keeps what the later passes need (R's columns and S's rows of the fixed
+  /// inputs). Then backward() and solve() throw std::logic_error. Off by default.
+  void shareStageHessians(bool on);
   /// Convenience: projectStage for every k, backward, forward, recoverStage for every k.
   bool solve(const Eigen::Ref<const Eigen::VectorXd>& dx0, double rank_tolerance = 1e-9);
   /// Re-solves with the same matrices (Q, S, R, A, B, Ex, Eu, ne unchanged since the last
@@ -122,6 +137,9 @@ class RiccatiSolver {
     // The vectors with the fixed inputs substituted: r + R_F tf (nu), q + S_F^T tf,
     // b + B_F tf (nx), e + Eu_F tf (ne_max, rows in the LU).
     Eigen::VectorXd reff, qeff, beff, eeff;
+    // Column f: R's column (nu) and S's row (nx) of the input the f-th fixing row fixes,
+    // kept by projectStage for substituteFixedInputs and recoverStage.
+    Eigen::MatrixXd RF, SF;
     Eigen::MatrixXd V;    // (nu + nx + 1) x ne_max: T^T, du_D = T [w; dx; 1]
     Eigen::MatrixXd W;    // (nu + nx + 1) x ne_max: (H_Dv + 0.5 H_DD T)^T
     Eigen::MatrixXd HDD;  // ne_max x ne_max
@@ -130,11 +148,13 @@ class RiccatiSolver {
     Eigen::VectorXd cn;   // nu: QR column norms
     Eigen::VectorXd gr;   // nu + nx: reduced gradient
     Eigen::MatrixXd BA;   // nx x (nu + nx + 1): reduced [B A | b]
-    Eigen::MatrixXd M;    // (nu + nx)^2: [L 0; Lxw P] after backward (lower)
-    Eigen::VectorXd hm;   // nu + nx; its head(nw) becomes v = L^-1 h_w
-    Eigen::VectorXd pb;   // nx
-    Eigen::MatrixXd P;    // nx x nx (both triangles)
-    Eigen::VectorXd p;    // nx
+    // (nu + nx) x nu: the first nw columns of M = [L 0; Lxw P] after backward (lower):
+    // [L; Lxw], all that the forward sweep, resolveVectors and feedbackGain read.
+    Eigen::MatrixXd L;
+    Eigen::VectorXd hm;  // nu + nx; its head(nw) becomes v = L^-1 h_w
+    Eigen::VectorXd pb;  // nx
+    Eigen::MatrixXd P;   // nx x nx (both triangles)
+    Eigen::VectorXd p;   // nx
     Eigen::VectorXd dx, w, du, lam, mult, t, t1;
     mutable Eigen::MatrixXd Kw, KD;  // feedbackGain scratch
   };
@@ -148,14 +168,22 @@ class RiccatiSolver {
   /// The fixed values w.tf and the substituted vectors w.reff, qeff, beff, eeff from the
   /// stage's current vectors (no-op without fixed inputs).
   void substituteFixedInputs(const LqStage& s, Work& w) const;
+  /// w.RF and w.SF from the stage's Hessian blocks R and S.
+  void keepFixedColumns(const Eigen::MatrixXd& R, const Eigen::MatrixXd& S, Work& w) const;
 
   int N_, nx_, nu_, ne_max_;
   std::vector<LqStage> stages_;
   std::vector<Work> work_;
   // Backward scratch (sequential): [B A b]^T and [B A b]^T P, (nu + nx + 1) x nx.
   Eigen::MatrixXd BAt_, PBAt_;
+  // Backward scratch: M of the stage being factorised, (nu + nx)^2 (its Schur block gives
+  // P; its first nw columns are kept in Work::L). One, where one per stage (23 kB for the
+  // Tachyon 3 OCP) was written cold and mostly never read again.
+  Eigen::MatrixXd M_;
   Eigen::MatrixXd Hr_shared_;  // every stage's Hr when share_hr_
   bool share_hr_ = false;
+  Eigen::MatrixXd Q_shared_, R_shared_, S_shared_;  // every stage's Q, R, S when share_h_
+  bool share_h_ = false;
   int failed_stage_ = -1;
   double regularization_ = 0.0;
 };
