@@ -7,6 +7,7 @@
 #include <cmath>
 #include <random>
 #include <stdexcept>
+#include <string>
 
 #include "lq_problems.hpp"
 
@@ -238,19 +239,43 @@ TEST(RiccatiProjection, ResolveVectorsMatchesAFreshSolve) {
   }
 }
 
+namespace {
+
+// The shared-sweep tests' problem: random stages with `ne` rows at most stages (ne < 0: -ne
+// rows, 2 of which fix an input) and random vectors in `ref`, copied to `ric`.
+void fillSharedSweepCase(int ne, std::mt19937& rng, solver::RiccatiSolver& ref,
+                         solver::RiccatiSolver& ric, int N) {
+  const int nfix = ne < 0 ? 2 : 0, ner = std::abs(ne);
+  fillRandomStages(
+      ref, [ner](int k) { return k % 4 == 2 ? 0 : ner; }, rng, nfix);
+  randomVectors(ref, rng);
+  for (int k = 0; k <= N; ++k) ric.stage(k) = ref.stage(k);
+}
+
+// Bit for bit the same step, costates and equality multipliers.
+void expectSameSolution(const solver::RiccatiSolver& ric, const solver::RiccatiSolver& ref, int N,
+                        const std::string& what) {
+  for (int k = 0; k <= N; ++k) {
+    EXPECT_EQ(ric.dx(k), ref.dx(k)) << what << " k " << k;
+    EXPECT_EQ(ric.costate(k), ref.costate(k)) << what << " k " << k;
+    if (k < N) {
+      EXPECT_EQ(ric.du(k), ref.du(k)) << what << " k " << k;
+      EXPECT_EQ(ric.equalityMultipliers(k), ref.equalityMultipliers(k)) << what << " k " << k;
+    }
+  }
+}
+
+}  // namespace
+
 // With one shared reduced Hessian (the Solver's single-thread sweep), projecting and
 // factorising each stage in turn gives bit for bit the solution of solve(); backward()
 // and solve(), which project every stage first, refuse to run.
 TEST(RiccatiProjection, SharedReducedHessianGivesTheSameSolution) {
   for (const int ne : {0, 3, -5}) {  // -5: 5 rows, 2 of which fix an input
-    const int nfix = ne < 0 ? 2 : 0, ner = std::abs(ne);
-    std::mt19937 rng(11u + static_cast<unsigned>(ner));
+    std::mt19937 rng(11u + static_cast<unsigned>(std::abs(ne)));
     const int nx = 6, nu = 8, N = 9;
     solver::RiccatiSolver ric(N, nx, nu, 7), ref(N, nx, nu, 7);
-    fillRandomStages(
-        ref, [ner](int k) { return k % 4 == 2 ? 0 : ner; }, rng, nfix);
-    randomVectors(ref, rng);
-    for (int k = 0; k <= N; ++k) ric.stage(k) = ref.stage(k);
+    fillSharedSweepCase(ne, rng, ref, ric, N);
     const VectorXd dx0 = randn(nx, 1, rng);
     ASSERT_TRUE(ref.solve(dx0, 1e-12));
     ric.shareReducedHessian(true);
@@ -263,14 +288,7 @@ TEST(RiccatiProjection, SharedReducedHessianGivesTheSameSolution) {
     }
     ric.forward(dx0);
     for (int k = 0; k < N; ++k) ric.recoverStage(k);
-    for (int k = 0; k <= N; ++k) {
-      EXPECT_EQ(ric.dx(k), ref.dx(k)) << "ne " << ne << " k " << k;
-      EXPECT_EQ(ric.costate(k), ref.costate(k)) << "ne " << ne << " k " << k;
-      if (k < N) {
-        EXPECT_EQ(ric.du(k), ref.du(k)) << "ne " << ne << " k " << k;
-        EXPECT_EQ(ric.equalityMultipliers(k), ref.equalityMultipliers(k)) << "ne " << ne;
-      }
-    }
+    expectSameSolution(ric, ref, N, "ne " + std::to_string(ne));
   }
 }
 
@@ -282,15 +300,11 @@ TEST(RiccatiProjection, SharedReducedHessianGivesTheSameSolution) {
 // must not be read. backward() and solve() refuse to run.
 TEST(RiccatiProjection, SharedStageHessiansGiveTheSameSolution) {
   for (const int ne : {0, 3, -5}) {  // -5: 5 rows, 2 of which fix an input
-    const int nfix = ne < 0 ? 2 : 0, ner = std::abs(ne);
-    std::mt19937 rng(23u + static_cast<unsigned>(ner));
+    std::mt19937 rng(23u + static_cast<unsigned>(std::abs(ne)));
     const int nx = 6, nu = 8, N = 9;
     solver::RiccatiSolver ric(N, nx, nu, 7), ref(N, nx, nu, 7);
-    fillRandomStages(
-        ref, [ner](int k) { return k % 4 == 2 ? 0 : ner; }, rng, nfix);
-    randomVectors(ref, rng);
+    fillSharedSweepCase(ne, rng, ref, ric, N);
     for (int k = 0; k <= N; ++k) {
-      ric.stage(k) = ref.stage(k);
       ric.stage(k).Q.setConstant(std::nan(""));
       ric.stage(k).R.setConstant(std::nan(""));
       ric.stage(k).S.setConstant(std::nan(""));
@@ -318,18 +332,7 @@ TEST(RiccatiProjection, SharedStageHessiansGiveTheSameSolution) {
     ric.hessian(0).S.setConstant(std::nan(""));
     ric.forward(dx0);
     for (int k = 0; k < N; ++k) ric.recoverStage(k);
-    const auto same = [&](const char* what) {
-      for (int k = 0; k <= N; ++k) {
-        EXPECT_EQ(ric.dx(k), ref.dx(k)) << what << " ne " << ne << " k " << k;
-        EXPECT_EQ(ric.costate(k), ref.costate(k)) << what << " ne " << ne << " k " << k;
-        if (k < N) {
-          EXPECT_EQ(ric.du(k), ref.du(k)) << what << " ne " << ne << " k " << k;
-          EXPECT_EQ(ric.equalityMultipliers(k), ref.equalityMultipliers(k))
-              << what << " ne " << ne << " k " << k;
-        }
-      }
-    };
-    same("solve");
+    expectSameSolution(ric, ref, N, "solve, ne " + std::to_string(ne));
     randomVectors(ref, rng);
     for (int k = 0; k <= N; ++k) {
       ric.stage(k).q = ref.stage(k).q;
@@ -339,7 +342,7 @@ TEST(RiccatiProjection, SharedStageHessiansGiveTheSameSolution) {
     }
     ref.resolveVectors(dx0);
     ric.resolveVectors(dx0);
-    same("resolveVectors");
+    expectSameSolution(ric, ref, N, "resolveVectors, ne " + std::to_string(ne));
   }
 }
 
