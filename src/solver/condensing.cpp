@@ -231,6 +231,24 @@ void Solver::Impl::condenseGradient(int k) {
   }
 }
 
+void Solver::Impl::sweepStage(int k, int& rank_failed, bool& pd) {
+  if (!node(k).rank_ok) rank_failed = k;
+  if (rank_failed < 0 && pd) pd = lq.backwardStage(k);
+}
+
+template <class Prepare>
+Solver::Impl::Factorization Solver::Impl::sweepSerially(Prepare prepare) {
+  int rank_failed = -1;
+  bool pd = true;
+  prepare(N);
+  lq.beginBackward();
+  for (int k = N - 1; k >= 0; --k) {
+    prepare(k);
+    sweepStage(k, rank_failed, pd);
+  }
+  return sweepResult(rank_failed, pd);
+}
+
 /// Condensing + projection of every node and the backward Riccati sweep. With one
 /// thread, node k is condensed right before its backward step (its data still in
 /// cache). With more, a pipeline: every thread condenses the nodes it linearised (its
@@ -241,56 +259,43 @@ void Solver::Impl::condenseGradient(int k) {
 /// one order, so the results do not depend on the thread count. On a rank failure,
 /// failed_node is the first such node.
 Solver::Impl::Factorization Solver::Impl::condenseAndFactor() {
-  int rank_failed = -1;
-  bool pd = true;
-  const auto sweep = [&](int k) {
-    if (!node(k).rank_ok) rank_failed = k;
-    if (rank_failed < 0 && pd) pd = lq.backwardStage(k);
-  };
   // Nodes factorised by the linearisation are not factorised again (once: the inertia
   // correction shifts the Hessian and condenses again).
   if (std::exchange(condensed_early, false)) return early_factorization;
-  if (pool.size() == 1) {
-    condenseNode(N);
+  if (pool.size() == 1) return sweepSerially([this](int k) { condenseNode(k); });
+  int rank_failed = -1;
+  bool pd = true;
+  const std::uint64_t run = ++pipeline_run;
+  for (int t = 0; t < pool.size(); ++t) {
+    chunk_next[static_cast<std::size_t>(t)].store(chunkBegin(t + 1) - 1, std::memory_order_relaxed);
+  }
+  const auto condenseNext = [this, run](int id) {
+    const int j = claimNode(id, true);
+    if (j < 0) return false;
+    condenseNode(j);
+    ready[static_cast<std::size_t>(j)].store(run, std::memory_order_release);
+    return true;
+  };
+  const auto waitFor = [this, run, &condenseNext](int k) {
+    for (int i = 1; ready[static_cast<std::size_t>(k)].load(std::memory_order_acquire) != run;
+         ++i) {
+      if (!condenseNext(0)) detail::ThreadPool::pause(i);
+    }
+  };
+  auto body = [&](int id, int) {
+    if (id > 0) {
+      while (condenseNext(id)) {
+      }
+      return;
+    }
+    waitFor(N);
     lq.beginBackward();
     for (int k = N - 1; k >= 0; --k) {
-      condenseNode(k);
-      sweep(k);
+      waitFor(k);
+      sweepStage(k, rank_failed, pd);
     }
-  } else {
-    const std::uint64_t run = ++pipeline_run;
-    for (int t = 0; t < pool.size(); ++t) {
-      chunk_next[static_cast<std::size_t>(t)].store(chunkBegin(t + 1) - 1,
-                                                    std::memory_order_relaxed);
-    }
-    const auto condenseNext = [this, run](int id) {
-      const int j = claimNode(id, true);
-      if (j < 0) return false;
-      condenseNode(j);
-      ready[static_cast<std::size_t>(j)].store(run, std::memory_order_release);
-      return true;
-    };
-    const auto waitFor = [this, run, &condenseNext](int k) {
-      for (int i = 1; ready[static_cast<std::size_t>(k)].load(std::memory_order_acquire) != run;
-           ++i) {
-        if (!condenseNext(0)) detail::ThreadPool::pause(i);
-      }
-    };
-    auto body = [&](int id, int) {
-      if (id > 0) {
-        while (condenseNext(id)) {
-        }
-        return;
-      }
-      waitFor(N);
-      lq.beginBackward();
-      for (int k = N - 1; k >= 0; --k) {
-        waitFor(k);
-        sweep(k);
-      }
-    };
-    pool.run(pool.size(), body);
-  }
+  };
+  pool.run(pool.size(), body);
   return sweepResult(rank_failed, pd);
 }
 
@@ -309,18 +314,10 @@ Solver::Impl::Factorization Solver::Impl::sweepResult(int rank_failed, bool pd) 
 /// shared workspaces are filled at the start of every evaluation), and the sweep is the
 /// one condenseAndFactor runs.
 Solver::Impl::Factorization Solver::Impl::linearizeAndFactor() {
-  int rank_failed = -1;
-  bool pd = true;
-  linearizeNode(N);
-  projectNode(N);
-  lq.beginBackward();
-  for (int k = N - 1; k >= 0; --k) {
+  return sweepSerially([this](int k) {
     linearizeNode(k);
     projectNode(k);
-    if (!node(k).rank_ok) rank_failed = k;
-    if (rank_failed < 0 && pd) pd = lq.backwardStage(k);
-  }
-  return sweepResult(rank_failed, pd);
+  });
 }
 
 /// Inertia correction (Ipopt), in every mode: when the factorisation failed or needed

@@ -311,7 +311,12 @@ struct Solver::Impl {
   Factorization linearizeAndFactor();
   /// The backward sweep's bookkeeping: the first node (in the sweep's order) whose
   /// equalities are rank deficient stops it; so does a failed factorisation.
+  void sweepStage(int k, int& rank_failed, bool& pd);
   Factorization sweepResult(int rank_failed, bool pd);
+  /// The sweep on this thread: prepare(k) makes node k's stage ready (condensed and
+  /// projected), for k = N, then N-1 .. 0 each followed by its backward step.
+  template <class Prepare>
+  Factorization sweepSerially(Prepare prepare);
   Factorization early_factorization = Factorization::Ok;
   bool correctInertia(bool factored, bool& shifted);
 
