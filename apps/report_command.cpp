@@ -396,7 +396,7 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
       std::vector<std::vector<std::string>> rows;
       const auto row = [&](const char* what, double cv, double bv, double need) {
         const double change = relativeChange(cv, bv);
-        const bool ok = std::isfinite(change) && change <= need;
+        const bool ok = meetsMargin(change, need);
         acceptance_met = acceptance_met && ok;
         rows.push_back(
             {what, percent(change), "at most " + percent(need), ok ? "met" : "**not met**"});
@@ -544,7 +544,7 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
         std::vector<std::vector<std::string>> paired_rows;
         const auto row = [&](const char* what, double cv, double bv, double need, int digits) {
           const double change = relativeChange(cv, bv);
-          const bool ok = std::isfinite(change) && change <= need;
+          const bool ok = meetsMargin(change, need);
           paired_rows.push_back({what, fixed(cv, digits), fixed(bv, digits), percent(change),
                                  "at most " + percent(need), ok ? "met" : "not met"});
         };

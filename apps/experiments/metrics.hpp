@@ -11,6 +11,7 @@
 //          in contact and up (the touch-down that brings it back to the floor).
 // Means over the window: |v_z| and |w_y| in the base (local) frame, averaged over the log
 // rows inside [start, end] (rows are evenly spaced).
+#include <cmath>
 #include <optional>
 #include <string>
 #include <vector>
@@ -79,5 +80,10 @@ RunAssessment assessRun(const LogTable& log, const std::vector<JointLimit>& limi
 
 /// Relative change (candidate - baseline) / baseline; NaN when baseline is 0.
 double relativeChange(double candidate, double baseline);
+/// Whether a relative change meets a margin: finite and at most `margin` (margins are
+/// negative: -0.2 asks for at least 20 % less).
+inline bool meetsMargin(double change, double margin) {
+  return std::isfinite(change) && change <= margin;
+}
 
 }  // namespace rollstep::experiments
