@@ -19,10 +19,6 @@ std::string format(const char* fmt, ...) __attribute__((format(printf, 1, 2)));
 /// A file or directory name option: not empty.
 extern const CLI::Validator kNotEmpty;
 
-/// Foothold regions are shrunk by the contact offset (the wheel radius: the regions bound
-/// the wheel centre) plus this clearance [m], so that wheels keep off the block edges
-/// (`rollstep plan` and `rollstep sim --controller nmpc`).
-inline constexpr double kEdgeClearance = 0.01;
 /// The Tachyon 3 OCP description: $ROLLSTEP_ROBOTS_DIR/tachyon3/centroidal.yaml if that
 /// environment variable is set, else the source tree's robots/ folder.
 std::string defaultRobotDescription();

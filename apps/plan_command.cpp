@@ -141,9 +141,10 @@ int runPlan(const PlanOptions& o, bool scene_given) {
   }
   settings.horizon = static_cast<int>(steps);
   settings.solver.mode = solver::SolverMode::Converging;
-  centroidal::CentroidalOcp ocp(robot, settings,
-                                sim::terrainFromScene(scene, robot.contact_offset + kEdgeClearance),
-                                centroidal::gaitKindFromString(o.gait));
+  centroidal::CentroidalOcp ocp(
+      robot, settings,
+      sim::terrainFromScene(scene, robot.contact_offset + settings.foothold_edge_clearance),
+      centroidal::gaitKindFromString(o.gait));
   lie::SE3 start = lie::SE3::Identity();
   start.translation.x() = o.start_x;
   ocp.reset(0.0, start, planning::BaseVelocityCommand{o.vx, o.vy, o.yaw_rate});

@@ -81,6 +81,7 @@ TEST(OcpSettings, ErrorsNameTheSourceLineAndKey) {
        "momentum_weight: -1 is outside [0, 1000000000000]"},
       {"soft_state_constraints: yes\n", "expected true or false, got 'yes'"},
       {"trot_duty: 1\n", "trot_duty: 1 is outside (0, 1)"},
+      {"foothold_edge_clearance: 2\n", "foothold_edge_clearance: 2 is outside [0, 1]"},
       {"force_weight:\n", "force_weight: no value"},
       {"solver: 3\n", "solver: expected a mapping of solver settings"},
       {"solver:\n  num_threads: 0\n", "'num_threads': 0 is outside"},

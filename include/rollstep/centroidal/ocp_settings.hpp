@@ -117,6 +117,11 @@ struct OcpSettings {
   /// gap_reach); 0: onto the nearest region, which at a step edge is the one the foot is
   /// leaving, so it stops at that region's edge until a later swing. In [0, 10].
   double foothold_gap_reach = 0.0;
+  /// [m] The foothold regions are the terrain's surfaces shrunk by the robot's contact
+  /// offset (the wheel radius: the regions bound the wheel centres) plus this clearance, so
+  /// that a wheel keeps off the edges and risers; used where the regions are made from a
+  /// terrain (`rollstep plan`, `rollstep sim --controller nmpc`). In [0, 1].
+  double foothold_edge_clearance = 0.01;
   double gait_period = 0.8;  ///< [s] one gait cycle (> 0)
   double trot_duty = 0.6;    ///< stance share of a trot cycle, in (0, 1)
   double walk_duty = 0.85;   ///< stance share of a static-walk cycle, in (0, 1)
