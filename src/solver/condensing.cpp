@@ -333,6 +333,8 @@ bool Solver::Impl::correctInertia(bool factored, bool& shifted) {
     return true;
   }
   shifted = true;
+  // The shift is added to the nodes' own Hessians, which the fused pass left stale.
+  if (std::exchange(derivatives_shared, false)) forNodes([this](int k) { linearizeNode(k); });
   double delta = last_delta > 0.0 ? std::max(1e-8, last_delta / 3.0) : 1e-4;
   delta = std::max(delta, 2.0 * prox);
   factored = false;

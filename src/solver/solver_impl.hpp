@@ -182,6 +182,23 @@ struct Solver::Impl {
   // right after (linearizeAndFactor); the next condenseAndFactor returns its result.
   bool condense_in_linearize = false;
   bool condensed_early = false;
+  // The fused pass evaluates each node's cost Hessian, dynamics and equality Jacobians
+  // into one shared set (swapped in for the evaluation, O(1)), which stays in cache:
+  // they are read only while the node is linearised and condensed, and the nodes' own
+  // blocks would be 40 kB of cold stores per node. The nodes' own blocks then hold stale
+  // values (derivatives_shared): the inertia correction, which condenses again from
+  // them, linearises the nodes again first (the same arithmetic, the same values).
+  MatrixXd shared_Lxx, shared_Luu, shared_Lux, shared_Fx, shared_Fu, shared_Ex, shared_Eu;
+  bool derivatives_shared = false;
+  void swapSharedDerivatives(NodeData& d) {
+    d.Lxx.swap(shared_Lxx);
+    d.Luu.swap(shared_Luu);
+    d.Lux.swap(shared_Lux);
+    d.Fx.swap(shared_Fx);
+    d.Fu.swap(shared_Fu);
+    d.Ex.swap(shared_Ex);
+    d.Eu.swap(shared_Eu);
+  }
   /// Settings whose solve() adds the constraint curvature (converging mode, exact_hessian,
   /// a problem with curvature): they need the curvature workspace.
   bool needsCurvature(const SolverSettings& s) const {

@@ -121,6 +121,16 @@ Solver::Impl::Impl(std::shared_ptr<ocp::OptimalControlProblem> p, SolverSettings
     n.WGu = MatrixXd::Zero(ni_max, nu);  // with one thread only node 0's is used
     n.WGx = MatrixXd::Zero(ni_max, ndx);
   }
+  if (pool.size() == 1) {  // linearizeAndFactor's shared derivatives (same shapes)
+    const NodeData& d = *node(0).d;
+    shared_Lxx = d.Lxx;
+    shared_Luu = d.Luu;
+    shared_Lux = d.Lux;
+    shared_Fx = d.Fx;
+    shared_Fu = d.Fu;
+    shared_Ex = d.Ex;
+    shared_Eu = d.Eu;
+  }
   xs.assign(static_cast<std::size_t>(N) + 1, VectorXd::Zero(nx));
   for (auto& x : xs) prob->stateSpace().neutral(x);
   us.assign(static_cast<std::size_t>(N), VectorXd::Zero(nu));
