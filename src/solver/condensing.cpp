@@ -49,12 +49,16 @@ void Solver::Impl::condenseRows(int k) {
   const RiccatiSolver::StageHessian h = lq.hessian(k);
   const bool running = k < N;
   // The Riccati solver reads the lower triangles of Q and R only; whole copies are
-  // contiguous (one pass, vectorised) where a triangle is a loop per column.
-  h.Q = d.Lxx;
+  // contiguous (one pass, vectorised) where a triangle is a loop per column. The fused
+  // pass evaluated the cost Hessian into Q, R, S already (linearizeNode).
+  const bool in_place = condense_in_linearize;
+  if (!in_place) h.Q = d.Lxx;
   st.q = d.lx;
   if (running) {
-    h.R = d.Luu;
-    h.S = d.Lux;
+    if (!in_place) {
+      h.R = d.Luu;
+      h.S = d.Lux;
+    }
     st.r = d.lu;
     st.ne = d.ne;
     if (d.ne > 0) {

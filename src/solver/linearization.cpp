@@ -67,7 +67,10 @@ void Solver::Impl::linearizeNode(int k) {
   NodeData& d = *n.d;
   const VectorXd& x = xs[static_cast<std::size_t>(k)];
   const VectorXd& u = uOf(k);
-  if (condense_in_linearize) swapSharedDerivatives(d);
+  if (condense_in_linearize) {
+    swapSharedHessian(d);
+    swapSharedJacobians(d);
+  }
   prob->linearize(k, x, u, d);
   n.mode_prev = d.context.mode;
   LqStage& st = lq.stage(k);
@@ -101,8 +104,9 @@ void Solver::Impl::linearizeNode(int k) {
   n.delta = 0.0;
   if (use_curvature && n.finite) addCurvature(k, n);
   if (condense_in_linearize) {
+    swapSharedHessian(d);  // the stage's Q, R, S hold the cost Hessian: condensed in place
     condenseRows(k);
-    swapSharedDerivatives(d);
+    swapSharedJacobians(d);
   }
 }
 

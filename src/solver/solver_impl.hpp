@@ -182,18 +182,23 @@ struct Solver::Impl {
   // right after (linearizeAndFactor); the next condenseAndFactor returns its result.
   bool condense_in_linearize = false;
   bool condensed_early = false;
-  // The fused pass evaluates each node's cost Hessian, dynamics and equality Jacobians
-  // into one shared set (swapped in for the evaluation, O(1)), which stays in cache:
-  // they are read only while the node is linearised and condensed, and the nodes' own
-  // blocks would be 40 kB of cold stores per node. The nodes' own blocks then hold stale
-  // values (derivatives_shared): the inertia correction, which condenses again from
-  // them, linearises the nodes again first (the same arithmetic, the same values).
-  MatrixXd shared_Lxx, shared_Luu, shared_Lux, shared_Fx, shared_Fu, shared_Ex, shared_Eu;
+  // The fused pass evaluates each node's cost Hessian straight into the stages' shared
+  // Q, R, S (RiccatiSolver::shareStageHessians: the condensing adds its rows there), and
+  // its dynamics and equality Jacobians into one shared set, all swapped in for the
+  // evaluation (O(1)) and in cache: they are read only while the node is linearised and
+  // condensed, and the nodes' own blocks would be 40 kB of cold stores per node. The
+  // nodes' own blocks then hold stale values (derivatives_shared): the inertia
+  // correction, which condenses again from them, linearises the nodes again first (the
+  // same arithmetic, the same values).
+  MatrixXd shared_Fx, shared_Fu, shared_Ex, shared_Eu;
   bool derivatives_shared = false;
-  void swapSharedDerivatives(NodeData& d) {
-    d.Lxx.swap(shared_Lxx);
-    d.Luu.swap(shared_Luu);
-    d.Lux.swap(shared_Lux);
+  void swapSharedHessian(NodeData& d) {
+    const RiccatiSolver::StageHessian h = lq.hessian(0);  // the shared set
+    d.Lxx.swap(h.Q);
+    d.Luu.swap(h.R);
+    d.Lux.swap(h.S);
+  }
+  void swapSharedJacobians(NodeData& d) {
     d.Fx.swap(shared_Fx);
     d.Fu.swap(shared_Fu);
     d.Ex.swap(shared_Ex);

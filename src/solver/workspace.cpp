@@ -123,9 +123,6 @@ Solver::Impl::Impl(std::shared_ptr<ocp::OptimalControlProblem> p, SolverSettings
   }
   if (pool.size() == 1) {  // linearizeAndFactor's shared derivatives (same shapes)
     const NodeData& d = *node(0).d;
-    shared_Lxx = d.Lxx;
-    shared_Luu = d.Luu;
-    shared_Lux = d.Lux;
     shared_Fx = d.Fx;
     shared_Fu = d.Fu;
     shared_Ex = d.Ex;
