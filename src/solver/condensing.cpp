@@ -27,7 +27,63 @@ void rowAbsSums(const double* G, Eigen::Index ld, int m, Eigen::Index n, double*
   }
 }
 
+/// The columns [first, first + count) of rows [i, i + r) of G between their first and
+/// last non-zero column: the terms' rows are sparse (a torque row acts on the base
+/// rotation, the leg joints and the contact forces, not on the momentum or the joint
+/// velocities; a friction row on the contact forces only).
+std::pair<int, int> columnSpan(const MatrixXd& G, int i, int r) {
+  const auto zero = [&](int c) {
+    // The sum of |entries| down the contiguous segment, without a branch per entry
+    // (vectorised); zero only if every entry is (NaN stays NaN).
+    const double* g = G.data() + i + c * G.outerStride();
+    double a = 0.0;
+    for (int j = 0; j < r; ++j) a += std::abs(g[j]);
+    return a == 0.0;
+  };
+  int c0 = 0, c1 = static_cast<int>(G.cols());
+  while (c0 < c1 && zero(c0)) ++c0;
+  while (c1 > c0 && zero(c1 - 1)) --c1;
+  return {c0, c1 - c0};
+}
+
 }  // namespace
+
+void Solver::Impl::recoveryBlocks(int k, Node& n) {
+  const NodeData& d = *n.d;
+  const int m = d.ni;
+  n.gblocks_x = n.gblocks_u = 0;
+  if (m == 0) return;
+  // Rows with an x part: those whose Gx row is not zero (the mirrored rows of a two-sided
+  // limit too); with a u part: the rows that are not state-only (Gu is zero on those).
+  rowAbsSums(d.Gx.data(), d.Gx.outerStride(), m, d.Gx.cols(), n.tmp.data());
+  const auto blocks = [&](const MatrixXd& G, const auto& on, int* out) {
+    int count = 0;
+    for (int i = 0; i < m;) {
+      if (!on(i)) {
+        ++i;
+        continue;
+      }
+      int j = i + 1;
+      while (j < m && on(j)) ++j;
+      const auto [a, s] = columnSpan(G, i, j - i);
+      if (s > 0) {
+        int* b = out + 4 * count++;
+        b[0] = i;
+        b[1] = j - i;
+        b[2] = a;
+        b[3] = s;
+      }
+      i = j;
+    }
+    return count;
+  };
+  n.gblocks_x = blocks(
+      d.Gx, [&n](int i) { return !(n.tmp(i) == 0.0); }, n.gblocks.data());
+  if (k < N) {
+    n.gblocks_u = blocks(
+        d.Gu, [&d](int i) { return !d.state_only(i); }, n.gblocks.data() + 4 * ni_max);
+  }
+}
 
 void Solver::Impl::condenseNode(int k) {
   condenseRows(k);
@@ -122,23 +178,8 @@ void Solver::Impl::condenseRows(int k) {
       }
     };
     // Within a run, only the columns between the first and the last non-zero column of
-    // its rows take part: the terms' rows are sparse (a torque row acts on the base
-    // rotation, the leg joints and the contact forces, not on the momentum or the joint
-    // velocities; a friction row on the contact forces only).
-    const auto span = [](const MatrixXd& G, int i, int r) {
-      const auto zero = [&](int c) {
-        // The sum of |entries| down the contiguous segment, without a branch per entry
-        // (vectorised); zero only if every entry is (NaN stays NaN).
-        const double* g = G.data() + i + c * G.outerStride();
-        double a = 0.0;
-        for (int j = 0; j < r; ++j) a += std::abs(g[j]);
-        return a == 0.0;
-      };
-      int c0 = 0, c1 = static_cast<int>(G.cols());
-      while (c0 < c1 && zero(c0)) ++c0;
-      while (c1 > c0 && zero(c1 - 1)) --c1;
-      return std::pair<int, int>(c0, c1 - c0);
-    };
+    // its rows take part (columnSpan).
+    const auto span = columnSpan;
     // The weighted rows, transposed (W_k G(k, :)^T as column k, in the memory of n.WGx and
     // n.WGu), are the left operands of the products: the kernels read them down contiguous
     // columns and the unweighted rows entry by entry.

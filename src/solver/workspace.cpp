@@ -114,6 +114,7 @@ Solver::Impl::Impl(std::shared_ptr<ocp::OptimalControlProblem> p, SolverSettings
     n.gamc = VectorXd::Zero(ni_max);
     n.gam = VectorXd::Zero(ni_max);
     n.soft_dual = VectorXd::Zero(nrows);
+    n.gblocks = Eigen::VectorXi::Zero(8 * std::max(ni_max, 1));
   }
   // The condensing scratch in a second pass: allocated between the nodes, it would spread
   // the memory that every iteration touches (35 KB per node) over more pages (TLB misses).
