@@ -48,43 +48,6 @@ std::pair<int, int> columnSpan(const MatrixXd& G, int i, int r) {
 
 }  // namespace
 
-void Solver::Impl::recoveryBlocks(int k, Node& n) {
-  const NodeData& d = *n.d;
-  const int m = d.ni;
-  n.gblocks_x = n.gblocks_u = 0;
-  if (m == 0) return;
-  // Rows with an x part: those whose Gx row is not zero (the mirrored rows of a two-sided
-  // limit too); with a u part: the rows that are not state-only (Gu is zero on those).
-  rowAbsSums(d.Gx.data(), d.Gx.outerStride(), m, d.Gx.cols(), n.tmp.data());
-  const auto blocks = [&](const MatrixXd& G, const auto& on, int* out) {
-    int count = 0;
-    for (int i = 0; i < m;) {
-      if (!on(i)) {
-        ++i;
-        continue;
-      }
-      int j = i + 1;
-      while (j < m && on(j)) ++j;
-      const auto [a, s] = columnSpan(G, i, j - i);
-      if (s > 0) {
-        int* b = out + 4 * count++;
-        b[0] = i;
-        b[1] = j - i;
-        b[2] = a;
-        b[3] = s;
-      }
-      i = j;
-    }
-    return count;
-  };
-  n.gblocks_x = blocks(
-      d.Gx, [&n](int i) { return !(n.tmp(i) == 0.0); }, n.gblocks.data());
-  if (k < N) {
-    n.gblocks_u = blocks(
-        d.Gu, [&d](int i) { return !d.state_only(i); }, n.gblocks.data() + 4 * ni_max);
-  }
-}
-
 void Solver::Impl::condenseNode(int k) {
   condenseRows(k);
   projectNode(k);
@@ -143,6 +106,7 @@ void Solver::Impl::condenseRows(int k) {
       n.soft_dual(i) = -d.soft_weight(i) * d1;
     }
   }
+  n.gblocks_x = n.gblocks_u = 0;
   if (d.ni > 0) {
     const int m = d.ni;
     // A row whose Gx (Gu) is zero adds nothing to Q (R, S): the products run over the
@@ -202,8 +166,34 @@ void Solver::Impl::condenseRows(int k) {
         for (int c = a; c < a + s; ++c) t[c] = w * G[row + c * ldg];
       }
     };
+    // The same blocks, with the second rows of the mirrored pairs (Jacobian -g: the same
+    // columns), are the non-zero blocks of Gx and Gu that recoverNode reads.
+    const auto record = [&d, &n](int* out, int& count, int i, int r, int a, int s) {
+      if (s == 0) return;
+      const auto add = [&](int row, int rows) {
+        int* b = out + 4 * count++;
+        b[0] = row;
+        b[1] = rows;
+        b[2] = a;
+        b[3] = s;
+      };
+      add(i, r);
+      for (int q = i; q < i + r;) {
+        if (d.mirror(q) <= q) {
+          ++q;
+          continue;
+        }
+        int e = q + 1;
+        while (e < i + r && d.mirror(e) > e && d.mirror(e) == d.mirror(e - 1) + 1) ++e;
+        add(d.mirror(q), e - q);
+        q = e;
+      }
+    };
+    int* blocks_x = n.gblocks.data();
+    int* blocks_u = n.gblocks.data() + 4 * ni_max;
     runs(1, [&](int i, int r) {
       const auto [a, s] = span(d.Gx, i, r);
+      record(blocks_x, n.gblocks_x, i, r, a, s);
       weighted(Tx, ldtx, Gx, ldx, i, r, a, s);
       kernels::gemmtLowerAccumulate(s, r, Tx + a + i * ldtx, ldtx, Gx + i + a * ldx, 1, ldx,
                                     h.Q.data() + a + a * h.Q.outerStride(), h.Q.outerStride());
@@ -211,6 +201,7 @@ void Solver::Impl::condenseRows(int k) {
     st.q.noalias() += d.Gx.topRows(m).transpose() * n.gam.head(m);
     runs(2, [&](int i, int r) {
       const auto [a, s] = span(d.Gu, i, r);
+      record(blocks_u, n.gblocks_u, i, r, a, s);
       weighted(Tu, ldtu, Gu, ldu, i, r, a, s);
       kernels::gemmtLowerAccumulate(s, r, Tu + a + i * ldtu, ldtu, Gu + i + a * ldu, 1, ldu,
                                     h.R.data() + a + a * h.R.outerStride(), h.R.outerStride());

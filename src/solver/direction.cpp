@@ -235,7 +235,7 @@ void Solver::Impl::recoverNode(int k) {
   const VectorXd& du = running ? lq.du(k) : zero_u;
   double dphi = d.lx.dot(dx) + (running ? d.lu.dot(du) : 0.0);
   if (d.ni > 0) {
-    // t = Gx dx + Gu du over the non-zero blocks only (recoveryBlocks): the rest of Gx and
+    // t = Gx dx + Gu du over the non-zero blocks only (condenseRows): the rest of Gx and
     // Gu, mostly zero, is not read (cold memory). Each row is summed as Eigen's product
     // sums it (over the columns in order, from zero, Gx then Gu): the zero terms left out
     // add exactly zero, so the result is the same.

@@ -100,7 +100,6 @@ void Solver::Impl::linearizeNode(int k) {
   n.ni_prev = d.ni;
   n.fresh = false;
   residuals(k, n);
-  recoveryBlocks(k, n);
   n.h2_added = false;
   n.delta = 0.0;
   if (use_curvature && n.finite) addCurvature(k, n);

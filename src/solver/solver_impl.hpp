@@ -94,8 +94,8 @@ struct Solver::Impl {
     // W and gam with each mirrored pair merged on its first row: W_i + W_j, gam_i - gam_j.
     VectorXd Wc, gamc;
     VectorXd soft_dual;  // -weight beta'(c) of soft rows (reporting)
-    // The non-zero blocks of Gx and Gu (recoveryBlocks): per block its first row, rows,
-    // first column and columns; Gx's blocks from 0, Gu's from 4 ni_max.
+    // The non-zero blocks of Gx and Gu (found by condenseRows, read by recoverNode): per
+    // block its first row, rows, first column and columns; Gx's from 0, Gu's from 4 ni_max.
     Eigen::VectorXi gblocks;
     int gblocks_x = 0, gblocks_u = 0;
     // Constraint curvature (converging mode with exact_hessian): central differences of the
@@ -330,10 +330,6 @@ struct Solver::Impl {
   /// The barrier rows and the node's cost Hessian and gradient into its LQ stage.
   void condenseRows(int k);
   void projectNode(int k);
-  /// The blocks of node k's Gx and Gu outside which they are zero (contiguous rows with
-  /// an x (u) part, and the columns between their first and last non-zero ones), for
-  /// recoverNode; after every evaluation of the node's derivatives.
-  void recoveryBlocks(int k, Node& n);
   void condenseGradient(int k);
   Factorization condenseAndFactor();
   /// One thread, real time: linearizeNode(k), projection and backward Riccati step of each
