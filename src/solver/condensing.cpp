@@ -27,6 +27,25 @@ void rowAbsSums(const double* G, Eigen::Index ld, int m, Eigen::Index n, double*
   }
 }
 
+/// The columns [first, first + count) of rows [i, i + r) of G between their first and
+/// last non-zero column: the terms' rows are sparse (a torque row acts on the base
+/// rotation, the leg joints and the contact forces, not on the momentum or the joint
+/// velocities; a friction row on the contact forces only).
+std::pair<int, int> columnSpan(const MatrixXd& G, int i, int r) {
+  const auto zero = [&](int c) {
+    // The sum of |entries| down the contiguous segment, without a branch per entry
+    // (vectorised); zero only if every entry is (NaN stays NaN).
+    const double* g = G.data() + i + c * G.outerStride();
+    double a = 0.0;
+    for (int j = 0; j < r; ++j) a += std::abs(g[j]);
+    return a == 0.0;
+  };
+  int c0 = 0, c1 = static_cast<int>(G.cols());
+  while (c0 < c1 && zero(c0)) ++c0;
+  while (c1 > c0 && zero(c1 - 1)) --c1;
+  return {c0, c1 - c0};
+}
+
 }  // namespace
 
 void Solver::Impl::condenseNode(int k) {
@@ -49,12 +68,16 @@ void Solver::Impl::condenseRows(int k) {
   const RiccatiSolver::StageHessian h = lq.hessian(k);
   const bool running = k < N;
   // The Riccati solver reads the lower triangles of Q and R only; whole copies are
-  // contiguous (one pass, vectorised) where a triangle is a loop per column.
-  h.Q = d.Lxx;
+  // contiguous (one pass, vectorised) where a triangle is a loop per column. The fused
+  // pass evaluated the cost Hessian into Q, R, S already (linearizeNode).
+  const bool in_place = condense_in_linearize;
+  if (!in_place) h.Q = d.Lxx;
   st.q = d.lx;
   if (running) {
-    h.R = d.Luu;
-    h.S = d.Lux;
+    if (!in_place) {
+      h.R = d.Luu;
+      h.S = d.Lux;
+    }
     st.r = d.lu;
     st.ne = d.ne;
     if (d.ne > 0) {
@@ -83,6 +106,7 @@ void Solver::Impl::condenseRows(int k) {
       n.soft_dual(i) = -d.soft_weight(i) * d1;
     }
   }
+  n.gblocks_x = n.gblocks_u = 0;
   if (d.ni > 0) {
     const int m = d.ni;
     // A row whose Gx (Gu) is zero adds nothing to Q (R, S): the products run over the
@@ -118,23 +142,8 @@ void Solver::Impl::condenseRows(int k) {
       }
     };
     // Within a run, only the columns between the first and the last non-zero column of
-    // its rows take part: the terms' rows are sparse (a torque row acts on the base
-    // rotation, the leg joints and the contact forces, not on the momentum or the joint
-    // velocities; a friction row on the contact forces only).
-    const auto span = [](const MatrixXd& G, int i, int r) {
-      const auto zero = [&](int c) {
-        // The sum of |entries| down the contiguous segment, without a branch per entry
-        // (vectorised); zero only if every entry is (NaN stays NaN).
-        const double* g = G.data() + i + c * G.outerStride();
-        double a = 0.0;
-        for (int j = 0; j < r; ++j) a += std::abs(g[j]);
-        return a == 0.0;
-      };
-      int c0 = 0, c1 = static_cast<int>(G.cols());
-      while (c0 < c1 && zero(c0)) ++c0;
-      while (c1 > c0 && zero(c1 - 1)) --c1;
-      return std::pair<int, int>(c0, c1 - c0);
-    };
+    // its rows take part (columnSpan).
+    const auto span = columnSpan;
     // The weighted rows, transposed (W_k G(k, :)^T as column k, in the memory of n.WGx and
     // n.WGu), are the left operands of the products: the kernels read them down contiguous
     // columns and the unweighted rows entry by entry.
@@ -157,8 +166,34 @@ void Solver::Impl::condenseRows(int k) {
         for (int c = a; c < a + s; ++c) t[c] = w * G[row + c * ldg];
       }
     };
+    // The same blocks, with the second rows of the mirrored pairs (Jacobian -g: the same
+    // columns), are the non-zero blocks of Gx and Gu that recoverNode reads.
+    const auto record = [&d, &n](int* out, int& count, int i, int r, int a, int s) {
+      if (s == 0) return;
+      const auto add = [&](int row, int rows) {
+        int* b = out + 4 * count++;
+        b[0] = row;
+        b[1] = rows;
+        b[2] = a;
+        b[3] = s;
+      };
+      add(i, r);
+      for (int q = i; q < i + r;) {
+        if (d.mirror(q) <= q) {
+          ++q;
+          continue;
+        }
+        int e = q + 1;
+        while (e < i + r && d.mirror(e) > e && d.mirror(e) == d.mirror(e - 1) + 1) ++e;
+        add(d.mirror(q), e - q);
+        q = e;
+      }
+    };
+    int* blocks_x = n.gblocks.data();
+    int* blocks_u = n.gblocks.data() + 4 * ni_max;
     runs(1, [&](int i, int r) {
       const auto [a, s] = span(d.Gx, i, r);
+      record(blocks_x, n.gblocks_x, i, r, a, s);
       weighted(Tx, ldtx, Gx, ldx, i, r, a, s);
       kernels::gemmtLowerAccumulate(s, r, Tx + a + i * ldtx, ldtx, Gx + i + a * ldx, 1, ldx,
                                     h.Q.data() + a + a * h.Q.outerStride(), h.Q.outerStride());
@@ -166,6 +201,7 @@ void Solver::Impl::condenseRows(int k) {
     st.q.noalias() += d.Gx.topRows(m).transpose() * n.gam.head(m);
     runs(2, [&](int i, int r) {
       const auto [a, s] = span(d.Gu, i, r);
+      record(blocks_u, n.gblocks_u, i, r, a, s);
       weighted(Tu, ldtu, Gu, ldu, i, r, a, s);
       kernels::gemmtLowerAccumulate(s, r, Tu + a + i * ldtu, ldtu, Gu + i + a * ldu, 1, ldu,
                                     h.R.data() + a + a * h.R.outerStride(), h.R.outerStride());
@@ -333,6 +369,8 @@ bool Solver::Impl::correctInertia(bool factored, bool& shifted) {
     return true;
   }
   shifted = true;
+  // The shift is added to the nodes' own Hessians, which the fused pass left stale.
+  if (std::exchange(derivatives_shared, false)) forNodes([this](int k) { linearizeNode(k); });
   double delta = last_delta > 0.0 ? std::max(1e-8, last_delta / 3.0) : 1e-4;
   delta = std::max(delta, 2.0 * prox);
   factored = false;

@@ -1,6 +1,9 @@
 // How is the step found? The Newton direction of the barrier problem: condensing and the
 // backward sweep with inertia correction (condensing.cpp), then the forward sweep and, per
 // node, the slack and dual steps with their fraction-to-boundary step lengths.
+#include <algorithm>
+#include <cmath>
+
 #include "solver_impl.hpp"
 
 namespace rollstep::solver {
@@ -177,6 +180,52 @@ void Solver::Impl::forwardAndRecover() {
   pool.run(pool.size(), body);
 }
 
+namespace {
+
+/// t[i] += sum over the block's columns c of G(i, c) v(c) for its rows i (block: first row,
+/// rows, first column, columns), each row summed over the columns in order from zero and
+/// then added to t[i], as Eigen's column-major matrix-vector product of all the rows
+/// [0, fused_rows + 1) does: with multiply-adds (packets of rows), except for the last row of
+/// an odd count (rows >= fused_rows), which it sums with separate products and sums.
+void blockTimes(const double* G, Eigen::Index ld, const int* block, const double* v, double* t,
+                int fused_rows) {
+  namespace ei = Eigen::internal;
+  using Packet = ei::packet_traits<double>::type;
+  constexpr int P = ei::packet_traits<double>::size;
+  const int i0 = block[0], r = block[1], c0 = block[2], s = block[3];
+  const double* g = G + i0 + c0 * ld;
+  const double* x = v + c0;
+  double* out = t + i0;
+  const int rf = std::min(r, std::max(fused_rows - i0, 0));  // rows [0, rf) fused
+  int i = 0;
+  for (; i + P <= rf; i += P) {
+    Packet acc = ei::pset1<Packet>(0.0);
+    for (int c = 0; c < s; ++c) {
+      acc = ei::pmadd(ei::ploadu<Packet>(g + i + c * ld), ei::pset1<Packet>(x[c]), acc);
+    }
+    ei::pstoreu(out + i, ei::padd(ei::ploadu<Packet>(out + i), acc));
+  }
+  for (; i < rf; ++i) {
+    double acc = 0.0;
+#ifdef __FMA__
+    for (int c = 0; c < s; ++c) acc = std::fma(g[i + c * ld], x[c], acc);
+#else
+    for (int c = 0; c < s; ++c) acc = acc + g[i + c * ld] * x[c];
+#endif
+    out[i] += acc;
+  }
+  for (; i < r; ++i) {
+    double acc = 0.0;
+    for (int c = 0; c < s; ++c) {
+      const double p = g[i + c * ld] * x[c];
+      acc = acc + p;
+    }
+    out[i] += acc;
+  }
+}
+
+}  // namespace
+
 void Solver::Impl::recoverNode(int k) {
   Node& n = node(k);
   const NodeData& d = *n.d;
@@ -186,9 +235,21 @@ void Solver::Impl::recoverNode(int k) {
   const VectorXd& du = running ? lq.du(k) : zero_u;
   double dphi = d.lx.dot(dx) + (running ? d.lu.dot(du) : 0.0);
   if (d.ni > 0) {
-    auto t = n.tmp.head(d.ni);
-    t.noalias() = d.Gx.topRows(d.ni) * dx;
-    if (running) t.noalias() += d.Gu.topRows(d.ni) * du;
+    // t = Gx dx + Gu du over the non-zero blocks only (condenseRows): the rest of Gx and
+    // Gu, mostly zero, is not read (cold memory). Each row is summed as Eigen's product
+    // sums it (over the columns in order, from zero, Gx then Gu): the zero terms left out
+    // add exactly zero, so the result is the same.
+    double* t = n.tmp.data();
+    for (int i = 0; i < d.ni; ++i) t[i] = 0.0;
+    const int fused_rows = d.ni - d.ni % 2;
+    const int* bx = n.gblocks.data();
+    for (int b = 0; b < n.gblocks_x; ++b, bx += 4) {
+      blockTimes(d.Gx.data(), d.Gx.outerStride(), bx, dx.data(), t, fused_rows);
+    }
+    const int* bu = n.gblocks.data() + 4 * ni_max;
+    for (int b = 0; running && b < n.gblocks_u; ++b, bu += 4) {
+      blockTimes(d.Gu.data(), d.Gu.outerStride(), bu, du.data(), t, fused_rows);
+    }
   }
   const double tau = set.fraction_to_boundary;
   double ap = 1.0, ad = 1.0, zmax = 0.0;

@@ -33,6 +33,7 @@ Solver::Impl::Kkt Solver::Impl::linearize(bool realtime, IterationStats& it) {
     forNodes([this](int k) { linearizeNode(k); });
   }
   condensed_early = condense_in_linearize;
+  derivatives_shared = condense_in_linearize;
   condense_in_linearize = false;
   prob->stateSpace().difference(xs[0], x0, dx0);
   // Residuals (fixed order reduction).
@@ -66,6 +67,10 @@ void Solver::Impl::linearizeNode(int k) {
   NodeData& d = *n.d;
   const VectorXd& x = xs[static_cast<std::size_t>(k)];
   const VectorXd& u = uOf(k);
+  if (condense_in_linearize) {
+    swapSharedHessian(d);
+    swapSharedJacobians(d);
+  }
   prob->linearize(k, x, u, d);
   n.mode_prev = d.context.mode;
   LqStage& st = lq.stage(k);
@@ -98,7 +103,11 @@ void Solver::Impl::linearizeNode(int k) {
   n.h2_added = false;
   n.delta = 0.0;
   if (use_curvature && n.finite) addCurvature(k, n);
-  if (condense_in_linearize) condenseRows(k);
+  if (condense_in_linearize) {
+    swapSharedHessian(d);  // the stage's Q, R, S hold the cost Hessian: condensed in place
+    condenseRows(k);
+    swapSharedJacobians(d);
+  }
 }
 
 /// Sets kind and value c of every row of node k from d (general rows) and (x, u).

@@ -65,6 +65,7 @@ bool Solver::Impl::stepRejected(const Kkt& kkt, double theta0, double dphi, Cloc
 double Solver::Impl::feasibilityStep(double theta0) {
   use_curvature = false;
   condensed_early = false;  // the Hessian is replaced below: condense every node again
+  derivatives_shared = false;
   forNodes([this](int k) {
     linearizeNode(k);
     NodeData& d = *node(k).d;

@@ -94,6 +94,10 @@ struct Solver::Impl {
     // W and gam with each mirrored pair merged on its first row: W_i + W_j, gam_i - gam_j.
     VectorXd Wc, gamc;
     VectorXd soft_dual;  // -weight beta'(c) of soft rows (reporting)
+    // The non-zero blocks of Gx and Gu (found by condenseRows, read by recoverNode): per
+    // block its first row, rows, first column and columns; Gx's from 0, Gu's from 4 ni_max.
+    Eigen::VectorXi gblocks;
+    int gblocks_x = 0, gblocks_u = 0;
     // Constraint curvature (converging mode with exact_hessian): central differences of the
     // constraint part of the Lagrangian gradient, evaluated into dp. Allocated by
     // reserveCurvature() only for settings that use it (empty otherwise).
@@ -182,6 +186,28 @@ struct Solver::Impl {
   // right after (linearizeAndFactor); the next condenseAndFactor returns its result.
   bool condense_in_linearize = false;
   bool condensed_early = false;
+  // The fused pass evaluates each node's cost Hessian straight into the stages' shared
+  // Q, R, S (RiccatiSolver::shareStageHessians: the condensing adds its rows there), and
+  // its dynamics and equality Jacobians into one shared set, all swapped in for the
+  // evaluation (O(1)) and in cache: they are read only while the node is linearised and
+  // condensed, and the nodes' own blocks would be 40 kB of cold stores per node. The
+  // nodes' own blocks then hold stale values (derivatives_shared): the inertia
+  // correction, which condenses again from them, linearises the nodes again first (the
+  // same arithmetic, the same values).
+  MatrixXd shared_Fx, shared_Fu, shared_Ex, shared_Eu;
+  bool derivatives_shared = false;
+  void swapSharedHessian(NodeData& d) {
+    const RiccatiSolver::StageHessian h = lq.hessian(0);  // the shared set
+    d.Lxx.swap(h.Q);
+    d.Luu.swap(h.R);
+    d.Lux.swap(h.S);
+  }
+  void swapSharedJacobians(NodeData& d) {
+    d.Fx.swap(shared_Fx);
+    d.Fu.swap(shared_Fu);
+    d.Ex.swap(shared_Ex);
+    d.Eu.swap(shared_Eu);
+  }
   /// Settings whose solve() adds the constraint curvature (converging mode, exact_hessian,
   /// a problem with curvature): they need the curvature workspace.
   bool needsCurvature(const SolverSettings& s) const {

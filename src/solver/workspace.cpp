@@ -114,12 +114,20 @@ Solver::Impl::Impl(std::shared_ptr<ocp::OptimalControlProblem> p, SolverSettings
     n.gamc = VectorXd::Zero(ni_max);
     n.gam = VectorXd::Zero(ni_max);
     n.soft_dual = VectorXd::Zero(nrows);
+    n.gblocks = Eigen::VectorXi::Zero(8 * std::max(ni_max, 1));
   }
   // The condensing scratch in a second pass: allocated between the nodes, it would spread
   // the memory that every iteration touches (35 KB per node) over more pages (TLB misses).
   for (auto& n : nodes) {
     n.WGu = MatrixXd::Zero(ni_max, nu);  // with one thread only node 0's is used
     n.WGx = MatrixXd::Zero(ni_max, ndx);
+  }
+  if (pool.size() == 1) {  // linearizeAndFactor's shared derivatives (same shapes)
+    const NodeData& d = *node(0).d;
+    shared_Fx = d.Fx;
+    shared_Fu = d.Fu;
+    shared_Ex = d.Ex;
+    shared_Eu = d.Eu;
   }
   xs.assign(static_cast<std::size_t>(N) + 1, VectorXd::Zero(nx));
   for (auto& x : xs) prob->stateSpace().neutral(x);
