@@ -195,12 +195,22 @@ struct Solver::Impl {
   // correction, which condenses again from them, linearises the nodes again first (the
   // same arithmetic, the same values).
   MatrixXd shared_Fx, shared_Fu, shared_Ex, shared_Eu;
+  // Likewise the stage's A and B (written from Fx, Fu, read by the residuals and the
+  // projection right after; the Riccati solver keeps B's fixed-input columns, BF): one
+  // set swapped into the stage for its linearisation and projection (linearizeAndFactor).
+  // The stages' own then hold stale values, which only a linearisation overwrites.
+  MatrixXd shared_A, shared_B;
   bool derivatives_shared = false;
   void swapSharedHessian(NodeData& d) {
     const RiccatiSolver::StageHessian h = lq.hessian(0);  // the shared set
     d.Lxx.swap(h.Q);
     d.Luu.swap(h.R);
     d.Lux.swap(h.S);
+  }
+  void swapSharedStageJacobians(int k) {
+    LqStage& st = lq.stage(k);
+    st.A.swap(shared_A);
+    st.B.swap(shared_B);
   }
   void swapSharedJacobians(NodeData& d) {
     d.Fx.swap(shared_Fx);

@@ -128,6 +128,8 @@ Solver::Impl::Impl(std::shared_ptr<ocp::OptimalControlProblem> p, SolverSettings
     shared_Fu = d.Fu;
     shared_Ex = d.Ex;
     shared_Eu = d.Eu;
+    shared_A = lq.stage(0).A;
+    shared_B = lq.stage(0).B;
   }
   xs.assign(static_cast<std::size_t>(N) + 1, VectorXd::Zero(nx));
   for (auto& x : xs) prob->stateSpace().neutral(x);
