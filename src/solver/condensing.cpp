@@ -351,8 +351,11 @@ Solver::Impl::Factorization Solver::Impl::sweepResult(int rank_failed, bool pd) 
 /// one condenseAndFactor runs.
 Solver::Impl::Factorization Solver::Impl::linearizeAndFactor() {
   return sweepSerially([this](int k) {
+    // The stage's A, B, Ex, Eu: the shared set, for the linearisation and the projection.
+    if (k < N) swapSharedStageJacobians(k);
     linearizeNode(k);
     projectNode(k);
+    if (k < N) swapSharedStageJacobians(k);
   });
 }
 

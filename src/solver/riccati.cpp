@@ -52,6 +52,8 @@ RiccatiSolver::RiccatiSolver(int horizon, int nx, int nu, int ne_max)
     w.eeff = VectorXd::Zero(ne_max);
     w.RF = MatrixXd::Zero(nu, ne_max);
     w.SF = MatrixXd::Zero(nx, ne_max);
+    w.BF = MatrixXd::Zero(nx, ne_max);
+    w.EF = MatrixXd::Zero(ne_max, ne_max);
     w.V = MatrixXd::Zero(nz + 1, ne_max);
     w.W = MatrixXd::Zero(nz + 1, ne_max);
     w.HDD = MatrixXd::Zero(ne_max, ne_max);
@@ -145,7 +147,8 @@ bool RiccatiSolver::findFixedInputs(const LqStage& s, Work& w, double rank_toler
   return true;
 }
 
-void RiccatiSolver::keepFixedColumns(const MatrixXd& R, const MatrixXd& S, Work& w) const {
+void RiccatiSolver::keepFixedColumns(const MatrixXd& R, const MatrixXd& S, const LqStage& s,
+                                     Work& w) const {
   const int nf = w.nf, nu = nu_, nx = nx_;
   const int* pF = w.perm.data() + nu - nf;
   const double* Rp = R.data();
@@ -159,27 +162,28 @@ void RiccatiSolver::keepFixedColumns(const MatrixXd& R, const MatrixXd& S, Work&
     for (int j = 0; j < c; ++j) rf[j] = Rp[c + j * ldR];
     for (int j = c; j < nu; ++j) rf[j] = Rp[j + c * ldR];
     for (int a = 0; a < nx; ++a) sf[a] = Sp[c + a * ldS];
+    w.BF.col(f) = s.B.col(c);
+    w.EF.col(f).head(s.ne) = s.Eu.col(c).head(s.ne);
   }
 }
 
 void RiccatiSolver::substituteFixedInputs(const LqStage& s, Work& w) const {
   const int nf = w.nf, ng = s.ne - nf, nu = nu_, nx = nx_;
   if (nf == 0) return;
-  const int* pF = w.perm.data() + nu - nf;
   w.reff = s.r;
   w.qeff = s.q;
   w.beff = s.b;
   for (int i = 0; i < ng; ++i) w.eeff(i) = s.e(w.rows(i));
   for (int f = 0; f < nf; ++f) {
-    const int i = w.rows(ng + f), c = pF[f];
-    const double t = -s.e(i) / s.Eu(i, c);
+    const int i = w.rows(ng + f);
+    const double t = -s.e(i) / w.EF(i, f);
     w.tf(f) = t;
     const double* rf = w.RF.data() + f * w.RF.outerStride();
     const double* sf = w.SF.data() + f * w.SF.outerStride();
     for (int j = 0; j < nu; ++j) w.reff(j) += rf[j] * t;
     for (int a = 0; a < nx; ++a) w.qeff(a) += sf[a] * t;
-    w.beff.noalias() += s.B.col(c) * t;
-    for (int g = 0; g < ng; ++g) w.eeff(g) += s.Eu(w.rows(g), c) * t;
+    w.beff.noalias() += w.BF.col(f) * t;
+    for (int g = 0; g < ng; ++g) w.eeff(g) += w.EF(w.rows(g), f) * t;
   }
 }
 
@@ -202,7 +206,7 @@ bool RiccatiSolver::projectStage(int k, double rank_tolerance, double* pivot_rat
     if (pivot_ratio) *pivot_ratio = min_ratio;
     return false;
   }
-  keepFixedColumns(h.R, h.S, w);
+  keepFixedColumns(h.R, h.S, s, w);
   substituteFixedInputs(s, w);
   // The rows left for the LU (ng) and the inputs they act on (nv = ng + nw).
   const int nf = w.nf, ng = ne - nf, nv = nu - nf;
@@ -513,7 +517,8 @@ void RiccatiSolver::recoverStage(int k) {
   }
   // A fixing row's multiplier from the stationarity of its input c (the other fixing
   // rows do not act on c): Eu_ic nu_i = -(rho_c + sum over the LU's rows of Eu_gc nu_g).
-  // R's column and S's row of c are those projectStage kept (RF, SF).
+  // R's column, S's row, B's and Eu's columns of c are those projectStage kept (RF, SF,
+  // BF, EF).
   for (int f = 0; f < nf; ++f) {
     const int i = w.rows(ng + f), c = pF[f];
     const double* rf = w.RF.data() + f * w.RF.outerStride();
@@ -524,10 +529,10 @@ void RiccatiSolver::recoverStage(int k) {
       sdx = sf[0] * w.dx(0);
       for (int a = 1; a < nx; ++a) sdx += sf[a] * w.dx(a);
     }
-    double rho = s.r(c) + sdx + s.B.col(c).dot(lam_next);
+    double rho = s.r(c) + sdx + w.BF.col(f).dot(lam_next);
     for (int j = 0; j < nu; ++j) rho += rf[j] * w.du(j);
-    for (int g = 0; g < ng; ++g) rho += s.Eu(w.rows(g), c) * w.mult(w.rows(g));
-    w.mult(i) = -rho / s.Eu(i, c);
+    for (int g = 0; g < ng; ++g) rho += w.EF(w.rows(g), f) * w.mult(w.rows(g));
+    w.mult(i) = -rho / w.EF(i, f);
   }
 }
 

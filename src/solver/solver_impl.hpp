@@ -195,12 +195,25 @@ struct Solver::Impl {
   // correction, which condenses again from them, linearises the nodes again first (the
   // same arithmetic, the same values).
   MatrixXd shared_Fx, shared_Fu, shared_Ex, shared_Eu;
+  // Likewise the stage's A, B, Ex and Eu (written from Fx, Fu, Ex, Eu, read by the
+  // residuals and the projection right after; the Riccati solver keeps the fixed-input
+  // columns of B and Eu, BF and EF): one set swapped into the stage for its linearisation
+  // and projection (linearizeAndFactor). The stages' own then hold stale values, which
+  // only a linearisation (with its condensing) overwrites.
+  MatrixXd shared_A, shared_B, shared_stage_Ex, shared_stage_Eu;
   bool derivatives_shared = false;
   void swapSharedHessian(NodeData& d) {
     const RiccatiSolver::StageHessian h = lq.hessian(0);  // the shared set
     d.Lxx.swap(h.Q);
     d.Luu.swap(h.R);
     d.Lux.swap(h.S);
+  }
+  void swapSharedStageJacobians(int k) {
+    LqStage& st = lq.stage(k);
+    st.A.swap(shared_A);
+    st.B.swap(shared_B);
+    st.Ex.swap(shared_stage_Ex);
+    st.Eu.swap(shared_stage_Eu);
   }
   void swapSharedJacobians(NodeData& d) {
     d.Fx.swap(shared_Fx);

@@ -128,6 +128,10 @@ Solver::Impl::Impl(std::shared_ptr<ocp::OptimalControlProblem> p, SolverSettings
     shared_Fu = d.Fu;
     shared_Ex = d.Ex;
     shared_Eu = d.Eu;
+    shared_A = lq.stage(0).A;
+    shared_B = lq.stage(0).B;
+    shared_stage_Ex = lq.stage(0).Ex;
+    shared_stage_Eu = lq.stage(0).Eu;
   }
   xs.assign(static_cast<std::size_t>(N) + 1, VectorXd::Zero(nx));
   for (auto& x : xs) prob->stateSpace().neutral(x);

@@ -327,6 +327,12 @@ TEST(RiccatiProjection, SharedStageHessiansGiveTheSameSolution) {
       write(k);
       ASSERT_TRUE(ric.projectStage(k, 1e-12));
       ASSERT_TRUE(ric.backwardStage(k));
+      // Nothing after the projection reads the stage's A, B, Ex and Eu either (the Solver
+      // shares them with one thread): the fixed-input columns of B and Eu are kept.
+      ric.stage(k).A.setConstant(std::nan(""));
+      ric.stage(k).B.setConstant(std::nan(""));
+      ric.stage(k).Ex.setConstant(std::nan(""));
+      ric.stage(k).Eu.setConstant(std::nan(""));
     }
     ric.hessian(0).R.setConstant(std::nan(""));  // nothing after the sweep reads it
     ric.hessian(0).S.setConstant(std::nan(""));

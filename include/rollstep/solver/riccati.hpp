@@ -137,9 +137,11 @@ class RiccatiSolver {
     // The vectors with the fixed inputs substituted: r + R_F tf (nu), q + S_F^T tf,
     // b + B_F tf (nx), e + Eu_F tf (ne_max, rows in the LU).
     Eigen::VectorXd reff, qeff, beff, eeff;
-    // Column f: R's column (nu) and S's row (nx) of the input the f-th fixing row fixes,
-    // kept by projectStage for substituteFixedInputs and recoverStage.
-    Eigen::MatrixXd RF, SF;
+    // Column f: R's column (nu), S's row (nx), B's column (nx) and Eu's column (ne_max,
+    // rows 0 .. ne) of the input the f-th fixing row fixes, kept by projectStage for
+    // substituteFixedInputs and recoverStage (after projectStage(k), the stage's Q, R, S,
+    // A, B, Ex and Eu are not read again).
+    Eigen::MatrixXd RF, SF, BF, EF;
     Eigen::MatrixXd V;    // (nu + nx + 1) x ne_max: T^T, du_D = T [w; dx; 1]
     Eigen::MatrixXd W;    // (nu + nx + 1) x ne_max: (H_Dv + 0.5 H_DD T)^T
     Eigen::MatrixXd HDD;  // ne_max x ne_max
@@ -168,8 +170,9 @@ class RiccatiSolver {
   /// The fixed values w.tf and the substituted vectors w.reff, qeff, beff, eeff from the
   /// stage's current vectors (no-op without fixed inputs).
   void substituteFixedInputs(const LqStage& s, Work& w) const;
-  /// w.RF and w.SF from the stage's Hessian blocks R and S.
-  void keepFixedColumns(const Eigen::MatrixXd& R, const Eigen::MatrixXd& S, Work& w) const;
+  /// w.RF, w.SF, w.BF and w.EF from the stage's Hessian blocks R and S, its B and Eu.
+  void keepFixedColumns(const Eigen::MatrixXd& R, const Eigen::MatrixXd& S, const LqStage& s,
+                        Work& w) const;
 
   int N_, nx_, nu_, ne_max_;
   std::vector<LqStage> stages_;
