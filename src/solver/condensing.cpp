@@ -168,7 +168,7 @@ void Solver::Impl::condenseRows(int k) {
     };
     // The same blocks, with the second rows of the mirrored pairs (Jacobian -g: the same
     // columns), are the non-zero blocks of Gx and Gu that recoverNode reads.
-    const auto record = [&d, &n](int* out, int& count, int i, int r, int a, int s) {
+    const auto record = [&d](int* out, int& count, int i, int r, int a, int s) {
       if (s == 0) return;
       const auto add = [&](int row, int rows) {
         int* b = out + 4 * count++;
