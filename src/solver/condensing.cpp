@@ -143,7 +143,6 @@ void Solver::Impl::condenseRows(int k) {
     };
     // Within a run, only the columns between the first and the last non-zero column of
     // its rows take part (columnSpan).
-    const auto span = columnSpan;
     // The weighted rows, transposed (W_k G(k, :)^T as column k, in the memory of n.WGx and
     // n.WGu), are the left operands of the products: the kernels read them down contiguous
     // columns and the unweighted rows entry by entry.
@@ -192,7 +191,7 @@ void Solver::Impl::condenseRows(int k) {
     int* blocks_x = n.gblocks.data();
     int* blocks_u = n.gblocks.data() + 4 * ni_max;
     runs(1, [&](int i, int r) {
-      const auto [a, s] = span(d.Gx, i, r);
+      const auto [a, s] = columnSpan(d.Gx, i, r);
       record(blocks_x, n.gblocks_x, i, r, a, s);
       weighted(Tx, ldtx, Gx, ldx, i, r, a, s);
       kernels::gemmtLowerAccumulate(s, r, Tx + a + i * ldtx, ldtx, Gx + i + a * ldx, 1, ldx,
@@ -200,7 +199,7 @@ void Solver::Impl::condenseRows(int k) {
     });
     st.q.noalias() += d.Gx.topRows(m).transpose() * n.gam.head(m);
     runs(2, [&](int i, int r) {
-      const auto [a, s] = span(d.Gu, i, r);
+      const auto [a, s] = columnSpan(d.Gu, i, r);
       record(blocks_u, n.gblocks_u, i, r, a, s);
       weighted(Tu, ldtu, Gu, ldu, i, r, a, s);
       kernels::gemmtLowerAccumulate(s, r, Tu + a + i * ldtu, ldtu, Gu + i + a * ldu, 1, ldu,
@@ -210,8 +209,8 @@ void Solver::Impl::condenseRows(int k) {
     runs(3, [&](int i, int r) {
       // These rows are within a run of mask 2, whose weighted columns of Tu (a span that
       // holds this one) were written above.
-      const auto [a, s] = span(d.Gx, i, r);
-      const auto [b, t] = span(d.Gu, i, r);
+      const auto [a, s] = columnSpan(d.Gx, i, r);
+      const auto [b, t] = columnSpan(d.Gu, i, r);
       kernels::gemmAccumulate(t, s, r, Tu + b + i * ldtu, ldtu, Gx + i + a * ldx, 1, ldx,
                               h.S.data() + b + a * h.S.outerStride(), h.S.outerStride());
     });
