@@ -443,6 +443,10 @@ void runSim(const SimOptions& o, bool scene_given) {
                          static_cast<unsigned long long>(c.watchdog_trips),
                          static_cast<unsigned long long>(c.holding_ticks),
                          static_cast<unsigned long long>(c.stale_solutions));
+      if (c.late_touchdown_ticks > 0) {
+        mpc_text += format("  landing    %llu ticks with a late touch-down under way\n",
+                           static_cast<unsigned long long>(c.late_touchdown_ticks));
+      }
       if (const sim::EstimatorSource* e = nmpc_controller->estimator(); e != nullptr) {
         const estimation::EstimatorCounters& k = e->filter().counters();
         const GroundTruthErrors err = estimateErrors(*e, plant.groundTruth());

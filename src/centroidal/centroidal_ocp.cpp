@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #include "rollstep/centroidal/costs.hpp"
@@ -126,6 +127,9 @@ CentroidalOcp::CentroidalOcp(const RobotOcpDescription& description, const OcpSe
   pre_ = pre;
   scratch_ = std::make_unique<CentroidalCache>(*robot_);
   anchor_data_ = std::make_unique<model::Data>(robot_->model());
+  settled_stance_.assign(static_cast<std::size_t>(robot_->nc()),
+                         std::numeric_limits<double>::quiet_NaN());
+  landings_.assign(static_cast<std::size_t>(robot_->nc()), LandingPlan{});
 
   // --- nominal footholds and height, from the URDF at the nominal posture -------------------
   {
@@ -167,8 +171,9 @@ CentroidalOcp::CentroidalOcp(const RobotOcpDescription& description, const OcpSe
 
   // --- the problem -----------------------------------------------------------------------------
   auto dynamics = std::make_shared<ocp::ExplicitEuler>(std::make_shared<CentroidalDynamics>(pre_));
-  problem_ = std::make_shared<ocp::OptimalControlProblem>(dynamics, settings.horizon, settings.dt,
-                                                          scheduler_->requiredCapacity());
+  // The schedule's capacity: the gait's switches and one landing per foot (landLateFeet).
+  problem_ = std::make_shared<ocp::OptimalControlProblem>(
+      dynamics, settings.horizon, settings.dt, scheduler_->requiredCapacity() + robot_->nc());
   problem_->setPrecomputation(pre_);
 
   // Costs.
@@ -272,6 +277,9 @@ void CentroidalOcp::resetSchedule(double t0, const lie::SE3& start,
                                   const std::vector<planning::TimedBaseCommand>& schedule) {
   base_->resetSchedule(t0, start, schedule);
   feet_->clearAnchors();
+  std::fill(settled_stance_.begin(), settled_stance_.end(),
+            std::numeric_limits<double>::quiet_NaN());
+  for (LandingPlan& plan : landings_) plan.valid = false;
   advance(t0);
 }
 
@@ -320,6 +328,65 @@ void CentroidalOcp::anchorStanceFeet(const ocp::ModeSchedule& schedule, double t
     model::updateFramePlacement(model, *anchor_data_, f);
     feet_->anchorStance(i, start, anchor_data_->opf[static_cast<std::size_t>(f)].head<2>());
   }
+}
+
+int CentroidalOcp::landLateFeet(ocp::ModeSchedule& schedule, double t,
+                                const Eigen::VectorXd& x) noexcept {
+  const double tolerance = settings_.late_touchdown_tolerance;
+  if (tolerance <= 0.0) return 0;
+  const int nc = robot_->nc();
+  if (x.size() != robot_->nx() || !x.allFinite() || !std::isfinite(t) || schedule.modes().empty()) {
+    for (int i = 0; i < nc; ++i) feet_->clearLanding(i);
+    return 0;
+  }
+  const model::Model& model = robot_->model();
+  model::forwardKinematics(model, *anchor_data_, x.head(robot_->nq()));
+  int late = 0;
+  for (int i = 0; i < nc; ++i) {
+    const std::size_t fi = static_cast<std::size_t>(i);
+    const double start = planning::FootReferencePlanner::stanceStartAt(schedule, i, t);
+    // In swing, or a stance that began before the schedule (nothing to delay).
+    if (std::isnan(start) || !std::isfinite(start)) {
+      feet_->clearLanding(i);
+      continue;
+    }
+    if (std::abs(settled_stance_[fi] - start) <= 1e-6) {
+      feet_->clearLanding(i);
+      continue;
+    }
+    const planning::FootPhase swing = planning::footPhase(
+        schedule, i, std::nextafter(start, -std::numeric_limits<double>::infinity()));
+    const double duration = swing.bounded() ? start - swing.liftoff : 0.0;
+    const double surface = feet_->query(schedule, i, t).z_ref;  // the stance's, + offset
+    const model::FrameIndex f = robot_->frameIds()[fi];
+    model::updateFramePlacement(model, *anchor_data_, f);
+    const double z = anchor_data_->opf[static_cast<std::size_t>(f)].z();
+    if (z <= surface + tolerance || t >= start + settings_.late_touchdown_max_delay * duration) {
+      settled_stance_[fi] = start;  // landed, or too late: the stance goes on as scheduled
+      feet_->clearLanding(i);
+      continue;
+    }
+    // The descent planned at the first call that found this stance late stays (a reference
+    // re-planned from the measured height at every call would always start at rest); only
+    // a foot still up at its landing time gets a new one, from where it is.
+    LandingPlan& plan = landings_[fi];
+    if (!plan.valid || std::abs(plan.stance - start) > 1e-6 || t >= plan.landing) {
+      plan.valid = true;
+      plan.stance = start;
+      plan.from = t;
+      plan.z_from = z;
+      plan.landing =
+          t + std::max(2.0 * settings_.dt, (z - surface) / settings_.late_touchdown_speed);
+    }
+    if (!planning::delayTouchdown(schedule, i, start, plan.landing)) {
+      settled_stance_[fi] = start;  // no room in the stance: as scheduled
+      feet_->clearLanding(i);
+      continue;
+    }
+    feet_->setLanding(i, start, plan.from, plan.z_from, plan.landing, surface);
+    late |= 1 << i;
+  }
+  return late;
 }
 
 Eigen::VectorXd CentroidalOcp::standingState(double x, double y, double yaw) const {

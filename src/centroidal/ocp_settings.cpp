@@ -31,7 +31,7 @@ struct Field {
 };
 
 // The one table of keys (config/ocp.yaml documents each, in this order).
-const std::array<Field, 37> kFields{{
+const std::array<Field, 40> kFields{{
     {"horizon", &OcpSettings::horizon, 1, 10000, false, false},
     {"dt", &OcpSettings::dt, 0, 10, true, false},
     {"base_velocity_weight", &OcpSettings::base_velocity_weight, 0, 1e12, false, false},
@@ -66,6 +66,9 @@ const std::array<Field, 37> kFields{{
     {"foothold_edge_clearance", &OcpSettings::foothold_edge_clearance, 0, 1, false, false},
     {"anchor_stance_feet", &OcpSettings::anchor_stance_feet, 0, 0, false, false},
     {"latch_touchdowns", &OcpSettings::latch_touchdowns, 0, 0, false, false},
+    {"late_touchdown_tolerance", &OcpSettings::late_touchdown_tolerance, 0, 1, false, false},
+    {"late_touchdown_speed", &OcpSettings::late_touchdown_speed, 0, 100, true, false},
+    {"late_touchdown_max_delay", &OcpSettings::late_touchdown_max_delay, 0, 10, false, false},
     {"gait_period", &OcpSettings::gait_period, 0, 100, true, false},
     {"trot_duty", &OcpSettings::trot_duty, 0, 1, true, true},
     {"walk_duty", &OcpSettings::walk_duty, 0, 1, true, true},

@@ -152,6 +152,7 @@ struct MpcRunner::Impl {
     }
     ocp.advance(t);
     ocp.anchorStanceFeet(ocp.problem()->modeSchedule(), t, x);
+    ocp.landLateFeet(ocp.problem()->modeSchedule(), t, x);
     const solver::SolverStatus status = solver->update(t, x);
     if (observer) observer(t, *ocp.problem(), solver->states(), solver->inputs());
     return status;

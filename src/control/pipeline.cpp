@@ -34,7 +34,8 @@ ControlPipeline::ControlPipeline(const centroidal::RobotOcpDescription& robot,
   const centroidal::CentroidalRobot& r = rt_ocp_->robot();
   schedule_horizon_ = settings_.ocp.dt;
   scheduler_ = std::make_unique<planning::GaitScheduler>(rt_ocp_->gait(), schedule_horizon_);
-  schedule_ = ocp::ModeSchedule(scheduler_->requiredCapacity());
+  // The gait's switches and one landing per foot (CentroidalOcp::landLateFeet).
+  schedule_ = ocp::ModeSchedule(scheduler_->requiredCapacity() + r.nc());
   reference_ = std::make_unique<ReferenceTrajectory>(
       std::make_shared<const centroidal::CentroidalPrecomputation>(rt_ocp_->robotPtr()),
       settings_.refinement, settings_.ocp.horizon);
@@ -53,6 +54,8 @@ ControlPipeline::ControlPipeline(const centroidal::RobotOcpDescription& robot,
     if (r.contact(i).drive_wheel) drive_wheels_.push_back(i);
   }
   regions_.assign(static_cast<size_t>(r.nc()), FootRegionPlan{});
+  landing_z_ = Eigen::VectorXd::Zero(r.nc());
+  landing_z_dot_ = Eigen::VectorXd::Zero(r.nc());
   solution_ = runner_->makeSolution();
   sample_ = reference_->makeSample();
   targets_ = filter_->makeTargets();
@@ -228,14 +231,20 @@ void ControlPipeline::tick(const RobotState& state, JointCommand& command) noexc
 
   // Contact planner: the gait at t and each foot's regions.
   scheduler_->fill(t_plan, schedule_horizon_, schedule_);
-  record_.mode = schedule_.modeAt(t_plan);
   rt_ocp_->anchorStanceFeet(schedule_, t_plan, x_meas_);
+  // Late touch-downs: out of the mode (no contact consistency holding them in the air)
+  // until they land; the MPC's side delays the same stances in its plan.
+  record_.late_feet = holding_ ? 0 : rt_ocp_->landLateFeet(schedule_, t_plan, x_meas_);
+  if (record_.late_feet != 0) ++counters_.late_touchdown_ticks;
+  record_.mode = schedule_.modeAt(t_plan);
   for (int i = 0; i < r.nc(); ++i) {
     const planning::FootReference ref = rt_ocp_->footPlanner().query(schedule_, i, t_plan);
     FootRegionPlan& plan = regions_[static_cast<size_t>(i)];
     plan.region = ref.region;
     plan.swing_region = ref.swing_region;
     plan.swing_region_active = ref.swing_region_active;
+    landing_z_[i] = ref.z_ref;
+    landing_z_dot_[i] = ref.z_dot_ref;
   }
 
   // Reference at t, acceleration commands, safety filter, integrator.
@@ -245,6 +254,14 @@ void ControlPipeline::tick(const RobotState& state, JointCommand& command) noexc
     sample_.a.setZero();
     sample_.foot_velocity.setZero();
     sample_.foot_acceleration.setZero();
+  }
+  for (int i = 0; i < r.nc(); ++i) {
+    // A late foot descends on its landing (the adopted plan may still hold it up, until the
+    // MPC's next solution).
+    if ((record_.late_feet >> i & 1) == 0) continue;
+    sample_.foot_position(2, i) = landing_z_[i];
+    sample_.foot_velocity(2, i) = landing_z_dot_[i];
+    sample_.foot_acceleration(2, i) = 0.0;
   }
   computeTargets();
   record_.cbf_status = filter_->filter(integrator_->q(), integrator_->v(), record_.mode,

@@ -14,6 +14,23 @@ ModeSchedule::ModeSchedule(int capacity, int initial_mode) : capacity_(capacity)
   modes_.push_back(initial_mode);
 }
 
+ModeSchedule::ModeSchedule(const ModeSchedule& other) : capacity_(other.capacity_) {
+  times_.reserve(static_cast<std::size_t>(capacity_));
+  modes_.reserve(static_cast<std::size_t>(capacity_) + 1);
+  times_ = other.times_;
+  modes_ = other.modes_;
+}
+
+ModeSchedule& ModeSchedule::operator=(const ModeSchedule& other) {
+  if (this == &other) return *this;
+  capacity_ = other.capacity_;
+  times_.reserve(static_cast<std::size_t>(capacity_));
+  modes_.reserve(static_cast<std::size_t>(capacity_) + 1);
+  times_ = other.times_;
+  modes_ = other.modes_;
+  return *this;
+}
+
 void ModeSchedule::set(const std::vector<double>& switching_times, const std::vector<int>& modes) {
   if (modes.size() != switching_times.size() + 1) {
     throw std::invalid_argument(
@@ -47,5 +64,22 @@ int ModeSchedule::phaseAt(double t) const {
 }
 
 int ModeSchedule::modeAt(double t) const { return modes_[static_cast<std::size_t>(phaseAt(t))]; }
+
+bool ModeSchedule::split(double t) noexcept {
+  if (!std::isfinite(t)) return false;
+  const auto at = std::lower_bound(times_.begin(), times_.end(), t - 1e-9);
+  if (at != times_.end() && *at <= t + 1e-9) return true;  // a switch already
+  if (static_cast<int>(times_.size()) >= capacity_) return false;
+  const std::ptrdiff_t phase = at - times_.begin();
+  // Within the reserved capacity: insert does not allocate.
+  times_.insert(at, t);
+  modes_.insert(modes_.begin() + phase, modes_[static_cast<std::size_t>(phase)]);
+  return true;
+}
+
+void ModeSchedule::setMode(int phase, int mode) noexcept {
+  if (phase < 0 || phase >= static_cast<int>(modes_.size())) return;
+  modes_[static_cast<std::size_t>(phase)] = mode;
+}
 
 }  // namespace rollstep::ocp

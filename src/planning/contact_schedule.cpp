@@ -41,6 +41,28 @@ FootPhase footPhase(const ocp::ModeSchedule& schedule, int foot, double t) {
   return r;
 }
 
+bool delayTouchdown(ocp::ModeSchedule& schedule, int foot, double touchdown, double landing) {
+  if (foot < 0 || !std::isfinite(touchdown) || !std::isfinite(landing) || landing <= touchdown) {
+    return false;
+  }
+  const std::vector<double>& times = schedule.switchingTimes();
+  const int first = schedule.phaseAt(touchdown);
+  // touchdown must be the switch that begins the stance, and the stance must last past landing.
+  if (first == 0 || std::abs(times[static_cast<std::size_t>(first) - 1] - touchdown) > 1e-9) {
+    return false;
+  }
+  if (inContact(schedule.modes()[static_cast<std::size_t>(first) - 1], foot)) return false;
+  for (int p = first; p <= schedule.phaseAt(landing); ++p) {
+    if (!inContact(schedule.modes()[static_cast<std::size_t>(p)], foot)) return false;
+  }
+  if (!schedule.split(landing)) return false;
+  const int last = schedule.phaseAt(landing + 1e-9);  // the phase landing begins
+  for (int p = first; p < last; ++p) {
+    schedule.setMode(p, schedule.modes()[static_cast<std::size_t>(p)] & ~(1 << foot));
+  }
+  return true;
+}
+
 GaitScheduler::GaitScheduler(Gait gait, double max_horizon)
     : gait_(std::move(gait)), max_horizon_(max_horizon) {
   detail::checkNonNegative("GaitScheduler", "max_horizon", max_horizon);

@@ -45,6 +45,7 @@ FootReferencePlanner::FootReferencePlanner(const TerrainModel& terrain, const Ba
   }
   anchors_.resize(n);
   latches_.resize(n);
+  landings_.resize(n);
 }
 
 void FootReferencePlanner::anchorStance(int foot, double stance_start,
@@ -59,6 +60,31 @@ void FootReferencePlanner::anchorStance(int foot, double stance_start,
 void FootReferencePlanner::clearAnchors() noexcept {
   for (Anchor& a : anchors_) a.valid = false;
   for (Latch& l : latches_) l.valid = false;
+  for (Landing& l : landings_) l.valid = false;
+}
+
+void FootReferencePlanner::setLanding(int foot, double touchdown, double from, double z_from,
+                                      double landing, double z_to) noexcept {
+  if (foot < 0 || foot >= numFeet()) return;
+  Landing& l = landings_[static_cast<std::size_t>(foot)];
+  l.valid = std::isfinite(touchdown) && std::isfinite(from) && std::isfinite(z_from) &&
+            std::isfinite(landing) && std::isfinite(z_to) && landing > from && landing > touchdown;
+  if (!l.valid) return;
+  l.touchdown = touchdown;
+  l.landing = landing;
+  l.from = from;
+  l.z_from = z_from;
+  l.z_to = z_to;
+}
+
+void FootReferencePlanner::clearLanding(int foot) noexcept {
+  if (foot < 0 || foot >= numFeet()) return;
+  landings_[static_cast<std::size_t>(foot)].valid = false;
+}
+
+double FootReferencePlanner::scheduledStart(int foot, double start) const {
+  const Landing& l = landings_[static_cast<std::size_t>(foot)];
+  return l.valid && std::abs(start - l.landing) <= 1e-6 ? l.touchdown : start;
 }
 
 void FootReferencePlanner::latchTouchdown(int foot, double touchdown) noexcept {
@@ -183,7 +209,7 @@ Eigen::Vector2d FootReferencePlanner::stanceFoothold(const ocp::ModeSchedule& sc
   if (!inContact(schedule.modes()[static_cast<std::size_t>(phase)], foot)) {
     return nominalFoothold(foot, t);
   }
-  const double start = stanceStart(schedule, foot, phase);
+  const double start = scheduledStart(foot, stanceStart(schedule, foot, phase));
   if (const Anchor* a = anchorFor(foot, start)) return a->p;
   if (const Latch* l = latchFor(foot, start)) return l->p;
   return nominalFoothold(foot, start > -1e300 ? start : t);
@@ -195,7 +221,7 @@ FootReference FootReferencePlanner::query(const ocp::ModeSchedule& schedule, int
   r.timing = footPhase(schedule, foot, t);
   if (r.timing.stance) {
     const int phase = schedule.phaseAt(t);
-    const double start = stanceStart(schedule, foot, phase);
+    const double start = scheduledStart(foot, stanceStart(schedule, foot, phase));
     const double t_chosen = start > -1e300 ? start : t;  // stanceFoothold's time
     const Eigen::Vector2d p = stanceFootholdAt(foot, start, t_chosen, r.region);
     r.z_ref = heightIn(r.region, p) + config_.foot_height_offset;
@@ -210,29 +236,45 @@ FootReference FootReferencePlanner::query(const ocp::ModeSchedule& schedule, int
   const double before = std::nextafter(r.timing.liftoff, -1e300);
   const int lo_phase = schedule.phaseAt(before);
   const double lo_start = inContact(schedule.modes()[static_cast<std::size_t>(lo_phase)], foot)
-                              ? stanceStart(schedule, foot, lo_phase)
+                              ? scheduledStart(foot, stanceStart(schedule, foot, lo_phase))
                               : before;
   const double t_lo = lo_start > -1e300 ? lo_start : before;  // stanceFoothold's time
   const bool lo_stance = inContact(schedule.modes()[static_cast<std::size_t>(lo_phase)], foot);
   int region_lo = -1;
   const Eigen::Vector2d p_lo = stanceFootholdAt(
       foot, lo_stance ? lo_start : std::numeric_limits<double>::quiet_NaN(), t_lo, region_lo);
+  // A delayed landing: the swing as scheduled (its touch-down foothold, direction and
+  // region window), its height reference a descent from `from` to the landing.
+  const Landing& landing = landings_[static_cast<std::size_t>(foot)];
+  const bool delayed = landing.valid && std::abs(r.timing.touchdown - landing.landing) <= 1e-6;
+  const double touchdown = delayed ? landing.touchdown : r.timing.touchdown;
   Eigen::Vector2d p_td;
-  if (const Latch* l = latchFor(foot, r.timing.touchdown)) {
+  if (const Latch* l = latchFor(foot, touchdown)) {
     p_td = l->p;
     r.region = latchedRegion(*l);
   } else {
-    p_td = footholdAt(foot, r.timing.touchdown, r.region);
+    p_td = footholdAt(foot, touchdown, r.region);
   }
   const double z_lo = heightIn(region_lo, p_lo), z_td = heightIn(r.region, p_td);
   r.direction = classifySwing(z_lo, z_td, config_.level_tolerance);
   r.swing_region = r.direction == SwingDirection::Ascending    ? region_lo
                    : r.direction == SwingDirection::Descending ? r.region
                                                                : -1;
-  r.swing_region_active = swingRegionActive(r.direction, r.timing.phase);
-  const SwingHeightSpline spline(
-      r.timing.liftoff, r.timing.touchdown, z_lo + config_.foot_height_offset,
-      z_td + config_.foot_height_offset, config_.swing_clearance, config_.swing_apex_margin);
+  const double phase =
+      delayed ? std::clamp((t - r.timing.liftoff) / (touchdown - r.timing.liftoff), 0.0, 1.0)
+              : r.timing.phase;
+  r.swing_region_active = swingRegionActive(r.direction, phase);
+  if (delayed && t >= landing.from) {
+    const double T = landing.landing - landing.from;
+    const double s = std::clamp((t - landing.from) / T, 0.0, 1.0);
+    const double dz = landing.z_to - landing.z_from;
+    r.z_ref = landing.z_from + dz * s * s * (3.0 - 2.0 * s);
+    r.z_dot_ref = dz * 6.0 * s * (1.0 - s) / T;
+    return r;
+  }
+  const SwingHeightSpline spline(r.timing.liftoff, touchdown, z_lo + config_.foot_height_offset,
+                                 z_td + config_.foot_height_offset, config_.swing_clearance,
+                                 config_.swing_apex_margin);
   spline.evaluate(t, r.z_ref, r.z_dot_ref);
   return r;
 }

@@ -492,6 +492,39 @@ TEST(ModeSchedule, PhasesAndModes) {
   EXPECT_EQ(guard.count(), 0u);
 }
 
+TEST(ModeSchedule, SplitAndSetModeInPlace) {
+  ocp::ModeSchedule m(3, 0);
+  m.set({0.5, 1.0}, {1, 2, 3});
+  {
+    test::AllocationGuard guard;
+    EXPECT_TRUE(m.split(0.75));  // new switch, same mode on both sides
+    EXPECT_EQ(guard.count(), 0u);
+  }
+  EXPECT_EQ(m.switches(), 3);
+  EXPECT_EQ(m.modeAt(0.6), 2);
+  EXPECT_EQ(m.modeAt(0.8), 2);
+  EXPECT_EQ(m.phaseAt(0.8), 2);
+  m.setMode(1, 5);  // [0.5, 0.75)
+  EXPECT_EQ(m.modeAt(0.6), 5);
+  EXPECT_EQ(m.modeAt(0.8), 2);
+  EXPECT_EQ(m.modeAt(1.2), 3);
+  EXPECT_TRUE(m.split(1.0));  // already a switch: nothing to insert
+  EXPECT_TRUE(m.split(1.0 + 1e-12));
+  EXPECT_EQ(m.switches(), 3);
+  EXPECT_FALSE(m.split(2.0));  // capacity 3 is full
+  EXPECT_FALSE(m.split(std::numeric_limits<double>::quiet_NaN()));
+  EXPECT_EQ(m.switches(), 3);
+  m.setMode(7, 9);  // out of range: nothing
+  m.setMode(-1, 9);
+  EXPECT_EQ(m.modes(), (std::vector<int>{1, 5, 2, 3}));
+  // Before the first switch.
+  ocp::ModeSchedule n(2, 4);
+  EXPECT_TRUE(n.split(-1.0));
+  n.setMode(0, 6);
+  EXPECT_EQ(n.modeAt(-2.0), 6);
+  EXPECT_EQ(n.modeAt(0.0), 4);
+}
+
 // ---- problem -------------------------------------------------------------------------------
 
 /// Rows depend on the mode: `rows_in_mode1` rows in mode 1, none otherwise. r = u(0) + k x(0).

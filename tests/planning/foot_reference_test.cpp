@@ -303,6 +303,80 @@ TEST(FootReference, SwingEndsAndApex) {
   EXPECT_NEAR(sp.position(0.7), s.feet.query(s.schedule, 0, 0.7).z_ref, 1e-12);
 }
 
+// Late touch-down: LF's stance due at 0.8 s begins at 0.9 s instead (delayTouchdown), the
+// swing descending from where the foot is (0.08 m up at 0.82 s) to the surface; the stance
+// that begins at the landing keeps the foothold of the one it replaces, and so does the
+// lift-off end of the swing after it. Nothing else in the schedule moves.
+TEST(FootReference, ALateTouchDownDescendsAndKeepsTheStanceFoothold) {
+  Scene s;
+  ocp::ModeSchedule due(s.scheduler.requiredCapacity() + 6);
+  s.scheduler.fill(0.0, 1.5, due);
+  ocp::ModeSchedule late = due;
+  const double T = 0.8, from = 0.82, landing = 0.9;
+  {
+    test::AllocationGuard guard;
+    ASSERT_TRUE(planning::delayTouchdown(late, 0, T, landing));
+    EXPECT_EQ(guard.count(), 0u);
+  }
+  EXPECT_EQ(late.switches(), due.switches() + 1);
+  // LF is in swing until the landing, the other feet as before.
+  const planning::FootPhase phase = planning::footPhase(late, 0, 0.85);
+  EXPECT_FALSE(phase.stance);
+  EXPECT_DOUBLE_EQ(phase.liftoff, 0.48);
+  EXPECT_DOUBLE_EQ(phase.touchdown, landing);
+  EXPECT_TRUE(planning::footPhase(late, 0, landing).stance);
+  for (double t = 0.0; t < 2.5; t += 0.01) {
+    for (int f = 1; f < 6; ++f) {
+      EXPECT_EQ(planning::footPhase(late, f, t).stance, planning::footPhase(due, f, t).stance);
+    }
+    if (t < T - 1e-9 || t >= landing) {
+      EXPECT_EQ(late.modeAt(t), due.modeAt(t)) << t;
+    }
+  }
+  // Refused, changing nothing: a landing past the stance's end (the next lift-off at 1.28),
+  // a time that does not begin a stance of this foot, a landing before the touch-down.
+  ocp::ModeSchedule copy = due;
+  EXPECT_FALSE(planning::delayTouchdown(copy, 0, T, 1.3));
+  EXPECT_FALSE(planning::delayTouchdown(copy, 0, 0.75, 0.85));
+  EXPECT_FALSE(planning::delayTouchdown(copy, 1, T, 0.85));  // MF already stands before 0.8
+  EXPECT_FALSE(planning::delayTouchdown(copy, 0, T, T));
+  EXPECT_EQ(copy.modes(), due.modes());
+  EXPECT_EQ(copy.switchingTimes(), due.switchingTimes());
+
+  const planning::FootReference stance_due = s.feet.query(due, 0, 0.95);
+  const Vector2d foothold_due = s.feet.stanceFoothold(due, 0, 0.95);
+  const double z_from = stance_due.z_ref + 0.08;
+  s.feet.setLanding(0, T, from, z_from, landing, stance_due.z_ref);
+  // The descent: from z_from at rest to the surface at rest, smooth in between.
+  const planning::FootReference start = s.feet.query(late, 0, from);
+  EXPECT_FALSE(start.timing.stance);
+  EXPECT_DOUBLE_EQ(start.z_ref, z_from);
+  EXPECT_DOUBLE_EQ(start.z_dot_ref, 0.0);
+  EXPECT_EQ(start.region, stance_due.region);
+  EXPECT_NEAR(s.feet.query(late, 0, landing - 1e-9).z_ref, stance_due.z_ref, 1e-9);
+  for (double t = from + 0.005; t < landing - 0.005; t += 0.01) {
+    const planning::FootReference r = s.feet.query(late, 0, t);
+    const double h = 1e-6;
+    const double fd =
+        (s.feet.query(late, 0, t + h).z_ref - s.feet.query(late, 0, t - h).z_ref) / (2.0 * h);
+    EXPECT_NEAR(r.z_dot_ref, fd, 1e-6);
+    EXPECT_LT(r.z_dot_ref, 0.0);
+    EXPECT_LT(r.z_ref, z_from);
+    EXPECT_GT(r.z_ref, stance_due.z_ref);
+  }
+  // The stance after the landing: the same foothold, region and height as the one due.
+  const planning::FootReference stance_late = s.feet.query(late, 0, 0.95);
+  EXPECT_TRUE(stance_late.timing.stance);
+  EXPECT_EQ(stance_late.region, stance_due.region);
+  EXPECT_DOUBLE_EQ(stance_late.z_ref, stance_due.z_ref);
+  EXPECT_EQ(s.feet.stanceFoothold(late, 0, 0.95), foothold_due);
+  // ... and the swing after it (lift-off 1.28) starts from there.
+  EXPECT_DOUBLE_EQ(s.feet.query(late, 0, 1.35).z_ref, s.feet.query(due, 0, 1.35).z_ref);
+  // Cleared: the swing to 0.9 is an ordinary (stretched) spline again.
+  s.feet.clearLanding(0);
+  EXPECT_GT(std::abs(s.feet.query(late, 0, from).z_ref - z_from), 1e-3);
+}
+
 TEST(FootReference, UnknownSwingEndsHoldTheApex) {
   Scene s;
   ocp::ModeSchedule ms(4);

@@ -4,6 +4,7 @@
 // asynchronous MPC.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <memory>
@@ -80,6 +81,107 @@ TEST(NmpcController, TrotTickMakesNoAllocationAndRefusesBadStates) {
   EXPECT_EQ(pipeline.counters().invalid_states, invalid + 1);
   EXPECT_EQ(out.joint_position, before.joint_position);
   EXPECT_EQ(out.wheel_velocity, before.wheel_velocity);
+}
+
+// Late touch-downs (ocp.late_touchdown_tolerance): LF's measured wheel held 4 cm above
+// where the internal state has it while its swing ends. When its stance is due the foot
+// stays out of the contact mode (no contact consistency holding it up), its target
+// descends, and the tick still allocates nothing (the schedule's landing switch, the MPC's
+// solves inside the tick). Given the foot back on its surface, the stance begins.
+TEST(NmpcController, ALateTouchDownStaysInSwingUntilItLands) {
+  SceneConfig scene;
+  Plant plant(scene);
+  const centroidal::RobotOcpDescription robot =
+      centroidal::loadRobotOcpDescription(tachyon3Description());
+  control::ControlSettings settings = shortHorizon();
+  settings.ocp.late_touchdown_tolerance = 0.01;
+  NmpcController controller(plant, robot, settings, terrainFromScene(scene, 0.085),
+                            planning::GaitKind::Trot, planning::BaseVelocityCommand{0.1, 0, 0});
+  runTicks(controller, plant, 30);
+  control::ControlPipeline& pipeline = controller.pipeline();
+  const centroidal::CentroidalOcp& ocp = pipeline.ocp();
+  const centroidal::CentroidalRobot& r = pipeline.robot();
+  constexpr int kFoot = 0;  // LF
+  const auto footZ = [&](const control::RobotState& st) {
+    Eigen::VectorXd q(r.nq()), v(r.nv());
+    control::toModelState(st, q, v);
+    Eigen::VectorXd x = Eigen::VectorXd::Zero(r.nx());
+    x.head(r.nq()) = q;
+    return ocp.footPositions(x)(2, kFoot);
+  };
+  // The joint that lifts LF alone (by finite differences: no joint order assumed).
+  control::RobotState s = internalState(pipeline, plant.time());
+  int lift = -1;
+  double slope = 0.0;
+  for (int j = 0; j < r.nj(); ++j) {
+    control::RobotState p = s;
+    p.joint_position[j] += 1e-4;
+    const double d = (footZ(p) - footZ(s)) / 1e-4;
+    if (std::abs(d) > std::abs(slope)) {
+      slope = d;
+      lift = j;
+    }
+  }
+  ASSERT_GE(lift, 0);
+  // LF's measured wheel held at least 4 cm above the floor (as if it could not come down);
+  // relative to the floor, not to the internal state, which blends the measurement in.
+  const double held = r.contactOffset() + 0.04;
+  const auto raised = [&](control::RobotState st) {
+    const double z = footZ(st);
+    if (z < held) st.joint_position[lift] += (held - z) / slope;
+    return st;
+  };
+  control::JointCommand out = pipeline.makeCommand();
+  // Until LF's swing has begun and ended, held up from its lift-off.
+  bool swung = false, late = false;
+  std::size_t allocations = 0;
+  double t = plant.time();
+  for (int k = 0; k < 2000 && !late; ++k) {
+    t += 0.001;
+    s = internalState(pipeline, t);
+    if (swung) s = raised(s);
+    rollstep::test::AllocationGuard guard;
+    pipeline.tick(s, out);
+    allocations += guard.count();
+    const control::TickRecord& rec = pipeline.lastTick();
+    swung = swung || ((rec.mode >> kFoot) & 1) == 0;
+    late = swung && (rec.late_feet >> kFoot & 1) != 0;
+  }
+  ASSERT_TRUE(late) << "LF never landed late";
+  EXPECT_EQ(pipeline.lastTick().mode >> kFoot & 1, 0) << "a late foot is out of the mode";
+  EXPECT_GT(footZ(s), held - 1e-3);
+  // Held up for 50 ms more: still in swing, its height target coming down, and the MPC's
+  // plans (solved inside the tick) land it later.
+  const double z0 = pipeline.reference().foot_position(2, kFoot);
+  double previous = z0;
+  bool planned_landing = false;
+  for (int k = 0; k < 50; ++k) {
+    t += 0.001;
+    s = raised(internalState(pipeline, t));
+    rollstep::test::AllocationGuard guard;
+    pipeline.tick(s, out);
+    allocations += guard.count();
+    EXPECT_NE(pipeline.lastTick().late_feet >> kFoot & 1, 0) << k;
+    const double z = pipeline.reference().foot_position(2, kFoot);
+    EXPECT_LE(z, previous + 1e-12) << k;
+    previous = z;
+    const control::MpcSolution& plan = pipeline.lastSolution();
+    if (pipeline.lastTick().new_solution && (plan.modes.front() >> kFoot & 1) == 0) {
+      planned_landing = std::any_of(plan.modes.begin(), plan.modes.end(),
+                                    [](int m) { return (m >> kFoot & 1) == 1; });
+    }
+  }
+  EXPECT_EQ(allocations, 0u) << "the real-time tick allocated";
+  EXPECT_LT(previous, z0 - 0.01);
+  EXPECT_TRUE(planned_landing) << "no MPC plan delayed LF's stance";
+  EXPECT_GE(pipeline.counters().late_touchdown_ticks, 51u);
+  // On the floor: the stance begins.
+  t += 0.001;
+  s = internalState(pipeline, t);
+  s.joint_position[lift] -= (footZ(s) - r.contactOffset()) / slope;
+  pipeline.tick(s, out);
+  EXPECT_EQ(pipeline.lastTick().late_feet >> kFoot & 1, 0);
+  EXPECT_EQ(pipeline.lastTick().mode >> kFoot & 1, 1);
 }
 
 // The reference leash (mpc.reference_leash): a robot held where it started while the

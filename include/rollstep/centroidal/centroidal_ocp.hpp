@@ -101,6 +101,20 @@ class CentroidalOcp {
   /// wrongly sized x changes nothing. Never allocates.
   void anchorStanceFeet(const ocp::ModeSchedule& schedule, double t,
                         const Eigen::VectorXd& x) noexcept;
+  /// Late touch-downs (settings late_touchdown_*; planning::FootReferencePlanner's file
+  /// comment): every foot whose stance under `schedule` began before t (at most
+  /// late_touchdown_max_delay of its swing ago) while its contact point in state x (the
+  /// measured state) is still more than late_touchdown_tolerance above that stance's
+  /// surface gets its stance start moved to a landing time in `schedule`
+  /// (planning::delayTouchdown: the schedule given to the problem, or a controller's copy
+  /// of it), with a descent from where it is to the surface until then (planned at the
+  /// first call that finds the stance late and kept; a foot still up at its landing time
+  /// gets a new one from where it is). Once a foot of a
+  /// stance is seen on its surface (or the delay runs out) that stance is settled and is
+  /// never delayed again. Call after advance() / anchorStanceFeet() on a freshly filled
+  /// schedule, once per solve or tick. Returns the mask of the feet delayed now. A
+  /// non-finite or wrongly sized x delays nothing. Never allocates.
+  int landLateFeet(ocp::ModeSchedule& schedule, double t, const Eigen::VectorXd& x) noexcept;
   int regionEdgeCapacity() const { return region_edge_capacity_; }
 
   /// The nominal standing state at the planar pose (x, y, yaw): base at the nominal height
@@ -157,6 +171,14 @@ class CentroidalOcp {
   // anchorStanceFeet: placements only (the node quantities' gravity and centroidal
   // derivative passes are not needed for foot positions, on the 1 kHz tick).
   std::unique_ptr<model::Data> anchor_data_;
+  // landLateFeet: per foot, the start of the stance whose landing is settled (NaN: none).
+  std::vector<double> settled_stance_;
+  // landLateFeet: the descent of each foot's late stance (its start), kept between calls.
+  struct LandingPlan {
+    bool valid = false;
+    double stance = 0.0, from = 0.0, z_from = 0.0, landing = 0.0;
+  };
+  std::vector<LandingPlan> landings_;
 };
 
 }  // namespace rollstep::centroidal

@@ -112,6 +112,17 @@ struct OcpSettings {
   /// swing from up onto a step to level before it. Off by default (see
   /// config/behaviours/climb_perception.yaml).
   bool latch_touchdowns = false;
+  /// [m] Late touch-downs (CentroidalOcp::landLateFeet): a foot whose stance has begun while
+  /// its contact point is still more than this above the stance's surface (in the measured
+  /// state) stays in swing and comes down to the surface first, instead of being held in
+  /// the air by the stance's zero vertical velocity. 0: off. In [0, 1].
+  double late_touchdown_tolerance = 0.0;
+  /// [m/s] Mean descent speed of such a landing (its duration: height / speed, at least two
+  /// nodes). In (0, 100].
+  double late_touchdown_speed = 0.5;
+  /// The longest delay of a stance's start, as a share of the swing before it; later, the
+  /// stance begins wherever the foot is. In [0, 10].
+  double late_touchdown_max_delay = 0.5;
   /// [m] A nominal foothold in a gap between (shrunk) regions goes onto the region ahead
   /// along the travel when that begins within this distance (planning::FootReferenceConfig::
   /// gap_reach); 0: onto the nearest region, which at a step edge is the one the foot is

@@ -4,7 +4,9 @@
 //   state (estimator or ground truth, RobotState)
 //   -> MPC runner: post the state; take a newer solution if one is ready
 //   -> time-lag refinement of a new solution from the latest state (ReferenceTrajectory)
-//   -> contact planner: the gait's mode and each foot's regions at t
+//   -> contact planner: the gait's mode and each foot's regions at t (a foot still in the
+//      air when its stance was due stays in swing and is brought down first: late
+//      touch-downs, OcpSettings::late_touchdown_tolerance, on both the MPC's and this side)
 //   -> reference at t: base pose/twist/acceleration, feet position/velocity/acceleration,
 //      joints; acceleration commands = feedforward + Kp, Kd feedback against the INTERNAL
 //      integrator state
@@ -94,8 +96,9 @@ struct JointCommand {
 /// What happened in one tick (for logs and tests).
 struct TickRecord {
   double time = 0.0;
-  int mode = 0;                         ///< contact mask of the contact planner at t
-  bool state_valid = true;              ///< false: the state was rejected, the command kept
+  int mode = 0;             ///< contact mask of the contact planner at t
+  int late_feet = 0;        ///< feet whose stance is delayed until they land (landLateFeet), a mask
+  bool state_valid = true;  ///< false: the state was rejected, the command kept
   bool new_solution = false;            ///< a solution arrived this tick
   bool solution_adopted = false;        ///< ... and was refined into the reference
   std::uint64_t solution_sequence = 0;  ///< of the reference in use
@@ -113,13 +116,14 @@ struct PipelineCounters {
   std::uint64_t ticks = 0;
   std::uint64_t invalid_states = 0;
   std::uint64_t solutions_received = 0;
-  std::uint64_t solutions_rejected = 0;  ///< unusable, reference kept
-  std::uint64_t qp_fallbacks = 0;        ///< ticks on the CBF-QP's brake fallback
-  std::uint64_t qp_relaxations = 0;      ///< ticks on its relaxed barriers (CbfQpStatus::Relaxed)
-  std::uint64_t watchdog_trips = 0;      ///< solution older than mpc.max_solution_age: hold began
-  std::uint64_t holding_ticks = 0;       ///< ticks spent holding the safe posture
-  std::uint64_t stale_solutions = 0;     ///< older than mpc.max_solution_age on arrival: ignored
-  std::uint64_t terrain_updates = 0;     ///< new terrains the real-time side changed to
+  std::uint64_t solutions_rejected = 0;    ///< unusable, reference kept
+  std::uint64_t qp_fallbacks = 0;          ///< ticks on the CBF-QP's brake fallback
+  std::uint64_t qp_relaxations = 0;        ///< ticks on its relaxed barriers (CbfQpStatus::Relaxed)
+  std::uint64_t watchdog_trips = 0;        ///< solution older than mpc.max_solution_age: hold began
+  std::uint64_t holding_ticks = 0;         ///< ticks spent holding the safe posture
+  std::uint64_t stale_solutions = 0;       ///< older than mpc.max_solution_age on arrival: ignored
+  std::uint64_t terrain_updates = 0;       ///< new terrains the real-time side changed to
+  std::uint64_t late_touchdown_ticks = 0;  ///< ticks with a foot landing late (any foot)
 };
 
 class ControlPipeline {
@@ -196,6 +200,7 @@ class ControlPipeline {
   std::unique_ptr<model::Data> data_;
   std::vector<int> drive_wheels_;
   std::vector<FootRegionPlan> regions_;
+  Eigen::VectorXd landing_z_, landing_z_dot_;  // each foot's height reference at t (nc)
   LatestValueExchange<planning::TerrainModel> terrain_in_;  // setTerrain -> tick
   planning::TerrainModel rt_incoming_;
   std::uint64_t rt_terrain_version_ = 0;

@@ -9,6 +9,12 @@ class ModeSchedule {
  public:
   /// @param capacity the largest number of switches ever set (memory is reserved once).
   explicit ModeSchedule(int capacity = 64, int initial_mode = 0);
+  /// Copies keep the capacity reserved (a copy's split() must not allocate either).
+  ModeSchedule(const ModeSchedule& other);
+  ModeSchedule& operator=(const ModeSchedule& other);
+  ModeSchedule(ModeSchedule&&) noexcept = default;
+  ModeSchedule& operator=(ModeSchedule&&) noexcept = default;
+  ~ModeSchedule() = default;
   /// Replaces the schedule: modes.size() == switching_times.size() + 1, times sorted.
   /// Throws std::invalid_argument on bad sizes, unsorted times or capacity overflow.
   /// Does not allocate within capacity.
@@ -21,6 +27,12 @@ class ModeSchedule {
   int switches() const { return static_cast<int>(times_.size()); }
   const std::vector<double>& switchingTimes() const { return times_; }
   const std::vector<int>& modes() const { return modes_; }
+  /// Inserts a switching time at t with the same mode on both sides (so nothing changes
+  /// until a phase's mode is set), unless t is one already (within 1e-9 s). Returns false,
+  /// changing nothing, for a non-finite t or a full capacity. Never allocates.
+  bool split(double t) noexcept;
+  /// Sets the mode of phase `phase` (0..switches()); out of range: nothing. Never allocates.
+  void setMode(int phase, int mode) noexcept;
 
  private:
   int capacity_;

@@ -29,6 +29,12 @@ struct FootPhase {
 /// Mode m_i holds on [t_{i-1}, t_i) as in ocp::ModeSchedule.
 FootPhase footPhase(const ocp::ModeSchedule& schedule, int foot, double t);
 
+/// Late touch-down: foot `foot`'s stance that begins at the switch `touchdown` begins at
+/// `landing` instead (its swing goes on until then), the other feet unchanged. Needs
+/// touchdown < landing, the foot in stance on [touchdown, landing] and one free switch of
+/// capacity (for `landing`); otherwise returns false and changes nothing. Never allocates.
+bool delayTouchdown(ocp::ModeSchedule& schedule, int foot, double touchdown, double landing);
+
 /// Writes a periodic gait into ModeSchedules.
 class GaitScheduler {
  public:

@@ -31,6 +31,15 @@
 // the choice made at that moment for the rest of the swing and the stance after it, as a
 // point of the chosen region (the nominal foothold moved into it) and its height, which
 // later terrains resolve to the same surface: the nearest region at that height.
+//
+// Late touch-downs: a foot still in the air when its stance was due (the knee's velocity
+// limit, an edge it met, a body too high for the leg to reach down) is not held there by
+// the stance's zero vertical velocity: the controller (CentroidalOcp::landLateFeet) moves
+// that stance's start to a landing time in the schedule (delayTouchdown), and setLanding()
+// tells this planner. The swing then ends on a descent from the measured height to the
+// stance's surface (a smoothstep in time, zero vertical velocity at both ends), and the
+// stance that begins at the landing keeps the foothold, anchor and latch of the touch-down
+// it replaces.
 #include <Eigen/Core>
 #include <vector>
 
@@ -118,7 +127,14 @@ class FootReferencePlanner {
   /// 1e-6 s) keeps the first choice, another touch-down replaces it. A non-finite time, an
   /// out-of-range foot or an empty terrain clears that foot's latch. Never allocates.
   void latchTouchdown(int foot, double touchdown) noexcept;
-  /// Forgets every anchor and touch-down latch (all footholds nominal).
+  /// Late touch-down of `foot` (see the file comment): its stance scheduled to begin at
+  /// `touchdown` begins at `landing` (> from) instead, and from time `from` to then its
+  /// height reference descends from z_from to z_to [m]. One per foot, the last given; a
+  /// non-finite value or an out-of-range foot clears that foot's landing. Never allocates.
+  void setLanding(int foot, double touchdown, double from, double z_from, double landing,
+                  double z_to) noexcept;
+  void clearLanding(int foot) noexcept;
+  /// Forgets every anchor, touch-down latch and landing (all footholds nominal).
   void clearAnchors() noexcept;
   /// The start time of the stance of `foot` containing t under `schedule` (as
   /// anchorStance() takes it), or NaN when the foot is not in stance at t.
@@ -136,6 +152,14 @@ class FootReferencePlanner {
     Eigen::Vector2d p = Eigen::Vector2d::Zero();  ///< a point of the chosen region
     double z = 0.0;                               ///< its surface's height there [m]
   };
+  struct Landing {
+    bool valid = false;
+    double touchdown = 0.0, landing = 0.0;  ///< the scheduled and the delayed stance start
+    double from = 0.0, z_from = 0.0, z_to = 0.0;
+  };
+  /// A stance start (or swing touch-down) of `foot` as the anchors and latches know it: the
+  /// scheduled touch-down for a delayed landing, else `start` itself.
+  double scheduledStart(int foot, double start) const;
   /// Latched surfaces are found again on a new terrain by height within this [m].
   static constexpr double kLatchHeightTolerance = 0.02;
   /// The region of a latch on the current terrain: the nearest one at its height (a new
@@ -156,6 +180,7 @@ class FootReferencePlanner {
   int regionOf(const Eigen::Vector2d& p, double t, const lie::SE3& pose) const;
   std::vector<Anchor> anchors_;
   std::vector<Latch> latches_;
+  std::vector<Landing> landings_;
 
   const TerrainModel* terrain_;
   const BaseReference* base_;
