@@ -143,7 +143,7 @@ int runPlan(const PlanOptions& o, bool scene_given) {
   settings.solver.mode = solver::SolverMode::Converging;
   centroidal::CentroidalOcp ocp(
       robot, settings,
-      sim::terrainFromScene(scene, robot.contact_offset + settings.foothold_edge_clearance),
+      sim::terrainFromScene(scene, centroidal::footholdRegionMargin(robot, settings)),
       centroidal::gaitKindFromString(o.gait));
   lie::SE3 start = lie::SE3::Identity();
   start.translation.x() = o.start_x;

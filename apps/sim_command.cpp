@@ -270,7 +270,7 @@ void runSim(const SimOptions& o, bool scene_given) {
     if (o.integrator == "naive") settings.integrator.mode = control::IntegratorMode::Naive;
     // The terrain source: the scene's ground truth, or perception in closed loop (the
     // LiDAR's view from the start pose first, then every scan), regions shrunk alike.
-    const double margin = robot.contact_offset + settings.ocp.foothold_edge_clearance;
+    const double margin = centroidal::footholdRegionMargin(robot, settings.ocp);
     planning::TerrainModel terrain;
     std::string terrain_text = "scene ground truth";
     std::unique_ptr<sim::OnlinePerception> online;

@@ -407,7 +407,7 @@ TEST(NmpcController, AsynchronousPerceptionFeedsAnAsynchronousMpc) {
   options.asynchronous = true;
   auto perception = std::make_unique<OnlinePerception>(options);
   perception->start(plant, plant.groundTruth().base_position, plant.groundTruth().base_orientation);
-  const double margin = robot.contact_offset + settings.ocp.foothold_edge_clearance;
+  const double margin = centroidal::footholdRegionMargin(robot, settings.ocp);
   NmpcController controller(plant, robot, settings, perception->footholdTerrain(margin),
                             planning::GaitKind::Standing, planning::BaseVelocityCommand{},
                             StateSourceOptions{}, options.perception.regions.directions);

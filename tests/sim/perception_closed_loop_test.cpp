@@ -46,7 +46,7 @@ TEST(PerceptionClosedLoop, NmpcTrotsOnThePerceivedTerrainAndKeepsItWhileBlind) {
   options.blind_until = 4.0;
   auto perception = std::make_unique<OnlinePerception>(options);
   perception->start(plant, plant.groundTruth().base_position, plant.groundTruth().base_orientation);
-  const double margin = robot.contact_offset + settings.ocp.foothold_edge_clearance;
+  const double margin = centroidal::footholdRegionMargin(robot, settings.ocp);
   StateSourceOptions source;
   source.kind = StateSourceKind::Inekf;
   source.estimator =

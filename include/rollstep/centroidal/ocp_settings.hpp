@@ -204,4 +204,12 @@ RobotOcpDescription parseRobotOcpDescription(const std::string& yaml_text,
                                              const std::string& base_directory = "");
 RobotOcpDescription loadRobotOcpDescription(const std::string& yaml_file);
 
+/// [m] How far the foothold regions made from a terrain keep inside its surfaces: the
+/// robot's contact offset (the regions bound the wheel centres) plus
+/// settings.foothold_edge_clearance. The one place that sum is written (`rollstep plan`,
+/// `rollstep sim --controller nmpc`, the perceived terrains).
+inline double footholdRegionMargin(const RobotOcpDescription& robot, const OcpSettings& settings) {
+  return robot.contact_offset + settings.foothold_edge_clearance;
+}
+
 }  // namespace rollstep::centroidal
