@@ -7,10 +7,13 @@ if(ROLLSTEP_NATIVE AND CMAKE_CXX_COMPILER_ID STREQUAL "GNU"
    AND CMAKE_CXX_COMPILER_VERSION VERSION_LESS 12.3)
   include(CheckCXXSourceCompiles)
   set(CMAKE_REQUIRED_FLAGS -march=native)
+  if(NOT ROLLSTEP_AVX512)
+    set(CMAKE_REQUIRED_FLAGS "-march=native -mno-avx512f")
+  endif()
   check_cxx_source_compiles("#ifndef __AVX512F__\n#error no AVX-512\n#endif\nint main() { return 0; }"
-    ROLLSTEP_NATIVE_HAS_AVX512)
+    ROLLSTEP_NATIVE_HAS_AVX512_${ROLLSTEP_AVX512})  # one cached result per setting
   unset(CMAKE_REQUIRED_FLAGS)
-  if(ROLLSTEP_NATIVE_HAS_AVX512)
+  if(ROLLSTEP_NATIVE_HAS_AVX512_${ROLLSTEP_AVX512})
     set(ROLLSTEP_GCC12_AVX512 ON)
   endif()
 endif()
@@ -26,6 +29,9 @@ function(rollstep_target_defaults target)
     # PUBLIC: fixed-size Eigen members change layout with the instruction set, so every
     # consumer of our headers must be compiled with the same flag.
     target_compile_options(${target} PUBLIC -march=native)
+    if(NOT ROLLSTEP_AVX512)
+      target_compile_options(${target} PUBLIC -mno-avx512f)
+    endif()
     if(ROLLSTEP_GCC12_AVX512)
       # GCC 12.0-12.2 (Debian 12's compiler) with AVX-512 enabled by -march=native:
       # - its own intrinsics' deliberately undefined operands (`__m512d __Y = __Y;`) are
