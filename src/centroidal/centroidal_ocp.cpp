@@ -346,7 +346,7 @@ int CentroidalOcp::landLateFeet(ocp::ModeSchedule& schedule, double t,
     const std::size_t fi = static_cast<std::size_t>(i);
     const double start = planning::FootReferencePlanner::stanceStartAt(schedule, i, t);
     // In swing, or a stance that began before the schedule (nothing to delay).
-    if (std::isnan(start) || !std::isfinite(start)) {
+    if (!std::isfinite(start)) {
       feet_->clearLanding(i);
       continue;
     }

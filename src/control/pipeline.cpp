@@ -54,8 +54,6 @@ ControlPipeline::ControlPipeline(const centroidal::RobotOcpDescription& robot,
     if (r.contact(i).drive_wheel) drive_wheels_.push_back(i);
   }
   regions_.assign(static_cast<size_t>(r.nc()), FootRegionPlan{});
-  landing_z_ = Eigen::VectorXd::Zero(r.nc());
-  landing_z_dot_ = Eigen::VectorXd::Zero(r.nc());
   solution_ = runner_->makeSolution();
   sample_ = reference_->makeSample();
   targets_ = filter_->makeTargets();
@@ -237,17 +235,8 @@ void ControlPipeline::tick(const RobotState& state, JointCommand& command) noexc
   record_.late_feet = holding_ ? 0 : rt_ocp_->landLateFeet(schedule_, t_plan, x_meas_);
   if (record_.late_feet != 0) ++counters_.late_touchdown_ticks;
   record_.mode = schedule_.modeAt(t_plan);
-  for (int i = 0; i < r.nc(); ++i) {
-    const planning::FootReference ref = rt_ocp_->footPlanner().query(schedule_, i, t_plan);
-    FootRegionPlan& plan = regions_[static_cast<size_t>(i)];
-    plan.region = ref.region;
-    plan.swing_region = ref.swing_region;
-    plan.swing_region_active = ref.swing_region_active;
-    landing_z_[i] = ref.z_ref;
-    landing_z_dot_[i] = ref.z_dot_ref;
-  }
 
-  // Reference at t, acceleration commands, safety filter, integrator.
+  // Reference at t (the adopted solution's; the foot queries below do not change it).
   reference_->sample(t_plan, sample_);
   if (holding_) {
     sample_.v.setZero();
@@ -256,13 +245,21 @@ void ControlPipeline::tick(const RobotState& state, JointCommand& command) noexc
     sample_.foot_acceleration.setZero();
   }
   for (int i = 0; i < r.nc(); ++i) {
-    // A late foot descends on its landing (the adopted plan may still hold it up, until the
-    // MPC's next solution).
-    if ((record_.late_feet >> i & 1) == 0) continue;
-    sample_.foot_position(2, i) = landing_z_[i];
-    sample_.foot_velocity(2, i) = landing_z_dot_[i];
-    sample_.foot_acceleration(2, i) = 0.0;
+    const planning::FootReference ref = rt_ocp_->footPlanner().query(schedule_, i, t_plan);
+    FootRegionPlan& plan = regions_[static_cast<size_t>(i)];
+    plan.region = ref.region;
+    plan.swing_region = ref.swing_region;
+    plan.swing_region_active = ref.swing_region_active;
+    if ((record_.late_feet >> i & 1) != 0) {
+      // A late foot descends on its landing (the adopted plan may still hold it up, until
+      // the MPC's next solution).
+      sample_.foot_position(2, i) = ref.z_ref;
+      sample_.foot_velocity(2, i) = ref.z_dot_ref;
+      sample_.foot_acceleration(2, i) = 0.0;
+    }
   }
+
+  // Acceleration commands, safety filter, integrator.
   computeTargets();
   record_.cbf_status = filter_->filter(integrator_->q(), integrator_->v(), record_.mode,
                                        regions_.data(), targets_, a_);

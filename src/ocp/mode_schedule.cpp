@@ -14,12 +14,7 @@ ModeSchedule::ModeSchedule(int capacity, int initial_mode) : capacity_(capacity)
   modes_.push_back(initial_mode);
 }
 
-ModeSchedule::ModeSchedule(const ModeSchedule& other) : capacity_(other.capacity_) {
-  times_.reserve(static_cast<std::size_t>(capacity_));
-  modes_.reserve(static_cast<std::size_t>(capacity_) + 1);
-  times_ = other.times_;
-  modes_ = other.modes_;
-}
+ModeSchedule::ModeSchedule(const ModeSchedule& other) { *this = other; }
 
 ModeSchedule& ModeSchedule::operator=(const ModeSchedule& other) {
   if (this == &other) return *this;

@@ -200,7 +200,6 @@ class ControlPipeline {
   std::unique_ptr<model::Data> data_;
   std::vector<int> drive_wheels_;
   std::vector<FootRegionPlan> regions_;
-  Eigen::VectorXd landing_z_, landing_z_dot_;  // each foot's height reference at t (nc)
   LatestValueExchange<planning::TerrainModel> terrain_in_;  // setTerrain -> tick
   planning::TerrainModel rt_incoming_;
   std::uint64_t rt_terrain_version_ = 0;
