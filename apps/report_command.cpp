@@ -4,6 +4,7 @@
 // apps/report/figures.py), renders snapshots and videos (MuJoCo offscreen, ffmpeg), and
 // writes DIR/report.md and DIR/report.html with the same content. A failed run is shown as
 // failed with its reason; nothing is invented; a missing tool is a stated gap, not a crash.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -111,6 +112,37 @@ std::string figureError(const std::string& out, const std::string& name) {
     if (line.rfind(name + ": ", 0) == 0) return line.substr(name.size() + 2);
   }
   return "";
+}
+
+/// What one MPC update of each Fig. 6 run did, from its own outputs: the horizon from its
+/// summary ("N = 100") and the Newton iterations of its updates after the first, converging
+/// solve (mpc.csv), e.g. "step20_nmpc: N = 100, 2 real-time iterations per update".
+std::string mpcUpdateDescription(const ExperimentSet& set,
+                                 const std::vector<RunOutcome>& outcomes) {
+  std::string text;
+  for (std::size_t i = 0; i < set.scenarios.size() && i < outcomes.size(); ++i) {
+    const RunOutcome& o = outcomes[i];
+    if (!set.scenarios[i].feeds("fig6") || !o.mpc || !o.mpc->has("iterations[-]")) continue;
+    const std::vector<double>& iterations = o.mpc->column("iterations[-]");
+    int least = 0, most = 0;
+    for (std::size_t r = 1; r < iterations.size(); ++r) {
+      if (!(iterations[r] >= 1)) continue;  // NaN or a failed update
+      const int k = static_cast<int>(iterations[r]);
+      least = least == 0 ? k : std::min(least, k);
+      most = std::max(most, k);
+    }
+    if (most == 0) continue;
+    std::string what = set.scenarios[i].name + ": ";
+    if (const std::size_t n = o.summary.find(", N = "); n != std::string::npos) {
+      const std::size_t end = o.summary.find_first_not_of("0123456789", n + 6);
+      what += "N = " + o.summary.substr(n + 6, end - (n + 6)) + ", ";
+    }
+    what += least == most ? std::to_string(most)
+                          : std::to_string(least) + " to " + std::to_string(most);
+    what += most == 1 ? " real-time iteration per update" : " real-time iterations per update";
+    text += (text.empty() ? "" : "; ") + what;
+  }
+  return text;
 }
 
 void warn(const std::string& text) {
@@ -374,6 +406,7 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
               rows);
   }
   bool acceptance_met = true;
+  std::string margins;  // each margin's verdict, for the summary on stdout
   if (set.acceptance.given) {
     const Acceptance& a = set.acceptance;
     doc.heading(3, "Acceptance (issue 14)");
@@ -400,6 +433,8 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
         acceptance_met = acceptance_met && ok;
         rows.push_back(
             {what, percent(change), "at most " + percent(need), ok ? "met" : "**not met**"});
+        margins += (margins.empty() ? "" : "; ") + std::string(what) + " " + percent(change) +
+                   " (at most " + percent(need) + ") " + (ok ? "met" : "not met");
       };
       row("traverse time", cm.traverse_time, bm.traverse_time, a.traverse_time);
       row("mean |v_z|", cm.mean_abs_vz, bm.mean_abs_vz, a.mean_abs_vz);
@@ -446,8 +481,10 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
          "Base velocity (local), joint positions with their limits dashed, wheel heights.",
          "no fig4 run left a log");
   doc.heading(2, "Fig. 6: CPU time of every MPC update");
+  const std::string updates = mpcUpdateDescription(set, outcomes);
   figure("fig6.png",
-         "Wall time of each MPC update (one real-time iteration, N = 100) over the run, on " +
+         "Wall time of each MPC update over the run" +
+             (updates.empty() ? std::string() : " (" + updates + ")") + ", on " +
              machineDescription() +
              ". Machine-dependent: the one set of numbers in this report that re-running does not "
              "reproduce exactly.",
@@ -603,6 +640,7 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
                   m.traverse_time, m.mean_abs_vz, m.mean_abs_wy);
     }
   }
+  if (!margins.empty()) std::printf("  margins    %s\n", margins.c_str());
   std::printf("  report     %s/report.html (also report.md)\n", out.c_str());
   std::fflush(stdout);
   if (o.check && (failed > 0 || !acceptance_met)) return 3;
