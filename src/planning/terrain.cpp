@@ -280,15 +280,24 @@ void checkBox(const std::string& name, const TerrainBox& b) {
     detail::fail(where, (name + ".y_max").c_str(), b.y_max, "must be > y_min");
 }
 
+// Box edges closer than this are one edge [m]: two boxes meant to share an edge may have
+// been built with different rounding (a + (b + c) against (a + b) + c), and the strip
+// between their edges would be a region of zero width.
+constexpr double kEdgeTolerance = 1e-9;
+
 std::vector<double> cuts(double lo, double hi, const std::vector<TerrainBox>& boxes, bool x) {
-  std::vector<double> c{lo, hi};
+  std::vector<double> c;
   for (const TerrainBox& b : boxes) {
     for (double v : {x ? b.x_min : b.y_min, x ? b.x_max : b.y_max}) {
-      if (v > lo && v < hi) c.push_back(v);
+      if (v > lo + kEdgeTolerance && v < hi - kEdgeTolerance) c.push_back(v);
     }
   }
   std::sort(c.begin(), c.end());
-  c.erase(std::unique(c.begin(), c.end()), c.end());
+  c.erase(
+      std::unique(c.begin(), c.end(), [](double a, double b) { return b - a <= kEdgeTolerance; }),
+      c.end());
+  c.insert(c.begin(), lo);
+  c.push_back(hi);
   return c;
 }
 

@@ -30,6 +30,23 @@ TEST(SceneTerrain, HeightsMatchTheSceneGroundTruth) {
   }
 }
 
+TEST(SceneTerrain, EveryStartPositionGivesTheSameRegions) {
+  // The trials move start_x at random; the boxes' shared edges then differ by rounding for
+  // about half of the values (stairs2's top landing ends at start_x + (l1 + l2) and
+  // (start_x + l1) + l2), which once gave a region of zero width and an error.
+  for (sim::SceneKind kind : {sim::SceneKind::kStep20, sim::SceneKind::kStairs2}) {
+    for (int k = 0; k <= 40; ++k) {
+      sim::SceneConfig c;
+      c.kind = kind;
+      c.start_x = 0.8 + 0.0113 * k;
+      SCOPED_TRACE(std::string(sim::toString(kind)) + " start_x " + std::to_string(c.start_x));
+      const planning::TerrainModel t = sim::terrainFromScene(c, 0.085);
+      EXPECT_EQ(t.size(), kind == sim::SceneKind::kStep20 ? 5 : 6);
+      EXPECT_NEAR(t.heightAt({c.start_x + 0.1, 0.0}), c.step1_height, 1e-12);
+    }
+  }
+}
+
 TEST(SceneTerrain, Stairs2EdgesAndBadConfig) {
   sim::SceneConfig c;
   c.kind = sim::SceneKind::kStairs2;
