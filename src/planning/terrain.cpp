@@ -357,7 +357,12 @@ TerrainModel terrainFromBoxes(const TerrainBox& floor, double floor_height,
     const double x0 = r.x_min + margin, x1 = r.x_max - margin;
     const double y0 = r.y_min + margin, y1 = r.y_max - margin;
     if (!(x1 > x0) || !(y1 > y0)) {
-      detail::fail(where, "margin", margin, "empties a region of the terrain");
+      // Name the surface: a user's scene may hold a ledge too narrow to stand on.
+      std::ostringstream need;
+      need << "empties a region of the terrain: the surface at height " << r.top << " m over x ["
+           << r.x_min << ", " << r.x_max << "], y [" << r.y_min << ", " << r.y_max
+           << "] m is not wider than twice the margin";
+      detail::fail(where, "margin", margin, need.str().c_str());
     }
     regions.push_back(ConvexRegion::fromPolygon({{x0, y0}, {x1, y0}, {x1, y1}, {x0, y1}}, r.top,
                                                 Eigen::Vector3d::UnitZ()));

@@ -165,6 +165,9 @@ TEST(TerrainModel, MarginKeepsFeetOffTheEdgeAndGapsGoToTheNearest) {
   EXPECT_FALSE(t.region(near).contains({0.98, 0.0}));
   EXPECT_EQ(t.regionAt({1.04, 0.0}), block);
   expectThrowsNaming([] { terrainFromBoxes(kFloor, 0.0, {kStep20}, 0.7); }, "margin = 0.7");
+  // The error names the surface too narrow for the margin (the 1.2 m block top).
+  expectThrowsNaming([] { terrainFromBoxes(kFloor, 0.0, {kStep20}, 0.7); },
+                     "the surface at height 0.2 m over x [1, 2.2], y [-1.5, 1.5] m");
 }
 
 TEST(TerrainModel, Stairs2AndPartialWidthBoxes) {
