@@ -293,12 +293,14 @@ std::vector<double> cuts(double lo, double hi, const std::vector<TerrainBox>& bo
     }
   }
   std::sort(c.begin(), c.end());
-  c.erase(
-      std::unique(c.begin(), c.end(), [](double a, double b) { return b - a <= kEdgeTolerance; }),
-      c.end());
-  c.insert(c.begin(), lo);
-  c.push_back(hi);
-  return c;
+  // One cut per cluster of edges within the tolerance of the cluster's first (std::unique
+  // wants an equivalence, which a tolerance is not).
+  std::vector<double> out{lo};
+  for (const double v : c) {
+    if (v - out.back() > kEdgeTolerance) out.push_back(v);
+  }
+  out.push_back(hi);
+  return out;
 }
 
 }  // namespace
