@@ -33,6 +33,11 @@ grep -q '<table>' "$out/report.html" || fail "report.html has no table"
 for fig in fig2 fig4 fig6 fig8 map; do
   [ -s "$out/$fig.png" ] || grep -q "Figure not available" "$md" || fail "$fig neither drawn nor stated"
 done
+# Fig. 6's caption says what an update of its run did, read from the run's own outputs.
+if [ -s "$out/fig6.png" ]; then
+  grep -q 'Wall time of each MPC update over the run (flat_trot: N = 100, 1 real-time iteration per update)' "$md" \
+    || fail "Fig. 6's caption does not give flat_trot's horizon and iterations per update"
+fi
 # Pictures: made, or stated as not available with a warning.
 if [ -s "$out/snapshots_flat_trot.png" ]; then
   echo "snapshots: made"
