@@ -133,9 +133,11 @@ std::string mpcUpdateDescription(const ExperimentSet& set,
     }
     if (most == 0) continue;
     std::string what = set.scenarios[i].name + ": ";
-    if (const std::size_t n = o.summary.find(", N = "); n != std::string::npos) {
-      const std::size_t end = o.summary.find_first_not_of("0123456789", n + 6);
-      what += "N = " + o.summary.substr(n + 6, end - (n + 6)) + ", ";
+    const std::string horizon_key = ", N = ";  // summary.txt's first line
+    if (const std::size_t n = o.summary.find(horizon_key); n != std::string::npos) {
+      const std::size_t from = n + horizon_key.size();
+      const std::size_t end = o.summary.find_first_not_of("0123456789", from);
+      what += "N = " + o.summary.substr(from, end - from) + ", ";
     }
     what += least == most ? std::to_string(most)
                           : std::to_string(least) + " to " + std::to_string(most);
