@@ -168,6 +168,8 @@ CentroidalOcp::CentroidalOcp(const RobotOcpDescription& description, const OcpSe
   const double horizon_time = settings.horizon * settings.dt;
   scheduler_ = std::make_unique<planning::GaitScheduler>(makeGait(gait, description, settings),
                                                          horizon_time);
+  hold_config_.max_hold = settings.step_down_max_hold;
+  hold_config_.lead = settings.step_down_hold_lead;
 
   // --- the problem -----------------------------------------------------------------------------
   auto dynamics = std::make_shared<ocp::ExplicitEuler>(std::make_shared<CentroidalDynamics>(pre_));
@@ -270,6 +272,7 @@ void CentroidalOcp::reset(double t0, const lie::SE3& start,
                           const planning::BaseVelocityCommand& command) {
   base_->reset(t0, start, command);
   feet_->clearAnchors();
+  clock_.clear();
   advance(t0);
 }
 
@@ -280,12 +283,15 @@ void CentroidalOcp::resetSchedule(double t0, const lie::SE3& start,
   std::fill(settled_stance_.begin(), settled_stance_.end(),
             std::numeric_limits<double>::quiet_NaN());
   for (LandingPlan& plan : landings_) plan.valid = false;
+  clock_.clear();
   advance(t0);
 }
 
 void CentroidalOcp::advance(double t0) {
   problem_->setInitialTime(t0);
-  scheduler_->fill(t0, settings_.horizon * settings_.dt, problem_->modeSchedule());
+  const double horizon = settings_.horizon * settings_.dt;
+  planning::planStepDownHolds(scheduler_->gait(), *feet_, hold_config_, t0, horizon, clock_);
+  scheduler_->fill(t0, horizon, problem_->modeSchedule(), clock_);
 }
 
 bool CentroidalOcp::followRobot(double t, const lie::SE3& base_pose, double max_distance,

@@ -235,6 +235,15 @@ std::optional<Problem> problemOf(const ControlSettings& s) {
   if (auto p = rangeProblem(s.integrator, kIntegratorFields, "integrator.")) return p;
   if (auto p = rangeProblem(s.wheels, kWheelFields, "wheels.")) return p;
   if (auto p = rangeProblem(s.baseline, kBaselineFields, "baseline.")) return p;
+  // A plan's gait clock reaches the real-time side with the plan, at most max_solution_age
+  // after its state: a step-down hold planned to begin sooner could begin unseen there.
+  if (s.ocp.step_down_max_hold > 0.0 && s.ocp.step_down_hold_lead < s.mpc.max_solution_age) {
+    return Problem{{"ocp.step_down_hold_lead", "mpc.max_solution_age"},
+                   shortestNumberText(s.ocp.step_down_hold_lead) +
+                       " is below mpc.max_solution_age (" +
+                       shortestNumberText(s.mpc.max_solution_age) +
+                       "): a hold could begin before the real-time side has the plan"};
+  }
   if (s.mpc.timing == MpcTiming::Deterministic) {
     if (!(s.mpc.period > 0.0)) {
       return Problem{{"mpc.period", "mpc.timing"},

@@ -135,6 +135,7 @@ struct MpcRunner::Impl {
     out.release_time = release_time;
     out.terrain_version = terrain_version.load(std::memory_order_relaxed);
     out.reference_correction = ocp.baseReference().correction();
+    out.gait_clock = ocp.gaitClock();
   }
 
   /// One real-time iteration from x at t (never allocates).

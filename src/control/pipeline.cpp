@@ -207,6 +207,7 @@ void ControlPipeline::tick(const RobotState& state, JointCommand& command) noexc
       }
       // The foothold regions follow the reference the solution was solved on.
       rt_ocp_->setReferenceCorrection(solution_.reference_correction);
+      rt_ocp_->setGaitClock(solution_.gait_clock);
       adopted_t0_ = solution_.t0;
       holding_ = false;
       // Naive state feedback: the commands restart from the measurement with each plan.
@@ -228,7 +229,7 @@ void ControlPipeline::tick(const RobotState& state, JointCommand& command) noexc
   const double t_plan = holding_ ? hold_time_ : t;
 
   // Contact planner: the gait at t and each foot's regions.
-  scheduler_->fill(t_plan, schedule_horizon_, schedule_);
+  scheduler_->fill(t_plan, schedule_horizon_, schedule_, rt_ocp_->gaitClock());
   rt_ocp_->anchorStanceFeet(schedule_, t_plan, x_meas_);
   // Late touch-downs: out of the mode (no contact consistency holding them in the air)
   // until they land; the MPC's side delays the same stances in its plan.

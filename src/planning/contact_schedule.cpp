@@ -76,13 +76,19 @@ int GaitScheduler::requiredCapacity() const {
 }
 
 void GaitScheduler::fill(double t0, double horizon, ocp::ModeSchedule& out) {
+  fill(t0, horizon, out, GaitClock{});
+}
+
+void GaitScheduler::fill(double t0, double horizon, ocp::ModeSchedule& out,
+                         const GaitClock& clock) {
   detail::checkFinite("GaitScheduler::fill", "t0", t0);
   if (!std::isfinite(horizon) || horizon < 0.0 || horizon > max_horizon_) {
     detail::fail("GaitScheduler::fill", "horizon", horizon, "must be in [0, max_horizon]");
   }
   const double period = gait_.period();
-  const double t_begin = t0 - period;
-  const double t_end = t0 + horizon + period;
+  // In gait time (a hold only shortens the span: the capacity holds).
+  const double t_begin = clock.gaitTime(t0) - period;
+  const double t_end = clock.gaitTime(t0 + horizon) + period;
   int last = gait_.modeAt(t_begin);
   if (gait_.switchesPerPeriod() == 0) {
     out.setConstant(last);
@@ -99,7 +105,7 @@ void GaitScheduler::fill(double t0, double horizon, ocp::ModeSchedule& out) {
     for (std::size_t j = 0; j < starts.size(); ++j) {
       const double time = base + starts[j];
       if (time <= t_begin || time > t_end || modes[j] == last) continue;
-      times_.push_back(time);
+      times_.push_back(clock.loopTime(time));
       modes_.push_back(modes[j]);
       last = modes[j];
     }

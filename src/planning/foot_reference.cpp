@@ -168,11 +168,19 @@ int FootReferencePlanner::footholdRegion(const Eigen::Vector2d& p, double t) con
 
 int FootReferencePlanner::regionOf(const Eigen::Vector2d& p, double t, const lie::SE3& pose) const {
   if (config_.gap_reach <= 0.0) return terrain_->regionAt(p);
-  const lie::Vector6d v = base_->twistAt(t);
-  Eigen::Vector2d e = (pose.rotation * Eigen::Vector3d(v[0], v[1], 0.0)).head<2>();
+  const Eigen::Vector2d e = travelVelocity(t, pose);
   const double speed = e.norm();
   if (speed < 1e-9) return terrain_->regionAt(p);
   return terrain_->regionAhead(p, e / speed, config_.gap_reach);
+}
+
+Eigen::Vector2d FootReferencePlanner::travelVelocity(double t, const lie::SE3& pose) const {
+  const lie::Vector6d v = base_->twistAt(t);
+  return (pose.rotation * Eigen::Vector3d(v[0], v[1], 0.0)).head<2>();
+}
+
+Eigen::Vector2d FootReferencePlanner::travelVelocity(double t) const {
+  return travelVelocity(t, base_->planarPoseAt(t));
 }
 
 Eigen::Vector2d FootReferencePlanner::footholdAt(int foot, double t, int& region) const {

@@ -32,6 +32,8 @@
 #include "rollstep/planning/contact_schedule.hpp"
 #include "rollstep/planning/foot_reference.hpp"
 #include "rollstep/planning/gait.hpp"
+#include "rollstep/planning/gait_clock.hpp"
+#include "rollstep/planning/step_down.hpp"
 #include "rollstep/planning/terrain.hpp"
 
 namespace rollstep::centroidal {
@@ -72,8 +74,13 @@ class CentroidalOcp {
   void resetSchedule(double t0, const lie::SE3& start,
                      const std::vector<planning::TimedBaseCommand>& schedule);
   /// Moves the horizon to start at t0 (same references): the problem's initial time and
-  /// mode schedule.
+  /// mode schedule, the gait read through gaitClock() after planning its step-down holds
+  /// (settings step_down_max_hold; planning/step_down.hpp) over the horizon.
   void advance(double t0);
+  /// The gait's clock the schedule is filled with (no holds unless step_down_max_hold > 0).
+  const planning::GaitClock& gaitClock() const { return clock_; }
+  /// Takes another instance's clock (the real-time side takes the plan's). Never allocates.
+  void setGaitClock(const planning::GaitClock& clock) noexcept { clock_ = clock; }
   /// Keeps the base reference within a leash of the robot's base pose at t (max_distance
   /// [m], max_yaw [rad], 0: free; planning::BaseReference::follow): every term and planner
   /// reads the moved reference from then on. Never allocates; returns whether it moved.
@@ -159,6 +166,8 @@ class CentroidalOcp {
   std::shared_ptr<planning::BaseReference> base_;
   std::shared_ptr<planning::FootReferencePlanner> feet_;
   std::unique_ptr<planning::GaitScheduler> scheduler_;
+  planning::GaitClock clock_;
+  planning::StepDownHoldConfig hold_config_;
   std::shared_ptr<ocp::OptimalControlProblem> problem_;
   std::vector<Eigen::Vector2d> nominal_feet_;
   double nominal_height_ = 0.0;

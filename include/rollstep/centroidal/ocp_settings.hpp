@@ -128,6 +128,15 @@ struct OcpSettings {
   /// gap_reach); 0: onto the nearest region, which at a step edge is the one the foot is
   /// leaving, so it stops at that region's edge until a later swing. In [0, 10].
   double foothold_gap_reach = 0.0;
+  /// [s] The longest the gait may wait, every foot in stance and rolling with the base,
+  /// so that a swing that would touch down on the brink of a step down steps past it
+  /// instead (planning::planStepDownHolds; needs foothold_gap_reach across the gap); 0:
+  /// never (the paper's fixed gait timing). In [0, 10].
+  double step_down_max_hold = 0.0;
+  /// [s] Such a wait begins at least this long after the state a plan starts from, so that
+  /// the real-time side has the plan (and its gait clock) before it begins: at least the
+  /// oldest plan it uses (control.yaml's mpc.max_solution_age). In [0, 10].
+  double step_down_hold_lead = 0.2;
   /// [m] The foothold regions are the terrain's surfaces shrunk by the robot's contact
   /// offset (the wheel radius: the regions bound the wheel centres) plus this clearance, so
   /// that a wheel keeps off the edges and risers; used where the regions are made from a

@@ -8,6 +8,7 @@
 // footPhase() allocate nothing.
 #include "rollstep/ocp/mode_schedule.hpp"
 #include "rollstep/planning/gait.hpp"
+#include "rollstep/planning/gait_clock.hpp"
 
 namespace rollstep::planning {
 
@@ -50,6 +51,10 @@ class GaitScheduler {
   /// non-finite t0 or horizon outside [0, maxHorizon()], or if `out`'s capacity is too
   /// small. No allocation.
   void fill(double t0, double horizon, ocp::ModeSchedule& out);
+  /// The same with the gait read through `clock` (gait_clock.hpp): the switch at gait time
+  /// tau happens at clock.loopTime(tau). Holds lie in all-stance phases, so a swing keeps
+  /// its length and the window still holds every swing overlapping [t0, t0 + horizon].
+  void fill(double t0, double horizon, ocp::ModeSchedule& out, const GaitClock& clock);
 
  private:
   Gait gait_;

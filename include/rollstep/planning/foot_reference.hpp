@@ -96,6 +96,10 @@ class FootReferencePlanner {
 
   int numFeet() const { return static_cast<int>(config_.nominal_feet.size()); }
   const FootReferenceConfig& config() const { return config_; }
+  const TerrainModel& terrain() const { return *terrain_; }
+  /// World (x, y) velocity of the base reference at time t [m/s] (the direction of travel
+  /// the foothold rule looks along).
+  Eigen::Vector2d travelVelocity(double t) const;
   /// World (x, y) of foot `foot`'s nominal contact at time t.
   Eigen::Vector2d nominalFoothold(int foot, double t) const;
   /// World (x, y) of the foothold of the stance of `foot` that contains t: the nominal
@@ -178,6 +182,8 @@ class FootReferencePlanner {
   /// base reference's pose at t (query() needs both at the same times).
   Eigen::Vector2d footholdAt(int foot, double t, int& region) const;
   int regionOf(const Eigen::Vector2d& p, double t, const lie::SE3& pose) const;
+  /// travelVelocity(t) with the base reference's pose at t given.
+  Eigen::Vector2d travelVelocity(double t, const lie::SE3& pose) const;
   std::vector<Anchor> anchors_;
   std::vector<Latch> latches_;
   std::vector<Landing> landings_;

@@ -1,0 +1,287 @@
+// The gait's clock and its step-down holds: a 1.8 s trot at 0.15 m/s over step20's block
+// (regions shrunk by 0.085 m, the gap rule across the gap), from many start positions.
+#include "rollstep/planning/step_down.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "common/alloc_counter.hpp"
+#include "rollstep/planning/contact_schedule.hpp"
+#include "rollstep/planning/gait.hpp"
+
+namespace {
+
+using Eigen::Vector2d;
+using namespace rollstep;
+
+const std::vector<std::string> kFeet{"LF", "MF", "RF", "LR", "MR", "RR"};
+const std::vector<Vector2d> kNominal{{0.33, 0.22},  {0.33, 0.0},  {0.33, -0.22},
+                                     {-0.33, 0.22}, {-0.33, 0.0}, {-0.33, -0.22}};
+constexpr double kPeriod = 1.8, kSpeed = 0.15, kHorizon = 1.5, kMargin = 0.085;
+constexpr double kEdgeUp = 1.0, kEdgeDown = 2.2;  // the block's edges [m]
+
+planning::Gait paperTrot() {
+  return planning::Gait::trot(6, kPeriod, 0.6, planning::contactMask(kFeet, {"LF", "RF", "MR"}),
+                              planning::contactMask(kFeet, {"MF", "LR", "RR"}));
+}
+
+struct BlockScene {
+  planning::TerrainModel terrain = planning::terrainFromBoxes(
+      {-5.0, 10.0, -1.5, 1.5, 0.0}, 0.0, {{kEdgeUp, kEdgeDown, -1.5, 1.5, 0.20}}, kMargin);
+  planning::BaseReference base{terrain, {0.375, kNominal}};
+  planning::FootReferencePlanner feet;
+  planning::GaitScheduler scheduler{paperTrot(), kHorizon};
+  ocp::ModeSchedule schedule{scheduler.requiredCapacity()};
+  planning::GaitClock clock;
+  planning::StepDownHoldConfig config;
+
+  /// The base starts at x0 with `speed` (negative: backwards); gap rule across the gap.
+  explicit BlockScene(double x0, double speed = kSpeed, double max_hold = 0.9)
+      : feet(terrain, base, footConfig()) {
+    base.reset(0.0, lie::SE3(Eigen::Vector3d(x0, 0.0, 0.0), Eigen::Quaterniond::Identity()),
+               planning::BaseVelocityCommand{speed, 0.0, 0.0});
+    config.max_hold = max_hold;
+  }
+  static planning::FootReferenceConfig footConfig() {
+    planning::FootReferenceConfig c{kNominal, 0.08, 0.075};
+    c.gap_reach = 0.2;
+    return c;
+  }
+  /// Plays the MPC: plans at every 20 ms update up to t_end, and keeps every hold once it
+  /// can no longer change (begun before t0 + lead), which the clock forgets a while later.
+  void run(double t_end) {
+    for (; t <= t_end + 1e-9; t += 0.02) {
+      planning::planStepDownHolds(scheduler.gait(), feet, config, t, kHorizon, clock);
+      last = t;
+      for (int i = 0; i < clock.size(); ++i) {
+        const planning::GaitClock::Hold& h = clock.hold(i);
+        if (h.start > t + config.lead) break;
+        if (!held.empty() && held.back().start == h.start) {
+          held.back() = h;  // extended
+        } else if (held.empty() || h.start > held.back().start) {
+          held.push_back(h);
+        }
+      }
+    }
+  }
+  /// The clock of the whole run so far (every hold begun).
+  planning::GaitClock history() const {
+    planning::GaitClock c;
+    for (const planning::GaitClock::Hold& h : held) EXPECT_TRUE(c.addHold(h.start, h.duration));
+    return c;
+  }
+  double t = 0.0, last = 0.0;  // the next and the last planning time
+  std::vector<planning::GaitClock::Hold> held;
+};
+
+struct Swing {
+  int foot;
+  double liftoff, touchdown;
+};
+
+/// Every swing of the gait read through `clock` that lifts off in [t_begin, t_end].
+std::vector<Swing> swings(const planning::Gait& gait, const planning::GaitClock& clock,
+                          double t_begin, double t_end) {
+  std::vector<Swing> out;
+  const double dt = 1e-3;
+  for (int foot = 0; foot < 6; ++foot) {
+    double liftoff = NAN;
+    bool was = gait.inStance(foot, clock.gaitTime(t_begin));
+    for (double t = t_begin + dt; t <= t_end + kPeriod; t += dt) {
+      const bool now = gait.inStance(foot, clock.gaitTime(t));
+      if (was && !now) liftoff = t;
+      if (!was && now && std::isfinite(liftoff) && liftoff <= t_end) {
+        out.push_back({foot, liftoff, t});
+      }
+      was = now;
+    }
+  }
+  return out;
+}
+
+TEST(GaitClock, HoldsStopTheGaitTime) {
+  planning::GaitClock c;
+  EXPECT_DOUBLE_EQ(c.gaitTime(3.7), 3.7);
+  EXPECT_DOUBLE_EQ(c.loopTime(3.7), 3.7);
+  ASSERT_TRUE(c.addHold(1.0, 0.5));
+  ASSERT_TRUE(c.addHold(2.0, 0.25));
+  EXPECT_DOUBLE_EQ(c.gaitTime(0.9), 0.9);
+  EXPECT_DOUBLE_EQ(c.gaitTime(1.2), 1.0);  // held
+  EXPECT_DOUBLE_EQ(c.gaitTime(1.5), 1.0);  // the hold's end
+  EXPECT_DOUBLE_EQ(c.gaitTime(1.75), 1.25);
+  EXPECT_DOUBLE_EQ(c.gaitTime(2.1), 1.5);  // in the second hold
+  EXPECT_DOUBLE_EQ(c.gaitTime(3.0), 2.25);
+  EXPECT_DOUBLE_EQ(c.totalHeld(), 0.75);
+  // loopTime: the earliest loop time of a gait time; inverse of gaitTime outside holds.
+  EXPECT_DOUBLE_EQ(c.loopTime(1.0), 1.0);
+  EXPECT_DOUBLE_EQ(c.loopTime(1.25), 1.75);
+  EXPECT_DOUBLE_EQ(c.loopTime(1.5), 2.0);
+  for (double t = 0.0; t < 4.0; t += 0.01) {
+    const bool held = (t > 1.0 && t < 1.5) || (t > 2.0 && t < 2.25);
+    if (!held) {
+      EXPECT_NEAR(c.loopTime(c.gaitTime(t)), t, 1e-12) << t;
+    }
+  }
+}
+
+TEST(GaitClock, AddDropAndForget) {
+  planning::GaitClock c;
+  ASSERT_TRUE(c.addHold(1.0, 0.5));
+  EXPECT_FALSE(c.addHold(1.2, 0.1));  // inside the last hold
+  EXPECT_FALSE(c.addHold(2.0, -0.1));
+  EXPECT_FALSE(c.addHold(NAN, 0.1));
+  ASSERT_TRUE(c.addHold(1.5, 0.25));  // at its end: extends it
+  EXPECT_EQ(c.size(), 1);
+  EXPECT_DOUBLE_EQ(c.hold(0).duration, 0.75);
+  ASSERT_TRUE(c.addHold(3.0, 0.5));
+  ASSERT_TRUE(c.addHold(5.0, 0.5));
+  c.dropHoldsAfter(3.0);  // a hold beginning at 3.0 stays
+  EXPECT_EQ(c.size(), 2);
+  const double tau_late = c.gaitTime(4.2), t_back = c.loopTime(3.2);
+  c.forgetBefore(3.6);  // the first ends at 1.75, the second at 3.5
+  EXPECT_EQ(c.size(), 0);
+  EXPECT_DOUBLE_EQ(c.gaitTime(4.2), tau_late);
+  EXPECT_DOUBLE_EQ(c.loopTime(3.2), t_back);
+  EXPECT_DOUBLE_EQ(c.totalHeld(), 1.25);
+  for (int i = 0; i < planning::GaitClock::kMaxHolds; ++i) {
+    ASSERT_TRUE(c.addHold(10.0 + i, 0.1));
+  }
+  EXPECT_FALSE(c.addHold(100.0, 0.1));  // full
+  c.clear();
+  EXPECT_DOUBLE_EQ(c.gaitTime(4.2), 4.2);
+}
+
+TEST(GaitScheduler, FillsThroughAClock) {
+  const planning::Gait gait = paperTrot();
+  planning::GaitScheduler scheduler(gait, kHorizon);
+  ocp::ModeSchedule plain(scheduler.requiredCapacity()), held(scheduler.requiredCapacity());
+  planning::GaitClock none;
+  scheduler.fill(3.3, kHorizon, plain);
+  scheduler.fill(3.3, kHorizon, held, none);
+  EXPECT_EQ(plain.switchingTimes(), held.switchingTimes());
+  EXPECT_EQ(plain.modes(), held.modes());
+  // A 0.4 s hold inside the all-stance phase after the switch at 3.6 (= 2 x 1.8 + 0):
+  // switches before it stay, later ones move by 0.4; modes unchanged.
+  planning::GaitClock clock;
+  ASSERT_TRUE(clock.addHold(3.65, 0.4));
+  scheduler.fill(3.3, kHorizon, held, clock);
+  // The window is a span of gait time: the held one ends earlier in the gait.
+  ASSERT_LE(held.modes().size(), plain.modes().size());
+  ASSERT_GT(held.switchingTimes().back(), 3.3 + kHorizon + 0.4 * kPeriod);
+  for (std::size_t i = 0; i < held.switchingTimes().size(); ++i) {
+    const double t = plain.switchingTimes()[i];
+    EXPECT_NEAR(held.switchingTimes()[i], t <= 3.65 ? t : t + 0.4, 1e-12) << i;
+    EXPECT_EQ(held.modes()[i], plain.modes()[i]);
+  }
+  EXPECT_EQ(held.modeAt(3.8), planning::allFeetMask(6));  // in the hold: all in stance
+}
+
+/// The property the holds are for, over start positions that put the gait at every phase
+/// of the block's far edge: no swing touches down on the block within what a hold can wait
+/// for (speed x max_hold) before its far edge, and every hold lies in an all-stance phase
+/// at most max_hold long. Without holds some do (the test can fail).
+TEST(StepDownHolds, NoTouchDownOnTheBrinkOfTheDrop) {
+  const double brink_begin = kEdgeDown - kMargin;  // the top region's far edge
+  int brink_landings_without = 0, held_runs = 0;
+  for (double x0 = -0.3; x0 < 0.0; x0 += 0.02) {
+    for (const double max_hold : {0.0, 0.9}) {
+      BlockScene s(x0, kSpeed, max_hold);
+      s.run(20.0);
+      const planning::GaitClock clock = s.history();
+      int brink_landings = 0;
+      for (const Swing& w : swings(s.scheduler.gait(), clock, 1.0, 18.0)) {
+        const Vector2d p = s.feet.nominalFoothold(w.foot, w.touchdown);
+        const double to_edge = brink_begin - p.x();
+        // Within what a 0.9 s hold could wait for, short of the edge.
+        if (to_edge >= 0.0 && to_edge < 0.9 * kSpeed - s.config.overshoot) ++brink_landings;
+        EXPECT_NEAR(w.touchdown - w.liftoff, 0.4 * kPeriod, 2e-3);  // swings keep their length
+      }
+      for (int i = 0; i < clock.size(); ++i) {
+        const planning::GaitClock::Hold& h = clock.hold(i);
+        EXPECT_LE(h.duration, max_hold + 1e-12);
+        for (double t = h.start; t <= h.end(); t += 0.01) {
+          EXPECT_EQ(s.scheduler.gait().modeAt(clock.gaitTime(t)), planning::allFeetMask(6));
+        }
+        // Only before a step down: every hold is beyond the climb.
+        EXPECT_GT(s.base.worldPoint({-0.33, 0.0}, h.start).x(), kEdgeUp);
+      }
+      if (max_hold == 0.0) {
+        EXPECT_EQ(clock.size(), 0);
+        brink_landings_without += brink_landings;
+      } else {
+        EXPECT_EQ(brink_landings, 0) << "x0 " << x0;
+        if (clock.size() > 0) ++held_runs;
+      }
+    }
+  }
+  EXPECT_GT(brink_landings_without, 0);
+  EXPECT_GT(held_runs, 0);
+}
+
+TEST(StepDownHolds, BackwardsOffTheBlock) {
+  // Reversing off the block's front edge (stairs2's way down): the drop is behind.
+  for (double x0 = 1.9; x0 < 2.2; x0 += 0.03) {
+    BlockScene s(x0, -kSpeed);
+    s.run(20.0);
+    const planning::GaitClock clock = s.history();
+    for (const Swing& w : swings(s.scheduler.gait(), clock, 1.0, 18.0)) {
+      const double to_edge = s.feet.nominalFoothold(w.foot, w.touchdown).x() - (kEdgeUp + kMargin);
+      EXPECT_FALSE(to_edge >= 0.0 && to_edge < 0.9 * kSpeed - s.config.overshoot)
+          << x0 << " foot " << w.foot;
+    }
+  }
+}
+
+TEST(StepDownHolds, StartedHoldsStayAndReplanningRepeats) {
+  BlockScene s(-0.2);
+  s.run(8.0);
+  planning::GaitClock before = s.clock;
+  // The same inputs again: the same holds.
+  planning::planStepDownHolds(s.scheduler.gait(), s.feet, s.config, s.last, kHorizon, s.clock);
+  ASSERT_EQ(s.clock.size(), before.size());
+  for (int i = 0; i < s.clock.size(); ++i) {
+    EXPECT_EQ(s.clock.hold(i).start, before.hold(i).start);
+    EXPECT_EQ(s.clock.hold(i).duration, before.hold(i).duration);
+  }
+  // Holds already under way (begun before t0 + lead) are kept whatever comes next: with
+  // holding switched off they stay, the later ones go.
+  s.run(13.0);
+  ASSERT_GT(s.clock.size(), 0);
+  before = s.clock;
+  s.config.max_hold = 0.0;
+  const double t0 = s.t;
+  planning::planStepDownHolds(s.scheduler.gait(), s.feet, s.config, t0, kHorizon, s.clock);
+  const auto kept = [&](const planning::GaitClock::Hold& h) {
+    for (int i = 0; i < s.clock.size(); ++i) {
+      if (s.clock.hold(i).start == h.start && s.clock.hold(i).duration == h.duration) return true;
+    }
+    return false;
+  };
+  int under_way = 0;
+  for (int i = 0; i < before.size(); ++i) {
+    const planning::GaitClock::Hold& h = before.hold(i);
+    if (h.start > t0 + s.config.lead) {
+      EXPECT_FALSE(kept(h)) << h.start;
+    } else if (h.end() > t0 - 2.0 * kPeriod) {
+      EXPECT_TRUE(kept(h)) << h.start;
+      ++under_way;
+    }
+  }
+  EXPECT_GT(under_way, 0);
+}
+
+TEST(StepDownHolds, NoAllocation) {
+  BlockScene s(-0.2);
+  s.run(10.0);
+  test::AllocationGuard guard;  // the clock is full-size already: a run reuses it
+  for (double t0 = 10.0; t0 < 16.0; t0 += 0.02) {
+    planning::planStepDownHolds(s.scheduler.gait(), s.feet, s.config, t0, kHorizon, s.clock);
+    s.scheduler.fill(t0, kHorizon, s.schedule, s.clock);
+  }
+  EXPECT_EQ(guard.count(), 0u);
+}
+
+}  // namespace
