@@ -170,6 +170,7 @@ CentroidalOcp::CentroidalOcp(const RobotOcpDescription& description, const OcpSe
                                                          horizon_time);
   hold_config_.max_hold = settings.step_down_max_hold;
   hold_config_.lead = settings.step_down_hold_lead;
+  hold_config_.overshoot = settings.step_down_overshoot;
 
   // --- the problem -----------------------------------------------------------------------------
   auto dynamics = std::make_shared<ocp::ExplicitEuler>(std::make_shared<CentroidalDynamics>(pre_));

@@ -137,6 +137,7 @@ void NmpcController::record(double t, bool adopted) {
   r.primal_step = s.primal_step;
   r.solve_time_ms = s.solve_time_ms;
   r.adopted = adopted;
+  r.gait_held = s.gait_clock.totalHeld();
   updates_.push_back(r);
 }
 
@@ -180,13 +181,13 @@ void NmpcController::logValues(std::string& out) const {
 std::string NmpcController::mpcUpdatesCsv() const {
   std::string out =
       "time[s],state_time[s],sequence[-],status,iterations[-],kkt_error[-],primal_residual[-],"
-      "solve_time[ms],adopted[0/1],primal_step[-]\n";
+      "solve_time[ms],adopted[0/1],primal_step[-],gait_held[s]\n";
   char row[300];
   for (const MpcUpdateRecord& r : updates_) {
-    std::snprintf(row, sizeof row, "%.4f,%.4f,%llu,%s,%d,%.6g,%.6g,%.3f,%d,%.4g\n", r.time,
+    std::snprintf(row, sizeof row, "%.4f,%.4f,%llu,%s,%d,%.6g,%.6g,%.3f,%d,%.4g,%.4f\n", r.time,
                   r.state_time, static_cast<unsigned long long>(r.sequence),
                   solver::toString(r.status), r.iterations, r.kkt_error, r.primal_residual,
-                  r.solve_time_ms, r.adopted ? 1 : 0, r.primal_step);
+                  r.solve_time_ms, r.adopted ? 1 : 0, r.primal_step, r.gait_held);
     out += row;
   }
   return out;

@@ -382,6 +382,57 @@ TEST(MpcRunner, ReferenceLeashFollowsTheRobotAndTravelsWithTheSolution) {
   }
 }
 
+TEST(MpcRunner, StepDownHoldsTravelWithTheSolution) {
+  // Trotting at 0.15 m/s towards a 0.2 m drop 0.45 m ahead (regions shrunk by 0.085 m, the
+  // gap rule across the gap), the state held: the runner's OCP plans holds of its gait
+  // (ocp.step_down_max_hold), every solution carries the clock it was solved on, and its
+  // node modes are that clock's schedule: all feet in stance through a hold.
+  planning::TerrainBox top{-20.0, 0.75, -20.0, 20.0, 0.2};
+  planning::TerrainBox floor{-20.0, 20.0, -20.0, 20.0, 0.0};
+  ControlSettings settings = shortHorizon(40);
+  settings.ocp.gait_period = 1.8;
+  settings.ocp.foothold_gap_reach = 0.2;
+  settings.ocp.step_down_max_hold = 0.9;
+  auto runner = std::make_unique<MpcRunner>(tachyon3(), settings,
+                                            planning::terrainFromBoxes(floor, 0.0, {top}, 0.085),
+                                            planning::GaitKind::Trot);
+  const Eigen::VectorXd x0 = runner->ocp().standingState(0.0, 0.0, 0.0);
+  runner->initialize(0.0, lie::SE3::Identity(), planning::BaseVelocityCommand{0.15, 0.0, 0.0}, x0);
+  MpcSolution out = runner->makeSolution();
+  const int all = planning::allFeetMask(6);
+  int with_holds = 0, held_nodes = 0;
+  for (int i = 0; i <= 4000; ++i) {
+    const double t = 1e-3 * i;
+    runner->post(t, x0);
+    if (!runner->poll(t, out)) continue;
+    const planning::GaitClock& clock = out.gait_clock;
+    if (clock.size() == 0) continue;
+    ++with_holds;
+    for (int k = 0; k < static_cast<int>(out.modes.size()); ++k) {
+      const double tk = out.t0 + k * out.dt;
+      for (int h = 0; h < clock.size(); ++h) {
+        if (tk > clock.hold(h).start && tk < clock.hold(h).end()) {
+          EXPECT_EQ(out.modes[static_cast<std::size_t>(k)], all) << tk;
+          ++held_nodes;
+        }
+      }
+      // The node's mode is the gait's at the clock's time (away from a switch).
+      const planning::Gait& gait = runner->ocp().gait();
+      const int mode = gait.modeAt(clock.gaitTime(tk));
+      if (gait.modeAt(clock.gaitTime(tk - 1e-6)) == mode &&
+          gait.modeAt(clock.gaitTime(tk + 1e-6)) == mode) {
+        EXPECT_EQ(out.modes[static_cast<std::size_t>(k)], mode) << tk;
+      }
+    }
+  }
+  EXPECT_GT(with_holds, 0);
+  EXPECT_GT(held_nodes, 0);
+  // The runner's clock as of its latest solve: the holds within 0.9 s each.
+  for (int h = 0; h < runner->ocp().gaitClock().size(); ++h) {
+    EXPECT_LE(runner->ocp().gaitClock().hold(h).duration, 0.9 + 1e-12);
+  }
+}
+
 TEST(MpcRunner, AsynchronousPublishesAndStopsCleanly) {
   ControlSettings settings = shortHorizon(20);
   settings.mpc.timing = MpcTiming::Asynchronous;

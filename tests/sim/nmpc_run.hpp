@@ -58,6 +58,8 @@ struct NmpcOutcome {
   double mean_yaw_rate = 0.0;  ///< over the second half [rad/s]
   Eigen::Vector3d start = Eigen::Vector3d::Zero(), end = Eigen::Vector3d::Zero();
   control::PipelineCounters counters;
+  /// [s] the time the gait stood still at steps down (the last plan's clock).
+  double gait_held = 0.0;
   double mean_qp_correction = 0.0;
   double command_rms_second_difference = 0.0;  ///< joint position commands [rad or m]
   std::vector<double> log;  ///< every tick: time, base pose, joint commands, wheel commands
@@ -179,6 +181,7 @@ inline NmpcOutcome runNmpc(const NmpcScenario& sc) {
   }
   out.mean_qp_correction = steps > 0 ? corr / steps : 0.0;
   out.counters = controller.pipeline().counters();
+  out.gait_held = controller.pipeline().lastSolution().gait_clock.totalHeld();
   out.warnings = plant.warningCount() - warnings0;
   double sum = 0.0;
   long n = 0;

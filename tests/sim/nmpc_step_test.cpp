@@ -127,6 +127,8 @@ TEST(NmpcStep20, ClimbsOverTheBlockOnTheEstimatorsState) {
   EXPECT_LT(o.end.z(), 0.45) << describe(o);  // floor nominal 0.375; on the block 0.575
   expectUprightOverSteps(o, 15.0);            // roll 11 deg (the fall criterion: 45)
   EXPECT_TRUE(o.estimate_finite);
+  // climb.yaml's step-down holds: the gait waited at the far edge.
+  EXPECT_GT(o.gait_held, 0.0) << describe(o);
 }
 
 TEST(NmpcStairs2, UpBothStepsAndBackDown) {

@@ -137,6 +137,9 @@ struct OcpSettings {
   /// the real-time side has the plan (and its gait clock) before it begins: at least the
   /// oldest plan it uses (control.yaml's mpc.max_solution_age). In [0, 10].
   double step_down_hold_lead = 0.2;
+  /// [m] How far past the brink's edge a held swing's nominal touch-down goes: further
+  /// waits longer and lands the foot nearer under its hip. In [0, 1].
+  double step_down_overshoot = 0.05;
   /// [m] The foothold regions are the terrain's surfaces shrunk by the robot's contact
   /// offset (the wheel radius: the regions bound the wheel centres) plus this clearance, so
   /// that a wheel keeps off the edges and risers; used where the regions are made from a

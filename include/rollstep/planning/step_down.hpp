@@ -31,7 +31,7 @@ struct StepDownHoldConfig {
   /// [s] a hold begins at least this long after the planning time.
   double lead = 0.2;
   /// [m] how far past the brink region's edge the held touch-down foothold goes.
-  double overshoot = 0.01;
+  double overshoot = 0.05;
   /// [m] height difference below which the next region is not a step down.
   double level_tolerance = 1e-3;
 };
