@@ -1,6 +1,7 @@
 // Centroidal layer benchmarks on Tachyon 3: the node precomputation, the dynamics (explicit
 // Euler), the equalities and costs of one node, a whole node linearisation, and one
-// real-time iteration of the problem (no inequalities) at N = 100 during a trot.
+// real-time iteration of the problem (no inequalities) at N = 100 during a trot, and the
+// horizon's advance with and without step-down holds.
 //   build-*/bench/centroidal/bench_centroidal
 #include <benchmark/benchmark.h>
 
@@ -212,5 +213,36 @@ void BM_Tachyon3RtiUpdateN100(benchmark::State& state) {
   state.counters["update_ms"] = upd / n;
 }
 BENCHMARK(BM_Tachyon3RtiUpdateN100)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+/// CentroidalOcp::advance over step20 (regions shrunk by 0.085 m, climb.yaml's gait and
+/// foothold rule) at t0 sweeping 10-17 s, where the rear legs come down the block's far
+/// edge: the horizon's mode schedule, with (Arg 1: ocp.step_down_max_hold 0.9 s, the holds
+/// planned over the horizon first) or without (Arg 0) step-down holds.
+void BM_AdvanceWithStepDownHolds(benchmark::State& state) {
+  OcpSettings settings;
+  settings.gait_period = 1.8;
+  settings.foothold_gap_reach = 0.2;
+  settings.step_down_max_hold = state.range(0) != 0 ? 0.9 : 0.0;
+  const RobotOcpDescription robot =
+      loadRobotOcpDescription(std::string(ROLLSTEP_ROBOTS_DIR) + "/tachyon3/centroidal.yaml");
+  CentroidalOcp ocp(
+      robot, settings,
+      planning::terrainFromBoxes({-5, 10, -1.5, 1.5, 0}, 0.0, {{1.0, 2.2, -1.5, 1.5, 0.2}}, 0.085),
+      planning::GaitKind::Trot);
+  ocp.reset(0.0, lie::SE3::Identity(), planning::BaseVelocityCommand{0.15, 0.0, 0.0});
+  double t0 = 10.0;
+  for (auto _ : state) {
+    ocp.advance(t0);
+    benchmark::DoNotOptimize(ocp.gaitClock().totalHeld());
+    t0 += 0.02;
+    if (t0 > 17.0) {  // back to 10 s with a fresh clock
+      state.PauseTiming();
+      ocp.reset(0.0, lie::SE3::Identity(), planning::BaseVelocityCommand{0.15, 0.0, 0.0});
+      t0 = 10.0;
+      state.ResumeTiming();
+    }
+  }
+}
+BENCHMARK(BM_AdvanceWithStepDownHolds)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
 
 }  // namespace

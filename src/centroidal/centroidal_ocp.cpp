@@ -168,9 +168,12 @@ CentroidalOcp::CentroidalOcp(const RobotOcpDescription& description, const OcpSe
   const double horizon_time = settings.horizon * settings.dt;
   scheduler_ = std::make_unique<planning::GaitScheduler>(makeGait(gait, description, settings),
                                                          horizon_time);
-  hold_config_.max_hold = settings.step_down_max_hold;
-  hold_config_.lead = settings.step_down_hold_lead;
+  hold_config_.max_down_hold = settings.step_down_max_hold;
+  hold_config_.lead = settings.edge_hold_lead;
   hold_config_.overshoot = settings.step_down_overshoot;
+  hold_config_.max_up_hold = settings.step_up_max_hold;
+  hold_config_.setback = settings.step_up_setback;
+  hold_config_.level_tolerance = foot_config.level_tolerance;  // "a step" as the swings see it
 
   // --- the problem -----------------------------------------------------------------------------
   auto dynamics = std::make_shared<ocp::ExplicitEuler>(std::make_shared<CentroidalDynamics>(pre_));
@@ -291,7 +294,7 @@ void CentroidalOcp::resetSchedule(double t0, const lie::SE3& start,
 void CentroidalOcp::advance(double t0) {
   problem_->setInitialTime(t0);
   const double horizon = settings_.horizon * settings_.dt;
-  planning::planStepDownHolds(scheduler_->gait(), *feet_, hold_config_, t0, horizon, clock_);
+  planning::planEdgeHolds(scheduler_->gait(), *feet_, hold_config_, t0, horizon, clock_);
   scheduler_->fill(t0, horizon, problem_->modeSchedule(), clock_);
 }
 

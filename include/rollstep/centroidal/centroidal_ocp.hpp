@@ -30,10 +30,10 @@
 #include "rollstep/ocp/problem.hpp"
 #include "rollstep/planning/base_reference.hpp"
 #include "rollstep/planning/contact_schedule.hpp"
+#include "rollstep/planning/edge_holds.hpp"
 #include "rollstep/planning/foot_reference.hpp"
 #include "rollstep/planning/gait.hpp"
 #include "rollstep/planning/gait_clock.hpp"
-#include "rollstep/planning/step_down.hpp"
 #include "rollstep/planning/terrain.hpp"
 
 namespace rollstep::centroidal {
@@ -75,7 +75,7 @@ class CentroidalOcp {
                      const std::vector<planning::TimedBaseCommand>& schedule);
   /// Moves the horizon to start at t0 (same references): the problem's initial time and
   /// mode schedule, the gait read through gaitClock() after planning its step-down holds
-  /// (settings step_down_max_hold; planning/step_down.hpp) over the horizon.
+  /// (settings step_down_max_hold; planning/edge_holds.hpp) over the horizon.
   void advance(double t0);
   /// The gait's clock the schedule is filled with (no holds unless step_down_max_hold > 0).
   const planning::GaitClock& gaitClock() const { return clock_; }
@@ -167,7 +167,7 @@ class CentroidalOcp {
   std::shared_ptr<planning::FootReferencePlanner> feet_;
   std::unique_ptr<planning::GaitScheduler> scheduler_;
   planning::GaitClock clock_;
-  planning::StepDownHoldConfig hold_config_;
+  planning::EdgeHoldConfig hold_config_;
   std::shared_ptr<ocp::OptimalControlProblem> problem_;
   std::vector<Eigen::Vector2d> nominal_feet_;
   double nominal_height_ = 0.0;

@@ -130,16 +130,22 @@ struct OcpSettings {
   double foothold_gap_reach = 0.0;
   /// [s] The longest the gait may wait, every foot in stance and rolling with the base,
   /// so that a swing that would touch down on the brink of a step down steps past it
-  /// instead (planning::planStepDownHolds; needs foothold_gap_reach across the gap); 0:
+  /// instead (planning::planEdgeHolds; needs foothold_gap_reach across the gap); 0:
   /// never (the paper's fixed gait timing). In [0, 10].
   double step_down_max_hold = 0.0;
   /// [s] Such a wait begins at least this long after the state a plan starts from, so that
   /// the real-time side has the plan (and its gait clock) before it begins: at least the
   /// oldest plan it uses (control.yaml's mpc.max_solution_age). In [0, 10].
-  double step_down_hold_lead = 0.2;
+  double edge_hold_lead = 0.2;
   /// [m] How far past the brink's edge a held swing's nominal touch-down goes: further
   /// waits longer and lands the foot nearer under its hip. In [0, 1].
   double step_down_overshoot = 0.05;
+  /// [s] The same before a step up: a swing that would touch down on the surface before it,
+  /// short of its end, waits until it lands step_up_setback short of that end, so that the
+  /// next swing climbs from close to the riser. 0: never. In [0, 10].
+  double step_up_max_hold = 0.0;
+  /// [m] See step_up_max_hold. In [0, 1].
+  double step_up_setback = 0.02;
   /// [m] The foothold regions are the terrain's surfaces shrunk by the robot's contact
   /// offset (the wheel radius: the regions bound the wheel centres) plus this clearance, so
   /// that a wheel keeps off the edges and risers; used where the regions are made from a

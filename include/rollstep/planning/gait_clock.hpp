@@ -5,7 +5,7 @@
 // tau advances with t except during holds, intervals [start, start + duration) of loop
 // time in which it stands still. GaitScheduler::fill writes a gait through a clock; holds
 // belong in all-stance phases (every foot on the ground, rolling with the base), where they
-// lengthen no swing. step_down.hpp decides them.
+// lengthen no swing. edge_holds.hpp decides them.
 //
 // Real-time use: fixed capacity, no allocation, nothing throws.
 #include <array>

@@ -1,6 +1,6 @@
 // The gait's clock and its step-down holds: a 1.8 s trot at 0.15 m/s over step20's block
 // (regions shrunk by 0.085 m, the gap rule across the gap), from many start positions.
-#include "rollstep/planning/step_down.hpp"
+#include "rollstep/planning/edge_holds.hpp"
 
 #include <gtest/gtest.h>
 
@@ -36,14 +36,14 @@ struct BlockScene {
   planning::GaitScheduler scheduler{paperTrot(), kHorizon};
   ocp::ModeSchedule schedule{scheduler.requiredCapacity()};
   planning::GaitClock clock;
-  planning::StepDownHoldConfig config;
+  planning::EdgeHoldConfig config;
 
   /// The base starts at x0 with `speed` (negative: backwards); gap rule across the gap.
   explicit BlockScene(double x0, double speed = kSpeed, double max_hold = 0.9)
       : feet(terrain, base, footConfig()) {
     base.reset(0.0, lie::SE3(Eigen::Vector3d(x0, 0.0, 0.0), Eigen::Quaterniond::Identity()),
                planning::BaseVelocityCommand{speed, 0.0, 0.0});
-    config.max_hold = max_hold;
+    config.max_down_hold = max_hold;
   }
   static planning::FootReferenceConfig footConfig() {
     planning::FootReferenceConfig c{kNominal, 0.08, 0.075};
@@ -54,7 +54,7 @@ struct BlockScene {
   /// can no longer change (begun before t0 + lead), which the clock forgets a while later.
   void run(double t_end) {
     for (; t <= t_end + 1e-9; t += 0.02) {
-      planning::planStepDownHolds(scheduler.gait(), feet, config, t, kHorizon, clock);
+      planning::planEdgeHolds(scheduler.gait(), feet, config, t, kHorizon, clock);
       last = t;
       for (int i = 0; i < clock.size(); ++i) {
         const planning::GaitClock::Hold& h = clock.hold(i);
@@ -221,6 +221,43 @@ TEST(StepDownHolds, NoTouchDownOnTheBrinkOfTheDrop) {
   EXPECT_GT(held_runs, 0);
 }
 
+/// Before a step up (max_up_hold): no swing touches down on the floor short of the riser
+/// by more than the setback and less than what a hold can wait for; it lands setback short
+/// of the floor region's end instead (the next swing climbs). Without, some do.
+TEST(StepUpHolds, TouchDownsCloseUpToTheRiser) {
+  const double floor_end = kEdgeUp - kMargin;
+  int short_without = 0, held_runs = 0;
+  for (double x0 = -0.3; x0 < 0.0; x0 += 0.02) {
+    for (const double max_up : {0.0, 1.5}) {
+      BlockScene s(x0, kSpeed, 0.0);
+      s.config.max_up_hold = max_up;
+      s.run(12.0);
+      const planning::GaitClock clock = s.history();
+      int short_landings = 0;
+      for (const Swing& w : swings(s.scheduler.gait(), clock, 1.0, 10.0)) {
+        const double to_end = floor_end - s.feet.nominalFoothold(w.foot, w.touchdown).x();
+        if (to_end > s.config.setback + 1e-3 && to_end < 1.5 * kSpeed) ++short_landings;
+      }
+      for (int i = 0; i < clock.size(); ++i) {
+        const planning::GaitClock::Hold& h = clock.hold(i);
+        EXPECT_LE(h.duration, max_up + 1e-12);
+        for (double t = h.start; t <= h.end(); t += 0.01) {
+          EXPECT_EQ(s.scheduler.gait().modeAt(clock.gaitTime(t)), planning::allFeetMask(6));
+        }
+      }
+      if (max_up == 0.0) {
+        EXPECT_EQ(clock.size(), 0);
+        short_without += short_landings;
+      } else {
+        EXPECT_EQ(short_landings, 0) << "x0 " << x0;
+        if (clock.size() > 0) ++held_runs;
+      }
+    }
+  }
+  EXPECT_GT(short_without, 0);
+  EXPECT_GT(held_runs, 0);
+}
+
 TEST(StepDownHolds, BackwardsOffTheBlock) {
   // Reversing off the block's front edge (stairs2's way down): the drop is behind.
   for (double x0 = 1.9; x0 < 2.2; x0 += 0.03) {
@@ -240,7 +277,7 @@ TEST(StepDownHolds, StartedHoldsStayAndReplanningRepeats) {
   s.run(8.0);
   planning::GaitClock before = s.clock;
   // The same inputs again: the same holds.
-  planning::planStepDownHolds(s.scheduler.gait(), s.feet, s.config, s.last, kHorizon, s.clock);
+  planning::planEdgeHolds(s.scheduler.gait(), s.feet, s.config, s.last, kHorizon, s.clock);
   ASSERT_EQ(s.clock.size(), before.size());
   for (int i = 0; i < s.clock.size(); ++i) {
     EXPECT_EQ(s.clock.hold(i).start, before.hold(i).start);
@@ -255,9 +292,9 @@ TEST(StepDownHolds, StartedHoldsStayAndReplanningRepeats) {
   while (s.t < 20.0 && !begun()) s.run(s.t);
   ASSERT_TRUE(begun());
   before = s.clock;
-  s.config.max_hold = 0.0;
+  s.config.max_down_hold = 0.0;
   const double t0 = s.t;
-  planning::planStepDownHolds(s.scheduler.gait(), s.feet, s.config, t0, kHorizon, s.clock);
+  planning::planEdgeHolds(s.scheduler.gait(), s.feet, s.config, t0, kHorizon, s.clock);
   const auto kept = [&](const planning::GaitClock::Hold& h) {
     for (int i = 0; i < s.clock.size(); ++i) {
       if (s.clock.hold(i).start == h.start && s.clock.hold(i).duration == h.duration) return true;
@@ -282,7 +319,7 @@ TEST(StepDownHolds, NoAllocation) {
   s.run(10.0);
   test::AllocationGuard guard;  // the clock is full-size already: a run reuses it
   for (double t0 = 10.0; t0 < 16.0; t0 += 0.02) {
-    planning::planStepDownHolds(s.scheduler.gait(), s.feet, s.config, t0, kHorizon, s.clock);
+    planning::planEdgeHolds(s.scheduler.gait(), s.feet, s.config, t0, kHorizon, s.clock);
     s.scheduler.fill(t0, kHorizon, s.schedule, s.clock);
   }
   EXPECT_EQ(guard.count(), 0u);

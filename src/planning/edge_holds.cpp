@@ -1,4 +1,4 @@
-#include "rollstep/planning/step_down.hpp"
+#include "rollstep/planning/edge_holds.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -7,6 +7,9 @@
 namespace rollstep::planning {
 
 namespace {
+
+/// [m] How far past a region's edge the next region along the travel is looked for.
+constexpr double kNextRegionReach = 0.5;
 
 /// Distance along the unit direction e from p (inside `region`) to the region's boundary;
 /// +inf if the ray never leaves it.
@@ -22,16 +25,17 @@ double exitDistance(const ConvexRegion& region, const Eigen::Vector2d& p,
   return exit;
 }
 
-/// How long the gait must wait for `foot`'s touch-down at t_td to step down past the brink
-/// it would land on (see the header), 0 when it does not land on one or cannot get past it
-/// within config.max_hold.
-double stepDownWait(const FootReferencePlanner& feet, const StepDownHoldConfig& config, int foot,
-                    double t_td) {
+/// How long the gait must wait for `foot`'s touch-down at t_td (see the header): on the
+/// brink of a step down, until it passes the edge by config.overshoot; short of a step up,
+/// until it is config.setback short of its region's end. 0 when neither applies or the
+/// wait would exceed that kind's longest hold.
+double edgeWait(const FootReferencePlanner& feet, const EdgeHoldConfig& config, int foot,
+                double t_td) {
   const TerrainModel& terrain = feet.terrain();
   if (terrain.size() == 0) return 0.0;
-  double wait = 0.0;
-  int brink = -1;
-  double brink_height = 0.0;
+  double wait = 0.0, max_wait = 0.0;
+  int surface = -1;
+  bool down = false;
   // The base reference may change speed over the wait (a command schedule): a few
   // corrections, each from the foothold the last one reached.
   for (int pass = 0; pass < 4; ++pass) {
@@ -41,41 +45,59 @@ double stepDownWait(const FootReferencePlanner& feet, const StepDownHoldConfig& 
     if (!(speed > 1e-6)) return 0.0;
     const Eigen::Vector2d e = v / speed;
     const Eigen::Vector2d p = feet.nominalFoothold(foot, t);
-    const int region = feet.footholdRegion(p, t);
-    if (region < 0) return 0.0;
-    if (brink < 0) {
-      // Not on a surface (in a gap between regions): the foothold rule already takes the
-      // region ahead.
-      if (!terrain.region(region).contains(p)) return 0.0;
-      brink = region;
-      brink_height = terrain.region(region).heightAt(p);
-    } else if (region != brink) {
-      break;  // past the brink
+    if (surface < 0) {
+      // The surface it lands on (not in a gap between regions: there the foothold rule
+      // already chooses) and the next one the travel enters past its edge.
+      surface = feet.footholdRegion(p, t);
+      if (surface < 0 || !terrain.region(surface).contains(p)) return 0.0;
+      const ConvexRegion& here = terrain.region(surface);
+      const double exit = exitDistance(here, p, e);
+      if (!std::isfinite(exit)) return 0.0;
+      const Eigen::Vector2d past = p + (exit + 1e-6) * e;
+      const int next = terrain.regionAhead(past, e, kNextRegionReach);
+      if (next < 0 || next == surface) return 0.0;
+      const double rise = terrain.region(next).heightAt(past) - here.heightAt(p);
+      if (rise < -config.level_tolerance) {
+        down = true;
+        max_wait = config.max_down_hold;
+        // The foothold rule must put a foothold that far past the edge on the step below.
+        const Eigen::Vector2d target = p + (exit + config.overshoot) * e;
+        if (feet.footholdRegion(target, t) == surface) return 0.0;
+      } else if (rise > config.level_tolerance) {
+        max_wait = config.max_up_hold;
+      } else {
+        return 0.0;
+      }
+      if (!(max_wait > 0.0)) return 0.0;
     }
-    const double exit = exitDistance(terrain.region(brink), p, e);
-    if (!std::isfinite(exit)) return 0.0;
-    const Eigen::Vector2d q = p + (exit + config.overshoot) * e;
-    const int next = feet.footholdRegion(q, t);
-    if (next < 0 || next == brink) return 0.0;
-    if (terrain.region(next).heightAt(q) > brink_height - config.level_tolerance) return 0.0;
-    wait += (exit + config.overshoot) / speed;
-    if (wait > config.max_hold) return 0.0;
+    const ConvexRegion& here = terrain.region(surface);
+    double remaining = 0.0;
+    if (down) {
+      if (here.contains(p)) remaining = exitDistance(here, p, e) + config.overshoot;
+    } else {
+      if (!here.contains(p)) break;  // past the setback already (a faster base)
+      remaining = exitDistance(here, p, e) - config.setback;
+    }
+    if (remaining <= 1e-6) break;
+    wait += remaining / speed;
+    if (wait > max_wait) return 0.0;
   }
   return wait;
 }
 
 }  // namespace
 
-void planStepDownHolds(const Gait& gait, const FootReferencePlanner& feet,
-                       const StepDownHoldConfig& config, double t0, double lookahead,
-                       GaitClock& clock) noexcept {
+void planEdgeHolds(const Gait& gait, const FootReferencePlanner& feet, const EdgeHoldConfig& config,
+                   double t0, double lookahead, GaitClock& clock) noexcept {
   if (!std::isfinite(t0) || !std::isfinite(lookahead)) return;
   const double period = gait.period();
   // fill() reads the schedule from a period before t0 on.
   clock.forgetBefore(t0 - 2.0 * period);
   const double first_start = t0 + config.lead;
   clock.dropHoldsAfter(first_start);
-  if (!(config.max_hold > 0.0) || gait.switchesPerPeriod() == 0) return;
+  if (!(config.max_down_hold > 0.0 || config.max_up_hold > 0.0) || gait.switchesPerPeriod() == 0) {
+    return;
+  }
   const std::vector<double>& starts = gait.phaseStarts();
   const std::vector<int>& modes = gait.phaseModes();
   const int n = static_cast<int>(starts.size());
@@ -100,7 +122,7 @@ void planStepDownHolds(const Gait& gait, const FootReferencePlanner& feet,
           const double tau_td = (k + static_cast<double>((j + m) / n)) * period +
                                 starts[static_cast<std::size_t>(jm)];
           // No hold lies inside a swing: its loop-time length is its gait-time length.
-          need = std::max(need, stepDownWait(feet, config, foot, t_lo + (tau_td - tau_lo)));
+          need = std::max(need, edgeWait(feet, config, foot, t_lo + (tau_td - tau_lo)));
           break;
         }
       }

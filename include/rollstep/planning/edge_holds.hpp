@@ -1,0 +1,56 @@
+#pragma once
+// Gait timing that waits for the terrain's edges.
+//
+// A periodic gait places its swings by the clock, not by the terrain. At a step down a
+// swing can touch down just short of the edge (a short step onto the brink), and the foot
+// comes down one whole cycle later, its leg stretched back towards its hip limit. Before a
+// step up a swing can touch down well short of the riser, and the next one must then climb
+// from far back, lifting off early, or it lands in the gap and climbs with a long reach. A
+// wheeled-legged robot can instead wait: every foot stays in stance and rolls with the
+// base (the base does not slow down), and the gait's clock stands still (a GaitClock hold).
+//
+// planEdgeHolds() decides the holds from the foot references (base reference, terrain,
+// foothold rule), for each swing whose nominal touch-down foothold lies inside a region
+// that the travel leaves (the next region within 0.5 m past its edge):
+// - onto a lower region: a hold until the foothold is `overshoot` past the edge, where the
+//   foothold rule puts it on the step below (needs foothold_gap_reach across the gap; with
+//   a shorter reach the rule would put it back on the brink, and nothing is held); at most
+//   max_down_hold;
+// - onto a higher one: a hold until the foothold is `setback` short of the region's end,
+//   so that it lands close up to the riser and the next swing climbs from there; at most
+//   max_up_hold.
+// The hold goes in the middle of the all-stance phase before that swing's lift-off (as
+// long as the lift-off group's longest wait). Holds begin no sooner than `lead` after the
+// planning time, so a plan's clock reaches the real-time side before it matters; later
+// holds are planned again at every call (the same inputs give the same holds).
+//
+// Real-time use: no allocation, nothing throws.
+#include "rollstep/planning/foot_reference.hpp"
+#include "rollstep/planning/gait.hpp"
+#include "rollstep/planning/gait_clock.hpp"
+
+namespace rollstep::planning {
+
+struct EdgeHoldConfig {
+  /// [s] longest hold before a step down; 0: never.
+  double max_down_hold = 0.0;
+  /// [s] a hold begins at least this long after the planning time.
+  double lead = 0.2;
+  /// [m] how far past the brink region's edge the held touch-down foothold goes.
+  double overshoot = 0.05;
+  /// [s] longest hold before a step up; 0: never.
+  double max_up_hold = 0.0;
+  /// [m] how far short of the end of its region a touch-down held before a step up lands.
+  double setback = 0.02;
+  /// [m] height difference below which the next region is level (no hold).
+  double level_tolerance = 1e-3;
+};
+
+/// Plans the holds of `clock` for the swings lifting off in [t0 + config.lead, t0 +
+/// lookahead] (see the file comment): forgets holds that ended a gait period before t0,
+/// drops the ones beginning after t0 + lead and plans them again, in lift-off order. A
+/// gait with no all-stance phase before a lift-off is never held there. No allocation.
+void planEdgeHolds(const Gait& gait, const FootReferencePlanner& feet, const EdgeHoldConfig& config,
+                   double t0, double lookahead, GaitClock& clock) noexcept;
+
+}  // namespace rollstep::planning
