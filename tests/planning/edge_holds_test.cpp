@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -88,7 +89,7 @@ std::vector<Swing> swings(const planning::Gait& gait, const planning::GaitClock&
   std::vector<Swing> out;
   const double dt = 1e-3;
   for (int foot = 0; foot < 6; ++foot) {
-    double liftoff = NAN;
+    double liftoff = std::numeric_limits<double>::quiet_NaN();
     bool was = gait.inStance(foot, clock.gaitTime(t_begin));
     for (double t = t_begin + dt; t <= t_end + kPeriod; t += dt) {
       const bool now = gait.inStance(foot, clock.gaitTime(t));
@@ -132,7 +133,7 @@ TEST(GaitClock, AddDropAndForget) {
   ASSERT_TRUE(c.addHold(1.0, 0.5));
   EXPECT_FALSE(c.addHold(1.2, 0.1));  // inside the last hold
   EXPECT_FALSE(c.addHold(2.0, -0.1));
-  EXPECT_FALSE(c.addHold(NAN, 0.1));
+  EXPECT_FALSE(c.addHold(std::numeric_limits<double>::quiet_NaN(), 0.1));
   ASSERT_TRUE(c.addHold(1.5, 0.25));  // at its end: extends it
   EXPECT_EQ(c.size(), 1);
   EXPECT_DOUBLE_EQ(c.hold(0).duration, 0.75);
