@@ -173,7 +173,6 @@ CentroidalOcp::CentroidalOcp(const RobotOcpDescription& description, const OcpSe
   hold_config_.overshoot = settings.step_down_overshoot;
   hold_config_.max_up_hold = settings.step_up_max_hold;
   hold_config_.setback = settings.step_up_setback;
-  hold_config_.level_tolerance = foot_config.level_tolerance;  // "a step" as the swings see it
 
   // --- the problem -----------------------------------------------------------------------------
   auto dynamics = std::make_shared<ocp::ExplicitEuler>(std::make_shared<CentroidalDynamics>(pre_));

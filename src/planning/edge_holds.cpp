@@ -57,13 +57,13 @@ double edgeWait(const FootReferencePlanner& feet, const EdgeHoldConfig& config, 
       const int next = terrain.regionAhead(past, e, kNextRegionReach);
       if (next < 0 || next == surface) return 0.0;
       const double rise = terrain.region(next).heightAt(past) - here.heightAt(p);
-      if (rise < -config.level_tolerance) {
+      if (rise < -config.min_step) {
         down = true;
         max_wait = config.max_down_hold;
         // The foothold rule must put a foothold that far past the edge on the step below.
         const Eigen::Vector2d target = p + (exit + config.overshoot) * e;
         if (feet.footholdRegion(target, t) == surface) return 0.0;
-      } else if (rise > config.level_tolerance) {
+      } else if (rise > config.min_step) {
         max_wait = config.max_up_hold;
       } else {
         return 0.0;

@@ -259,6 +259,27 @@ TEST(StepUpHolds, TouchDownsCloseUpToTheRiser) {
   EXPECT_GT(held_runs, 0);
 }
 
+TEST(EdgeHolds, NoHoldAtALowStep) {
+  // A 2 cm "step" (two perceived surfaces of one floor): no hold either way.
+  planning::TerrainModel terrain = planning::terrainFromBoxes(
+      {-5.0, 10.0, -1.5, 1.5, 0.0}, 0.0, {{1.0, 2.2, -1.5, 1.5, 0.02}}, kMargin);
+  planning::BaseReference base{terrain, {0.375, kNominal}};
+  planning::FootReferencePlanner feet(terrain, base, BlockScene::footConfig());
+  planning::GaitScheduler scheduler{paperTrot(), kHorizon};
+  planning::EdgeHoldConfig config;
+  config.max_down_hold = 0.9;
+  config.max_up_hold = 1.5;
+  for (double x0 = -0.3; x0 < 0.0; x0 += 0.05) {
+    base.reset(0.0, lie::SE3(Eigen::Vector3d(x0, 0.0, 0.0), Eigen::Quaterniond::Identity()),
+               planning::BaseVelocityCommand{kSpeed, 0.0, 0.0});
+    planning::GaitClock clock;
+    for (double t = 0.0; t < 20.0; t += 0.02) {
+      planning::planEdgeHolds(scheduler.gait(), feet, config, t, kHorizon, clock);
+      ASSERT_EQ(clock.size(), 0) << x0 << " " << t;
+    }
+  }
+}
+
 TEST(StepDownHolds, BackwardsOffTheBlock) {
   // Reversing off the block's front edge (stairs2's way down): the drop is behind.
   for (double x0 = 1.9; x0 < 2.2; x0 += 0.03) {

@@ -42,8 +42,9 @@ struct EdgeHoldConfig {
   double max_up_hold = 0.0;
   /// [m] how far short of the end of its region a touch-down held before a step up lands.
   double setback = 0.02;
-  /// [m] height difference below which the next region is level (no hold).
-  double level_tolerance = 1e-3;
+  /// [m] height difference below which the next region is not a step (no hold): the
+  /// regions perception makes of one floor differ by up to a few centimetres.
+  double min_step = 0.03;
 };
 
 /// Plans the holds of `clock` for the swings lifting off in [t0 + config.lead, t0 +
