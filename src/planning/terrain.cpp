@@ -111,6 +111,21 @@ double ConvexRegion::margin(const Eigen::Vector2d& p) const {
   return m;
 }
 
+void ConvexRegion::clipLine(const Eigen::Vector2d& p, const Eigen::Vector2d& e, double& lo,
+                            double& hi) const {
+  for (Eigen::Index k = 0; k < A.rows() && lo <= hi; ++k) {
+    const double s = A(k, 0) * p.x() + A(k, 1) * p.y() + b(k);  // distance at d = 0
+    const double rate = A(k, 0) * e.x() + A(k, 1) * e.y();
+    if (std::abs(rate) < 1e-12) {
+      if (s < 0.0) hi = lo - 1.0;  // parallel and outside
+    } else if (rate > 0.0) {
+      lo = std::max(lo, -s / rate);
+    } else {
+      hi = std::min(hi, -s / rate);
+    }
+  }
+}
+
 Eigen::Vector2d ConvexRegion::closestPoint(const Eigen::Vector2d& p) const {
   if (margin(p) >= 0.0) return p;
   double best = std::numeric_limits<double>::infinity();
@@ -201,17 +216,7 @@ int TerrainModel::regionAhead(const Eigen::Vector2d& p, const Eigen::Vector2d& e
   for (int i = 0; i < size(); ++i) {
     const ConvexRegion& r = region(i);
     double lo = 0.0, hi = reach;  // the part of the ray inside the polygon
-    for (Eigen::Index k = 0; k < r.A.rows() && lo <= hi; ++k) {
-      const double s = r.A(k, 0) * p.x() + r.A(k, 1) * p.y() + r.b(k);
-      const double rate = r.A(k, 0) * e.x() + r.A(k, 1) * e.y();
-      if (std::abs(rate) < 1e-12) {
-        if (s < 0.0) hi = lo - 1.0;
-      } else if (rate > 0.0) {
-        lo = std::max(lo, -s / rate);
-      } else {
-        hi = std::min(hi, -s / rate);
-      }
-    }
+    r.clipLine(p, e, lo, hi);
     if (lo <= hi && lo < best_entry) {
       best = i;
       best_entry = lo;
@@ -237,17 +242,7 @@ double TerrainModel::envelopeHeight(const Eigen::Vector2d& p, const Eigen::Vecto
   for (const ConvexRegion& r : regions_) {
     // The part [lo, hi] of the segment p + d e, |d| <= extent, inside the polygon.
     double lo = -extent, hi = extent;
-    for (Eigen::Index k = 0; k < r.A.rows() && lo <= hi; ++k) {
-      const double s = r.A(k, 0) * p.x() + r.A(k, 1) * p.y() + r.b(k);  // distance at d = 0
-      const double rate = r.A(k, 0) * e.x() + r.A(k, 1) * e.y();
-      if (std::abs(rate) < 1e-12) {
-        if (s < 0.0) hi = lo - 1.0;  // parallel and outside
-      } else if (rate > 0.0) {
-        lo = std::max(lo, -s / rate);
-      } else {
-        hi = std::min(hi, -s / rate);
-      }
-    }
+    r.clipLine(p, e, lo, hi);
     if (lo > hi) continue;
     // The plane along the segment is linear in d; minus slope max(|d| - reach, 0), concave
     // and piecewise linear, it peaks at an end, at 0 or at +-reach.

@@ -40,6 +40,9 @@ struct ConvexRegion {
   double distance(const Eigen::Vector2d& p) const;
   /// z of the region's plane above (x, y) = p.
   double heightAt(const Eigen::Vector2d& p) const;
+  /// Shrinks [lo, hi] to the part of the line p + d e (e unit) inside the polygon; lo > hi
+  /// after it when there is none. No allocation.
+  void clipLine(const Eigen::Vector2d& p, const Eigen::Vector2d& e, double& lo, double& hi) const;
 };
 
 /// An axis-aligned box on the floor, seen from above: its footprint and top height [m].
