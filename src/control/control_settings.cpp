@@ -236,7 +236,7 @@ std::optional<Problem> problemOf(const ControlSettings& s) {
   if (auto p = rangeProblem(s.wheels, kWheelFields, "wheels.")) return p;
   if (auto p = rangeProblem(s.baseline, kBaselineFields, "baseline.")) return p;
   // A plan's gait clock reaches the real-time side with the plan, at most max_solution_age
-  // after its state: a step-down hold planned to begin sooner could begin unseen there.
+  // after its state: an edge hold planned to begin sooner could begin unseen there.
   if ((s.ocp.step_down_max_hold > 0.0 || s.ocp.step_up_max_hold > 0.0) &&
       s.ocp.edge_hold_lead < s.mpc.max_solution_age) {
     return Problem{{"ocp.edge_hold_lead", "mpc.max_solution_age"},

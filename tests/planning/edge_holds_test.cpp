@@ -103,6 +103,18 @@ std::vector<Swing> swings(const planning::Gait& gait, const planning::GaitClock&
   return out;
 }
 
+/// Every hold of `clock` at most `max_hold` long and inside an all-stance phase.
+void expectHoldsInAllStance(const planning::Gait& gait, const planning::GaitClock& clock,
+                            double max_hold) {
+  for (int i = 0; i < clock.size(); ++i) {
+    const planning::GaitClock::Hold& h = clock.hold(i);
+    EXPECT_LE(h.duration, max_hold + 1e-12);
+    for (double t = h.start; t <= h.end(); t += 0.01) {
+      EXPECT_EQ(gait.modeAt(clock.gaitTime(t)), planning::allFeetMask(6));
+    }
+  }
+}
+
 TEST(GaitClock, HoldsStopTheGaitTime) {
   planning::GaitClock c;
   EXPECT_DOUBLE_EQ(c.gaitTime(3.7), 3.7);
@@ -200,14 +212,10 @@ TEST(StepDownHolds, NoTouchDownOnTheBrinkOfTheDrop) {
         if (to_edge >= 0.0 && to_edge < 0.9 * kSpeed - s.config.overshoot) ++brink_landings;
         EXPECT_NEAR(w.touchdown - w.liftoff, 0.4 * kPeriod, 2e-3);  // swings keep their length
       }
+      expectHoldsInAllStance(s.scheduler.gait(), clock, max_hold);
       for (int i = 0; i < clock.size(); ++i) {
-        const planning::GaitClock::Hold& h = clock.hold(i);
-        EXPECT_LE(h.duration, max_hold + 1e-12);
-        for (double t = h.start; t <= h.end(); t += 0.01) {
-          EXPECT_EQ(s.scheduler.gait().modeAt(clock.gaitTime(t)), planning::allFeetMask(6));
-        }
         // Only before a step down: every hold is beyond the climb.
-        EXPECT_GT(s.base.worldPoint({-0.33, 0.0}, h.start).x(), kEdgeUp);
+        EXPECT_GT(s.base.worldPoint({-0.33, 0.0}, clock.hold(i).start).x(), kEdgeUp);
       }
       if (max_hold == 0.0) {
         EXPECT_EQ(clock.size(), 0);
@@ -239,13 +247,7 @@ TEST(StepUpHolds, TouchDownsCloseUpToTheRiser) {
         const double to_end = floor_end - s.feet.nominalFoothold(w.foot, w.touchdown).x();
         if (to_end > s.config.setback + 1e-3 && to_end < 1.5 * kSpeed) ++short_landings;
       }
-      for (int i = 0; i < clock.size(); ++i) {
-        const planning::GaitClock::Hold& h = clock.hold(i);
-        EXPECT_LE(h.duration, max_up + 1e-12);
-        for (double t = h.start; t <= h.end(); t += 0.01) {
-          EXPECT_EQ(s.scheduler.gait().modeAt(clock.gaitTime(t)), planning::allFeetMask(6));
-        }
-      }
+      expectHoldsInAllStance(s.scheduler.gait(), clock, max_up);
       if (max_up == 0.0) {
         EXPECT_EQ(clock.size(), 0);
         short_without += short_landings;

@@ -58,7 +58,7 @@ struct NmpcOutcome {
   double mean_yaw_rate = 0.0;  ///< over the second half [rad/s]
   Eigen::Vector3d start = Eigen::Vector3d::Zero(), end = Eigen::Vector3d::Zero();
   control::PipelineCounters counters;
-  /// [s] the time the gait stood still at steps down (the last plan's clock).
+  /// [s] the time the gait stood still at the steps' edges (the last plan's clock).
   double gait_held = 0.0;
   double mean_qp_correction = 0.0;
   double command_rms_second_difference = 0.0;  ///< joint position commands [rad or m]

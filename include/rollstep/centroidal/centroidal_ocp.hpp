@@ -74,10 +74,12 @@ class CentroidalOcp {
   void resetSchedule(double t0, const lie::SE3& start,
                      const std::vector<planning::TimedBaseCommand>& schedule);
   /// Moves the horizon to start at t0 (same references): the problem's initial time and
-  /// mode schedule, the gait read through gaitClock() after planning its step-down holds
-  /// (settings step_down_max_hold; planning/edge_holds.hpp) over the horizon.
+  /// mode schedule, the gait read through gaitClock() after planning its edge holds
+  /// (settings step_down_max_hold, step_up_max_hold; planning/edge_holds.hpp) over the
+  /// horizon.
   void advance(double t0);
-  /// The gait's clock the schedule is filled with (no holds unless step_down_max_hold > 0).
+  /// The gait's clock the schedule is filled with (no holds unless step_down_max_hold or
+  /// step_up_max_hold > 0).
   const planning::GaitClock& gaitClock() const { return clock_; }
   /// Takes another instance's clock (the real-time side takes the plan's). Never allocates.
   void setGaitClock(const planning::GaitClock& clock) noexcept { clock_ = clock; }

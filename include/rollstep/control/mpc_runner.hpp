@@ -54,7 +54,7 @@ struct MpcSolution {
   /// The planar correction of the base reference it was solved on (MpcSettings::
   /// reference_leash; identity with the leash off): the real-time side plans on the same.
   lie::SE3 reference_correction;
-  /// The gait's clock it was solved on (its step-down holds, CentroidalOcp::gaitClock):
+  /// The gait's clock it was solved on (its edge holds, CentroidalOcp::gaitClock):
   /// the real-time side fills its contact schedule through the same.
   planning::GaitClock gait_clock;
   /// Deterministic mode: loop time from which poll() hands it out (t0 + latency).

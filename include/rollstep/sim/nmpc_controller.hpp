@@ -81,7 +81,7 @@ struct MpcUpdateRecord {
   double primal_step = 0.0;    ///< of the last iteration (1: full Newton step)
   double solve_time_ms = 0.0;  ///< wall time (not reproducible)
   bool adopted = false;        ///< refined into the reference (false: unusable, rejected)
-  /// [s] time its gait clock has stood still in all (step-down holds begun or planned)
+  /// [s] time its gait clock has stood still in all (edge holds begun or planned)
   double gait_held = 0.0;
 };
 
