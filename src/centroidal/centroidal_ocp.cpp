@@ -170,9 +170,10 @@ CentroidalOcp::CentroidalOcp(const RobotOcpDescription& description, const OcpSe
                                                          horizon_time);
   hold_config_.max_down_hold = settings.step_down_max_hold;
   hold_config_.lead = settings.edge_hold_lead;
-  hold_config_.overshoot = settings.step_down_overshoot;
+  hold_config_.reach = settings.step_down_reach;
   hold_config_.max_up_hold = settings.step_up_max_hold;
   hold_config_.setback = settings.step_up_setback;
+  hold_config_.up_reach = settings.step_up_reach;
 
   // --- the problem -----------------------------------------------------------------------------
   auto dynamics = std::make_shared<ocp::ExplicitEuler>(std::make_shared<CentroidalDynamics>(pre_));

@@ -31,7 +31,7 @@ struct Field {
 };
 
 // The one table of keys (config/ocp.yaml documents each, in this order).
-const std::array<Field, 45> kFields{{
+const std::array<Field, 46> kFields{{
     {"horizon", &OcpSettings::horizon, 1, 10000, false, false},
     {"dt", &OcpSettings::dt, 0, 10, true, false},
     {"base_velocity_weight", &OcpSettings::base_velocity_weight, 0, 1e12, false, false},
@@ -65,9 +65,10 @@ const std::array<Field, 45> kFields{{
     {"foothold_gap_reach", &OcpSettings::foothold_gap_reach, 0, 10, false, false},
     {"step_down_max_hold", &OcpSettings::step_down_max_hold, 0, 10, false, false},
     {"edge_hold_lead", &OcpSettings::edge_hold_lead, 0, 10, false, false},
-    {"step_down_overshoot", &OcpSettings::step_down_overshoot, 0, 1, false, false},
+    {"step_down_reach", &OcpSettings::step_down_reach, 0, 1, false, false},
     {"step_up_max_hold", &OcpSettings::step_up_max_hold, 0, 10, false, false},
     {"step_up_setback", &OcpSettings::step_up_setback, 0, 1, false, false},
+    {"step_up_reach", &OcpSettings::step_up_reach, 0, 1, false, false},
     {"foothold_edge_clearance", &OcpSettings::foothold_edge_clearance, 0, 1, false, false},
     {"anchor_stance_feet", &OcpSettings::anchor_stance_feet, 0, 0, false, false},
     {"latch_touchdowns", &OcpSettings::latch_touchdowns, 0, 0, false, false},

@@ -25,17 +25,67 @@ double exitDistance(const ConvexRegion& region, const Eigen::Vector2d& p,
   return exit;
 }
 
-/// How long the gait must wait for `foot`'s touch-down at t_td (see the header): on the
-/// brink of a step down, until it passes the edge by config.overshoot; short of a step up,
-/// until it is config.setback short of its region's end. 0 when neither applies or the
-/// wait would exceed that kind's longest hold.
+/// The part [lo, hi] of the line p + d e inside `region` (lo > hi: none).
+void lineInterval(const ConvexRegion& region, const Eigen::Vector2d& p, const Eigen::Vector2d& e,
+                  double& lo, double& hi) {
+  lo = -std::numeric_limits<double>::infinity();
+  hi = std::numeric_limits<double>::infinity();
+  region.clipLine(p, e, lo, hi);
+}
+
+/// The edge a touch-down foothold p (at time t, travel direction e) is near: the surface it
+/// leaves (`here`: the region containing p, or in a gap the one just behind p along the
+/// travel) and the next one the travel enters past that surface's end (`next`, within
+/// kNextRegionReach). `exit` is the signed distance along e from p to the end of `here`
+/// (negative: p is past it, in the gap), `entry` the distance to the start of `next`.
+/// False when there is no such pair.
+struct Edge {
+  int here = -1, next = -1;
+  double exit = 0.0, entry = 0.0, rise = 0.0;
+};
+bool edgeAt(const FootReferencePlanner& feet, const Eigen::Vector2d& p, const Eigen::Vector2d& e,
+            double t, Edge& edge) {
+  const TerrainModel& terrain = feet.terrain();
+  const int chosen = feet.footholdRegion(p, t);
+  if (chosen < 0) return false;
+  if (terrain.region(chosen).contains(p)) {
+    edge.here = chosen;
+    edge.exit = exitDistance(terrain.region(chosen), p, e);
+  } else {
+    // In a gap: the surface behind it, the one the ray back along the travel enters first.
+    edge.here = terrain.regionAhead(p, -e, kNextRegionReach);
+    if (edge.here < 0) return false;
+    double lo = 0.0, hi = 0.0;
+    lineInterval(terrain.region(edge.here), p, e, lo, hi);
+    if (!(lo <= hi) || hi > 0.0 || hi < -kNextRegionReach) return false;  // not behind p
+    edge.exit = hi;
+  }
+  if (!std::isfinite(edge.exit)) return false;
+  const Eigen::Vector2d past = p + (edge.exit + 1e-6) * e;
+  edge.next = terrain.regionAhead(past, e, kNextRegionReach);
+  if (edge.next < 0 || edge.next == edge.here) return false;
+  double lo = 0.0, hi = 0.0;
+  lineInterval(terrain.region(edge.next), p, e, lo, hi);
+  if (!(lo <= hi) || lo < edge.exit - 1e-9 || lo > edge.exit + kNextRegionReach) return false;
+  edge.entry = lo;
+  const Eigen::Vector2d at_exit = p + edge.exit * e;
+  edge.rise =
+      terrain.region(edge.next).heightAt(p + lo * e) - terrain.region(edge.here).heightAt(at_exit);
+  return true;
+}
+
+/// How long the gait must wait for `foot`'s touch-down at t_td (see the header): before a
+/// step down, until its foothold is past the end of the surface it leaves and at most
+/// config.reach short of the lower one; short of a step up, until it is config.setback
+/// short of its region's end, or from the gap before the riser, until it is at most
+/// config.up_reach short of the step's region. 0 when none applies or the wait would
+/// exceed that kind's longest hold.
 double edgeWait(const FootReferencePlanner& feet, const EdgeHoldConfig& config, int foot,
                 double t_td) {
-  const TerrainModel& terrain = feet.terrain();
-  if (terrain.size() == 0) return 0.0;
+  if (feet.terrain().size() == 0) return 0.0;
   double wait = 0.0, max_wait = 0.0;
-  int surface = -1;
-  bool down = false;
+  Edge edge;
+  bool down = false, in_gap = false;
   // The base reference may change speed over the wait (a command schedule): a few
   // corrections, each from the foothold the last one reached.
   for (int pass = 0; pass < 4; ++pass) {
@@ -45,38 +95,45 @@ double edgeWait(const FootReferencePlanner& feet, const EdgeHoldConfig& config, 
     if (!(speed > 1e-6)) return 0.0;
     const Eigen::Vector2d e = v / speed;
     const Eigen::Vector2d p = feet.nominalFoothold(foot, t);
-    if (surface < 0) {
-      // The surface it lands on (not in a gap between regions: there the foothold rule
-      // already chooses) and the next one the travel enters past its edge.
-      surface = feet.footholdRegion(p, t);
-      if (surface < 0 || !terrain.region(surface).contains(p)) return 0.0;
-      const ConvexRegion& here = terrain.region(surface);
-      const double exit = exitDistance(here, p, e);
-      if (!std::isfinite(exit)) return 0.0;
-      const Eigen::Vector2d past = p + (exit + 1e-6) * e;
-      const int next = terrain.regionAhead(past, e, kNextRegionReach);
-      if (next < 0 || next == surface) return 0.0;
-      const double rise = terrain.region(next).heightAt(past) - here.heightAt(p);
-      if (rise < -config.min_step) {
+    double remaining = 0.0;
+    if (pass == 0) {
+      if (!edgeAt(feet, p, e, t, edge)) return 0.0;
+      if (edge.rise < -config.min_step) {
         down = true;
         max_wait = config.max_down_hold;
-        // The foothold rule must put a foothold that far past the edge on the step below.
-        const Eigen::Vector2d target = p + (exit + config.overshoot) * e;
-        if (feet.footholdRegion(target, t) == surface) return 0.0;
-      } else if (rise > config.min_step) {
+      } else if (edge.rise > config.min_step) {
         max_wait = config.max_up_hold;
+        in_gap = edge.exit < 0.0;
+        if (in_gap && !(config.up_reach > 0.0)) return 0.0;
       } else {
         return 0.0;
       }
       if (!(max_wait > 0.0)) return 0.0;
-    }
-    const ConvexRegion& here = terrain.region(surface);
-    double remaining = 0.0;
-    if (down) {
-      if (here.contains(p)) remaining = exitDistance(here, p, e) + config.overshoot;
+      if (down) {
+        remaining = std::max(edge.exit + 1e-6, edge.entry - config.reach);
+      } else {
+        remaining = in_gap ? edge.entry - config.up_reach : edge.exit - config.setback;
+      }
+      if ((down || in_gap) && remaining > 0.0) {
+        // The foothold rule must put the held foothold on the step below (above).
+        if (feet.footholdRegion(p + remaining * e, t) != edge.next) return 0.0;
+      }
     } else {
-      if (!here.contains(p)) break;  // past the setback already (a faster base)
-      remaining = exitDistance(here, p, e) - config.setback;
+      // The same edge, from the foothold the wait has reached so far.
+      const TerrainModel& terrain = feet.terrain();
+      double lo = 0.0, hi = 0.0;
+      lineInterval(terrain.region(edge.here), p, e, lo, hi);
+      const double exit = lo <= hi ? hi : -std::numeric_limits<double>::infinity();
+      lineInterval(terrain.region(edge.next), p, e, lo, hi);
+      const double entry = lo;
+      if (down) {
+        remaining = std::max(exit + 1e-6, entry - config.reach);
+      } else if (in_gap) {
+        remaining = entry - config.up_reach;
+      } else {
+        if (!(exit >= 0.0)) break;  // past the setback already (a faster base)
+        remaining = exit - config.setback;
+      }
     }
     if (remaining <= 1e-6) break;
     wait += remaining / speed;

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "common/alloc_counter.hpp"
@@ -29,9 +30,13 @@ planning::Gait paperTrot() {
                               planning::contactMask(kFeet, {"MF", "LR", "RR"}));
 }
 
+planning::TerrainModel blockTerrain() {
+  return planning::terrainFromBoxes({-5.0, 10.0, -1.5, 1.5, 0.0}, 0.0,
+                                    {{kEdgeUp, kEdgeDown, -1.5, 1.5, 0.20}}, kMargin);
+}
+
 struct BlockScene {
-  planning::TerrainModel terrain = planning::terrainFromBoxes(
-      {-5.0, 10.0, -1.5, 1.5, 0.0}, 0.0, {{kEdgeUp, kEdgeDown, -1.5, 1.5, 0.20}}, kMargin);
+  planning::TerrainModel terrain;
   planning::BaseReference base{terrain, {0.375, kNominal}};
   planning::FootReferencePlanner feet;
   planning::GaitScheduler scheduler{paperTrot(), kHorizon};
@@ -41,7 +46,10 @@ struct BlockScene {
 
   /// The base starts at x0 with `speed` (negative: backwards); gap rule across the gap.
   explicit BlockScene(double x0, double speed = kSpeed, double max_hold = 0.9)
-      : feet(terrain, base, footConfig()) {
+      : BlockScene(blockTerrain(), x0, speed, max_hold) {}
+  /// The same on another terrain.
+  BlockScene(planning::TerrainModel other, double x0, double speed, double max_hold)
+      : terrain(std::move(other)), feet(terrain, base, footConfig()) {
     base.reset(0.0, lie::SE3(Eigen::Vector3d(x0, 0.0, 0.0), Eigen::Quaterniond::Identity()),
                planning::BaseVelocityCommand{speed, 0.0, 0.0});
     config.max_down_hold = max_hold;
@@ -209,7 +217,8 @@ TEST(StepDownHolds, NoTouchDownOnTheBrinkOfTheDrop) {
         const Vector2d p = s.feet.nominalFoothold(w.foot, w.touchdown);
         const double to_edge = brink_begin - p.x();
         // Within what a 0.9 s hold could wait for, short of the edge.
-        if (to_edge >= 0.0 && to_edge < 0.9 * kSpeed - s.config.overshoot) ++brink_landings;
+        if (to_edge >= 0.0 && to_edge < 0.9 * kSpeed - (2.0 * kMargin - s.config.reach))
+          ++brink_landings;
         EXPECT_NEAR(w.touchdown - w.liftoff, 0.4 * kPeriod, 2e-3);  // swings keep their length
       }
       expectHoldsInAllStance(s.scheduler.gait(), clock, max_hold);
@@ -227,6 +236,46 @@ TEST(StepDownHolds, NoTouchDownOnTheBrinkOfTheDrop) {
     }
   }
   EXPECT_GT(brink_landings_without, 0);
+  EXPECT_GT(held_runs, 0);
+}
+
+/// A floor beyond the drop that perception has not seen up to the edge yet (hidden behind
+/// it): its foothold region begins kHidden past the edge instead of kMargin, and a nominal
+/// touch-down in the wide gap goes back onto the block (out of foothold_gap_reach). The
+/// holds then wait until the foothold is within `reach` of the floor region (the foot steps
+/// down there, not onto the brink or far ahead of its hip): no touch-down lands where a
+/// hold could have fixed that. Without holds some do (the test can fail).
+TEST(StepDownHolds, FloorHiddenBeyondTheDrop) {
+  constexpr double kHidden = 0.25, kW = 1.5 - kMargin;
+  const auto rect = [&](double x0, double x1, double z) {
+    return planning::ConvexRegion::fromPolygon({{x0, -kW}, {x1, -kW}, {x1, kW}, {x0, kW}}, z);
+  };
+  const double lower_start = kEdgeDown + kHidden;
+  const planning::TerrainModel hidden(std::vector<planning::ConvexRegion>{
+      rect(-5.0 + kMargin, kEdgeUp - kMargin, 0.0),
+      rect(kEdgeUp + kMargin, kEdgeDown - kMargin, 0.2), rect(lower_start, 10.0 - kMargin, 0.0)});
+  int fixable_without = 0, held_runs = 0;
+  for (double x0 = -0.3; x0 < 0.0; x0 += 0.02) {
+    for (const double max_hold : {0.0, 0.9}) {
+      BlockScene s(hidden, x0, kSpeed, max_hold);
+      s.run(20.0);
+      const planning::GaitClock clock = s.history();
+      expectHoldsInAllStance(s.scheduler.gait(), clock, max_hold);
+      const double target = lower_start - s.config.reach;  // a held foothold reaches this
+      int fixable = 0;
+      for (const Swing& w : swings(s.scheduler.gait(), clock, 1.0, 18.0)) {
+        const double x = s.feet.nominalFoothold(w.foot, w.touchdown).x();
+        if (x > target - 0.9 * kSpeed + 1e-3 && x < target - 1e-3) ++fixable;
+      }
+      if (max_hold == 0.0) {
+        fixable_without += fixable;
+      } else {
+        EXPECT_EQ(fixable, 0) << "x0 " << x0;
+        if (clock.size() > 0) ++held_runs;
+      }
+    }
+  }
+  EXPECT_GT(fixable_without, 0);
   EXPECT_GT(held_runs, 0);
 }
 
@@ -261,6 +310,40 @@ TEST(StepUpHolds, TouchDownsCloseUpToTheRiser) {
   EXPECT_GT(held_runs, 0);
 }
 
+/// A swing whose nominal touch-down lies in the gap before the riser (the foothold rule
+/// sends it up onto the block, out of a leg's reach once it has cleared the riser) waits
+/// until it is at most up_reach short of the block's region; a setback too far back for
+/// the swing after it to land on the block makes such swings (without, some land there:
+/// the test can fail; up_reach 0: off).
+TEST(StepUpHolds, NoClimbFromFarInTheGap) {
+  const double block_start = kEdgeUp + kMargin, floor_end = kEdgeUp - kMargin;
+  int far_without = 0, held_runs = 0;
+  for (double x0 = -0.3; x0 < 0.0; x0 += 0.02) {
+    for (const double up_reach : {0.0, 0.05}) {
+      BlockScene s(x0, kSpeed, 0.0);
+      s.config.max_up_hold = 1.5;
+      s.config.setback = 0.2;
+      s.config.up_reach = up_reach;
+      s.run(12.0);
+      const planning::GaitClock clock = s.history();
+      expectHoldsInAllStance(s.scheduler.gait(), clock, 1.5);
+      int far = 0;
+      for (const Swing& w : swings(s.scheduler.gait(), clock, 1.0, 10.0)) {
+        const double x = s.feet.nominalFoothold(w.foot, w.touchdown).x();
+        if (x > floor_end + 1e-3 && x < block_start - 0.05 - 1e-3) ++far;
+      }
+      if (up_reach == 0.0) {
+        far_without += far;
+      } else {
+        EXPECT_EQ(far, 0) << "x0 " << x0;
+        if (clock.size() > 0) ++held_runs;
+      }
+    }
+  }
+  EXPECT_GT(far_without, 0);
+  EXPECT_GT(held_runs, 0);
+}
+
 TEST(EdgeHolds, NoHoldAtALowStep) {
   // A 2 cm "step" (two perceived surfaces of one floor): no hold either way.
   planning::TerrainModel terrain = planning::terrainFromBoxes(
@@ -290,7 +373,7 @@ TEST(StepDownHolds, BackwardsOffTheBlock) {
     const planning::GaitClock clock = s.history();
     for (const Swing& w : swings(s.scheduler.gait(), clock, 1.0, 18.0)) {
       const double to_edge = s.feet.nominalFoothold(w.foot, w.touchdown).x() - (kEdgeUp + kMargin);
-      EXPECT_FALSE(to_edge >= 0.0 && to_edge < 0.9 * kSpeed - s.config.overshoot)
+      EXPECT_FALSE(to_edge >= 0.0 && to_edge < 0.9 * kSpeed - (2.0 * kMargin - s.config.reach))
           << x0 << " foot " << w.foot;
     }
   }

@@ -137,15 +137,21 @@ struct OcpSettings {
   /// the real-time side has the plan (and its gait clock) before it begins: at least the
   /// oldest plan it uses (control.yaml's mpc.max_solution_age). In [0, 10].
   double edge_hold_lead = 0.2;
-  /// [m] How far past the brink's edge a held swing's nominal touch-down goes: further
+  /// [m] How far short of the lower surface's foothold region a held swing's nominal
+  /// touch-down may be (the leg reaches that far forward and down onto the step): less
   /// waits longer and lands the foot nearer under its hip. In [0, 1].
-  double step_down_overshoot = 0.05;
+  double step_down_reach = 0.12;
   /// [s] The same before a step up: a swing that would touch down on the surface before it,
   /// short of its end, waits until it lands step_up_setback short of that end, so that the
   /// next swing climbs from close to the riser. 0: never. In [0, 10].
   double step_up_max_hold = 0.0;
   /// [m] See step_up_max_hold. In [0, 1].
   double step_up_setback = 0.02;
+  /// [m] A swing whose nominal touch-down lies in the gap before a riser (the foothold rule
+  /// sends it up onto the step) waits, at most step_up_max_hold, until it is at most this
+  /// short of the step's foothold region: the leg clears the riser first and cannot reach
+  /// far ahead of its hip. 0: no such wait. In [0, 1].
+  double step_up_reach = 0.0;
   /// [m] The foothold regions are the terrain's surfaces shrunk by the robot's contact
   /// offset (the wheel radius: the regions bound the wheel centres) plus this clearance, so
   /// that a wheel keeps off the edges and risers; used where the regions are made from a

@@ -10,15 +10,22 @@
 // base (the base does not slow down), and the gait's clock stands still (a GaitClock hold).
 //
 // planEdgeHolds() decides the holds from the foot references (base reference, terrain,
-// foothold rule), for each swing whose nominal touch-down foothold lies inside a region
-// that the travel leaves (the next region within 0.5 m past its edge):
-// - onto a lower region: a hold until the foothold is `overshoot` past the edge, where the
-//   foothold rule puts it on the step below (needs foothold_gap_reach across the gap; with
-//   a shorter reach the rule would put it back on the brink, and nothing is held); at most
+// foothold rule), for each swing whose nominal touch-down foothold lies at an edge: inside
+// a region the travel leaves, or in the gap just past it (the next region within 0.5 m
+// past its end):
+// - onto a lower region: a hold until the foothold is past the end of the surface it
+//   leaves and at most `reach` short of where the lower one begins: the foothold rule puts
+//   it on the step below (needs foothold_gap_reach across the gap; with a shorter reach the
+//   rule would put it back on the brink, and nothing is held) and the leg reaches no
+//   further forward and down than `reach` ahead of its nominal position. The gap is wide
+//   where a perceived floor beyond a drop is still hidden behind its edge; at most
 //   max_down_hold;
 // - onto a higher one: a hold until the foothold is `setback` short of the region's end,
-//   so that it lands close up to the riser and the next swing climbs from there; at most
-//   max_up_hold.
+//   so that it lands close up to the riser and the next swing climbs from there; from the
+//   gap before the riser (the foothold rule sends it up onto the step), until it is at
+//   most `up_reach` short of the step's region: a leg that must clear the riser first
+//   cannot reach far ahead of its hip, and one sent further lands short, on the corner
+//   (off unless up_reach > 0); at most max_up_hold.
 // The hold goes in the middle of the all-stance phase before that swing's lift-off (as
 // long as the lift-off group's longest wait). Holds begin no sooner than `lead` after the
 // planning time, so a plan's clock reaches the real-time side before it matters; later
@@ -36,12 +43,16 @@ struct EdgeHoldConfig {
   double max_down_hold = 0.0;
   /// [s] a hold begins at least this long after the planning time.
   double lead = 0.2;
-  /// [m] how far past the brink region's edge the held touch-down foothold goes.
-  double overshoot = 0.05;
+  /// [m] how far short of the lower region's start a touch-down held before a step down may
+  /// have its nominal foothold (the leg reaches that far ahead of it, down onto the step).
+  double reach = 0.12;
   /// [s] longest hold before a step up; 0: never.
   double max_up_hold = 0.0;
   /// [m] how far short of the end of its region a touch-down held before a step up lands.
   double setback = 0.02;
+  /// [m] how far short of the step's region a touch-down from the gap before a riser may
+  /// have its nominal foothold; 0: no such hold (the foothold rule alone decides).
+  double up_reach = 0.0;
   /// [m] height difference below which the next region is not a step (no hold): the
   /// regions perception makes of one floor differ by up to a few centimetres.
   double min_step = 0.03;
