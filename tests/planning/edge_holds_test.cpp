@@ -123,6 +123,29 @@ void expectHoldsInAllStance(const planning::Gait& gait, const planning::GaitCloc
   }
 }
 
+/// One scene played with its holds off or on: how many touch-downs landed where the holds
+/// are there to prevent, and how many holds it had.
+struct HoldRun {
+  int bad = 0, holds = 0;
+};
+
+/// Over start positions that put the gait at every phase of the block's edges (x0 in
+/// [-0.3, 0) m): `play(x0, on)` runs a scene with its holds off or on. With them on no
+/// touch-down lands where they are there to prevent and some runs hold; without, some land
+/// there (the test can fail).
+template <class Play>
+void expectHoldsPrevent(Play play) {
+  int bad_without = 0, held_runs = 0;
+  for (double x0 = -0.3; x0 < 0.0; x0 += 0.02) {
+    bad_without += play(x0, false).bad;
+    const HoldRun on = play(x0, true);
+    EXPECT_EQ(on.bad, 0) << "x0 " << x0;
+    if (on.holds > 0) ++held_runs;
+  }
+  EXPECT_GT(bad_without, 0);
+  EXPECT_GT(held_runs, 0);
+}
+
 TEST(GaitClock, HoldsStopTheGaitTime) {
   planning::GaitClock c;
   EXPECT_DOUBLE_EQ(c.gaitTime(3.7), 3.7);
@@ -200,43 +223,34 @@ TEST(GaitScheduler, FillsThroughAClock) {
   EXPECT_EQ(held.modeAt(3.8), planning::allFeetMask(6));  // in the hold: all in stance
 }
 
-/// The property the holds are for, over start positions that put the gait at every phase
-/// of the block's far edge: no swing touches down on the block within what a hold can wait
-/// for (speed x max_hold) before its far edge, and every hold lies in an all-stance phase
-/// at most max_hold long. Without holds some do (the test can fail).
+/// The property the holds are for: no swing touches down on the block within what a hold
+/// can wait for (speed x max_hold) before its far edge, and every hold lies in an
+/// all-stance phase at most max_hold long, beyond the climb. Swings keep their length.
 TEST(StepDownHolds, NoTouchDownOnTheBrinkOfTheDrop) {
   const double brink_begin = kEdgeDown - kMargin;  // the top region's far edge
-  int brink_landings_without = 0, held_runs = 0;
-  for (double x0 = -0.3; x0 < 0.0; x0 += 0.02) {
-    for (const double max_hold : {0.0, 0.9}) {
-      BlockScene s(x0, kSpeed, max_hold);
-      s.run(20.0);
-      const planning::GaitClock clock = s.history();
-      int brink_landings = 0;
-      for (const Swing& w : swings(s.scheduler.gait(), clock, 1.0, 18.0)) {
-        const Vector2d p = s.feet.nominalFoothold(w.foot, w.touchdown);
-        const double to_edge = brink_begin - p.x();
-        // Within what a 0.9 s hold could wait for, short of the edge.
-        if (to_edge >= 0.0 && to_edge < 0.9 * kSpeed - (2.0 * kMargin - s.config.reach))
-          ++brink_landings;
-        EXPECT_NEAR(w.touchdown - w.liftoff, 0.4 * kPeriod, 2e-3);  // swings keep their length
-      }
-      expectHoldsInAllStance(s.scheduler.gait(), clock, max_hold);
-      for (int i = 0; i < clock.size(); ++i) {
-        // Only before a step down: every hold is beyond the climb.
-        EXPECT_GT(s.base.worldPoint({-0.33, 0.0}, clock.hold(i).start).x(), kEdgeUp);
-      }
-      if (max_hold == 0.0) {
-        EXPECT_EQ(clock.size(), 0);
-        brink_landings_without += brink_landings;
-      } else {
-        EXPECT_EQ(brink_landings, 0) << "x0 " << x0;
-        if (clock.size() > 0) ++held_runs;
-      }
+  expectHoldsPrevent([&](double x0, bool on) {
+    const double max_hold = on ? 0.9 : 0.0;
+    BlockScene s(x0, kSpeed, max_hold);
+    s.run(20.0);
+    const planning::GaitClock clock = s.history();
+    // Within what a 0.9 s hold could wait for, short of the edge (a held foothold goes
+    // past it by the gap less the reach).
+    const double zone = 0.9 * kSpeed - (2.0 * kMargin - s.config.reach);
+    HoldRun r{0, clock.size()};
+    for (const Swing& w : swings(s.scheduler.gait(), clock, 1.0, 18.0)) {
+      const double to_edge = brink_begin - s.feet.nominalFoothold(w.foot, w.touchdown).x();
+      if (to_edge >= 0.0 && to_edge < zone) ++r.bad;
+      EXPECT_NEAR(w.touchdown - w.liftoff, 0.4 * kPeriod, 2e-3);
     }
-  }
-  EXPECT_GT(brink_landings_without, 0);
-  EXPECT_GT(held_runs, 0);
+    expectHoldsInAllStance(s.scheduler.gait(), clock, max_hold);
+    for (int i = 0; i < clock.size(); ++i) {
+      EXPECT_GT(s.base.worldPoint({-0.33, 0.0}, clock.hold(i).start).x(), kEdgeUp);
+    }
+    if (!on) {
+      EXPECT_EQ(clock.size(), 0);
+    }
+    return r;
+  });
 }
 
 /// A floor beyond the drop that perception has not seen up to the edge yet (hidden behind
@@ -244,7 +258,7 @@ TEST(StepDownHolds, NoTouchDownOnTheBrinkOfTheDrop) {
 /// touch-down in the wide gap goes back onto the block (out of foothold_gap_reach). The
 /// holds then wait until the foothold is within `reach` of the floor region (the foot steps
 /// down there, not onto the brink or far ahead of its hip): no touch-down lands where a
-/// hold could have fixed that. Without holds some do (the test can fail).
+/// hold could have fixed that.
 TEST(StepDownHolds, FloorHiddenBeyondTheDrop) {
   constexpr double kHidden = 0.25, kW = 1.5 - kMargin;
   const auto rect = [&](double x0, double x1, double z) {
@@ -254,94 +268,65 @@ TEST(StepDownHolds, FloorHiddenBeyondTheDrop) {
   const planning::TerrainModel hidden(std::vector<planning::ConvexRegion>{
       rect(-5.0 + kMargin, kEdgeUp - kMargin, 0.0),
       rect(kEdgeUp + kMargin, kEdgeDown - kMargin, 0.2), rect(lower_start, 10.0 - kMargin, 0.0)});
-  int fixable_without = 0, held_runs = 0;
-  for (double x0 = -0.3; x0 < 0.0; x0 += 0.02) {
-    for (const double max_hold : {0.0, 0.9}) {
-      BlockScene s(hidden, x0, kSpeed, max_hold);
-      s.run(20.0);
-      const planning::GaitClock clock = s.history();
-      expectHoldsInAllStance(s.scheduler.gait(), clock, max_hold);
-      const double target = lower_start - s.config.reach;  // a held foothold reaches this
-      int fixable = 0;
-      for (const Swing& w : swings(s.scheduler.gait(), clock, 1.0, 18.0)) {
-        const double x = s.feet.nominalFoothold(w.foot, w.touchdown).x();
-        if (x > target - 0.9 * kSpeed + 1e-3 && x < target - 1e-3) ++fixable;
-      }
-      if (max_hold == 0.0) {
-        fixable_without += fixable;
-      } else {
-        EXPECT_EQ(fixable, 0) << "x0 " << x0;
-        if (clock.size() > 0) ++held_runs;
-      }
+  expectHoldsPrevent([&](double x0, bool on) {
+    BlockScene s(hidden, x0, kSpeed, on ? 0.9 : 0.0);
+    s.run(20.0);
+    const planning::GaitClock clock = s.history();
+    expectHoldsInAllStance(s.scheduler.gait(), clock, 0.9);
+    const double target = lower_start - s.config.reach;  // a held foothold reaches this
+    HoldRun r{0, clock.size()};
+    for (const Swing& w : swings(s.scheduler.gait(), clock, 1.0, 18.0)) {
+      const double x = s.feet.nominalFoothold(w.foot, w.touchdown).x();
+      if (x > target - 0.9 * kSpeed + 1e-3 && x < target - 1e-3) ++r.bad;
     }
-  }
-  EXPECT_GT(fixable_without, 0);
-  EXPECT_GT(held_runs, 0);
+    return r;
+  });
 }
 
 /// Before a step up (max_up_hold): no swing touches down on the floor short of the riser
 /// by more than the setback and less than what a hold can wait for; it lands setback short
-/// of the floor region's end instead (the next swing climbs). Without, some do.
+/// of the floor region's end instead (the next swing climbs).
 TEST(StepUpHolds, TouchDownsCloseUpToTheRiser) {
   const double floor_end = kEdgeUp - kMargin;
-  int short_without = 0, held_runs = 0;
-  for (double x0 = -0.3; x0 < 0.0; x0 += 0.02) {
-    for (const double max_up : {0.0, 1.5}) {
-      BlockScene s(x0, kSpeed, 0.0);
-      s.config.max_up_hold = max_up;
-      s.run(12.0);
-      const planning::GaitClock clock = s.history();
-      int short_landings = 0;
-      for (const Swing& w : swings(s.scheduler.gait(), clock, 1.0, 10.0)) {
-        const double to_end = floor_end - s.feet.nominalFoothold(w.foot, w.touchdown).x();
-        if (to_end > s.config.setback + 1e-3 && to_end < 1.5 * kSpeed) ++short_landings;
-      }
-      expectHoldsInAllStance(s.scheduler.gait(), clock, max_up);
-      if (max_up == 0.0) {
-        EXPECT_EQ(clock.size(), 0);
-        short_without += short_landings;
-      } else {
-        EXPECT_EQ(short_landings, 0) << "x0 " << x0;
-        if (clock.size() > 0) ++held_runs;
-      }
+  expectHoldsPrevent([&](double x0, bool on) {
+    BlockScene s(x0, kSpeed, 0.0);
+    s.config.max_up_hold = on ? 1.5 : 0.0;
+    s.run(12.0);
+    const planning::GaitClock clock = s.history();
+    expectHoldsInAllStance(s.scheduler.gait(), clock, 1.5);
+    HoldRun r{0, clock.size()};
+    for (const Swing& w : swings(s.scheduler.gait(), clock, 1.0, 10.0)) {
+      const double to_end = floor_end - s.feet.nominalFoothold(w.foot, w.touchdown).x();
+      if (to_end > s.config.setback + 1e-3 && to_end < 1.5 * kSpeed) ++r.bad;
     }
-  }
-  EXPECT_GT(short_without, 0);
-  EXPECT_GT(held_runs, 0);
+    if (!on) {
+      EXPECT_EQ(clock.size(), 0);
+    }
+    return r;
+  });
 }
 
 /// A swing whose nominal touch-down lies in the gap before the riser (the foothold rule
 /// sends it up onto the block, out of a leg's reach once it has cleared the riser) waits
-/// until it is at most up_reach short of the block's region; a setback too far back for
-/// the swing after it to land on the block makes such swings (without, some land there:
-/// the test can fail; up_reach 0: off).
+/// until it is at most up_reach short of the block's region (up_reach 0: off); a setback
+/// too far back for the swing after it to land on the block makes such swings.
 TEST(StepUpHolds, NoClimbFromFarInTheGap) {
   const double block_start = kEdgeUp + kMargin, floor_end = kEdgeUp - kMargin;
-  int far_without = 0, held_runs = 0;
-  for (double x0 = -0.3; x0 < 0.0; x0 += 0.02) {
-    for (const double up_reach : {0.0, 0.05}) {
-      BlockScene s(x0, kSpeed, 0.0);
-      s.config.max_up_hold = 1.5;
-      s.config.setback = 0.2;
-      s.config.up_reach = up_reach;
-      s.run(12.0);
-      const planning::GaitClock clock = s.history();
-      expectHoldsInAllStance(s.scheduler.gait(), clock, 1.5);
-      int far = 0;
-      for (const Swing& w : swings(s.scheduler.gait(), clock, 1.0, 10.0)) {
-        const double x = s.feet.nominalFoothold(w.foot, w.touchdown).x();
-        if (x > floor_end + 1e-3 && x < block_start - 0.05 - 1e-3) ++far;
-      }
-      if (up_reach == 0.0) {
-        far_without += far;
-      } else {
-        EXPECT_EQ(far, 0) << "x0 " << x0;
-        if (clock.size() > 0) ++held_runs;
-      }
+  expectHoldsPrevent([&](double x0, bool on) {
+    BlockScene s(x0, kSpeed, 0.0);
+    s.config.max_up_hold = 1.5;
+    s.config.setback = 0.2;
+    s.config.up_reach = on ? 0.05 : 0.0;
+    s.run(12.0);
+    const planning::GaitClock clock = s.history();
+    expectHoldsInAllStance(s.scheduler.gait(), clock, 1.5);
+    HoldRun r{0, clock.size()};
+    for (const Swing& w : swings(s.scheduler.gait(), clock, 1.0, 10.0)) {
+      const double x = s.feet.nominalFoothold(w.foot, w.touchdown).x();
+      if (x > floor_end + 1e-3 && x < block_start - 0.05 - 1e-3) ++r.bad;
     }
-  }
-  EXPECT_GT(far_without, 0);
-  EXPECT_GT(held_runs, 0);
+    return r;
+  });
 }
 
 TEST(EdgeHolds, NoHoldAtALowStep) {
