@@ -95,7 +95,7 @@ double edgeWait(const FootReferencePlanner& feet, const EdgeHoldConfig& config, 
     if (!(speed > 1e-6)) return 0.0;
     const Eigen::Vector2d e = v / speed;
     const Eigen::Vector2d p = feet.nominalFoothold(foot, t);
-    double remaining = 0.0;
+    double exit = 0.0, entry = 0.0;
     if (pass == 0) {
       if (!edgeAt(feet, p, e, t, edge)) return 0.0;
       if (edge.rise < -config.min_step) {
@@ -109,31 +109,30 @@ double edgeWait(const FootReferencePlanner& feet, const EdgeHoldConfig& config, 
         return 0.0;
       }
       if (!(max_wait > 0.0)) return 0.0;
-      if (down) {
-        remaining = std::max(edge.exit + 1e-6, edge.entry - config.reach);
-      } else {
-        remaining = in_gap ? edge.entry - config.up_reach : edge.exit - config.setback;
-      }
-      if ((down || in_gap) && remaining > 0.0) {
-        // The foothold rule must put the held foothold on the step below (above).
-        if (feet.footholdRegion(p + remaining * e, t) != edge.next) return 0.0;
-      }
+      exit = edge.exit;
+      entry = edge.entry;
     } else {
       // The same edge, from the foothold the wait has reached so far.
       const TerrainModel& terrain = feet.terrain();
       double lo = 0.0, hi = 0.0;
       lineInterval(terrain.region(edge.here), p, e, lo, hi);
-      const double exit = lo <= hi ? hi : -std::numeric_limits<double>::infinity();
+      exit = lo <= hi ? hi : -std::numeric_limits<double>::infinity();
       lineInterval(terrain.region(edge.next), p, e, lo, hi);
-      const double entry = lo;
-      if (down) {
-        remaining = std::max(exit + 1e-6, entry - config.reach);
-      } else if (in_gap) {
-        remaining = entry - config.up_reach;
-      } else {
-        if (!(exit >= 0.0)) break;  // past the setback already (a faster base)
-        remaining = exit - config.setback;
-      }
+      entry = lo;
+    }
+    double remaining = 0.0;
+    if (down) {
+      remaining = std::max(exit + 1e-6, entry - config.reach);
+    } else if (in_gap) {
+      remaining = entry - config.up_reach;
+    } else {
+      if (!(exit >= 0.0)) break;  // past the setback already (a faster base)
+      remaining = exit - config.setback;
+    }
+    // The foothold rule must put the held foothold on the step below (above).
+    if (pass == 0 && (down || in_gap) && remaining > 0.0 &&
+        feet.footholdRegion(p + remaining * e, t) != edge.next) {
+      return 0.0;
     }
     if (remaining <= 1e-6) break;
     wait += remaining / speed;
