@@ -41,19 +41,51 @@ std::string trialDir(const std::string& out, const Scenario& s, std::uint64_t se
 }
 
 std::vector<std::string> trialCommand(const TrialsOptions& o, std::uint64_t seed) {
-  return {selfExecutable(),
-          "trials",
-          "--experiments",
-          fs::absolute(o.experiments).string(),
-          "--scenario",
-          o.scenario,
-          "--controller",
-          o.controller,
-          "--seeds",
-          std::to_string(seed),
-          "--no-aggregate",
-          "--out",
-          fs::absolute(o.out).string()};
+  std::vector<std::string> command = {selfExecutable(), "trials",
+                                      "--experiments",  fs::absolute(o.experiments).string(),
+                                      "--scenario",     o.scenario};
+  if (!o.controller.empty()) command.insert(command.end(), {"--controller", o.controller});
+  command.insert(command.end(), {"--seeds", std::to_string(seed), "--no-aggregate", "--out",
+                                 fs::absolute(o.out).string()});
+  return command;
+}
+
+bool isScene(const std::string& text) {
+  return text == "flat" || text == "step20" || text == "stairs2";
+}
+
+/// The scenario --scenario and --controller pick: a scene (the first scenario of that scene
+/// with the controller) or a scenario's name (the controller, when given, must be its own).
+const Scenario& selectScenario(const ExperimentSet& set, const std::string& scenario,
+                               const std::string& controller) {
+  std::string have;
+  for (const Scenario& s : set.scenarios) {
+    have += (have.empty() ? "" : ", ") + s.name + " (" + s.scene + " with " + s.controller + ")";
+  }
+  if (isScene(scenario)) {
+    if (controller.empty()) {
+      throw CLI::ValidationError("--controller", "needed with the scene " + scenario +
+                                                     " (or name a scenario: " + have + ")");
+    }
+    for (const Scenario& s : set.scenarios) {
+      if (s.scene == scenario && s.controller == controller) return s;
+    }
+    throw CLI::ValidationError("--scenario", "no scenario of scene " + scenario +
+                                                 " with controller " + controller + " in " +
+                                                 set.source + " (it has: " + have + ")");
+  }
+  for (const Scenario& s : set.scenarios) {
+    if (s.name != scenario) continue;
+    if (!controller.empty() && controller != s.controller) {
+      throw CLI::ValidationError("--controller", "scenario " + scenario + " runs controller " +
+                                                     s.controller + ", not " + controller);
+    }
+    return s;
+  }
+  throw CLI::ValidationError("--scenario", "'" + scenario +
+                                               "' is neither a scene (flat, step20, stairs2) "
+                                               "nor a scenario of " +
+                                               set.source + " (it has: " + have + ")");
 }
 
 /// Runs one trial in this process (its sim as a child) and writes its result.yaml.
@@ -109,22 +141,14 @@ void runTrials(const TrialsOptions& o) {
     writeAggregate(results, out, "Collected from:" + from);
     return;
   }
-  if (o.scenario.empty() || o.controller.empty() || o.seeds.empty() || o.out.empty()) {
+  if (o.scenario.empty() || o.seeds.empty() || o.out.empty()) {
     throw CLI::ValidationError(
-        "trials", "needs --scenario, --controller, --seeds and --out (or --collect DIR)");
+        "trials",
+        "needs --scenario, --seeds and --out (and --controller with a scene; or "
+        "--collect DIR)");
   }
   const ExperimentSet set = loadExperimentSet(o.experiments);
-  const Scenario* scenario = nullptr;
-  std::string have;
-  for (const Scenario& s : set.scenarios) {
-    have += (have.empty() ? "" : ", ") + s.scene + " with " + s.controller;
-    if (scenario == nullptr && s.scene == o.scenario && s.controller == o.controller) scenario = &s;
-  }
-  if (scenario == nullptr) {
-    throw CLI::ValidationError("--scenario", "no scenario of scene " + o.scenario +
-                                                 " with controller " + o.controller + " in " +
-                                                 set.source + " (it has: " + have + ")");
-  }
+  const Scenario* scenario = &selectScenario(set, o.scenario, o.controller);
   std::vector<std::uint64_t> seeds;
   try {
     seeds = parseSeeds(o.seeds);
@@ -232,9 +256,12 @@ void registerTrialsCommand(CLI::App& app) {
       "or a Slurm job array); afterwards `rollstep trials --collect DIR` aggregates the result "
       "files found under DIR. The sensor noise (DIR/<scenario>_seedNNNN/sensors.yaml) reaches "
       "the controllers that read the sensors (--state-source inekf).");
-  cmd->add_option("--scenario", o->scenario, "Scene of the scenario: flat, step20 or stairs2")
-      ->check(CLI::IsMember({"flat", "step20", "stairs2"}));
-  cmd->add_option("--controller", o->controller, "Controller of the scenario (nmpc, ...)")
+  cmd->add_option("--scenario", o->scenario,
+                  "A scene (flat, step20 or stairs2: its first scenario with --controller) or "
+                  "a scenario's name in the experiments file (e.g. step20_nmpc_perception)")
+      ->check(kNotEmpty);
+  cmd->add_option("--controller", o->controller,
+                  "Controller of the scenario (nmpc, ...); needed with a scene")
       ->check(kNotEmpty);
   cmd->add_option("--seeds", o->seeds, "Seeds: 0-29, 7 or 1,5,9-12");
   cmd->add_option("--out", o->out, "Output directory")->check(kNotEmpty);

@@ -5,7 +5,7 @@
 rollstep=$1
 experiments=$2
 out=$3
-rm -rf "$out" "$out.elsewhere" "$out.report"
+rm -rf "$out" "$out.elsewhere" "$out.report" "$out.named"
 fail() { echo "FAIL: $*"; exit 1; }
 set -- --experiments "$experiments" --scenario step20 --controller nmpc
 "$rollstep" trials "$@" --seeds 0-1 --jobs 2 --out "$out" || fail "trials exited $?"
@@ -31,6 +31,13 @@ sh -c "$(sed -n 2p "$out.commands")" > /dev/null || fail "the printed command fa
   || fail "collect"
 cat "$out.collect"
 grep -q '| step20_short | nmpc | 3 | 0 | 0.0 %' "$out.collect" || fail "collected aggregate"
+# A scenario by its name (no --controller): the same scenario, the same result file.
+"$rollstep" trials --experiments "$experiments" --scenario step20_short --seeds 2 --out "$out.named" \
+  > /dev/null || fail "trials by scenario name exited $?"
+grep -q '^scenario: step20_short$' "$out.named/step20_short_seed0002/result.yaml" \
+  || fail "the named scenario's result file"
+grep -q -- '--scenario step20_short --seeds 2 --no-aggregate' \
+  "$out.named/step20_short_seed0002/result.yaml" || fail "the named scenario's command"
 # The report includes trials collected from a folder.
 "$rollstep" report --experiments "$experiments" --only flat_trot --no-videos --trials "$out" \
   --out "$out.report" > /dev/null 2>&1 || fail "report --trials"
