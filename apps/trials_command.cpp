@@ -19,6 +19,7 @@
 #include "experiments/scenarios.hpp"
 #include "experiments/trials.hpp"
 #include "rollstep/common/text_file.hpp"
+#include "rollstep/sim/scene.hpp"
 
 namespace rollstep::apps {
 
@@ -50,8 +51,13 @@ std::vector<std::string> trialCommand(const TrialsOptions& o, std::uint64_t seed
   return command;
 }
 
+/// Whether `text` names a scene kind (sim::toString's names), not a scenario.
 bool isScene(const std::string& text) {
-  return text == "flat" || text == "step20" || text == "stairs2";
+  for (const sim::SceneKind kind :
+       {sim::SceneKind::kFlat, sim::SceneKind::kStep20, sim::SceneKind::kStairs2}) {
+    if (sim::toString(kind) == text) return true;
+  }
+  return false;
 }
 
 /// The scenario --scenario and --controller pick: a scene (the first scenario of that scene
@@ -148,7 +154,7 @@ void runTrials(const TrialsOptions& o) {
         "--collect DIR)");
   }
   const ExperimentSet set = loadExperimentSet(o.experiments);
-  const Scenario* scenario = &selectScenario(set, o.scenario, o.controller);
+  const Scenario& scenario = selectScenario(set, o.scenario, o.controller);
   std::vector<std::uint64_t> seeds;
   try {
     seeds = parseSeeds(o.seeds);
@@ -174,7 +180,7 @@ void runTrials(const TrialsOptions& o) {
   if (o.jobs <= 1 || seeds.size() == 1) {
     for (std::size_t i = 0; i < seeds.size(); ++i) {
       bar.update(static_cast<double>(i) / seeds.size(), "seed " + std::to_string(seeds[i]));
-      results.push_back(runTrial(o, set, *scenario, seeds[i]));
+      results.push_back(runTrial(o, set, scenario, seeds[i]));
       done(i + 1, seeds[i], results.back().passed);
     }
   } else {
@@ -183,7 +189,7 @@ void runTrials(const TrialsOptions& o) {
     std::size_t next = 0, finished = 0;
     while (finished < seeds.size()) {
       while (running.size() < static_cast<std::size_t>(o.jobs) && next < seeds.size()) {
-        const std::string dir = trialDir(fs::absolute(o.out).string(), *scenario, seeds[next]);
+        const std::string dir = trialDir(fs::absolute(o.out).string(), scenario, seeds[next]);
         fs::create_directories(dir);
         std::vector<std::string> command = trialCommand(o, seeds[next]);
         const std::string program = command[0];
@@ -203,7 +209,7 @@ void runTrials(const TrialsOptions& o) {
       const std::uint64_t seed = it->second;
       running.erase(it);
       ++finished;
-      const std::string dir = trialDir(fs::absolute(o.out).string(), *scenario, seed);
+      const std::string dir = trialDir(fs::absolute(o.out).string(), scenario, seed);
       bool ok = false;
       if (exitStatusOf(status) == 0 && fs::exists(dir + "/result.yaml")) {
         ok = parseTrialResult(readTextFile(dir + "/result.yaml", "trial result"), dir).passed;
@@ -215,8 +221,8 @@ void runTrials(const TrialsOptions& o) {
         std::fprintf(stderr, "rollstep trials: warning: seed %llu: %s\n",
                      static_cast<unsigned long long>(seed), why.c_str());
         TrialResult r;
-        r.scenario = scenario->name;
-        r.controller = scenario->controller;
+        r.scenario = scenario.name;
+        r.controller = scenario.controller;
         r.parameters = drawTrial(seed, set.trials);
         r.failure = why;
         std::vector<std::string> command = trialCommand(o, seed);
@@ -237,7 +243,7 @@ void runTrials(const TrialsOptions& o) {
     return;
   }
   writeAggregate(collectResults({o.out}), o.out,
-                 "Scenario " + scenario->name + " (" + set.source + "), seeds " + o.seeds + ".");
+                 "Scenario " + scenario.name + " (" + set.source + "), seeds " + o.seeds + ".");
 }
 
 }  // namespace
