@@ -41,6 +41,16 @@ void clip(std::vector<Eigen::Vector2d>& poly, std::vector<Eigen::Vector2d>& tmp,
   poly.swap(tmp);
 }
 
+double polygonArea(const std::vector<Eigen::Vector2d>& v) {
+  double a = 0;
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    const Eigen::Vector2d& p = v[i];
+    const Eigen::Vector2d& q = v[(i + 1) % v.size()];
+    a += p.x() * q.y() - q.x() * p.y();
+  }
+  return 0.5 * std::abs(a);
+}
+
 }  // namespace
 
 void ConvexRegionSettings::validate() const {
@@ -168,7 +178,26 @@ bool ConvexRegionGrower::prepare(const Segmentation& seg, int region) {
 }
 
 std::optional<planning::ConvexRegion> ConvexRegionGrower::growPrepared(
-    const Segmentation& seg, int region, const Eigen::Vector2d& seed_in) {
+    const Segmentation& seg, int region, const Eigen::Vector2d& seed) {
+  std::optional<planning::ConvexRegion> best = growAt(seg, region, seed, angle_);
+  // The minimum-area rectangle of a rasterised border is turned by a fraction of a degree
+  // when the border is ragged by a cell (a stair tread 3 m long: 0.4 deg); half-planes at
+  // that angle meet the long edges before they span the region. The grid's own directions
+  // are tried too, and the larger polygon wins (a turned region keeps its angle).
+  const double step = 2.0 * kPi / settings_.directions;
+  const double turn = std::remainder(angle_, step);
+  if (std::abs(turn) > 1e-9) {
+    std::optional<planning::ConvexRegion> grid = growAt(seg, region, seed, angle_ - turn);
+    if (grid && (!best || polygonArea(grid->vertices) > polygonArea(best->vertices)))
+      best = std::move(grid);
+  }
+  return best;
+}
+
+std::optional<planning::ConvexRegion> ConvexRegionGrower::growAt(const Segmentation& seg,
+                                                                 int region,
+                                                                 const Eigen::Vector2d& seed_in,
+                                                                 double angle) {
   const int n = seg.size;
   const double res = seg.resolution;
   const double need = std::max(1.0, settings_.min_clearance / res);
@@ -200,7 +229,7 @@ std::optional<planning::ConvexRegion> ConvexRegionGrower::growPrepared(
   const int K = settings_.directions;
   std::vector<Eigen::Vector2d> dirs(static_cast<std::size_t>(K));
   for (int k = 0; k < K; ++k) {
-    const double a = angle_ + 2.0 * kPi * k / K;
+    const double a = angle + 2.0 * kPi * k / K;
     dirs[static_cast<std::size_t>(k)] = {std::cos(a), std::sin(a)};
   }
   const double d0 = clearance_[static_cast<std::size_t>(seed_cell)] * res;
@@ -394,13 +423,7 @@ planning::TerrainModel ConvexRegionGrower::terrain(const Segmentation& seg) {
           }
         }
       }
-      double a = 0;
-      for (std::size_t v = 0; v < r->vertices.size(); ++v) {
-        const Eigen::Vector2d& p = r->vertices[v];
-        const Eigen::Vector2d& q = r->vertices[(v + 1) % r->vertices.size()];
-        a += p.x() * q.y() - q.x() * p.y();
-      }
-      if (0.5 * std::abs(a) >= settings_.min_piece_area) pieces.push_back(std::move(*r));
+      if (polygonArea(r->vertices) >= settings_.min_piece_area) pieces.push_back(std::move(*r));
       if (covered_cells >= settings_.cover_fraction * total) break;
     }
   }

@@ -4,10 +4,11 @@
 //
 // Growing: a convex polygon is the intersection of K half-planes with fixed directions
 // (K evenly spaced, turned to the region's main axis from OpenCV's minimum-area
-// rectangle), around a seed inside the region. The cells bordering the region (outside
-// it, holes and map border included) are obstacles. All half-planes are pushed outwards
-// together, a little per round, each only as far as no obstacle cell centre enters the
-// polygon (a point leaves the polygon's interior once it is on or beyond any one
+// rectangle, or to the map grid's axes when that gives the larger polygon: a ragged
+// border turns the rectangle by a fraction of a degree), around a seed inside the region. The cells
+// bordering the region (outside it, holes and map border included) are obstacles. All half-planes
+// are pushed outwards together, a little per round, each only as far as no obstacle cell centre
+// enters the polygon (a point leaves the polygon's interior once it is on or beyond any one
 // half-plane; counting, per obstacle, the half-planes it is beyond keeps a round linear
 // in the obstacles). When all obstacles that would stop a half-plane in a round lie
 // within a cell of another, already stopped half-plane, that one steps back onto them
@@ -69,8 +70,12 @@ class ConvexRegionGrower {
  private:
   /// Fills obstacles_ and mask_ for `region`; returns false if the region is empty.
   bool prepare(const Segmentation& seg, int region);
+  /// The larger of the polygons grown at the main axis and at the grid's axes.
   std::optional<planning::ConvexRegion> growPrepared(const Segmentation& seg, int region,
                                                      const Eigen::Vector2d& seed);
+  /// Grown with direction 0 at `angle` [rad].
+  std::optional<planning::ConvexRegion> growAt(const Segmentation& seg, int region,
+                                               const Eigen::Vector2d& seed, double angle);
 
   ConvexRegionSettings settings_;
   std::vector<Eigen::Vector2d> obstacles_;
