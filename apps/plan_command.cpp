@@ -221,7 +221,7 @@ void registerPlanCommand(CLI::App& app, int& exit_status) {
       "Example: rollstep plan --scene step20 --gait trot --vx 0.15 --duration 1.5 --out out/plan");
   CLI::Option* scene =
       cmd->add_option("--scene", options->scene, "Scene: flat, step20 or stairs2 (as for sim)")
-          ->check(CLI::IsMember({"flat", "step20", "stairs2"}))
+          ->check(CLI::IsMember(sim::sceneNames()))
           ->capture_default_str();
   cmd->add_option("--scene-config", options->scene_config, "YAML file of scene parameters")
       ->check(kNotEmpty);

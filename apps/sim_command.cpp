@@ -534,7 +534,7 @@ void registerSimCommand(CLI::App& app) {
       cmd->add_option("--scene", options->scene,
                       "Scene: flat, step20 (0.20 m block 1.0 m ahead) or stairs2 (0.20 m + "
                       "0.165 m steps). Overrides the scene key of --scene-config.")
-          ->check(CLI::IsMember({"flat", "step20", "stairs2"}))
+          ->check(CLI::IsMember(sim::sceneNames()))
           ->capture_default_str();
   cmd->add_option("--scene-config", options->scene_config,
                   "YAML file of scene parameters (keys: scene, friction, start_x, width, "

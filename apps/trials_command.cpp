@@ -51,15 +51,6 @@ std::vector<std::string> trialCommand(const TrialsOptions& o, std::uint64_t seed
   return command;
 }
 
-/// Whether `text` names a scene kind (sim::toString's names), not a scenario.
-bool isScene(const std::string& text) {
-  for (const sim::SceneKind kind :
-       {sim::SceneKind::kFlat, sim::SceneKind::kStep20, sim::SceneKind::kStairs2}) {
-    if (sim::toString(kind) == text) return true;
-  }
-  return false;
-}
-
 /// The scenario --scenario and --controller pick: a scene (the first scenario of that scene
 /// with the controller) or a scenario's name (the controller, when given, must be its own).
 const Scenario& selectScenario(const ExperimentSet& set, const std::string& scenario,
@@ -68,7 +59,7 @@ const Scenario& selectScenario(const ExperimentSet& set, const std::string& scen
   for (const Scenario& s : set.scenarios) {
     have += (have.empty() ? "" : ", ") + s.name + " (" + s.scene + " with " + s.controller + ")";
   }
-  if (isScene(scenario)) {
+  if (sim::isSceneName(scenario)) {
     if (controller.empty()) {
       throw CLI::ValidationError("--controller", "needed with the scene " + scenario +
                                                      " (or name a scenario: " + have + ")");

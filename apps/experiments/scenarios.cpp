@@ -9,6 +9,7 @@
 #include "rollstep/common/number_text.hpp"
 #include "rollstep/common/text_file.hpp"
 #include "rollstep/common/yaml_tree.hpp"
+#include "rollstep/sim/scene.hpp"
 
 namespace rollstep::experiments {
 
@@ -234,7 +235,7 @@ ExperimentSet parseExperimentSet(const std::string& text, const std::string& sou
                {"scene",
                 [&](const yaml::Node& v, const std::string& k) {
                   word(r)(v, k, s.scene);
-                  if (s.scene != "flat" && s.scene != "step20" && s.scene != "stairs2") {
+                  if (!sim::isSceneName(s.scene)) {
                     r.fail(v, k, "'" + s.scene + "' is not flat, step20 or stairs2");
                   }
                 }},

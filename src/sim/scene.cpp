@@ -33,11 +33,28 @@ std::string_view toString(SceneKind kind) {
 }
 
 SceneKind sceneKindFromString(std::string_view name) {
-  if (name == "flat") return SceneKind::kFlat;
-  if (name == "step20") return SceneKind::kStep20;
-  if (name == "stairs2") return SceneKind::kStairs2;
+  for (const SceneKind kind : {SceneKind::kFlat, SceneKind::kStep20, SceneKind::kStairs2}) {
+    if (toString(kind) == name) return kind;
+  }
   throw std::invalid_argument("unknown scene '" + std::string(name) +
                               "' (expected flat, step20 or stairs2)");
+}
+
+const std::vector<std::string>& sceneNames() {
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> v;
+    for (const SceneKind kind : {SceneKind::kFlat, SceneKind::kStep20, SceneKind::kStairs2})
+      v.emplace_back(toString(kind));
+    return v;
+  }();
+  return names;
+}
+
+bool isSceneName(std::string_view name) {
+  for (const std::string& s : sceneNames()) {
+    if (s == name) return true;
+  }
+  return false;
 }
 
 namespace {

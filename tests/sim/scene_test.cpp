@@ -33,8 +33,12 @@ TEST(SceneConfig, DefaultsAreTheSpecValues) {
 TEST(SceneConfig, KindNamesRoundTrip) {
   for (SceneKind k : {SceneKind::kFlat, SceneKind::kStep20, SceneKind::kStairs2}) {
     EXPECT_EQ(sceneKindFromString(toString(k)), k);
+    EXPECT_TRUE(isSceneName(toString(k)));
   }
   EXPECT_THROW(sceneKindFromString("steps"), std::invalid_argument);
+  EXPECT_EQ(sceneNames(), (std::vector<std::string>{"flat", "step20", "stairs2"}));
+  EXPECT_FALSE(isSceneName("steps"));
+  EXPECT_FALSE(isSceneName("step20_nmpc"));
 }
 
 TEST(SceneConfig, YamlOverridesDefaults) {

@@ -28,6 +28,10 @@ enum class SceneKind { kFlat, kStep20, kStairs2 };
 std::string_view toString(SceneKind kind);
 /// Inverse of toString; throws std::invalid_argument naming the accepted values.
 SceneKind sceneKindFromString(std::string_view name);
+/// Every scene's name (toString of each SceneKind), in declaration order.
+const std::vector<std::string>& sceneNames();
+/// Whether `name` is one of sceneNames().
+bool isSceneName(std::string_view name);
 
 /// Scene parameters. Defaults are the spec's values. YAML keys have the same names as
 /// the members (see loadSceneConfig); sceneFields() lists each numeric one with its unit
