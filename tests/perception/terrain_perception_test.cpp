@@ -286,6 +286,55 @@ TEST(ElevationMap, FillGapsInterpolatesAcrossSmallGapsOfOneSurfaceOnly) {
   EXPECT_FALSE(bigger.copyFrom(map));
 }
 
+// The floor behind a block's far edge as a front LiDAR leaves it (session 24, step20 on
+// perception): the riser's top row smeared a centimetre below the top, a shadow a few cells
+// long, then cells 1-2 cm high at the riser's foot. The segmentation fitted the foot as a
+// region of its own (a 16 deg slope over 83 cells), which kept the floor's convex pieces
+// 10-25 cm away from the edge; it is the floor and joins it.
+TEST(TerrainPerception, FloorAtTheFootOfARiserIsPartOfTheFloor) {
+  TerrainPerception perception(syntheticSettings());
+  ElevationMap& map = perception.map();
+  map.moveTo(Eigen::Vector2d::Zero());
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> noise(-0.004f, 0.004f);
+  const double edge = 0.3;  // the block (0.156 m) ends here; the floor (0) goes on
+  for (int r = 0; r < map.size(); ++r) {
+    for (int c = 0; c < map.size(); ++c) {
+      const double x = map.cellCenter(r, c).x() - edge;  // past the edge
+      float h = 0.0f;
+      if (x < 0)
+        h = 0.156f;
+      else if (x < 0.02)
+        h = r % 3 == 0 ? 0.145f : nan;  // the riser's top row, smeared
+      else if (x < 0.06)
+        h = nan;  // the shadow
+      else if (x < 0.10)
+        h = 0.01f + 0.003f * static_cast<float>(r % 4);  // mixed cells at the foot
+      map.setCell(r, c, std::isnan(h) ? h : h + noise(rng), 1e-4f);
+    }
+  }
+  ASSERT_EQ(perception.rebuild(), PerceptionStatus::Ok);
+  const Segmentation& seg = perception.segmentation();
+  const int floor = seg.regionAt({1.5, 0.0});
+  ASSERT_GE(floor, 0);
+  for (double y = -1.0; y <= 1.0; y += 0.1) {
+    EXPECT_EQ(seg.regionAt({edge + 0.09, y}), floor) << y;
+  }
+  // A floor piece reaches within 6 cm of the edge on the centre line.
+  double nearest = 1e9;
+  for (const planning::ConvexRegion& p : perception.terrain().regions()) {
+    if (std::abs(p.height) > 0.01) continue;
+    for (double x = edge; x < edge + 0.3; x += 0.005) {
+      if (p.margin({x, 0.0}) >= 0) {
+        nearest = std::min(nearest, x - edge);
+        break;
+      }
+    }
+  }
+  EXPECT_LE(nearest, 0.06);
+}
+
 TEST(TerrainPerception, BadDataGivesAStatusAndKeepsTheLastTerrain) {
   TerrainPerception perception(syntheticSettings());
   EXPECT_FALSE(perception.hasTerrain());

@@ -12,6 +12,8 @@
 //  3. each region gets one plane (least squares over its cells) and is grown back over
 //     the cells the window fit rejected near its border (steps blur the window fit a
 //     window's half-width in from the true edge) whose measured height lies on its plane;
+//     a region whose cells (95 %) lie within step_height of an adjacent, larger region's
+//     plane then joins it (a strip at a riser's foot the window fit cut off the floor);
 //  4. small holes of a region are filled, its boundary is traced (OpenCV contours) as
 //     polygons with holes in world coordinates on the cells' outer edges;
 //  5. step edges (cells whose neighbourhood spans more than step_height) are obstacles,
