@@ -77,9 +77,9 @@ struct PlaneSegmenter::Workspace {
   cv::Mat hole_fill;                        // CV_8U, one hole of a region's mask
   std::vector<int> rmin, rmax, cmin, cmax;  // bounding box of each region's cells
   std::vector<int> remap;                   // old region index -> new (-1: dropped)
-  std::vector<int> parent;                  // union-find over regions (coplanar merge)
+  std::vector<int> parent;                  // union-find over regions (joining strips)
   std::vector<int> pair_cells;              // regions x regions: shared border cell pairs
-  std::vector<double> pair_gap;             // (l, m): cells of l within tolerance of m's plane
+  std::vector<int> on_plane;                // (l, m): cells of l within step_height of m's plane
   std::vector<int> region_cells;            // cells per region
   std::vector<Eigen::Matrix<double, 10, 1>> acc;  // per region: least-squares sums
   std::vector<std::vector<cv::Point>> contours;
@@ -424,7 +424,7 @@ void PlaneSegmenter::segment(const ElevationMap& map, Segmentation& out) {
     }
     // Per region: its cells, and how many lie within step_height of each region's plane
     // (only the pairs that touch are counted).
-    w.pair_gap.assign(R * R, 0.0);
+    w.on_plane.assign(R * R, 0);
     w.region_cells.assign(R, 0);
     for (std::size_t i = 0; i < cells; ++i) {
       const int L = labels[i];
@@ -435,7 +435,7 @@ void PlaneSegmenter::segment(const ElevationMap& map, Segmentation& out) {
       for (std::size_t o = 0; o < R; ++o) {
         if (o == l || w.pair_cells[std::min(l, o) * R + std::max(l, o)] < 2) continue;
         if (std::abs(cellHeight(i) - out.regions[o].heightAt(p)) <= settings_.step_height)
-          w.pair_gap[l * R + o] += 1.0;
+          ++w.on_plane[l * R + o];
       }
     }
     w.parent.resize(R);
@@ -451,7 +451,7 @@ void PlaneSegmenter::segment(const ElevationMap& map, Segmentation& out) {
         // The smaller region (fewer cells) on the larger one's plane.
         const bool a_small = w.region_cells[a] <= w.region_cells[b];
         const std::size_t sm = a_small ? a : b, lg = a_small ? b : a;
-        if (w.pair_gap[sm * R + lg] < 0.95 * w.region_cells[sm]) continue;
+        if (w.on_plane[sm * R + lg] < 0.95 * w.region_cells[sm]) continue;
         const int ra = root(static_cast<int>(a)), rb = root(static_cast<int>(b));
         if (ra == rb) continue;
         w.parent[static_cast<std::size_t>(std::max(ra, rb))] = std::min(ra, rb);
