@@ -394,10 +394,10 @@ TEST(ConvexRegions, RaggedLongTreadIsCoveredWithoutGaps) {
   const auto r = grower.grow(seg, 0, {1.4, 0.0});
   ASSERT_TRUE(r.has_value());
   const Eigen::Vector4d e = extent(*r);
-  EXPECT_LE(e[0], 0.82);
-  EXPECT_GE(e[1], 1.96);
-  EXPECT_LE(e[2], -1.48);
-  EXPECT_GE(e[3], 1.48);
+  EXPECT_LE(e[0], 0.82 + 1e-6);  // cell edges: to rounding (builds differ in the last bit)
+  EXPECT_GE(e[1], 1.96 - 1e-6);
+  EXPECT_LE(e[2], -1.48 + 1e-6);
+  EXPECT_GE(e[3], 1.48 - 1e-6);
 }
 
 TEST(PlaneSegmentation, SettingsAreValidated) {
