@@ -422,8 +422,12 @@ void PlaneSegmenter::segment(const ElevationMap& map, Segmentation& out) {
         }
       }
     }
-    // Per region: its cells, and how many lie within step_height of each region's plane
-    // (only the pairs that touch are counted).
+    // Regions touching along at least two cell pairs (a corner is not a border).
+    auto touching = [&](std::size_t a, std::size_t b) {
+      return w.pair_cells[std::min(a, b) * R + std::max(a, b)] >= 2;
+    };
+    // Per region: its cells, and how many lie within step_height of each touching region's
+    // plane.
     w.on_plane.assign(R * R, 0);
     w.region_cells.assign(R, 0);
     for (std::size_t i = 0; i < cells; ++i) {
@@ -433,7 +437,7 @@ void PlaneSegmenter::segment(const ElevationMap& map, Segmentation& out) {
       ++w.region_cells[l];
       const Eigen::Vector2d p = out.cellCenter(static_cast<int>(i) / n, static_cast<int>(i) % n);
       for (std::size_t o = 0; o < R; ++o) {
-        if (o == l || w.pair_cells[std::min(l, o) * R + std::max(l, o)] < 2) continue;
+        if (o == l || !touching(l, o)) continue;
         if (std::abs(cellHeight(i) - out.regions[o].heightAt(p)) <= settings_.step_height)
           ++w.on_plane[l * R + o];
       }
@@ -447,7 +451,7 @@ void PlaneSegmenter::segment(const ElevationMap& map, Segmentation& out) {
     bool merged = false;
     for (std::size_t a = 0; a < R; ++a) {
       for (std::size_t b = a + 1; b < R; ++b) {
-        if (w.pair_cells[a * R + b] < 2) continue;
+        if (!touching(a, b)) continue;
         // The smaller region (fewer cells) on the larger one's plane.
         const bool a_small = w.region_cells[a] <= w.region_cells[b];
         const std::size_t sm = a_small ? a : b, lg = a_small ? b : a;

@@ -18,6 +18,8 @@ namespace rollstep::sim {
 
 namespace {
 constexpr std::size_t kMaxSceneConfigBytes = std::size_t{1} << 20;
+// Every scene kind, in declaration order: the one list the names are read from.
+constexpr SceneKind kSceneKinds[] = {SceneKind::kFlat, SceneKind::kStep20, SceneKind::kStairs2};
 }  // namespace
 
 std::string_view toString(SceneKind kind) {
@@ -33,7 +35,7 @@ std::string_view toString(SceneKind kind) {
 }
 
 SceneKind sceneKindFromString(std::string_view name) {
-  for (const SceneKind kind : {SceneKind::kFlat, SceneKind::kStep20, SceneKind::kStairs2}) {
+  for (const SceneKind kind : kSceneKinds) {
     if (toString(kind) == name) return kind;
   }
   throw std::invalid_argument("unknown scene '" + std::string(name) +
@@ -43,8 +45,7 @@ SceneKind sceneKindFromString(std::string_view name) {
 const std::vector<std::string>& sceneNames() {
   static const std::vector<std::string> names = [] {
     std::vector<std::string> v;
-    for (const SceneKind kind : {SceneKind::kFlat, SceneKind::kStep20, SceneKind::kStairs2})
-      v.emplace_back(toString(kind));
+    for (const SceneKind kind : kSceneKinds) v.emplace_back(toString(kind));
     return v;
   }();
   return names;
