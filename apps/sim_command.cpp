@@ -324,6 +324,16 @@ void runSim(const SimOptions& o, bool scene_given) {
         control::toString(settings.integrator.mode), o.state_source.c_str(),
         solver::toString(nmpc_controller->initialStatus()));
     controller_text += "; terrain " + terrain_text;
+    const solver::SolverStatus first = nmpc_controller->initialStatus();
+    if (first != solver::SolverStatus::Converged && first != solver::SolverStatus::Acceptable) {
+      // Not an error (the real-time iterations go on from its iterate, the CBF-QP falls
+      // back until their first usable solution), but the run's start is not what it seems.
+      const control::MpcRunner& runner = nmpc_controller->pipeline().runner();
+      std::fprintf(stderr,
+                   "rollstep sim: warning: the first MPC solve ended %s after %d iterations%s%s\n",
+                   solver::toString(first), runner.initialIterations(),
+                   runner.initialMessage().empty() ? "" : ": ", runner.initialMessage().c_str());
+    }
   } else if (o.controller == "cbfqp") {
     const std::string description =
         o.robot_description.empty() ? defaultRobotDescription() : o.robot_description;

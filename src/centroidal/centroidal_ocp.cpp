@@ -250,15 +250,17 @@ CentroidalOcp::CentroidalOcp(const RobotOcpDescription& description, const OcpSe
   friction.min_normal_force = settings.min_normal_force;
   problem_->addInequality("friction",
                           std::make_shared<FrictionPyramidResidual>(robot_, refs, friction));
+  ocp::InequalityOptions regions = state_only;
+  regions.soft = settings.soft_state_constraints || settings.soft_region_constraints;
   if (terrain_->size() > 0) {
     problem_->addInequality("stance_region",
                             std::make_shared<FootRegionResidual>(robot_, refs, RegionUse::Stance,
                                                                  region_edge_capacity_),
-                            ocp::Stage::Running, state_only);
+                            ocp::Stage::Running, regions);
     problem_->addInequality(
         "swing_region",
         std::make_shared<FootRegionResidual>(robot_, refs, RegionUse::Swing, region_edge_capacity_),
-        ocp::Stage::Running, state_only);
+        ocp::Stage::Running, regions);
   }
   JointLimitBoundOptions limits;
   limits.position_margin = settings.joint_limit_margin;

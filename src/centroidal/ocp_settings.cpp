@@ -31,7 +31,7 @@ struct Field {
 };
 
 // The one table of keys (config/ocp.yaml documents each, in this order).
-const std::array<Field, 46> kFields{{
+const std::array<Field, 47> kFields{{
     {"horizon", &OcpSettings::horizon, 1, 10000, false, false},
     {"dt", &OcpSettings::dt, 0, 10, true, false},
     {"base_velocity_weight", &OcpSettings::base_velocity_weight, 0, 1e12, false, false},
@@ -54,6 +54,7 @@ const std::array<Field, 46> kFields{{
     {"joint_limit_margin", &OcpSettings::joint_limit_margin, 0, 10, false, false},
     {"velocity_limit_scale", &OcpSettings::velocity_limit_scale, 0, 1, true, false},
     {"soft_state_constraints", &OcpSettings::soft_state_constraints, 0, 0, false, false},
+    {"soft_region_constraints", &OcpSettings::soft_region_constraints, 0, 0, false, false},
     {"soft_velocity_limits", &OcpSettings::soft_velocity_limits, 0, 0, false, false},
     {"soft_relaxation", &OcpSettings::soft_relaxation, 0, 1e3, true, false},
     {"soft_weight", &OcpSettings::soft_weight, 0, 1e12, true, false},

@@ -308,6 +308,8 @@ struct MpcRunner::Impl {
   std::atomic<bool> stopped{false};
   std::atomic<std::uint64_t> solves_started{0};
   std::atomic<std::uint64_t> rejected{0};
+  int initial_iterations = 0;   ///< of the converging first solve (initialize())
+  std::string initial_message;  ///< its Solver::message()
 };
 
 MpcRunner::MpcRunner(const centroidal::RobotOcpDescription& robot, const ControlSettings& settings,
@@ -356,6 +358,8 @@ solver::SolverStatus MpcRunner::initializeSchedule(
   const auto start_time = std::chrono::steady_clock::now();
   const solver::SolverStatus status = m.solver->solve(x0);
   const double solve_ms = millisecondsSince(start_time);
+  m.initial_iterations = m.solver->iterations();
+  m.initial_message = m.solver->message();
   m.solver->setSettings(m.realtime_settings);
 
   // Publish it, released at once, as sequence 1.
@@ -436,5 +440,9 @@ std::uint64_t MpcRunner::solvesStarted() const {
 std::uint64_t MpcRunner::rejectedStates() const {
   return impl_->rejected.load(std::memory_order_relaxed);
 }
+
+int MpcRunner::initialIterations() const { return impl_->initial_iterations; }
+
+const std::string& MpcRunner::initialMessage() const { return impl_->initial_message; }
 
 }  // namespace rollstep::control

@@ -123,6 +123,18 @@ TEST(MpcRunner, InitializeStandingConvergesAndPublishesAtOnce) {
   for (const int mode : out.modes) EXPECT_EQ(mode, 0b111111);  // six feet on the ground
   EXPECT_FALSE(runner->poll(0.5, out));                        // handed out once
   EXPECT_EQ(runner->solvesStarted(), 0u);
+  EXPECT_EQ(runner->initialIterations(), out.iterations);
+  EXPECT_EQ(runner->initialMessage(), "");  // a clean convergence says nothing
+
+  // A first solve cut short by the iteration limit keeps the solver's reason.
+  ControlSettings short_first = shortHorizon(30);
+  short_first.mpc.initial_iterations = 1;
+  auto cut = makeRunner(short_first, planning::GaitKind::Standing);
+  EXPECT_EQ(cut->initialize(0.5, lie::SE3::Identity(), planning::BaseVelocityCommand{}, x0),
+            solver::SolverStatus::MaxIterations);
+  EXPECT_EQ(cut->initialIterations(), 1);
+  EXPECT_NE(cut->initialMessage().find("no convergence in 1 iterations"), std::string::npos)
+      << cut->initialMessage();
 
   // Bad initial states are refused.
   EXPECT_THROW(runner->initialize(0.0, lie::SE3::Identity(), {}, Eigen::VectorXd::Zero(3)),

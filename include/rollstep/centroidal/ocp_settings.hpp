@@ -71,6 +71,15 @@ struct OcpSettings {
   /// Off by default: a soft row's fixed-weight barrier keeps pushing at the solution (the
   /// knees work 5 cm from their stop: standing moved 2 % of the weight between feet).
   bool soft_state_constraints = false;
+  /// The foothold rows alone (stance and swing regions) as relaxed-barrier rows; the joint
+  /// position bounds stay hard. For a terrain that changes under the horizon (perception):
+  /// a new map can move a region away from where a future stance must be, and a hard row
+  /// that no iterate can meet then wrecks the whole real-time iteration, its first nodes
+  /// included. A soft row is violated there instead, until the footholds are planned
+  /// anew. The joint bounds are the robot's own and stay hard: soft, their stiff relaxed
+  /// barrier left the cold first solve stuck (line search steps of 1e-4, then Infeasible)
+  /// where the hard rows converge. Off by default; soft_state_constraints implies it.
+  bool soft_region_constraints = false;
   /// The joint velocity bounds (inputs) as relaxed-barrier rows too (with soft_relaxation
   /// and soft_weight). Off by default. In a real-time iteration a hard velocity bound that
   /// the linearisation cannot meet (a swing spline or the measured state asking a knee for

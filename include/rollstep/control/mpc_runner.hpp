@@ -20,6 +20,7 @@
 #include <functional>
 #include <limits>
 #include <memory>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -147,6 +148,11 @@ class MpcRunner {
   std::uint64_t solvesStarted() const;
   /// States post() ignored since initialize(): non-finite or of the wrong size.
   std::uint64_t rejectedStates() const;
+  /// What the converging first solve of the last initialize() ended with: its iteration
+  /// count and the solver's message (Solver::message(); empty after a clean convergence),
+  /// kept from the later real-time solves that overwrite the solver's own.
+  int initialIterations() const;
+  const std::string& initialMessage() const;
 
  private:
   struct Impl;
