@@ -67,6 +67,9 @@ void ConvexRegionSettings::validate() const {
           max_pieces_per_region, "must be 1 to 100");
   require(cover_fraction > 0 && cover_fraction <= 1, "cover_fraction", cover_fraction,
           "must be in (0, 1]");
+  require(std::isfinite(max_notch_depth) && max_notch_depth >= 0, "max_notch_depth",
+          max_notch_depth, "must be >= 0");
+  require(std::isfinite(cover_gap) && cover_gap >= 0, "cover_gap", cover_gap, "must be >= 0");
   require(std::isfinite(min_piece_area) && min_piece_area >= 0, "min_piece_area", min_piece_area,
           "must be >= 0");
 }
@@ -316,15 +319,10 @@ std::optional<planning::ConvexRegion> ConvexRegionGrower::growAt(const Segmentat
     }
     if (!any) break;
   }
+  stepBackFromNotches(dirs, s, cap, res, off);
   // Obstacle centres lie half a cell beyond the region's edge.
-  std::vector<Eigen::Vector2d> poly{s + Eigen::Vector2d(-cap, -cap), s + Eigen::Vector2d(cap, -cap),
-                                    s + Eigen::Vector2d(cap, cap), s + Eigen::Vector2d(-cap, cap)};
-  std::vector<Eigen::Vector2d> tmp;
-  for (int k = 0; k < K; ++k) {
-    const auto kk = static_cast<std::size_t>(k);
-    clip(poly, tmp, dirs[kk], s, off[kk] - 0.5 * res - settings_.margin);
-    if (poly.size() < 3) return std::nullopt;
-  }
+  std::vector<Eigen::Vector2d> poly = polygonAt(dirs, s, cap, off, 0.5 * res + settings_.margin);
+  if (poly.size() < 3) return std::nullopt;
   // Drop repeated and collinear vertices.
   std::vector<Eigen::Vector2d> clean;
   for (std::size_t i = 0; i < poly.size(); ++i) {
@@ -353,6 +351,84 @@ std::optional<planning::ConvexRegion> ConvexRegionGrower::growAt(const Segmentat
     return out;
   } catch (const std::invalid_argument&) {
     return std::nullopt;  // vanished under the margin
+  }
+}
+
+std::vector<Eigen::Vector2d> ConvexRegionGrower::polygonAt(const std::vector<Eigen::Vector2d>& dirs,
+                                                           const Eigen::Vector2d& s, double cap,
+                                                           const std::vector<double>& off,
+                                                           double inset) {
+  std::vector<Eigen::Vector2d> poly{s + Eigen::Vector2d(-cap, -cap), s + Eigen::Vector2d(cap, -cap),
+                                    s + Eigen::Vector2d(cap, cap), s + Eigen::Vector2d(-cap, cap)};
+  for (std::size_t k = 0; k < dirs.size() && poly.size() >= 3; ++k)
+    clip(poly, clip_tmp_, dirs[k], s, off[k] - inset);
+  return poly;
+}
+
+double ConvexRegionGrower::reach(int k, const std::vector<double>& off, double cap) const {
+  const auto K = off.size();
+  const auto kk = static_cast<std::size_t>(k);
+  double limit = cap;
+  for (std::size_t i = 0; i < obstacles_.size(); ++i) {
+    const double v = proj_[i * K + kk];
+    if (v < off[kk] - kTie || v >= limit) continue;
+    bool inside = true;  // within every other half-plane: it stops this one
+    for (std::size_t j = 0; j < K && inside; ++j) {
+      if (j != kk && proj_[i * K + j] >= off[j] - kTie) inside = false;
+    }
+    if (inside) limit = v;
+  }
+  return limit;
+}
+
+void ConvexRegionGrower::stepBackFromNotches(const std::vector<Eigen::Vector2d>& dirs,
+                                             const Eigen::Vector2d& s, double cap, double res,
+                                             std::vector<double>& off) {
+  const double depth = settings_.max_notch_depth;
+  if (!(depth > 0.0)) return;
+  const std::size_t K = dirs.size(), P = obstacles_.size();
+  double area = polygonArea(polygonAt(dirs, s, cap, off, 0.0));
+  std::vector<double> trial(K), best_off(K);
+  // Each accepted move grows the area; K rounds bound the search (a notch per edge).
+  for (std::size_t round = 0; round < K; ++round) {
+    double best_area = area;
+    for (std::size_t k = 0; k < K; ++k) {
+      if (off[k] >= cap) continue;  // not stopped by an obstacle
+      // The obstacles that stop half-plane k: on its line, inside every other one.
+      // Half-plane j stepping back behind all of them lets k go on.
+      for (std::size_t j = 0; j < K; ++j) {
+        if (j == k) continue;
+        double back = off[j];
+        bool any = false;
+        for (std::size_t i = 0; i < P; ++i) {
+          const double v = proj_[i * K + k];
+          if (v < off[k] - kTie || v > off[k] + kTie + 0.5 * res) continue;
+          bool inside = true;
+          for (std::size_t m = 0; m < K && inside; ++m) {
+            if (m != k && proj_[i * K + m] >= off[m] - kTie) inside = false;
+          }
+          if (!inside) continue;
+          any = true;
+          back = std::min(back, proj_[i * K + j]);
+        }
+        // Not a notch (none, or deeper than max_notch_depth), or the seed would leave.
+        if (!any || back < off[j] - depth - kTie || back <= 0.5 * res) continue;
+        trial = off;
+        trial[j] = back;
+        trial[k] = reach(static_cast<int>(k), trial, cap);
+        for (std::size_t m = 0; m < K; ++m) {
+          if (m != j && m != k) trial[m] = reach(static_cast<int>(m), trial, cap);
+        }
+        const double a = polygonArea(polygonAt(dirs, s, cap, trial, 0.0));
+        if (a > best_area * (1.0 + 1e-9)) {
+          best_area = a;
+          best_off = trial;
+        }
+      }
+    }
+    if (!(best_area > area)) break;
+    area = best_area;
+    off = best_off;
   }
 }
 
@@ -409,6 +485,11 @@ planning::TerrainModel ConvexRegionGrower::terrain(const Segmentation& seg) {
       cv::Point at;
       cv::minMaxLoc(dist, nullptr, &best, nullptr, &at);
       if (best < 1.5) break;
+      // Enough: the share is covered and no uncovered part is wider than cover_gap (the
+      // distance transform's largest value spans about 2 best - 1 cells).
+      if (covered_cells >= settings_.cover_fraction * total &&
+          (2.0 * best - 1.0) * res <= settings_.cover_gap)
+        break;
       const Eigen::Vector2d seed = seg.cellCenter(r0 + at.y - 1, c0 + at.x - 1);
       std::optional<planning::ConvexRegion> r = growPrepared(seg, k, seed);
       if (!r) break;
@@ -424,7 +505,6 @@ planning::TerrainModel ConvexRegionGrower::terrain(const Segmentation& seg) {
         }
       }
       if (polygonArea(r->vertices) >= settings_.min_piece_area) pieces.push_back(std::move(*r));
-      if (covered_cells >= settings_.cover_fraction * total) break;
     }
   }
   return planning::TerrainModel(std::move(pieces));

@@ -55,7 +55,7 @@ const std::array<Field<SegmentationSettings>, 13> kSegmentationFields{{
     {"fill_gap", &SegmentationSettings::fill_gap},
     {"fill_shadow", &SegmentationSettings::fill_shadow},
 }};
-const std::array<Field<ConvexRegionSettings>, 8> kRegionFields{{
+const std::array<Field<ConvexRegionSettings>, 10> kRegionFields{{
     {"directions", &ConvexRegionSettings::directions},
     {"margin", &ConvexRegionSettings::margin},
     {"min_clearance", &ConvexRegionSettings::min_clearance},
@@ -63,7 +63,9 @@ const std::array<Field<ConvexRegionSettings>, 8> kRegionFields{{
     {"height_weight", &ConvexRegionSettings::height_weight},
     {"max_pieces_per_region", &ConvexRegionSettings::max_pieces_per_region},
     {"cover_fraction", &ConvexRegionSettings::cover_fraction},
+    {"cover_gap", &ConvexRegionSettings::cover_gap},
     {"min_piece_area", &ConvexRegionSettings::min_piece_area},
+    {"max_notch_depth", &ConvexRegionSettings::max_notch_depth},
 }};
 
 const std::array<Field<ClosedLoopSettings>, 9> kClosedLoopFields{{

@@ -14,7 +14,12 @@
 // within a cell of another, already stopped half-plane, that one steps back onto them
 // (once): a one-cell irregularity of the border (a cell straddling a step edge, whose
 // label flips with last-bit rounding) moves an edge by a cell, not a far edge by the
-// distance to it. The result is then pulled in by half a cell (obstacle centres are
+// distance to it. A deeper notch (up to max_notch_depth) is looked at after the growth:
+// where the obstacles that stopped one half-plane all lie within that depth beyond another
+// one, that one steps back behind them, the others grow on, and the larger polygon is kept
+// (the side edge of a floor's piece that met a notch at the riser's foot after the near
+// edge had passed it ends the piece there; stepping the near edge back spans the floor).
+// The result is then pulled in by half a cell (obstacle centres are
 // half a cell beyond the region's edge) and by `margin`. An axis-aligned rectangle region
 // is recovered exactly (to a cell); any region gives an inscribed convex polygon that
 // grows from the seed in every direction until it touches the region's border.
@@ -38,7 +43,17 @@ struct ConvexRegionSettings {
   /// pieces must cover before the cover stops.
   int max_pieces_per_region = 8;
   double cover_fraction = 0.97;
+  /// Terrain cover [m]: it also goes on while an uncovered part of a region is wider than
+  /// this. The last few percent of a floor can be one long strip along its edge, where a
+  /// wheel steps down (a piece that stepped back behind a notch leaves the strip in front).
+  double cover_gap = 0.05;
   double min_piece_area = 0.01;  ///< smaller convex pieces are dropped [m^2]
+  /// [m] A grown polygon's edge steps back up to this far behind a notch in the region's
+  /// border when that lets the polygon grow larger (0: off). Uniform growth stops the
+  /// edge that meets a notch first: a 10 cm notch of mixed cells at a riser's foot, met
+  /// by the side edge of the floor's piece after its near edge had passed it, split the
+  /// floor into two pieces with a 10 cm strip between them, under a stance wheel.
+  double max_notch_depth = 0.2;
 
   void validate() const;  ///< std::invalid_argument naming the bad parameter
 };
@@ -64,7 +79,8 @@ class ConvexRegionGrower {
 
   /// The whole map as a planning terrain model: each planar region covered by up to
   /// max_pieces_per_region convex pieces, each grown from the region's cell furthest
-  /// from its border and from the pieces before it.
+  /// from its border and from the pieces before it, until cover_fraction of its cells is
+  /// covered and no uncovered part is wider than cover_gap.
   planning::TerrainModel terrain(const Segmentation& seg);
 
  private:
@@ -76,6 +92,18 @@ class ConvexRegionGrower {
   /// Grown with direction 0 at `angle` [rad].
   std::optional<planning::ConvexRegion> growAt(const Segmentation& seg, int region,
                                                const Eigen::Vector2d& seed, double angle);
+  /// The polygon of half-plane offsets `off` around s (each pulled in by `inset`).
+  std::vector<Eigen::Vector2d> polygonAt(const std::vector<Eigen::Vector2d>& dirs,
+                                         const Eigen::Vector2d& s, double cap,
+                                         const std::vector<double>& off, double inset);
+  /// How far half-plane k can go from off[k] before an obstacle inside all the others
+  /// stops it (cap if none does).
+  double reach(int k, const std::vector<double>& off, double cap) const;
+  /// After the growth: where a half-plane stopped at a notch of the border (obstacles at
+  /// most max_notch_depth beyond another half-plane), that one steps back behind the notch
+  /// and the others grow on, when the polygon gets larger.
+  void stepBackFromNotches(const std::vector<Eigen::Vector2d>& dirs, const Eigen::Vector2d& s,
+                           double cap, double res, std::vector<double>& off);
 
   ConvexRegionSettings settings_;
   std::vector<Eigen::Vector2d> obstacles_;
@@ -84,7 +112,8 @@ class ConvexRegionGrower {
   std::vector<int> beyond_;                          // per obstacle: half-planes it is on or beyond
   std::vector<unsigned char> mask_;                  // region cells (row-major, map size)
   std::vector<double> clearance_;  // distance to the nearest non-region cell [cells]
-  double angle_ = 0.0;             // of direction 0 [rad]
+  std::vector<Eigen::Vector2d> clip_tmp_;
+  double angle_ = 0.0;  // of direction 0 [rad]
 };
 
 }  // namespace rollstep::perception
