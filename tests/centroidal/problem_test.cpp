@@ -7,6 +7,7 @@
 #include <iostream>
 #include <memory>
 #include <set>
+#include <string>
 
 #include "centroidal/assembly.hpp"
 #include "centroidal/plan_fixture.hpp"
@@ -97,6 +98,49 @@ TEST(CentroidalProblem, HugePageAdviceLeavesEveryIterateAsItWas) {
 // solver gives each thread's nodes one set): every value and derivative must be bit for
 // bit that of a node with workspaces of its own, whichever node (stance or swing, running
 // or terminal) the shared ones served before. The OCP of `rollstep plan`: every term.
+// Which rows are relaxed-barrier rows: none by default; soft_region_constraints the stance
+// and swing region rows alone (the joint position bounds stay hard); soft_state_constraints
+// both.
+TEST(CentroidalProblem, SoftRegionConstraintsRelaxTheFootholdRowsAlone) {
+  const RobotOcpDescription robot = test::tachyon3Description();
+  struct Case {
+    bool state, region, regions_soft, bounds_soft;
+  };
+  for (const Case c : {Case{false, false, false, false}, Case{false, true, true, false},
+                       Case{true, false, true, true}, Case{true, true, true, true}}) {
+    OcpSettings settings;
+    settings.horizon = 30;
+    settings.soft_state_constraints = c.state;
+    settings.soft_region_constraints = c.region;
+    CentroidalOcp ocp(robot, settings,
+                      planning::terrainFromBoxes({-20, 20, -5, 5, 0}, 0.0, {{0.1, 2, -5, 5, 0.2}}),
+                      planning::GaitKind::Trot);
+    ocp.reset(0.0, lie::SE3::Identity(), planning::BaseVelocityCommand{0.3, 0.0, 0.0});
+    const ocp::OptimalControlProblem& p = *ocp.problem();
+    EXPECT_EQ(p.stateBounds().options.soft, c.bounds_soft);
+    std::vector<Eigen::VectorXd> xs, us;
+    ocp.initialGuess(xs, us);
+    auto data = p.createNodeData();
+    int region_rows = 0, other_rows = 0;
+    for (int k = 1; k < p.horizon(); ++k) {
+      p.evaluate(k, xs[static_cast<std::size_t>(k)], us[static_cast<std::size_t>(k)], *data);
+      int offset = 0;
+      for (std::size_t j = 0; j < data->inequality_data.size(); ++j) {
+        const int rows = data->inequality_data[j]->rows;
+        const std::string& name = p.inequalityNames()[j];
+        const bool region = name == "stance_region" || name == "swing_region";
+        for (int i = offset; i < offset + rows; ++i) {
+          EXPECT_EQ(data->soft[i], region && c.regions_soft) << name << " node " << k;
+          ++(region ? region_rows : other_rows);
+        }
+        offset += rows;
+      }
+    }
+    EXPECT_GT(region_rows, 0);
+    EXPECT_GT(other_rows, 0);
+  }
+}
+
 TEST(CentroidalProblem, NodesSharingWorkspacesLinearizeAsWithTheirOwn) {
   const RobotOcpDescription robot = test::tachyon3Description();
   OcpSettings settings;
