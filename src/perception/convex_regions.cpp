@@ -42,13 +42,7 @@ void clip(std::vector<Eigen::Vector2d>& poly, std::vector<Eigen::Vector2d>& tmp,
 }
 
 double polygonArea(const std::vector<Eigen::Vector2d>& v) {
-  double a = 0;
-  for (std::size_t i = 0; i < v.size(); ++i) {
-    const Eigen::Vector2d& p = v[i];
-    const Eigen::Vector2d& q = v[(i + 1) % v.size()];
-    a += p.x() * q.y() - q.x() * p.y();
-  }
-  return 0.5 * std::abs(a);
+  return std::abs(planning::signedPolygonArea(v));
 }
 
 }  // namespace

@@ -33,6 +33,13 @@ std::string str(const Eigen::Vector2d& v) {
 
 }  // namespace
 
+double signedPolygonArea(const std::vector<Eigen::Vector2d>& vertices) {
+  const std::size_t n = vertices.size();
+  double twice = 0.0;
+  for (std::size_t k = 0; k < n; ++k) twice += cross(vertices[k], vertices[(k + 1) % n]);
+  return 0.5 * twice;
+}
+
 ConvexRegion ConvexRegion::fromPolygon(const std::vector<Eigen::Vector2d>& vertices, double height,
                                        const Eigen::Vector3d& normal) {
   const char* where = "ConvexRegion::fromPolygon";
@@ -56,12 +63,12 @@ ConvexRegion ConvexRegion::fromPolygon(const std::vector<Eigen::Vector2d>& verti
     os << "(" << normal.x() << ", " << normal.y() << ", " << normal.z() << ")";
     detail::fail(where, "normal", os.str(), "must be finite, non-zero, with z > 0");
   }
-  double area2 = 0.0;
-  for (std::size_t k = 0; k < n; ++k) area2 += cross(vertices[k], vertices[(k + 1) % n]);
-  if (std::abs(area2) < 1e-12) detail::fail(where, "vertices", "(zero area)", "degenerate polygon");
+  const double area = signedPolygonArea(vertices);
+  if (std::abs(area) < 0.5e-12)
+    detail::fail(where, "vertices", "(zero area)", "degenerate polygon");
   ConvexRegion r;
   r.vertices = vertices;
-  if (area2 < 0.0) std::reverse(r.vertices.begin(), r.vertices.end());
+  if (area < 0.0) std::reverse(r.vertices.begin(), r.vertices.end());
   const auto& v = r.vertices;
   for (std::size_t k = 0; k < n; ++k) {
     const Eigen::Vector2d e0 = v[(k + 1) % n] - v[k];
@@ -453,13 +460,7 @@ TerrainModel shrinkTerrain(const TerrainModel& terrain, double margin, double se
       }
     }
     if (clipped.size() < 3) continue;
-    double area = 0.0;
-    for (std::size_t k = 0; k < clipped.size(); ++k) {
-      const Eigen::Vector2d& p = clipped[k];
-      const Eigen::Vector2d& q = clipped[(k + 1) % clipped.size()];
-      area += p.x() * q.y() - q.x() * p.y();
-    }
-    if (std::abs(area) < 1e-10) continue;
+    if (std::abs(signedPolygonArea(clipped)) < 0.5e-10) continue;
     try {
       ConvexRegion shrunk = ConvexRegion::fromPolygon(clipped, r.height, r.normal);
       shrunk.height = r.heightAt(shrunk.centroid);
@@ -494,14 +495,9 @@ TerrainModel levelTerrain(const TerrainModel& terrain, double max_tilt, double h
     double area_sum = 0.0, weighted = 0.0;
     while (last < level.size() && terrain.region(level[last]).height <= lowest + height_tolerance) {
       const ConvexRegion& r = terrain.region(level[last]);
-      double area = 0.0;
-      for (std::size_t k = 0; k < r.vertices.size(); ++k) {
-        const Eigen::Vector2d& p = r.vertices[k];
-        const Eigen::Vector2d& q = r.vertices[(k + 1) % r.vertices.size()];
-        area += 0.5 * (p.x() * q.y() - q.x() * p.y());
-      }
-      area_sum += std::abs(area);
-      weighted += std::abs(area) * r.height;
+      const double area = std::abs(r.area());
+      area_sum += area;
+      weighted += area * r.height;
       ++last;
     }
     const double h = area_sum > 0.0 ? weighted / area_sum : lowest;

@@ -41,6 +41,8 @@ const TerrainBox kStep20{1.0, 2.2, -1.5, 1.5, 0.20};
 TEST(ConvexRegion, HalfPlanesOfASquareEitherOrientation) {
   const std::vector<Vector2d> ccw{{0, 0}, {2, 0}, {2, 1}, {0, 1}};
   const std::vector<Vector2d> cw(ccw.rbegin(), ccw.rend());
+  EXPECT_EQ(rollstep::planning::signedPolygonArea(ccw), 2.0);
+  EXPECT_EQ(rollstep::planning::signedPolygonArea(cw), -2.0);
   for (const auto& v : {ccw, cw}) {
     const ConvexRegion r = ConvexRegion::fromPolygon(v, 0.3);
     ASSERT_EQ(r.A.rows(), 4);
@@ -53,6 +55,7 @@ TEST(ConvexRegion, HalfPlanesOfASquareEitherOrientation) {
     EXPECT_NEAR(r.distance({3.0, 2.0}), std::sqrt(2.0), 1e-12);
     EXPECT_EQ(r.distance({1.0, 0.5}), 0.0);
     EXPECT_TRUE(r.centroid.isApprox(Vector2d(1.0, 0.5)));
+    EXPECT_EQ(r.area(), 2.0);  // stored counter-clockwise
     // A p + b >= 0 row by row.
     const Eigen::VectorXd in = r.A * Vector2d(1.0, 0.5) + r.b;
     EXPECT_GT(in.minCoeff(), 0.0);

@@ -14,6 +14,9 @@
 
 namespace rollstep::planning {
 
+/// Signed area of a simple polygon (the shoelace formula): positive counter-clockwise [m^2].
+double signedPolygonArea(const std::vector<Eigen::Vector2d>& vertices);
+
 struct ConvexRegion {
   std::vector<Eigen::Vector2d> vertices;       ///< counter-clockwise, no repeats [m]
   Eigen::Matrix<double, Eigen::Dynamic, 2> A;  ///< one unit inward row per edge
@@ -40,6 +43,8 @@ struct ConvexRegion {
   double distance(const Eigen::Vector2d& p) const;
   /// z of the region's plane above (x, y) = p.
   double heightAt(const Eigen::Vector2d& p) const;
+  /// Area of the polygon seen from above [m^2].
+  double area() const { return signedPolygonArea(vertices); }
   /// Shrinks [lo, hi] to the part of the line p + d e (e unit) inside the polygon; lo > hi
   /// after it when there is none. No allocation.
   void clipLine(const Eigen::Vector2d& p, const Eigen::Vector2d& e, double& lo, double& hi) const;
