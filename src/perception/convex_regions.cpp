@@ -382,33 +382,33 @@ void ConvexRegionGrower::stepBackFromNotches(const std::vector<Eigen::Vector2d>&
   if (!(depth > 0.0)) return;
   const std::size_t K = dirs.size(), P = obstacles_.size();
   double area = polygonArea(polygonAt(dirs, s, cap, off, 0.0));
-  std::vector<double> trial(K), best_off(K);
+  std::vector<double> trial(K), best_off(K), back(K);
   // Each accepted move grows the area; K rounds bound the search (a notch per edge).
   for (std::size_t round = 0; round < K; ++round) {
     double best_area = area;
     for (std::size_t k = 0; k < K; ++k) {
       if (off[k] >= cap) continue;  // not stopped by an obstacle
-      // The obstacles that stop half-plane k: on its line, inside every other one.
-      // Half-plane j stepping back behind all of them lets k go on.
-      for (std::size_t j = 0; j < K; ++j) {
-        if (j == k) continue;
-        double back = off[j];
-        bool any = false;
-        for (std::size_t i = 0; i < P; ++i) {
-          const double v = proj_[i * K + k];
-          if (v < off[k] - kTie || v > off[k] + kTie + 0.5 * res) continue;
-          bool inside = true;
-          for (std::size_t m = 0; m < K && inside; ++m) {
-            if (m != k && proj_[i * K + m] >= off[m] - kTie) inside = false;
-          }
-          if (!inside) continue;
-          any = true;
-          back = std::min(back, proj_[i * K + j]);
+      // The obstacles that stop half-plane k: on its line, inside every other one. Half-plane
+      // j stepping back to back[j] puts all of them behind it, and k can go on.
+      std::fill(back.begin(), back.end(), std::numeric_limits<double>::infinity());
+      bool any = false;
+      for (std::size_t i = 0; i < P; ++i) {
+        const double v = proj_[i * K + k];
+        if (v < off[k] - kTie || v > off[k] + kTie + 0.5 * res) continue;
+        bool inside = true;
+        for (std::size_t m = 0; m < K && inside; ++m) {
+          if (m != k && proj_[i * K + m] >= off[m] - kTie) inside = false;
         }
-        // Not a notch (none, or deeper than max_notch_depth), or the seed would leave.
-        if (!any || back < off[j] - depth - kTie || back <= 0.5 * res) continue;
+        if (!inside) continue;
+        any = true;
+        for (std::size_t j = 0; j < K; ++j) back[j] = std::min(back[j], proj_[i * K + j]);
+      }
+      if (!any) continue;
+      for (std::size_t j = 0; j < K; ++j) {
+        // Not a notch (deeper than max_notch_depth), or the seed would leave the polygon.
+        if (j == k || back[j] < off[j] - depth - kTie || back[j] <= 0.5 * res) continue;
         trial = off;
-        trial[j] = back;
+        trial[j] = back[j];
         trial[k] = reach(static_cast<int>(k), trial, cap);
         for (std::size_t m = 0; m < K; ++m) {
           if (m != j && m != k) trial[m] = reach(static_cast<int>(m), trial, cap);
