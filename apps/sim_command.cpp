@@ -316,15 +316,15 @@ void runSim(const SimOptions& o, bool scene_given) {
                  numberText(c.command.yaw_rate).c_str(),
                  schedule.size() > 1 ? (" from " + numberText(c.time) + " s").c_str() : "");
     }
+    const solver::SolverStatus first = nmpc_controller->initialStatus();
     controller_text = format(
         "nmpc (gait %s, command %s, MPC every %s s %s, N = %d, "
         "integrator %s, state %s; first solve %s)",
         o.gait.c_str(), command_text.c_str(), numberText(settings.mpc.period).c_str(),
         control::toString(settings.mpc.timing), settings.ocp.horizon,
         control::toString(settings.integrator.mode), o.state_source.c_str(),
-        solver::toString(nmpc_controller->initialStatus()));
+        solver::toString(first));
     controller_text += "; terrain " + terrain_text;
-    const solver::SolverStatus first = nmpc_controller->initialStatus();
     if (first != solver::SolverStatus::Converged && first != solver::SolverStatus::Acceptable) {
       // Not an error (the real-time iterations go on from its iterate, the CBF-QP falls
       // back until their first usable solution), but the run's start is not what it seems.

@@ -359,6 +359,15 @@ std::vector<Eigen::Vector2d> ConvexRegionGrower::polygonAt(const std::vector<Eig
   return poly;
 }
 
+bool ConvexRegionGrower::insideAllBut(std::size_t i, std::size_t k,
+                                      const std::vector<double>& off) const {
+  const std::size_t K = off.size();
+  for (std::size_t j = 0; j < K; ++j) {
+    if (j != k && proj_[i * K + j] >= off[j] - kTie) return false;
+  }
+  return true;
+}
+
 double ConvexRegionGrower::reach(int k, const std::vector<double>& off, double cap) const {
   const auto K = off.size();
   const auto kk = static_cast<std::size_t>(k);
@@ -366,11 +375,7 @@ double ConvexRegionGrower::reach(int k, const std::vector<double>& off, double c
   for (std::size_t i = 0; i < obstacles_.size(); ++i) {
     const double v = proj_[i * K + kk];
     if (v < off[kk] - kTie || v >= limit) continue;
-    bool inside = true;  // within every other half-plane: it stops this one
-    for (std::size_t j = 0; j < K && inside; ++j) {
-      if (j != kk && proj_[i * K + j] >= off[j] - kTie) inside = false;
-    }
-    if (inside) limit = v;
+    if (insideAllBut(i, kk, off)) limit = v;  // within every other half-plane: it stops k
   }
   return limit;
 }
@@ -395,11 +400,7 @@ void ConvexRegionGrower::stepBackFromNotches(const std::vector<Eigen::Vector2d>&
       for (std::size_t i = 0; i < P; ++i) {
         const double v = proj_[i * K + k];
         if (v < off[k] - kTie || v > off[k] + kTie + 0.5 * res) continue;
-        bool inside = true;
-        for (std::size_t m = 0; m < K && inside; ++m) {
-          if (m != k && proj_[i * K + m] >= off[m] - kTie) inside = false;
-        }
-        if (!inside) continue;
+        if (!insideAllBut(i, k, off)) continue;
         any = true;
         for (std::size_t j = 0; j < K; ++j) back[j] = std::min(back[j], proj_[i * K + j]);
       }

@@ -96,6 +96,8 @@ class ConvexRegionGrower {
   std::vector<Eigen::Vector2d> polygonAt(const std::vector<Eigen::Vector2d>& dirs,
                                          const Eigen::Vector2d& s, double cap,
                                          const std::vector<double>& off, double inset);
+  /// Obstacle i lies within every half-plane of offsets `off` but k (so k alone keeps it out).
+  bool insideAllBut(std::size_t i, std::size_t k, const std::vector<double>& off) const;
   /// How far half-plane k can go from off[k] before an obstacle inside all the others
   /// stops it (cap if none does).
   double reach(int k, const std::vector<double>& off, double cap) const;
