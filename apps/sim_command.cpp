@@ -319,11 +319,11 @@ void runSim(const SimOptions& o, bool scene_given) {
     const solver::SolverStatus first = nmpc_controller->initialStatus();
     controller_text = format(
         "nmpc (gait %s, command %s, MPC every %s s %s, N = %d, "
-        "integrator %s, state %s; first solve %s)",
+        "integrator %s, state %s; first solve %s in %d iterations)",
         o.gait.c_str(), command_text.c_str(), numberText(settings.mpc.period).c_str(),
         control::toString(settings.mpc.timing), settings.ocp.horizon,
         control::toString(settings.integrator.mode), o.state_source.c_str(),
-        solver::toString(first));
+        solver::toString(first), nmpc_controller->pipeline().runner().initialIterations());
     controller_text += "; terrain " + terrain_text;
     if (first != solver::SolverStatus::Converged && first != solver::SolverStatus::Acceptable) {
       // Not an error (the real-time iterations go on from its iterate, the CBF-QP falls

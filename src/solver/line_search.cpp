@@ -9,6 +9,12 @@ using detail::kHard;
 using detail::kSoft;
 using detail::relaxedLog;
 
+namespace {
+// Margins of the filter (Waechter and Biegler 2006): a trial point must reduce the
+// violation by the fraction kGammaTheta or the barrier objective by kGammaF theta.
+constexpr double kGammaTheta = 1e-5, kGammaF = 1e-8;
+}  // namespace
+
 /// Backtracks from alpha until the trial point is acceptable to the filter; then moves
 /// the iterate there and returns true (alpha: the step taken). Returns false with the
 /// trial point rejected (theta0_out: the violation of the current iterate).
@@ -23,6 +29,7 @@ bool Solver::Impl::filterLineSearch(double dphi, double& alpha, double& theta0_o
   }
   theta0 += dx0.lpNorm<1>();
   theta0_out = theta0;
+  f0_last = f0;
   // Filter line search (Waechter and Biegler 2006, Sec. 2.3) on the barrier objective
   // f and the l1 violation theta. (An l1 merit function rejected most full steps of the
   // Newton direction near the solution and crawled with alpha ~ 1e-2.)
@@ -34,10 +41,11 @@ bool Solver::Impl::filterLineSearch(double dphi, double& alpha, double& theta0_o
     theta_max = 1e4 * std::max(1.0, theta0);
     theta_min = 1e-4 * std::max(1.0, theta0);
   }
-  constexpr double kGammaTheta = 1e-5, kGammaF = 1e-8, kEta = 1e-4;
+  constexpr double kEta = 1e-4;
   const double f_tol = 1e-13 * (1.0 + std::abs(f0));  // round-off of the sums
   bool accepted = false;
   bool f_type = false;
+  bool filter_refused_last = false;  // the last rejected trial passed the decrease test
   for (int ls = 0; ls < std::max(set.max_line_search_steps, 1); ++ls) {
     forNodes([this, alpha](int k) { trialPoint(k, alpha); });
     forNodes([this](int k) { evaluateTrial(k); });
@@ -48,28 +56,31 @@ bool Solver::Impl::filterLineSearch(double dphi, double& alpha, double& theta0_o
     }
     prob->stateSpace().difference(xs_trial[0], x0, dx0);
     theta += dx0.lpNorm<1>();
-    bool ok = std::isfinite(f) && std::isfinite(theta) && theta <= theta_max;
-    for (std::size_t j = 0; ok && j < filter.size(); ++j) {
-      ok = theta < filter[j].first || f < filter[j].second;
-    }
-    if (ok) {
+    bool decrease = std::isfinite(f) && std::isfinite(theta) && theta <= theta_max;
+    if (decrease) {
       // Switching condition: the step promises an objective decrease that dominates
       // the (small) violation: then require Armijo on f, else decrease of theta or f.
       const bool switching = dphi < 0.0 && alpha * std::pow(-dphi, 2.3) > std::pow(theta0, 1.1);
       f_type = switching && theta0 <= theta_min;
       if (f_type) {
-        ok = f <= f0 + kEta * alpha * dphi + f_tol;
+        decrease = f <= f0 + kEta * alpha * dphi + f_tol;
       } else {
-        ok = theta <= (1.0 - kGammaTheta) * theta0 || f <= f0 - kGammaF * theta0 + f_tol;
+        decrease = theta <= (1.0 - kGammaTheta) * theta0 || f <= f0 - kGammaF * theta0 + f_tol;
       }
     }
-    if (ok) {
+    bool in_filter = true;
+    for (std::size_t j = 0; decrease && in_filter && j < filter.size(); ++j) {
+      in_filter = theta < filter[j].first || f < filter[j].second;
+    }
+    if (decrease && in_filter) {
       accepted = true;
       break;
     }
+    filter_refused_last = decrease;
     alpha *= 0.5;
   }
-  if (accepted && !f_type) addToFilter((1.0 - kGammaTheta) * theta0, f0 - kGammaF * theta0);
+  noteFilterRefusals(filter_refused_last);
+  if (accepted && !f_type) addFilterEntryFor(theta0, f0);
   if (!accepted) return false;
   for (int k = 0; k <= N; ++k) {
     const auto kk = static_cast<std::size_t>(k);
@@ -151,6 +162,29 @@ void Solver::Impl::meritNode(int k, Node& n, const VectorXd& s) const {
   }
   n.merit_f = f;
   n.merit_theta = theta;
+}
+
+/// Ipopt's filter reset heuristic: when the filter (not the decrease test) refused the last
+/// rejected trial point in filter_reset_trigger line searches in a row, the filter is
+/// cleared (at most max_filter_resets times per solve). An old entry can forbid every
+/// point along directions that must raise the barrier objective to reduce the violation.
+void Solver::Impl::noteFilterRefusals(bool refused) {
+  if (set.filter_reset_trigger <= 0 || filter_resets >= set.max_filter_resets) return;
+  if (!refused) {
+    filter_rejections_in_a_row = 0;
+    return;
+  }
+  if (++filter_rejections_in_a_row >= set.filter_reset_trigger) {
+    filter.clear();
+    filter_was_reset = true;
+    ++filter_resets;
+    filter_rejections_in_a_row = 0;
+  }
+}
+
+/// The entry of an iterate (theta, f) the next ones must improve on by the margins.
+void Solver::Impl::addFilterEntryFor(double theta, double f) {
+  addToFilter((1.0 - kGammaTheta) * theta, f - kGammaF * theta);
 }
 
 void Solver::Impl::addToFilter(double theta, double f) {

@@ -25,6 +25,10 @@ bool Solver::Impl::stepRejected(const Kkt& kkt, double theta0, double dphi, Cloc
     // constraints) decides between "continue" and "stuck at an infeasible point".
     const double alpha_r = feasibilityStep(theta0);
     if (alpha_r > 0.0) {
+      // The filter restarts from the point the restoration left (Ipopt augments it with
+      // that point): its older entries may refuse whatever follows from the new one.
+      filter.clear();
+      addFilterEntryFor(theta0, f0_last);
       // One entry per iteration (stats is reserved for max_iterations + 2 entries).
       IterationStats& last = stats.back();
       last.primal_step = alpha_r;

@@ -24,7 +24,7 @@ struct Entry {
   Field field;
 };
 // A new SolverSettings field goes here and into config/solver.yaml.
-const std::array<Entry, 21> kFields{{
+const std::array<Entry, 23> kFields{{
     {"mode", &SolverSettings::mode},
     {"max_iterations", &SolverSettings::max_iterations},
     {"kkt_tolerance", &SolverSettings::kkt_tolerance},
@@ -42,6 +42,8 @@ const std::array<Entry, 21> kFields{{
     {"thread_spin_us", &SolverSettings::thread_spin_us},
     {"divergence_threshold", &SolverSettings::divergence_threshold},
     {"infeasibility_tolerance", &SolverSettings::infeasibility_tolerance},
+    {"filter_reset_trigger", &SolverSettings::filter_reset_trigger},
+    {"max_filter_resets", &SolverSettings::max_filter_resets},
     {"acceptable_tolerance", &SolverSettings::acceptable_tolerance},
     {"acceptable_iterations", &SolverSettings::acceptable_iterations},
     {"predictor_corrector", &SolverSettings::predictor_corrector},
@@ -76,13 +78,15 @@ struct IntRange {
   const char* key;
   IntSettingRange range;
 };
-constexpr std::array<IntRange, 6> kIntRanges{{
+constexpr std::array<IntRange, 8> kIntRanges{{
     {"max_iterations", kIterationCountRange},
     {"realtime_iterations", kRealtimeIterationRange},
     {"acceptable_iterations", kIterationCountRange},
     {"max_line_search_steps", kLineSearchStepsRange},
     {"num_threads", kThreadCountRange},
     {"thread_spin_us", kThreadSpinRange},
+    {"filter_reset_trigger", kFilterResetRange},
+    {"max_filter_resets", kFilterResetRange},
 }};
 
 std::optional<IntSettingRange> intRange(const std::string& key) {

@@ -66,6 +66,8 @@ bool Solver::Impl::begin(ConstVecRef x_init, bool realtime) {
     }
     filter.clear();
     filter_mu = -1.0;
+    filter_rejections_in_a_row = 0;
+    filter_resets = 0;
     last_delta = 0.0;
   }
   // Mehrotra's predictor-corrector on convex QPs (no curvature; soft rows are checked at
@@ -111,7 +113,10 @@ SolverStatus Solver::Impl::run(ConstVecRef x_init, bool realtime) {
       takeFullStep(alpha);
     } else if (!realtime && set.line_search && !dir.tiny) {
       double theta0 = 0.0;
-      if (!filterLineSearch(dir.dphi, alpha, theta0)) {
+      filter_was_reset = false;
+      const bool accepted = filterLineSearch(dir.dphi, alpha, theta0);
+      it.filter_reset = filter_was_reset;
+      if (!accepted) {
         if (stepRejected(kkt, theta0, dir.dphi, t_upd, it)) continue;
         return status;
       }
@@ -162,6 +167,8 @@ void checkSettings(const SolverSettings& s) {
   requireIn(s.thread_spin_us, kThreadSpinRange, "thread_spin_us");
   require(s.divergence_threshold > 0.0, "divergence_threshold must be > 0 (inf: never)");
   require(s.infeasibility_tolerance >= 0.0, "infeasibility_tolerance must be >= 0 (inf: never)");
+  requireIn(s.filter_reset_trigger, kFilterResetRange, "filter_reset_trigger");
+  requireIn(s.max_filter_resets, kFilterResetRange, "max_filter_resets");
   require(positive(s.acceptable_tolerance), "acceptable_tolerance must be finite and > 0");
   requireIn(s.acceptable_iterations, kIterationCountRange, "acceptable_iterations");
 }

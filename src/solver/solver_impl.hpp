@@ -178,6 +178,11 @@ struct Solver::Impl {
   // Filter of the line search: (theta, f) pairs, sized at construction.
   std::vector<std::pair<double, double>> filter;
   double filter_mu = -1.0, theta_max = detail::kInf, theta_min = 0.0;
+  // Filter reset heuristic (SolverSettings::filter_reset_trigger): line searches in a row
+  // whose last rejected trial point the filter refused, and the resets of this solve.
+  int filter_rejections_in_a_row = 0, filter_resets = 0;
+  bool filter_was_reset = false;  // in this iteration (IterationStats::filter_reset)
+  double f0_last = 0.0;           // barrier objective of the iterate at the last line search
   bool has_guess = false;
   bool has_curvature = true;   // the problem has terms with curvature (hasCurvature())
   bool use_curvature = false;  // this iteration adds the constraint curvature (H2)
@@ -367,12 +372,14 @@ struct Solver::Impl {
 
   // ---- step length: filter line search (line_search.cpp) -------------------------------------
   bool filterLineSearch(double dphi, double& alpha, double& theta0);
+  void noteFilterRefusals(bool refused);
   void takeFullStep(double alpha);
   void updateDuals(double alpha, double alpha_d);
   void trialPoint(int k, double alpha);
   void evaluateTrial(int k);
   void meritNode(int k, Node& n, const VectorXd& s) const;
   void addToFilter(double theta, double f);
+  void addFilterEntryFor(double theta, double f);
   void adaptProximalShift(double alpha);
 
   // ---- restoration and infeasibility (restoration.cpp) ---------------------------------------

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "common/alloc_counter.hpp"
+#include "rollstep/control/control_settings.hpp"
 #include "rollstep/planning/terrain.hpp"
 
 namespace rollstep::control {
@@ -146,6 +147,88 @@ TEST(MpcRunner, InitializeStandingConvergesAndPublishesAtOnce) {
   ControlSettings wrong = shortHorizon(30);
   wrong.mpc.period = 0.0;  // deterministic: a period is needed
   EXPECT_THROW(makeRunner(wrong, planning::GaitKind::Standing), std::invalid_argument);
+}
+
+ControlSettings climbPerceptionWithSoftStateRows() {
+  ControlSettings s =
+      loadControlSettings(std::string(ROLLSTEP_CONFIG_DIR) + "/behaviours/climb_perception.yaml");
+  s.ocp.soft_state_constraints = true;
+  return s;
+}
+
+// With every state row soft (ocp.soft_state_constraints) nothing cuts the cold first Newton
+// steps short: at a full step the violation grows many times (the dynamics' nonlinearity),
+// an early iteration accepts a step that raises it because the barrier objective fell, and
+// that iteration's filter entry then refuses every point along the directions that must
+// raise the objective to reduce the violation. The solve used to end Infeasible after ~30
+// iterations on this flat floor (55 of 110 randomized perception scenes of session 25);
+// Ipopt's filter reset and the filter's restart after a restoration step let it converge.
+TEST(MpcRunner, FirstSolveWithEveryStateRowSoftConvergesWhileTrotting) {
+  auto runner = makeRunner(climbPerceptionWithSoftStateRows(), planning::GaitKind::Trot);
+  const Eigen::VectorXd x0 = runner->ocp().standingState(0.0, 0.0, 0.0);
+  const solver::SolverStatus status = runner->initialize(
+      0.0, lie::SE3::Identity(), planning::BaseVelocityCommand{0.15, 0.0, 0.0}, x0);
+  EXPECT_TRUE(status == solver::SolverStatus::Converged ||
+              status == solver::SolverStatus::Acceptable)
+      << solver::toString(status) << " after " << runner->initialIterations()
+      << " iterations: " << runner->initialMessage();
+  MpcSolution out = runner->makeSolution();
+  ASSERT_TRUE(runner->poll(0.0, out));
+  EXPECT_TRUE(out.usable());
+  EXPECT_LT(out.kkt_error, 1e-6);
+  EXPECT_LT(out.primal_residual, 1e-6);
+}
+
+/// The cold converging solve of the runner's first plan with every state row soft, as
+/// initialize() runs it, but with the solver's statistics at hand.
+struct SoftFirstSolve {
+  ControlSettings settings = climbPerceptionWithSoftStateRows();
+  centroidal::CentroidalOcp ocp{tachyon3(), settings.ocp, flatFloor(), planning::GaitKind::Trot};
+  std::unique_ptr<solver::Solver> solver;
+  solver::SolverStatus status = solver::SolverStatus::InvalidInput;
+
+  explicit SoftFirstSolve(int filter_reset_trigger) {
+    ocp.reset(0.0, lie::SE3::Identity(), planning::BaseVelocityCommand{0.15, 0.0, 0.0});
+    solver::SolverSettings s = settings.ocp.solver;
+    s.mode = solver::SolverMode::Converging;
+    s.max_iterations = settings.mpc.initial_iterations;
+    s.filter_reset_trigger = filter_reset_trigger;
+    solver = std::make_unique<solver::Solver>(ocp.problem(), s);
+    std::vector<Eigen::VectorXd> xs, us;
+    ocp.initialGuess(xs, us);
+    const Eigen::VectorXd x0 = ocp.standingState(0.0, 0.0, 0.0);
+    xs[0] = x0;
+    solver->setInitialGuess(xs, us);
+    status = solver->solve(x0);
+  }
+  bool any(bool solver::IterationStats::*flag) const {
+    for (const solver::IterationStats& it : solver->stats()) {
+      if (it.*flag) return true;
+    }
+    return false;
+  }
+};
+
+// Each of the two remedies alone leaves the trap: the filter reset (here after five line
+// searches whose last trial only the filter refused) and the filter's restart after a
+// restoration step (with the reset off, the line search fails and restoration follows).
+// Both end at a KKT point of the same plan.
+TEST(MpcRunner, FilterResetOrRestorationRestartEachLeaveTheFilterTrap) {
+  const SoftFirstSolve reset(5), restart(0);
+  for (const SoftFirstSolve* run : {&reset, &restart}) {
+    EXPECT_TRUE(run->status == solver::SolverStatus::Converged ||
+                run->status == solver::SolverStatus::Acceptable)
+        << solver::toString(run->status) << ": " << run->solver->message();
+    EXPECT_LE(run->solver->stats().back().kkt_error, 1e-6);
+    // Dynamics, equalities and the hard rows (input bounds, friction cones) hold; the soft
+    // state rows may be crossed a little (their relaxed barrier is in the cost).
+    EXPECT_LE(run->solver->stats().back().primal_residual, 1e-6);
+  }
+  EXPECT_TRUE(reset.any(&solver::IterationStats::filter_reset));
+  EXPECT_FALSE(restart.any(&solver::IterationStats::filter_reset));
+  EXPECT_TRUE(restart.any(&solver::IterationStats::restoration));
+  EXPECT_NEAR(reset.solver->cost(), restart.solver->cost(),
+              1e-6 * std::abs(restart.solver->cost()));
 }
 
 TEST(MpcRunner, DeterministicSolvesEveryPeriodAndReleasesLatencyLater) {

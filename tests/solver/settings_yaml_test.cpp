@@ -78,6 +78,8 @@ TEST(SolverSettingsYaml, RoundTripIsExact) {
   s.thread_spin_us = 0;
   s.divergence_threshold = std::numeric_limits<double>::infinity();
   s.infeasibility_tolerance = 0.0;
+  s.filter_reset_trigger = 0;
+  s.max_filter_resets = 12;
   const std::string text = toYaml(s);
   const SolverSettings r = parseSolverSettings(text);
   EXPECT_EQ(toYaml(r), text);
@@ -164,6 +166,8 @@ TEST(SolverSettingsYaml, AbsurdIntegersAreRefusedWithTheRange) {
       {"max_line_search_steps: 5000\n", "'max_line_search_steps': 5000 is outside [1, 1000]"},
       {"thread_spin_us: -1\n", "'thread_spin_us': -1 is outside [0, 1000000]"},
       {"thread_spin_us: 99999999999\n", "'thread_spin_us': '99999999999' is not an integer"},
+      {"filter_reset_trigger: -1\n", "'filter_reset_trigger': -1 is outside [0, 1000000]"},
+      {"max_filter_resets: -2\n", "'max_filter_resets': -2 is outside [0, 1000000]"},
       {"max_iterations: .inf\n", "'max_iterations': '.inf' is not an integer"},
       {"max_iterations: 1e3\n", "'max_iterations': '1e3' is not an integer"},
   };

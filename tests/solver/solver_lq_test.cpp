@@ -324,6 +324,9 @@ TEST(SolverLq, BadSettingsAreRejectedByName) {
        [](SolverSettings& s, double n, double) { s.divergence_threshold = n; }},
       {"infeasibility_tolerance",
        [](SolverSettings& s, double, double) { s.infeasibility_tolerance = -1.0; }},
+      {"filter_reset_trigger",
+       [](SolverSettings& s, double, double) { s.filter_reset_trigger = -1; }},
+      {"max_filter_resets", [](SolverSettings& s, double, double) { s.max_filter_resets = -1; }},
   };
   Solver good(p);
   for (const Case& c : cases) {

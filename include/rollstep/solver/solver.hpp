@@ -37,8 +37,12 @@
 // through the same factorisation, one step length for primal and dual variables and no
 // line search. Other problems: Fiacco-McCormick barrier decrease and a backtracking filter
 // line search (Waechter and Biegler 2006) on the barrier objective f and the l1 violation
-// theta; the filter is reset when mu changes. A step that is tiny relative to the iterate
-// is taken whole (rounding cannot be line-searched).
+// theta; the filter is reset when mu changes, when it alone refused the last trial point of
+// filter_reset_trigger line searches in a row (Ipopt's heuristic: an entry from an
+// iteration that raised the violation can refuse everything along directions that must
+// raise the objective to reduce it), and after a restoration step (it then holds the entry
+// of the point the restoration left). A step that is tiny relative to the iterate is taken
+// whole (rounding cannot be line-searched).
 //
 // Termination (converging mode), Ipopt's scaled tests: with s_d = max(100, mean |multiplier|)
 // / 100 and s_c = max(100, mean z) / 100, Converged when max(primal, dual / s_d,
@@ -111,6 +115,13 @@ struct SolverSettings {
   /// Converging mode: a line search failure with a constraint violation (inf-norm) above
   /// this starts the restoration step that decides Infeasible (see the header comment).
   double infeasibility_tolerance = 1e-6;
+  /// Converging mode: Ipopt's filter reset heuristic. When in this many line searches in a
+  /// row the last rejected trial point passed the decrease test but not the filter, the
+  /// filter is cleared (0: never). An entry from an iteration that raised the violation
+  /// can otherwise forbid every point along a direction that must raise the barrier
+  /// objective to reduce the violation, leaving ever shorter steps.
+  int filter_reset_trigger = 5;
+  int max_filter_resets = 5;  ///< converging mode: resets per solve at most
   /// Converging mode: the KKT error (scaled as for kkt_tolerance) below which an iterate is
   /// acceptable: Acceptable after acceptable_iterations such iterations in a row, or when a
   /// failed line search or the iteration limit stops the solve at such a point.
@@ -142,6 +153,8 @@ inline constexpr IntSettingRange kRealtimeIterationRange{1, 100};   ///< realtim
 inline constexpr IntSettingRange kLineSearchStepsRange{1, 1000};    ///< max_line_search_steps
 inline constexpr IntSettingRange kThreadCountRange{1, 256};         ///< num_threads
 inline constexpr IntSettingRange kThreadSpinRange{0, 1000000};      ///< thread_spin_us
+inline constexpr IntSettingRange kFilterResetRange{
+    0, 1000000};  ///< filter_reset_trigger, max_filter_resets
 
 /// Checks every field of s: throws std::invalid_argument naming the first bad one
 /// (a non-finite or non-positive tolerance or barrier, barrier_min above barrier_initial,
@@ -187,6 +200,9 @@ struct IterationStats {
   /// The Newton step was rejected and a minimum-norm feasibility step was taken instead
   /// (converging mode, violation above infeasibility_tolerance); primal_step is its length.
   bool restoration = false;
+  /// The line search cleared its filter (filter_reset_trigger; converging mode). After a
+  /// restoration step the filter restarts too (from the point the step left).
+  bool filter_reset = false;
   double time_linearize_ms = 0.0, time_riccati_ms = 0.0, time_update_ms = 0.0;
 };
 
