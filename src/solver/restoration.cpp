@@ -66,6 +66,14 @@ bool Solver::Impl::stepRejected(const Kkt& kkt, double theta0, double dphi, Cloc
 /// (Hessian I, no cost gradient, same linearised constraints and barrier), backtracked
 /// on the violation alone. Takes the step and returns its length when it reduces the l1
 /// violation theta0 by at least 0.1 %, else keeps the iterate and returns 0.
+///
+/// Where the constraints curve strongly (a cold start far from the dynamics' linear
+/// range) the first backtracked step that reduces the violation can reduce it by far less
+/// than the best step along the direction. Along the minimum-norm step the linearised
+/// violation falls as theta0 (1 - alpha), so before the point is called stationary the
+/// minimiser of the quadratic through theta0, that slope and the trial value is tried.
+/// (Step20 seed 63's perception scene, every state row soft: 0.05 % at alpha 0.026, 0.65 %
+/// at the quadratic's 0.013, and the solve converges.)
 double Solver::Impl::feasibilityStep(double theta0) {
   use_curvature = false;
   condensed_early = false;  // the Hessian is replaced below: condense every node again
@@ -90,15 +98,27 @@ double Solver::Impl::feasibilityStep(double theta0) {
     if (!node(k).finite) return 0.0;
     alpha = std::min(alpha, node(k).alpha_p);
   }
-  for (int ls = 0; ls < std::max(set.max_line_search_steps, 1); ++ls) {
-    forNodes([this, alpha](int k) { trialPoint(k, alpha); });
+  const auto violationAt = [this](double a) {
+    forNodes([this, a](int k) { trialPoint(k, a); });
     forNodes([this](int k) { evaluateTrial(k); });
     double theta = 0.0;
     for (int k = 0; k <= N; ++k) theta += node(k).merit_theta;
     prob->stateSpace().difference(xs_trial[0], x0, dx0);
-    theta += dx0.lpNorm<1>();
+    return theta + dx0.lpNorm<1>();
+  };
+  constexpr double kProgress = 1e-3;  // below this share: stationary for the violation
+  for (int ls = 0; ls < std::max(set.max_line_search_steps, 1); ++ls) {
+    double theta = violationAt(alpha);
     if (std::isfinite(theta) && theta <= (1.0 - 1e-4 * alpha) * theta0) {
-      if (theta > (1.0 - 1e-3) * theta0) return 0.0;  // stationary for the violation
+      if (theta > (1.0 - kProgress) * theta0) {
+        // theta(a) ~ theta0 (1 - a) + c a^2 through theta(alpha): its minimiser.
+        const double c = (theta - theta0 * (1.0 - alpha)) / (alpha * alpha);
+        const double best = c > 0.0 ? theta0 / (2.0 * c) : alpha;
+        if (!(best < alpha)) return 0.0;
+        theta = violationAt(best);
+        if (!(theta <= (1.0 - kProgress) * theta0)) return 0.0;
+        alpha = best;
+      }
       for (int k = 0; k <= N; ++k) {
         const auto kk = static_cast<std::size_t>(k);
         xs[kk] = xs_trial[kk];
