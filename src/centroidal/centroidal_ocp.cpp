@@ -474,7 +474,7 @@ std::vector<ConstraintViolation> constraintViolations(const ocp::OptimalControlP
     for (ConstraintViolation& v : out) {
       if (v.group == group) return v;
     }
-    out.push_back({group, 0.0, -1});
+    out.push_back({group, 0.0, -1, {}});
     return out.back();
   };
   slot("dynamics");
@@ -482,12 +482,26 @@ std::vector<ConstraintViolation> constraintViolations(const ocp::OptimalControlP
   for (const std::string& name : problem.inequalityNames()) slot(name);
   slot("state_bounds");
   slot("input_bounds");
-  const auto note = [&](const std::string& group, double value, int k) {
+  // Returns the group's entry when value is its new worst (the caller names the row).
+  const auto note = [&](const std::string& group, double value, int k) -> ConstraintViolation* {
     ConstraintViolation& v = slot(group);
-    if (!(value <= v.value)) {  // NaN counts as the worst
-      v.value = value;
-      v.node = k;
+    if (value <= v.value) return nullptr;  // NaN counts as the worst
+    v.value = value;
+    v.node = k;
+    return &v;
+  };
+  // The row of r's largest |value| (equalities) or most negative value (inequalities).
+  const auto worstRow = [](const ocp::ResidualData& r, bool equality) {
+    Eigen::Index i = 0;
+    if (equality) {
+      r.r.head(r.rows).cwiseAbs().maxCoeff(&i);
+    } else {
+      r.r.head(r.rows).minCoeff(&i);
     }
+    for (Eigen::Index j = 0; j < r.rows; ++j) {
+      if (std::isnan(r.r[j])) return static_cast<int>(j);
+    }
+    return static_cast<int>(i);
   };
   auto running = problem.createNodeData();
   auto terminal = problem.createNodeData();  // fresh: running terms keep rows = 0 there
@@ -501,11 +515,17 @@ std::vector<ConstraintViolation> constraintViolations(const ocp::OptimalControlP
     problem.evaluate(k, x, u, *data);
     if (k < N) {
       space.difference(data->xnext, xs[static_cast<std::size_t>(k + 1)], defect);
-      note("dynamics", defect.lpNorm<Eigen::Infinity>(), k);
+      Eigen::Index worst = 0;
+      if (ConstraintViolation* v = note("dynamics", defect.cwiseAbs().maxCoeff(&worst), k)) {
+        v->row = "tangent " + std::to_string(worst);
+      }
       for (std::size_t j = 0; j < data->equality_data.size(); ++j) {
         const ocp::ResidualData& r = *data->equality_data[j];
-        if (r.rows > 0)
-          note(problem.equalityNames()[j], r.r.head(r.rows).lpNorm<Eigen::Infinity>(), k);
+        if (r.rows <= 0) continue;
+        const int row = worstRow(r, true);
+        if (ConstraintViolation* v = note(problem.equalityNames()[j], std::abs(r.r[row]), k)) {
+          v->row = problem.equality(j).rowName(problem.context(k), row);
+        }
       }
       const ocp::BoundSet& ub = problem.inputBounds();
       for (int b = 0; b < ub.size(); ++b) {
@@ -513,7 +533,9 @@ std::vector<ConstraintViolation> constraintViolations(const ocp::OptimalControlP
         double excess = 0.0;
         if (ub.has_lower[static_cast<std::size_t>(b)]) excess = std::max(excess, ub.lower[b] - v);
         if (ub.has_upper[static_cast<std::size_t>(b)]) excess = std::max(excess, v - ub.upper[b]);
-        note("input_bounds", excess, k);
+        if (ConstraintViolation* w = note("input_bounds", excess, k)) {
+          w->row = "input " + std::to_string(ub.index[static_cast<std::size_t>(b)]);
+        }
       }
     }
     int offset = 0;  // of the term's rows in the stacked inequality block
@@ -524,7 +546,11 @@ std::vector<ConstraintViolation> constraintViolations(const ocp::OptimalControlP
       const bool skip = k == 0 && data->state_only[offset];
       offset += r.rows;
       if (!skip) {
-        note(problem.inequalityNames()[j], std::max(0.0, -r.r.head(r.rows).minCoeff()), k);
+        const int row = worstRow(r, false);
+        const double value = std::isnan(r.r[row]) ? r.r[row] : std::max(0.0, -r.r[row]);
+        if (ConstraintViolation* v = note(problem.inequalityNames()[j], value, k)) {
+          v->row = problem.inequality(j).rowName(problem.context(k), row);
+        }
       }
     }
     if (k > 0) {  // x_0 is data: its bounds are not imposed
@@ -535,7 +561,9 @@ std::vector<ConstraintViolation> constraintViolations(const ocp::OptimalControlP
         double excess = 0.0;
         if (sb.has_lower[static_cast<std::size_t>(b)]) excess = std::max(excess, sb.lower[b] - v);
         if (sb.has_upper[static_cast<std::size_t>(b)]) excess = std::max(excess, v - sb.upper[b]);
-        note("state_bounds", excess, k);
+        if (ConstraintViolation* w = note("state_bounds", excess, k)) {
+          w->row = "tangent " + std::to_string(sb.index[static_cast<std::size_t>(b)]);
+        }
       }
     }
   }

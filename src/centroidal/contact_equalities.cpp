@@ -33,6 +33,16 @@ int SwingForceResidual::rows(const ocp::NodeContext& ctx) const {
   return n;
 }
 
+std::string SwingForceResidual::rowName(const ocp::NodeContext& ctx, int row) const {
+  int first = 0;
+  for (int i = 0; i < robot_->nc(); ++i) {
+    if (CentroidalRobot::inStance(ctx.mode, i)) continue;
+    if (row < first + 3) return robot_->contact(i).frame + ": f_" + "xyz"[row - first];
+    first += 3;
+  }
+  return Residual::rowName(ctx, row);
+}
+
 void SwingForceResidual::calc(const ocp::NodeContext& ctx, ocp::ConstVecRef /*x*/,
                               ocp::ConstVecRef u, ocp::ResidualData& d) const {
   int row = 0;
@@ -97,6 +107,17 @@ std::unique_ptr<ocp::ResidualData> StanceVelocityResidual::createData() const {
 
 std::unique_ptr<ocp::ResidualData> StanceVelocityResidual::createDataWithNodeCache() const {
   return std::make_unique<CentroidalResidualData>(pre_->robot(), maxRows(), true);
+}
+
+std::string StanceVelocityResidual::rowName(const ocp::NodeContext& ctx, int row) const {
+  const CentroidalRobot& r = pre_->robot();
+  int n = 0;
+  for (int i = 0; i < r.nc(); ++i) {
+    if (!selected(ctx.mode, i)) continue;
+    if (vertical() && n++ == row) return r.contact(i).frame + ": vertical velocity";
+    if (lateral(i) && n++ == row) return r.contact(i).frame + ": lateral velocity";
+  }
+  return Residual::rowName(ctx, row);
 }
 
 void StanceVelocityResidual::calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x,

@@ -196,6 +196,19 @@ Eigen::VectorXd StaticTorqueLimitResidual::torques(const ocp::NodeContext& ctx, 
   return td.tau;
 }
 
+std::string StaticTorqueLimitResidual::rowName(const ocp::NodeContext& ctx, int row) const {
+  const auto r = static_cast<std::size_t>(row);
+  const std::vector<std::string>& joints = robot_->model().jointNames;
+  if (row >= 0 && r < upper_rows_.size()) {
+    return joints[static_cast<std::size_t>(upper_rows_[r])] + ": torque upper limit";
+  }
+  if (row >= 0 && r < upper_rows_.size() + lower_rows_.size()) {
+    return joints[static_cast<std::size_t>(lower_rows_[r - upper_rows_.size()])] +
+           ": torque lower limit";
+  }
+  return Residual::rowName(ctx, row);
+}
+
 void StaticTorqueLimitResidual::calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x,
                                      ocp::ConstVecRef u, ocp::ResidualData& d) const {
   auto& td = static_cast<TorqueResidualData&>(d);
@@ -297,6 +310,18 @@ int FrictionPyramidResidual::rows(const ocp::NodeContext& ctx) const {
   int feet = 0;
   for (int i = 0; i < robot_->nc(); ++i) feet += CentroidalRobot::inStance(ctx.mode, i) ? 1 : 0;
   return kRowsPerFoot * feet;
+}
+
+std::string FrictionPyramidResidual::rowName(const ocp::NodeContext& ctx, int row) const {
+  int first = 0;
+  for (int i = 0; i < robot_->nc(); ++i) {
+    if (!CentroidalRobot::inStance(ctx.mode, i)) continue;
+    if (row < first + kRowsPerFoot) {
+      return robot_->contact(i).frame + ": friction row " + std::to_string(row - first);
+    }
+    first += kRowsPerFoot;
+  }
+  return Residual::rowName(ctx, row);
 }
 
 Eigen::Matrix3d FrictionPyramidResidual::terrainFrame(const Eigen::Vector3d& normal) {
@@ -410,6 +435,21 @@ int FootRegionResidual::rows(const ocp::NodeContext& ctx) const {
     rows += edges;
   }
   return rows;
+}
+
+std::string FootRegionResidual::rowName(const ocp::NodeContext& ctx, int row) const {
+  int first = 0;
+  for (int i = 0; i < robot_->nc(); ++i) {
+    const int region = regionOf(ctx, i);
+    if (region < 0) continue;
+    const int edges = static_cast<int>(terrain_.terrain->region(region).A.rows());
+    if (row < first + edges) {
+      return robot_->contact(i).frame + ": edge " + std::to_string(row - first) + " of region " +
+             std::to_string(region);
+    }
+    first += edges;
+  }
+  return Residual::rowName(ctx, row);
 }
 
 std::unique_ptr<ocp::ResidualData> FootRegionResidual::createData() const {

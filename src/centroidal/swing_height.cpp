@@ -57,6 +57,15 @@ std::unique_ptr<ocp::ResidualData> SwingHeightResidual::createDataWithNodeCache(
   return std::make_unique<CentroidalResidualData>(pre_->robot(), maxRows(), true);
 }
 
+std::string SwingHeightResidual::rowName(const ocp::NodeContext& ctx, int row) const {
+  int n = 0;
+  for (int i = 0; i < pre_->robot().nc(); ++i) {
+    if (CentroidalRobot::inStance(ctx.mode, i)) continue;
+    if (n++ == row) return pre_->robot().contact(i).frame + ": swing height";
+  }
+  return Residual::rowName(ctx, row);
+}
+
 void SwingHeightResidual::calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
                                ocp::ResidualData& d) const {
   if (rows(ctx) == 0) return;

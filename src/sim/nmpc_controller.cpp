@@ -205,7 +205,7 @@ void NmpcController::enableViolationLog() {
     if (violations_csv_.empty()) {
       violations_csv_ = "time[s]";
       for (const centroidal::ConstraintViolation& g : v) {
-        violations_csv_ += "," + g.group + "[-]," + g.group + "_node[-]";
+        violations_csv_ += "," + g.group + "[-]," + g.group + "_node[-]," + g.group + "_row";
       }
       violations_csv_ += "\n";
     }
@@ -213,8 +213,10 @@ void NmpcController::enableViolationLog() {
     std::snprintf(cell, sizeof cell, "%.4f", t);
     violations_csv_ += cell;
     for (const centroidal::ConstraintViolation& g : v) {
-      std::snprintf(cell, sizeof cell, ",%.4g,%d", g.value, g.node);
+      std::snprintf(cell, sizeof cell, ",%.4g,%d,", g.value, g.node);
       violations_csv_ += cell;
+      // Row names are frame and joint names and words: no commas, but a robot's could.
+      for (const char c : g.row) violations_csv_ += c == ',' ? ';' : c;
     }
     violations_csv_ += "\n";
   });

@@ -122,5 +122,43 @@ TEST(Plan, StaticWalkOnFlat) {
   checkGait(r);
 }
 
+// constraintViolations names the row behind each group's largest violation (what
+// `rollstep sim --log-violations` writes): the foot, and the region edge or friction row.
+TEST(Plan, ViolationsNameTheFootAndTheRowBehindThem) {
+  PlanRun r(flatTerrain(), planning::GaitKind::Standing, 0.0);
+  std::vector<Eigen::VectorXd> xs = r.solver->states(), us = r.solver->inputs();
+  const CentroidalRobot& robot = r.ocp->robot();
+  // Node 40's base 30 m ahead: every foot leaves the floor region (x <= 20), the front
+  // ones furthest; node 12's third foot pulls the ground (negative normal force).
+  xs[40][0] += 30.0;
+  us[12][robot.inputForceIndex(2) + 2] = -50.0;
+  const auto find = [&](const std::string& group) {
+    for (const ConstraintViolation& v : constraintViolations(*r.ocp->problem(), xs, us)) {
+      if (v.group == group) return v;
+    }
+    ADD_FAILURE() << "no group " << group;
+    return ConstraintViolation{};
+  };
+  const ConstraintViolation region = find("stance_region");
+  EXPECT_EQ(region.node, 40);
+  EXPECT_GT(region.value, 9.0);
+  bool names_a_foot = false;
+  for (int i = 0; i < robot.nc(); ++i) {
+    names_a_foot |= region.row.rfind(robot.contact(i).frame + ": edge ", 0) == 0;
+  }
+  EXPECT_TRUE(names_a_foot) << region.row;
+  EXPECT_NE(region.row.find(" of region 0"), std::string::npos) << region.row;
+  const ConstraintViolation friction = find("friction");
+  EXPECT_EQ(friction.node, 12);
+  EXPECT_EQ(friction.row.rfind(robot.contact(2).frame + ": friction row ", 0), 0u) << friction.row;
+  const ConstraintViolation dynamics = find("dynamics");
+  EXPECT_TRUE(dynamics.node == 39 || dynamics.node == 40) << dynamics.node;
+  EXPECT_EQ(dynamics.row, "tangent 0");  // the base's x
+  // Nothing violated: no row.
+  const ConstraintViolation torque = find("torque");
+  EXPECT_EQ(torque.node, -1);
+  EXPECT_EQ(torque.row, "");
+}
+
 }  // namespace
 }  // namespace rollstep::centroidal

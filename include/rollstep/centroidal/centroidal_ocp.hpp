@@ -49,6 +49,9 @@ struct ConstraintViolation {
   std::string group;
   double value = 0.0;  ///< >= 0; 0 when satisfied
   int node = -1;       ///< where the largest one is (-1: none)
+  /// Which row of the group there (Residual::rowName: "LF_contact: edge 2 of region 5";
+  /// "tangent 9" for dynamics and state bounds, "input 3" for input bounds); empty: none.
+  std::string row;
 };
 std::vector<ConstraintViolation> constraintViolations(const ocp::OptimalControlProblem& problem,
                                                       const std::vector<Eigen::VectorXd>& xs,

@@ -21,6 +21,7 @@
 // calc/calcDiff read the node cache (ctx.cache) when present and compute their own
 // otherwise; they never allocate.
 #include <memory>
+#include <string>
 
 #include "rollstep/centroidal/precomputation.hpp"
 #include "rollstep/ocp/residual.hpp"
@@ -42,6 +43,7 @@ class SwingForceResidual final : public ocp::Residual {
  public:
   explicit SwingForceResidual(std::shared_ptr<const CentroidalRobot> robot);
   int rows(const ocp::NodeContext& ctx) const override;
+  std::string rowName(const ocp::NodeContext& ctx, int row) const override;
   bool dependsOnState() const override { return false; }
   bool isLinear() const override { return true; }
   void calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
@@ -84,6 +86,7 @@ class StanceVelocityResidual final : public ocp::Residual {
                                   StanceRows rows = StanceRows::Kept,
                                   StanceComponents components = StanceComponents::All);
   int rows(const ocp::NodeContext& ctx) const override;
+  std::string rowName(const ocp::NodeContext& ctx, int row) const override;
   std::unique_ptr<ocp::ResidualData> createData() const override;
   std::unique_ptr<ocp::ResidualData> createDataWithNodeCache() const override;
   void calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
@@ -118,6 +121,7 @@ class SwingHeightResidual final : public ocp::Residual {
                       std::shared_ptr<const planning::FootReferencePlanner> planner, double kp,
                       double max_correction = 0.0);
   int rows(const ocp::NodeContext& ctx) const override;
+  std::string rowName(const ocp::NodeContext& ctx, int row) const override;
   double kp() const { return kp_; }
   double maxCorrection() const { return max_correction_; }
   std::unique_ptr<ocp::ResidualData> createData() const override;

@@ -19,6 +19,7 @@
 // terms ask the planner once per foot in rows() and once in calc(); calcDiff reuses what
 // calc found, so it must follow calc with the same arguments (as ocp::Residual specifies).
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "rollstep/centroidal/precomputation.hpp"
@@ -86,6 +87,7 @@ class StaticTorqueLimitResidual final : public ocp::Residual {
   const Eigen::VectorXd& upperLimits() const { return upper_; }
   const Eigen::VectorXd& lowerLimits() const { return lower_; }
   int rows(const ocp::NodeContext& ctx) const override;
+  std::string rowName(const ocp::NodeContext& ctx, int row) const override;
   /// nj when every joint is limited on both sides (row j + nj is the lower limit of the
   /// joint of row j), 0 otherwise.
   int mirroredRows(const ocp::NodeContext& ctx) const override;
@@ -137,6 +139,7 @@ class FrictionPyramidResidual final : public ocp::Residual {
   FrictionPyramidResidual(std::shared_ptr<const CentroidalRobot> robot, TerrainReferences terrain,
                           const FrictionPyramidOptions& options = {});
   int rows(const ocp::NodeContext& ctx) const override;
+  std::string rowName(const ocp::NodeContext& ctx, int row) const override;
   bool dependsOnState() const override { return false; }
   bool isLinear() const override { return true; }
   const FrictionPyramidOptions& options() const { return options_; }
@@ -180,6 +183,7 @@ class FootRegionResidual final : public ocp::Residual {
   FootRegionResidual(std::shared_ptr<const CentroidalRobot> robot, TerrainReferences terrain,
                      RegionUse use, int max_edges = 0);
   int rows(const ocp::NodeContext& ctx) const override;
+  std::string rowName(const ocp::NodeContext& ctx, int row) const override;
   bool dependsOnInput() const override { return false; }
   RegionUse use() const { return use_; }
   int maxEdges() const { return max_edges_; }

@@ -185,6 +185,9 @@ class OptimalControlProblem {
   const std::vector<std::string>& costNames() const { return cost_names_; }
   const std::vector<std::string>& equalityNames() const { return eq_names_; }
   const std::vector<std::string>& inequalityNames() const { return ineq_names_; }
+  /// The j-th equality / inequality term, in the order of the names above.
+  const Residual& equality(std::size_t j) const { return *equalities_.at(j); }
+  const Residual& inequality(std::size_t j) const { return *inequalities_.at(j).residual; }
 
  private:
   enum class Pass { Values, Derivatives, Curvature };

@@ -2,6 +2,7 @@
 // A vector function r(x, u) of one node with its Jacobians: the building block of
 // least-squares costs, equality constraints (r = 0) and inequality constraints (r >= 0).
 #include <memory>
+#include <string>
 
 #include "rollstep/ocp/types.hpp"
 
@@ -52,6 +53,12 @@ class Residual {
   /// bit). The solver then condenses each pair with one product and the summed barrier
   /// weight. 2 m <= rows(ctx); 0 (default) declares nothing. Must not allocate.
   virtual int mirroredRows(const NodeContext& /*ctx*/) const { return 0; }
+  /// What row `row` (< rows(ctx)) of this node constrains, for diagnostics (constraint
+  /// violation reports): "row 3" unless the residual says more ("LF_contact: edge 2 of
+  /// region 5"). Allocates: never on a real-time path.
+  virtual std::string rowName(const NodeContext& /*ctx*/, int row) const {
+    return "row " + std::to_string(row);
+  }
 
   /// Workspace of this residual at one node, for calls with or without a node cache.
   virtual std::unique_ptr<ResidualData> createData() const {
