@@ -25,8 +25,8 @@ bool Solver::Impl::stepRejected(const Kkt& kkt, double theta0, double dphi, Cloc
     // constraints) decides between "continue" and "stuck at an infeasible point".
     const double alpha_r = feasibilityStep(theta0);
     if (alpha_r > 0.0) {
-      // The filter restarts from the point the restoration left (Ipopt augments it with
-      // that point): its older entries may refuse whatever follows from the new one.
+      // The filter restarts with the entry of the point the restoration started from
+      // (Ipopt augments it with that point): older entries may refuse all that follows.
       filter.clear();
       addFilterEntryFor(theta0, f0_last);
       // One entry per iteration (stats is reserved for max_iterations + 2 entries).

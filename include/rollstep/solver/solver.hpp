@@ -41,8 +41,8 @@
 // filter_reset_trigger line searches in a row (Ipopt's heuristic: an entry from an
 // iteration that raised the violation can refuse everything along directions that must
 // raise the objective to reduce it), and after a restoration step (it then holds the entry
-// of the point the restoration left). A step that is tiny relative to the iterate is taken
-// whole (rounding cannot be line-searched).
+// of the point the restoration started from). A step that is tiny relative to the iterate
+// is taken whole (rounding cannot be line-searched).
 //
 // Termination (converging mode), Ipopt's scaled tests: with s_d = max(100, mean |multiplier|)
 // / 100 and s_c = max(100, mean z) / 100, Converged when max(primal, dual / s_d,
@@ -201,7 +201,7 @@ struct IterationStats {
   /// (converging mode, violation above infeasibility_tolerance); primal_step is its length.
   bool restoration = false;
   /// The line search cleared its filter (filter_reset_trigger; converging mode). After a
-  /// restoration step the filter restarts too (from the point the step left).
+  /// restoration step the filter restarts too (with the entry of the point it started from).
   bool filter_reset = false;
   double time_linearize_ms = 0.0, time_riccati_ms = 0.0, time_update_ms = 0.0;
 };
