@@ -485,21 +485,23 @@ std::vector<ConstraintViolation> constraintViolations(const ocp::OptimalControlP
   // Returns the group's entry when value is its new worst (the caller names the row).
   const auto note = [&](const std::string& group, double value, int k) -> ConstraintViolation* {
     ConstraintViolation& v = slot(group);
-    if (value <= v.value) return nullptr;  // NaN counts as the worst
+    // NaN counts as the worst: it replaces any value and nothing replaces it.
+    if (std::isnan(v.value) || value <= v.value) return nullptr;
     v.value = value;
     v.node = k;
     return &v;
   };
-  // The row of r's largest |value| (equalities) or most negative value (inequalities).
-  const auto worstRow = [](const ocp::ResidualData& r, bool equality) {
-    Eigen::Index i = 0;
-    if (equality) {
-      r.r.head(r.rows).cwiseAbs().maxCoeff(&i);
-    } else {
-      r.r.head(r.rows).minCoeff(&i);
+  // The entry of v with the largest |value| (largest) or the most negative value; a NaN
+  // entry first of all.
+  const auto worstEntry = [](const Eigen::Ref<const Eigen::VectorXd>& v, bool largest) {
+    for (Eigen::Index j = 0; j < v.size(); ++j) {
+      if (std::isnan(v[j])) return static_cast<int>(j);
     }
-    for (Eigen::Index j = 0; j < r.rows; ++j) {
-      if (std::isnan(r.r[j])) return static_cast<int>(j);
+    Eigen::Index i = 0;
+    if (largest) {
+      v.cwiseAbs().maxCoeff(&i);
+    } else {
+      v.minCoeff(&i);
     }
     return static_cast<int>(i);
   };
@@ -515,14 +517,14 @@ std::vector<ConstraintViolation> constraintViolations(const ocp::OptimalControlP
     problem.evaluate(k, x, u, *data);
     if (k < N) {
       space.difference(data->xnext, xs[static_cast<std::size_t>(k + 1)], defect);
-      Eigen::Index worst = 0;
-      if (ConstraintViolation* v = note("dynamics", defect.cwiseAbs().maxCoeff(&worst), k)) {
+      const int worst = worstEntry(defect, true);
+      if (ConstraintViolation* v = note("dynamics", std::abs(defect[worst]), k)) {
         v->row = "tangent " + std::to_string(worst);
       }
       for (std::size_t j = 0; j < data->equality_data.size(); ++j) {
         const ocp::ResidualData& r = *data->equality_data[j];
         if (r.rows <= 0) continue;
-        const int row = worstRow(r, true);
+        const int row = worstEntry(r.r.head(r.rows), true);
         if (ConstraintViolation* v = note(problem.equalityNames()[j], std::abs(r.r[row]), k)) {
           v->row = problem.equality(j).rowName(problem.context(k), row);
         }
@@ -546,7 +548,7 @@ std::vector<ConstraintViolation> constraintViolations(const ocp::OptimalControlP
       const bool skip = k == 0 && data->state_only[offset];
       offset += r.rows;
       if (!skip) {
-        const int row = worstRow(r, false);
+        const int row = worstEntry(r.r.head(r.rows), false);
         const double value = std::isnan(r.r[row]) ? r.r[row] : std::max(0.0, -r.r[row]);
         if (ConstraintViolation* v = note(problem.inequalityNames()[j], value, k)) {
           v->row = problem.inequality(j).rowName(problem.context(k), row);

@@ -158,6 +158,11 @@ TEST(Plan, ViolationsNameTheFootAndTheRowBehindThem) {
   const ConstraintViolation torque = find("torque");
   EXPECT_EQ(torque.node, -1);
   EXPECT_EQ(torque.row, "");
+  // A NaN is the worst of all (a diverged iterate must not read as a small violation).
+  xs[60][1] = std::nan("");
+  const ConstraintViolation nan = find("dynamics");
+  EXPECT_TRUE(std::isnan(nan.value));
+  EXPECT_TRUE(nan.node == 59 || nan.node == 60) << nan.node;
 }
 
 }  // namespace
