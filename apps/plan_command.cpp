@@ -219,10 +219,10 @@ void registerPlanCommand(CLI::App& app, int& exit_status) {
       "acceptable_tolerance), 3 not converged (files written, the summary says why), 1 on "
       "bad options or inputs.\n"
       "Example: rollstep plan --scene step20 --gait trot --vx 0.15 --duration 1.5 --out out/plan");
-  CLI::Option* scene =
-      cmd->add_option("--scene", options->scene, "Scene: flat, step20 or stairs2 (as for sim)")
-          ->check(CLI::IsMember(sim::sceneNames()))
-          ->capture_default_str();
+  CLI::Option* scene = cmd->add_option("--scene", options->scene,
+                                       "Scene: " + sim::sceneNamesText() + " (as for sim)")
+                           ->check(CLI::IsMember(sim::sceneNames()))
+                           ->capture_default_str();
   cmd->add_option("--scene-config", options->scene_config, "YAML file of scene parameters")
       ->check(kNotEmpty);
   cmd->add_option("--gait", options->gait, "standing, rolling, trot or static_walk")

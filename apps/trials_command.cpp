@@ -79,9 +79,8 @@ const Scenario& selectScenario(const ExperimentSet& set, const std::string& scen
     }
     return s;
   }
-  throw CLI::ValidationError("--scenario", "'" + scenario +
-                                               "' is neither a scene (flat, step20, stairs2) "
-                                               "nor a scenario of " +
+  throw CLI::ValidationError("--scenario", "'" + scenario + "' is neither a scene (" +
+                                               sim::sceneNamesText() + ") nor a scenario of " +
                                                set.source + " (it has: " + have + ")");
 }
 
@@ -254,8 +253,9 @@ void registerTrialsCommand(CLI::App& app) {
       "files found under DIR. The sensor noise (DIR/<scenario>_seedNNNN/sensors.yaml) reaches "
       "the controllers that read the sensors (--state-source inekf).");
   cmd->add_option("--scenario", o->scenario,
-                  "A scene (flat, step20 or stairs2: its first scenario with --controller) or "
-                  "a scenario's name in the experiments file (e.g. step20_nmpc_perception)")
+                  "A scene (" + sim::sceneNamesText() +
+                      ": its first scenario with --controller) or a scenario's name in the "
+                      "experiments file (e.g. step20_nmpc_perception)")
       ->check(kNotEmpty);
   cmd->add_option("--controller", o->controller,
                   "Controller of the scenario (nmpc, ...); needed with a scene")

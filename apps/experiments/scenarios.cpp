@@ -236,7 +236,7 @@ ExperimentSet parseExperimentSet(const std::string& text, const std::string& sou
                 [&](const yaml::Node& v, const std::string& k) {
                   word(r)(v, k, s.scene);
                   if (!sim::isSceneName(s.scene)) {
-                    r.fail(v, k, "'" + s.scene + "' is not flat, step20 or stairs2");
+                    r.fail(v, k, "'" + s.scene + "' is not " + sim::sceneNamesText());
                   }
                 }},
                {"scene_config",

@@ -22,7 +22,7 @@ struct PaperFigures {
 struct Scenario {
   std::string name;          ///< output folder name: letters, digits, '_' and '-'
   std::string title;         ///< shown in tables and legends
-  std::string scene;         ///< flat, step20 or stairs2 (rollstep sim --scene)
+  std::string scene;         ///< a scene name (sim::sceneNames(); rollstep sim --scene)
   std::string scene_config;  ///< optional scene YAML (absolute, resolved from the file)
   std::string controller;    ///< rollstep sim --controller
   /// Optional control settings YAML (rollstep sim --control-config; absolute, resolved from

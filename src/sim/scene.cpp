@@ -38,8 +38,8 @@ SceneKind sceneKindFromString(std::string_view name) {
   for (const SceneKind kind : kSceneKinds) {
     if (toString(kind) == name) return kind;
   }
-  throw std::invalid_argument("unknown scene '" + std::string(name) +
-                              "' (expected flat, step20 or stairs2)");
+  throw std::invalid_argument("unknown scene '" + std::string(name) + "' (expected " +
+                              sceneNamesText() + ")");
 }
 
 const std::vector<std::string>& sceneNames() {
@@ -49,6 +49,15 @@ const std::vector<std::string>& sceneNames() {
     return v;
   }();
   return names;
+}
+
+std::string sceneNamesText() {
+  const std::vector<std::string>& names = sceneNames();
+  std::string text;
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    text += (i == 0 ? "" : i + 1 == names.size() ? " or " : ", ") + names[i];
+  }
+  return text;
 }
 
 bool isSceneName(std::string_view name) {

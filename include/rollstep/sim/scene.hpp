@@ -32,6 +32,8 @@ SceneKind sceneKindFromString(std::string_view name);
 const std::vector<std::string>& sceneNames();
 /// Whether `name` is one of sceneNames().
 bool isSceneName(std::string_view name);
+/// sceneNames() for messages: "flat, step20 or stairs2".
+std::string sceneNamesText();
 
 /// Scene parameters. Defaults are the spec's values. YAML keys have the same names as
 /// the members (see loadSceneConfig); sceneFields() lists each numeric one with its unit
