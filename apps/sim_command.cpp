@@ -317,18 +317,18 @@ void runSim(const SimOptions& o, bool scene_given) {
                  schedule.size() > 1 ? (" from " + numberText(c.time) + " s").c_str() : "");
     }
     const solver::SolverStatus first = nmpc_controller->initialStatus();
+    const control::MpcRunner& runner = nmpc_controller->pipeline().runner();
     controller_text = format(
         "nmpc (gait %s, command %s, MPC every %s s %s, N = %d, "
         "integrator %s, state %s; first solve %s in %d iterations)",
         o.gait.c_str(), command_text.c_str(), numberText(settings.mpc.period).c_str(),
         control::toString(settings.mpc.timing), settings.ocp.horizon,
         control::toString(settings.integrator.mode), o.state_source.c_str(),
-        solver::toString(first), nmpc_controller->pipeline().runner().initialIterations());
+        solver::toString(first), runner.initialIterations());
     controller_text += "; terrain " + terrain_text;
     if (first != solver::SolverStatus::Converged && first != solver::SolverStatus::Acceptable) {
       // Not an error (the real-time iterations go on from its iterate, the CBF-QP falls
       // back until their first usable solution), but the run's start is not what it seems.
-      const control::MpcRunner& runner = nmpc_controller->pipeline().runner();
       std::fprintf(stderr,
                    "rollstep sim: warning: the first MPC solve ended %s after %d iterations%s%s\n",
                    solver::toString(first), runner.initialIterations(),

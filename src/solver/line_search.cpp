@@ -17,8 +17,10 @@ constexpr double kGammaTheta = 1e-5, kGammaF = 1e-8;
 
 /// Backtracks from alpha until the trial point is acceptable to the filter; then moves
 /// the iterate there and returns true (alpha: the step taken). Returns false with the
-/// trial point rejected (theta0_out: the violation of the current iterate).
-bool Solver::Impl::filterLineSearch(double dphi, double& alpha, double& theta0_out) {
+/// trial point rejected (theta0_out, f0_out: the violation and barrier objective of the
+/// current iterate).
+bool Solver::Impl::filterLineSearch(double dphi, double& alpha, double& theta0_out,
+                                    double& f0_out) {
   double f0 = 0.0, theta0 = 0.0;
   for (int k = 0; k <= N; ++k) {
     Node& n = node(k);
@@ -29,7 +31,7 @@ bool Solver::Impl::filterLineSearch(double dphi, double& alpha, double& theta0_o
   }
   theta0 += dx0.lpNorm<1>();
   theta0_out = theta0;
-  f0_last = f0;
+  f0_out = f0;
   // Filter line search (Waechter and Biegler 2006, Sec. 2.3) on the barrier objective
   // f and the l1 violation theta. (An l1 merit function rejected most full steps of the
   // Newton direction near the solution and crawled with alpha ~ 1e-2.)

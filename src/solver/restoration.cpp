@@ -12,8 +12,8 @@ using detail::msSince;
 /// After the filter line search rejected the Newton step: restores the iterate and, when
 /// the violation is large, tries a restoration step. Returns true when that step was taken
 /// (the iteration is done, the loop continues), false when the solve ends (status set).
-bool Solver::Impl::stepRejected(const Kkt& kkt, double theta0, double dphi, Clock::time_point t_upd,
-                                IterationStats& it) {
+bool Solver::Impl::stepRejected(const Kkt& kkt, double theta0, double f0, double dphi,
+                                Clock::time_point t_upd, IterationStats& it) {
   const double primal = kkt.primal;
   restore();
   it.primal_step = 0.0;
@@ -28,7 +28,7 @@ bool Solver::Impl::stepRejected(const Kkt& kkt, double theta0, double dphi, Cloc
       // The filter restarts with the entry of the point the restoration started from
       // (Ipopt augments it with that point): older entries may refuse all that follows.
       filter.clear();
-      addFilterEntryFor(theta0, f0_last);
+      addFilterEntryFor(theta0, f0);
       // One entry per iteration (stats is reserved for max_iterations + 2 entries).
       IterationStats& last = stats.back();
       last.primal_step = alpha_r;

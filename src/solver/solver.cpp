@@ -112,12 +112,12 @@ SolverStatus Solver::Impl::run(ConstVecRef x_init, bool realtime) {
       alpha = alpha_d = std::min(dir.alpha_p, dir.alpha_d);
       takeFullStep(alpha);
     } else if (!realtime && set.line_search && !dir.tiny) {
-      double theta0 = 0.0;
+      double theta0 = 0.0, f0 = 0.0;
       filter_was_reset = false;
-      const bool accepted = filterLineSearch(dir.dphi, alpha, theta0);
+      const bool accepted = filterLineSearch(dir.dphi, alpha, theta0, f0);
       it.filter_reset = filter_was_reset;
       if (!accepted) {
-        if (stepRejected(kkt, theta0, dir.dphi, t_upd, it)) continue;
+        if (stepRejected(kkt, theta0, f0, dir.dphi, t_upd, it)) continue;
         return status;
       }
       adaptProximalShift(alpha);

@@ -182,7 +182,6 @@ struct Solver::Impl {
   // whose last rejected trial point the filter refused, and the resets of this solve.
   int filter_rejections_in_a_row = 0, filter_resets = 0;
   bool filter_was_reset = false;  // in this iteration (IterationStats::filter_reset)
-  double f0_last = 0.0;           // barrier objective of the iterate at the last line search
   bool has_guess = false;
   bool has_curvature = true;   // the problem has terms with curvature (hasCurvature())
   bool use_curvature = false;  // this iteration adds the constraint curvature (H2)
@@ -371,7 +370,7 @@ struct Solver::Impl {
   void predictorCorrector();
 
   // ---- step length: filter line search (line_search.cpp) -------------------------------------
-  bool filterLineSearch(double dphi, double& alpha, double& theta0);
+  bool filterLineSearch(double dphi, double& alpha, double& theta0, double& f0);
   void noteFilterRefusals(bool refused);
   void takeFullStep(double alpha);
   void updateDuals(double alpha, double alpha_d);
@@ -387,7 +386,7 @@ struct Solver::Impl {
   /// some dual above kDualBlowUp while the violation is above the tolerance.
   static constexpr double kDualBlowUp = 1e12;
   bool dualsBlewUp(double primal) const;
-  bool stepRejected(const Kkt& kkt, double theta0, double dphi, Clock::time_point t_upd,
+  bool stepRejected(const Kkt& kkt, double theta0, double f0, double dphi, Clock::time_point t_upd,
                     IterationStats& it);
   double feasibilityStep(double theta0);
 
