@@ -240,9 +240,10 @@ void Solver::Impl::condenseRows(int k) {
   }
 }
 
-/// The gradient part of condenseNode alone, for a new complementarity target with the
-/// same Hessian (Mehrotra's corrector): st.q and st.r of node k. Hard rows only (the
-/// predictor-corrector runs on problems without soft rows).
+/// The gradient part of condenseNode alone, for a new complementarity target (Mehrotra's
+/// corrector) or new constraint values c of the hard rows (second-order corrections) with
+/// the same Hessian: st.q and st.r of node k. Soft general rows keep the gradient
+/// condenseRows gave them; soft bounds are condensed from c again.
 void Solver::Impl::condenseGradient(int k) {
   Node& n = node(k);
   const NodeData& d = *n.d;
@@ -251,17 +252,23 @@ void Solver::Impl::condenseGradient(int k) {
   st.q = d.lx;
   if (running) st.r = d.lu;
   for (int i = 0; i < d.ni; ++i) {
-    n.gam(i) = n.kind(i) == kHard ? hardRowGradient(n, i, n.W(i)) : 0.0;
+    if (n.kind(i) == kHard) n.gam(i) = hardRowGradient(n, i, n.W(i));
   }
   if (d.ni > 0) {
     st.q.noalias() += d.Gx.topRows(d.ni).transpose() * n.gam.head(d.ni);
     if (running) st.r.noalias() += d.Gu.topRows(d.ni).transpose() * n.gam.head(d.ni);
   }
   for (int i = ni_max; i < nrows; ++i) {
-    if (n.kind(i) != kHard) continue;
+    if (n.kind(i) == kInactive) continue;
     const auto [input, lower, idx] = bound_rows[static_cast<std::size_t>(i - ni_max)];
-    const double W = n.z(i) / n.s(i);
-    const double gam = hardRowGradient(n, i, W);
+    double gam = 0.0;
+    if (n.kind(i) == kHard) {
+      gam = hardRowGradient(n, i, n.z(i) / n.s(i));
+    } else {
+      double d1 = 0.0, d2 = 0.0;
+      relaxedLog(n.c(i), relaxation(n, i), d1, d2);
+      gam = softWeight(n, i) * d1;
+    }
     (input ? st.r(idx) : st.q(idx)) += lower ? gam : -gam;
   }
 }

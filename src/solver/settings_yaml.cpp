@@ -24,7 +24,7 @@ struct Entry {
   Field field;
 };
 // A new SolverSettings field goes here and into config/solver.yaml.
-const std::array<Entry, 23> kFields{{
+const std::array<Entry, 24> kFields{{
     {"mode", &SolverSettings::mode},
     {"max_iterations", &SolverSettings::max_iterations},
     {"kkt_tolerance", &SolverSettings::kkt_tolerance},
@@ -44,6 +44,7 @@ const std::array<Entry, 23> kFields{{
     {"infeasibility_tolerance", &SolverSettings::infeasibility_tolerance},
     {"filter_reset_trigger", &SolverSettings::filter_reset_trigger},
     {"max_filter_resets", &SolverSettings::max_filter_resets},
+    {"max_second_order_corrections", &SolverSettings::max_second_order_corrections},
     {"acceptable_tolerance", &SolverSettings::acceptable_tolerance},
     {"acceptable_iterations", &SolverSettings::acceptable_iterations},
     {"predictor_corrector", &SolverSettings::predictor_corrector},
@@ -78,7 +79,7 @@ struct IntRange {
   const char* key;
   IntSettingRange range;
 };
-constexpr std::array<IntRange, 8> kIntRanges{{
+constexpr std::array<IntRange, 9> kIntRanges{{
     {"max_iterations", kIterationCountRange},
     {"realtime_iterations", kRealtimeIterationRange},
     {"acceptable_iterations", kIterationCountRange},
@@ -87,6 +88,7 @@ constexpr std::array<IntRange, 8> kIntRanges{{
     {"thread_spin_us", kThreadSpinRange},
     {"filter_reset_trigger", kFilterResetRange},
     {"max_filter_resets", kFilterResetRange},
+    {"max_second_order_corrections", kSecondOrderCorrectionRange},
 }};
 
 std::optional<IntSettingRange> intRange(const std::string& key) {

@@ -114,7 +114,8 @@ SolverStatus Solver::Impl::run(ConstVecRef x_init, bool realtime) {
     } else if (!realtime && set.line_search && !dir.tiny) {
       double theta0 = 0.0, f0 = 0.0;
       filter_was_reset = false;
-      const bool accepted = filterLineSearch(dir.dphi, alpha, theta0, f0);
+      const bool accepted =
+          filterLineSearch(dir.dphi, alpha, alpha_d, theta0, f0, it.second_order_corrections);
       it.filter_reset = filter_was_reset;
       if (!accepted) {
         if (stepRejected(kkt, theta0, f0, dir.dphi, t_upd, it)) continue;
@@ -169,6 +170,8 @@ void checkSettings(const SolverSettings& s) {
   require(s.infeasibility_tolerance >= 0.0, "infeasibility_tolerance must be >= 0 (inf: never)");
   requireIn(s.filter_reset_trigger, kFilterResetRange, "filter_reset_trigger");
   requireIn(s.max_filter_resets, kFilterResetRange, "max_filter_resets");
+  requireIn(s.max_second_order_corrections, kSecondOrderCorrectionRange,
+            "max_second_order_corrections");
   require(positive(s.acceptable_tolerance), "acceptable_tolerance must be finite and > 0");
   requireIn(s.acceptable_iterations, kIterationCountRange, "acceptable_iterations");
 }

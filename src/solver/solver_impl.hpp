@@ -85,9 +85,13 @@ struct Solver::Impl {
     VectorXd lam, lam_bak;    // costate of the constraint defining x_k (ndx)
     VectorXd mult, mult_bak;  // equality multipliers (ne_max)
     VectorXd defect;          // F(x_k, u_k) (-) x_{k+1}, tangent at x_{k+1}
-    MatrixXd J0, J1;          // difference Jacobians
-    VectorXd rx, ru, tmp;     // dual residual pieces, scratch
-    MatrixXd WGu, WGx;        // weighted general-row Jacobians
+    // Second-order corrections (line_search.cpp): the iterate's row values, defect and
+    // equality values (the trial points overwrite c, defect and the NodeData's), and the
+    // accumulated corrected constraint values (hard rows: of c - s).
+    VectorXd c_it, defect_it, e_it, soc_rows, soc_defect, soc_e;
+    MatrixXd J0, J1;       // difference Jacobians
+    VectorXd rx, ru, tmp;  // dual residual pieces, scratch
+    MatrixXd WGu, WGx;     // weighted general-row Jacobians
     // Per general row: 1 if Gx != 0, | 2 if it acts on u (condensing scratch).
     Eigen::VectorXi row_parts;
     VectorXd W, gam;
@@ -168,6 +172,7 @@ struct Solver::Impl {
   std::vector<VectorXd> xs, us, xs_bak, us_bak, xs_trial, us_trial;
   std::vector<VectorXd> scaled;  // per-node scaled tangent steps (manifold states)
   VectorXd x0, dx0, zero_u;
+  VectorXd dx0_it, dx0_soc;  // second-order corrections: the iterate's, the corrected
   std::vector<MatrixXd> gains;
   mutable std::vector<bool> gains_valid;
   std::vector<IterationStats> stats;
@@ -370,7 +375,15 @@ struct Solver::Impl {
   void predictorCorrector();
 
   // ---- step length: filter line search (line_search.cpp) -------------------------------------
-  bool filterLineSearch(double dphi, double& alpha, double& theta0, double& f0);
+  bool filterLineSearch(double dphi, double& alpha, double& alpha_d, double& theta0, double& f0,
+                        int& corrections);
+  bool acceptableToFilter(double theta, double f, double theta0, double f0, double dphi,
+                          double alpha, bool& f_type, bool& filter_refused) const;
+  void keepIterateValues(int k);
+  int secondOrderCorrection(double alpha0, double theta0, double f0, double dphi, bool& f_type,
+                            double& alpha, double& alpha_d);
+  void correctionVectors(int k, bool corrected);
+  double trialMerit(double& f);
   void noteFilterRefusals(bool refused);
   void takeFullStep(double alpha);
   void updateDuals(double alpha, double alpha_d);

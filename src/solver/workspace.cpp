@@ -103,6 +103,12 @@ Solver::Impl::Impl(std::shared_ptr<ocp::OptimalControlProblem> p, SolverSettings
     n.mult = VectorXd::Zero(ne_max);
     n.mult_bak = VectorXd::Zero(ne_max);
     n.defect = VectorXd::Zero(ndx);
+    n.c_it = VectorXd::Zero(nrows);
+    n.soc_rows = VectorXd::Zero(nrows);
+    n.defect_it = VectorXd::Zero(ndx);
+    n.soc_defect = VectorXd::Zero(ndx);
+    n.e_it = VectorXd::Zero(ne_max);
+    n.soc_e = VectorXd::Zero(ne_max);
     n.J0 = MatrixXd::Zero(ndx, ndx);
     n.J1 = MatrixXd::Zero(ndx, ndx);
     n.rx = VectorXd::Zero(ndx);
@@ -140,6 +146,8 @@ Solver::Impl::Impl(std::shared_ptr<ocp::OptimalControlProblem> p, SolverSettings
   us_bak = us_trial = us;
   x0 = VectorXd::Zero(nx);
   dx0 = VectorXd::Zero(ndx);
+  dx0_it = VectorXd::Zero(ndx);
+  dx0_soc = VectorXd::Zero(ndx);
   zero_u = VectorXd::Zero(nu);
   gains.assign(static_cast<std::size_t>(N), MatrixXd::Zero(nu, ndx));
   gains_valid.assign(static_cast<std::size_t>(N), false);

@@ -43,6 +43,10 @@ if(TARGET rollstep_nltest_problems AND IPOPT_FOUND AND NOT TARGET rollstep_nltes
       SOURCES ${_nl_dir}/nonlinear_robustness_test.cpp
       LIBS rollstep::solver rollstep_nltest_ipopt
       LABELS solver)
+    rollstep_add_test(second_order_correction_test
+      SOURCES ${_nl_dir}/second_order_correction_test.cpp
+      LIBS rollstep::solver rollstep_nltest_ipopt
+      LABELS solver)
     rollstep_add_test(nonlinear_realtime_test
       SOURCES ${_nl_dir}/nonlinear_realtime_test.cpp
       LIBS rollstep::solver rollstep_nltest_problems

@@ -677,6 +677,84 @@ ProblemInstance makeBicycle(const BicycleOptions& o) {
 }
 
 // =====================================================================================
+// Maratos circle
+
+namespace {
+class SingleIntegrator final : public ocp::ContinuousDynamics {
+ public:
+  SingleIntegrator() : ContinuousDynamics(std::make_shared<ocp::EuclideanSpace>(2), 2) {}
+  bool isLinear() const override { return true; }
+  std::unique_ptr<ocp::DynamicsData> createData() const override {
+    return std::make_unique<ocp::DynamicsData>();
+  }
+  void calc(const ocp::NodeContext&, ConstVecRef, ConstVecRef u, ocp::DynamicsData&,
+            VecRef xdot) const override {
+    xdot = u;
+  }
+  void calcDiff(const ocp::NodeContext&, ConstVecRef, ConstVecRef, ocp::DynamicsData&, MatRef fx,
+                MatRef fu) const override {
+    fx.setZero();
+    fu.setIdentity();
+  }
+};
+}  // namespace
+
+CircleStepResidual::CircleStepResidual(double dt, double radius)
+    : Residual(2, 2, 1), dt_(dt), radius_(radius) {}
+
+void CircleStepResidual::calc(const ocp::NodeContext&, ConstVecRef x, ConstVecRef u,
+                              ocp::ResidualData& d) const {
+  const Eigen::Vector2d p = x.head<2>() + dt_ * u.head<2>();
+  d.r[0] = p.squaredNorm() - radius_ * radius_;
+}
+
+void CircleStepResidual::calcDiff(const ocp::NodeContext&, ConstVecRef x, ConstVecRef u,
+                                  ocp::ResidualData& d) const {
+  const Eigen::Vector2d p = x.head<2>() + dt_ * u.head<2>();
+  d.Rx.row(0) = 2.0 * p.transpose();
+  d.Ru.row(0) = 2.0 * dt_ * p.transpose();
+}
+
+ProblemInstance makeMaratosCircle(const MaratosCircleOptions& o) {
+  auto f = std::make_shared<SingleIntegrator>();
+  auto space = f->spacePtr();
+  auto pb = std::make_shared<ocp::OptimalControlProblem>(discretise(f, false), o.horizon, o.dt);
+  ProblemInstance inst;
+  inst.name = "maratos_circle";
+  inst.problem = pb;
+  const auto onCircle = [&o](double a) {
+    VectorXd p(2);
+    p << o.radius * std::cos(a), o.radius * std::sin(a);
+    return p;
+  };
+  inst.x0 = onCircle(o.start_angle);
+  inst.x_goal = onCircle(0.0);
+  // 2 (|p|^2 - r^2) - p_x = 2 |p - (1/4, 0)|^2 - const: LeastSquaresCost is 1/2 w |r|^2.
+  VectorXd centre(2);
+  centre << 0.25, 0.0;
+  auto pos = std::make_shared<ocp::AffineResidual>(space, centre, MatrixXd::Identity(2, 2),
+                                                   MatrixXd::Zero(2, 2), VectorXd::Zero(2));
+  MatrixXd D = MatrixXd::Identity(2, 2);
+  auto vel = std::make_shared<ocp::AffineResidual>(space, centre, MatrixXd::Zero(2, 2), D,
+                                                   VectorXd::Zero(2));
+  pb->addCost("position", std::make_shared<ocp::LeastSquaresCost>(pos, VectorXd::Constant(2, 4.0)),
+              ocp::Stage::All);
+  pb->addCost("velocity",
+              std::make_shared<ocp::LeastSquaresCost>(vel, VectorXd::Constant(2, o.input_weight)));
+  pb->addEquality("on_circle", std::make_shared<CircleStepResidual>(o.dt, o.radius));
+  fillGuess(inst);
+  for (int k = 0; k <= o.horizon; ++k) {
+    const double a = o.start_angle + (0.3 - o.start_angle) * k / o.horizon;
+    inst.xs_guess[static_cast<std::size_t>(k)] = onCircle(a);
+  }
+  for (int k = 0; k < o.horizon; ++k) {
+    const auto kk = static_cast<std::size_t>(k);
+    inst.us_guess[kk] = (inst.xs_guess[kk + 1] - inst.xs_guess[kk]) / o.dt;
+  }
+  return inst;
+}
+
+// =====================================================================================
 // Helpers
 
 std::vector<VectorXd> interpolatedStates(const ProblemInstance& inst) {

@@ -352,6 +352,37 @@ struct BicycleOptions {
 ProblemInstance makeBicycle(const BicycleOptions& o = {});
 
 // =====================================================================================
+// Powell's example of the Maratos effect as an optimal control problem: a point p in the
+// plane moved by its velocity (x = p, u = v, p' = v, explicit Euler) whose every next
+// position lies on the unit circle (equality |p + dt v|^2 = 1, rank 1 in u), with the
+// cost 2 (|p|^2 - 1) - p_x at every node (least squares: 2 |p - (1/4, 0)|^2 + const) and a
+// small input weight. The constraint's curvature makes a full Newton step raise both the
+// violation and the cost near the solution, so a filter line search without second-order
+// corrections cuts the steps there.
+class CircleStepResidual final : public ocp::Residual {
+ public:
+  CircleStepResidual(double dt, double radius);
+  void calc(const ocp::NodeContext& ctx, ConstVecRef x, ConstVecRef u,
+            ocp::ResidualData& d) const override;
+  void calcDiff(const ocp::NodeContext& ctx, ConstVecRef x, ConstVecRef u,
+                ocp::ResidualData& d) const override;
+
+ private:
+  double dt_, radius_;
+};
+
+struct MaratosCircleOptions {
+  int horizon = 20;
+  double dt = 0.1;
+  double radius = 1.0;
+  double start_angle = 1.2;    ///< x0 on the circle at this angle [rad]
+  double input_weight = 1e-3;  ///< running, on v
+};
+/// Default guess: the positions on the circle at angles decreasing linearly from the start
+/// to 0.3 rad (the velocities between them), near the solution's path.
+ProblemInstance makeMaratosCircle(const MaratosCircleOptions& o = {});
+
+// =====================================================================================
 // Helpers.
 
 /// A second start for the problems: the states interpolated from x0 to x_goal along the

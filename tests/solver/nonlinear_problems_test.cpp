@@ -204,6 +204,18 @@ TEST(NonlinearProblems, ResidualDerivatives) {
   auto se3 = std::make_shared<ocp::SE3xEuclideanSpace>(2);
   checkResidual(CircleObstacleResidual(se3, 1, {{1.0, 2.0, 0.5}}, 6, 7), *se3, rng, 2.0);
   EXPECT_THROW(CircleObstacleResidual(se3, 1, {{1.0, 2.0, 0.5}}, 0, 1), std::invalid_argument);
+  auto point = std::make_shared<ocp::EuclideanSpace>(2);
+  checkResidual(CircleStepResidual(0.1, 1.0), *point, rng, 2.0);
+}
+
+TEST(NonlinearProblems, MaratosCircleGuessLiesOnTheCircle) {
+  // The default guess: every next position on the unit circle (the equality holds), the
+  // dynamics consistent.
+  const ProblemInstance inst = makeMaratosCircle();
+  const auto& pb = *inst.problem;
+  EXPECT_LT(maxViolation(pb, inst.x0, inst.xs_guess, inst.us_guess), 1e-12);
+  EXPECT_NEAR(inst.x0.norm(), 1.0, 1e-15);
+  EXPECT_GT(inst.xs_guess.back()[0], inst.x0[0]);  // towards the solution at (1, 0)
 }
 
 TEST(NonlinearProblems, SpeedProfileRowRankInInput) {
@@ -305,6 +317,7 @@ TEST(NonlinearProblems, ComposedNodesMatchFiniteDifferences) {
   checkProblemNodes(makeTwoLinkArm(), rng, 1.0);
   checkProblemNodes(makePlanarQuadrotor(), rng, 1.0);
   checkProblemNodes(makeBicycle(), rng, 0.5);
+  checkProblemNodes(makeMaratosCircle(), rng, 0.5);
 }
 
 TEST(NonlinearProblems, InstancesAreConsistent) {

@@ -80,6 +80,7 @@ TEST(SolverSettingsYaml, RoundTripIsExact) {
   s.infeasibility_tolerance = 0.0;
   s.filter_reset_trigger = 0;
   s.max_filter_resets = 12;
+  s.max_second_order_corrections = 3;
   const std::string text = toYaml(s);
   const SolverSettings r = parseSolverSettings(text);
   EXPECT_EQ(toYaml(r), text);
@@ -168,6 +169,8 @@ TEST(SolverSettingsYaml, AbsurdIntegersAreRefusedWithTheRange) {
       {"thread_spin_us: 99999999999\n", "'thread_spin_us': '99999999999' is not an integer"},
       {"filter_reset_trigger: -1\n", "'filter_reset_trigger': -1 is outside [0, 1000000]"},
       {"max_filter_resets: -2\n", "'max_filter_resets': -2 is outside [0, 1000000]"},
+      {"max_second_order_corrections: 101\n",
+       "'max_second_order_corrections': 101 is outside [0, 100]"},
       {"max_iterations: .inf\n", "'max_iterations': '.inf' is not an integer"},
       {"max_iterations: 1e3\n", "'max_iterations': '1e3' is not an integer"},
   };

@@ -327,6 +327,8 @@ TEST(SolverLq, BadSettingsAreRejectedByName) {
       {"filter_reset_trigger",
        [](SolverSettings& s, double, double) { s.filter_reset_trigger = -1; }},
       {"max_filter_resets", [](SolverSettings& s, double, double) { s.max_filter_resets = -1; }},
+      {"max_second_order_corrections",
+       [](SolverSettings& s, double, double) { s.max_second_order_corrections = -1; }},
   };
   Solver good(p);
   for (const Case& c : cases) {
