@@ -181,6 +181,7 @@ CentroidalOcp::CentroidalOcp(const RobotOcpDescription& description, const OcpSe
   problem_ = std::make_shared<ocp::OptimalControlProblem>(
       dynamics, settings.horizon, settings.dt, scheduler_->requiredCapacity() + robot_->nc());
   problem_->setPrecomputation(pre_);
+  problem_->setCoordinateNames(robot_->tangentNames(), robot_->inputNames());
 
   // Costs.
   problem_->addCost("base_velocity", std::make_shared<ocp::LeastSquaresCost>(
@@ -519,7 +520,7 @@ std::vector<ConstraintViolation> constraintViolations(const ocp::OptimalControlP
       space.difference(data->xnext, xs[static_cast<std::size_t>(k + 1)], defect);
       const int worst = worstEntry(defect, true);
       if (ConstraintViolation* v = note("dynamics", std::abs(defect[worst]), k)) {
-        v->row = "tangent " + std::to_string(worst);
+        v->row = problem.tangentName(worst);
       }
       for (std::size_t j = 0; j < data->equality_data.size(); ++j) {
         const ocp::ResidualData& r = *data->equality_data[j];
@@ -536,7 +537,7 @@ std::vector<ConstraintViolation> constraintViolations(const ocp::OptimalControlP
         if (ub.has_lower[static_cast<std::size_t>(b)]) excess = std::max(excess, ub.lower[b] - v);
         if (ub.has_upper[static_cast<std::size_t>(b)]) excess = std::max(excess, v - ub.upper[b]);
         if (ConstraintViolation* w = note("input_bounds", excess, k)) {
-          w->row = "input " + std::to_string(ub.index[static_cast<std::size_t>(b)]);
+          w->row = problem.inputName(ub.index[static_cast<std::size_t>(b)]);
         }
       }
     }
@@ -564,7 +565,7 @@ std::vector<ConstraintViolation> constraintViolations(const ocp::OptimalControlP
         if (sb.has_lower[static_cast<std::size_t>(b)]) excess = std::max(excess, sb.lower[b] - v);
         if (sb.has_upper[static_cast<std::size_t>(b)]) excess = std::max(excess, v - sb.upper[b]);
         if (ConstraintViolation* w = note("state_bounds", excess, k)) {
-          w->row = "tangent " + std::to_string(sb.index[static_cast<std::size_t>(b)]);
+          w->row = problem.tangentName(sb.index[static_cast<std::size_t>(b)]);
         }
       }
     }

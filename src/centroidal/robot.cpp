@@ -90,4 +90,32 @@ bool CentroidalRobot::keepsVelocityConstraints(int mode, int i) const {
   return second_[static_cast<size_t>(i)] == 0;
 }
 
+std::vector<std::string> CentroidalRobot::tangentNames() const {
+  std::vector<std::string> names;
+  names.reserve(static_cast<std::size_t>(ndx()));
+  for (const char* c : {"x", "y", "z"}) names.push_back(std::string("base ") + c);
+  for (const char* c : {"x", "y", "z"}) names.push_back(std::string("base rot ") + c);
+  for (int j = 0; j < nj(); ++j) {
+    names.push_back(model_->jointNames[static_cast<std::size_t>(j)] + " position");
+  }
+  for (const char* part : {"linear", "angular"}) {
+    for (const char* c : {"x", "y", "z"}) {
+      names.push_back(std::string("momentum ") + part + " " + c);
+    }
+  }
+  return names;
+}
+
+std::vector<std::string> CentroidalRobot::inputNames() const {
+  std::vector<std::string> names;
+  names.reserve(static_cast<std::size_t>(nu()));
+  for (int j = 0; j < nj(); ++j) {
+    names.push_back(model_->jointNames[static_cast<std::size_t>(j)] + " velocity");
+  }
+  for (int i = 0; i < nc(); ++i) {
+    for (const char* c : {"x", "y", "z"}) names.push_back(contact(i).frame + " force " + c);
+  }
+  return names;
+}
+
 }  // namespace rollstep::centroidal

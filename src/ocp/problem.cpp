@@ -131,6 +131,35 @@ void OptimalControlProblem::addInequality(std::string name,
   ineq_names_.push_back(std::move(name));
 }
 
+void OptimalControlProblem::setCoordinateNames(std::vector<std::string> tangent,
+                                               std::vector<std::string> inputs) {
+  const auto check = [](const std::vector<std::string>& names, int size, const char* what) {
+    if (!names.empty() && static_cast<int>(names.size()) != size) {
+      throw std::invalid_argument(
+          "OptimalControlProblem::setCoordinateNames: " + std::to_string(names.size()) + " " +
+          what + " names for " + std::to_string(size) + " coordinates");
+    }
+  };
+  check(tangent, ndx(), "tangent");
+  check(inputs, nu(), "input");
+  tangent_names_ = std::move(tangent);
+  input_names_ = std::move(inputs);
+}
+
+std::string OptimalControlProblem::tangentName(int i) const {
+  if (i >= 0 && i < static_cast<int>(tangent_names_.size())) {
+    return tangent_names_[static_cast<std::size_t>(i)];
+  }
+  return "tangent " + std::to_string(i);
+}
+
+std::string OptimalControlProblem::inputName(int i) const {
+  if (i >= 0 && i < static_cast<int>(input_names_.size())) {
+    return input_names_[static_cast<std::size_t>(i)];
+  }
+  return "input " + std::to_string(i);
+}
+
 void OptimalControlProblem::setInputBounds(const VectorXd& lower, const VectorXd& upper,
                                            InequalityOptions options) {
   checkBoundValues("setInputBounds", lower, upper, nu());

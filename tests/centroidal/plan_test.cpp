@@ -153,7 +153,19 @@ TEST(Plan, ViolationsNameTheFootAndTheRowBehindThem) {
   EXPECT_EQ(friction.row.rfind(robot.contact(2).frame + ": friction row ", 0), 0u) << friction.row;
   const ConstraintViolation dynamics = find("dynamics");
   EXPECT_TRUE(dynamics.node == 39 || dynamics.node == 40) << dynamics.node;
-  EXPECT_EQ(dynamics.row, "tangent 0");  // the base's x
+  EXPECT_EQ(dynamics.row, "base x");
+  // A joint beyond its range at node 30 and a joint velocity beyond its bound at node 20:
+  // named by the joint (the model's joint order, not the log's).
+  const model::Model& model = robot.model();
+  const int knee = 3;  // the fourth actuated joint of the model's order
+  xs[30][7 + knee] = model.upperPositionLimit[knee] + 0.5;
+  us[20][knee] = 100.0;
+  const ConstraintViolation state_bound = find("state_bounds");
+  EXPECT_EQ(state_bound.node, 30);
+  EXPECT_EQ(state_bound.row, model.jointNames[knee] + " position");
+  const ConstraintViolation input_bound = find("input_bounds");
+  EXPECT_EQ(input_bound.node, 20);
+  EXPECT_EQ(input_bound.row, model.jointNames[knee] + " velocity");
   // Nothing violated: no row.
   const ConstraintViolation torque = find("torque");
   EXPECT_EQ(torque.node, -1);

@@ -5,6 +5,7 @@
 #include <limits>
 #include <random>
 #include <stdexcept>
+#include <string>
 
 #include "common/alloc_counter.hpp"
 #include "common/malloc_guard.hpp"
@@ -691,6 +692,30 @@ TEST(Problem, LinearQuadraticProblemHasNoCurvature) {
   auto se3 = std::make_shared<ocp::ExplicitEuler>(std::make_shared<testmodels::FloatingBody>());
   ocp::OptimalControlProblem q(se3, 5, 0.1);
   EXPECT_TRUE(q.hasCurvature());
+}
+
+TEST(Problem, CoordinateNamesForDiagnostics) {
+  const MatrixXd A = MatrixXd::Identity(2, 2), B = MatrixXd::Ones(2, 1);
+  auto dyn = std::make_shared<testmodels::LinearDynamics>(A, B, VectorXd::Zero(2));
+  ocp::OptimalControlProblem p(dyn, 5, 0.1);
+  EXPECT_EQ(p.tangentName(1), "tangent 1");
+  EXPECT_EQ(p.inputName(0), "input 0");
+  p.setCoordinateNames({"cart", "pole"}, {});
+  EXPECT_EQ(p.tangentName(1), "pole");
+  EXPECT_EQ(p.inputName(0), "input 0");
+  EXPECT_EQ(p.tangentName(7), "tangent 7");  // out of range: generated, no throw
+  p.setCoordinateNames({}, {"force"});
+  EXPECT_EQ(p.tangentName(0), "tangent 0");
+  EXPECT_EQ(p.inputName(0), "force");
+  try {
+    p.setCoordinateNames({"cart"}, {"force"});
+    ADD_FAILURE() << "a wrong count must throw";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("1 tangent names for 2 coordinates"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_THROW(p.setCoordinateNames({}, {"a", "b"}), std::invalid_argument);
+  EXPECT_EQ(p.inputName(0), "force");  // a refused call changes nothing
 }
 
 TEST(Problem, EvaluateAndLinearizeDoNotAllocate) {

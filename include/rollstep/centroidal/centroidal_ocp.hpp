@@ -50,7 +50,9 @@ struct ConstraintViolation {
   double value = 0.0;  ///< >= 0; 0 when satisfied
   int node = -1;       ///< where the largest one is (-1: none)
   /// Which row of the group there (Residual::rowName: "LF_contact: edge 2 of region 5";
-  /// "tangent 9" for dynamics and state bounds, "input 3" for input bounds); empty: none.
+  /// for dynamics and state bounds the tangent coordinate's name, for input bounds the
+  /// input's: OptimalControlProblem::tangentName / inputName, "MF_knee position",
+  /// "LF_hip velocity"; "tangent 9" / "input 3" without names); empty: none.
   std::string row;
 };
 std::vector<ConstraintViolation> constraintViolations(const ocp::OptimalControlProblem& problem,

@@ -59,6 +59,11 @@ class CentroidalRobot {
   int nx() const { return 7 + nj() + 6; }
   int ndx() const { return 12 + nj(); }
   int nu() const { return nj() + 3 * nc(); }
+  /// Names of the tangent coordinates ("base x", "base rot z", "<joint> position",
+  /// "momentum angular y") and of the inputs ("<joint> velocity", "<frame> force z"), in
+  /// the layout above (OptimalControlProblem::setCoordinateNames).
+  std::vector<std::string> tangentNames() const;
+  std::vector<std::string> inputNames() const;
   const std::vector<model::FrameIndex>& frameIds() const { return frame_ids_; }
   const ContactDescription& contact(int i) const { return contacts_[static_cast<size_t>(i)]; }
   const std::vector<std::array<int, 2>>& sidePairs() const { return side_pairs_; }

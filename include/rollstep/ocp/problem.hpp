@@ -188,6 +188,14 @@ class OptimalControlProblem {
   /// The j-th equality / inequality term, in the order of the names above.
   const Residual& equality(std::size_t j) const { return *equalities_.at(j); }
   const Residual& inequality(std::size_t j) const { return *inequalities_.at(j).residual; }
+  /// Names of the tangent coordinates (ndx) and of the inputs (nu), for diagnostics (a
+  /// violated state bound or dynamics row, a violated input bound). Either list may be
+  /// empty (then "tangent i" / "input i"); otherwise its size must match (else
+  /// std::invalid_argument).
+  void setCoordinateNames(std::vector<std::string> tangent, std::vector<std::string> inputs);
+  /// Coordinate i's name (diagnostics only, allocates); "tangent i" / "input i" without one.
+  std::string tangentName(int i) const;
+  std::string inputName(int i) const;
 
  private:
   enum class Pass { Values, Derivatives, Curvature };
@@ -215,6 +223,7 @@ class OptimalControlProblem {
   std::vector<std::shared_ptr<const Residual>> equalities_;
   std::vector<IneqEntry> inequalities_;
   std::vector<std::string> cost_names_, eq_names_, ineq_names_;
+  std::vector<std::string> tangent_names_, input_names_;  // empty: generated
   int max_eq_ = 0, max_ineq_ = 0;
   BoundSet input_bounds_, state_bounds_;
   InputGuess input_guess_;
