@@ -401,7 +401,9 @@ struct Solver::Impl {
   bool dualsBlewUp(double primal) const;
   bool stepRejected(const Kkt& kkt, double theta0, double f0, double dphi, Clock::time_point t_upd,
                     IterationStats& it);
-  double feasibilityStep(double theta0);
+  bool restorationPhase(double theta0, double f0, double primal, Clock::time_point t_upd);
+  double feasibilityStep(bool move_slacks, double min_progress, double& theta_start,
+                         double& theta_new);
 
   // ---- termination and barrier (barrier.cpp) -------------------------------------------------
   bool diverged(const Kkt& kkt);
