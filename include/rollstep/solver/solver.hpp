@@ -40,20 +40,25 @@
 // theta; the filter is reset when mu changes, when it alone refused the last trial point of
 // filter_reset_trigger line searches in a row (Ipopt's heuristic: an entry from an
 // iteration that raised the violation can refuse everything along directions that must
-// raise the objective to reduce it), and after a restoration step (it then holds the entry
-// of the point the restoration started from). A step that is tiny relative to the iterate
-// is taken whole (rounding cannot be line-searched).
+// raise the objective to reduce it), and after a restoration phase (it then holds the
+// entry of the point the restoration started from). A step that is tiny relative to the
+// iterate is taken whole (rounding cannot be line-searched). Optional second-order
+// corrections of a rejected unit step (max_second_order_corrections, off by default).
 //
 // Termination (converging mode), Ipopt's scaled tests: with s_d = max(100, mean |multiplier|)
 // / 100 and s_c = max(100, mean z) / 100, Converged when max(primal, dual / s_d,
 // max(s z) / s_c) <= kkt_tolerance; Acceptable when it stays below acceptable_tolerance for
 // acceptable_iterations consecutive iterations, or when the iteration limit or a failed
 // line search stops the solve at such a point. Infeasible only with evidence: when the
-// line search fails with the violation above infeasibility_tolerance a restoration step
-// runs (the minimum-norm step towards the linearised constraints, Hessian I, no cost,
-// backtracked on the violation alone); it is taken when it reduces the l1 violation by at
-// least 0.1 %, otherwise the iterate is a stationary point of the violation with a non-zero
-// violation: Infeasible. Infeasible also when the direction breaks down (not factorisable,
+// line search fails with the violation above infeasibility_tolerance the restoration phase
+// runs: a minimum-norm step towards the linearised constraints (Hessian I, no cost,
+// backtracked on the violation alone), taken when it reduces the l1 violation by at least
+// 0.1 %; else up to 10 such steps from slacks moved off their bounds (max(s, c, 0.1),
+// barrier max(mu, violation)) until the violation is 0.9 of where the Newton step was
+// rejected. When neither gets there (no step reduces the violation, five steps in a row do
+// not reduce the least violation reached by 0.1 %, or ten steps do not reach 0.9) the
+// iterate is taken for a stationary point of the violation with a non-zero violation:
+// Infeasible. Infeasible also when the direction breaks down (not factorisable,
 // non-finite) with the violation above the tolerance and a dual above 1e12 (the duals of
 // contradicting rows blow up). An iteration limit with a violation left is MaxIterations
 // (the residuals are in stats()), not Infeasible. LineSearchFailed: the line search fails
@@ -113,7 +118,7 @@ struct SolverSettings {
   int thread_spin_us = 2000;
   double divergence_threshold = 1e12;  ///< primal residual above this = diverged
   /// Converging mode: a line search failure with a constraint violation (inf-norm) above
-  /// this starts the restoration step that decides Infeasible (see the header comment).
+  /// this starts the restoration phase that decides Infeasible (see the header comment).
   double infeasibility_tolerance = 1e-6;
   /// Converging mode: Ipopt's filter reset heuristic. When in this many line searches in a
   /// row the last rejected trial point passed the decrease test but not the filter, the
@@ -188,9 +193,10 @@ enum class SolverStatus {
                             ///< last good iterate is restored
   InvalidInput,             ///< NaN/inf or wrong size in x0, or non-finite problem values at
                             ///< the initial guess
-  Infeasible,               ///< converging mode: stuck at a locally infeasible point (no
-                            ///< Newton or restoration step reduces the violation, or the
-                            ///< duals of contradicting rows blew up); the iterate is kept
+  Infeasible,               ///< converging mode: stuck at a locally infeasible point (neither
+                            ///< the Newton step nor the restoration phase reduces the
+                            ///< violation, or the duals of contradicting rows blew up); the
+                            ///< iterate is kept
 };
 const char* toString(SolverStatus s);
 
@@ -208,11 +214,12 @@ struct IterationStats {
   double inertia_shift = 0.0;
   double barrier = 0.0;
   double primal_step = 0.0, dual_step = 0.0;
-  /// The Newton step was rejected and a minimum-norm feasibility step was taken instead
-  /// (converging mode, violation above infeasibility_tolerance); primal_step is its length.
+  /// A step of the restoration phase (converging mode: the Newton step was rejected with
+  /// the violation above infeasibility_tolerance); primal_step is its length. Each step of
+  /// the phase is an iteration (and an entry) of its own.
   bool restoration = false;
   /// The line search cleared its filter (filter_reset_trigger; converging mode). After a
-  /// restoration step the filter restarts too (with the entry of the point it started from).
+  /// restoration phase the filter restarts too (with the entry of the point it started from).
   bool filter_reset = false;
   /// The step taken is a second-order correction of the Newton step (the count tried,
   /// max_second_order_corrections); 0: the Newton step itself, or none was tried.
