@@ -54,10 +54,8 @@ bool Solver::Impl::filterLineSearch(double dphi, double& alpha, double& alpha_d,
   bool f_type = false;
   bool filter_refused_last = false;  // the last rejected trial passed the decrease test
   for (int ls = 0; ls < std::max(set.max_line_search_steps, 1); ++ls) {
-    forNodes([this, alpha](int k) { trialPoint(k, alpha); });
-    forNodes([this](int k) { evaluateTrial(k); });
     double f = 0.0;
-    const double theta = trialMerit(f);
+    const double theta = trialMerit(alpha, f);
     bool refused = false;
     if (acceptableToFilter(theta, f, theta0, f0, dphi, alpha, f_type, refused)) {
       accepted = true;
@@ -94,8 +92,11 @@ bool Solver::Impl::filterLineSearch(double dphi, double& alpha, double& alpha_d,
   return true;
 }
 
-/// The barrier objective (f) and the l1 violation (returned) of the evaluated trial point.
-double Solver::Impl::trialMerit(double& f) {
+/// The trial point alpha along the direction: evaluated, its barrier objective (f) and l1
+/// violation (returned).
+double Solver::Impl::trialMerit(double alpha, double& f) {
+  forNodes([this, alpha](int k) { trialPoint(k, alpha); });
+  forNodes([this](int k) { evaluateTrial(k); });
   double theta = 0.0;
   f = 0.0;
   for (int k = 0; k <= N; ++k) {
@@ -194,10 +195,8 @@ int Solver::Impl::secondOrderCorrection(double alpha0, double theta0, double f0,
       ad = std::min(ad, node(k).alpha_d);
     }
     if (!finite) break;
-    forNodes([this, ap](int k) { trialPoint(k, ap); });
-    forNodes([this](int k) { evaluateTrial(k); });
     double f = 0.0;
-    const double theta = trialMerit(f);
+    const double theta = trialMerit(ap, f);
     bool refused = false;
     if (acceptableToFilter(theta, f, theta0, f0, dphi, alpha0, f_type, refused)) {
       alpha = ap;

@@ -209,12 +209,8 @@ double Solver::Impl::feasibilityStep(bool move_slacks, double min_progress, doub
     alpha = std::min(alpha, node(k).alpha_p);
   }
   const auto violationAt = [this](double a) {
-    forNodes([this, a](int k) { trialPoint(k, a); });
-    forNodes([this](int k) { evaluateTrial(k); });
-    double theta = 0.0;
-    for (int k = 0; k <= N; ++k) theta += node(k).merit_theta;
-    prob->stateSpace().difference(xs_trial[0], x0, dx0);
-    return theta + dx0.lpNorm<1>();
+    double f = 0.0;
+    return trialMerit(a, f);
   };
   constexpr double kProgress = 1e-3;  // below this share: try the quadratic's minimiser
   for (int ls = 0; ls < std::max(set.max_line_search_steps, 1); ++ls) {

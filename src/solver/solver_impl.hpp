@@ -383,7 +383,7 @@ struct Solver::Impl {
   int secondOrderCorrection(double alpha0, double theta0, double f0, double dphi, bool& f_type,
                             double& alpha, double& alpha_d);
   void correctionVectors(int k, bool corrected);
-  double trialMerit(double& f);
+  double trialMerit(double alpha, double& f);
   void noteFilterRefusals(bool refused);
   void takeFullStep(double alpha);
   void updateDuals(double alpha, double alpha_d);
