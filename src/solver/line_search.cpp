@@ -92,6 +92,19 @@ bool Solver::Impl::filterLineSearch(double dphi, double& alpha, double& alpha_d,
   return true;
 }
 
+/// The fraction-to-boundary step lengths of the recovered direction (primal ap, dual ad:
+/// the least over the nodes); false when some node's step is not finite.
+bool Solver::Impl::stepLengths(double& ap, double& ad) const {
+  bool finite = true;
+  ap = ad = 1.0;
+  for (const Node& n : nodes) {
+    finite = finite && n.finite;
+    ap = std::min(ap, n.alpha_p);
+    ad = std::min(ad, n.alpha_d);
+  }
+  return finite;
+}
+
 /// The trial point alpha along the direction: evaluated, its barrier objective (f) and l1
 /// violation (returned).
 double Solver::Impl::trialMerit(double alpha, double& f) {
@@ -188,13 +201,7 @@ int Solver::Impl::secondOrderCorrection(double alpha0, double theta0, double f0,
     lq.resolveVectors(dx0_soc);
     forNodes([this](int k) { recoverNode(k); });
     double ap = 1.0, ad = 1.0;
-    bool finite = true;
-    for (int k = 0; k <= N; ++k) {
-      finite = finite && node(k).finite;
-      ap = std::min(ap, node(k).alpha_p);
-      ad = std::min(ad, node(k).alpha_d);
-    }
-    if (!finite) break;
+    if (!stepLengths(ap, ad)) break;
     double f = 0.0;
     const double theta = trialMerit(ap, f);
     bool refused = false;

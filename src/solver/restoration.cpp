@@ -111,14 +111,6 @@ bool Solver::Impl::restorationPhase(double theta0, double f0, double primal,
     reached = true;
   } else {
     const double mu_main = mu;
-    const auto centreDuals = [this](double m) {
-      forNodes([this, m](int k) {
-        Node& n = node(k);
-        for (int i = 0; i < nrows; ++i) {
-          if (n.kind(i) == kHard) n.z(i) = m / n.s(i);
-        }
-      });
-    };
     mu = std::max(mu, primal);
     const int max_it = std::max(set.max_iterations, 0);
     int stalled = 0;
@@ -126,8 +118,7 @@ bool Solver::Impl::restorationPhase(double theta0, double f0, double primal,
     for (int step = 0; step < kMaxSteps && iterations < max_it; ++step) {
       const double alpha = feasibilityStep(true, 0.0, theta_start, theta_new);
       if (!(alpha > 0.0)) break;
-      record(alpha);
-      centreDuals(mu);
+      record(alpha);  // (the next step sets the duals of its moved slacks)
       if (theta_new <= kKappaResto * theta0) {
         reached = true;
         break;
@@ -137,7 +128,12 @@ bool Solver::Impl::restorationPhase(double theta0, double f0, double primal,
       if (stalled >= kStallSteps) break;
     }
     mu = mu_main;
-    centreDuals(mu);
+    forNodes([this](int k) {
+      Node& n = node(k);
+      for (int i = 0; i < nrows; ++i) {
+        if (n.kind(i) == kHard) n.z(i) = mu / n.s(i);
+      }
+    });
   }
   if (!reached) return false;
   filter.clear();
@@ -203,11 +199,8 @@ double Solver::Impl::feasibilityStep(bool move_slacks, double min_progress, doub
   if (condenseAndFactor() != Factorization::Ok) return 0.0;
   lq.forward(dx0);
   forNodes([this](int k) { recoverNode(k); });
-  double alpha = 1.0;
-  for (int k = 0; k <= N; ++k) {
-    if (!node(k).finite) return 0.0;
-    alpha = std::min(alpha, node(k).alpha_p);
-  }
+  double alpha = 1.0, alpha_d = 1.0;
+  if (!stepLengths(alpha, alpha_d)) return 0.0;
   const auto violationAt = [this](double a) {
     double f = 0.0;
     return trialMerit(a, f);

@@ -384,6 +384,7 @@ struct Solver::Impl {
                             double& alpha, double& alpha_d);
   void correctionVectors(int k, bool corrected);
   double trialMerit(double alpha, double& f);
+  bool stepLengths(double& ap, double& ad) const;
   void noteFilterRefusals(bool refused);
   void takeFullStep(double alpha);
   void updateDuals(double alpha, double alpha_d);
