@@ -24,7 +24,7 @@ struct Entry {
   Field field;
 };
 // A new SolverSettings field goes here and into config/solver.yaml.
-const std::array<Entry, 24> kFields{{
+const std::array<Entry, 25> kFields{{
     {"mode", &SolverSettings::mode},
     {"max_iterations", &SolverSettings::max_iterations},
     {"kkt_tolerance", &SolverSettings::kkt_tolerance},
@@ -34,6 +34,7 @@ const std::array<Entry, 24> kFields{{
     {"barrier_realtime", &SolverSettings::barrier_realtime},
     {"realtime_iterations", &SolverSettings::realtime_iterations},
     {"fraction_to_boundary", &SolverSettings::fraction_to_boundary},
+    {"bound_push", &SolverSettings::bound_push},
     {"line_search", &SolverSettings::line_search},
     {"exact_hessian", &SolverSettings::exact_hessian},
     {"max_line_search_steps", &SolverSettings::max_line_search_steps},

@@ -64,6 +64,7 @@ bool Solver::Impl::begin(ConstVecRef x_init, bool realtime) {
       n.fresh = true;
       n.lam.setZero();
     }
+    pushIntoBounds();
     filter.clear();
     filter_mu = -1.0;
     filter_rejections_in_a_row = 0;
@@ -77,6 +78,36 @@ bool Solver::Impl::begin(ConstVecRef x_init, bool realtime) {
   acceptable_count = 0;
   prox = 0.0;
   return true;
+}
+
+/// Converging mode: moves the guess's hard-bounded inputs (every node) and states (from
+/// node 1; x_0 is data) inside their bounds by bound_push, as Ipopt moves its starting
+/// point off its variable bounds (bound_push, bound_frac). A bound row is linear, so the
+/// first full Newton step would satisfy it; but a guess outside a bound starts that row's
+/// slack above its value, the fraction to the boundary then cuts every step that moves
+/// towards the violated side, and from a noisy start the slacks were driven to 1e-4 while
+/// the rows stayed violated by 1 (two random starts of the bicycle ended Infeasible).
+void Solver::Impl::pushIntoBounds() {
+  const double push = set.bound_push;
+  const auto moveInside = [push](double& v, const ocp::BoundSet& b, int j) {
+    const auto jj = static_cast<std::size_t>(j);
+    const double lo = b.lower(j), hi = b.upper(j);
+    const double width = b.has_lower[jj] && b.has_upper[jj] ? hi - lo : detail::kInf;
+    if (b.has_upper[jj]) v = std::min(v, hi - push * std::min(std::max(1.0, std::abs(hi)), width));
+    if (b.has_lower[jj]) v = std::max(v, lo + push * std::min(std::max(1.0, std::abs(lo)), width));
+  };
+  const ocp::BoundSet& ub = prob->inputBounds();
+  for (int k = 0; k < N && !ub.options.soft; ++k) {
+    VectorXd& u = us[static_cast<std::size_t>(k)];
+    for (int j = 0; j < nbu; ++j) moveInside(u(ub.index[static_cast<std::size_t>(j)]), ub, j);
+  }
+  const ocp::BoundSet& xb = prob->stateBounds();
+  for (int k = 1; k <= N && !xb.options.soft; ++k) {
+    VectorXd& x = xs[static_cast<std::size_t>(k)];
+    for (int j = 0; j < nbx; ++j) {
+      moveInside(x(xb.index[static_cast<std::size_t>(j)] + rep_off), xb, j);
+    }
+  }
 }
 
 /// One real-time iteration (realtime) or a converging solve.
@@ -162,6 +193,7 @@ void checkSettings(const SolverSettings& s) {
   requireIn(s.realtime_iterations, kRealtimeIterationRange, "realtime_iterations");
   require(s.fraction_to_boundary > 0.0 && s.fraction_to_boundary < 1.0,
           "fraction_to_boundary must be in (0, 1)");
+  require(s.bound_push >= 0.0 && s.bound_push < 0.5, "bound_push must be in [0, 0.5)");
   requireIn(s.max_line_search_steps, kLineSearchStepsRange, "max_line_search_steps");
   require(s.rank_tolerance >= 0.0 && s.rank_tolerance < 1.0, "rank_tolerance must be in [0, 1)");
   requireIn(s.num_threads, kThreadCountRange, "num_threads");

@@ -334,6 +334,7 @@ struct Solver::Impl {
   // ---- the main loop (solver.cpp) ------------------------------------------------------------
   SolverStatus run(ConstVecRef x_init, bool realtime);
   bool begin(ConstVecRef x_init, bool realtime);
+  void pushIntoBounds();
 
   // ---- linearisation and KKT residuals (linearization.cpp) ------------------------------------
   Kkt linearize(bool realtime, IterationStats& it);

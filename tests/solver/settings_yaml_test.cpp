@@ -70,6 +70,7 @@ TEST(SolverSettingsYaml, RoundTripIsExact) {
   s.barrier_decrease = 0.123456789012345;
   s.barrier_realtime = 7e-4;
   s.fraction_to_boundary = 0.99;
+  s.bound_push = 0.0;
   s.line_search = false;
   s.exact_hessian = false;
   s.max_line_search_steps = 5;
@@ -113,6 +114,8 @@ TEST(SolverSettingsYaml, BadInputIsAnErrorNamingTheKey) {
   // Values checkSettings rejects, after parsing.
   e = errorOf("fraction_to_boundary: 1.5\n");
   EXPECT_TRUE(has(e, "fraction_to_boundary must be in (0, 1)")) << e;
+  e = errorOf("bound_push: 0.5\n");
+  EXPECT_TRUE(has(e, "bound_push must be in [0, 0.5)")) << e;
   e = errorOf("barrier_min: 1\nbarrier_initial: 0.1\n");
   EXPECT_TRUE(has(e, "barrier_min must be <= barrier_initial")) << e;
   e = errorOf("kkt_tolerance: .nan\n");
@@ -133,9 +136,9 @@ TEST(SolverSettingsYaml, NonFiniteValuesAreRefusedUnlessInfMeansNever) {
   // Every floating-point key, with NaN and both infinities: an error naming the key, unless
   // the documented meaning of .inf is "never" (divergence_threshold, infeasibility_tolerance).
   const std::string keys[] = {
-      "kkt_tolerance",    "barrier_initial",      "barrier_min",
-      "barrier_decrease", "barrier_realtime",     "fraction_to_boundary",
-      "rank_tolerance",   "divergence_threshold", "infeasibility_tolerance"};
+      "kkt_tolerance",        "barrier_initial",        "barrier_min", "barrier_decrease",
+      "barrier_realtime",     "fraction_to_boundary",   "bound_push",  "rank_tolerance",
+      "divergence_threshold", "infeasibility_tolerance"};
   for (const std::string& key : keys) {
     for (const std::string value : {".nan", ".NaN", "-.inf", ".inf"}) {
       const bool allowed =

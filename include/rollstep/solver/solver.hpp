@@ -96,6 +96,13 @@ struct SolverSettings {
   /// cut the first step short (a reference that changed faster than the iterate followed).
   int realtime_iterations = 1;
   double fraction_to_boundary = 0.995;
+  /// Converging mode: each solve first moves the guess's hard-bounded inputs and states (x_0
+  /// excepted) inside their bounds, to at least bound_push max(1, |bound|) and at most
+  /// bound_push (upper - lower) from each bound (Ipopt's bound_push and bound_frac, both 1e-2
+  /// there); in [0, 0.5), 0: onto the violated bound. A start outside a bound otherwise lets
+  /// the fraction to the boundary cut the steps towards the bound's side (random starts of
+  /// the solver tests' problems: 55 instead of 53 of 56 solved, docs/PERFORMANCE.md).
+  double bound_push = 1e-2;
   bool line_search = true;  ///< filter line search (converging mode); false: full steps
   /// Converging mode: add the constraint curvature (multipliers times second derivatives
   /// of dynamics, equalities and general inequalities; on manifolds also of the cost and
@@ -174,7 +181,8 @@ inline constexpr IntSettingRange kSecondOrderCorrectionRange{
 
 /// Checks every field of s: throws std::invalid_argument naming the first bad one
 /// (a non-finite or non-positive tolerance or barrier, barrier_min above barrier_initial,
-/// barrier_decrease or fraction_to_boundary outside (0, 1), rank_tolerance outside [0, 1),
+/// barrier_decrease or fraction_to_boundary outside (0, 1), bound_push outside [0, 0.5),
+/// rank_tolerance outside [0, 1),
 /// an integer outside its range above). The Solver constructor and setSettings call it.
 void checkSettings(const SolverSettings& s);
 
