@@ -148,18 +148,12 @@ void BaselinePipeline::tick(const RobotState& state, JointCommand& command) noex
   record_.mode = plan_.mode;
   computeTargets();
   filter_->setSupportFeet(plan_.support_mask);
-  record_.cbf_status =
+  const CbfQpStatus status =
       filter_->filter(q, integrator_->v(), plan_.mode, plan_.regions.data(), targets_, a_);
-  record_.qp_status = filter_->qpStatus();
-  record_.qp_iterations = filter_->qpIterations();
-  record_.active_barriers = filter_->activeBarriers();
-  record_.correction = filter_->correction();
-  if (record_.cbf_status == CbfQpStatus::Relaxed) ++counters_.qp_relaxations;
-  if (record_.cbf_status != CbfQpStatus::Optimal && record_.cbf_status != CbfQpStatus::Relaxed) {
+  if (recordFilterOutcome(*filter_, status, record_, counters_)) {
     // The filter's fallback keeps the base velocity; here the commanded base brakes as well:
     // the drive wheels follow the commanded base, and rolling on unfiltered carries a
     // stance wheel over an edge.
-    ++counters_.qp_fallbacks;
     a_.head<6>() = -integrator_->v().head<6>() / settings_.cbf_qp.fallback_brake_time;
   }
   integrator_->step(a_, q_meas_, v_meas_);

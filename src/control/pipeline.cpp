@@ -22,6 +22,19 @@ double worldYawRate(const Eigen::VectorXd& q, const Eigen::VectorXd& v) {
 
 }  // namespace
 
+bool recordFilterOutcome(const CbfQpFilter& filter, CbfQpStatus status, TickRecord& record,
+                         PipelineCounters& counters) {
+  record.cbf_status = status;
+  record.qp_status = filter.qpStatus();
+  record.qp_iterations = filter.qpIterations();
+  record.active_barriers = filter.activeBarriers();
+  record.correction = filter.correction();
+  if (status == CbfQpStatus::Relaxed) ++counters.qp_relaxations;
+  const bool fallback = status != CbfQpStatus::Optimal && status != CbfQpStatus::Relaxed;
+  if (fallback) ++counters.qp_fallbacks;
+  return fallback;
+}
+
 ControlPipeline::ControlPipeline(const centroidal::RobotOcpDescription& robot,
                                  const ControlSettings& settings,
                                  const planning::TerrainModel& terrain, planning::GaitKind gait,
@@ -262,16 +275,10 @@ void ControlPipeline::tick(const RobotState& state, JointCommand& command) noexc
 
   // Acceleration commands, safety filter, integrator.
   computeTargets();
-  record_.cbf_status = filter_->filter(integrator_->q(), integrator_->v(), record_.mode,
-                                       regions_.data(), targets_, a_);
-  record_.qp_status = filter_->qpStatus();
-  record_.qp_iterations = filter_->qpIterations();
-  record_.active_barriers = filter_->activeBarriers();
-  record_.correction = filter_->correction();
-  if (record_.cbf_status == CbfQpStatus::Relaxed) ++counters_.qp_relaxations;
-  if (record_.cbf_status != CbfQpStatus::Optimal && record_.cbf_status != CbfQpStatus::Relaxed) {
-    ++counters_.qp_fallbacks;
-  }
+  recordFilterOutcome(*filter_,
+                      filter_->filter(integrator_->q(), integrator_->v(), record_.mode,
+                                      regions_.data(), targets_, a_),
+                      record_, counters_);
   integrator_->step(a_, q_meas_, v_meas_);
 
   // Commands.

@@ -126,6 +126,12 @@ struct PipelineCounters {
   std::uint64_t late_touchdown_ticks = 0;  ///< ticks with a foot landing late (any foot)
 };
 
+/// Records the safety filter's outcome of a tick (its status, the QP's status and
+/// iterations, the active barriers, the correction) and counts a relaxation or a fallback.
+/// Returns true on the fallback (neither Optimal nor Relaxed). Both pipelines call it.
+bool recordFilterOutcome(const CbfQpFilter& filter, CbfQpStatus status, TickRecord& record,
+                         PipelineCounters& counters);
+
 class ControlPipeline {
  public:
   /// Builds the MPC runner (its own OCP) and the real-time side (a second instance of the
