@@ -25,9 +25,8 @@ bool Solver::Impl::diverged(const Kkt& kkt) {
   return false;
 }
 
-/// Cost and residuals of the linearisation into the solver and the iteration's stats.
-void Solver::Impl::recordResiduals(const Kkt& kkt, IterationStats& it) {
-  cost = kkt.cost;
+/// Cost and residuals of a linearisation into an iteration's stats.
+void Solver::Impl::recordResiduals(const Kkt& kkt, IterationStats& it) const {
   it.cost = kkt.cost;
   it.primal_residual = kkt.primal;
   it.dual_residual = kkt.dual;

@@ -36,12 +36,18 @@ Solver::Impl::Kkt Solver::Impl::linearize(bool realtime, IterationStats& it) {
   derivatives_shared = condense_in_linearize;
   condense_in_linearize = false;
   prob->stateSpace().difference(xs[0], x0, dx0);
-  // Residuals (fixed order reduction).
+  const Kkt r = residualSummary();
+  it.time_linearize_ms = msSince(t_lin);
+  return r;
+}
+
+/// The KKT residuals of the nodes' last linearisation and dx0, reduced in a fixed order.
+Solver::Impl::Kkt Solver::Impl::residualSummary() const {
   Kkt r;
   r.finite = dx0.allFinite();
   r.primal = dx0.lpNorm<Eigen::Infinity>();
   for (int k = 0; k <= N; ++k) {
-    const Node& n = node(k);
+    const Node& n = nodes[static_cast<std::size_t>(k)];
     r.finite = r.finite && n.finite;
     r.primal = std::max(r.primal, n.primal);
     r.dual = std::max(r.dual, n.dual);
@@ -54,7 +60,6 @@ Solver::Impl::Kkt Solver::Impl::linearize(bool realtime, IterationStats& it) {
     r.soft_rows = r.soft_rows || n.soft_rows;
     r.cost += n.d->cost;
   }
-  it.time_linearize_ms = msSince(t_lin);
   const double sd = std::max(100.0, r.msum / std::max(r.mcount, 1)) / 100.0;
   r.dual_scaled = r.dual / sd;
   const double sc = std::max(100.0, r.zsum / std::max(r.zcount, 1)) / 100.0;

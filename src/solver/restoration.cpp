@@ -23,7 +23,10 @@ bool Solver::Impl::stepRejected(const Kkt& kkt, double theta0, double f0, double
   stats.push_back(it);
   if (primal > set.infeasibility_tolerance) {
     if (restorationPhase(theta0, f0, primal, t_upd)) return true;
-    forNodes([this](int k) { linearizeNode(k); });  // outputs of the kept iterate
+    // Outputs of the iterate kept (the phase's steps may have moved it): duals, cost.
+    forNodes([this](int k) { linearizeNode(k); });
+    prob->stateSpace().difference(xs[0], x0, dx0);
+    cost = residualSummary().cost;
     if (iterations >= set.max_iterations) {
       // Still reducing the violation at the limit: no evidence of infeasibility.
       ROLLSTEP_MSG(
@@ -91,8 +94,10 @@ bool Solver::Impl::restorationPhase(double theta0, double f0, double primal,
   // rejected iteration's for the first step, a new one for each further step.
   const auto record = [&](double alpha) {
     if (!first) {
+      // The residuals where this step started (feasibilityStep linearised there).
       IterationStats next;
       next.iteration = iterations;
+      recordResiduals(step_start, next);
       stats.push_back(next);
     }
     first = false;
@@ -187,13 +192,14 @@ double Solver::Impl::feasibilityStep(bool move_slacks, double min_progress, doub
       d.lu.setZero();
     }
   });
-  double theta0 = 0.0;  // summed as the line search sums it
+  prob->stateSpace().difference(xs[0], x0, dx0);
+  step_start = residualSummary();  // before the slack move: the iterate's residuals
+  double theta0 = 0.0;             // summed as the line search sums it
   for (int k = 0; k <= N; ++k) {
     Node& n = node(k);
     meritNode(k, n, n.s);
     theta0 += n.merit_theta;
   }
-  prob->stateSpace().difference(xs[0], x0, dx0);
   theta0 += dx0.lpNorm<1>();
   theta_start = theta0;
   if (condenseAndFactor() != Factorization::Ok) return 0.0;

@@ -120,6 +120,7 @@ SolverStatus Solver::Impl::run(ConstVecRef x_init, bool realtime) {
     // Linearise every node; stop if the iterate diverged.
     const Kkt kkt = linearize(realtime, it);
     if (diverged(kkt)) return status;
+    cost = kkt.cost;
     recordResiduals(kkt, it);
     if (pc_active && kkt.soft_rows) pc_active = false;  // not a QP: monotone barrier
     // Converging mode: stop when converged or out of iterations, else update the barrier

@@ -338,6 +338,7 @@ struct Solver::Impl {
 
   // ---- linearisation and KKT residuals (linearization.cpp) ------------------------------------
   Kkt linearize(bool realtime, IterationStats& it);
+  Kkt residualSummary() const;
   void linearizeNode(int k);
   void rowValues(int k, const VectorXd& x, const VectorXd& u, Node& n) const;
   void initRows(Node& n) const;
@@ -404,12 +405,13 @@ struct Solver::Impl {
   bool stepRejected(const Kkt& kkt, double theta0, double f0, double dphi, Clock::time_point t_upd,
                     IterationStats& it);
   bool restorationPhase(double theta0, double f0, double primal, Clock::time_point t_upd);
+  Kkt step_start;  // residuals where the last feasibility step started (its stats entry)
   double feasibilityStep(bool move_slacks, double min_progress, double& theta_start,
                          double& theta_new);
 
   // ---- termination and barrier (barrier.cpp) -------------------------------------------------
   bool diverged(const Kkt& kkt);
-  void recordResiduals(const Kkt& kkt, IterationStats& it);
+  void recordResiduals(const Kkt& kkt, IterationStats& it) const;
   bool terminated(const Kkt& kkt, int max_it, IterationStats& it);
   void updateBarrier(const Kkt& kkt);
   SolverStatus endRealTimeIteration();

@@ -2,6 +2,7 @@
 // clear status and its outputs contain no NaN.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -42,6 +43,24 @@ void expectFiniteOutputs(const Solver& s) {
   }
 }
 
+/// A solve that ended in or after the restoration phase still describes what it returns:
+/// cost() is the cost of states() and inputs() (it was the cost before the phase's steps),
+/// and each of the phase's stats entries holds the violation where its step started (they
+/// were zero after the first).
+void expectOutputsDescribed(const Solver& s) {
+  const auto& pb = const_cast<Solver&>(s).problem();
+  const double c = totalCost(pb, s.states(), s.inputs());
+  EXPECT_NEAR(s.cost(), c, 1e-9 * std::max(1.0, std::abs(c)));
+  int steps = 0;
+  for (const auto& it : s.stats()) {
+    if (!it.restoration) continue;
+    ++steps;
+    EXPECT_GT(it.primal_residual, 0.0) << "iteration " << it.iteration;
+    EXPECT_GT(it.dual_residual, 0.0) << "iteration " << it.iteration;
+  }
+  EXPECT_GT(steps, 1);
+}
+
 TEST(NonlinearFailure, NanOrInfInitialStateIsInvalidInput) {
   for (const auto& inst : {makeCartPole(), makeUnicycle(), makeRigidBody()}) {
     for (double bad :
@@ -80,6 +99,7 @@ TEST(NonlinearFailure, StartInsideHardObstacleIsInfeasible) {
   EXPECT_NE(std::string(s.message()).find("infeasible"), std::string::npos) << s.message();
   EXPECT_STRNE(s.message(), "");
   expectFiniteOutputs(s);
+  expectOutputsDescribed(s);
 }
 
 /// Cart-pole (horizon 20) whose force must equal 50 against the bounds |F| <= 20.
@@ -104,6 +124,7 @@ TEST(NonlinearFailure, EqualityContradictingInputBoundsIsInfeasible) {
   EXPECT_EQ(st, SolverStatus::Infeasible) << s.message();
   EXPECT_STRNE(s.message(), "");
   expectFiniteOutputs(s);
+  expectOutputsDescribed(s);
 }
 
 TEST(NonlinearFailure, InfeasibleWithFullStepsIsInfeasible) {

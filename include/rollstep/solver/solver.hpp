@@ -224,7 +224,8 @@ struct IterationStats {
   double primal_step = 0.0, dual_step = 0.0;
   /// A step of the restoration phase (converging mode: the Newton step was rejected with
   /// the violation above infeasibility_tolerance); primal_step is its length. Each step of
-  /// the phase is an iteration (and an entry) of its own.
+  /// the phase is an iteration (and an entry) of its own, with the cost and residuals where
+  /// it started (kkt_error is not evaluated there: 0).
   bool restoration = false;
   /// The line search cleared its filter (filter_reset_trigger; converging mode). After a
   /// restoration phase the filter restarts too (with the entry of the point it started from).
