@@ -290,6 +290,8 @@ class Solver {
   /// Nodes the last update() shifted the previous solution by (0 after solve()).
   int lastShift() const;
   SolverStatus status() const;
+  /// Cost of the iterate the last solve returned (states(), inputs()); after a real-time
+  /// iteration, of the point it linearised at (before its step, as stats().back()).
   double cost() const;
   double barrier() const;  ///< barrier parameter of the last iteration
   /// Node where the last solve failed (rank-deficient equalities, factorisation), or -1.
