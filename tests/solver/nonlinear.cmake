@@ -43,7 +43,7 @@ if(TARGET rollstep_nltest_problems AND IPOPT_FOUND AND NOT TARGET rollstep_nltes
       SOURCES ${_nl_dir}/nonlinear_robustness_test.cpp
       LIBS rollstep::solver rollstep_nltest_ipopt
       LABELS solver)
-    # Random starts against Ipopt (about 20 s: labelled slow, out of the sanitizer trees).
+    # Random starts against Ipopt (about 35 s: labelled slow, out of the sanitizer trees).
     rollstep_add_test(random_starts_test
       SOURCES ${_nl_dir}/random_starts_test.cpp
       LIBS rollstep::solver rollstep_nltest_ipopt
