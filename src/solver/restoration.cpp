@@ -98,6 +98,7 @@ bool Solver::Impl::restorationPhase(double theta0, double f0, double primal,
       IterationStats next;
       next.iteration = iterations;
       recordResiduals(step_start, next);
+      next.kkt_error = step_start.error();
       stats.push_back(next);
     }
     first = false;

@@ -57,6 +57,7 @@ void expectOutputsDescribed(const Solver& s) {
     ++steps;
     EXPECT_GT(it.primal_residual, 0.0) << "iteration " << it.iteration;
     EXPECT_GT(it.dual_residual, 0.0) << "iteration " << it.iteration;
+    EXPECT_GE(it.kkt_error, it.primal_residual) << "iteration " << it.iteration;
   }
   EXPECT_GT(steps, 1);
 }

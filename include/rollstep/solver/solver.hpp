@@ -225,7 +225,7 @@ struct IterationStats {
   /// A step of the restoration phase (converging mode: the Newton step was rejected with
   /// the violation above infeasibility_tolerance); primal_step is its length. Each step of
   /// the phase is an iteration (and an entry) of its own, with the cost and residuals where
-  /// it started (kkt_error is not evaluated there: 0).
+  /// it started.
   bool restoration = false;
   /// The line search cleared its filter (filter_reset_trigger; converging mode). After a
   /// restoration phase the filter restarts too (with the entry of the point it started from).
