@@ -88,26 +88,34 @@ bool Solver::Impl::begin(ConstVecRef x_init, bool realtime) {
 /// towards the violated side, and from a noisy start the slacks were driven to 1e-4 while
 /// the rows stayed violated by 1 (two random starts of the bicycle ended Infeasible).
 void Solver::Impl::pushIntoBounds() {
-  const double push = set.bound_push;
-  const auto moveInside = [push](double& v, const ocp::BoundSet& b, int j) {
-    const auto jj = static_cast<std::size_t>(j);
-    const double lo = b.lower(j), hi = b.upper(j);
-    const double width = b.has_lower[jj] && b.has_upper[jj] ? hi - lo : detail::kInf;
-    if (b.has_upper[jj]) v = std::min(v, hi - push * std::min(std::max(1.0, std::abs(hi)), width));
-    if (b.has_lower[jj]) v = std::max(v, lo + push * std::min(std::max(1.0, std::abs(lo)), width));
-  };
-  const ocp::BoundSet& ub = prob->inputBounds();
-  for (int k = 0; k < N && !ub.options.soft; ++k) {
-    VectorXd& u = us[static_cast<std::size_t>(k)];
-    for (int j = 0; j < nbu; ++j) moveInside(u(ub.index[static_cast<std::size_t>(j)]), ub, j);
-  }
+  pushInputsIntoBounds(us);
   const ocp::BoundSet& xb = prob->stateBounds();
   for (int k = 1; k <= N && !xb.options.soft; ++k) {
     VectorXd& x = xs[static_cast<std::size_t>(k)];
     for (int j = 0; j < nbx; ++j) {
-      moveInside(x(xb.index[static_cast<std::size_t>(j)] + rep_off), xb, j);
+      moveInsideBound(x(xb.index[static_cast<std::size_t>(j)] + rep_off), xb, j);
     }
   }
+}
+
+/// The hard-bounded inputs of every node of `inputs` moved inside their bounds (bound_push).
+void Solver::Impl::pushInputsIntoBounds(std::vector<VectorXd>& inputs) const {
+  const ocp::BoundSet& ub = prob->inputBounds();
+  for (int k = 0; k < N && !ub.options.soft; ++k) {
+    VectorXd& u = inputs[static_cast<std::size_t>(k)];
+    for (int j = 0; j < nbu; ++j) moveInsideBound(u(ub.index[static_cast<std::size_t>(j)]), ub, j);
+  }
+}
+
+/// v moved at least bound_push max(1, |bound|), at most bound_push of the range, inside bound
+/// j of b (where it has that bound).
+void Solver::Impl::moveInsideBound(double& v, const ocp::BoundSet& b, int j) const {
+  const double push = set.bound_push;
+  const auto jj = static_cast<std::size_t>(j);
+  const double lo = b.lower(j), hi = b.upper(j);
+  const double width = b.has_lower[jj] && b.has_upper[jj] ? hi - lo : detail::kInf;
+  if (b.has_upper[jj]) v = std::min(v, hi - push * std::min(std::max(1.0, std::abs(hi)), width));
+  if (b.has_lower[jj]) v = std::max(v, lo + push * std::min(std::max(1.0, std::abs(lo)), width));
 }
 
 /// One real-time iteration (realtime) or a converging solve.

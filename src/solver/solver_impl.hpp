@@ -335,6 +335,9 @@ struct Solver::Impl {
   SolverStatus run(ConstVecRef x_init, bool realtime);
   bool begin(ConstVecRef x_init, bool realtime);
   void pushIntoBounds();
+  void pushInputsIntoBounds(std::vector<VectorXd>& inputs) const;
+  void moveInsideBound(double& v, const ocp::BoundSet& b, int j) const;
+  double rollout();
 
   // ---- linearisation and KKT residuals (linearization.cpp) ------------------------------------
   Kkt linearize(bool realtime, IterationStats& it);
