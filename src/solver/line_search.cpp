@@ -283,7 +283,11 @@ void Solver::Impl::trialPoint(int k, double alpha) {
   n.s_trial = n.s + alpha * n.ds;
 }
 
-void Solver::Impl::evaluateTrial(int k) {
+/// The trial point of node k evaluated: defect, row values, merit. slacks_from_rows (the
+/// restoration's rollout): the hard rows' trial slacks first go to max(c, slack_min), so a
+/// row the trial point satisfies adds no violation.
+void Solver::Impl::evaluateTrial(int k, bool slacks_from_rows) {
+  constexpr double kSlackMin = 1e-3;
   Node& n = node(k);
   NodeData& d = *n.d;
   const auto kk = static_cast<std::size_t>(k);
@@ -291,6 +295,9 @@ void Solver::Impl::evaluateTrial(int k) {
   prob->evaluate(k, xs_trial[kk], u, d);
   if (k < N) prob->stateSpace().difference(xs_trial[kk + 1], d.xnext, n.defect);
   rowValues(k, xs_trial[kk], u, n);
+  for (int i = 0; slacks_from_rows && i < nrows; ++i) {
+    if (n.kind(i) == kHard) n.s_trial(i) = std::max(n.c(i), kSlackMin);
+  }
   meritNode(k, n, n.s_trial);
 }
 

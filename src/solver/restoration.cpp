@@ -280,36 +280,24 @@ double Solver::Impl::feasibilityStep(bool move_slacks, double min_progress, doub
 
 /// A rollout into the trial buffers: the inputs moved inside their bounds, the states
 /// simulated from x0 through the dynamics (every defect closed, as a DDP forward pass), the
-/// hard rows' slacks at max(c, 1e-3) (a row the rollout satisfies adds no violation).
-/// Returns the l1 violation there (not finite when the rollout diverged).
+/// hard rows' slacks at max(c, 1e-3) (evaluateTrial). Returns the l1 violation there (not
+/// finite when the rollout diverged).
 double Solver::Impl::rollout() {
-  constexpr double kSlackMin = 1e-3;
-  for (int k = 0; k < N; ++k)
+  for (int k = 0; k < N; ++k) {
     us_trial[static_cast<std::size_t>(k)] = us[static_cast<std::size_t>(k)];
+  }
   pushInputsIntoBounds(us_trial);
   xs_trial[0] = x0;
-  for (int k = 0; k < N; ++k) {
+  for (int k = 0; k < N; ++k) {  // sequential: each state is the last one's successor
     const auto kk = static_cast<std::size_t>(k);
     NodeData& d = *node(k).d;
     prob->evaluate(k, xs_trial[kk], us_trial[kk], d);
     if (!d.xnext.allFinite()) return detail::kInf;
     xs_trial[kk + 1] = d.xnext;
   }
+  forNodes([this](int k) { evaluateTrial(k, true); });
   double theta = 0.0;
-  for (int k = 0; k <= N; ++k) {
-    Node& n = node(k);
-    NodeData& d = *n.d;
-    const auto kk = static_cast<std::size_t>(k);
-    const VectorXd& u = k < N ? us_trial[kk] : zero_u;
-    prob->evaluate(k, xs_trial[kk], u, d);
-    if (k < N) prob->stateSpace().difference(xs_trial[kk + 1], d.xnext, n.defect);
-    rowValues(k, xs_trial[kk], u, n);
-    for (int i = 0; i < nrows; ++i) {
-      n.s_trial(i) = n.kind(i) == kHard ? std::max(n.c(i), kSlackMin) : n.s(i);
-    }
-    meritNode(k, n, n.s_trial);
-    theta += n.merit_theta;
-  }
+  for (int k = 0; k <= N; ++k) theta += node(k).merit_theta;
   prob->stateSpace().difference(xs_trial[0], x0, dx0);
   return theta + dx0.lpNorm<1>();
 }

@@ -394,7 +394,7 @@ struct Solver::Impl {
   void takeFullStep(double alpha);
   void updateDuals(double alpha, double alpha_d);
   void trialPoint(int k, double alpha);
-  void evaluateTrial(int k);
+  void evaluateTrial(int k, bool slacks_from_rows = false);
   void meritNode(int k, Node& n, const VectorXd& s) const;
   void addToFilter(double theta, double f);
   void addFilterEntryFor(double theta, double f);
