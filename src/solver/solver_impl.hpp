@@ -338,6 +338,7 @@ struct Solver::Impl {
   void pushInputsIntoBounds(std::vector<VectorXd>& inputs) const;
   void moveInsideBound(double& v, const ocp::BoundSet& b, int j) const;
   double rollout();
+  bool takeRollout(double theta_limit);
 
   // ---- linearisation and KKT residuals (linearization.cpp) ------------------------------------
   Kkt linearize(bool realtime, IterationStats& it);

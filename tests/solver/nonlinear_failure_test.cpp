@@ -253,8 +253,8 @@ TEST(NonlinearFailure, RestorationStepKeepsAFeasibleSolveGoing) {
 // the linearised dynamics asks for inputs beyond the bounds, so the fraction to the
 // boundary cuts every feasibility step of the restoration phase, and the solve used to end
 // Infeasible (after 38 iterations, the violation's inf-norm at 8.9) on this feasible
-// problem. The rollout (inputs inside their bounds, states simulated from x0: every defect
-// closed at once) is the phase's last resort: a restoration entry with a unit step, then
+// problem. The phase's rollout (inputs inside their bounds, states simulated from x0: every
+// defect closed at once) restores it: a restoration entry with a unit step, then
 // convergence to a KKT point, without allocating.
 TEST(NonlinearFailure, RolloutRestoresWhereTheFeasibilityStepsAreCut) {
   const auto inst = makeRigidBody();

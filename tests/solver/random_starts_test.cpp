@@ -5,8 +5,9 @@
 // iterations allowed) must end Converged or Acceptable, at a point whose violation and
 // independent KKT residual (with its own multipliers) are small, in all but a few of them.
 // A start from which it reaches another local optimum than Ipopt's counts as solved.
-// Measured 2026-11-28: 80 of 80; without the restoration phase's rollout 78 (start 7 of
-// both rigid bodies Infeasible, which take Ipopt 304 and 305 iterations). Of the first 56:
+// Measured 2026-11-28: 80 of 80 (4801 iterations); without the restoration phase's rollout
+// 78 (start 7 of both rigid bodies Infeasible, which take Ipopt 304 and 305 iterations). Of
+// the first 56:
 // before the guess was moved inside its bounds (bound_push, as Ipopt does) 53 (the
 // bicycle's starts 3 and 6 Infeasible after 206 and 156 iterations), with the single
 // restoration step before the restoration phase 37 (19 Infeasible).
