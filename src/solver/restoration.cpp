@@ -91,7 +91,7 @@ bool Solver::Impl::stepRejected(const Kkt& kkt, double theta0, double f0, double
 /// far beyond their bounds and the fraction to the boundary cuts every step (to 0.003-0.01;
 /// Ipopt's elastic restoration relaxes the defects instead, which our Riccati structure
 /// would need an input augmented by ndx for). The rollout closes them within the bounds:
-/// 80 of 80 random starts solved (the two rigid-body starts left Infeasible converge in 53
+/// 80 of 80 random starts solved (the two rigid-body starts left Infeasible converge in 54
 /// and 63 iterations; Ipopt 304 and 305), 4801 iterations over them instead of 5887 with
 /// the rollout as the last resort after the slack-moving steps (unicycle starts 132 -> 35,
 /// 143 -> 38). The first solves of the Tachyon 3 OCP never take it (bit for bit the same);
