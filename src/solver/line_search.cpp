@@ -83,12 +83,7 @@ bool Solver::Impl::filterLineSearch(double dphi, double& alpha, double& alpha_d,
   noteFilterRefusals(filter_refused_last);
   if (accepted && !f_type) addFilterEntryFor(theta0, f0);
   if (!accepted) return false;
-  for (int k = 0; k <= N; ++k) {
-    const auto kk = static_cast<std::size_t>(k);
-    xs[kk] = xs_trial[kk];
-    if (k < N) us[kk] = us_trial[kk];
-    node(k).s = node(k).s_trial;
-  }
+  acceptTrial();
   return true;
 }
 
@@ -283,17 +278,32 @@ void Solver::Impl::trialPoint(int k, double alpha) {
   n.s_trial = n.s + alpha * n.ds;
 }
 
-/// The trial point of node k evaluated: defect, row values, merit. slacks_from_rows (the
-/// restoration's rollout): the hard rows' trial slacks first go to max(c, slack_min), so a
-/// row the trial point satisfies adds no violation.
-void Solver::Impl::evaluateTrial(int k, bool slacks_from_rows) {
+/// The iterate moves to the trial point (states, inputs, slacks).
+void Solver::Impl::acceptTrial() {
+  for (int k = 0; k <= N; ++k) {
+    const auto kk = static_cast<std::size_t>(k);
+    xs[kk] = xs_trial[kk];
+    if (k < N) us[kk] = us_trial[kk];
+    node(k).s = node(k).s_trial;
+  }
+}
+
+/// The trial point of node k evaluated: defect, row values, merit.
+void Solver::Impl::evaluateTrial(int k) {
+  const auto kk = static_cast<std::size_t>(k);
+  prob->evaluate(k, xs_trial[kk], k < N ? us_trial[kk] : zero_u, *node(k).d);
+  trialRows(k, false);
+}
+
+/// After the trial point of node k was evaluated: its defect, row values and merit.
+/// slacks_from_rows (the restoration's rollout): the hard rows' trial slacks first go to
+/// max(c, 1e-3), so a row the trial point satisfies adds no violation.
+void Solver::Impl::trialRows(int k, bool slacks_from_rows) {
   constexpr double kSlackMin = 1e-3;
   Node& n = node(k);
-  NodeData& d = *n.d;
   const auto kk = static_cast<std::size_t>(k);
   const VectorXd& u = k < N ? us_trial[kk] : zero_u;
-  prob->evaluate(k, xs_trial[kk], u, d);
-  if (k < N) prob->stateSpace().difference(xs_trial[kk + 1], d.xnext, n.defect);
+  if (k < N) prob->stateSpace().difference(xs_trial[kk + 1], n.d->xnext, n.defect);
   rowValues(k, xs_trial[kk], u, n);
   for (int i = 0; slacks_from_rows && i < nrows; ++i) {
     if (n.kind(i) == kHard) n.s_trial(i) = std::max(n.c(i), kSlackMin);

@@ -150,12 +150,7 @@ bool Solver::Impl::restorationPhase(double theta0, double f0, double primal,
       if (stalled >= kStallSteps) break;
     }
     mu = mu_main;
-    forNodes([this](int k) {
-      Node& n = node(k);
-      for (int i = 0; i < nrows; ++i) {
-        if (n.kind(i) == kHard) n.z(i) = mu / n.s(i);
-      }
-    });
+    centreDuals();
   }
   if (!reached) return false;
   filter.clear();
@@ -247,12 +242,7 @@ double Solver::Impl::feasibilityStep(bool move_slacks, double min_progress, doub
         }
       }
       if (theta > (1.0 - min_progress) * theta0) return 0.0;
-      for (int k = 0; k <= N; ++k) {
-        const auto kk = static_cast<std::size_t>(k);
-        xs[kk] = xs_trial[kk];
-        if (k < N) us[kk] = us_trial[kk];
-        node(k).s = node(k).s_trial;
-      }
+      acceptTrial();
       theta_new = theta;
       return alpha;
     }
@@ -266,22 +256,24 @@ double Solver::Impl::feasibilityStep(bool move_slacks, double min_progress, doub
 bool Solver::Impl::takeRollout(double theta_limit) {
   const double theta = rollout();
   if (!(std::isfinite(theta) && theta <= theta_limit)) return false;
-  for (int k = 0; k <= N; ++k) {
-    const auto kk = static_cast<std::size_t>(k);
-    xs[kk] = xs_trial[kk];
-    if (k < N) us[kk] = us_trial[kk];
+  acceptTrial();
+  centreDuals();
+  return true;
+}
+
+/// The hard rows' duals on the central path of the barrier mu: z = mu / s.
+void Solver::Impl::centreDuals() {
+  forNodes([this](int k) {
     Node& n = node(k);
-    n.s = n.s_trial;
     for (int i = 0; i < nrows; ++i) {
       if (n.kind(i) == kHard) n.z(i) = mu / n.s(i);
     }
-  }
-  return true;
+  });
 }
 
 /// A rollout into the trial buffers: the inputs moved inside their bounds, the states
 /// simulated from x0 through the dynamics (every defect closed, as a DDP forward pass), the
-/// hard rows' slacks at max(c, 1e-3) (evaluateTrial). Returns the l1 violation there (not
+/// hard rows' slacks at max(c, 1e-3) (trialRows). Returns the l1 violation there (not
 /// finite when the rollout diverged).
 double Solver::Impl::rollout() {
   for (int k = 0; k < N; ++k) {
@@ -296,7 +288,8 @@ double Solver::Impl::rollout() {
     if (!d.xnext.allFinite()) return detail::kInf;
     xs_trial[kk + 1] = d.xnext;
   }
-  forNodes([this](int k) { evaluateTrial(k, true); });
+  prob->evaluate(N, xs_trial[static_cast<std::size_t>(N)], zero_u, *node(N).d);
+  forNodes([this](int k) { trialRows(k, true); });
   double theta = 0.0;
   for (int k = 0; k <= N; ++k) theta += node(k).merit_theta;
   prob->stateSpace().difference(xs_trial[0], x0, dx0);

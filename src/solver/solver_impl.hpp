@@ -339,6 +339,7 @@ struct Solver::Impl {
   void moveInsideBound(double& v, const ocp::BoundSet& b, int j) const;
   double rollout();
   bool takeRollout(double theta_limit);
+  void centreDuals();
 
   // ---- linearisation and KKT residuals (linearization.cpp) ------------------------------------
   Kkt linearize(bool realtime, IterationStats& it);
@@ -395,7 +396,9 @@ struct Solver::Impl {
   void takeFullStep(double alpha);
   void updateDuals(double alpha, double alpha_d);
   void trialPoint(int k, double alpha);
-  void evaluateTrial(int k, bool slacks_from_rows = false);
+  void acceptTrial();
+  void evaluateTrial(int k);
+  void trialRows(int k, bool slacks_from_rows);
   void meritNode(int k, Node& n, const VectorXd& s) const;
   void addToFilter(double theta, double f);
   void addFilterEntryFor(double theta, double f);
