@@ -754,6 +754,34 @@ ProblemInstance makeMaratosCircle(const MaratosCircleOptions& o) {
   return inst;
 }
 
+ProblemInstance makeNamedProblem(const std::string& name) {
+  if (name == "two_link_arm") return makeTwoLinkArm();
+  if (name == "planar_quadrotor") return makePlanarQuadrotor();
+  if (name == "bicycle") return makeBicycle();
+  if (name == "cartpole") return makeCartPole();
+  if (name == "unicycle") return makeUnicycle();
+  if (name == "rigid_body") return makeRigidBody();
+  if (name == "maratos_circle") return makeMaratosCircle();
+  if (name == "rigid_body_g") {
+    RigidBodyOptions o;
+    o.params.gravity = Eigen::Vector3d(0.0, 0.0, -9.81);
+    o.force_limit = 25.0;
+    o.torque_limit = 0.6;
+    return makeRigidBody(o);
+  }
+  if (name == "unicycle2") {
+    UnicycleOptions o;
+    o.hard_obstacles = {{1.5, -0.15, 0.4}, {3.0, 0.35, 0.3}};
+    return makeUnicycle(o);
+  }
+  if (name == "cartpole_euler") {
+    CartPoleOptions o;
+    o.rk4 = false;
+    return makeCartPole(o);
+  }
+  throw std::invalid_argument("unknown problem " + name);
+}
+
 // =====================================================================================
 // Helpers
 

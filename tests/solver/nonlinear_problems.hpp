@@ -382,6 +382,12 @@ struct MaratosCircleOptions {
 /// to 0.3 rad (the velocities between them), near the solution's path.
 ProblemInstance makeMaratosCircle(const MaratosCircleOptions& o = {});
 
+/// The tests' problems by name: the defaults of two_link_arm, planar_quadrotor, bicycle,
+/// cartpole, unicycle, rigid_body and maratos_circle, and variants of the comparison tests:
+/// rigid_body_g (gravity, force and torque limits 25 and 0.6: active bounds), unicycle2 (two
+/// obstacles), cartpole_euler (explicit Euler). Throws std::invalid_argument on another name.
+ProblemInstance makeNamedProblem(const std::string& name);
+
 // =====================================================================================
 // Helpers.
 

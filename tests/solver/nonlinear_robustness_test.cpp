@@ -43,21 +43,10 @@ using solver::SolverStatus;
 /// for that and a few Newton steps, not for a search.
 constexpr int kAtOptimumIterations = 25;
 
+/// The issue 4 rigid body is the variant with gravity and active torque bounds
+/// (nonlinear_comparison_test).
 ProblemInstance makeProblem(const std::string& name) {
-  if (name == "two_link_arm") return makeTwoLinkArm();
-  if (name == "planar_quadrotor") return makePlanarQuadrotor();
-  if (name == "bicycle") return makeBicycle();
-  if (name == "cartpole") return makeCartPole();
-  if (name == "unicycle") return makeUnicycle();
-  if (name == "rigid_body") {
-    // The variant with gravity and active torque bounds (nonlinear_comparison_test).
-    RigidBodyOptions o;
-    o.params.gravity = Eigen::Vector3d(0.0, 0.0, -9.81);
-    o.force_limit = 25.0;
-    o.torque_limit = 0.6;
-    return makeRigidBody(o);
-  }
-  throw std::invalid_argument("unknown problem " + name);
+  return makeNamedProblem(name == "rigid_body" ? "rigid_body_g" : name);
 }
 
 /// Success statuses of a converging solve: Converged (the target), or Acceptable (stopped

@@ -31,33 +31,6 @@ using solver::Solver;
 using solver::SolverSettings;
 using solver::SolverStatus;
 
-ProblemInstance makeNamed(const std::string& name) {
-  if (name == "two_link_arm") return makeTwoLinkArm();
-  if (name == "planar_quadrotor") return makePlanarQuadrotor();
-  if (name == "bicycle") return makeBicycle();
-  if (name == "cartpole") return makeCartPole();
-  if (name == "unicycle") return makeUnicycle();
-  if (name == "rigid_body") return makeRigidBody();
-  if (name == "maratos_circle") return makeMaratosCircle();
-  // Variants of the comparison tests: gravity and active torque bounds, two obstacles,
-  // explicit Euler.
-  if (name == "rigid_body_g") {
-    RigidBodyOptions o;
-    o.params.gravity = Eigen::Vector3d(0.0, 0.0, -9.81);
-    o.force_limit = 25.0;
-    o.torque_limit = 0.6;
-    return makeRigidBody(o);
-  }
-  if (name == "unicycle2") {
-    UnicycleOptions o;
-    o.hard_obstacles = {{1.5, -0.15, 0.4}, {3.0, 0.35, 0.3}};
-    return makeUnicycle(o);
-  }
-  CartPoleOptions o;  // cartpole_euler
-  o.rk4 = false;
-  return makeCartPole(o);
-}
-
 TEST(RandomStarts, SolvedWhereIpoptSolvesThem) {
   int cases = 0, ipopt_solved = 0, solved = 0, infeasible = 0;
   for (const std::string name :
@@ -66,7 +39,7 @@ TEST(RandomStarts, SolvedWhereIpoptSolvesThem) {
     std::mt19937 rng(7);
     std::normal_distribution<double> gauss(0.0, 1.0);
     for (int trial = 0; trial < 8; ++trial) {
-      const ProblemInstance inst = makeNamed(name);
+      const ProblemInstance inst = makeNamedProblem(name);
       const auto& space = inst.problem->stateSpace();
       const double scale = 0.3 * (1 + trial % 4);
       std::vector<VectorXd> xs = inst.xs_guess, us = inst.us_guess;
