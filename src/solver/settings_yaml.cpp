@@ -24,7 +24,7 @@ struct Entry {
   Field field;
 };
 // A new SolverSettings field goes here and into config/solver.yaml.
-const std::array<Entry, 25> kFields{{
+const std::array<Entry, 26> kFields{{
     {"mode", &SolverSettings::mode},
     {"max_iterations", &SolverSettings::max_iterations},
     {"kkt_tolerance", &SolverSettings::kkt_tolerance},
@@ -35,6 +35,7 @@ const std::array<Entry, 25> kFields{{
     {"realtime_iterations", &SolverSettings::realtime_iterations},
     {"fraction_to_boundary", &SolverSettings::fraction_to_boundary},
     {"bound_push", &SolverSettings::bound_push},
+    {"slack_reset", &SolverSettings::slack_reset},
     {"line_search", &SolverSettings::line_search},
     {"exact_hessian", &SolverSettings::exact_hessian},
     {"max_line_search_steps", &SolverSettings::max_line_search_steps},

@@ -189,6 +189,7 @@ struct Solver::Impl {
   bool filter_was_reset = false;  // in this iteration (IterationStats::filter_reset)
   bool has_guess = false;
   bool has_curvature = true;   // the problem has terms with curvature (hasCurvature())
+  bool reset_slacks = false;   // this iteration's linearisation resets slacks (slack_reset)
   bool use_curvature = false;  // this iteration adds the constraint curvature (H2)
   // One thread, real time: linearizeNode condenses the node's Hessian and gradient while
   // its derivatives are in cache, and the linearisation projects and factorises each node
@@ -347,6 +348,7 @@ struct Solver::Impl {
   void linearizeNode(int k);
   void rowValues(int k, const VectorXd& x, const VectorXd& u, Node& n) const;
   void initRows(Node& n) const;
+  void resetSlacks(Node& n) const;
   void residuals(int k, Node& n);
   void constraintGradient(int k, const Node& n, const NodeData& dd, VectorXd& out) const;
   void addCurvature(int k, Node& n);

@@ -247,6 +247,41 @@ TEST(GuessOutsideTheBounds, IsMovedInsideAndSolved) {
 }
 
 // ---------------------------------------------------------------------------------------
+// The slack reset (SolverSettings::slack_reset): the keep-out discs of the arm and the
+// quadrotor are convex rows, which grow faster along a step than the linearisation their
+// slacks follow. Without the reset those slacks lag the rows' values (by factors of
+// 10..1e5 on random starts) and the fraction to the boundary cuts the steps at them; with
+// it both solves reach Ipopt's optimum in fewer iterations (measured 2026-11-28: arm 70
+// against 97, quadrotor 52 against 60; Ipopt 80 and 57).
+TEST(SlackReset, ConvexRowsDoNotHoldTheStepsBack) {
+  for (const std::string name : {"two_link_arm", "planar_quadrotor"}) {
+    const ProblemInstance inst = makeProblem(name);
+    const IpoptResult& ref = ipoptReference(name, 0);
+    int iterations[2] = {0, 0};
+    for (const bool reset : {true, false}) {
+      SolverSettings set;
+      set.slack_reset = reset;
+      set.max_iterations = 300;
+      Solver s(inst.problem, set);
+      s.setInitialGuess(inst.xs_guess, inst.us_guess);
+      const SolverStatus st = s.solve(inst.x0);
+      std::printf("[slack reset] %-16s %-5s: %-10s %3d iterations, cost %.10g | Ipopt %3d\n",
+                  name.c_str(), reset ? "on" : "off", solver::toString(st), s.iterations(),
+                  s.cost(), ref.iterations);
+      const std::string what = name + (reset ? " with" : " without") + " the reset";
+      ASSERT_TRUE(succeeded(st)) << what << ": " << s.message();
+      EXPECT_NEAR(s.cost(), ref.cost, 1e-6 * std::max(1.0, std::abs(ref.cost))) << what;
+      EXPECT_LE(maxViolation(*inst.problem, inst.x0, s.states(), s.inputs()), 1e-6) << what;
+      const KktReport kkt = kktResidual(*inst.problem, inst.x0, s.states(), s.inputs(),
+                                        solverMultipliers(s, *inst.problem));
+      EXPECT_LE(kkt.max(), 1e-6) << what;
+      iterations[reset ? 0 : 1] = s.iterations();
+    }
+    EXPECT_LT(iterations[0], iterations[1]) << name;
+  }
+}
+
+// ---------------------------------------------------------------------------------------
 // Node 0: the measured state is data. A closed loop hands the solver a state 1e-7 inside
 // a keep-out disc (a state-only hard row): the row cannot be acted upon at node 0, so it
 // is not imposed there (it used to end Infeasible); from node 1 on it holds.

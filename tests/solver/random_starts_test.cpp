@@ -5,7 +5,8 @@
 // iterations allowed) must end Converged or Acceptable, at a point whose violation and
 // independent KKT residual (with its own multipliers) are small, in all but a few of them.
 // A start from which it reaches another local optimum than Ipopt's counts as solved.
-// Measured 2026-11-28: 80 of 80 (4801 iterations); without the restoration phase's rollout
+// Measured 2026-11-28: 80 of 80 (4334 iterations; 4801 without the slack reset of convex
+// rows, SolverSettings::slack_reset); without the restoration phase's rollout
 // 78 (start 7 of both rigid bodies Infeasible, which take Ipopt 304 and 305 iterations). Of
 // the first 56:
 // before the guess was moved inside its bounds (bound_push, as Ipopt does) 53 (the

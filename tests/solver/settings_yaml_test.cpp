@@ -71,6 +71,7 @@ TEST(SolverSettingsYaml, RoundTripIsExact) {
   s.barrier_realtime = 7e-4;
   s.fraction_to_boundary = 0.99;
   s.bound_push = 0.0;
+  s.slack_reset = false;
   s.line_search = false;
   s.exact_hessian = false;
   s.max_line_search_steps = 5;
@@ -88,6 +89,7 @@ TEST(SolverSettingsYaml, RoundTripIsExact) {
   EXPECT_EQ(r.kkt_tolerance, s.kkt_tolerance);
   EXPECT_EQ(r.barrier_initial, s.barrier_initial);
   EXPECT_EQ(r.barrier_decrease, s.barrier_decrease);
+  EXPECT_FALSE(r.slack_reset);
   EXPECT_NE(text, toYaml(SolverSettings{}));
 }
 
