@@ -43,7 +43,9 @@
 // raise the objective to reduce it), and after a restoration phase (it then holds the
 // entry of the point the restoration started from). A step that is tiny relative to the
 // iterate is taken whole (rounding cannot be line-searched). Optional second-order
-// corrections of a rejected unit step (max_second_order_corrections, off by default).
+// corrections of a rejected unit step (max_second_order_corrections, off by default). A hard
+// row whose value exceeds its slack by more than 10 % takes its value as the slack at each
+// linearisation (slack_reset: a convex row outgrows the linearisation its slack follows).
 //
 // Termination (converging mode), Ipopt's scaled tests: with s_d = max(100, mean |multiplier|)
 // / 100 and s_c = max(100, mean z) / 100, Converged when max(primal, dual / s_d,
