@@ -55,10 +55,12 @@
 // line search fails with the violation above infeasibility_tolerance the restoration phase
 // runs: a minimum-norm step towards the linearised constraints (Hessian I, no cost,
 // backtracked on the violation alone), taken when it reduces the l1 violation by at least
-// 0.1 %; else up to 10 such steps from slacks moved off their bounds (max(s, c, 0.1),
-// barrier max(mu, violation)) until the violation is 0.9 of where the Newton step was
-// rejected. When neither gets there (no step reduces the violation, five steps in a row do
-// not reduce the least violation reached by 0.1 %, or ten steps do not reach 0.9) the
+// 0.1 %; else a rollout (inputs moved inside their bounds, states simulated from x_0: every
+// defect closed at once), taken when it brings the violation to 0.9 of where the Newton
+// step was rejected; else up to 10 such minimum-norm steps from slacks moved off their
+// bounds (max(s, c, 0.1), barrier max(mu, violation)) until the violation is 0.9 of that.
+// When none gets there (no step reduces the violation, five steps in a row do not reduce
+// the least violation reached by 0.1 %, or ten steps do not reach 0.9) the
 // iterate is taken for a stationary point of the violation with a non-zero violation:
 // Infeasible. Infeasible also when the direction breaks down (not factorisable,
 // non-finite) with the violation above the tolerance and a dual above 1e12 (the duals of
