@@ -6,10 +6,13 @@
 // are separated by the sequential Riccati sweeps, well under a millisecond) start on all
 // threads at once. Past that window the worker blocks on a condition variable, so an idle
 // controller does not burn a core; only then does run() take the mutex, to wake it.
+// An exception thrown by a job (a problem's callback) is caught on the thread that threw
+// it and rethrown by run() on the caller once every chunk has finished, as with one thread.
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
+#include <exception>
 #include <mutex>
 #include <thread>
 #include <vector>
@@ -65,8 +68,9 @@ class ThreadPool {
   }
 
   /// Calls f(begin, end) on the static partition of [0, n) into size() contiguous chunks;
-  /// chunk 0 runs on the calling thread. Returns when all chunks are done. One caller at
-  /// a time.
+  /// chunk 0 runs on the calling thread. Returns when all chunks are done; then rethrows
+  /// the first exception a chunk threw, if any (the other chunks ran to their end: f must
+  /// not wait for another chunk's progress if it can throw). One caller at a time.
   template <class F>
   void run(int n, F& f) {
     if (threads_ == 1 || n <= 1) {
@@ -85,8 +89,19 @@ class ThreadPool {
       { std::lock_guard<std::mutex> lock(mutex_); }
       wake_.notify_all();
     }
-    f(0, chunkBegin(n, 1));
+    try {
+      f(0, chunkBegin(n, 1));
+    } catch (...) {
+      keepFirstError();
+    }
     for (int i = 1; pending_.load(std::memory_order_acquire) != 0; ++i) pause(i);
+    // error_ was written before its thread's release of pending_ (or on this thread).
+    if (failed_.load(std::memory_order_relaxed)) {
+      failed_.store(false, std::memory_order_relaxed);
+      std::exception_ptr e = error_;
+      error_ = nullptr;
+      std::rethrow_exception(e);
+    }
   }
 
  private:
@@ -114,13 +129,23 @@ class ThreadPool {
     return generation_.load(std::memory_order_acquire);
   }
 
+  /// Keeps the exception being handled unless another chunk of the job threw first (an
+  /// exception escaping a worker would end the process).
+  void keepFirstError() {
+    if (!failed_.exchange(true)) error_ = std::current_exception();
+  }
+
   void loop(int id) {
     std::uint64_t seen = 0;
     for (;;) {
       seen = waitForJob(seen);
       if (stop_.load()) return;
       const int n = n_;
-      fn_(ctx_, chunkBegin(n, id), chunkBegin(n, id + 1));
+      try {
+        fn_(ctx_, chunkBegin(n, id), chunkBegin(n, id + 1));
+      } catch (...) {
+        keepFirstError();
+      }
       pending_.fetch_sub(1, std::memory_order_release);
     }
   }
@@ -134,6 +159,8 @@ class ThreadPool {
   std::atomic<int> pending_{0};
   std::atomic<int> sleepers_{0};
   std::atomic<bool> stop_{false};
+  std::atomic<bool> failed_{false};  // a chunk of the current job threw
+  std::exception_ptr error_;         // its exception (the first one)
   void (*fn_)(void*, int, int) = nullptr;
   void* ctx_ = nullptr;
   int n_ = 0;

@@ -3,13 +3,19 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
+#include <memory>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "common/alloc_counter.hpp"
 #include "nonlinear_problems.hpp"
+#include "rollstep/ocp/cost.hpp"
+#include "rollstep/ocp/dynamics.hpp"
+#include "rollstep/ocp/problem.hpp"
 #include "rollstep/ocp/residuals.hpp"
 #include "rollstep/solver/solver.hpp"
 #include "solver_multipliers.hpp"
@@ -299,6 +305,99 @@ TEST(NonlinearFailure, RolloutRestoresWhereTheFeasibilityStepsAreCut) {
   const KktReport kkt = kktResidual(*inst.problem, inst.x0, s.states(), s.inputs(),
                                     solverMultipliers(s, *inst.problem));
   EXPECT_LE(kkt.max(), 1e-6);
+}
+
+/// A cart x = [position, velocity], u = [force], whose model throws from its armed call on
+/// (a user's model failing: a lookup out of range, a map that went away).
+class ThrowingCart final : public ocp::ContinuousDynamics {
+ public:
+  ThrowingCart() : ContinuousDynamics(std::make_shared<ocp::EuclideanSpace>(2), 1) {}
+  std::unique_ptr<ocp::DynamicsData> createData() const override {
+    return std::make_unique<ocp::DynamicsData>();
+  }
+  void calc(const ocp::NodeContext&, ocp::ConstVecRef x, ocp::ConstVecRef u, ocp::DynamicsData&,
+            ocp::VecRef xdot) const override {
+    const long c = ++calls_;
+    const long at = throw_at_.load();
+    if (at > 0 && c >= at) throw std::runtime_error("cart model: lookup out of range");
+    xdot << x[1], u[0] - 0.1 * x[1] * std::abs(x[1]);
+  }
+  void calcDiff(const ocp::NodeContext&, ocp::ConstVecRef x, ocp::ConstVecRef, ocp::DynamicsData&,
+                ocp::MatRef fx, ocp::MatRef fu) const override {
+    fx << 0.0, 1.0, 0.0, -0.2 * std::abs(x[1]);
+    fu << 0.0, 1.0;
+  }
+  long calls() const { return calls_.load(); }
+  /// Throws from the n-th call after this one (0: never).
+  void armIn(long n) const { throw_at_.store(n > 0 ? calls_.load() + n : 0); }
+
+ private:
+  mutable std::atomic<long> calls_{0};
+  mutable std::atomic<long> throw_at_{0};
+};
+
+// An exception from a problem's callback reaches the caller of solve() or update() with
+// any thread count (on a worker thread it would end the process), and the solver stays
+// usable: the next solve from the same guess returns what a new solver returns.
+TEST(NonlinearFailure, ACallbackExceptionReachesTheCallerWithAnyThreadCount) {
+  auto cart = std::make_shared<ThrowingCart>();
+  const int N = 40;
+  auto pb = std::make_shared<ocp::OptimalControlProblem>(std::make_shared<ocp::RungeKutta4>(cart),
+                                                         N, 0.05);
+  const Eigen::Vector2d goal(1.0, 0.0);
+  pb->addCost("goal", std::make_shared<ocp::LeastSquaresCost>(
+                          std::make_shared<ocp::StateErrorResidual>(cart->spacePtr(), 1, goal),
+                          Eigen::Vector2d(1.0, 0.1)));
+  pb->addCost("effort", std::make_shared<ocp::LeastSquaresCost>(
+                            std::make_shared<ocp::InputErrorResidual>(2, Eigen::VectorXd::Zero(1)),
+                            Eigen::VectorXd::Constant(1, 0.01)));
+  pb->addCost("arrive",
+              std::make_shared<ocp::LeastSquaresCost>(
+                  std::make_shared<ocp::StateErrorResidual>(cart->spacePtr(), 1, goal),
+                  Eigen::Vector2d(100.0, 100.0)),
+              ocp::Stage::Terminal);
+  pb->setInputBounds(Eigen::VectorXd::Constant(1, -2.0), Eigen::VectorXd::Constant(1, 2.0));
+  const double inf = ocp::OptimalControlProblem::kInfinity;
+  pb->setStateBounds(Eigen::Vector2d(-inf, -0.8), Eigen::Vector2d(inf, 0.8));
+  const Eigen::VectorXd x0 = Eigen::Vector2d::Zero();
+  const std::vector<Eigen::VectorXd> xs(N + 1, x0), us(N, Eigen::VectorXd::Zero(1));
+  for (int threads : {1, 2, 3}) {
+    SolverSettings set;
+    set.num_threads = threads;
+    cart->armIn(0);
+    Solver reference(pb, set);
+    reference.setInitialGuess(xs, us);
+    const long before = cart->calls();
+    ASSERT_EQ(reference.solve(x0), SolverStatus::Converged) << reference.message();
+    const long per_solve = cart->calls() - before;
+    Solver s(pb, set);
+    // Thrown in the first linearisation, in the middle of the solve, near its end.
+    for (long at : {1L, per_solve / 2, per_solve - per_solve / 10}) {
+      s.setInitialGuess(xs, us);
+      cart->armIn(at);
+      try {
+        s.solve(x0);
+        ADD_FAILURE() << "no exception, threads " << threads << ", call " << at;
+      } catch (const std::runtime_error& e) {
+        EXPECT_STREQ(e.what(), "cart model: lookup out of range");
+      }
+      cart->armIn(0);
+      s.setInitialGuess(xs, us);
+      ASSERT_EQ(s.solve(x0), SolverStatus::Converged) << s.message();
+      EXPECT_EQ(s.iterations(), reference.iterations());
+      for (int k = 0; k <= N; ++k) {
+        EXPECT_EQ(s.states()[static_cast<std::size_t>(k)],
+                  reference.states()[static_cast<std::size_t>(k)])
+            << "threads " << threads << ", node " << k;
+      }
+    }
+    // Real-time iterations: the same.
+    cart->armIn(N);  // within its linearisation (four model calls per node)
+    EXPECT_THROW(s.update(0.05, x0), std::runtime_error);
+    cart->armIn(0);
+    EXPECT_EQ(s.update(0.1, x0), SolverStatus::IterationDone) << s.message();
+    expectFiniteOutputs(s);
+  }
 }
 
 }  // namespace

@@ -1,14 +1,17 @@
 // The solver's node-parallel thread pool (src/solver/thread_pool.hpp): every index of
 // every job runs exactly once, on the static partition, whether the workers are polling
 // (back-to-back jobs inside the spin window) or asleep (spin 0, or a pause longer than
-// the window), and nothing is allocated per job. Run under ThreadSanitizer by the
-// `sanitizer.thread` test.
+// the window), nothing is allocated per job, and an exception a chunk throws reaches the
+// caller once every chunk has ended (it would end the process on a worker). Run under
+// ThreadSanitizer by the `sanitizer.thread` test.
 #include "thread_pool.hpp"
 
 #include <gtest/gtest.h>
 
 #include <atomic>
 #include <chrono>
+#include <stdexcept>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -74,6 +77,48 @@ TEST(ThreadPool, RunDoesNotAllocate) {
   for (int j = 0; j < 50; ++j) pool.run(64, body);
   EXPECT_EQ(guard.count(), 0u);
   EXPECT_EQ(sum.load(), 51 * 64);
+}
+
+/// Runs one job over [0, n) whose chunks in `throwing` (by chunk id) throw after doing
+/// their work; returns the message run() rethrew ("" when none).
+std::string runThrowing(ThreadPool& pool, int n, const std::vector<int>& throwing,
+                        std::vector<int>& hits) {
+  hits.assign(static_cast<std::size_t>(n), 0);
+  auto body = [&](int b, int e) {
+    for (int k = b; k < e; ++k) ++hits[static_cast<std::size_t>(k)];
+    for (int t : throwing) {
+      if (b == pool.chunkBegin(n, t)) throw std::runtime_error("chunk " + std::to_string(t));
+    }
+  };
+  try {
+    pool.run(n, body);
+  } catch (const std::runtime_error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(ThreadPool, AChunksExceptionReachesTheCallerAfterEveryChunkEnded) {
+  const int n = 12;
+  std::vector<int> hits;
+  for (int threads : {1, 2, 3}) {
+    for (auto spin : {microseconds(0), microseconds(100000)}) {
+      ThreadPool pool(threads, spin);
+      for (int t = 0; t < threads; ++t) {
+        // On the caller's chunk or a worker's: rethrown by run(), every index done once.
+        EXPECT_EQ(runThrowing(pool, n, {t}, hits), "chunk " + std::to_string(t)) << threads;
+        for (int k = 0; k < n; ++k) EXPECT_EQ(hits[static_cast<std::size_t>(k)], 1) << k;
+        // The pool is as good as new: the next jobs run whole, nothing rethrown again.
+        EXPECT_EQ(runThrowing(pool, n, {}, hits), "");
+        runJobs(pool, n, 3, microseconds(0));
+      }
+      // Every chunk throws: one exception reaches the caller, the others are dropped.
+      std::vector<int> all;
+      for (int t = 0; t < threads; ++t) all.push_back(t);
+      EXPECT_EQ(runThrowing(pool, n, all, hits).rfind("chunk ", 0), 0u);
+      EXPECT_EQ(runThrowing(pool, n, {}, hits), "");
+    }
+  }
 }
 
 }  // namespace

@@ -272,6 +272,12 @@ class Solver {
   /// grid moves by whole nodes only, so after any sequence of updates the solution has
   /// been shifted floor((t0 - t_solve) / dt) nodes in total. A t0 earlier than the grid
   /// start restarts the grid at t0 without a shift. Never allocates.
+  ///
+  /// The solver itself never throws from solve() or update(). An exception thrown by the
+  /// problem's own callbacks (dynamics, costs, rows) reaches their caller with any
+  /// num_threads, once every thread has ended its part of the pass (states() and inputs()
+  /// then hold an iterate of the interrupted run, not a solution); the next solve() or
+  /// update() starts as usual.
   SolverStatus update(double t0, ConstVecRef x0);
 
   const std::vector<VectorXd>& states() const;  ///< x_0..x_N
