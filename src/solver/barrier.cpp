@@ -12,9 +12,15 @@ bool Solver::Impl::diverged(const Kkt& kkt) {
   if (!kkt.finite || !std::isfinite(primal) || primal > set.divergence_threshold) {
     if (backup_valid) {
       restore();
-      ROLLSTEP_MSG(
-          "the iterate diverged (primal residual %.3g); the last good iterate was restored",
-          primal);
+      if (kkt.finite) {
+        ROLLSTEP_MSG(
+            "the iterate diverged (primal residual %.3g); the last good iterate was restored",
+            primal);
+      } else {
+        ROLLSTEP_MSG(
+            "the problem evaluates to non-finite values at the new iterate (is it undefined "
+            "there, outside its model's domain?); the last good iterate was restored");
+      }
       status = SolverStatus::Diverged;
       return true;
     }
@@ -61,6 +67,7 @@ bool Solver::Impl::terminated(const Kkt& kkt, int max_it, IterationStats& it) {
         "no convergence in %d iterations (KKT error %.3g: violation %.3g, dual %.3g, "
         "complementarity %.3g)",
         max_it, e0, kkt.primal, kkt.dual_scaled, kkt.sz_scaled);
+    noteNonFiniteTrials();
     status = SolverStatus::MaxIterations;
   }
   return true;

@@ -1,6 +1,10 @@
 // When is a step accepted? The filter line search of Waechter and Biegler on the barrier
 // objective and the l1 constraint violation (converging mode), the full fraction-to-
 // boundary step otherwise, and the update of the duals and multipliers with the step.
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+
 #include "solver_impl.hpp"
 
 namespace rollstep::solver {
@@ -112,7 +116,18 @@ double Solver::Impl::trialMerit(double alpha, double& f) {
     theta += node(k).merit_theta;
   }
   prob->stateSpace().difference(xs_trial[0], x0, dx0);
-  return theta + dx0.lpNorm<1>();
+  theta += dx0.lpNorm<1>();
+  if (!std::isfinite(theta) || !std::isfinite(f)) ++nonfinite_trials;
+  return theta;
+}
+
+void Solver::Impl::noteNonFiniteTrials() {
+  if (nonfinite_trials == 0) return;
+  const std::size_t used = std::strlen(message);
+  std::snprintf(message + used, sizeof(message) - used,
+                "; %d trial points evaluated to non-finite values (is the problem undefined "
+                "there, outside its model's domain?)",
+                nonfinite_trials);
 }
 
 /// The filter's acceptance test of a trial point (theta, f) for the step alpha from the

@@ -33,6 +33,7 @@ bool Solver::Impl::stepRejected(const Kkt& kkt, double theta0, double f0, double
           "no convergence in %d iterations: the restoration phase was still reducing the "
           "constraint violation (l1 %.3g where it started)",
           set.max_iterations, theta0);
+      noteNonFiniteTrials();
       status = SolverStatus::MaxIterations;
       return false;
     }
@@ -40,6 +41,7 @@ bool Solver::Impl::stepRejected(const Kkt& kkt, double theta0, double f0, double
         "locally infeasible: neither the Newton step nor the restoration phase reduces the "
         "constraint violation (max %.3g, l1 %.3g)",
         primal, theta0);
+    noteNonFiniteTrials();
     status = SolverStatus::Infeasible;
     return false;
   }
@@ -56,6 +58,7 @@ bool Solver::Impl::stepRejected(const Kkt& kkt, double theta0, double f0, double
       "line search failed after %d backtracking steps (objective slope %.3g, "
       "violation %.3g)",
       set.max_line_search_steps, dphi, theta0);
+  noteNonFiniteTrials();
   status = SolverStatus::LineSearchFailed;
   return false;
 }
@@ -285,7 +288,10 @@ double Solver::Impl::rollout() {
     const auto kk = static_cast<std::size_t>(k);
     NodeData& d = *node(k).d;
     prob->evaluate(k, xs_trial[kk], us_trial[kk], d);
-    if (!d.xnext.allFinite()) return detail::kInf;
+    if (!d.xnext.allFinite()) {
+      ++nonfinite_trials;
+      return detail::kInf;
+    }
     xs_trial[kk + 1] = d.xnext;
   }
   prob->evaluate(N, xs_trial[static_cast<std::size_t>(N)], zero_u, *node(N).d);

@@ -75,6 +75,7 @@ bool Solver::Impl::begin(ConstVecRef x_init, bool realtime) {
   // the first linearisation).
   pc_active = !realtime && set.predictor_corrector && !has_curvature;
   tiny_step = false;
+  nonfinite_trials = 0;
   acceptable_count = 0;
   prox = 0.0;
   return true;

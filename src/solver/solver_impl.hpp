@@ -243,9 +243,12 @@ struct Solver::Impl {
   bool curvature_reserved = false;
   /// SolverSettings::huge_pages: the advice for the span of the nodes' data and stages.
   void adviseHugePagesForNodes();
-  double last_delta = 0.0;   // last inertia correction
-  bool pc_active = false;    // this solve uses Mehrotra's predictor-corrector
-  bool tiny_step = false;    // the last step was tiny: decrease the barrier
+  double last_delta = 0.0;  // last inertia correction
+  bool pc_active = false;   // this solve uses Mehrotra's predictor-corrector
+  bool tiny_step = false;   // the last step was tiny: decrease the barrier
+  // Trial points of this run (line search, restoration) whose evaluation was not finite:
+  // named in a failure's message (a model undefined there, such as outside its domain).
+  int nonfinite_trials = 0;
   int acceptable_count = 0;  // consecutive acceptable iterations
   double prox = 0.0;         // proximal shift of the Hessian after short steps (line_search.cpp)
   // Complementarity target of the Newton step: s_i z_i -> target_mu (the barrier), minus
@@ -266,7 +269,7 @@ struct Solver::Impl {
   double solution_t0 = 0.0;      // start of the node grid of the stored solution
   int last_shift = 0;            // nodes the last update() shifted the solution by
   int failed_node = -1;
-  char message[256] = "";
+  char message[512] = "";
 
   Impl(std::shared_ptr<ocp::OptimalControlProblem> p, SolverSettings s);
 
@@ -393,6 +396,8 @@ struct Solver::Impl {
                             double& alpha, double& alpha_d);
   void correctionVectors(int k, bool corrected);
   double trialMerit(double alpha, double& f);
+  /// Appends the count of non-finite trial points to the message (none: nothing).
+  void noteNonFiniteTrials();
   bool stepLengths(double& ap, double& ad) const;
   void noteFilterRefusals(bool refused);
   void takeFullStep(double alpha);

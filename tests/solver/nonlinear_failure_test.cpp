@@ -400,5 +400,79 @@ TEST(NonlinearFailure, ACallbackExceptionReachesTheCallerWithAnyThreadCount) {
   }
 }
 
+/// A cart pushed back by a spring force 0.5 sqrt(2 - position): the model is undefined
+/// (NaN) beyond position 2, as a user's model may be outside its domain.
+class DomainCart final : public ocp::ContinuousDynamics {
+ public:
+  DomainCart() : ContinuousDynamics(std::make_shared<ocp::EuclideanSpace>(2), 1) {}
+  std::unique_ptr<ocp::DynamicsData> createData() const override {
+    return std::make_unique<ocp::DynamicsData>();
+  }
+  void calc(const ocp::NodeContext&, ocp::ConstVecRef x, ocp::ConstVecRef u, ocp::DynamicsData&,
+            ocp::VecRef xdot) const override {
+    xdot << x[1], u[0] - 0.5 * std::sqrt(2.0 - x[0]);
+  }
+  void calcDiff(const ocp::NodeContext&, ocp::ConstVecRef x, ocp::ConstVecRef, ocp::DynamicsData&,
+                ocp::MatRef fx, ocp::MatRef fu) const override {
+    fx << 0.0, 1.0, 0.25 / std::sqrt(2.0 - x[0]), 0.0;
+    fu << 0.0, 1.0;
+  }
+};
+
+std::shared_ptr<ocp::OptimalControlProblem> domainCartProblem(double goal_position) {
+  auto cart = std::make_shared<DomainCart>();
+  auto pb = std::make_shared<ocp::OptimalControlProblem>(std::make_shared<ocp::RungeKutta4>(cart),
+                                                         30, 0.05);
+  const Eigen::Vector2d goal(goal_position, 0.0);
+  auto to_goal = std::make_shared<ocp::StateErrorResidual>(cart->spacePtr(), 1, goal);
+  pb->addCost("goal", std::make_shared<ocp::LeastSquaresCost>(to_goal, Eigen::Vector2d(1.0, 1.0)));
+  pb->addCost("effort", std::make_shared<ocp::LeastSquaresCost>(
+                            std::make_shared<ocp::InputErrorResidual>(2, Eigen::VectorXd::Zero(1)),
+                            Eigen::VectorXd::Constant(1, 0.01)));
+  pb->addCost("arrive",
+              std::make_shared<ocp::LeastSquaresCost>(to_goal, Eigen::Vector2d(100.0, 100.0)),
+              ocp::Stage::Terminal);
+  return pb;
+}
+
+// A model undefined where the steps go: near its domain's edge the line search keeps the
+// iterates inside; from an initial state outside it the solve fails and its message says
+// that the trial points evaluated to non-finite values (not only "infeasible"), and the
+// real-time iterations from there either step or restore the last good iterate, saying why.
+TEST(NonlinearFailure, AModelUndefinedAtTheTrialPointsIsNamedInTheMessage) {
+  const std::vector<Eigen::VectorXd> xs(31, Eigen::Vector2d::Zero()),
+      us(30, Eigen::VectorXd::Zero(1));
+  {
+    Solver s(domainCartProblem(1.99), SolverSettings{});
+    s.setInitialGuess(xs, us);
+    EXPECT_EQ(s.solve(Eigen::Vector2d::Zero()), SolverStatus::Converged) << s.message();
+    EXPECT_LT(s.states().back()[0], 2.0);
+  }
+  Solver s(domainCartProblem(1.0), SolverSettings{});
+  s.setInitialGuess(xs, us);
+  const Eigen::Vector2d outside(3.0, 0.0);
+  const SolverStatus st = s.solve(outside);
+  std::printf("[domain] %s: %s\n", solver::toString(st), s.message());
+  EXPECT_NE(st, SolverStatus::Converged);
+  EXPECT_NE(st, SolverStatus::Acceptable);
+  EXPECT_NE(std::string(s.message()).find("trial points evaluated to non-finite values"),
+            std::string::npos);
+  expectFiniteOutputs(s);
+  int restored = 0;
+  for (int k = 1; k <= 6; ++k) {
+    const SolverStatus rt = s.update(0.05 * k, outside);
+    if (rt == SolverStatus::Diverged) {
+      ++restored;
+      EXPECT_NE(std::string(s.message()).find("non-finite values at the new iterate"),
+                std::string::npos)
+          << s.message();
+    } else {
+      EXPECT_EQ(rt, SolverStatus::IterationDone) << s.message();
+    }
+    for (const auto& x : s.states()) EXPECT_TRUE(x.allFinite());
+  }
+  EXPECT_GT(restored, 0);
+}
+
 }  // namespace
 }  // namespace rollstep::nltest
