@@ -436,6 +436,58 @@ void TwoLinkArmDynamics::calcDiff(const ocp::NodeContext&, ConstVecRef x, ConstV
   fu.bottomRows<2>() = Minv;
 }
 
+AcrobotDynamics::AcrobotDynamics(const TwoLinkArmParams& p)
+    : ContinuousDynamics(std::make_shared<ocp::EuclideanSpace>(4), 1), arm_(p) {}
+
+std::unique_ptr<ocp::DynamicsData> AcrobotDynamics::createData() const {
+  return std::make_unique<ocp::DynamicsData>();
+}
+
+void AcrobotDynamics::calc(const ocp::NodeContext& ctx, ConstVecRef x, ConstVecRef u,
+                           ocp::DynamicsData& d, VecRef xdot) const {
+  const Eigen::Vector2d tau(0.0, u[0]);
+  arm_.calc(ctx, x, tau, d, xdot);
+}
+
+void AcrobotDynamics::calcDiff(const ocp::NodeContext& ctx, ConstVecRef x, ConstVecRef u,
+                               ocp::DynamicsData& d, MatRef fx, MatRef fu) const {
+  const Eigen::Vector2d tau(0.0, u[0]);
+  Eigen::Matrix<double, 4, 2> fu_arm;
+  arm_.calcDiff(ctx, x, tau, d, fx, fu_arm);
+  fu = fu_arm.col(1);
+}
+
+ProblemInstance makeAcrobot(const AcrobotOptions& o) {
+  auto f = std::make_shared<AcrobotDynamics>(o.params);
+  auto space = f->spacePtr();
+  auto pb = std::make_shared<ocp::OptimalControlProblem>(discretise(f, true), o.horizon, o.dt);
+  ProblemInstance inst;
+  inst.name = "acrobot";
+  inst.problem = pb;
+  inst.x0 = VectorXd::Zero(4);
+  inst.x0[0] = -M_PI / 2;
+  inst.x_goal = VectorXd::Zero(4);
+  inst.x_goal[0] = M_PI / 2;
+  auto state_err = std::make_shared<ocp::StateErrorResidual>(space, 1, inst.x_goal);
+  pb->addCost("state", std::make_shared<ocp::LeastSquaresCost>(
+                           state_err, VectorXd::Constant(4, o.state_weight)));
+  pb->addCost("input", std::make_shared<ocp::LeastSquaresCost>(
+                           std::make_shared<ocp::InputErrorResidual>(4, VectorXd::Zero(1)),
+                           VectorXd::Constant(1, o.input_weight)));
+  pb->addCost(
+      "terminal",
+      std::make_shared<ocp::LeastSquaresCost>(state_err, VectorXd::Constant(4, o.terminal_weight)),
+      ocp::Stage::Terminal);
+  pb->setInputBounds(VectorXd::Constant(1, -o.torque_limit), VectorXd::Constant(1, o.torque_limit));
+  VectorXd lo = VectorXd::Constant(4, -ocp::OptimalControlProblem::kInfinity);
+  VectorXd hi = VectorXd::Constant(4, ocp::OptimalControlProblem::kInfinity);
+  lo.tail<2>().setConstant(-o.velocity_limit);
+  hi.tail<2>().setConstant(o.velocity_limit);
+  pb->setStateBounds(lo, hi);
+  fillGuess(inst);
+  return inst;
+}
+
 ArmKeepOutResidual::ArmKeepOutResidual(int ndx, int nu, double length1, double length2,
                                        std::vector<Circle> discs)
     : Residual(ndx, nu, static_cast<int>(discs.size())),
@@ -774,6 +826,7 @@ ProblemInstance makeNamedProblem(const std::string& name) {
     o.hard_obstacles = {{1.5, -0.15, 0.4}, {3.0, 0.35, 0.3}};
     return makeUnicycle(o);
   }
+  if (name == "acrobot") return makeAcrobot();
   if (name == "cartpole_euler") {
     CartPoleOptions o;
     o.rk4 = false;

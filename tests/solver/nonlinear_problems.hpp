@@ -272,6 +272,36 @@ struct TwoLinkArmOptions {
 ProblemInstance makeTwoLinkArm(const TwoLinkArmOptions& o = {});
 
 // =====================================================================================
+// Acrobot: the two-link arm with a free shoulder, u = [elbow torque] (underactuated). Its
+// swing-up from hanging down (q = (-pi/2, 0)) to upright (q = (pi/2, 0)) must pump energy
+// with an elbow torque too weak to lift the links directly: a long, non-convex problem.
+class AcrobotDynamics final : public ocp::ContinuousDynamics {
+ public:
+  explicit AcrobotDynamics(const TwoLinkArmParams& p = {});
+  std::unique_ptr<ocp::DynamicsData> createData() const override;
+  void calc(const ocp::NodeContext& ctx, ConstVecRef x, ConstVecRef u, ocp::DynamicsData& d,
+            VecRef xdot) const override;
+  void calcDiff(const ocp::NodeContext& ctx, ConstVecRef x, ConstVecRef u, ocp::DynamicsData& d,
+                MatRef fx, MatRef fu) const override;
+
+ private:
+  TwoLinkArmDynamics arm_;
+};
+
+struct AcrobotOptions {
+  TwoLinkArmParams params;
+  int horizon = 80;
+  double dt = 0.05;
+  double torque_limit = 4.0;    ///< |tau| <= limit; lifting link 2 alone takes 2.45 N m
+  double velocity_limit = 8.0;  ///< |dq_i| <= limit (state bounds)
+  double state_weight = 0.1;    ///< running, on x - x_goal
+  double input_weight = 1e-2;
+  double terminal_weight = 100.0;
+};
+/// Default guess: hanging still, zero torque.
+ProblemInstance makeAcrobot(const AcrobotOptions& o = {});
+
+// =====================================================================================
 // Planar quadrotor (issue 17): x = [px, pz, theta, vx, vz, omega], u = [f1, f2] rotor
 // thrusts at +-arm from the centre:
 //   m ax = -(f1 + f2) sin theta, m az = (f1 + f2) cos theta - m g,
@@ -385,7 +415,8 @@ ProblemInstance makeMaratosCircle(const MaratosCircleOptions& o = {});
 /// The tests' problems by name: the defaults of two_link_arm, planar_quadrotor, bicycle,
 /// cartpole, unicycle, rigid_body and maratos_circle, and variants of the comparison tests:
 /// rigid_body_g (gravity, force and torque limits 25 and 0.6: active bounds), unicycle2 (two
-/// obstacles), cartpole_euler (explicit Euler). Throws std::invalid_argument on another name.
+/// obstacles), cartpole_euler (explicit Euler), acrobot. Throws std::invalid_argument on another
+/// name.
 ProblemInstance makeNamedProblem(const std::string& name);
 
 // =====================================================================================

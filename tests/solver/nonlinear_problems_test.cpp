@@ -243,6 +243,24 @@ TEST(NonlinearProblems, TwoLinkArmDynamicsDerivatives) {
   checkContinuous(TwoLinkArmDynamics(p), rng, 3.0);
 }
 
+TEST(NonlinearProblems, AcrobotDynamicsDerivativesAndFreeShoulder) {
+  std::mt19937 rng(9);
+  checkContinuous(AcrobotDynamics(), rng, 3.0);
+  // The arm with no shoulder torque; hanging straight down at rest it stays there.
+  const TwoLinkArmDynamics arm;
+  const AcrobotDynamics acrobot;
+  auto da = arm.createData();
+  auto db = acrobot.createData();
+  const ocp::NodeContext ctx;
+  const Eigen::Vector4d x(0.3, -0.7, 1.1, -0.4);
+  Eigen::Vector4d fa, fb;
+  arm.calc(ctx, x, Eigen::Vector2d(0.0, 1.7), *da, fa);
+  acrobot.calc(ctx, x, Eigen::VectorXd::Constant(1, 1.7), *db, fb);
+  EXPECT_EQ(fa, fb);
+  acrobot.calc(ctx, Eigen::Vector4d(-M_PI / 2, 0.0, 0.0, 0.0), Eigen::VectorXd::Zero(1), *db, fb);
+  EXPECT_LT(fb.norm(), 1e-12);
+}
+
 TEST(NonlinearProblems, TwoLinkArmHoldsStillWithGravityTorqueAndMatchesEnergy) {
   const TwoLinkArmDynamics f;
   auto d = f.createData();
@@ -322,7 +340,7 @@ TEST(NonlinearProblems, ComposedNodesMatchFiniteDifferences) {
 
 TEST(NonlinearProblems, InstancesAreConsistent) {
   for (const auto& inst : {makeCartPole(), makeUnicycle(), makeRigidBody(), makeTwoLinkArm(),
-                           makePlanarQuadrotor(), makeBicycle()}) {
+                           makePlanarQuadrotor(), makeBicycle(), makeAcrobot()}) {
     const auto& pb = *inst.problem;
     EXPECT_EQ(inst.x0.size(), pb.nx()) << inst.name;
     EXPECT_EQ(inst.x_goal.size(), pb.nx()) << inst.name;

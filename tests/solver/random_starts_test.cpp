@@ -36,7 +36,7 @@ TEST(RandomStarts, SolvedWhereIpoptSolvesThem) {
   int cases = 0, ipopt_solved = 0, solved = 0, infeasible = 0;
   for (const std::string name :
        {"two_link_arm", "planar_quadrotor", "bicycle", "cartpole", "unicycle", "rigid_body",
-        "maratos_circle", "rigid_body_g", "unicycle2", "cartpole_euler"}) {
+        "maratos_circle", "rigid_body_g", "unicycle2", "cartpole_euler", "acrobot"}) {
     std::mt19937 rng(7);
     std::normal_distribution<double> gauss(0.0, 1.0);
     for (int trial = 0; trial < 8; ++trial) {
