@@ -5,6 +5,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -138,9 +139,31 @@ struct MpcRunner::Impl {
     out.gait_clock = ocp.gaitClock();
   }
 
-  /// One real-time iteration from x at t (never allocates).
-  solver::SolverStatus solveRealTime(double t, const Eigen::VectorXd& x) {
+  /// One real-time iteration from x at t (never allocates). An exception from the solve
+  /// (a problem term, the observer) would end the process in the thread or through the
+  /// noexcept post(): it becomes a Diverged solution, which the pipeline does not adopt,
+  /// and is counted (solveExceptions(); the first one's message kept).
+  solver::SolverStatus solveRealTime(double t, const Eigen::VectorXd& x) noexcept {
     solves_started.fetch_add(1, std::memory_order_relaxed);
+    try {
+      return solveRealTimeOrThrow(t, x);
+    } catch (const std::exception& e) {
+      noteSolveException(e.what());
+    } catch (...) {
+      noteSolveException("an exception not derived from std::exception");
+    }
+    return solver::SolverStatus::Diverged;
+  }
+
+  void noteSolveException(const char* what) noexcept {
+    if (!first_exception_taken.exchange(true, std::memory_order_relaxed)) {
+      std::snprintf(first_exception.data(), first_exception.size(), "%s", what);
+    }
+    // Release: the message is written before a reader that sees the count reads it.
+    solve_exceptions.fetch_add(1, std::memory_order_release);
+  }
+
+  solver::SolverStatus solveRealTimeOrThrow(double t, const Eigen::VectorXd& x) {
     // A new terrain takes effect at the start of a solve (swapped in: no allocation).
     std::uint64_t version = 0;
     if (terrain_in.take(incoming_terrain, version) && ocp.swapTerrain(incoming_terrain)) {
@@ -308,8 +331,11 @@ struct MpcRunner::Impl {
   std::atomic<bool> stopped{false};
   std::atomic<std::uint64_t> solves_started{0};
   std::atomic<std::uint64_t> rejected{0};
-  int initial_iterations = 0;   ///< of the converging first solve (initialize())
-  std::string initial_message;  ///< its Solver::message()
+  std::atomic<std::uint64_t> solve_exceptions{0};
+  std::atomic<bool> first_exception_taken{false};
+  std::array<char, 256> first_exception{};  // written once, by the first exception
+  int initial_iterations = 0;               ///< of the converging first solve (initialize())
+  std::string initial_message;              ///< its Solver::message()
 };
 
 MpcRunner::MpcRunner(const centroidal::RobotOcpDescription& robot, const ControlSettings& settings,
@@ -366,6 +392,8 @@ solver::SolverStatus MpcRunner::initializeSchedule(
   m.sequence = 0;
   m.solves_started.store(0, std::memory_order_relaxed);
   m.rejected.store(0, std::memory_order_relaxed);
+  m.solve_exceptions.store(0, std::memory_order_relaxed);
+  m.first_exception_taken.store(false, std::memory_order_relaxed);
   m.released = -1;
   m.pending = -1;
   for (MpcSolution& slot : m.solutions) slot.sequence = 0;
@@ -439,6 +467,14 @@ std::uint64_t MpcRunner::solvesStarted() const {
 
 std::uint64_t MpcRunner::rejectedStates() const {
   return impl_->rejected.load(std::memory_order_relaxed);
+}
+
+std::uint64_t MpcRunner::solveExceptions() const {
+  return impl_->solve_exceptions.load(std::memory_order_acquire);
+}
+
+const char* MpcRunner::firstSolveException() const {
+  return solveExceptions() > 0 ? impl_->first_exception.data() : "";
 }
 
 int MpcRunner::initialIterations() const { return impl_->initial_iterations; }

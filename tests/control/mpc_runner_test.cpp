@@ -6,10 +6,12 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <thread>
 #include <vector>
@@ -547,6 +549,57 @@ TEST(MpcRunner, StepDownHoldsTravelWithTheSolution) {
   // The runner's clock as of its latest solve: the holds within 0.9 s each.
   for (int h = 0; h < runner->ocp().gaitClock().size(); ++h) {
     EXPECT_LE(runner->ocp().gaitClock().hold(h).duration, 0.9 + 1e-12);
+  }
+}
+
+// An exception in a real-time solve (here the observer's; a problem term's the same) must
+// not end the process: in the MPC thread it would call std::terminate, and post() is
+// noexcept. It becomes a Diverged solution (not usable), counted with its message, and the
+// next solves go on.
+TEST(MpcRunner, AThrowingSolveBecomesAFailedSolutionNotACrash) {
+  for (const MpcTiming timing : {MpcTiming::Deterministic, MpcTiming::Asynchronous}) {
+    const bool deterministic = timing == MpcTiming::Deterministic;
+    SCOPED_TRACE(deterministic ? "deterministic" : "asynchronous");
+    ControlSettings settings = shortHorizon(20);
+    settings.mpc.timing = timing;
+    settings.mpc.period = deterministic ? 0.02 : 0.002;
+    settings.mpc.latency = 0.0;
+    auto runner = makeRunner(settings, planning::GaitKind::Standing);
+    const Eigen::VectorXd x0 = initializeStanding(*runner);
+    std::atomic<int> calls{0};
+    runner->setSolveObserver([&calls](double, const ocp::OptimalControlProblem&,
+                                      const std::vector<Eigen::VectorXd>&,
+                                      const std::vector<Eigen::VectorXd>&) {
+      if (++calls == 3) throw std::runtime_error("observer: disk full");
+    });
+    EXPECT_EQ(runner->solveExceptions(), 0u);
+    EXPECT_STREQ(runner->firstSolveException(), "");
+    MpcSolution out = runner->makeSolution();
+    ASSERT_TRUE(runner->poll(0.0, out));
+    std::vector<solver::SolverStatus> statuses;
+    const Clock::time_point start = Clock::now();
+    for (int i = 1; i <= 200 && runner->solvesStarted() < 8; ++i) {
+      const double t =
+          deterministic ? 1e-3 * i : std::chrono::duration<double>(Clock::now() - start).count();
+      runner->post(t, perturbed(x0, t, 1e-3));
+      if (runner->poll(t, out)) statuses.push_back(out.status);
+      if (!deterministic) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    runner->stop();
+    EXPECT_GE(runner->solvesStarted(), 5u);
+    EXPECT_EQ(runner->solveExceptions(), 1u);
+    EXPECT_STREQ(runner->firstSolveException(), "observer: disk full");
+    if (deterministic) {
+      // Every solve handed out: the third one failed, the others did not.
+      ASSERT_GE(statuses.size(), 5u);
+      for (std::size_t i = 0; i < statuses.size(); ++i) {
+        EXPECT_EQ(statuses[i],
+                  i == 2 ? solver::SolverStatus::Diverged : solver::SolverStatus::IterationDone)
+            << i;
+      }
+    }
+    ASSERT_FALSE(statuses.empty());
+    EXPECT_EQ(statuses.back(), solver::SolverStatus::IterationDone);
   }
 }
 

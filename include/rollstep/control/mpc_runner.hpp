@@ -136,7 +136,8 @@ class MpcRunner {
   /// Diagnostics: called after every real-time solve, in the solving thread, with the time
   /// solved from, the problem as solved and the solver's trajectory. It may allocate and
   /// takes the solve's time, so it is for analysis runs, not for the real-time loop. Set
-  /// it before the first post() (not synchronised with a running thread).
+  /// it before the first post() (not synchronised with a running thread). If it throws,
+  /// the solve counts as failed (solveExceptions()).
   using SolveObserver = std::function<void(double t, const ocp::OptimalControlProblem& problem,
                                            const std::vector<Eigen::VectorXd>& xs,
                                            const std::vector<Eigen::VectorXd>& us)>;
@@ -148,6 +149,11 @@ class MpcRunner {
   std::uint64_t solvesStarted() const;
   /// States post() ignored since initialize(): non-finite or of the wrong size.
   std::uint64_t rejectedStates() const;
+  /// Real-time solves since initialize() that threw (a problem term, the solve observer):
+  /// each published as a Diverged solution instead of ending the process; and the first
+  /// one's message ("" when none).
+  std::uint64_t solveExceptions() const;
+  const char* firstSolveException() const;
   /// What the converging first solve of the last initialize() ended with: its iteration
   /// count and the solver's message (Solver::message(); empty after a clean convergence),
   /// kept from the later real-time solves that overwrite the solver's own.
