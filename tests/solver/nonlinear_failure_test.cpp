@@ -307,11 +307,14 @@ TEST(NonlinearFailure, RolloutRestoresWhereTheFeasibilityStepsAreCut) {
   EXPECT_LE(kkt.max(), 1e-6);
 }
 
-/// A cart x = [position, velocity], u = [force], whose model throws from its armed call on
-/// (a user's model failing: a lookup out of range, a map that went away).
-class ThrowingCart final : public ocp::ContinuousDynamics {
+/// A user's model that fails, for the two tests below: a cart x = [position, velocity],
+/// u = [force], with drag 0.1 v |v| and, with `spring`, a force 0.5 sqrt(2 - position)
+/// pushing it back, undefined (NaN) beyond 2 m (a model outside its domain). armIn(n)
+/// makes it throw from its n-th call on (a lookup out of range, a map that went away).
+class FailingCart final : public ocp::ContinuousDynamics {
  public:
-  ThrowingCart() : ContinuousDynamics(std::make_shared<ocp::EuclideanSpace>(2), 1) {}
+  explicit FailingCart(bool spring)
+      : ContinuousDynamics(std::make_shared<ocp::EuclideanSpace>(2), 1), spring_(spring) {}
   std::unique_ptr<ocp::DynamicsData> createData() const override {
     return std::make_unique<ocp::DynamicsData>();
   }
@@ -320,11 +323,13 @@ class ThrowingCart final : public ocp::ContinuousDynamics {
     const long c = ++calls_;
     const long at = throw_at_.load();
     if (at > 0 && c >= at) throw std::runtime_error("cart model: lookup out of range");
-    xdot << x[1], u[0] - 0.1 * x[1] * std::abs(x[1]);
+    const double spring = spring_ ? 0.5 * std::sqrt(2.0 - x[0]) : 0.0;
+    xdot << x[1], u[0] - 0.1 * x[1] * std::abs(x[1]) - spring;
   }
   void calcDiff(const ocp::NodeContext&, ocp::ConstVecRef x, ocp::ConstVecRef, ocp::DynamicsData&,
                 ocp::MatRef fx, ocp::MatRef fu) const override {
-    fx << 0.0, 1.0, 0.0, -0.2 * std::abs(x[1]);
+    const double dspring = spring_ ? 0.25 / std::sqrt(2.0 - x[0]) : 0.0;
+    fx << 0.0, 1.0, dspring, -0.2 * std::abs(x[1]);
     fu << 0.0, 1.0;
   }
   long calls() const { return calls_.load(); }
@@ -332,30 +337,35 @@ class ThrowingCart final : public ocp::ContinuousDynamics {
   void armIn(long n) const { throw_at_.store(n > 0 ? calls_.load() + n : 0); }
 
  private:
+  bool spring_;
   mutable std::atomic<long> calls_{0};
   mutable std::atomic<long> throw_at_{0};
 };
+
+/// The cart driven to rest at goal_position over N steps of 0.05 s.
+std::shared_ptr<ocp::OptimalControlProblem> cartProblem(std::shared_ptr<const FailingCart> cart,
+                                                        int N, double goal_position) {
+  auto pb = std::make_shared<ocp::OptimalControlProblem>(std::make_shared<ocp::RungeKutta4>(cart),
+                                                         N, 0.05);
+  const Eigen::Vector2d goal(goal_position, 0.0);
+  auto to_goal = std::make_shared<ocp::StateErrorResidual>(cart->spacePtr(), 1, goal);
+  pb->addCost("goal", std::make_shared<ocp::LeastSquaresCost>(to_goal, Eigen::Vector2d(1.0, 0.1)));
+  pb->addCost("effort", std::make_shared<ocp::LeastSquaresCost>(
+                            std::make_shared<ocp::InputErrorResidual>(2, Eigen::VectorXd::Zero(1)),
+                            Eigen::VectorXd::Constant(1, 0.01)));
+  pb->addCost("arrive",
+              std::make_shared<ocp::LeastSquaresCost>(to_goal, Eigen::Vector2d(100.0, 100.0)),
+              ocp::Stage::Terminal);
+  return pb;
+}
 
 // An exception from a problem's callback reaches the caller of solve() or update() with
 // any thread count (on a worker thread it would end the process), and the solver stays
 // usable: the next solve from the same guess returns what a new solver returns.
 TEST(NonlinearFailure, ACallbackExceptionReachesTheCallerWithAnyThreadCount) {
-  auto cart = std::make_shared<ThrowingCart>();
+  auto cart = std::make_shared<FailingCart>(false);
   const int N = 40;
-  auto pb = std::make_shared<ocp::OptimalControlProblem>(std::make_shared<ocp::RungeKutta4>(cart),
-                                                         N, 0.05);
-  const Eigen::Vector2d goal(1.0, 0.0);
-  pb->addCost("goal", std::make_shared<ocp::LeastSquaresCost>(
-                          std::make_shared<ocp::StateErrorResidual>(cart->spacePtr(), 1, goal),
-                          Eigen::Vector2d(1.0, 0.1)));
-  pb->addCost("effort", std::make_shared<ocp::LeastSquaresCost>(
-                            std::make_shared<ocp::InputErrorResidual>(2, Eigen::VectorXd::Zero(1)),
-                            Eigen::VectorXd::Constant(1, 0.01)));
-  pb->addCost("arrive",
-              std::make_shared<ocp::LeastSquaresCost>(
-                  std::make_shared<ocp::StateErrorResidual>(cart->spacePtr(), 1, goal),
-                  Eigen::Vector2d(100.0, 100.0)),
-              ocp::Stage::Terminal);
+  auto pb = cartProblem(cart, N, 1.0);
   pb->setInputBounds(Eigen::VectorXd::Constant(1, -2.0), Eigen::VectorXd::Constant(1, 2.0));
   const double inf = ocp::OptimalControlProblem::kInfinity;
   pb->setStateBounds(Eigen::Vector2d(-inf, -0.8), Eigen::Vector2d(inf, 0.8));
@@ -400,41 +410,6 @@ TEST(NonlinearFailure, ACallbackExceptionReachesTheCallerWithAnyThreadCount) {
   }
 }
 
-/// A cart pushed back by a spring force 0.5 sqrt(2 - position): the model is undefined
-/// (NaN) beyond position 2, as a user's model may be outside its domain.
-class DomainCart final : public ocp::ContinuousDynamics {
- public:
-  DomainCart() : ContinuousDynamics(std::make_shared<ocp::EuclideanSpace>(2), 1) {}
-  std::unique_ptr<ocp::DynamicsData> createData() const override {
-    return std::make_unique<ocp::DynamicsData>();
-  }
-  void calc(const ocp::NodeContext&, ocp::ConstVecRef x, ocp::ConstVecRef u, ocp::DynamicsData&,
-            ocp::VecRef xdot) const override {
-    xdot << x[1], u[0] - 0.5 * std::sqrt(2.0 - x[0]);
-  }
-  void calcDiff(const ocp::NodeContext&, ocp::ConstVecRef x, ocp::ConstVecRef, ocp::DynamicsData&,
-                ocp::MatRef fx, ocp::MatRef fu) const override {
-    fx << 0.0, 1.0, 0.25 / std::sqrt(2.0 - x[0]), 0.0;
-    fu << 0.0, 1.0;
-  }
-};
-
-std::shared_ptr<ocp::OptimalControlProblem> domainCartProblem(double goal_position) {
-  auto cart = std::make_shared<DomainCart>();
-  auto pb = std::make_shared<ocp::OptimalControlProblem>(std::make_shared<ocp::RungeKutta4>(cart),
-                                                         30, 0.05);
-  const Eigen::Vector2d goal(goal_position, 0.0);
-  auto to_goal = std::make_shared<ocp::StateErrorResidual>(cart->spacePtr(), 1, goal);
-  pb->addCost("goal", std::make_shared<ocp::LeastSquaresCost>(to_goal, Eigen::Vector2d(1.0, 1.0)));
-  pb->addCost("effort", std::make_shared<ocp::LeastSquaresCost>(
-                            std::make_shared<ocp::InputErrorResidual>(2, Eigen::VectorXd::Zero(1)),
-                            Eigen::VectorXd::Constant(1, 0.01)));
-  pb->addCost("arrive",
-              std::make_shared<ocp::LeastSquaresCost>(to_goal, Eigen::Vector2d(100.0, 100.0)),
-              ocp::Stage::Terminal);
-  return pb;
-}
-
 // A model undefined where the steps go: near its domain's edge the line search keeps the
 // iterates inside; from an initial state outside it the solve fails and its message says
 // that the trial points evaluated to non-finite values (not only "infeasible"), and the
@@ -443,12 +418,12 @@ TEST(NonlinearFailure, AModelUndefinedAtTheTrialPointsIsNamedInTheMessage) {
   const std::vector<Eigen::VectorXd> xs(31, Eigen::Vector2d::Zero()),
       us(30, Eigen::VectorXd::Zero(1));
   {
-    Solver s(domainCartProblem(1.99), SolverSettings{});
+    Solver s(cartProblem(std::make_shared<FailingCart>(true), 30, 1.99), SolverSettings{});
     s.setInitialGuess(xs, us);
     EXPECT_EQ(s.solve(Eigen::Vector2d::Zero()), SolverStatus::Converged) << s.message();
     EXPECT_LT(s.states().back()[0], 2.0);
   }
-  Solver s(domainCartProblem(1.0), SolverSettings{});
+  Solver s(cartProblem(std::make_shared<FailingCart>(true), 30, 1.0), SolverSettings{});
   s.setInitialGuess(xs, us);
   const Eigen::Vector2d outside(3.0, 0.0);
   const SolverStatus st = s.solve(outside);
