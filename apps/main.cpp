@@ -1,4 +1,4 @@
-// rollstep: command line entry point. See `rollstep --help` and README.md.
+// rollstep: command line entry point. See `rollstep --help` and docs/USER_GUIDE.md.
 #include <cstdio>
 #include <exception>
 

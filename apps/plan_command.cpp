@@ -2,7 +2,7 @@
 // converging mode from a cold start (the standing posture along the base reference), and
 // writes the trajectory, the solver's iteration statistics and a summary.
 //
-// Outputs (README "Outputs"): DIR/trajectory.csv, DIR/iterations.csv and DIR/summary.txt,
+// Outputs (docs/USER_GUIDE.md): DIR/trajectory.csv, DIR/iterations.csv and DIR/summary.txt,
 // each written under a temporary name and renamed into place complete. Inputs are all
 // loaded before anything is written. Exit status 0 when the solve converged (or stopped at
 // an acceptable point: KKT error below acceptable_tolerance), 3 when it ended otherwise (the

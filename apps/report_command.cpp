@@ -411,7 +411,7 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
   std::string margins;  // each margin's verdict, for the summary on stdout
   if (set.acceptance.given) {
     const Acceptance& a = set.acceptance;
-    doc.heading(3, "Acceptance (issue 14)");
+    doc.heading(3, "Acceptance");
     std::size_t ci = 0, bi = 0;
     for (std::size_t i = 0; i < set.scenarios.size(); ++i) {
       if (set.scenarios[i].name == a.candidate) ci = i;

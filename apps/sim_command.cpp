@@ -4,7 +4,7 @@
 // state; cbfqp: the CBF-QP baseline without MPC) for a duration, writes DIR/log.csv and
 // DIR/summary.txt (nmpc also DIR/mpc.csv), prints the summary.
 //
-// Outputs rule (README "Outputs"): a run that fails on its inputs (options, scene config,
+// Outputs rule (docs/USER_GUIDE.md): a run that fails on its inputs (options, scene config,
 // robot file) writes nothing. Once the simulation starts, the previous run's log.csv,
 // summary.txt and FAILED are removed; log.csv and summary.txt are written under
 // temporary names with every write checked and renamed into place only when complete

@@ -52,8 +52,8 @@ struct Scenario {
                                    const std::string& scene_config_override = "") const;
 };
 
-/// Issue 14's acceptance: candidate beats baseline by at least these relative changes
-/// (negative: a reduction; -0.2 = 20 % less).
+/// The acceptance of the paper's comparison: candidate beats baseline by at least these
+/// relative changes (negative: a reduction; -0.2 = 20 % less).
 struct Acceptance {
   std::string candidate, baseline;
   double traverse_time = -0.20;

@@ -175,7 +175,7 @@ void BM_RealTimeIterationN100(benchmark::State& state) {
 }
 BENCHMARK(BM_RealTimeIterationN100)->Unit(benchmark::kMillisecond);
 
-/// The whole OCP of issue 11 as `rollstep plan` builds it (every cost, equality and
+/// The whole OCP as `rollstep plan` builds it (every cost, equality and
 /// inequality, joint bounds; config defaults) on flat ground, trotting at 0.15 m/s, solved
 /// to convergence once; then one real-time iteration per benchmark iteration (linearise
 /// every node and term, condense, project, Riccati, update), from the same x0 and time so

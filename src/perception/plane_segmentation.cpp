@@ -402,8 +402,8 @@ void PlaneSegmenter::segment(const ElevationMap& map, Segmentation& out) {
   // window fit rejects at the foot of a riser (mixed cells a centimetre or two high) can cut
   // a strip of the floor off the rest and fit it as a slope (16 deg over 83 cells); grown
   // back, the two touch across the band. Left apart, the strip is an obstacle to the floor's
-  // convex pieces, which then began 10-25 cm past a block's far edge (step20 on perception,
-  // session 24). Joined when 95 % of the smaller region's cells lie within step_height of the
+  // convex pieces, which then began 10-25 cm past a block's far edge (step20 on
+  // perception). Joined when 95 % of the smaller region's cells lie within step_height of the
   // larger one's plane, as a level hole is (a tread or a ramp beside a floor does not).
   {
     const auto R = static_cast<std::size_t>(nreg);

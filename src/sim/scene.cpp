@@ -69,7 +69,7 @@ bool isSceneName(std::string_view name) {
 
 namespace {
 
-// The one table of numeric scene parameters (README "Scene parameters" mirrors it).
+// The one table of numeric scene parameters (docs/USER_GUIDE.md "Scene parameters" mirrors it).
 // Ranges: what the terrain model and MuJoCo's collision handle well and what a scene of
 // this robot can sensibly be; the robot-dependent lower bound of start_x is the Plant's.
 const std::array<SceneField, kNumSceneFields> kSceneFields{{

@@ -89,7 +89,7 @@ bool Solver::Impl::stepRejected(const Kkt& kkt, double theta0, double f0, double
 /// still found Infeasible, after more iterations (29 instead of 8 for a start inside a hard
 /// obstacle, 12 instead of 2 for an equality against the input bounds).
 ///
-/// The rollout (session 28): the feasibility steps keep the linearised dynamics exact, so
+/// The rollout: the feasibility steps keep the linearised dynamics exact, so
 /// where the guess's states are far from the dynamics, closing the defects asks for inputs
 /// far beyond their bounds and the fraction to the boundary cuts every step (to 0.003-0.01;
 /// Ipopt's elastic restoration relaxes the defects instead, which our Riccati structure

@@ -176,9 +176,9 @@ TEST(SceneConfig, FileThatIsNotARegularFileIsRefusedWithoutReading) {
   std::remove(fifo.c_str());
 }
 
-// The README's scene block lists every key with the range of the table and its default.
-TEST(SceneConfig, ReadmeDocumentsEveryKeyWithItsRange) {
-  std::ifstream in(std::string(ROLLSTEP_SOURCE_DIR) + "/README.md");
+// The user guide's scene block lists every key with the range of the table and its default.
+TEST(SceneConfig, UserGuideDocumentsEveryKeyWithItsRange) {
+  std::ifstream in(std::string(ROLLSTEP_SOURCE_DIR) + "/docs/USER_GUIDE.md");
   std::vector<std::string> lines;
   for (std::string line; std::getline(in, line);) lines.push_back(line);
   const SceneConfig defaults;
@@ -191,7 +191,7 @@ TEST(SceneConfig, ReadmeDocumentsEveryKeyWithItsRange) {
     const std::string key = std::string(f.key) + ": ";
     const auto it = std::find_if(lines.begin(), lines.end(),
                                  [&](const std::string& l) { return l.rfind(key, 0) == 0; });
-    ASSERT_NE(it, lines.end()) << "README has no line '" << key << "...'";
+    ASSERT_NE(it, lines.end()) << "docs/USER_GUIDE.md has no line '" << key << "...'";
     const std::string range =
         f.min == 0.0 ? "up to " + text(f.max) : text(f.min) + " to " + text(f.max);
     EXPECT_NE(it->find(range), std::string::npos) << *it << " (expected " << range << ")";

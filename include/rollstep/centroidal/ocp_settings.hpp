@@ -111,8 +111,8 @@ struct OcpSettings {
   /// The current stances' regions and heights, and the lift-off end of the swings under
   /// way, from where the feet stand in the measured state (CentroidalOcp::anchorStanceFeet,
   /// planning::FootReferencePlanner::anchorStance) instead of their nominal footholds,
-  /// which a robot lagging its base reference has not reached. Off by default (session 14:
-  /// on, the step20 climb on the estimator's state fell; on perception it helps, see
+  /// which a robot lagging its base reference has not reached. Off by default (when on,
+  /// the step20 climb on the estimator's state fell; on perception it helps, see
   /// config/behaviours/climb_perception.yaml).
   bool anchor_stance_feet = false;
   /// The touch-down region of each swing under way stays the one chosen when the swing was

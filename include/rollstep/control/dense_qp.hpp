@@ -1,5 +1,5 @@
 #pragma once
-// Small dense convex QP solver for the CBF-QP safety filter (issue 12), real-time safe.
+// Small dense convex QP solver for the CBF-QP safety filter, real-time safe.
 //
 //   minimise    0.5 x^T H x + g^T x
 //   subject to  A_eq x = b_eq                  (n_eq rows, may be rank deficient)

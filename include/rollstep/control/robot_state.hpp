@@ -1,5 +1,5 @@
 #pragma once
-// The state the control pipeline runs on: what the state estimator (issue 13) or the
+// The state the control pipeline runs on: what the state estimator or the
 // simulator's ground truth provides, in the model's conventions. The pipeline takes its
 // state through this one struct, so an estimator can be swapped in for ground truth.
 #include <Eigen/Core>

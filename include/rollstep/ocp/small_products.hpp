@@ -3,11 +3,11 @@
 // n x k and k small (the 6 rows of a residual or of the SE(3) pose block, the 6 x 6
 // Jacobians of integrate and difference). Eigen's general product packs both operands and
 // zeroes the destination on every call: at these sizes that set-up costs more than the
-// arithmetic (PERFORMANCE.md, "third pass: linearisation"). Here each column of C is
-// accumulated in registers (Eigen's packets: FMA with AVX2) over chunks of 8 depth
-// entries and stored once per chunk; a column whose length is not a multiple of the packet
-// ends with an overlapping packet computed first and stored last (no scalar remainder
-// loop when n >= packet size). Allocation-free; results equal Eigen's up to rounding.
+// arithmetic (docs/history/PERFORMANCE_HISTORY.md, "third pass: linearisation"). Here each column
+// of C is accumulated in registers (Eigen's packets: FMA with AVX2) over chunks of 8 depth entries
+// and stored once per chunk; a column whose length is not a multiple of the packet ends with an
+// overlapping packet computed first and stored last (no scalar remainder loop when n >= packet
+// size). Allocation-free; results equal Eigen's up to rounding.
 #include <Eigen/Core>
 #include <algorithm>
 

@@ -33,7 +33,7 @@ struct ClosedLoopSettings {
   /// where that ground is level with the contacts (within segmentation.step_height); see
   /// ElevationMap::fillBlindZone. 0: off [m], [0, 5]. On by default (the built-in sensor's
   /// zone reaches about 0.35 m ahead of it): a robot that starts close to a step never sees
-  /// that strip of floor before the riser from further back (docs/PERCEPTION.md, session 23).
+  /// that strip of floor before the riser from further back (docs/PERCEPTION.md).
   double blind_zone_radius = 0.5;
   /// Perceived surfaces within this tilt of level are made level [deg], [0, 90) ...
   double level_max_tilt_deg = 2.0;

@@ -7,7 +7,7 @@
 // rises before the apex and falls after it: the property the swing collision-avoidance
 // region rule relies on (ascending swings are constrained over their first half, descending
 // ones over their second: FootReferencePlanner calls swingRegionActive with apex_phase 1/2,
-// the paper's halves, also when the apex margin moves the apex later; session 14 measured
+// the paper's halves, also when the apex margin moves the apex later; measured with
 // a window up to a later apex, or up to where the reference clears the upper surface, and
 // the climbs fell with both). The apex is at mid-swing by default. With an apex margin
 // m < 1/2 it moves towards the end that needs the longer way, to the phase

@@ -1,7 +1,7 @@
 #pragma once
 // The NMPC control pipeline (control/pipeline.hpp) as a controller of the MuJoCo plant.
 // The state comes from a StateSource: the simulator's ground truth for now; the state
-// estimator (issue 13) plugs in through the same interface. Joints are matched between the
+// estimator plugs in through the same interface. Joints are matched between the
 // plant (its leg order) and the model (the URDF's order) by name, drive wheels by their
 // leg's name prefix of the contact frame ("LF" -> "LF_wheel").
 #include <cstdint>

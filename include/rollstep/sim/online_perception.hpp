@@ -1,5 +1,5 @@
 #pragma once
-// Perception in closed loop (issue 15): the simulated LiDAR scans the scene at its rate
+// Perception in closed loop: the simulated LiDAR scans the scene at its rate
 // and each scan is fused into the elevation map at the sensor pose computed from the base
 // pose the controller uses (the state estimator's estimate, or the ground truth), then
 // segmented into a new terrain (perception::TerrainPerception). A scan with a bad status

@@ -60,7 +60,7 @@ struct SceneConfig {
 
 /// A numeric scene parameter: its YAML key, member, unit, valid range [min, max]
 /// (inclusive) and meaning. The one table behind parsing, validation, toYaml and the
-/// README.
+/// user guide (docs/USER_GUIDE.md).
 struct SceneField {
   const char* key;
   double SceneConfig::*member;

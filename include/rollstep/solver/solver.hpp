@@ -105,7 +105,8 @@ struct SolverSettings {
   /// bound_push (upper - lower) from each bound (Ipopt's bound_push and bound_frac, both 1e-2
   /// there); in [0, 0.5), 0: onto the violated bound. A start outside a bound otherwise lets
   /// the fraction to the boundary cut the steps towards the bound's side (random starts of
-  /// the solver tests' problems: 55 instead of 53 of 56 solved, docs/PERFORMANCE.md).
+  /// the solver tests' problems: 55 instead of 53 of 56 solved,
+  /// docs/history/PERFORMANCE_HISTORY.md).
   double bound_push = 1e-2;
   /// Converging mode: at each linearisation a hard inequality row whose value c exceeds its
   /// slack s by more than 10 % takes s = c (its dual kept): the violation |c - s| and the
@@ -170,8 +171,8 @@ struct SolverSettings {
   /// Riccati stages: about 60 MB for the Tachyon 3 OCP at N = 100) to be backed by
   /// transparent huge pages, collapsing the pages already there at construction (madvise
   /// MADV_HUGEPAGE and MADV_COLLAPSE). An iteration touches a few kB in each of many 4 kB
-  /// pages, and the TLB misses cost several percent of it (docs/PERFORMANCE.md). Advice
-  /// only: results are the same; it costs up to some 30 ms at construction (more when the
+  /// pages, and the TLB misses cost several percent of it (docs/history/PERFORMANCE_HISTORY.md).
+  /// Advice only: results are the same; it costs up to some 30 ms at construction (more when the
   /// kernel must compact memory first) and is skipped for spans under
   /// 4 MB, in sanitizer builds and where the system has no transparent huge pages.
   /// Fixed at construction.
