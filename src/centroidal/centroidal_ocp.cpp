@@ -2,14 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <stdexcept>
 
+#include "rollstep/centroidal/contact_equalities.hpp"
 #include "rollstep/centroidal/costs.hpp"
 #include "rollstep/centroidal/dynamics.hpp"
-#include "rollstep/centroidal/equalities.hpp"
 #include "rollstep/centroidal/inequalities.hpp"
-#include "rollstep/model/kinematics.hpp"
+#include "rollstep/centroidal/swing_height.hpp"
 #include "rollstep/ocp/cost.hpp"
 #include "rollstep/ocp/dynamics.hpp"
 
