@@ -194,12 +194,14 @@ void CentroidalOcp::advance(double t0) {
 
 void CentroidalOcp::anchorStanceFeet(const ocp::ModeSchedule& schedule, double t,
                                      const Eigen::VectorXd& x) noexcept {
+  if (!planner_->usesMeasuredFeet()) return;
   contactPositionsOfState(*loaded_.robot, *feet_data_, x, feet_);
   planner_->anchorStanceFeet(schedule, t, feet_);
 }
 
 int CentroidalOcp::landLateFeet(ocp::ModeSchedule& schedule, double t,
                                 const Eigen::VectorXd& x) noexcept {
+  if (!planner_->usesMeasuredFeet()) return 0;
   contactPositionsOfState(*loaded_.robot, *feet_data_, x, feet_);
   return planner_->landLateFeet(schedule, t, feet_);
 }

@@ -246,7 +246,9 @@ void ControlPipeline::tick(const RobotState& state, JointCommand& command) noexc
 
   // Contact planner: the gait at t and each foot's regions.
   planner_->fillSchedule(t_plan, schedule_horizon_, schedule_);
-  centroidal::contactPositionsOfState(r, *measured_data_, x_meas_, measured_feet_);
+  if (planner_->usesMeasuredFeet()) {
+    centroidal::contactPositionsOfState(r, *measured_data_, x_meas_, measured_feet_);
+  }
   planner_->anchorStanceFeet(schedule_, t_plan, measured_feet_);
   // Late touch-downs: out of the mode (no contact consistency holding them in the air)
   // until they land; the MPC's side delays the same stances in its plan.

@@ -116,6 +116,8 @@ TEST(ContactPlanner, AnchoringKeepsAStanceFootWhereItStands) {
   planning::ContactPlannerSettings s = settings();
   s.anchor_stance_feet = true;
   auto anchored = trotPlanner(s);
+  EXPECT_FALSE(planner->usesMeasuredFeet());
+  EXPECT_TRUE(anchored->usesMeasuredFeet());
   const planning::BaseVelocityCommand command{0.3, 0.0, 0.0};
   planner->reset(0.0, lie::SE3::Identity(), command);
   anchored->reset(0.0, lie::SE3::Identity(), command);

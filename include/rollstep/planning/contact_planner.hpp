@@ -151,6 +151,12 @@ class ContactPlanner {
   /// solve or tick. Returns the mask of the feet delayed now. Wrongly sized or non-finite
   /// feet delay nothing.
   int landLateFeet(ocp::ModeSchedule& schedule, double t, const Eigen::Matrix3Xd& feet) noexcept;
+  /// Whether anchorStanceFeet or landLateFeet do anything with these settings (the caller
+  /// may skip measuring the feet otherwise).
+  bool usesMeasuredFeet() const {
+    return settings_.anchor_stance_feet || settings_.latch_touchdowns ||
+           settings_.late_touchdown_tolerance > 0.0;
+  }
 
   /// Keeps the base reference within a leash of the robot's base pose at t
   /// (BaseReference::follow). Never allocates; returns whether it moved.
