@@ -49,8 +49,8 @@ void BM_RealTimeTick(benchmark::State& state) {
       planning::terrainFromBoxes(floor, 0.0, {}, robot.contact_offset + 0.01);
   control::ControlPipeline pipeline(robot, settings, terrain, planning::GaitKind::Trot);
   control::RobotState s = pipeline.makeState();
-  s.base_position = Eigen::Vector3d(0.0, 0.0, pipeline.ocp().nominalHeight());
-  s.joint_position = pipeline.ocp().nominalJointPositions();
+  s.base_position = Eigen::Vector3d(0.0, 0.0, pipeline.contactPlanner().stance().height);
+  s.joint_position = pipeline.loadedRobot().description.nominal_joint_positions;
   pipeline.initialize(s, planning::BaseVelocityCommand{0.15, 0.0, 0.0});
   control::JointCommand command = pipeline.makeCommand();
   const double dt = settings.control_period;

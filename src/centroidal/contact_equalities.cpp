@@ -1,8 +1,8 @@
-// SwingForceResidual and StanceVelocityResidual (equalities.hpp).
+// SwingForceResidual and StanceVelocityResidual (contact_equalities.hpp).
+#include "rollstep/centroidal/contact_equalities.hpp"
+
 #include <cmath>
 #include <stdexcept>
-
-#include "rollstep/centroidal/equalities.hpp"
 
 namespace rollstep::centroidal {
 

@@ -1,8 +1,8 @@
-// SwingHeightResidual (equalities.hpp).
+// SwingHeightResidual (swing_height.hpp).
+#include "rollstep/centroidal/swing_height.hpp"
+
 #include <cmath>
 #include <stdexcept>
-
-#include "rollstep/centroidal/equalities.hpp"
 
 namespace rollstep::centroidal {
 

@@ -10,8 +10,8 @@ namespace rollstep::control {
 
 namespace {
 
-/// The OCP settings of the planner's CentroidalOcp: the baseline's gait and swing height;
-/// one node (no MPC is solved, the problem only has to exist).
+/// The OCP settings of the contact planner: the baseline's gait and swing height; one node
+/// (no MPC is solved).
 centroidal::OcpSettings plannerOcpSettings(const ControlSettings& s) {
   centroidal::OcpSettings ocp = s.ocp;
   ocp.horizon = 1;
@@ -31,13 +31,15 @@ BaselinePipeline::BaselinePipeline(const centroidal::RobotOcpDescription& robot,
                                    int collision_prism_capacity)
     : settings_(settings) {
   checkSettings(settings_);
-  ocp_ = std::make_unique<centroidal::CentroidalOcp>(robot, plannerOcpSettings(settings_), terrain,
-                                                     gait, region_edge_capacity);
+  robot_ = centroidal::loadRobot(robot);
+  contacts_ = centroidal::makeContactPlanner(robot_, plannerOcpSettings(settings_), terrain, gait,
+                                             region_edge_capacity);
   collision_terrain_ = std::make_unique<planning::TerrainModel>(collision_terrain);
-  planner_ = std::make_unique<ReactivePlanner>(*ocp_, *collision_terrain_, settings_.baseline);
-  filter_ = std::make_unique<CbfQpFilter>(ocp_->robotPtr(), ocp_->terrain(), settings_.cbf_qp, 0.0,
+  planner_ = std::make_unique<ReactivePlanner>(robot_, *contacts_, *collision_terrain_,
+                                               settings_.baseline);
+  filter_ = std::make_unique<CbfQpFilter>(robot_.robot, contacts_->terrain(), settings_.cbf_qp, 0.0,
                                           collision_terrain_.get(), collision_prism_capacity);
-  const centroidal::CentroidalRobot& r = ocp_->robot();
+  const centroidal::CentroidalRobot& r = *robot_.robot;
   integrator_ = std::make_unique<StateIntegrator>(r.modelPtr(), settings_.integrator,
                                                   settings_.control_period);
   data_ = std::make_unique<model::Data>(r.model());
@@ -58,7 +60,7 @@ BaselinePipeline::~BaselinePipeline() = default;
 
 JointCommand BaselinePipeline::makeCommand() const {
   JointCommand c;
-  c.joint_position = ocp_->nominalJointPositions();
+  c.joint_position = robot_.description.nominal_joint_positions;
   c.joint_velocity = Eigen::VectorXd::Zero(robot().nj());
   c.wheel_velocity = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(drive_wheels_.size()));
   return c;
@@ -66,7 +68,7 @@ JointCommand BaselinePipeline::makeCommand() const {
 
 std::uint64_t BaselinePipeline::setTerrain(const planning::TerrainModel& terrain,
                                            const planning::TerrainModel& collision_terrain) {
-  if (terrain.size() == 0 || !ocp_->acceptsTerrain(terrain) ||
+  if (terrain.size() == 0 || !contacts_->acceptsTerrain(terrain) ||
       terrain.maxEdges() > filter_->maxRegionEdges() ||
       collision_terrain.size() > filter_->maxCollisionPrisms()) {
     return 0;
@@ -124,7 +126,7 @@ void BaselinePipeline::tick(const RobotState& state, JointCommand& command) noex
 
   // A new terrain (setTerrain): swapped in, the planner's indices moved onto it.
   std::uint64_t version = 0;
-  if (terrain_in_.take(incoming_, version) && ocp_->swapTerrain(incoming_.footholds)) {
+  if (terrain_in_.take(incoming_, version) && contacts_->swapTerrain(incoming_.footholds)) {
     collision_terrain_->swap(incoming_.solids);
     planner_->remapRegions(incoming_.footholds);
     terrain_version_ = version;

@@ -10,7 +10,7 @@
 #include <string>
 
 #include "rollstep/control/barriers.hpp"
-#include "rollstep/model/center-of-mass.hpp"
+#include "rollstep/model/center_of_mass.hpp"
 #include "rollstep/model/kinematics.hpp"
 
 namespace rollstep::control {

@@ -42,27 +42,27 @@ ControlPipeline::ControlPipeline(const centroidal::RobotOcpDescription& robot,
     : settings_(settings) {
   checkSettings(settings_);
   runner_ = std::make_unique<MpcRunner>(robot, settings_, terrain, gait, region_edge_capacity);
-  rt_ocp_ = std::make_unique<centroidal::CentroidalOcp>(robot, settings_.ocp, terrain, gait,
-                                                        region_edge_capacity);
-  const centroidal::CentroidalRobot& r = rt_ocp_->robot();
+  robot_ = centroidal::loadRobot(robot);
+  planner_ =
+      centroidal::makeContactPlanner(robot_, settings_.ocp, terrain, gait, region_edge_capacity);
+  const centroidal::CentroidalRobot& r = *robot_.robot;
   schedule_horizon_ = settings_.ocp.dt;
-  scheduler_ = std::make_unique<planning::GaitScheduler>(rt_ocp_->gait(), schedule_horizon_);
-  // The gait's switches and one landing per foot (CentroidalOcp::landLateFeet).
-  schedule_ = ocp::ModeSchedule(scheduler_->requiredCapacity() + r.nc());
+  schedule_ = ocp::ModeSchedule(planner_->scheduleCapacity());
   reference_ = std::make_unique<ReferenceTrajectory>(
-      std::make_shared<const centroidal::CentroidalPrecomputation>(rt_ocp_->robotPtr()),
+      std::make_shared<const centroidal::CentroidalPrecomputation>(robot_.robot),
       settings_.refinement, settings_.ocp.horizon);
-  filter_ = std::make_unique<CbfQpFilter>(rt_ocp_->robotPtr(), rt_ocp_->terrain(), settings_.cbf_qp,
+  filter_ = std::make_unique<CbfQpFilter>(robot_.robot, planner_->terrain(), settings_.cbf_qp,
                                           settings_.ocp.lateral_slip_weight);
   integrator_ = std::make_unique<StateIntegrator>(r.modelPtr(), settings_.integrator,
                                                   settings_.control_period);
   if (settings_.integrator.deflection_compensation > 0.0 &&
-      rt_ocp_->servoStiffness().size() != r.nj()) {
+      robot_.description.servo_stiffness.size() != r.nj()) {
     throw std::invalid_argument(
         "ControlPipeline: integrator.deflection_compensation needs the robot description's "
         "servo_stiffness (one per joint)");
   }
   data_ = std::make_unique<model::Data>(r.model());
+  measured_data_ = std::make_unique<model::Data>(r.model());
   for (int i = 0; i < r.nc(); ++i) {
     if (r.contact(i).drive_wheel) drive_wheels_.push_back(i);
   }
@@ -77,6 +77,7 @@ ControlPipeline::ControlPipeline(const centroidal::RobotOcpDescription& robot,
   dq_ = Eigen::VectorXd::Zero(r.nv());
   foot_p_ = Eigen::Matrix3Xd::Zero(3, r.nc());
   foot_v_ = Eigen::Matrix3Xd::Zero(3, r.nc());
+  measured_feet_ = Eigen::Matrix3Xd::Zero(3, r.nc());
 }
 
 ControlPipeline::~ControlPipeline() { stop(); }
@@ -86,7 +87,7 @@ void ControlPipeline::stop() {
 }
 
 std::uint64_t ControlPipeline::setTerrain(const planning::TerrainModel& terrain) {
-  if (!rt_ocp_->acceptsTerrain(terrain) || terrain.maxEdges() > filter_->maxRegionEdges()) {
+  if (!planner_->acceptsTerrain(terrain) || terrain.maxEdges() > filter_->maxRegionEdges()) {
     return 0;
   }
   // The real-time side's copy first: it is there when a solution solved on it arrives. The
@@ -98,7 +99,7 @@ std::uint64_t ControlPipeline::setTerrain(const planning::TerrainModel& terrain)
 JointCommand ControlPipeline::makeCommand() const {
   const centroidal::CentroidalRobot& r = robot();
   JointCommand c;
-  c.joint_position = rt_ocp_->nominalJointPositions();
+  c.joint_position = robot_.description.nominal_joint_positions;
   c.joint_velocity = Eigen::VectorXd::Zero(r.nj());
   c.wheel_velocity = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(drive_wheels_.size()));
   return c;
@@ -120,7 +121,9 @@ solver::SolverStatus ControlPipeline::initializeSchedule(
   measure(state);
   // The references start at the state's pose (they keep its x, y and yaw).
   const lie::SE3 start(state.base_position, state.base_orientation);
-  rt_ocp_->resetSchedule(state.time, start, schedule);
+  // The clock the MPC's first plan has (its edge holds), until a solution brings its own.
+  planner_->resetSchedule(state.time, start, schedule);
+  planner_->planSchedule(state.time, schedule_);
   const solver::SolverStatus status =
       runner_->initializeSchedule(state.time, start, schedule, x_meas_);
   integrator_->reset(q_meas_, v_meas_);
@@ -214,13 +217,13 @@ void ControlPipeline::tick(const RobotState& state, JointCommand& command) noexc
       // change to it too (the newest published, swapped in).
       std::uint64_t version = 0;
       if (solution_.terrain_version > rt_terrain_version_ &&
-          terrain_in_.take(rt_incoming_, version) && rt_ocp_->swapTerrain(rt_incoming_)) {
+          terrain_in_.take(rt_incoming_, version) && planner_->swapTerrain(rt_incoming_)) {
         rt_terrain_version_ = version;
         ++counters_.terrain_updates;
       }
       // The foothold regions follow the reference the solution was solved on.
-      rt_ocp_->setReferenceCorrection(solution_.reference_correction);
-      rt_ocp_->setGaitClock(solution_.gait_clock);
+      planner_->setReferenceCorrection(solution_.reference_correction);
+      planner_->setGaitClock(solution_.gait_clock);
       adopted_t0_ = solution_.t0;
       holding_ = false;
       // Naive state feedback: the commands restart from the measurement with each plan.
@@ -242,11 +245,14 @@ void ControlPipeline::tick(const RobotState& state, JointCommand& command) noexc
   const double t_plan = holding_ ? hold_time_ : t;
 
   // Contact planner: the gait at t and each foot's regions.
-  scheduler_->fill(t_plan, schedule_horizon_, schedule_, rt_ocp_->gaitClock());
-  rt_ocp_->anchorStanceFeet(schedule_, t_plan, x_meas_);
+  planner_->fillSchedule(t_plan, schedule_horizon_, schedule_);
+  if (planner_->usesMeasuredFeet()) {
+    centroidal::contactPositionsOfState(r, *measured_data_, x_meas_, measured_feet_);
+  }
+  planner_->anchorStanceFeet(schedule_, t_plan, measured_feet_);
   // Late touch-downs: out of the mode (no contact consistency holding them in the air)
   // until they land; the MPC's side delays the same stances in its plan.
-  record_.late_feet = holding_ ? 0 : rt_ocp_->landLateFeet(schedule_, t_plan, x_meas_);
+  record_.late_feet = holding_ ? 0 : planner_->landLateFeet(schedule_, t_plan, measured_feet_);
   if (record_.late_feet != 0) ++counters_.late_touchdown_ticks;
   record_.mode = schedule_.modeAt(t_plan);
 
@@ -259,7 +265,7 @@ void ControlPipeline::tick(const RobotState& state, JointCommand& command) noexc
     sample_.foot_acceleration.setZero();
   }
   for (int i = 0; i < r.nc(); ++i) {
-    const planning::FootReference ref = rt_ocp_->footPlanner().query(schedule_, i, t_plan);
+    const planning::FootReference ref = planner_->footPlanner().query(schedule_, i, t_plan);
     FootRegionPlan& plan = regions_[static_cast<size_t>(i)];
     plan.region = ref.region;
     plan.swing_region = ref.swing_region;
@@ -292,7 +298,7 @@ void ControlPipeline::tick(const RobotState& state, JointCommand& command) noexc
     const Eigen::VectorXd& tau = model::computeStaticTorque(r.model(), *data_, integrator_->q(),
                                                             r.frameIds(), sample_.forces);
     command.joint_position.array() +=
-        compensation * tau.tail(r.nj()).array() / rt_ocp_->servoStiffness().array();
+        compensation * tau.tail(r.nj()).array() / robot_.description.servo_stiffness.array();
   }
 }
 

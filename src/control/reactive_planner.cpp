@@ -50,10 +50,11 @@ void check(bool ok, const char* what) {
 
 }  // namespace
 
-ReactivePlanner::ReactivePlanner(const centroidal::CentroidalOcp& ocp,
+ReactivePlanner::ReactivePlanner(const centroidal::LoadedRobot& robot,
+                                 const planning::ContactPlanner& contacts,
                                  const planning::TerrainModel& collision_terrain,
                                  const BaselineSettings& settings)
-    : ocp_(&ocp), solids_(&collision_terrain), settings_(settings) {
+    : robot_(&robot), contacts_(&contacts), solids_(&collision_terrain), settings_(settings) {
   check(settings.gait_period > 0.0 && std::isfinite(settings.gait_period),
         "baseline.gait_period must be finite and > 0");
   check(settings.trot_duty > 0.5 && settings.trot_duty < 1.0,
@@ -63,27 +64,27 @@ ReactivePlanner::ReactivePlanner(const centroidal::CentroidalOcp& ocp,
             settings.max_height_rate > 0.0,
         "baseline lengths must be >= 0 and max_height_rate > 0");
   planning::BaseReferenceConfig base_config;
-  base_config.nominal_height = ocp.nominalHeight();
-  base_config.height_samples = ocp.nominalFeet();
-  base_ = std::make_unique<planning::BaseReference>(ocp.terrain(), base_config);
+  base_config.nominal_height = contacts.stance().height;
+  base_config.height_samples = contacts.stance().feet;
+  base_ = std::make_unique<planning::BaseReference>(contacts.terrain(), base_config);
   planning::FootReferenceConfig foot_config;
-  foot_config.nominal_feet = ocp.nominalFeet();
+  foot_config.nominal_feet = contacts.stance().feet;
   foot_config.swing_clearance = settings.swing_clearance;
-  foot_config.foot_height_offset = ocp.robot().contactOffset();
+  foot_config.foot_height_offset = robot.robot->contactOffset();
   foot_config.level_tolerance = kLevelTolerance;
-  feet_ = std::make_unique<planning::FootReferencePlanner>(ocp.terrain(), *base_, foot_config);
-  scheduler_ = std::make_unique<planning::GaitScheduler>(ocp.gait(), 0.0);
+  feet_ = std::make_unique<planning::FootReferencePlanner>(contacts.terrain(), *base_, foot_config);
+  scheduler_ = std::make_unique<planning::GaitScheduler>(contacts.gait(), 0.0);
   schedule_ = ocp::ModeSchedule(scheduler_->requiredCapacity());
-  const int nc = ocp.robot().nc();
+  const int nc = robot.robot->nc();
   swings_.assign(static_cast<size_t>(nc), Swing{});
   stance_region_.assign(static_cast<size_t>(nc), -1);
-  if (ocp.gait().kind() == planning::GaitKind::Trot) {
+  if (contacts.gait().kind() == planning::GaitKind::Trot) {
     support_preview_ = (settings.trot_duty - 0.5) * settings.gait_period;
   }
 }
 
 ReactivePlan ReactivePlanner::makePlan() const {
-  const centroidal::CentroidalRobot& r = ocp_->robot();
+  const centroidal::CentroidalRobot& r = *robot_->robot;
   ReactivePlan p;
   p.q = Eigen::VectorXd::Zero(r.nq());
   p.q[6] = 1.0;
@@ -106,11 +107,11 @@ void ReactivePlanner::reset(double t, const Eigen::VectorXd& q,
 }
 
 Eigen::Vector2d ReactivePlanner::footholdFor(int i, double t_td, int& region, double& shift) const {
-  return footholdOn(ocp_->terrain(), i, t_td, region, shift);
+  return footholdOn(contacts_->terrain(), i, t_td, region, shift);
 }
 
 void ReactivePlanner::remapRegions(const planning::TerrainModel& old_terrain) noexcept {
-  const planning::TerrainModel& terrain = ocp_->terrain();
+  const planning::TerrainModel& terrain = contacts_->terrain();
   for (size_t fi = 0; fi < swings_.size(); ++fi) {
     Swing& swing = swings_[fi];
     stance_region_[fi] = -1;
@@ -160,8 +161,8 @@ Eigen::Vector2d ReactivePlanner::footholdOn(const planning::TerrainModel& terrai
 
 void ReactivePlanner::plan(double t, const Eigen::VectorXd& q_meas, const Eigen::VectorXd& q_int,
                            const Eigen::Matrix3Xd& foot_positions, ReactivePlan& out) noexcept {
-  const centroidal::CentroidalRobot& r = ocp_->robot();
-  const planning::TerrainModel& terrain = ocp_->terrain();
+  const centroidal::CentroidalRobot& r = *robot_->robot;
+  const planning::TerrainModel& terrain = contacts_->terrain();
   const int nc = r.nc();
   const double offset = r.contactOffset();
   const double dt_yaw = t - yaw_time_;
@@ -198,8 +199,8 @@ void ReactivePlanner::plan(double t, const Eigen::VectorXd& q_meas, const Eigen:
   }
   out.terrain_high = high;
   out.terrain_low = low;
-  const double target =
-      ocp_->nominalHeight() + high + (high - low > kLevelTolerance ? settings_.height_offset : 0.0);
+  const double target = contacts_->stance().height + high +
+                        (high - low > kLevelTolerance ? settings_.height_offset : 0.0);
   const double dt_h = std::max(0.0, t - height_time_);
   height_time_ = t;
   const double step = std::clamp(target - height_ref_, -settings_.max_height_rate * dt_h,
@@ -212,7 +213,7 @@ void ReactivePlanner::plan(double t, const Eigen::VectorXd& q_meas, const Eigen:
   const Eigen::Quaterniond orientation(Eigen::AngleAxisd(yaw_ref_, Eigen::Vector3d::UnitZ()));
   out.q.head<3>() = Eigen::Vector3d(q_int[0], q_int[1], height_ref_);
   out.q.segment<4>(3) = orientation.coeffs();  // x y z w
-  out.q.tail(r.nj()) = ocp_->nominalJointPositions();
+  out.q.tail(r.nj()) = robot_->description.nominal_joint_positions;
   // Twist in the LOCAL frame of the internal state's orientation.
   const Eigen::Quaterniond q_rot(q_int[6], q_int[3], q_int[4], q_int[5]);
   const Eigen::Matrix3d R = q_rot.normalized().toRotationMatrix();

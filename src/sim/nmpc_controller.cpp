@@ -239,16 +239,18 @@ void NmpcController::setPerception(std::unique_ptr<OnlinePerception> perception,
 void NmpcController::updatePerception(double t) {
   perception_->step(t, *plant_, state_.base_position, state_.base_orientation);
   if (perception_->logDue(t)) {
-    perception_->writeSnapshot(t, pipeline_->ocp().terrain(), plannedFootholds(),
+    perception_->writeSnapshot(t, pipeline_->contactPlanner().terrain(), plannedFootholds(),
                                state_.base_position, yawOf(state_.base_orientation));
   }
 }
 
 Eigen::Matrix3Xd NmpcController::plannedFootholds() const {
   const control::MpcSolution& s = pipeline_->lastSolution();
-  const centroidal::CentroidalOcp& ocp = pipeline_->ocp();
-  const int nc = ocp.robot().nc();
-  const double offset = ocp.robot().contactOffset();
+  const centroidal::CentroidalRobot& robot = pipeline_->robot();
+  const int nc = robot.nc();
+  const double offset = robot.contactOffset();
+  model::Data data(robot.model());
+  Eigen::Matrix3Xd feet(3, nc);
   std::vector<Eigen::Vector3d> points;
   for (std::size_t k = 0; k < s.xs.size() && k < s.modes.size(); ++k) {
     int landing = 0;
@@ -258,7 +260,7 @@ Eigen::Matrix3Xd NmpcController::plannedFootholds() const {
       if (stance && (k == 0 || !before)) landing |= 1 << i;
     }
     if (landing == 0) continue;
-    const Eigen::Matrix3Xd feet = ocp.footPositions(s.xs[k]);
+    centroidal::contactPositionsOfState(robot, data, s.xs[k], feet);
     for (int i = 0; i < nc; ++i) {
       if ((landing >> i) & 1) points.push_back(feet.col(i) - offset * Eigen::Vector3d::UnitZ());
     }

@@ -5,9 +5,10 @@
 #include <string>
 
 #include "centroidal/fd_check.hpp"
+#include "rollstep/centroidal/contact_equalities.hpp"
 #include "rollstep/centroidal/costs.hpp"
 #include "rollstep/centroidal/dynamics.hpp"
-#include "rollstep/centroidal/equalities.hpp"
+#include "rollstep/centroidal/swing_height.hpp"
 #include "rollstep/ocp/problem.hpp"
 
 namespace rollstep::centroidal::test {

@@ -1,8 +1,6 @@
 // Equality constraints: swing forces, stance velocities (side-by-side rule, foot yaw),
 // swing heights. Values, Jacobians against central differences on the manifold in every
 // mode class of Tachyon 3's gaits, rows per mode, row rank in u, no allocation.
-#include "rollstep/centroidal/equalities.hpp"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -10,6 +8,8 @@
 
 #include "centroidal/fd_check.hpp"
 #include "common/alloc_counter.hpp"
+#include "rollstep/centroidal/contact_equalities.hpp"
+#include "rollstep/centroidal/swing_height.hpp"
 
 namespace rollstep::centroidal::test {
 namespace {

@@ -8,8 +8,9 @@
 #include <cmath>
 
 #include "centroidal/fd_check.hpp"
+#include "rollstep/centroidal/contact_equalities.hpp"
 #include "rollstep/centroidal/dynamics.hpp"
-#include "rollstep/centroidal/equalities.hpp"
+#include "rollstep/centroidal/swing_height.hpp"
 
 namespace rollstep::centroidal::test {
 namespace {

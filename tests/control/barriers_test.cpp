@@ -16,7 +16,7 @@
 
 #include "centroidal/fd_check.hpp"
 #include "rollstep/control/cbf_qp.hpp"
-#include "rollstep/model/center-of-mass.hpp"
+#include "rollstep/model/center_of_mass.hpp"
 #include "rollstep/model/kinematics.hpp"
 
 namespace {

@@ -99,15 +99,17 @@ TEST(NmpcController, ALateTouchDownStaysInSwingUntilItLands) {
                             planning::GaitKind::Trot, planning::BaseVelocityCommand{0.1, 0, 0});
   runTicks(controller, plant, 30);
   control::ControlPipeline& pipeline = controller.pipeline();
-  const centroidal::CentroidalOcp& ocp = pipeline.ocp();
   const centroidal::CentroidalRobot& r = pipeline.robot();
+  model::Data data(r.model());
+  Eigen::Matrix3Xd feet(3, r.nc());
   constexpr int kFoot = 0;  // LF
   const auto footZ = [&](const control::RobotState& st) {
     Eigen::VectorXd q(r.nq()), v(r.nv());
     control::toModelState(st, q, v);
     Eigen::VectorXd x = Eigen::VectorXd::Zero(r.nx());
     x.head(r.nq()) = q;
-    return ocp.footPositions(x)(2, kFoot);
+    centroidal::contactPositionsOfState(r, data, x, feet);
+    return feet(2, kFoot);
   };
   // The joint that lifts LF alone (by finite differences: no joint order assumed).
   control::RobotState s = internalState(pipeline, plant.time());
@@ -266,9 +268,9 @@ TEST(NmpcController, ReferenceLeashReachesTheRealTimeSide) {
       pipeline.tick(s, out);
     }
     const double t = s.time;
-    const lie::SE3 rt = pipeline.ocp().baseReference().correction();
-    const double ahead =
-        pipeline.ocp().baseReference().poseAt(t).translation.x() - held.base_position.x();
+    const lie::SE3 rt = pipeline.contactPlanner().baseReference().correction();
+    const double ahead = pipeline.contactPlanner().baseReference().poseAt(t).translation.x() -
+                         held.base_position.x();
     if (leash == 0.0) {
       EXPECT_TRUE(rt.translation.isZero(0.0));
       EXPECT_NEAR(ahead, 0.5 * (t - plant.time()), 1e-9);
@@ -301,7 +303,7 @@ TEST(NmpcController, TerrainHandOverIsAllocationFreeAndRefusesUnfitTerrains) {
   control::JointCommand out = pipeline.makeCommand();
   control::RobotState s = internalState(pipeline, plant.time());
   // The floor in two pieces, one a hexagon (6 edges, the capacity), 1 mm higher.
-  const planning::TerrainModel before = pipeline.ocp().terrain();
+  const planning::TerrainModel before = pipeline.contactPlanner().terrain();
   const planning::TerrainModel next({
       planning::ConvexRegion::fromPolygon({{-3, -1}, {0.2, -1}, {0.2, 1}, {-3, 1}}, 0.001),
       planning::ConvexRegion::fromPolygon(
@@ -336,7 +338,7 @@ TEST(NmpcController, TerrainHandOverIsAllocationFreeAndRefusesUnfitTerrains) {
   EXPECT_EQ(version_seen_by_rt, version);
   EXPECT_EQ(pipeline.counters().terrain_updates, 1u);
   EXPECT_EQ(pipeline.runner().terrainVersion(), version);
-  const planning::TerrainModel& now = pipeline.ocp().terrain();
+  const planning::TerrainModel& now = pipeline.contactPlanner().terrain();
   ASSERT_EQ(now.size(), 2);
   EXPECT_EQ(now.region(1).vertices.size(), 6u);
   EXPECT_DOUBLE_EQ(now.heightAt({1.0, 0.0}), 0.001);
@@ -388,7 +390,7 @@ TEST(NmpcController, TerrainHandOverReachesAnAsynchronousMpc) {
   pipeline.stop();
   EXPECT_EQ(pipeline.runner().terrainVersion(), last);
   EXPECT_EQ(pipeline.terrainVersion(), last);
-  EXPECT_DOUBLE_EQ(pipeline.ocp().terrain().heightAt({0.0, 0.0}), 0.005);
+  EXPECT_DOUBLE_EQ(pipeline.contactPlanner().terrain().heightAt({0.0, 0.0}), 0.005);
   EXPECT_GE(pipeline.counters().terrain_updates, 1u);
   EXPECT_TRUE(out.joint_position.allFinite());
 }

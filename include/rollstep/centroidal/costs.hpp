@@ -15,7 +15,7 @@
 // structured (identity-Jacobian) path for them. Nothing here allocates after construction.
 #include <memory>
 
-#include "rollstep/centroidal/equalities.hpp"
+#include "rollstep/centroidal/residual_data.hpp"
 #include "rollstep/ocp/residuals.hpp"
 #include "rollstep/planning/base_reference.hpp"
 

@@ -41,7 +41,7 @@ struct OcpSettings {
   double joint_velocity_weight = 2.5;
   double force_weight = 0.001;
   /// Stance velocities the side-by-side rule frees from the equalities (z, drive-wheel
-  /// lateral) as a cost: [(m/s)^-2] (StanceRows::Freed in equalities.hpp says why).
+  /// lateral) as a cost: [(m/s)^-2] (StanceRows::Freed in contact_equalities.hpp says why).
   double freed_stance_velocity_weight = 1e5;
   /// Lateral velocity of the stance drive wheels [(m/s)^-2]. 0 (the paper): a drive wheel
   /// cannot slide sideways, an equality of the side-by-side rule. > 0: every stance drive

@@ -14,7 +14,7 @@
 //
 // Settings: ControlSettings' control_period, feedback, cbf_qp, integrator and baseline
 // sections (mpc, refinement and wheels are not used; the ocp section gives only the
-// CentroidalOcp whose robot, nominal posture and terrain the planner reads).
+// contact planner whose gait, nominal stance and terrain the reactive planner reads).
 //
 // Fallbacks (each counted): an invalid state keeps the previous command; a failed QP gives
 // the filter's fallback acceleration (joints brake to rest) with the base braking to rest
@@ -31,7 +31,7 @@
 #include <memory>
 #include <vector>
 
-#include "rollstep/centroidal/centroidal_ocp.hpp"
+#include "rollstep/centroidal/loaded_robot.hpp"
 #include "rollstep/control/cbf_qp.hpp"
 #include "rollstep/control/control_settings.hpp"
 #include "rollstep/control/pipeline.hpp"
@@ -72,7 +72,7 @@ class BaselinePipeline {
                            const planning::TerrainModel& collision_terrain);
   /// Version of the terrains in use (0: the constructor's).
   std::uint64_t terrainVersion() const { return terrain_version_; }
-  const planning::TerrainModel& terrain() const { return ocp_->terrain(); }
+  const planning::TerrainModel& terrain() const { return contacts_->terrain(); }
   const planning::TerrainModel& collisionTerrain() const { return *collision_terrain_; }
 
   /// A new base velocity command from the next tick on. Never allocates.
@@ -87,7 +87,7 @@ class BaselinePipeline {
   const StateIntegrator& integrator() const { return *integrator_; }
   const CbfQpFilter& filter() const { return *filter_; }
   const ReactivePlanner& planner() const { return *planner_; }
-  const centroidal::CentroidalRobot& robot() const { return ocp_->robot(); }
+  const centroidal::CentroidalRobot& robot() const { return *robot_.robot; }
   const ControlSettings& settings() const { return settings_; }
   /// Contact index of each drive wheel, in the order of JointCommand::wheel_velocity.
   const std::vector<int>& driveWheelContacts() const { return drive_wheels_; }
@@ -96,7 +96,8 @@ class BaselinePipeline {
   void computeTargets() noexcept;
 
   ControlSettings settings_;
-  std::unique_ptr<centroidal::CentroidalOcp> ocp_;
+  centroidal::LoadedRobot robot_;
+  std::unique_ptr<planning::ContactPlanner> contacts_;
   std::unique_ptr<planning::TerrainModel> collision_terrain_;
   std::unique_ptr<ReactivePlanner> planner_;
   std::unique_ptr<CbfQpFilter> filter_;

@@ -75,7 +75,7 @@
 #include <memory>
 #include <vector>
 
-#include "rollstep/centroidal/centroidal_ocp.hpp"
+#include "rollstep/centroidal/loaded_robot.hpp"
 #include "rollstep/control/cbf_qp.hpp"
 #include "rollstep/control/control_settings.hpp"
 #include "rollstep/control/mpc_runner.hpp"
@@ -134,8 +134,8 @@ bool recordFilterOutcome(const CbfQpFilter& filter, CbfQpStatus status, TickReco
 
 class ControlPipeline {
  public:
-  /// Builds the MPC runner (its own OCP) and the real-time side (a second instance of the
-  /// OCP's model, planners and terrain: nothing is shared between the threads).
+  /// Builds the MPC runner (its own OCP) and the real-time side (its own robot model,
+  /// contact planner and terrain, no OCP: nothing is shared between the threads).
   /// `region_edge_capacity`: the most edges of a region of any terrain given later
   /// (setTerrain); 0: the initial terrain's (the CBF-QP takes at least 8 in any case).
   ControlPipeline(const centroidal::RobotOcpDescription& robot, const ControlSettings& settings,
@@ -177,8 +177,10 @@ class ControlPipeline {
   const StateIntegrator& integrator() const { return *integrator_; }
   const CbfQpFilter& filter() const { return *filter_; }
   const MpcRunner& runner() const { return *runner_; }
-  const centroidal::CentroidalOcp& ocp() const { return *rt_ocp_; }
-  const centroidal::CentroidalRobot& robot() const { return rt_ocp_->robot(); }
+  /// The real-time side's contact planner (its terrain, references, gait clock).
+  const planning::ContactPlanner& contactPlanner() const { return *planner_; }
+  const centroidal::LoadedRobot& loadedRobot() const { return robot_; }
+  const centroidal::CentroidalRobot& robot() const { return *robot_.robot; }
   const ControlSettings& settings() const { return settings_; }
   /// Fault drills and tests: faults of the deterministic MPC (MpcRunner::injectFaults).
   void injectMpcFaults(const MpcFaultInjection& faults) { runner_->injectFaults(faults); }
@@ -197,8 +199,8 @@ class ControlPipeline {
 
   ControlSettings settings_;
   std::unique_ptr<MpcRunner> runner_;
-  std::unique_ptr<centroidal::CentroidalOcp> rt_ocp_;
-  std::unique_ptr<planning::GaitScheduler> scheduler_;
+  centroidal::LoadedRobot robot_;
+  std::unique_ptr<planning::ContactPlanner> planner_;
   ocp::ModeSchedule schedule_;
   std::unique_ptr<ReferenceTrajectory> reference_;
   std::unique_ptr<CbfQpFilter> filter_;
@@ -217,6 +219,8 @@ class ControlPipeline {
   PipelineCounters counters_;
   Eigen::VectorXd q_meas_, v_meas_, x_meas_, a_, dq_;
   Eigen::Matrix3Xd foot_p_, foot_v_;
+  std::unique_ptr<model::Data> measured_data_;  // the measured feet of the contact planner
+  Eigen::Matrix3Xd measured_feet_;
   double schedule_horizon_ = 0.0;
   std::uint64_t adopted_sequence_ = 0;
   double adopted_t0_ = 0.0;  // state time of the solution in use

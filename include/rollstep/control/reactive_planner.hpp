@@ -44,7 +44,7 @@
 #include <memory>
 #include <vector>
 
-#include "rollstep/centroidal/centroidal_ocp.hpp"
+#include "rollstep/centroidal/loaded_robot.hpp"
 #include "rollstep/control/cbf_qp.hpp"
 #include "rollstep/control/control_settings.hpp"
 #include "rollstep/planning/base_reference.hpp"
@@ -68,11 +68,11 @@ struct ReactivePlan {
 
 class ReactivePlanner {
  public:
-  /// `ocp` supplies the robot, the gait, the nominal posture and feet, and the foothold
-  /// terrain; `collision_terrain` the prisms of the collision barrier (a swing's support
-  /// prism: its lift-off one on the first half, its touch-down one on the second). Both must
-  /// outlive the planner. Throws std::invalid_argument for bad settings.
-  ReactivePlanner(const centroidal::CentroidalOcp& ocp,
+  /// `robot` supplies the robot and its nominal posture; `contacts` the gait, the nominal
+  /// stance and the foothold terrain; `collision_terrain` the prisms of the collision barrier
+  /// (a swing's support prism: its lift-off one on the first half, its touch-down one on the
+  /// second). All must outlive the planner. Throws std::invalid_argument for bad settings.
+  ReactivePlanner(const centroidal::LoadedRobot& robot, const planning::ContactPlanner& contacts,
                   const planning::TerrainModel& collision_terrain,
                   const BaselineSettings& settings);
 
@@ -90,11 +90,11 @@ class ReactivePlanner {
   void plan(double t, const Eigen::VectorXd& q_meas, const Eigen::VectorXd& q_int,
             const Eigen::Matrix3Xd& foot_positions, ReactivePlan& out) noexcept;
 
-  /// After the foothold terrain (the ocp's) and the collision terrain changed in place (a
-  /// new perceived terrain; `old_terrain`: the foothold terrain before): the region and
-  /// prism indices the planner holds are moved to the new terrains, each to the region
-  /// under the point it served (a swing's goal on the old terrain, its start); stance feet
-  /// take the region they stand in at the next plan(). Never allocates.
+  /// After the foothold terrain (the contact planner's) and the collision terrain changed in place
+  /// (a new perceived terrain; `old_terrain`: the foothold terrain before): the region and prism
+  /// indices the planner holds are moved to the new terrains, each to the region under the point it
+  /// served (a swing's goal on the old terrain, its start); stance feet take the region they stand
+  /// in at the next plan(). Never allocates.
   void remapRegions(const planning::TerrainModel& old_terrain) noexcept;
 
   ReactivePlan makePlan() const;
@@ -119,7 +119,8 @@ class ReactivePlanner {
   Eigen::Vector2d footholdOn(const planning::TerrainModel& terrain, int i, double t_td, int& region,
                              double& shift) const;
 
-  const centroidal::CentroidalOcp* ocp_;
+  const centroidal::LoadedRobot* robot_;
+  const planning::ContactPlanner* contacts_;
   const planning::TerrainModel* solids_;
   BaselineSettings settings_;
   std::unique_ptr<planning::BaseReference> base_;

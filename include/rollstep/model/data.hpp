@@ -37,7 +37,7 @@ struct Data {
   Vector6d hg = Vector6d::Zero();  ///< h = Ag v = [linear; angular about com]
   Matrix6Xd dhg_dq;                ///< 6 x nv, d(Ag(q) v)/dq at fixed v
 
-  // ---- Gravity and contact torques (gravity.hpp, gravity-derivatives.hpp)
+  // ---- Gravity and contact torques (gravity.hpp, gravity_derivatives.hpp)
   Eigen::VectorXd g;               ///< nv generalized gravity
   Eigen::MatrixXd dg_dq;           ///< nv x nv
   Eigen::VectorXd tauContact;      ///< nv, sum_c J_c(q)^T f_c

@@ -34,7 +34,7 @@
 //
 // Late touch-downs: a foot still in the air when its stance was due (the knee's velocity
 // limit, an edge it met, a body too high for the leg to reach down) is not held there by
-// the stance's zero vertical velocity: the controller (CentroidalOcp::landLateFeet) moves
+// the stance's zero vertical velocity: the controller (ContactPlanner::landLateFeet) moves
 // that stance's start to a landing time in the schedule (delayTouchdown), and setLanding()
 // tells this planner. The swing then ends on a descent from the measured height to the
 // stance's surface (a smoothstep in time, zero vertical velocity at both ends), and the
