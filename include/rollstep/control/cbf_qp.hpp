@@ -201,6 +201,23 @@ class CbfQpFilter {
   const centroidal::CentroidalRobot& robot() const { return *robot_; }
 
  private:
+  // The stages of filter() (cbf_rows.hpp holds the rows' formulas).
+  bool acceptsInput(const Eigen::Ref<const Eigen::VectorXd>& q,
+                    const Eigen::Ref<const Eigen::VectorXd>& v, int mode,
+                    const FootRegionPlan* regions, const AccelerationTargets& targets,
+                    Eigen::Index a_size) const noexcept;
+  /// The region constraining foot i's barrier rows (-1: none).
+  static int barrierRegion(int mode, const FootRegionPlan* regions, int i) noexcept;
+  bool collisionObstacle(const FootRegionPlan* regions, int i, int j) const noexcept;
+  int countFootBarriers(int mode, const FootRegionPlan* regions, int i) const noexcept;
+  /// Foot i's region, clearance and collision rows from `row` on; returns how many.
+  int writeFootBarriers(int mode, const FootRegionPlan* regions, int i, int row) noexcept;
+  CbfQpStatus solve(int n_eq, int n_ineq, Eigen::Ref<Eigen::VectorXd> a,
+                    const Eigen::Ref<const Eigen::VectorXd>& v) noexcept;
+  bool solveRelaxed(int n_eq, int n_ineq, Eigen::Ref<Eigen::VectorXd> a) noexcept;
+  void writeFallback(const Eigen::Ref<const Eigen::VectorXd>& v,
+                     Eigen::Ref<Eigen::VectorXd> a) const noexcept;
+
   std::shared_ptr<const centroidal::CentroidalRobot> robot_;
   const planning::TerrainModel* terrain_;
   const planning::TerrainModel* collision_terrain_;
