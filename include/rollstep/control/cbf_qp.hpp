@@ -94,6 +94,9 @@
 // index; a gets the fallback with 0 for every non-finite (or missing) v_J. When a itself is
 // not nv long nothing is written.
 //
+// Each constraint family is one function of cbf_rows.hpp (with its own tests); filter()
+// checks the input, sizes the QP, calls them and solves.
+//
 // Memory: sized at construction; filter() never allocates, locks or throws.
 #include <Eigen/Core>
 #include <memory>

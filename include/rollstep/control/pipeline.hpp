@@ -14,6 +14,8 @@
 //      leg/terrain clearance)
 //   -> internal state integrator (measured state blended in)
 //   -> joint position commands (hips, knees) and drive-wheel velocity commands.
+// (Feedback, filter, integrator and joint commands: TrackingStage, shared with the
+// baseline pipeline.)
 //
 // Drive-wheel speed (relative to its shank): the wheel centre's velocity along the wheel's
 // heading (the contact frame's x axis projected on the ground) over the wheel radius (the
