@@ -37,23 +37,16 @@ BaselinePipeline::BaselinePipeline(const centroidal::RobotOcpDescription& robot,
   collision_terrain_ = std::make_unique<planning::TerrainModel>(collision_terrain);
   planner_ = std::make_unique<ReactivePlanner>(robot_, *contacts_, *collision_terrain_,
                                                settings_.baseline);
-  filter_ = std::make_unique<CbfQpFilter>(robot_.robot, contacts_->terrain(), settings_.cbf_qp, 0.0,
-                                          collision_terrain_.get(), collision_prism_capacity);
+  tracking_ = std::make_unique<TrackingStage>(robot_.robot, contacts_->terrain(), settings_, 0.0,
+                                              collision_terrain_.get(), collision_prism_capacity);
   const centroidal::CentroidalRobot& r = *robot_.robot;
-  integrator_ = std::make_unique<StateIntegrator>(r.modelPtr(), settings_.integrator,
-                                                  settings_.control_period);
   data_ = std::make_unique<model::Data>(r.model());
   for (int i = 0; i < r.nc(); ++i) {
     if (r.contact(i).drive_wheel) drive_wheels_.push_back(i);
   }
   plan_ = planner_->makePlan();
-  targets_ = filter_->makeTargets();
   q_meas_ = Eigen::VectorXd::Zero(r.nq());
   v_meas_ = Eigen::VectorXd::Zero(r.nv());
-  a_ = Eigen::VectorXd::Zero(r.nv());
-  dq_ = Eigen::VectorXd::Zero(r.nv());
-  foot_p_ = Eigen::Matrix3Xd::Zero(3, r.nc());
-  foot_v_ = Eigen::Matrix3Xd::Zero(3, r.nc());
 }
 
 BaselinePipeline::~BaselinePipeline() = default;
@@ -69,8 +62,8 @@ JointCommand BaselinePipeline::makeCommand() const {
 std::uint64_t BaselinePipeline::setTerrain(const planning::TerrainModel& terrain,
                                            const planning::TerrainModel& collision_terrain) {
   if (terrain.size() == 0 || !contacts_->acceptsTerrain(terrain) ||
-      terrain.maxEdges() > filter_->maxRegionEdges() ||
-      collision_terrain.size() > filter_->maxCollisionPrisms()) {
+      terrain.maxEdges() > filter().maxRegionEdges() ||
+      collision_terrain.size() > filter().maxCollisionPrisms()) {
     return 0;
   }
   return terrain_in_.publish(TerrainPair{terrain, collision_terrain});
@@ -84,7 +77,7 @@ void BaselinePipeline::initialize(const RobotState& state,
         "that is not unit, or joint vectors of the wrong size)");
   }
   toModelState(state, q_meas_, v_meas_);
-  integrator_->reset(q_meas_, v_meas_);
+  tracking_->reset(q_meas_, v_meas_);
   planner_->reset(state.time, q_meas_, command);
   counters_ = PipelineCounters{};
   initialized_ = true;
@@ -92,27 +85,27 @@ void BaselinePipeline::initialize(const RobotState& state,
 
 void BaselinePipeline::computeTargets() noexcept {
   const centroidal::CentroidalRobot& r = robot();
-  const model::Model& m = r.model();
   const FeedbackSettings& fb = settings_.feedback;
-  const Eigen::VectorXd& q = integrator_->q();
-  const Eigen::VectorXd& v = integrator_->v();
+  const Eigen::VectorXd& v = tracking_->v();
   const int nj = r.nj();
   // Configuration error plan (-) internal, in the internal state's tangent (LOCAL).
-  model::difference(m, q, plan_.q, dq_);
-  targets_.base = fb.base_kp.cwiseProduct(dq_.head<6>()) +
-                  fb.base_kd.cwiseProduct(plan_.v.head<6>() - v.head<6>());
-  targets_.joints = fb.joint_kp * dq_.tail(nj) - fb.joint_kd * v.tail(nj);
+  const Eigen::VectorXd& dq = tracking_->configurationError(plan_.q);
+  AccelerationTargets& targets = tracking_->targets();
+  targets.base = fb.base_kp.cwiseProduct(dq.head<6>()) +
+                 fb.base_kd.cwiseProduct(plan_.v.head<6>() - v.head<6>());
+  targets.joints = fb.joint_kp * dq.tail(nj) - fb.joint_kd * v.tail(nj);
   const double stance = settings_.baseline.stance_foot_gain;
+  const Eigen::Matrix3Xd& foot_p = tracking_->footPositions();
+  const Eigen::Matrix3Xd& foot_v = tracking_->footVelocities();
   for (int i = 0; i < r.nc(); ++i) {
     const double scale = centroidal::CentroidalRobot::inStance(plan_.mode, i) ? stance : 1.0;
-    targets_.feet.col(i) = scale * (fb.foot_kp * (plan_.foot_position.col(i) - foot_p_.col(i)) +
-                                    fb.foot_kd * (plan_.foot_velocity.col(i) - foot_v_.col(i)));
+    targets.feet.col(i) = scale * (fb.foot_kp * (plan_.foot_position.col(i) - foot_p.col(i)) +
+                                   fb.foot_kd * (plan_.foot_velocity.col(i) - foot_v.col(i)));
   }
 }
 
 void BaselinePipeline::tick(const RobotState& state, JointCommand& command) noexcept {
   const centroidal::CentroidalRobot& r = robot();
-  const model::Model& m = r.model();
   const double t = state.time;
   record_ = TickRecord{};
   record_.time = t;
@@ -134,36 +127,23 @@ void BaselinePipeline::tick(const RobotState& state, JointCommand& command) noex
   }
   record_.terrain_version = terrain_version_;
 
-  // Feet at the internal state.
-  const Eigen::VectorXd& q = integrator_->q();
-  model::forwardKinematics(m, *data_, q, integrator_->v());
-  for (int i = 0; i < r.nc(); ++i) {
-    const model::FrameIndex f = r.frameIds()[static_cast<size_t>(i)];
-    model::updateFramePlacement(m, *data_, f);
-    foot_p_.col(i) = data_->opf[static_cast<size_t>(f)];
-    foot_v_.col(i) =
-        model::getFrameVelocity(m, *data_, f, model::ReferenceFrame::LOCAL_WORLD_ALIGNED).head<3>();
-  }
-
-  // Plan, targets, safety filter, integrator.
-  planner_->plan(t, q_meas_, q, foot_p_, plan_);
+  // Feet at the internal state; plan, targets, safety filter, integrator.
+  tracking_->updateFeet();
+  planner_->plan(t, q_meas_, tracking_->q(), tracking_->footPositions(), plan_);
   record_.mode = plan_.mode;
   computeTargets();
-  filter_->setSupportFeet(plan_.support_mask);
-  const CbfQpStatus status =
-      filter_->filter(q, integrator_->v(), plan_.mode, plan_.regions.data(), targets_, a_);
-  if (recordFilterOutcome(*filter_, status, record_, counters_)) {
+  tracking_->safetyFilter().setSupportFeet(plan_.support_mask);
+  if (tracking_->filter(plan_.mode, plan_.regions.data(), record_, counters_)) {
     // The filter's fallback keeps the base velocity; here the commanded base brakes as well:
     // the drive wheels follow the commanded base, and rolling on unfiltered carries a
     // stance wheel over an edge.
-    a_.head<6>() = -integrator_->v().head<6>() / settings_.cbf_qp.fallback_brake_time;
+    tracking_->acceleration().head<6>() =
+        -tracking_->v().head<6>() / settings_.cbf_qp.fallback_brake_time;
   }
-  integrator_->step(a_, q_meas_, v_meas_);
+  tracking_->step(q_meas_, v_meas_, command);
 
   // Commands.
-  command.joint_position = integrator_->q().tail(r.nj());
-  command.joint_velocity = integrator_->v().tail(r.nj());
-  computeDriveWheelSpeeds(r, *data_, integrator_->q(), integrator_->v(), drive_wheels_, 0.0,
+  computeDriveWheelSpeeds(r, *data_, tracking_->q(), tracking_->v(), drive_wheels_, 0.0,
                           command.wheel_velocity);
 }
 

@@ -1,6 +1,5 @@
-// The CBF-QP safety filter (cbf_qp.hpp): kinematics of the contact frames (Jacobians,
-// analytic drift), the QP's cost, contact-consistency equalities, joint bounds and barrier
-// rows, the solve, the fallback.
+// The CBF-QP safety filter (cbf_qp.hpp): input checks, the QP assembled from its pieces
+// (cbf_rows.hpp), the solve, the relaxation, the fallback.
 #include "rollstep/control/cbf_qp.hpp"
 
 #include <algorithm>
@@ -10,8 +9,7 @@
 #include <string>
 
 #include "rollstep/control/barriers.hpp"
-#include "rollstep/model/center_of_mass.hpp"
-#include "rollstep/model/kinematics.hpp"
+#include "rollstep/control/cbf_rows.hpp"
 
 namespace rollstep::control {
 
@@ -23,18 +21,8 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr int kMinRegionEdges = 8;
 /// The most feet the support polygon takes (convexHull's limit).
 constexpr int kMaxContactsForHull = 64;
-/// Prisms whose tops differ by less than this are level with each other [m].
-constexpr double kObstacleStep = 1e-3;
 /// |quaternion norm - 1| above this is refused as InvalidInput.
 constexpr double kQuaternionNormTolerance = 1e-3;
-
-/// Spatial cross product of motion vectors [linear; angular]: a x b.
-Vector6d motionCross(const Vector6d& a, const Vector6d& b) {
-  Vector6d r;
-  r.head<3>() = a.tail<3>().cross(b.head<3>()) + a.head<3>().cross(b.tail<3>());
-  r.tail<3>() = a.tail<3>().cross(b.tail<3>());
-  return r;
-}
 
 template <typename Mat>
 bool allFinite(const Mat& m) {
@@ -136,14 +124,7 @@ const char* toString(CbfQpStatus status) {
 struct CbfQpFilter::Work {
   Work(const centroidal::CentroidalRobot& robot, const DenseQpDims& dims)
       : data(robot.model()),
-        frame_jacobian(Eigen::MatrixXd::Zero(6, robot.nv())),
-        foot_jacobian(Eigen::MatrixXd::Zero(3 * robot.nc(), robot.nv())),
-        foot_position(Eigen::Matrix3Xd::Zero(3, robot.nc())),
-        foot_velocity(Eigen::Matrix3Xd::Zero(3, robot.nc())),
-        foot_drift(Eigen::Matrix3Xd::Zero(3, robot.nc())),
-        body_drift(static_cast<size_t>(robot.model().nbodies()), Vector6d::Zero()),
-        lateral(Eigen::Matrix3Xd::Zero(3, robot.nc())),
-        lateral_drift(Eigen::VectorXd::Zero(robot.nc())),
+        kin(robot),
         row(Eigen::RowVectorXd::Zero(robot.nv())),
         joint_lower(Eigen::VectorXd::Zero(robot.nj())),
         joint_upper(Eigen::VectorXd::Zero(robot.nj())),
@@ -157,14 +138,8 @@ struct CbfQpFilter::Work {
         relaxed_solver({dims.n + dims.n_ineq, dims.n_eq, dims.n_ineq}) {}
 
   model::Data data;
-  Eigen::MatrixXd frame_jacobian;  ///< 6 x nv scratch
-  Eigen::MatrixXd foot_jacobian;   ///< 3 nc x nv
-  Eigen::Matrix3Xd foot_position, foot_velocity, foot_drift;
-  std::vector<Vector6d> body_drift;  ///< spatial acceleration of each body at a = 0
-  Eigen::Matrix3Xd lateral;          ///< e_lat of each drive wheel
-  /// a_lat = e_lat . (J a) + lateral_drift: e_lat . dJ v - yaw_rate (e_fwd . v_i).
-  Eigen::VectorXd lateral_drift;
-  Eigen::RowVectorXd row;
+  ContactKinematics kin;
+  Eigen::RowVectorXd row;                    ///< a contact row (scratch)
   Eigen::VectorXd joint_lower, joint_upper;  ///< position limits with the margin (+-inf: none)
   Eigen::VectorXd joint_vmax;                ///< scaled velocity limits (+inf: none)
   std::vector<Eigen::Vector2d> support_xy;   ///< (x, y) of the support feet
@@ -233,364 +208,114 @@ AccelerationTargets CbfQpFilter::makeTargets() const {
   return t;
 }
 
-const Eigen::MatrixXd& CbfQpFilter::footJacobians() const { return work_->foot_jacobian; }
-const Eigen::Matrix3Xd& CbfQpFilter::footDrift() const { return work_->foot_drift; }
+const Eigen::MatrixXd& CbfQpFilter::footJacobians() const { return work_->kin.jacobian; }
+const Eigen::Matrix3Xd& CbfQpFilter::footDrift() const { return work_->kin.drift; }
 
 // ---- filter ---------------------------------------------------------------------------
 
-CbfQpStatus CbfQpFilter::filter(const Eigen::Ref<const Eigen::VectorXd>& q,
-                                const Eigen::Ref<const Eigen::VectorXd>& v, int mode,
-                                const FootRegionPlan* regions, const AccelerationTargets& targets,
-                                Eigen::Ref<Eigen::VectorXd> a) noexcept {
+void CbfQpFilter::writeFallback(const Eigen::Ref<const Eigen::VectorXd>& v,
+                                Eigen::Ref<Eigen::VectorXd> a) const noexcept {
+  const int nj = robot_->nj();
+  a.head<6>().setZero();
+  const bool have_v = v.size() == robot_->nv();
+  for (int j = 0; j < nj; ++j) {
+    const double vj = have_v ? v[6 + j] : 0.0;
+    a[6 + j] = std::isfinite(vj) ? -vj / settings_.fallback_brake_time : 0.0;
+  }
+}
+
+bool CbfQpFilter::acceptsInput(const Eigen::Ref<const Eigen::VectorXd>& q,
+                               const Eigen::Ref<const Eigen::VectorXd>& v, int mode,
+                               const FootRegionPlan* regions, const AccelerationTargets& targets,
+                               Eigen::Index a_size) const noexcept {
   const centroidal::CentroidalRobot& robot = *robot_;
-  const model::Model& model = robot.model();
   const int nv = robot.nv(), nj = robot.nj(), nc = robot.nc();
-  const CbfQpSettings& s = settings_;
-  Work& w = *work_;
-
-  auto writeFallback = [&]() {
-    a.head<6>().setZero();
-    const bool have_v = v.size() == nv;
-    for (int j = 0; j < nj; ++j) {
-      const double vj = have_v ? v[6 + j] : 0.0;
-      a[6 + j] = std::isfinite(vj) ? -vj / s.fallback_brake_time : 0.0;
-    }
-  };
-  relaxation_ = 0.0;
-  auto refuse = [&]() {
-    qp_status_ = DenseQpStatus::InvalidInput;
-    qp_iterations_ = 0;
-    active_barriers_ = 0;
-    correction_ = kInf;
-    if (a.size() == nv) writeFallback();
-    return CbfQpStatus::InvalidInput;
-  };
-
-  // ---- input checks
-  if (a.size() != nv || q.size() != robot.nq() || v.size() != nv) return refuse();
-  if (!allFinite(q) || !allFinite(v)) return refuse();
-  if (std::abs(q.segment<4>(3).norm() - 1.0) > kQuaternionNormTolerance) return refuse();
-  if (mode < 0 || (nc < 31 && mode >= (1 << nc))) return refuse();
-  if (targets.feet.cols() != nc || targets.joints.size() != nj) return refuse();
+  if (a_size != nv || q.size() != robot.nq() || v.size() != nv) return false;
+  if (!allFinite(q) || !allFinite(v)) return false;
+  if (std::abs(q.segment<4>(3).norm() - 1.0) > kQuaternionNormTolerance) return false;
+  if (mode < 0 || (nc < 31 && mode >= (1 << nc))) return false;
+  if (targets.feet.cols() != nc || targets.joints.size() != nj) return false;
   if (!allFinite(targets.base) || !allFinite(targets.feet) || !allFinite(targets.joints)) {
-    return refuse();
+    return false;
   }
   auto regionOk = [&](int r) {
     return r < 0 || (r < terrain_->size() && terrain_->region(r).A.rows() <= max_region_edges_);
   };
   if (regions != nullptr) {
     for (int i = 0; i < nc; ++i) {
-      if (!regionOk(regions[i].region) || !regionOk(regions[i].swing_region)) return refuse();
+      if (!regionOk(regions[i].region) || !regionOk(regions[i].swing_region)) return false;
     }
   }
+  return true;
+}
 
-  // ---- kinematics: placements, body velocities, world joint Jacobians
-  model::forwardKinematics(model, w.data, q, v);
-  // Spatial accelerations of the bodies at a = 0 (world axes, at the world origin): the
-  // free flyer's column moves with the base, d/dt (Ad_oMb e_k) = ov_0 x (Ad_oMb e_k), which
-  // times v_b is ov_0 x ov_0 = 0; joint k adds d/dt(S_k) v_k = ov_k x S_k v_k
-  // = ov_parent x ov_k (since ov_k = ov_parent + S_k v_k). Bodies are in depth-first order.
-  w.body_drift[0].setZero();
-  for (int b = 1; b < model.nbodies(); ++b) {
-    const size_t child = static_cast<size_t>(b);
-    const size_t parent = static_cast<size_t>(model.bodies[child].parent);
-    w.body_drift[child] = w.body_drift[parent] + motionCross(w.data.ov[parent], w.data.ov[child]);
-  }
-  for (int i = 0; i < nc; ++i) {
-    const model::FrameIndex f = robot.frameIds()[static_cast<size_t>(i)];
-    const size_t fi = static_cast<size_t>(f);
-    const size_t body = static_cast<size_t>(model.frames[fi].body);
-    model::updateFramePlacement(model, w.data, f);
-    model::getFrameJacobian(model, w.data, f, model::ReferenceFrame::LOCAL_WORLD_ALIGNED,
-                            w.frame_jacobian);
-    w.foot_jacobian.middleRows<3>(3 * i) = w.frame_jacobian.topRows<3>();
-    const Eigen::Vector3d p = w.data.opf[fi];
-    const Vector6d& ov = w.data.ov[body];
-    const Eigen::Vector3d vp = ov.head<3>() + ov.tail<3>().cross(p);
-    w.foot_position.col(i) = p;
-    w.foot_velocity.col(i) = vp;
-    // Classical acceleration of the point p at a = 0: d/dt (v_o + w x p)
-    // = alpha_lin + alpha_ang x p + w x v_p.
-    const Vector6d& alpha = w.body_drift[body];
-    w.foot_drift.col(i) = alpha.head<3>() + alpha.tail<3>().cross(p) + ov.tail<3>().cross(vp);
-    if (robot.contact(i).drive_wheel) {
-      // Yaw frame from the contact frame's x axis projected on the ground plane (as the
-      // OCP's foot yaw); yaw_rate = d atan2(x_y, x_x)/dt with dx/dt = w x x.
-      const Eigen::Vector3d ax = w.data.oRf[fi].col(0);
-      const double n2 = ax.x() * ax.x() + ax.y() * ax.y();
-      const double n = std::sqrt(n2);
-      const Eigen::Vector3d dax = ov.tail<3>().cross(ax);
-      const double yaw_rate = n2 > 0.0 ? (ax.x() * dax.y() - ax.y() * dax.x()) / n2 : 0.0;
-      const Eigen::Vector3d e_lat =
-          n > 0.0 ? Eigen::Vector3d(-ax.y() / n, ax.x() / n, 0.0) : Eigen::Vector3d::UnitY();
-      const Eigen::Vector3d e_fwd(e_lat.y(), -e_lat.x(), 0.0);
-      w.lateral.col(i) = e_lat;
-      w.lateral_drift[i] = e_lat.dot(w.foot_drift.col(i)) - yaw_rate * e_fwd.dot(vp);
-    }
-  }
+int CbfQpFilter::barrierRegion(int mode, const FootRegionPlan* regions, int i) noexcept {
+  if (regions == nullptr) return -1;
+  const FootRegionPlan& plan = regions[i];
+  if (centroidal::CentroidalRobot::inStance(mode, i)) return plan.region;
+  return plan.swing_region_active ? plan.swing_region : -1;
+}
 
-  // ---- sizes
-  auto regionOf = [&](int i) {
-    if (regions == nullptr) return -1;
-    const FootRegionPlan& plan = regions[i];
-    if (centroidal::CentroidalRobot::inStance(mode, i)) return plan.region;
-    return plan.swing_region_active ? plan.swing_region : -1;
-  };
-  const bool clearance_on = s.clearance_gamma > 0.0;
-  // Collision: prism j is an obstacle of foot i (cbf_qp.hpp) when it rises above the ground
-  // under the wheel and is within range.
-  const planning::TerrainModel& solids = *collision_terrain_;
-  auto obstacle = [&](int i, int j) {
-    const Eigen::Vector3d p = w.foot_position.col(i);
-    const int given = regions != nullptr ? regions[i].support_prism : -1;
-    const int support = given >= 0 && given < solids.size() ? given : solids.regionAt(p.head<2>());
-    const planning::ConvexRegion& prism = solids.region(j);
-    if (j == support ||
-        (support >= 0 && std::abs(prism.height - solids.region(support).height) <= kObstacleStep)) {
-      return false;
-    }
-    return prismFaceDistance(prism, p) - robot.contactOffset() <= s.collision_range;
-  };
-  int n_eq = 0, n_ineq = 0;
-  for (int i = 0; i < nc; ++i) {
-    if (robot.keepsVelocityConstraints(mode, i)) {
-      n_eq += robot.contact(i).drive_wheel && lateral_slip_weight_ == 0.0 ? 2 : 1;
-    }
-    const int r = regionOf(i);
-    if (r >= 0) n_ineq += static_cast<int>(terrain_->region(r).A.rows());
-    if (clearance_on && !centroidal::CentroidalRobot::inStance(mode, i)) ++n_ineq;
-    if (s.collision_gamma > 0.0) {
-      for (int j = 0; j < solids.size(); ++j) n_ineq += obstacle(i, j) ? 1 : 0;
-    }
-  }
-  w.hull_size = 0;
-  if (s.support_gamma > 0.0) {
-    const int support = support_mask_ >= 0 ? support_mask_ : mode;
-    int n = 0;
-    for (int i = 0; i < nc; ++i) {
-      if (!centroidal::CentroidalRobot::inStance(support, i)) continue;
-      w.support_xy[static_cast<size_t>(n)] = w.foot_position.col(i).head<2>();
-      w.support_feet[static_cast<size_t>(n)] = i;
-      ++n;
-    }
-    w.hull_size = convexHull(w.support_xy.data(), n, w.hull.data());
-    n_ineq += w.hull_size;
-  }
-  qp_.setDimensions(nv, n_eq, n_ineq);
+bool CbfQpFilter::collisionObstacle(const FootRegionPlan* regions, int i, int j) const noexcept {
+  const int given = regions != nullptr ? regions[i].support_prism : -1;
+  return isCollisionObstacle(*collision_terrain_, j, work_->kin.position.col(i), given,
+                             robot_->contactOffset(), settings_.collision_range);
+}
 
-  // ---- cost: 0.5 a^T H a + g^T a = 0.5 (sum of the weighted squares)
-  auto H = qp_.H();
-  auto g = qp_.g();
-  H.setZero();
-  g.setZero();
-  H.diagonal().head<6>() = s.base_weight;
-  g.head<6>() = -s.base_weight.cwiseProduct(targets.base);
-  H.diagonal().tail(nj).setConstant(s.joint_weight);
-  g.tail(nj) = -s.joint_weight * targets.joints;
-  H.diagonal().array() += s.damping;
-  for (int i = 0; i < nc; ++i) {
-    const auto J = w.foot_jacobian.middleRows<3>(3 * i);
-    H.noalias() += s.foot_weight * (J.transpose() * J);
-    g.noalias() += s.foot_weight * (J.transpose() * (w.foot_drift.col(i) - targets.feet.col(i)));
+int CbfQpFilter::writeFootBarriers(int mode, const FootRegionPlan* regions, int i,
+                                   int row) noexcept {
+  const CbfQpSettings& s = settings_;
+  const ContactKinematics& kin = work_->kin;
+  const double offset = robot_->contactOffset();
+  const int first = row;
+  const int r = barrierRegion(mode, regions, i);
+  if (r >= 0) row += writeRegionRows(terrain_->region(r), kin, i, s.region_gamma, qp_, row);
+  if (s.clearance_gamma > 0.0 && !centroidal::CentroidalRobot::inStance(mode, i)) {
+    row += writeClearanceRow(*terrain_, offset, s.clearance, kin, i, s.clearance_gamma, qp_, row);
   }
-
-  // ---- contact consistency: row a = target (equality, or cost for freed rows)
-  const double k = s.contact_gain;
-  int eq = 0;
-  auto Aeq = qp_.Aeq();
-  auto beq = qp_.beq();
-  auto addRow = [&](bool kept, double target) {
-    if (kept) {
-      Aeq.row(eq) = w.row;
-      beq[eq] = target;
-      ++eq;
-    } else {
-      H.noalias() += s.freed_contact_weight * (w.row.transpose() * w.row);
-      g.noalias() -= (s.freed_contact_weight * target) * w.row.transpose();
-    }
-  };
-  for (int i = 0; i < nc; ++i) {
-    if (!centroidal::CentroidalRobot::inStance(mode, i)) continue;
-    const bool kept = robot.keepsVelocityConstraints(mode, i);
-    const auto J = w.foot_jacobian.middleRows<3>(3 * i);
-    w.row = J.row(2);
-    addRow(kept, -k * w.foot_velocity(2, i) - w.foot_drift(2, i));
-    // Skid steering (lateral_slip_weight > 0): the wheels must slide sideways to turn, the
-    // MPC's plan weighs that slip; here the lateral rows are left out (an acceleration-level
-    // row pulling the slip to zero would hold the commanded turn back).
-    if (robot.contact(i).drive_wheel && lateral_slip_weight_ == 0.0) {
-      const Eigen::Vector3d e_lat = w.lateral.col(i);
-      w.row.noalias() = e_lat.transpose() * J;
-      addRow(kept, -k * e_lat.dot(w.foot_velocity.col(i)) - w.lateral_drift[i]);
+  if (s.collision_gamma > 0.0) {
+    const planning::TerrainModel& solids = *collision_terrain_;
+    for (int j = 0; j < solids.size(); ++j) {
+      if (!collisionObstacle(regions, i, j)) continue;
+      row += writeCollisionRow(solids.region(j), offset, s.collision_clearance,
+                               s.collision_sharpness, kin, i, s.collision_gamma, qp_, row);
     }
   }
+  return row - first;
+}
 
-  // ---- joint bounds: second-order position and first-order velocity barriers
-  auto lb = qp_.lb();
-  auto ub = qp_.ub();
-  lb.head<6>().setConstant(-kInf);
-  ub.head<6>().setConstant(kInf);
-  {
-    const double gp = s.joint_position_gamma, gv = s.joint_velocity_gamma;
-    for (int j = 0; j < nj; ++j) {
-      const double qj = q[7 + j], vj = v[6 + j];
-      const double lo = w.joint_lower[j], up = w.joint_upper[j], vmax = w.joint_vmax[j];
-      const double Lp = std::isfinite(lo) ? -2.0 * gp * vj - gp * gp * (qj - lo) : -kInf;
-      const double Up = std::isfinite(up) ? -2.0 * gp * vj + gp * gp * (up - qj) : kInf;
-      const double Lv = std::isfinite(vmax) ? -gv * (vmax + vj) : -kInf;
-      const double Uv = std::isfinite(vmax) ? gv * (vmax - vj) : kInf;
-      // Conflicting barriers: the velocity interval wins (cbf_qp.hpp).
-      lb[6 + j] = std::max(Lv, std::min(Lp, Uv));
-      ub[6 + j] = std::min(Uv, std::max(Up, Lv));
-    }
+int CbfQpFilter::countFootBarriers(int mode, const FootRegionPlan* regions, int i) const noexcept {
+  const CbfQpSettings& s = settings_;
+  int n = 0;
+  const int r = barrierRegion(mode, regions, i);
+  if (r >= 0) n += static_cast<int>(terrain_->region(r).A.rows());
+  if (s.clearance_gamma > 0.0 && !centroidal::CentroidalRobot::inStance(mode, i)) ++n;
+  if (s.collision_gamma > 0.0) {
+    for (int j = 0; j < collision_terrain_->size(); ++j)
+      n += collisionObstacle(regions, i, j) ? 1 : 0;
   }
+  return n;
+}
 
-  // ---- barrier rows: regions (per edge) and clearance of swing wheels
-  auto C = qp_.C();
-  auto l = qp_.l();
-  auto u = qp_.u();
-  int row = 0;
-  for (int i = 0; i < nc; ++i) {
-    const auto J = w.foot_jacobian.middleRows<3>(3 * i);
-    const Eigen::Vector3d p = w.foot_position.col(i);
-    const Eigen::Vector3d vp = w.foot_velocity.col(i);
-    const Eigen::Vector3d d = w.foot_drift.col(i);
-    const int r = regionOf(i);
-    if (r >= 0) {
-      const planning::ConvexRegion& region = terrain_->region(r);
-      const double gr = s.region_gamma;
-      for (Eigen::Index e = 0; e < region.A.rows(); ++e) {
-        const double ax = region.A(e, 0), ay = region.A(e, 1);
-        const double h = ax * p.x() + ay * p.y() + region.b[e];
-        const double hd = ax * vp.x() + ay * vp.y();
-        C.row(row) = ax * J.row(0) + ay * J.row(1);
-        l[row] = -(ax * d.x() + ay * d.y()) - 2.0 * gr * hd - gr * gr * h;
-        u[row] = kInf;
-        ++row;
-      }
-    }
-    if (clearance_on && !centroidal::CentroidalRobot::inStance(mode, i)) {
-      // h = z - r - H(x, y) - clearance with H the plane of the region under the wheel.
-      const Eigen::Vector2d pxy = p.head<2>();
-      const int under = terrain_->regionAt(pxy);
-      double ground = 0.0, sx = 0.0, sy = 0.0;  // height and slope dH/dx, dH/dy
-      if (under >= 0) {
-        const planning::ConvexRegion& region = terrain_->region(under);
-        ground = region.heightAt(pxy);
-        sx = -region.normal.x() / region.normal.z();
-        sy = -region.normal.y() / region.normal.z();
-      }
-      const double gc = s.clearance_gamma;
-      const double h = p.z() - robot.contactOffset() - ground - s.clearance;
-      const double hd = vp.z() - sx * vp.x() - sy * vp.y();
-      C.row(row) = J.row(2) - sx * J.row(0) - sy * J.row(1);
-      l[row] = -(d.z() - sx * d.x() - sy * d.y()) - 2.0 * gc * hd - gc * gc * h;
-      u[row] = kInf;
-      ++row;
-    }
-    if (s.collision_gamma > 0.0) {
-      // h = d(p) - r - clearance, h' = g . v, h'' = v^T H v + g . (J a + drift).
-      const double gk = s.collision_gamma;
-      for (int j = 0; j < solids.size(); ++j) {
-        if (!obstacle(i, j)) continue;
-        const SmoothDistance sd = smoothPrismDistance(solids.region(j), p, s.collision_sharpness);
-        const double h = sd.value - robot.contactOffset() - s.collision_clearance;
-        const double hd = sd.gradient.dot(vp);
-        const Eigen::Vector3d& gr = sd.gradient;
-        C.row(row) = gr.x() * J.row(0) + gr.y() * J.row(1) + gr.z() * J.row(2);
-        l[row] = -(sd.gradient.dot(d) + vp.dot(sd.hessian * vp)) - 2.0 * gk * hd - gk * gk * h;
-        u[row] = kInf;
-        ++row;
-      }
-    }
-  }
-
-  // ---- support polygon: h = n . (c - m) - margin per hull edge (cbf_qp.hpp)
-  if (w.hull_size >= 3) {
-    const Eigen::Matrix3Xd& Jcom = model::jacobianCenterOfMass(model, w.data, q);
-    const Eigen::Vector3d com = w.data.com;
-    // COM velocity and drift: mass-weighted over the bodies' COMs at a = 0.
-    Eigen::Vector3d com_v = Eigen::Vector3d::Zero(), com_drift = Eigen::Vector3d::Zero();
-    for (int b = 0; b < model.nbodies(); ++b) {
-      const size_t bi = static_cast<size_t>(b);
-      const double mb = model.bodies[bi].mass;
-      const Eigen::Vector3d& c = w.data.ocom[bi];
-      const Vector6d& ov = w.data.ov[bi];
-      const Vector6d& alpha = w.body_drift[bi];
-      const Eigen::Vector3d vc = ov.head<3>() + ov.tail<3>().cross(c);
-      com_v += mb * vc;
-      com_drift += mb * (alpha.head<3>() + alpha.tail<3>().cross(c) + ov.tail<3>().cross(vc));
-    }
-    com_v /= model.totalMass;
-    com_drift /= model.totalMass;
-    const double gs = s.support_gamma;
-    for (int e = 0; e < w.hull_size; ++e) {
-      const int ia = w.support_feet[static_cast<size_t>(w.hull[static_cast<size_t>(e)])];
-      const int ib =
-          w.support_feet[static_cast<size_t>(w.hull[static_cast<size_t>((e + 1) % w.hull_size)])];
-      const Eigen::Vector2d pa = w.foot_position.col(ia).head<2>();
-      const Eigen::Vector2d pb = w.foot_position.col(ib).head<2>();
-      const Eigen::Vector2d edge = pb - pa;
-      const Eigen::Vector2d n = Eigen::Vector2d(-edge.y(), edge.x()) / edge.norm();  // inward
-      const Eigen::Vector2d mid_v =
-          0.5 * (w.foot_velocity.col(ia).head<2>() + w.foot_velocity.col(ib).head<2>());
-      const Eigen::Vector2d mid_d =
-          0.5 * (w.foot_drift.col(ia).head<2>() + w.foot_drift.col(ib).head<2>());
-      const double h = n.dot(com.head<2>() - 0.5 * (pa + pb)) - s.support_margin;
-      const double hd = n.dot(com_v.head<2>() - mid_v);
-      const Eigen::MatrixXd& Jf = w.foot_jacobian;
-      C.row(row) = n.x() * (Jcom.row(0) - 0.5 * (Jf.row(3 * ia) + Jf.row(3 * ib))) +
-                   n.y() * (Jcom.row(1) - 0.5 * (Jf.row(3 * ia + 1) + Jf.row(3 * ib + 1)));
-      l[row] = -n.dot(com_drift.head<2>() - mid_d) - 2.0 * gs * hd - gs * gs * h;
-      u[row] = kInf;
-      ++row;
-    }
-  }
-
-  // ---- solve
+CbfQpStatus CbfQpFilter::solve(int n_eq, int n_ineq, Eigen::Ref<Eigen::VectorXd> a,
+                               const Eigen::Ref<const Eigen::VectorXd>& v) noexcept {
+  const int nv = robot_->nv();
+  const CbfQpSettings& s = settings_;
+  Work& w = *work_;
   const DenseQpStatus st = qp_solver_.solve(qp_);
   qp_status_ = st;
   qp_iterations_ = qp_solver_.iterations();
   active_barriers_ = st == DenseQpStatus::Optimal ? qp_solver_.numActiveInequalities() : 0;
   auto brake = [&]() {
     correction_ = kInf;
-    writeFallback();
+    writeFallback(v, a);
     return CbfQpStatus::Fallback;
   };
   CbfQpStatus result = CbfQpStatus::Optimal;
   if (st == DenseQpStatus::Optimal) {
     a = qp_solver_.x();
   } else if (st != DenseQpStatus::InvalidInput && n_ineq > 0 && s.relaxation_weight > 0.0) {
-    // The barriers have no common point (or the active-set cap was hit): the same QP with
-    // one slack per barrier row, C a + s >= l, s >= 0, cost + 0.5 w |s|^2. The contact rows
-    // and the joint bounds stay exact; if they alone are inconsistent, brake.
-    const int nr = nv + n_ineq;
-    DenseQpProblem& rq = w.relaxed_qp;
-    rq.setDimensions(nr, n_eq, n_ineq);
-    rq.clear();
-    rq.H().topLeftCorner(nv, nv) = qp_.H();
-    rq.H().diagonal().tail(n_ineq).setConstant(s.relaxation_weight);
-    rq.g().head(nv) = qp_.g();
-    rq.Aeq().leftCols(nv) = qp_.Aeq();
-    rq.beq() = qp_.beq();
-    rq.C().leftCols(nv) = qp_.C();
-    rq.C().rightCols(n_ineq).setIdentity();
-    rq.l() = qp_.l();
-    rq.u() = qp_.u();
-    rq.lb().head(nv) = qp_.lb();
-    rq.ub().head(nv) = qp_.ub();
-    rq.lb().tail(n_ineq).setZero();
-    if (w.relaxed_solver.solve(rq) != DenseQpStatus::Optimal) return brake();
-    a = w.relaxed_solver.x().head(nv);
-    relaxation_ = w.relaxed_solver.x().tail(n_ineq).maxCoeff();
-    qp_iterations_ += w.relaxed_solver.iterations();
-    active_barriers_ = 0;
-    for (int r = 0; r < n_ineq; ++r) {
-      active_barriers_ += w.relaxed_solver.rowSide(r) != ActiveSide::Inactive ? 1 : 0;
-    }
-    for (int j = 0; j < nv; ++j) {
-      active_barriers_ += w.relaxed_solver.boundSide(j) != ActiveSide::Inactive ? 1 : 0;
-    }
+    if (!solveRelaxed(n_eq, n_ineq, a)) return brake();
     result = CbfQpStatus::Relaxed;
   } else {
     return brake();
@@ -608,6 +333,91 @@ CbfQpStatus CbfQpFilter::filter(const Eigen::Ref<const Eigen::VectorXd>& q,
                       : kInf;
   }
   return result;
+}
+
+bool CbfQpFilter::solveRelaxed(int n_eq, int n_ineq, Eigen::Ref<Eigen::VectorXd> a) noexcept {
+  // The barriers have no common point (or the active-set cap was hit): the same QP with
+  // one slack per barrier row, C a + s >= l, s >= 0, cost + 0.5 w |s|^2. The contact rows
+  // and the joint bounds stay exact; if they alone are inconsistent, brake.
+  const int nv = robot_->nv();
+  Work& w = *work_;
+  const int nr = nv + n_ineq;
+  DenseQpProblem& rq = w.relaxed_qp;
+  rq.setDimensions(nr, n_eq, n_ineq);
+  rq.clear();
+  rq.H().topLeftCorner(nv, nv) = qp_.H();
+  rq.H().diagonal().tail(n_ineq).setConstant(settings_.relaxation_weight);
+  rq.g().head(nv) = qp_.g();
+  rq.Aeq().leftCols(nv) = qp_.Aeq();
+  rq.beq() = qp_.beq();
+  rq.C().leftCols(nv) = qp_.C();
+  rq.C().rightCols(n_ineq).setIdentity();
+  rq.l() = qp_.l();
+  rq.u() = qp_.u();
+  rq.lb().head(nv) = qp_.lb();
+  rq.ub().head(nv) = qp_.ub();
+  rq.lb().tail(n_ineq).setZero();
+  if (w.relaxed_solver.solve(rq) != DenseQpStatus::Optimal) return false;
+  a = w.relaxed_solver.x().head(nv);
+  relaxation_ = w.relaxed_solver.x().tail(n_ineq).maxCoeff();
+  qp_iterations_ += w.relaxed_solver.iterations();
+  active_barriers_ = 0;
+  for (int r = 0; r < n_ineq; ++r) {
+    active_barriers_ += w.relaxed_solver.rowSide(r) != ActiveSide::Inactive ? 1 : 0;
+  }
+  for (int j = 0; j < nv; ++j) {
+    active_barriers_ += w.relaxed_solver.boundSide(j) != ActiveSide::Inactive ? 1 : 0;
+  }
+  return true;
+}
+
+CbfQpStatus CbfQpFilter::filter(const Eigen::Ref<const Eigen::VectorXd>& q,
+                                const Eigen::Ref<const Eigen::VectorXd>& v, int mode,
+                                const FootRegionPlan* regions, const AccelerationTargets& targets,
+                                Eigen::Ref<Eigen::VectorXd> a) noexcept {
+  const centroidal::CentroidalRobot& robot = *robot_;
+  const int nv = robot.nv(), nc = robot.nc();
+  const CbfQpSettings& s = settings_;
+  Work& w = *work_;
+  relaxation_ = 0.0;
+  if (!acceptsInput(q, v, mode, regions, targets, a.size())) {
+    qp_status_ = DenseQpStatus::InvalidInput;
+    qp_iterations_ = 0;
+    active_barriers_ = 0;
+    correction_ = kInf;
+    if (a.size() == nv) writeFallback(v, a);
+    return CbfQpStatus::InvalidInput;
+  }
+  computeContactKinematics(robot, w.data, q, v, w.kin);
+
+  // Sizes: the contact rows kept, each foot's barriers, the support polygon's edges.
+  const bool lateral_rows = lateral_slip_weight_ == 0.0;
+  int n_eq = 0, n_ineq = 0;
+  for (int i = 0; i < nc; ++i) {
+    if (robot.keepsVelocityConstraints(mode, i)) {
+      n_eq += robot.contact(i).drive_wheel && lateral_rows ? 2 : 1;
+    }
+    n_ineq += countFootBarriers(mode, regions, i);
+  }
+  w.hull_size = 0;
+  if (s.support_gamma > 0.0) {
+    const int support = support_mask_ >= 0 ? support_mask_ : mode;
+    w.hull_size = supportHull(w.kin, nc, support, w.support_xy, w.support_feet, w.hull);
+    n_ineq += w.hull_size;
+  }
+  qp_.setDimensions(nv, n_eq, n_ineq);
+
+  writeTrackingCost(s, w.kin, targets, robot.nj(), qp_);
+  writeContactRows(robot, s, w.kin, mode, lateral_rows, w.row, qp_);
+  writeJointBounds(q, v, w.joint_lower, w.joint_upper, w.joint_vmax, s.joint_position_gamma,
+                   s.joint_velocity_gamma, qp_);
+  int row = 0;
+  for (int i = 0; i < nc; ++i) row += writeFootBarriers(mode, regions, i, row);
+  if (w.hull_size >= 3) {
+    writeSupportRows(robot.model(), w.data, q, w.kin, w.support_feet, w.hull, w.hull_size,
+                     s.support_margin, s.support_gamma, qp_, row);
+  }
+  return solve(n_eq, n_ineq, a, v);
 }
 
 }  // namespace rollstep::control

@@ -22,19 +22,6 @@ double worldYawRate(const Eigen::VectorXd& q, const Eigen::VectorXd& v) {
 
 }  // namespace
 
-bool recordFilterOutcome(const CbfQpFilter& filter, CbfQpStatus status, TickRecord& record,
-                         PipelineCounters& counters) {
-  record.cbf_status = status;
-  record.qp_status = filter.qpStatus();
-  record.qp_iterations = filter.qpIterations();
-  record.active_barriers = filter.activeBarriers();
-  record.correction = filter.correction();
-  if (status == CbfQpStatus::Relaxed) ++counters.qp_relaxations;
-  const bool fallback = status != CbfQpStatus::Optimal && status != CbfQpStatus::Relaxed;
-  if (fallback) ++counters.qp_fallbacks;
-  return fallback;
-}
-
 ControlPipeline::ControlPipeline(const centroidal::RobotOcpDescription& robot,
                                  const ControlSettings& settings,
                                  const planning::TerrainModel& terrain, planning::GaitKind gait,
@@ -51,10 +38,8 @@ ControlPipeline::ControlPipeline(const centroidal::RobotOcpDescription& robot,
   reference_ = std::make_unique<ReferenceTrajectory>(
       std::make_shared<const centroidal::CentroidalPrecomputation>(robot_.robot),
       settings_.refinement, settings_.ocp.horizon);
-  filter_ = std::make_unique<CbfQpFilter>(robot_.robot, planner_->terrain(), settings_.cbf_qp,
-                                          settings_.ocp.lateral_slip_weight);
-  integrator_ = std::make_unique<StateIntegrator>(r.modelPtr(), settings_.integrator,
-                                                  settings_.control_period);
+  tracking_ = std::make_unique<TrackingStage>(robot_.robot, planner_->terrain(), settings_,
+                                              settings_.ocp.lateral_slip_weight);
   if (settings_.integrator.deflection_compensation > 0.0 &&
       robot_.description.servo_stiffness.size() != r.nj()) {
     throw std::invalid_argument(
@@ -69,14 +54,9 @@ ControlPipeline::ControlPipeline(const centroidal::RobotOcpDescription& robot,
   regions_.assign(static_cast<size_t>(r.nc()), FootRegionPlan{});
   solution_ = runner_->makeSolution();
   sample_ = reference_->makeSample();
-  targets_ = filter_->makeTargets();
   q_meas_ = Eigen::VectorXd::Zero(r.nq());
   v_meas_ = Eigen::VectorXd::Zero(r.nv());
   x_meas_ = Eigen::VectorXd::Zero(r.nx());
-  a_ = Eigen::VectorXd::Zero(r.nv());
-  dq_ = Eigen::VectorXd::Zero(r.nv());
-  foot_p_ = Eigen::Matrix3Xd::Zero(3, r.nc());
-  foot_v_ = Eigen::Matrix3Xd::Zero(3, r.nc());
   measured_feet_ = Eigen::Matrix3Xd::Zero(3, r.nc());
 }
 
@@ -87,7 +67,7 @@ void ControlPipeline::stop() {
 }
 
 std::uint64_t ControlPipeline::setTerrain(const planning::TerrainModel& terrain) {
-  if (!planner_->acceptsTerrain(terrain) || terrain.maxEdges() > filter_->maxRegionEdges()) {
+  if (!planner_->acceptsTerrain(terrain) || terrain.maxEdges() > filter().maxRegionEdges()) {
     return 0;
   }
   // The real-time side's copy first: it is there when a solution solved on it arrives. The
@@ -126,7 +106,7 @@ solver::SolverStatus ControlPipeline::initializeSchedule(
   planner_->planSchedule(state.time, schedule_);
   const solver::SolverStatus status =
       runner_->initializeSchedule(state.time, start, schedule, x_meas_);
-  integrator_->reset(q_meas_, v_meas_);
+  tracking_->reset(q_meas_, v_meas_);
   solution_.sequence = 0;
   if (runner_->poll(state.time, solution_)) {
     reference_->refine(solution_, state.time, x_meas_);
@@ -146,34 +126,25 @@ void ControlPipeline::measure(const RobotState& state) noexcept {
 }
 
 void ControlPipeline::computeTargets() noexcept {
-  const centroidal::CentroidalRobot& r = robot();
-  const model::Model& m = r.model();
+  const int nj = robot().nj();
   const FeedbackSettings& fb = settings_.feedback;
-  const Eigen::VectorXd& q = integrator_->q();
-  const Eigen::VectorXd& v = integrator_->v();
-  const int nj = r.nj();
+  const Eigen::VectorXd& v = tracking_->v();
   // Configuration error reference (-) internal, in the internal state's tangent (LOCAL).
-  model::difference(m, q, sample_.q, dq_);
-  targets_.base = sample_.a.head<6>() + fb.base_kp.cwiseProduct(dq_.head<6>()) +
-                  fb.base_kd.cwiseProduct(sample_.v.head<6>() - v.head<6>());
-  targets_.joints = sample_.a.tail(nj) + fb.joint_kp * dq_.tail(nj) +
-                    fb.joint_kd * (sample_.v.tail(nj) - v.tail(nj));
-  // Feet at the internal state.
-  model::forwardKinematics(m, *data_, q, v);
-  for (int i = 0; i < r.nc(); ++i) {
-    const model::FrameIndex f = r.frameIds()[static_cast<size_t>(i)];
-    model::updateFramePlacement(m, *data_, f);
-    foot_p_.col(i) = data_->opf[static_cast<size_t>(f)];
-    foot_v_.col(i) =
-        model::getFrameVelocity(m, *data_, f, model::ReferenceFrame::LOCAL_WORLD_ALIGNED).head<3>();
-  }
-  targets_.feet = sample_.foot_acceleration + fb.foot_kp * (sample_.foot_position - foot_p_) +
-                  fb.foot_kd * (sample_.foot_velocity - foot_v_);
+  const Eigen::VectorXd& dq = tracking_->configurationError(sample_.q);
+  AccelerationTargets& targets = tracking_->targets();
+  targets.base = sample_.a.head<6>() + fb.base_kp.cwiseProduct(dq.head<6>()) +
+                 fb.base_kd.cwiseProduct(sample_.v.head<6>() - v.head<6>());
+  targets.joints = sample_.a.tail(nj) + fb.joint_kp * dq.tail(nj) +
+                   fb.joint_kd * (sample_.v.tail(nj) - v.tail(nj));
+  tracking_->updateFeet();
+  targets.feet = sample_.foot_acceleration +
+                 fb.foot_kp * (sample_.foot_position - tracking_->footPositions()) +
+                 fb.foot_kd * (sample_.foot_velocity - tracking_->footVelocities());
 }
 
 void ControlPipeline::computeWheelCommands(JointCommand& command) noexcept {
-  const Eigen::VectorXd& q = integrator_->q();
-  const Eigen::VectorXd& v = integrator_->v();
+  const Eigen::VectorXd& q = tracking_->q();
+  const Eigen::VectorXd& v = tracking_->v();
   // Skid steering (pipeline.hpp): the extra yaw rate the wheels' speed difference is
   // commanded for, (factor - 1) w_cmd + gain (w_cmd - w_measured), world z.
   double extra_yaw_rate = 0.0;
@@ -227,7 +198,7 @@ void ControlPipeline::tick(const RobotState& state, JointCommand& command) noexc
       adopted_t0_ = solution_.t0;
       holding_ = false;
       // Naive state feedback: the commands restart from the measurement with each plan.
-      if (settings_.integrator.mode == IntegratorMode::Naive) integrator_->reset(q_meas_, v_meas_);
+      if (settings_.integrator.mode == IntegratorMode::Naive) tracking_->reset(q_meas_, v_meas_);
     } else {
       ++counters_.solutions_rejected;
     }
@@ -281,22 +252,17 @@ void ControlPipeline::tick(const RobotState& state, JointCommand& command) noexc
 
   // Acceleration commands, safety filter, integrator.
   computeTargets();
-  recordFilterOutcome(*filter_,
-                      filter_->filter(integrator_->q(), integrator_->v(), record_.mode,
-                                      regions_.data(), targets_, a_),
-                      record_, counters_);
-  integrator_->step(a_, q_meas_, v_meas_);
+  tracking_->filter(record_.mode, regions_.data(), record_, counters_);
+  tracking_->step(q_meas_, v_meas_, command);
 
   // Commands.
-  command.joint_position = integrator_->q().tail(r.nj());
-  command.joint_velocity = integrator_->v().tail(r.nj());
   computeWheelCommands(command);
   const double compensation = settings_.integrator.deflection_compensation;
   if (compensation > 0.0) {
     // Each servo carries the static torque of the planned contact forces and sits tau / K
     // short of its command: command that much further.
-    const Eigen::VectorXd& tau = model::computeStaticTorque(r.model(), *data_, integrator_->q(),
-                                                            r.frameIds(), sample_.forces);
+    const Eigen::VectorXd& tau =
+        model::computeStaticTorque(r.model(), *data_, tracking_->q(), r.frameIds(), sample_.forces);
     command.joint_position.array() +=
         compensation * tau.tail(r.nj()).array() / robot_.description.servo_stiffness.array();
   }

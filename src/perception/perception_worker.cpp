@@ -12,31 +12,26 @@ ScanMailbox::ScanMailbox(int capacity) : capacity_(capacity) {
     throw std::invalid_argument("ScanMailbox: capacity " + std::to_string(capacity) +
                                 " must be >= 1");
   }
-  for (ScanFrame& f : frames_) f.points.reserve(static_cast<std::size_t>(capacity));
+  frames_.forEachSlot(
+      [capacity](ScanFrame& f) { f.points.reserve(static_cast<std::size_t>(capacity)); });
 }
 
 bool ScanMailbox::publish(const std::vector<Eigen::Vector3d>& points,
                           const Eigen::Isometry3d& sensor_pose, double time) noexcept {
   if (points.size() > static_cast<std::size_t>(capacity_)) return false;
-  ScanFrame& f = frames_[static_cast<std::size_t>(write_)];
+  ScanFrame& f = frames_.writable();
   // Within the reserved capacity: neither resize nor assign reallocates.
   f.points.resize(points.size());
   std::copy(points.begin(), points.end(), f.points.begin());
   f.sensor_pose = sensor_pose;
   f.time = time;
-  f.sequence = ++published_;
-  write_ = middle_.exchange(write_ | kDirty, std::memory_order_acq_rel) & kIndexMask;
+  f.sequence = frames_.published() + 1;  // the version publish() gives it
+  frames_.publish();
   return true;
 }
 
 const ScanFrame* ScanMailbox::take() noexcept {
-  if ((middle_.load(std::memory_order_acquire) & kDirty) == 0) return nullptr;
-  read_ = middle_.exchange(read_, std::memory_order_acq_rel) & kIndexMask;
-  return &frames_[static_cast<std::size_t>(read_)];
-}
-
-bool ScanMailbox::pending() const noexcept {
-  return (middle_.load(std::memory_order_acquire) & kDirty) != 0;
+  return frames_.take() ? &frames_.current() : nullptr;
 }
 
 PerceptionWorker::PerceptionWorker(TerrainPerception& perception, int scan_capacity, Sink sink)

@@ -1,20 +1,19 @@
-// The terrain hand-over (terrain_exchange.hpp): the consumer gets the newest published
+// The terrain hand-over (a LatestValueMailbox of terrains): the consumer gets the newest published
 // value, swapped in without allocating; the old value comes back through previous();
 // across threads every value taken is whole (its regions match its version) and versions
 // only grow.
-#include "rollstep/control/terrain_exchange.hpp"
-
 #include <gtest/gtest.h>
 
 #include <atomic>
 #include <thread>
 
 #include "common/alloc_counter.hpp"
+#include "rollstep/common/latest_value_mailbox.hpp"
 #include "rollstep/planning/terrain.hpp"
 
 namespace {
 
-using rollstep::control::LatestValueExchange;
+using rollstep::LatestValueMailbox;
 using rollstep::planning::ConvexRegion;
 using rollstep::planning::TerrainModel;
 
@@ -29,7 +28,7 @@ TerrainModel squares(int n, double h) {
 }
 
 TEST(TerrainExchange, TakesTheNewestWithoutAllocating) {
-  LatestValueExchange<TerrainModel> exchange;
+  LatestValueMailbox<TerrainModel> exchange;
   TerrainModel in_use = squares(1, 0.0);
   std::uint64_t version = 0;
   EXPECT_FALSE(exchange.pending());
@@ -59,7 +58,7 @@ TEST(TerrainExchange, TakesTheNewestWithoutAllocating) {
 }
 
 TEST(TerrainExchange, ProducerAndConsumerThreadsSeeWholeValues) {
-  LatestValueExchange<TerrainModel> exchange;
+  LatestValueMailbox<TerrainModel> exchange;
   constexpr int kValues = 3000;
   std::atomic<bool> done{false};
   std::thread producer([&] {

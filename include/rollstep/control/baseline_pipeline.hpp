@@ -32,13 +32,14 @@
 #include <vector>
 
 #include "rollstep/centroidal/loaded_robot.hpp"
+#include "rollstep/common/latest_value_mailbox.hpp"
 #include "rollstep/control/cbf_qp.hpp"
 #include "rollstep/control/control_settings.hpp"
 #include "rollstep/control/pipeline.hpp"
 #include "rollstep/control/reactive_planner.hpp"
 #include "rollstep/control/robot_state.hpp"
 #include "rollstep/control/state_integrator.hpp"
-#include "rollstep/control/terrain_exchange.hpp"
+#include "rollstep/control/tracking_stage.hpp"
 
 namespace rollstep::control {
 
@@ -84,8 +85,8 @@ class BaselinePipeline {
   const TickRecord& lastTick() const { return record_; }
   const PipelineCounters& counters() const { return counters_; }
   const ReactivePlan& plan() const { return plan_; }
-  const StateIntegrator& integrator() const { return *integrator_; }
-  const CbfQpFilter& filter() const { return *filter_; }
+  const StateIntegrator& integrator() const { return tracking_->integrator(); }
+  const CbfQpFilter& filter() const { return tracking_->safetyFilter(); }
   const ReactivePlanner& planner() const { return *planner_; }
   const centroidal::CentroidalRobot& robot() const { return *robot_.robot; }
   const ControlSettings& settings() const { return settings_; }
@@ -100,16 +101,13 @@ class BaselinePipeline {
   std::unique_ptr<planning::ContactPlanner> contacts_;
   std::unique_ptr<planning::TerrainModel> collision_terrain_;
   std::unique_ptr<ReactivePlanner> planner_;
-  std::unique_ptr<CbfQpFilter> filter_;
-  std::unique_ptr<StateIntegrator> integrator_;
+  std::unique_ptr<TrackingStage> tracking_;
   std::unique_ptr<model::Data> data_;
   std::vector<int> drive_wheels_;
   ReactivePlan plan_;
-  AccelerationTargets targets_;
   TickRecord record_;
   PipelineCounters counters_;
-  Eigen::VectorXd q_meas_, v_meas_, a_, dq_;
-  Eigen::Matrix3Xd foot_p_, foot_v_;
+  Eigen::VectorXd q_meas_, v_meas_;
   bool initialized_ = false;
 
   /// Foothold and collision terrains handed over together.
@@ -120,7 +118,7 @@ class BaselinePipeline {
       solids.swap(other.solids);
     }
   };
-  LatestValueExchange<TerrainPair> terrain_in_;
+  LatestValueMailbox<TerrainPair> terrain_in_;
   TerrainPair incoming_;
   std::uint64_t terrain_version_ = 0;
 };

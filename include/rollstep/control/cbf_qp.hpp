@@ -94,6 +94,9 @@
 // index; a gets the fallback with 0 for every non-finite (or missing) v_J. When a itself is
 // not nv long nothing is written.
 //
+// Each constraint family is one function of cbf_rows.hpp (with its own tests); filter()
+// checks the input, sizes the QP, calls them and solves.
+//
 // Memory: sized at construction; filter() never allocates, locks or throws.
 #include <Eigen/Core>
 #include <memory>
@@ -201,6 +204,23 @@ class CbfQpFilter {
   const centroidal::CentroidalRobot& robot() const { return *robot_; }
 
  private:
+  // The stages of filter() (cbf_rows.hpp holds the rows' formulas).
+  bool acceptsInput(const Eigen::Ref<const Eigen::VectorXd>& q,
+                    const Eigen::Ref<const Eigen::VectorXd>& v, int mode,
+                    const FootRegionPlan* regions, const AccelerationTargets& targets,
+                    Eigen::Index a_size) const noexcept;
+  /// The region constraining foot i's barrier rows (-1: none).
+  static int barrierRegion(int mode, const FootRegionPlan* regions, int i) noexcept;
+  bool collisionObstacle(const FootRegionPlan* regions, int i, int j) const noexcept;
+  int countFootBarriers(int mode, const FootRegionPlan* regions, int i) const noexcept;
+  /// Foot i's region, clearance and collision rows from `row` on; returns how many.
+  int writeFootBarriers(int mode, const FootRegionPlan* regions, int i, int row) noexcept;
+  CbfQpStatus solve(int n_eq, int n_ineq, Eigen::Ref<Eigen::VectorXd> a,
+                    const Eigen::Ref<const Eigen::VectorXd>& v) noexcept;
+  bool solveRelaxed(int n_eq, int n_ineq, Eigen::Ref<Eigen::VectorXd> a) noexcept;
+  void writeFallback(const Eigen::Ref<const Eigen::VectorXd>& v,
+                     Eigen::Ref<Eigen::VectorXd> a) const noexcept;
+
   std::shared_ptr<const centroidal::CentroidalRobot> robot_;
   const planning::TerrainModel* terrain_;
   const planning::TerrainModel* collision_terrain_;

@@ -8,12 +8,16 @@
 //   Asynchronous   a thread of its own solves back to back (or every period of wall time)
 //                  on the newest posted state; poll() returns the newest finished solution.
 //
+// What a solve does (terrain hand-over, reference leash, contact plan, one real-time
+// iteration, an exception turned into a failed solution) is one solve step; the two
+// timings are two drivers of it (the deterministic one also injects faults).
 // The contact plan is the OCP's gait advanced to the solve's start time (the gait cycle
 // starts at t = 0), the same schedule the real-time loop's contact planner computes.
 //
-// Real-time contract: post() and poll() never allocate, lock or throw (lock-free triple
-// buffers between the threads; in deterministic mode post() runs the allocation-free
-// solver update). Construction and initialize() allocate and may throw.
+// Real-time contract: post() and poll() never allocate, lock or throw (latest-value
+// mailboxes between the threads, common/latest_value_mailbox.hpp; in deterministic mode
+// post() runs the allocation-free solver update). Construction and initialize() allocate
+// and may throw.
 #include <Eigen/Core>
 #include <atomic>
 #include <cstdint>
@@ -26,7 +30,6 @@
 
 #include "rollstep/centroidal/centroidal_ocp.hpp"
 #include "rollstep/control/control_settings.hpp"
-#include "rollstep/control/terrain_exchange.hpp"
 #include "rollstep/solver/solver.hpp"
 
 namespace rollstep::control {

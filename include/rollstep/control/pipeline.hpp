@@ -14,6 +14,8 @@
 //      leg/terrain clearance)
 //   -> internal state integrator (measured state blended in)
 //   -> joint position commands (hips, knees) and drive-wheel velocity commands.
+// (Feedback, filter, integrator and joint commands: TrackingStage, shared with the
+// baseline pipeline.)
 //
 // Drive-wheel speed (relative to its shank): the wheel centre's velocity along the wheel's
 // heading (the contact frame's x axis projected on the ground) over the wheel radius (the
@@ -76,61 +78,16 @@
 #include <vector>
 
 #include "rollstep/centroidal/loaded_robot.hpp"
+#include "rollstep/common/latest_value_mailbox.hpp"
 #include "rollstep/control/cbf_qp.hpp"
 #include "rollstep/control/control_settings.hpp"
 #include "rollstep/control/mpc_runner.hpp"
 #include "rollstep/control/reference_trajectory.hpp"
 #include "rollstep/control/robot_state.hpp"
 #include "rollstep/control/state_integrator.hpp"
-#include "rollstep/control/terrain_exchange.hpp"
+#include "rollstep/control/tracking_stage.hpp"
 
 namespace rollstep::control {
-
-/// What the pipeline sends to the actuators.
-struct JointCommand {
-  Eigen::VectorXd joint_position;  ///< nj, model joint order [rad or m]
-  Eigen::VectorXd joint_velocity;  ///< nj, the internal state's joint velocities
-  Eigen::VectorXd wheel_velocity;  ///< one per drive wheel, in contact order [rad/s]
-};
-
-/// What happened in one tick (for logs and tests).
-struct TickRecord {
-  double time = 0.0;
-  int mode = 0;             ///< contact mask of the contact planner at t
-  int late_feet = 0;        ///< feet whose stance is delayed until they land (landLateFeet), a mask
-  bool state_valid = true;  ///< false: the state was rejected, the command kept
-  bool new_solution = false;            ///< a solution arrived this tick
-  bool solution_adopted = false;        ///< ... and was refined into the reference
-  std::uint64_t solution_sequence = 0;  ///< of the reference in use
-  CbfQpStatus cbf_status = CbfQpStatus::Optimal;
-  DenseQpStatus qp_status = DenseQpStatus::Optimal;
-  int qp_iterations = 0;
-  int active_barriers = 0;
-  double correction = 0.0;            ///< CbfQpFilter::correction()
-  bool holding = false;               ///< stale-solution watchdog: holding the safe posture
-  std::uint64_t terrain_version = 0;  ///< of the real-time side's terrain (0: the initial)
-};
-
-/// Counters over the run.
-struct PipelineCounters {
-  std::uint64_t ticks = 0;
-  std::uint64_t invalid_states = 0;
-  std::uint64_t solutions_received = 0;
-  std::uint64_t solutions_rejected = 0;    ///< unusable, reference kept
-  std::uint64_t qp_fallbacks = 0;          ///< ticks on the CBF-QP's brake fallback
-  std::uint64_t qp_relaxations = 0;        ///< ticks on its relaxed barriers (CbfQpStatus::Relaxed)
-  std::uint64_t watchdog_trips = 0;        ///< solution older than mpc.max_solution_age: hold began
-  std::uint64_t holding_ticks = 0;         ///< ticks spent holding the safe posture
-  std::uint64_t stale_solutions = 0;       ///< older than mpc.max_solution_age on arrival: ignored
-  std::uint64_t terrain_updates = 0;       ///< new terrains the real-time side changed to
-  std::uint64_t late_touchdown_ticks = 0;  ///< ticks with a foot landing late (any foot)
-};
-
-/// Records the safety filter's outcome of a tick (its status, the QP's status and
-/// iterations, the active barriers, the correction) and counts a relaxation or a fallback.
-/// Returns true on the fallback (neither Optimal nor Relaxed). Both pipelines call it.
-bool recordFilterOutcome(const CbfQpFilter& filter, CbfQpStatus status, TickRecord& record,
-                         PipelineCounters& counters);
 
 class ControlPipeline {
  public:
@@ -174,8 +131,8 @@ class ControlPipeline {
   /// The newest solution received (its statistics: iterations, KKT error, solve time).
   const MpcSolution& lastSolution() const { return solution_; }
   const ReferenceSample& reference() const { return sample_; }
-  const StateIntegrator& integrator() const { return *integrator_; }
-  const CbfQpFilter& filter() const { return *filter_; }
+  const StateIntegrator& integrator() const { return tracking_->integrator(); }
+  const CbfQpFilter& filter() const { return tracking_->safetyFilter(); }
   const MpcRunner& runner() const { return *runner_; }
   /// The real-time side's contact planner (its terrain, references, gait clock).
   const planning::ContactPlanner& contactPlanner() const { return *planner_; }
@@ -203,22 +160,19 @@ class ControlPipeline {
   std::unique_ptr<planning::ContactPlanner> planner_;
   ocp::ModeSchedule schedule_;
   std::unique_ptr<ReferenceTrajectory> reference_;
-  std::unique_ptr<CbfQpFilter> filter_;
-  std::unique_ptr<StateIntegrator> integrator_;
+  std::unique_ptr<TrackingStage> tracking_;
   std::unique_ptr<model::Data> data_;
   std::vector<int> drive_wheels_;
   std::vector<FootRegionPlan> regions_;
-  LatestValueExchange<planning::TerrainModel> terrain_in_;  // setTerrain -> tick
+  LatestValueMailbox<planning::TerrainModel> terrain_in_;  // setTerrain -> tick
   planning::TerrainModel rt_incoming_;
   std::uint64_t rt_terrain_version_ = 0;
 
   MpcSolution solution_;
   ReferenceSample sample_;
-  AccelerationTargets targets_;
   TickRecord record_;
   PipelineCounters counters_;
-  Eigen::VectorXd q_meas_, v_meas_, x_meas_, a_, dq_;
-  Eigen::Matrix3Xd foot_p_, foot_v_;
+  Eigen::VectorXd q_meas_, v_meas_, x_meas_;
   std::unique_ptr<model::Data> measured_data_;  // the measured feet of the contact planner
   Eigen::Matrix3Xd measured_feet_;
   double schedule_horizon_ = 0.0;

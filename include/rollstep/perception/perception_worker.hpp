@@ -20,6 +20,7 @@
 #include <thread>
 #include <vector>
 
+#include "rollstep/common/latest_value_mailbox.hpp"
 #include "rollstep/perception/terrain_perception.hpp"
 
 namespace rollstep::perception {
@@ -33,8 +34,8 @@ struct ScanFrame {
   std::uint64_t sequence = 0;  ///< 1, 2, ... in posting order
 };
 
-/// Single-producer single-consumer mailbox of the newest scan, frames of at most
-/// `capacity` points allocated at construction.
+/// Single-producer single-consumer mailbox of the newest scan (a LatestValueMailbox of
+/// frames), frames of at most `capacity` points allocated at construction.
 class ScanMailbox {
  public:
   explicit ScanMailbox(int capacity);
@@ -47,21 +48,15 @@ class ScanMailbox {
   /// stays the consumer's (the producer does not touch it) until the next take().
   const ScanFrame* take() noexcept;
   /// Consumer: whether a frame is waiting.
-  bool pending() const noexcept;
+  bool pending() const noexcept { return frames_.pending(); }
 
   int capacity() const { return capacity_; }
   /// Producer: frames published so far.
-  std::uint64_t published() const { return published_; }
+  std::uint64_t published() const { return frames_.published(); }
 
  private:
-  static constexpr int kIndexMask = 3;
-  static constexpr int kDirty = 4;
   int capacity_;
-  std::array<ScanFrame, 3> frames_;
-  int write_ = 0;                // producer's
-  std::atomic<int> middle_{1};   // shared
-  int read_ = 2;                 // consumer's
-  std::uint64_t published_ = 0;  // producer's
+  LatestValueMailbox<ScanFrame> frames_;
 };
 
 /// Counts of a worker (consistent once stop() has returned).
