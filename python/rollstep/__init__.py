@@ -231,16 +231,16 @@ class CentroidalOcp:
     def solve(self, x0=None):
         """Solves from the state x0 (nx,; default: the standing state at the start pose) in the
         settings' solver mode (converging by default: iterations until the KKT tolerance),
-        from the current guess. Returns the status: 'converged', 'acceptable',
-        'iteration limit', 'line search failed', 'infeasible', ... (solver.hpp). Releases
-        the GIL."""
+        from the current guess. Returns the status: 'Converged', 'Acceptable',
+        'MaxIterations', 'LineSearchFailed', 'Infeasible', ... (the C++ SolverStatus
+        names). Releases the GIL."""
         return self._ocp.solve(None if x0 is None else np.asarray(x0, dtype=float))
 
     def realtime_iteration(self, t, x):
         """One real-time update at time t [s] from the measured state x (nx,), as the MPC runs
         it: moves the horizon to t (the previous solution shifted by whole nodes), anchors the
         stance feet, then realtime_iterations Newton iterations. Returns the status
-        ('iteration done' normally). Releases the GIL."""
+        ('IterationDone' normally). Releases the GIL."""
         return self._ocp.realtime_iteration(float(t), np.asarray(x, dtype=float))
 
     # --- the plan ------------------------------------------------------------------------------
@@ -355,7 +355,7 @@ class LqProblem:
         self._lq.set_initial_guess(np.asarray(xs, dtype=float), np.asarray(us, dtype=float))
 
     def solve(self, x0):
-        """Solves from x_0 = x0 (nx,). Returns the status ('converged', 'infeasible', ...).
+        """Solves from x_0 = x0 (nx,). Returns the status ('Converged', 'Infeasible', ...).
         Releases the GIL."""
         return self._lq.solve(np.asarray(x0, dtype=float))
 
