@@ -71,9 +71,11 @@ class _Section:
         return sorted(self._tree().keys())
 
     def keys(self):
+        """The setting names of this section."""
         return list(self._tree().keys())
 
     def to_dict(self):
+        """This section's settings as a dict."""
         return self._tree()
 
     def __repr__(self):
@@ -118,9 +120,11 @@ class Settings:
         return self._cpp.to_dict()
 
     def keys(self):
+        """The setting names (the YAML keys), in the file's order."""
         return list(self.to_dict().keys())
 
     def copy(self):
+        """An independent copy."""
         return self._wrap(self._cpp_class(self._cpp))
 
     def _update(self, values):

@@ -3,6 +3,9 @@
 //                                                stdin; prints the model functions' results
 //   rollstep_python_reference ocp ROBOT_YAML OCP_YAML SCENE GAIT VX
 //                                                builds and solves the OCP as `rollstep plan`
+//   rollstep_python_reference error KIND PATH    prints the message of the exception the
+//                                                loader of KIND (urdf, ocp_settings, scene,
+//                                                robot) throws on PATH
 // Output: one line per array, "name rows cols h h ...", column-major.
 #include <cstdio>
 #include <iostream>
@@ -104,12 +107,26 @@ int runOcp(const std::string& robot_file, const std::string& settings_file,
   return 0;
 }
 
+int printError(const std::string& kind, const std::string& path) {
+  try {
+    if (kind == "urdf") model::buildModelFromUrdfFile(path);
+    if (kind == "ocp_settings") centroidal::loadOcpSettings(path);
+    if (kind == "scene") sim::loadSceneConfig(path);
+    if (kind == "robot") centroidal::loadRobotOcpDescription(path);
+  } catch (const std::exception& e) {
+    std::printf("%s", e.what());
+    return 0;
+  }
+  return 3;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   try {
     const std::string mode = argc > 1 ? argv[1] : "";
     if (mode == "model" && argc == 3) return runModel(argv[2]);
+    if (mode == "error" && argc == 4) return printError(argv[2], argv[3]);
     if (mode == "ocp" && argc == 7) {
       return runOcp(argv[2], argv[3], argv[4], argv[5], std::strtod(argv[6], nullptr));
     }
