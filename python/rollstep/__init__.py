@@ -62,7 +62,6 @@ from ._rollstep import (  # noqa: F401  (re-exported)
 from . import _rollstep
 from ._settings import ControlSettings, OcpSettings, SolverSettings  # noqa: F401
 
-__all__ = [name for name in dir() if not name.startswith("_") and name not in ("os", "np", "subprocess")]
 
 
 def robots_dir():
@@ -480,3 +479,6 @@ def run_report(*args, **kwargs):
 def run_trials(*args, **kwargs):
     """`rollstep trials ARGS` (repeated randomised runs)."""
     return run_command(["trials"] + list(args), **kwargs)
+
+
+__all__ = [name for name in dir() if not name.startswith("_") and name not in ("os", "np", "subprocess")]

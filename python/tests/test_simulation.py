@@ -76,3 +76,39 @@ def test_state_and_checks():
         sim.run(-1)
     with pytest.raises(ValueError, match="speed 9"):
         rollstep.Simulation(controller="drive", speed=9.0)
+
+
+def test_gil_released_while_stepping():
+    import threading
+    import time
+    sim = rollstep.Simulation(scene="flat", controller="drive", speed=0.2)
+    done = threading.Event()
+    spans = []
+
+    def work():
+        t0 = time.perf_counter()
+        sim.run(1.0)
+        spans.append(time.perf_counter() - t0)
+        done.set()
+
+    worker = threading.Thread(target=work)
+    stamps = []
+    worker.start()
+    while not done.is_set():
+        stamps.append(time.perf_counter())
+    worker.join()
+    gaps = np.diff(stamps) if len(stamps) > 1 else np.array([spans[0]])
+    # With the GIL held the loop would stop for the whole run.
+    assert gaps.max() < 0.5 * spans[0] + 1e-3 or spans[0] < 0.02, (gaps.max(), spans[0])
+
+
+def test_command_line_entry_points():
+    program = os.environ.get("ROLLSTEP_PROGRAM") or rollstep._paths.PROGRAM
+    if not os.path.exists(program):
+        pytest.skip("the rollstep program is not built")
+    for run in (rollstep.run_trials, rollstep.run_report):
+        out = run("--help", capture=True)
+        assert out.returncode == 0 and "--out" in out.stdout
+    import subprocess
+    with pytest.raises(subprocess.CalledProcessError):
+        rollstep.run_command(["sim", "--scene", "moon"], capture=True)
