@@ -447,10 +447,12 @@ class Simulation:
         """Unit of each log column, a dict (name -> unit, e.g. 'base_x' -> 'm')."""
         return dict(_split_unit(c) for c in self._sim.log_columns())
 
-    def log(self):
-        """The log so far, a dict of numpy columns (names as log.csv's, without the units:
-        time, base_x, ..., fz_LF, ...; log_units() gives the units)."""
-        names = [_split_unit(c)[0] for c in self._sim.log_columns()]
+    def log(self, with_units=False):
+        """The log so far, a dict of numpy columns: names as log.csv's without the units
+        (time, base_x, ..., fz_LF, ...; log_units() gives the units), or with them
+        ('time[s]', 'base_x[m]', ...) if with_units."""
+        columns = self._sim.log_columns()
+        names = columns if with_units else [_split_unit(c)[0] for c in columns]
         return dict(zip(names, self._sim.log_values()))
 
 

@@ -26,6 +26,7 @@ def test_drive_rolls_forward_and_steps_equal_run():
     assert len(la["time"]) == 61  # a row at the start and every 10 periods
     units = a.log_units()
     assert units["base_x"] == "m" and units["time"] == "s" and units["fz_LF"] == "N"
+    np.testing.assert_array_equal(a.log(with_units=True)["base_x[m]"], la["base_x"])
 
 
 def _csv_rows(path):
