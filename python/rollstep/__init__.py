@@ -57,6 +57,7 @@ from ._rollstep import (  # noqa: F401  (re-exported)
     integrate,
     jacobian_center_of_mass,
     neutral_configuration,
+    update_frame_placement,
     update_frame_placements,
 )
 from . import _rollstep

@@ -311,7 +311,7 @@ MatrixXd stackRows(const std::vector<VectorXd>& v) {
 
 void bindLqProblem(py::module_& m) {
   py::class_<LqProblem>(m, "_LqProblem", "C++ side of rollstep.LqProblem.")
-      .def(py::init(&makeLq))
+      .def(py::init(&makeLq), py::call_guard<py::gil_scoped_release>())
       .def_property_readonly("nx", [](const LqProblem& p) { return p.nx; })
       .def_property_readonly("nu", [](const LqProblem& p) { return p.nu; })
       .def_property_readonly("horizon", [](const LqProblem& p) { return p.N; })

@@ -263,6 +263,15 @@ void bindModel(py::module_& m) {
       "Frame placements (data.oRf, data.opf) from the body placements (after "
       "forward_kinematics).");
   m.def(
+      "update_frame_placement",
+      [](const Model& mo, Data& d, const py::object& frame) {
+        checkData(mo, d);
+        model::updateFramePlacement(mo, d, frameIndex(mo, frame));
+      },
+      py::arg("model"), py::arg("data"), py::arg("frame"),
+      "One frame's placement (data.oRf[f], data.opf[f]) from the body placements (after "
+      "forward_kinematics).");
+  m.def(
       "get_frame_placement",
       [](const Model& mo, Data& d, const py::object& frame) {
         checkData(mo, d);

@@ -207,7 +207,8 @@ void bindRobotOcp(py::module_& m) {
       .def(py::init<const std::string&, const centroidal::OcpSettings&, const sim::SceneConfig&,
                     const std::string&, double, double, double, double, double, double>(),
            py::arg("robot"), py::arg("settings"), py::arg("scene"), py::arg("gait"), py::arg("vx"),
-           py::arg("vy"), py::arg("yaw_rate"), py::arg("x"), py::arg("y"), py::arg("yaw"))
+           py::arg("vy"), py::arg("yaw_rate"), py::arg("x"), py::arg("y"), py::arg("yaw"),
+           py::call_guard<py::gil_scoped_release>())
       .def_property_readonly("description_file",
                              [](const RobotOcp& o) { return o.description_file; })
       .def_property_readonly(

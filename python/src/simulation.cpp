@@ -172,7 +172,8 @@ void bindSimulation(py::module_& m) {
   py::class_<Simulation>(m, "_Simulation", "C++ side of rollstep.Simulation.")
       .def(py::init<const sim::SceneConfig&, const std::string&, const std::string&,
                     const std::string&, const control::ControlSettings&, const std::string&, double,
-                    double, double, double, double, int>())
+                    double, double, double, double, int>(),
+           py::call_guard<py::gil_scoped_release>())
       .def("step",
            [](Simulation& s, long steps) {
              if (steps < 0 || steps > 1000000000L) {

@@ -24,6 +24,13 @@ def test_equal_to_cpp_bit_for_bit(model, robot_dir):
     rollstep.forward_kinematics(model, d, q, v)
     rollstep.update_frame_placements(model, d)
     T = rollstep.get_frame_placement(model, d, "LF_wheel")
+    f = model.get_frame_id("LF_wheel")
+    np.testing.assert_array_equal(d.opf[f], ref["placement_p"][:, 0])
+    all_frames = d.oRf
+    d2 = rollstep.Data(model)
+    rollstep.forward_kinematics(model, d2, q)
+    rollstep.update_frame_placement(model, d2, f)
+    np.testing.assert_array_equal(d2.oRf[f], all_frames[f])
     np.testing.assert_array_equal(T[:3, :3], ref["placement_R"])
     np.testing.assert_array_equal(T[:3, 3], ref["placement_p"][:, 0])
     vel = rollstep.get_frame_velocity(model, d, "LF_wheel", rollstep.ReferenceFrame.LOCAL)
