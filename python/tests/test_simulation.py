@@ -38,16 +38,18 @@ FORMATS = [("time", "%.4f")] + [(n, "%.6f") for n in ("base_x", "base_y", "base_
     [(n, "%.5f") for n in ("base_vx", "base_vy", "base_vz", "base_wx", "base_wy", "base_wz")]
 
 
-def test_nmpc_run_equals_the_command_line_run(tmp_path):
+@pytest.mark.parametrize("controller,scene", [("nmpc", "flat"), ("cbfqp", "step20")])
+def test_run_equals_the_command_line_run(tmp_path, controller, scene):
     program = os.environ.get("ROLLSTEP_PROGRAM") or rollstep._paths.PROGRAM
     if not os.path.exists(program):
         pytest.skip("the rollstep program is not built")
     out = tmp_path / "sim"
-    rollstep.run_command(["sim", "--scene", "flat", "--controller", "nmpc", "--gait", "trot", "--vx", "0.2",
-                          "--duration", "0.4", "--mpc-timing", "deterministic", "--out", str(out)], capture=True)
+    timing = ["--mpc-timing", "deterministic"] if controller == "nmpc" else []
+    rollstep.run_command(["sim", "--scene", scene, "--controller", controller, "--gait", "trot", "--vx", "0.2",
+                          "--duration", "0.4", "--out", str(out)] + timing, capture=True)
     rows = _csv_rows(out / "log.csv")
     header = [rollstep._split_unit(c)[0] for c in rows[0]]
-    sim = rollstep.Simulation(scene="flat", controller="nmpc", gait="trot", command=(0.2, 0.0, 0.0))
+    sim = rollstep.Simulation(scene=scene, controller=controller, gait="trot", command=(0.2, 0.0, 0.0))
     sim.run(0.4)
     log = sim.log()
     assert list(log) == header
