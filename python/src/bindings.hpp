@@ -19,6 +19,11 @@ void bindRobotOcp(py::module_& m);
 void bindLqProblem(py::module_& m);
 void bindSimulation(py::module_& m);
 
+/// A file name given as str or os.PathLike (pathlib.Path).
+inline std::string pathString(const py::object& path) {
+  return py::str(py::module_::import("os").attr("fspath")(path)).cast<std::string>();
+}
+
 /// Throws std::invalid_argument "<what> has size <got>; expected <want>" (ValueError).
 inline void checkSize(Eigen::Index got, Eigen::Index want, const char* what) {
   if (got != want) {

@@ -151,9 +151,9 @@ void bindModel(py::module_& m) {
 
   m.def(
       "build_model_from_urdf",
-      [](const std::string& path, bool fixed_base) {
+      [](const py::object& path, bool fixed_base) {
         return std::make_shared<Model>(model::buildModelFromUrdfFile(
-            path, fixed_base ? model::RootJoint::Fixed : model::RootJoint::FreeFlyer));
+            pathString(path), fixed_base ? model::RootJoint::Fixed : model::RootJoint::FreeFlyer));
       },
       py::arg("path"), py::arg("fixed_base") = false,
       "Loads a URDF file into a Model (free-flyer root unless fixed_base). Raises ModelError "

@@ -164,7 +164,9 @@ void bindRobotOcp(py::module_& m) {
              return s;
            }),
            py::arg("kind") = "flat", "A scene of this kind with the default parameters.")
-      .def_static("load", &sim::loadSceneConfig, py::arg("path"), "Reads a scene config YAML file.")
+      .def_static(
+          "load", [](const py::object& path) { return sim::loadSceneConfig(pathString(path)); },
+          py::arg("path"), "Reads a scene config YAML file.")
       .def_static("parse", &sim::parseSceneConfig, py::arg("text"), py::arg("source") = "<text>",
                   "Reads scene config YAML text.")
       .def(

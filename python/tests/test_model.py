@@ -125,3 +125,10 @@ def test_docstrings_say_units_and_frames():
         doc = getattr(rollstep, name).__doc__
         assert "world" in doc.lower() or "frame" in doc.lower(), name
     assert "[m]" in rollstep.center_of_mass.__doc__
+
+
+def test_paths_as_pathlib(robot_dir):
+    import pathlib
+    m = rollstep.build_model_from_urdf(pathlib.Path(robot_dir) / "tachyon3.urdf")
+    assert m.nq == 19
+    assert rollstep.load_robot_model(pathlib.Path(robot_dir)).nq == 19
