@@ -267,6 +267,12 @@ class CentroidalOcp:
                           doc="Wall time [s] of the last solve or real-time iteration.")
     stats = property(lambda self: self._ocp.stats, doc=_rollstep._STATS_DOC)
 
+    def feedback_gain(self, k):
+        """Feedback gain K (nu, ndx) of node k < N from the last solve: du = K dx, dx the
+        state's tangent deviation (base part local), du the input's (equality projection
+        included)."""
+        return self._ocp.feedback_gain(int(k))
+
     def constraint_violations(self):
         """The largest violation of each constraint group of the plan: a list of dicts
         (group, value >= 0, node, row)."""
@@ -358,6 +364,11 @@ class LqProblem:
         """Solves from x_0 = x0 (nx,). Returns the status ('Converged', 'Infeasible', ...).
         Releases the GIL."""
         return self._lq.solve(np.asarray(x0, dtype=float))
+
+    def feedback_gain(self, k):
+        """Feedback gain K (nu, nx) of node k < N from the last solve: du = K dx (for an
+        unconstrained problem the LQR gain, u = K x + k)."""
+        return self._lq.feedback_gain(int(k))
 
     states = property(lambda self: self._lq.states, doc="States (N+1, nx) of the last solve.")
     inputs = property(lambda self: self._lq.inputs, doc="Inputs (N, nu) of the last solve.")

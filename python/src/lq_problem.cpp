@@ -358,6 +358,15 @@ void bindLqProblem(py::module_& m) {
                              [](const LqProblem& p) { return p.solver->iterations(); })
       .def_property_readonly("cost", [](const LqProblem& p) { return p.solver->cost(); })
       .def_property_readonly("solve_time", [](const LqProblem& p) { return p.solve_time; })
+      .def("feedback_gain",
+           [](const LqProblem& p, int k) {
+             if (k < 0 || k >= p.N) {
+               throw std::out_of_range("node " + std::to_string(k) + " out of range [0, " +
+                                       std::to_string(p.N) + ")");
+             }
+             const std::lock_guard<std::mutex> lock(p.mutex);
+             return MatrixXd(p.solver->feedbackGain(k));
+           })
       .def_property_readonly("kkt_error", [](const LqProblem& p) {
         return p.solver->stats().empty() ? 0.0 : p.solver->stats().back().kkt_error;
       });

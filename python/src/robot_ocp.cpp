@@ -425,6 +425,16 @@ void bindRobotOcp(py::module_& m) {
                                const Lock lock(o.mutex);
                                return o.solver->cost();
                              })
+      .def("feedback_gain",
+           [](const RobotOcp& o, int k) {
+             const Lock lock(o.mutex);
+             const int N = o.ocp->problem()->horizon();
+             if (k < 0 || k >= N) {
+               throw std::out_of_range("node " + std::to_string(k) + " out of range [0, " +
+                                       std::to_string(N) + ")");
+             }
+             return MatrixXd(o.solver->feedbackGain(k));
+           })
       .def_property_readonly("solve_time", [](const RobotOcp& o) { return o.solve_time; })
       .def_property_readonly(
           "stats",

@@ -24,7 +24,7 @@ def riccati(A, B, Q, R, QN, N, x0):
     for k in range(N):
         us.append(-K[k] @ xs[-1])
         xs.append(A @ xs[-1] + B @ us[-1])
-    return np.array(xs), np.array(us)
+    return np.array(xs), np.array(us), K
 
 
 def test_unconstrained_equals_riccati():
@@ -34,9 +34,13 @@ def test_unconstrained_equals_riccati():
     lq = rollstep.LqProblem(A, B, Q=Q, R=R, QN=QN, horizon=N)
     x0 = np.array([1.0, 0.0])
     assert lq.solve(x0) == "Converged"
-    xs, us = riccati(A, B, Q, R, QN, N, x0)
+    xs, us, K = riccati(A, B, Q, R, QN, N, x0)
     np.testing.assert_allclose(lq.states, xs, atol=1e-9)
     np.testing.assert_allclose(lq.inputs, us, atol=1e-9)
+    for k in (0, N // 2, N - 1):
+        np.testing.assert_allclose(lq.feedback_gain(k), -K[k], atol=1e-8)
+    with pytest.raises(IndexError, match="node 20 out of range"):
+        lq.feedback_gain(N)
 
 
 def test_bounds_and_rows_meet_kkt():
