@@ -185,8 +185,6 @@ class CentroidalOcp:
     tangent_names = property(lambda self: self._ocp.tangent_names,
                              doc="Names of the tangent coordinates (ndx).")
     input_names = property(lambda self: self._ocp.input_names, doc="Names of the inputs (nu).")
-    nominal_height = property(lambda self: self._ocp.nominal_height,
-                              doc="Base height above the ground at the nominal posture [m].")
 
     # --- inputs ------------------------------------------------------------------------------
     def standing_state(self, x=0.0, y=0.0, yaw=0.0):

@@ -235,8 +235,6 @@ void bindRobotOcp(py::module_& m) {
                              [](const RobotOcp& o) { return o.ocp->robot().tangentNames(); })
       .def_property_readonly("input_names",
                              [](const RobotOcp& o) { return o.ocp->robot().inputNames(); })
-      .def_property_readonly("nominal_height",
-                             [](const RobotOcp& o) { return o.ocp->nominalHeight(); })
       .def("standing_state",
            [](const RobotOcp& o, double x, double y, double yaw) {
              const Lock lock(o.mutex);
