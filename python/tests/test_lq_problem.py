@@ -102,3 +102,23 @@ def test_time_varying_data_and_checks():
         lq.solve(np.zeros(3))
     with pytest.raises(ValueError, match="above upper"):
         rollstep.LqProblem(A, B, horizon=3, u_bounds=([1.0], [-1.0]))
+
+
+def test_no_leak_over_many_problems():
+    import resource
+    A, B = double_integrator()
+
+    def burst():
+        for _ in range(100):
+            lq = rollstep.LqProblem(A, B, Q=np.eye(2), R=np.eye(1), QN=np.eye(2), horizon=50,
+                                    u_bounds=([-1.0], [1.0]))
+            lq.solve(np.array([1.0, 0.0]))
+            _ = lq.states, lq.inputs
+
+    burst()
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    for _ in range(3):
+        burst()
+    after = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    # 300 problems of 51 nodes: kept alive they take about 160 MB on this machine.
+    assert after - before < 8000  # kB
