@@ -31,6 +31,7 @@
 #include "cli_util.hpp"
 #include "commands.hpp"
 #include "rollstep/centroidal/centroidal_ocp.hpp"
+#include "rollstep/common/interrupt.hpp"
 #include "rollstep/common/number_text.hpp"
 #include "rollstep/common/text_file.hpp"
 #include "rollstep/control/control_settings.hpp"
@@ -116,6 +117,7 @@ bool markFailed(const OutputFiles& files, const std::string& error) {
   fs::remove(files.log, ec);
   fs::remove(files.summary, ec);
   fs::remove(files.mpc, ec);
+  fs::remove(files.violations, ec);
   try {
     writeFileAtomically(files.failed.string(), "rollstep sim failed: " + error + "\n");
     return true;
@@ -123,6 +125,33 @@ bool markFailed(const OutputFiles& files, const std::string& error) {
     std::fprintf(stderr, "rollstep: warning: %s\n", e.what());
     return false;
   }
+}
+
+/// --log-map DIR: refused before anything is written if it names something that is not a
+/// directory (the map log's files would have nowhere to go).
+void checkMapLogDir(const std::string& dir) {
+  std::error_code ec;
+  if (!dir.empty() && fs::exists(dir, ec) && !fs::is_directory(dir, ec)) {
+    throw OutputError("--log-map '" + dir +
+                      "': cannot create the directory: exists and is not a directory");
+  }
+}
+
+/// After a failure: the map log's files of this run removed (its snapshots without their
+/// index would be a log that is not whole); FAILED is in --out.
+void discardMapLog(const std::string& dir) {
+  if (dir.empty()) return;
+  std::error_code ec;
+  for (const char* name : {"maps.csv", "regions.csv", "footholds.csv"})
+    fs::remove(fs::path(dir) / name, ec);
+  std::vector<fs::path> snapshots;
+  for (const auto& entry : fs::directory_iterator(dir, ec)) {
+    const std::string name = entry.path().filename().string();
+    if (name.rfind("heights_", 0) == 0 && entry.path().extension() == ".npy") {
+      snapshots.push_back(entry.path());
+    }
+  }
+  for (const fs::path& p : snapshots) fs::remove(p, ec);
 }
 
 /// MuJoCo's warnings on stderr (its default handler also appends them to MUJOCO_LOG.TXT in
@@ -397,17 +426,21 @@ void runSim(const SimOptions& o, bool scene_given) {
     controller_text = s.str();
   }
 
-  // Outputs.
+  // Outputs. From here an interrupt (SIGINT, SIGTERM) ends the run through the catch below:
+  // temporary files removed, FAILED with the reason.
+  checkMapLogDir(o.log_map);
   const OutputFiles files(o.out);
+  deferInterrupts();
+  throwIfInterrupted();
   prepareOutputDir(o.out, files);
-  if (nmpc_controller != nullptr && nmpc_controller->perception() != nullptr) {
-    nmpc_controller->perception()->openLog();
-  }
-  if (cbfqp_controller != nullptr && cbfqp_controller->perception() != nullptr) {
-    cbfqp_controller->perception()->openLog();
-  }
   std::string text;
   try {
+    if (nmpc_controller != nullptr && nmpc_controller->perception() != nullptr) {
+      nmpc_controller->perception()->openLog();
+    }
+    if (cbfqp_controller != nullptr && cbfqp_controller->perception() != nullptr) {
+      cbfqp_controller->perception()->openLog();
+    }
     sim::CsvLog log(files.log.string(), controller->logColumns());
     // A progress line on stderr for runs that take more than a few seconds.
     const auto progress = [](const sim::Progress& p) {
@@ -511,6 +544,13 @@ void runSim(const SimOptions& o, bool scene_given) {
     writeFileAtomically(files.summary.string(), text);
   } catch (const std::exception& e) {
     const bool marked = markFailed(files, e.what());
+    discardMapLog(o.log_map);
+    if (dynamic_cast<const Interrupted*>(&e) != nullptr) {
+      std::fprintf(stderr, "rollstep sim: %s: no %s or %s is left%s\n", e.what(), files.log.c_str(),
+                   files.summary.c_str(),
+                   marked ? ("; the reason is in " + files.failed.string()).c_str() : "");
+      throw;
+    }
     throw std::runtime_error(std::string(e.what()) + "\n  the run failed: no " +
                              files.log.string() + " or " + files.summary.string() + " is left" +
                              (marked ? "; the error is in " + files.failed.string() : ""));

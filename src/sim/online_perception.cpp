@@ -65,11 +65,21 @@ void OnlinePerception::openLog() {
     throw OutputError("--log-map '" + options_.log_dir + "': cannot create the directory" +
                       (ec ? ": " + ec.message() : std::string()));
   }
-  // Snapshots of an earlier run would mix with this one's.
+  // Files of an earlier run would mix with this one's: its snapshots and its index (should
+  // this run fail, the index of the earlier one would otherwise sit beside these snapshots).
+  std::vector<fs::path> earlier;
   for (const auto& entry : fs::directory_iterator(options_.log_dir, ec)) {
     const std::string name = entry.path().filename().string();
-    if (name.rfind("heights_", 0) == 0 && entry.path().extension() == ".npy") {
-      fs::remove(entry.path(), ec);
+    if ((name.rfind("heights_", 0) == 0 && entry.path().extension() == ".npy") ||
+        name == "maps.csv" || name == "regions.csv" || name == "footholds.csv") {
+      earlier.push_back(entry.path());
+    }
+  }
+  for (const fs::path& p : earlier) {
+    fs::remove(p, ec);
+    if (ec) {
+      throw OutputError("--log-map: cannot remove the earlier run's '" + p.string() +
+                        "': " + ec.message());
     }
   }
   const fs::path dir(options_.log_dir);
