@@ -46,7 +46,7 @@ int main(int argc, char** argv) {
   int exit_status = 0;
   rollstep::apps::registerPlanCommand(app, exit_status);
   rollstep::apps::registerReportCommand(app, exit_status);
-  rollstep::apps::registerTrialsCommand(app);
+  rollstep::apps::registerTrialsCommand(app, exit_status);
   // A first word that is neither an option nor a command: CLI11 would only say that a
   // subcommand is required.
   std::string names;

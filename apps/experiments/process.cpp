@@ -133,23 +133,31 @@ int runProcess(const std::string& program, const std::vector<std::string>& args,
   const Clock::time_point deadline =
       Clock::now() + std::chrono::duration_cast<Clock::duration>(
                          std::chrono::duration<double>(time_limit > 0.0 ? time_limit : 0.0));
-  const auto remaining_ms = [&]() -> int {
-    if (time_limit <= 0.0) return -1;
-    const auto left =
-        std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count();
+  // The child got this process's interrupt (forwarded): it has a second to end on its own.
+  Clock::time_point interrupted_until = Clock::time_point::max();
+  // Milliseconds to wait for the child at most, -1 for no limit; 0: end it now.
+  const auto wait_ms = [&]() -> int {
+    const Clock::time_point now = Clock::now();
+    if (interruptRequested() && interrupted_until == Clock::time_point::max()) {
+      interrupted_until = now + std::chrono::seconds(1);
+    }
+    Clock::time_point until = interrupted_until;
+    if (time_limit > 0.0) until = std::min(until, deadline);
+    if (until == Clock::time_point::max()) return -1;
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(until - now).count();
     return left > 0 ? static_cast<int>(std::min<long long>(left, 1000000)) : 0;
   };
-  bool expired = false;
+  bool give_up = false;
   std::string pending;
   char buffer[4096];
   while (true) {
     struct pollfd p {
       fd, POLLIN, 0
     };
-    const int ready = ::poll(&p, 1, remaining_ms());
+    const int ready = ::poll(&p, 1, wait_ms());
     if (ready < 0 && errno == EINTR) continue;  // an interrupt: forwarded to the child
     if (ready == 0) {
-      expired = true;
+      give_up = true;
       break;
     }
     const ssize_t n = ::read(fd, buffer, sizeof buffer);
@@ -170,22 +178,23 @@ int runProcess(const std::string& program, const std::vector<std::string>& args,
   }
   ::close(fd);
   int status = 0;
-  for (;;) {  // its standard error closed: wait for its end, within the time limit
-    if (expired) {
+  for (;;) {  // its standard error closed: wait for its end, within the same limits
+    if (give_up) {
       status = endProcess(pid);
       break;
     }
-    const pid_t r = ::waitpid(pid, &status, time_limit > 0.0 ? WNOHANG : 0);
+    const pid_t r = ::waitpid(pid, &status, WNOHANG);
     if (r == pid) break;
     if (r < 0 && errno != EINTR) break;
     if (r == 0) {
-      if (remaining_ms() == 0) {
-        expired = true;
+      if (wait_ms() == 0) {
+        give_up = true;
         continue;
       }
-      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
     }
   }
+  const bool expired = give_up && time_limit > 0.0 && Clock::now() >= deadline;
   unregisterChild(pid);
   if (timed_out != nullptr) *timed_out = expired;
   return exitStatusOf(status);

@@ -31,8 +31,9 @@ int exitStatusOf(int wait_status);
 
 /// Runs a program to its end; every line of its standard error goes to `on_line` and to the
 /// file `stderr_path`. Returns the exit status (exitStatusOf). The child gets this process's
-/// interrupts (rollstep::registerChild). With a `time_limit` [s] > 0, a program still running
-/// after it is ended (SIGTERM, then SIGKILL a second later) and `*timed_out` set.
+/// interrupts (rollstep::registerChild) and is ended (SIGTERM, then SIGKILL a second later)
+/// if it is still running a second after one. With a `time_limit` [s] > 0, a program still
+/// running after it is ended the same way and `*timed_out` set.
 int runProcess(const std::string& program, const std::vector<std::string>& args,
                const std::string& stdout_path, const std::string& stderr_path,
                const std::function<void(const std::string&)>& on_line, double time_limit = 0.0,
