@@ -25,7 +25,9 @@
 #include "experiments/trials.hpp"
 #include "output_folder.hpp"
 #include "rollstep/common/interrupt.hpp"
+#include "rollstep/common/number_text.hpp"
 #include "rollstep/common/text_file.hpp"
+#include "rollstep/sim/plant.hpp"
 #include "rollstep/sim/scene.hpp"
 
 namespace rollstep::apps {
@@ -251,8 +253,28 @@ int runTrials(const TrialsOptions& o, const CLI::App& cmd) {
   }
   // The scenario's scene file, loaded now: a command that would fail is not printed, and no
   // trial starts that cannot run.
+  // The plant is built in the scenes at the corners of the trial ranges (the lowest and
+  // highest step, the start nearest and farthest): a range that puts the block inside the
+  // robot is an error now, not in every trial.
   const sim::SceneConfig base_scene = sceneOf(scenario);
-  for (std::uint64_t seed : seeds) (void)trialScene(base_scene, drawTrial(seed, set.trials));
+  const TrialRanges& ranges = set.trials;
+  for (double height : {ranges.step_height_min, ranges.step_height_max}) {
+    for (double offset : {ranges.start_offset_min, ranges.start_offset_max}) {
+      TrialParameters corner;
+      corner.step_height = height;
+      corner.start_offset = offset;
+      corner.friction = ranges.friction_min;
+      sim::PlantOptions plant_options;
+      plant_options.robot_file = robotOf(scenario);
+      try {
+        const sim::Plant plant(trialScene(base_scene, corner), plant_options);
+      } catch (const std::exception& e) {
+        throw InputError("scenario " + scenario.name + " of " + set.source +
+                         " with the trial ranges (step height " + numberText(height) +
+                         " m, start offset " + numberText(offset) + " m): " + e.what());
+      }
+    }
+  }
   if (o.print_commands) {
     for (std::uint64_t seed : seeds)
       std::printf("%s\n", shellCommand(trialCommand(o, seed)).c_str());

@@ -227,7 +227,8 @@ TrialResult parseTrialResult(const std::string& text, const std::string& source)
     } else if (key == "failure") {
       r.failure = scalar_text();
     } else if (key == "traverse_time") {
-      r.traverse_time = optional_num(1e-9, 1e6);  // a run lasts at most 1e6 s
+      r.traverse_time = optional_num(0.0, 1e6);  // a run lasts at most 1e6 s
+      if (r.traverse_time && !(*r.traverse_time > 0.0)) throw fail("0 is not a traverse time");
     } else if (key == "mean_abs_vz") {
       r.mean_abs_vz = optional_num(0.0, 100.0);
     } else if (key == "mean_abs_wy") {

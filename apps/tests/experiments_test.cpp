@@ -386,6 +386,67 @@ TEST(Trials, ResultFilesRoundTripAndAggregate) {
                std::runtime_error);
 }
 
+// A result file is an input: every field checked for its type and range, the error naming
+// the file, the line and the key.
+TEST(Trials, ResultFieldsAreCheckedLikeInputs) {
+  const std::string head = "scenario: s\npassed: false\n";
+  const auto error = [&](const std::string& line) {
+    try {
+      parseTrialResult(head + line + "\n", "r.yaml");
+    } catch (const std::runtime_error& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  EXPECT_EQ(error("seed: 1\ntraverse_time: 1e308"),
+            "r.yaml: line 4: traverse_time: 1e+308 is outside [0, 1000000]");
+  EXPECT_EQ(error("seed: 1\ntraverse_time: -100"),
+            "r.yaml: line 4: traverse_time: -100 is outside [0, 1000000]");
+  EXPECT_EQ(error("seed: 1\ntraverse_time: 0"),
+            "r.yaml: line 4: traverse_time: 0 is not a traverse time");
+  EXPECT_EQ(error("seed: 1e30"),
+            "r.yaml: line 3: seed: '1e30' is not a seed (an integer 0 to 999999999)");
+  EXPECT_EQ(
+      error("seed: 18446744073709551616"),
+      "r.yaml: line 3: seed: '18446744073709551616' is not a seed (an integer 0 to 999999999)");
+  EXPECT_EQ(error("seed: -1"),
+            "r.yaml: line 3: seed: '-1' is not a seed (an integer 0 to 999999999)");
+  EXPECT_EQ(error("seed: 1\nfriction: 0"), "r.yaml: line 4: friction: 0 is outside [0.01, 5]");
+  EXPECT_EQ(error("seed: 1\nmean_abs_vz: -0.1"),
+            "r.yaml: line 4: mean_abs_vz: -0.1 is outside [0, 100]");
+  EXPECT_EQ(error("seed: 1\ncontroller: [a, b]"),
+            "r.yaml: line 4: controller: expected text, not a list or mapping");
+  EXPECT_EQ(error("seed: 1\ncontroller: \"a|b\""),
+            "r.yaml: line 4: controller: 'a|b' is not a name (letters, digits, _ - .)");
+  EXPECT_EQ(error("seed: 1\nfailure: {a: 1}"),
+            "r.yaml: line 4: failure: expected text, not a list or mapping");
+  EXPECT_EQ(error("seed: 7"), "accepted");
+  try {
+    parseTrialResult("scenario: {a: 1}\nseed: 1\npassed: true\n", "r.yaml");
+    ADD_FAILURE() << "a mapping as the scenario's name";
+  } catch (const std::runtime_error& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "r.yaml: line 1: scenario: expected text, not a list or mapping");
+  }
+  EXPECT_THROW(parseTrialResult("scenario: s\nseed: 1\npassed: true\nfailure: fell\n", "r"),
+               std::runtime_error);
+}
+
+// Text from result files in the aggregate: shown as it is, never as markup or table rows.
+TEST(Trials, FailureTextIsShownAsItIs) {
+  EXPECT_EQ(literalText("did not traverse the step"), "did not traverse the step");
+  EXPECT_EQ(literalText("a\n| x | y |\n<script>`b`"), "`a | x | y | <script>'b'`");
+  TrialResult r;
+  r.scenario = "s";
+  r.failure = "fell\n| s | x | 1 | 1 | 100.0 % |";
+  const std::string md = aggregateMarkdown(aggregate({r}));
+  EXPECT_EQ(md.find("\n| s | x"), std::string::npos) << md;
+  EXPECT_NE(md.find("- seed 0: `fell | s | x | 1 | 1 | 100.0 % |`\n"), std::string::npos) << md;
+  Document doc;
+  doc.bullets({literalText("<script>alert(1)</script>")});
+  EXPECT_EQ(doc.html("t").find("<script>"), std::string::npos);
+}
+
 TEST(Trials, ComparisonPairsTheSeedsBothPassed) {
   const auto result = [](const char* scenario, std::uint64_t seed, bool passed, double t, double vz,
                          double wy) {
