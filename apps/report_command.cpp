@@ -194,6 +194,9 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
   if (!o.only.empty()) {
     std::vector<Scenario> chosen;
     for (const std::string& name : o.only) {
+      if (std::count(o.only.begin(), o.only.end(), name) > 1) {
+        throw CLI::ValidationError("--only", "scenario '" + name + "' is given twice");
+      }
       const Scenario* s = set.find(name);
       if (s == nullptr) {
         std::string have;

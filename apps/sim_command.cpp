@@ -34,6 +34,7 @@
 #include "rollstep/common/interrupt.hpp"
 #include "rollstep/common/number_text.hpp"
 #include "rollstep/common/text_file.hpp"
+#include "rollstep/common/yaml_tree.hpp"
 #include "rollstep/control/control_settings.hpp"
 #include "rollstep/perception/terrain_perception.hpp"
 #include "rollstep/sim/cbfqp_controller.hpp"
@@ -130,11 +131,15 @@ bool markFailed(const OutputFiles& files, const std::string& error) {
 /// --log-map DIR: refused before anything is written if it names something that is not a
 /// directory (the map log's files would have nowhere to go).
 void checkMapLogDir(const std::string& dir) {
+  if (dir.empty()) return;
   std::error_code ec;
-  if (!dir.empty() && fs::exists(dir, ec) && !fs::is_directory(dir, ec)) {
+  if (fs::exists(dir, ec) && !fs::is_directory(dir, ec)) {
     throw OutputError("--log-map '" + dir +
                       "': cannot create the directory: exists and is not a directory");
   }
+  fs::create_directories(dir, ec);
+  if (ec)
+    throw OutputError("--log-map '" + dir + "': cannot create the directory: " + ec.message());
 }
 
 /// After a failure: the map log's files of this run removed (its snapshots without their
@@ -176,7 +181,8 @@ GroundTruthErrors estimateErrors(const sim::EstimatorSource& e, const sim::Groun
 
 /// Parses --command "T:VX[:VY[:YAW]],...": one segment per comma, times [s] from the start
 /// (the first 0, increasing), speeds within --vx's, --vy's and --yaw-rate's ranges.
-std::vector<planning::TimedBaseCommand> parseCommandSchedule(const std::string& text) {
+std::vector<planning::TimedBaseCommand> parseCommandSchedule(const std::string& text,
+                                                             double duration) {
   const auto fail = [&](const std::string& what) -> std::vector<planning::TimedBaseCommand> {
     throw CLI::ValidationError("--command", "'" + text + "': " + what +
                                                 " (expected T:VX[:VY[:YAW_RATE]],... with T in "
@@ -186,6 +192,10 @@ std::vector<planning::TimedBaseCommand> parseCommandSchedule(const std::string& 
   std::stringstream entries(text);
   std::string entry;
   while (std::getline(entries, entry, ',')) {
+    if (entry.empty() || entry.front() == ':' || entry.back() == ':' ||
+        entry.find("::") != std::string::npos) {
+      return fail("entry '" + entry + "' has an empty number");
+    }
     std::vector<double> v;
     std::stringstream fields(entry);
     std::string field;
@@ -203,6 +213,10 @@ std::vector<planning::TimedBaseCommand> parseCommandSchedule(const std::string& 
     if (k == 0 && v[0] != 0.0) return fail("the first time must be 0");
     if (k > 0 && !(v[0] > out.back().time)) return fail("times must increase");
     if (v[0] > 3600.0) return fail("time " + numberText(v[0]) + " s beyond 3600 s");
+    if (k > 0 && v[0] >= duration) {
+      return fail("time " + numberText(v[0]) + " s is not before the run's end (--duration " +
+                  numberText(duration) + " s): the entry would never apply");
+    }
     if (std::abs(v[1]) > 1.0) return fail("vx " + numberText(v[1]) + " outside [-1, 1] m/s");
     if (std::abs(v[2]) > 0.5) return fail("vy " + numberText(v[2]) + " outside [-0.5, 0.5] m/s");
     if (std::abs(v[3]) > 1.0) {
@@ -212,6 +226,22 @@ std::vector<planning::TimedBaseCommand> parseCommandSchedule(const std::string& 
   }
   if (out.empty() || text.back() == ',') return fail("empty entry");
   return out;
+}
+
+/// --controller cbfqp reads a control file's `baseline:` section: a file without one (an
+/// NMPC behaviour file) would silently run the baseline on the defaults, not its tuning.
+void requireBaselineSection(const std::string& path) {
+  const std::string text = readTextFile(path, "control settings");
+  const yaml::Document doc = yaml::Document::parse(text);
+  const yaml::Node root = doc.root();
+  for (std::size_t i = 0; root.isMapping() && i < root.size(); ++i) {
+    if (root.key(i).scalar() == "baseline") return;
+  }
+  throw CLI::ValidationError(
+      "--control-config",
+      "'" + path +
+          "' has no baseline: section, the cbfqp controller's tuning (an NMPC file? the "
+          "baseline's is config/baseline.yaml; write 'baseline: {}' for its defaults)");
 }
 
 /// Perception in closed loop (--terrain perception): the sensor and perception settings,
@@ -266,7 +296,7 @@ void runSim(const SimOptions& o, bool scene_given) {
   const std::vector<planning::TimedBaseCommand> schedule =
       o.command_schedule.empty()
           ? std::vector<planning::TimedBaseCommand>{{0.0, {o.vx, o.vy, o.yaw_rate}}}
-          : parseCommandSchedule(o.command_schedule);
+          : parseCommandSchedule(o.command_schedule, o.duration);
   sim::SceneConfig scene;
   if (!o.scene_config.empty()) scene = sim::loadSceneConfig(o.scene_config);
   if (scene_given || o.scene_config.empty()) scene.kind = sim::sceneKindFromString(o.scene);
@@ -370,6 +400,7 @@ void runSim(const SimOptions& o, bool scene_given) {
     const std::string config =
         o.control_config.empty() ? defaultBaselineConfig() : o.control_config;
     const control::ControlSettings settings = control::loadControlSettings(config);
+    if (!o.control_config.empty()) requireBaselineSection(config);
     const planning::BaseVelocityCommand command{o.vx, o.vy, o.yaw_rate};
     std::unique_ptr<sim::CbfQpController> cbfqp;
     std::string terrain_text = "scene ground truth";
@@ -702,11 +733,13 @@ void registerSimCommand(CLI::App& app) {
                                       "inekf (the state estimator on the plant's noisy sensors)")
                           ->check(CLI::IsMember({"ground_truth", "inekf"}))
                           ->capture_default_str());
-  nmpc_only.push_back(cmd->add_option("--estimator-config", options->estimator_config,
-                                      "nmpc only: YAML tuning of the state estimator "
-                                      "(default: estimation.yaml beside the robot description, "
-                                      "robots/tachyon3/estimation.yaml, which lists every key)")
-                          ->check(kNotEmpty));
+  CLI::Option* estimator_config =
+      cmd->add_option("--estimator-config", options->estimator_config,
+                      "nmpc only: YAML tuning of the state estimator "
+                      "(default: estimation.yaml beside the robot description, "
+                      "robots/tachyon3/estimation.yaml, which lists every key)")
+          ->check(kNotEmpty);
+  nmpc_only.push_back(estimator_config);
   cmd->add_option("--sensor-config", options->sensor_config,
                   "YAML sensor noise of the plant (config/sensors.yaml lists every key and its "
                   "default); default: ideal sensors, or the defaults with --state-source inekf")
@@ -740,7 +773,7 @@ void registerSimCommand(CLI::App& app) {
                   "$ROLLSTEP_ROBOTS_DIR/tachyon3/tachyon3.xml")
       ->check(kNotEmpty);
   cmd->final_callback([options, scene, speed, turn_speed, nmpc_only, pipeline_only, perception_only,
-                       command_schedule] {
+                       command_schedule, estimator_config] {
     if (options->terrain != "perception") {
       for (const CLI::Option* option : perception_only) {
         if (option->count() > 0) {
@@ -780,6 +813,17 @@ void registerSimCommand(CLI::App& app) {
                                      "--controller nmpc)");
         }
       }
+    }
+    // perception_only[2], [4]: --log-map and --log-map-rate.
+    if (perception_only[4]->count() > 0 && perception_only[2]->count() == 0) {
+      throw CLI::ValidationError("--log-map-rate",
+                                 "is used only with --log-map (no map log is written without "
+                                 "it)");
+    }
+    if (estimator_config->count() > 0 && options->state_source != "inekf") {
+      throw CLI::ValidationError("--estimator-config",
+                                 "is read only with --state-source inekf (the state here is "
+                                 "the simulator's ground truth)");
     }
     if (options->controller != "drive") {
       for (const CLI::Option* option : {speed, turn_speed}) {

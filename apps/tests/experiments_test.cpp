@@ -250,6 +250,19 @@ TEST(ExperimentSet, LoadsTheProjectsFileAndRefusesMistakes) {
             "f: line 3: acceptance: no scenario named 'b'");
   EXPECT_EQ(error(ok + "acceptance: {candidate: a, baseline: a, trial_success_rate: 1.5}\n"),
             "f: line 3: acceptance.trial_success_rate: 1.5 is outside [0, 1]");
+  EXPECT_EQ(error(ok + "acceptance: {candidate: a, baseline: a}\n"),
+            "f: line 3: acceptance: candidate and baseline are both 'a' (a scenario compared with "
+            "itself)");
+  // Options the scenario's keys set, repeated in args: each run would fail.
+  for (const std::string option :
+       {"--out", "--duration", "--scene", "--scene-config", "--controller", "--duration=3"}) {
+    EXPECT_NE(error("scenarios:\n  - {name: a, scene: flat, controller: x, args: [" + option +
+                    ", '1']}\n")
+                  .find("f: line 2: scenarios[0].args: '" + option.substr(0, option.find('=')) +
+                        "' is set by "),
+              std::string::npos)
+        << option;
+  }
   EXPECT_EQ(error(ok + "trials: {friction: [1.0, 0.6]}\n"),
             "f: line 3: trials.friction: min is above max");
   EXPECT_EQ(error("scenarios:\n  - {name: a/b, scene: flat, controller: x}\n"),
