@@ -228,6 +228,21 @@ std::vector<planning::TimedBaseCommand> parseCommandSchedule(const std::string& 
   return out;
 }
 
+/// The OCP's forces act contact_offset below the wheel centres: a description whose offset
+/// is not the simulated wheels' radius plans every contact off the ground.
+void checkContactOffset(const centroidal::RobotOcpDescription& robot,
+                        const std::string& description, const sim::Plant& plant) {
+  for (int leg = 0; leg < sim::kNumLegs; ++leg) {
+    if (std::abs(robot.contact_offset - plant.wheelRadius(leg)) > 1e-4) {
+      throw InputError("robot description '" + description +
+                       "': contact_offset: " + numberText(robot.contact_offset) +
+                       " m is not the wheel radius of the robot MJCF '" + plant.robotFile() +
+                       "' (" + numberText(plant.wheelRadius(leg)) + " m, " +
+                       sim::kLegNames[static_cast<std::size_t>(leg)] + " wheel)");
+    }
+  }
+}
+
 /// --controller cbfqp reads a control file's `baseline:` section: a file without one (an
 /// NMPC behaviour file) would silently run the baseline on the defaults, not its tuning.
 void requireBaselineSection(const std::string& path) {
@@ -321,6 +336,7 @@ void runSim(const SimOptions& o, bool scene_given) {
     const std::string description =
         o.robot_description.empty() ? defaultRobotDescription() : o.robot_description;
     const centroidal::RobotOcpDescription robot = centroidal::loadRobotOcpDescription(description);
+    checkContactOffset(robot, description, plant);
     control::ControlSettings settings;
     if (!o.control_config.empty()) settings = control::loadControlSettings(o.control_config);
     if (o.mpc_timing == "deterministic") settings.mpc.timing = control::MpcTiming::Deterministic;
@@ -397,6 +413,7 @@ void runSim(const SimOptions& o, bool scene_given) {
     const std::string description =
         o.robot_description.empty() ? defaultRobotDescription() : o.robot_description;
     const centroidal::RobotOcpDescription robot = centroidal::loadRobotOcpDescription(description);
+    checkContactOffset(robot, description, plant);
     const std::string config =
         o.control_config.empty() ? defaultBaselineConfig() : o.control_config;
     const control::ControlSettings settings = control::loadControlSettings(config);

@@ -240,7 +240,9 @@ TrialResult parseTrialResult(const std::string& text, const std::string& source)
                                ": unknown key '" + key + "'");
     }
   }
-  for (const char* required : {"scenario", "seed", "passed"}) {
+  // The trial's parameters too: a result without them does not say what was run.
+  for (const char* required : {"scenario", "controller", "seed", "step_height", "friction",
+                               "start_offset", "sensor_noise", "passed"}) {
     if (!seen[required]) throw std::runtime_error(source + ": missing key '" + required + "'");
   }
   if (r.passed && !r.failure.empty()) {

@@ -403,6 +403,8 @@ TEST(Trials, ResultFilesRoundTripAndAggregate) {
 // the file, the line and the key.
 TEST(Trials, ResultFieldsAreCheckedLikeInputs) {
   const std::string head = "scenario: s\npassed: false\n";
+  const std::string parameters =
+      "\ncontroller: c\nstep_height: 0.1\nfriction: 0.5\nstart_offset: 0\nsensor_noise: 1";
   const auto error = [&](const std::string& line) {
     try {
       parseTrialResult(head + line + "\n", "r.yaml");
@@ -433,7 +435,8 @@ TEST(Trials, ResultFieldsAreCheckedLikeInputs) {
             "r.yaml: line 4: controller: 'a|b' is not a name (letters, digits, _ - .)");
   EXPECT_EQ(error("seed: 1\nfailure: {a: 1}"),
             "r.yaml: line 4: failure: expected text, not a list or mapping");
-  EXPECT_EQ(error("seed: 7"), "accepted");
+  EXPECT_EQ(error("seed: 7" + parameters), "accepted");
+  EXPECT_EQ(error("seed: 7"), "r.yaml: missing key 'controller'");
   try {
     parseTrialResult("scenario: {a: 1}\nseed: 1\npassed: true\n", "r.yaml");
     ADD_FAILURE() << "a mapping as the scenario's name";

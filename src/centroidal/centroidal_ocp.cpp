@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <sstream>
 #include <stdexcept>
 
 #include "rollstep/centroidal/costs.hpp"
@@ -115,6 +116,17 @@ CentroidalOcp::CentroidalOcp(const RobotOcpDescription& description, const OcpSe
     }
   };
   requireOnePerJoint("nominal_joint_positions", description.nominal_joint_positions);
+  for (int j = 0; j < nj; ++j) {  // the posture every term pulls towards must be reachable
+    const double q = description.nominal_joint_positions[j];
+    const double lo = model->lowerPositionLimit[j], hi = model->upperPositionLimit[j];
+    if (q < lo || q > hi) {
+      std::ostringstream os;
+      os << "robot description: nominal_joint_positions[" << j << "] = " << q << " for joint '"
+         << model->jointNames[static_cast<std::size_t>(j)] << "' is outside its limits [" << lo
+         << ", " << hi << "] in the URDF " << description.urdf;
+      throw std::invalid_argument(os.str());
+    }
+  }
   q_joint_ref_ = description.nominal_joint_positions;
   if (description.servo_stiffness.size() != 0) {
     requireOnePerJoint("servo_stiffness", description.servo_stiffness);
