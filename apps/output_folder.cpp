@@ -35,6 +35,21 @@ void OutputFolder::begin() const {
   }
 }
 
+void removeStaleTemporaries(const std::string& dir, const std::vector<std::string>& outputs) {
+  std::error_code ec;
+  std::vector<fs::path> stale;
+  for (const auto& entry : fs::directory_iterator(dir, ec)) {
+    const std::string file = entry.path().filename().string();
+    if (file.empty() || file[0] != '.' || file.find(".tmp.") == std::string::npos) continue;
+    for (const std::string& name : outputs) {
+      const bool prefix = !name.empty() && name.back() == '*';
+      const std::string start = "." + (prefix ? name.substr(0, name.size() - 1) : name + ".tmp.");
+      if (file.rfind(start, 0) == 0) stale.push_back(entry.path());
+    }
+  }
+  for (const fs::path& p : stale) fs::remove(p, ec);
+}
+
 void OutputFolder::removeOutputs(bool throw_on_error) const {
   std::vector<fs::path> files;
   std::error_code ec;
@@ -47,6 +62,11 @@ void OutputFolder::removeOutputs(bool throw_on_error) const {
     for (const auto& entry : fs::directory_iterator(dir_, ec)) {
       if (entry.path().filename().string().rfind(prefix, 0) == 0) files.push_back(entry.path());
     }
+  }
+  if (throw_on_error) {  // at the start: a killed run's (kill -9) temporaries go too
+    std::vector<std::string> names = outputs_;
+    names.push_back("FAILED");
+    removeStaleTemporaries(dir_, names);
   }
   for (const fs::path& f : files) {
     fs::remove(f, ec);

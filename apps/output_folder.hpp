@@ -14,6 +14,10 @@
 
 namespace rollstep::apps {
 
+/// Removes the temporaries ".<name>.tmp.*" of the outputs (a name ending in '*' is a
+/// prefix) that a killed run (SIGKILL: no cleanup is possible) left in `dir`.
+void removeStaleTemporaries(const std::string& dir, const std::vector<std::string>& outputs);
+
 class OutputFolder {
  public:
   OutputFolder(std::string command, std::string dir, std::vector<std::string> outputs);

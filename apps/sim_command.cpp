@@ -30,6 +30,7 @@
 
 #include "cli_util.hpp"
 #include "commands.hpp"
+#include "output_folder.hpp"
 #include "rollstep/centroidal/centroidal_ocp.hpp"
 #include "rollstep/common/interrupt.hpp"
 #include "rollstep/common/number_text.hpp"
@@ -109,6 +110,8 @@ void prepareOutputDir(const std::string& dir, const OutputFiles& files) {
       throw OutputError("cannot remove the previous run's '" + p.string() + "': " + ec.message());
     }
   }
+  removeStaleTemporaries(dir,
+                         {"log.csv", "summary.txt", "FAILED", "mpc.csv", "mpc_violations.csv"});
 }
 
 /// After a failure: no result files, and DIR/FAILED with the error (best effort: returns

@@ -60,6 +60,17 @@ sim)
   [ "$(ls -A "$out/run" | tr '\n' ' ')" = "FAILED map " ] || fail "left in the folder: $(ls -A "$out/run")"
   grep -q "interrupted by SIGTERM" "$out/run/FAILED" || fail "FAILED: $(cat "$out/run/FAILED")"
   no_temporaries
+  # SIGKILL cannot be handled: the next run removes what the killed one left.
+  "$rollstep" sim --controller cbfqp --gait trot --vx 0.1 --terrain perception \
+    --log-map "$out/run/map" --duration 60 --out "$out/run" 2> /dev/null &
+  pid=$!
+  wait_for "$out/run/map/heights_0001.npy"
+  kill -s KILL $pid
+  wait $pid
+  [ -n "$(find "$out" -name '.*.tmp.*')" ] || fail "SIGKILL: no temporaries to clean up (test)"
+  "$rollstep" sim --controller cbfqp --gait trot --vx 0.1 --terrain perception \
+    --log-map "$out/run/map" --duration 0.05 --out "$out/run" > /dev/null 2>&1 || fail "the run after SIGKILL"
+  no_temporaries
   ;;
 plan)
   "$rollstep" plan --duration 1.5 --out "$out/plan" > /dev/null || fail "the first plan"

@@ -70,8 +70,12 @@ void OnlinePerception::openLog() {
   std::vector<fs::path> earlier;
   for (const auto& entry : fs::directory_iterator(options_.log_dir, ec)) {
     const std::string name = entry.path().filename().string();
+    // ... and the temporaries of one that was killed (SIGKILL: it could not clean up).
+    const bool stale = name.find(".tmp.") != std::string::npos &&
+                       (name.rfind(".maps.csv", 0) == 0 || name.rfind(".regions.csv", 0) == 0 ||
+                        name.rfind(".footholds.csv", 0) == 0 || name.rfind(".heights_", 0) == 0);
     if ((name.rfind("heights_", 0) == 0 && entry.path().extension() == ".npy") ||
-        name == "maps.csv" || name == "regions.csv" || name == "footholds.csv") {
+        name == "maps.csv" || name == "regions.csv" || name == "footholds.csv" || stale) {
       earlier.push_back(entry.path());
     }
   }
