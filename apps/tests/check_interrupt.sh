@@ -9,6 +9,9 @@ command=$1 rollstep=$2 experiments=$3 out=$4
 fail() { echo "FAIL: $*"; ls -laR "$out" 2>/dev/null | head -60; exit 1; }
 rm -rf "$out"
 mkdir -p "$out"
+# A script's background jobs start with SIGINT ignored (and rollstep keeps it so, as nohup's
+# SIGHUP): the runs to interrupt start with the default, as from a terminal.
+interruptible="env --default-signal=INT"
 
 # Waits (at most 60 s) until a file matching the pattern exists: the run is under way.
 wait_for() {
@@ -43,7 +46,7 @@ sim)
   [ -f "$out/run/log.csv" ] || fail "the first run left no log.csv"
   # With the map log: a run that ends part-way leaves neither the map's index nor its
   # snapshots (nor the earlier run's).
-  "$rollstep" sim --controller cbfqp --gait trot --vx 0.1 --terrain perception \
+  $interruptible "$rollstep" sim --controller cbfqp --gait trot --vx 0.1 --terrain perception \
     --log-map "$out/run/map" --duration 60 --out "$out/run" 2> "$out/stderr" &
   pid=$!
   wait_for "$out/run/map/heights_0001.npy"
@@ -53,7 +56,7 @@ sim)
   [ -z "$(ls -A "$out/run/map")" ] || fail "map log left: $(ls -A "$out/run/map")"
   grep -q "interrupted by SIGINT" "$out/stderr" || fail "no message on stderr"
   no_temporaries
-  "$rollstep" sim --duration 60 --out "$out/run" 2> /dev/null &
+  $interruptible "$rollstep" sim --duration 60 --out "$out/run" 2> /dev/null &
   pid=$!
   wait_for "$out/run/.log.csv.tmp.*"
   interrupt $pid TERM 143
@@ -61,14 +64,14 @@ sim)
   grep -q "interrupted by SIGTERM" "$out/run/FAILED" || fail "FAILED: $(cat "$out/run/FAILED")"
   no_temporaries
   # SIGKILL cannot be handled: the next run removes what the killed one left.
-  "$rollstep" sim --controller cbfqp --gait trot --vx 0.1 --terrain perception \
+  $interruptible "$rollstep" sim --controller cbfqp --gait trot --vx 0.1 --terrain perception \
     --log-map "$out/run/map" --duration 60 --out "$out/run" 2> /dev/null &
   pid=$!
   wait_for "$out/run/map/heights_0001.npy"
   kill -s KILL $pid
   wait $pid
   [ -n "$(find "$out" -name '.*.tmp.*')" ] || fail "SIGKILL: no temporaries to clean up (test)"
-  "$rollstep" sim --controller cbfqp --gait trot --vx 0.1 --terrain perception \
+  $interruptible "$rollstep" sim --controller cbfqp --gait trot --vx 0.1 --terrain perception \
     --log-map "$out/run/map" --duration 0.05 --out "$out/run" > /dev/null 2>&1 || fail "the run after SIGKILL"
   no_temporaries
   ;;
@@ -76,12 +79,12 @@ plan)
   "$rollstep" plan --duration 1.5 --out "$out/plan" > /dev/null || fail "the first plan"
   cp -r "$out/plan" "$out/before"
   # A long solve: interrupted, the previous plan stays as it was.
-  "$rollstep" plan --duration 20 --out "$out/plan" > /dev/null 2>&1 &
+  $interruptible "$rollstep" plan --duration 20 --out "$out/plan" > /dev/null 2>&1 &
   pid=$!
   sleep 1
   interrupt $pid TERM 143
   diff -r "$out/before" "$out/plan" || fail "the previous plan changed"
-  "$rollstep" plan --duration 20 --out "$out/plan" > /dev/null 2>&1 &
+  $interruptible "$rollstep" plan --duration 20 --out "$out/plan" > /dev/null 2>&1 &
   pid=$!
   sleep 1
   interrupt $pid INT 130
@@ -93,7 +96,7 @@ report)
   mkdir -p "$out/report"
   echo "an earlier report" > "$out/report/report.md"
   echo "an earlier report" > "$out/report/report.html"
-  "$rollstep" report --experiments "$experiments" --no-videos --out "$out/report" \
+  $interruptible "$rollstep" report --experiments "$experiments" --no-videos --out "$out/report" \
     > /dev/null 2> "$out/stderr" &
   pid=$!
   wait_for "$out/report/runs/stand_long/.log.csv.tmp.*"
@@ -108,7 +111,7 @@ report)
 trials)
   # Two trial processes at once; the parent alone gets SIGTERM (as from a scheduler) and
   # passes it on: every unfinished trial leaves FAILED, the folder no aggregate.
-  "$rollstep" trials --experiments "$experiments" --scenario stand_long --seeds 0-3 --jobs 2 \
+  $interruptible "$rollstep" trials --experiments "$experiments" --scenario stand_long --seeds 0-3 --jobs 2 \
     --out "$out/trials" > /dev/null 2> "$out/stderr" &
   pid=$!
   wait_for "$out/trials/stand_long_seed0000/sim/.log.csv.tmp.*"
@@ -133,7 +136,7 @@ trials)
   grep -q "not counted: .*stand_long_seed0001: unfinished: rollstep trials failed" "$out/collect" \
     || fail "--collect does not name the unfinished trial"
   # In one process, SIGINT as from Ctrl-C.
-  "$rollstep" trials --experiments "$experiments" --scenario stand_long --seeds 5 \
+  $interruptible "$rollstep" trials --experiments "$experiments" --scenario stand_long --seeds 5 \
     --out "$out/one" > /dev/null 2>&1 &
   pid=$!
   wait_for "$out/one/stand_long_seed0005/sim/.log.csv.tmp.*"

@@ -105,10 +105,14 @@ grep -q "start offset -0.2 m.*start_x = 0.3 m puts block 1 inside" "$out/err" ||
 printf 'import time\ntime.sleep(1000)\n' > "$out/hang.py"
 t0=$(date +%s)
 ROLLSTEP_FIGURES_SCRIPT="$out/hang.py" ROLLSTEP_FIGURES_TIME_LIMIT=2 "$rollstep" report \
-  --experiments "$experiments" --only stand_short --no-videos --out "$out/hang" > /dev/null 2> "$out/err" \
-  || fail "report with a hanging figure script: $(cat "$out/err")"
+  --experiments "$experiments" --only stand_short --no-videos --trials "$out/bad/unfinished_seed0007" \
+  --out "$out/hang" > /dev/null 2> "$out/err" || fail "report with a hanging figure script: $(cat "$out/err")"
 [ $(($(date +%s) - t0)) -lt 60 ] || fail "the report waited for the figure script"
 grep -q "the figure script did not end within 2 s" "$out/hang/report.md" || fail "the report does not say why"
+# ... and it lists the unfinished trial it was given.
+grep -q "Not counted: 1 of 1 trial folders hold no result" "$out/hang/report.md" \
+  || fail "the report does not list the unfinished trial"
+grep -q "unfinished_seed0007.*unfinished: no result.yaml" "$out/hang/report.md" || fail "the unfinished trial's reason"
 # Standard output on a full device: an error of every command, not exit status 0.
 if [ -w /dev/full ]; then
   "$rollstep" trials --collect "$out/t" > /dev/full 2> "$out/err" && fail "trials wrote to /dev/full"

@@ -40,7 +40,13 @@ void installInterruptHandlers() {
   action.sa_handler = onInterrupt;
   sigemptyset(&action.sa_mask);
   action.sa_flags = 0;  // no SA_RESTART
-  for (int s : {SIGINT, SIGTERM, SIGHUP}) ::sigaction(s, &action, nullptr);
+  for (int s : {SIGINT, SIGTERM, SIGHUP}) {
+    // A signal this process was started ignoring stays ignored: SIGHUP under nohup, SIGINT
+    // in a script's background job (the terminal's Ctrl-C is not for it).
+    struct sigaction inherited;
+    if (::sigaction(s, nullptr, &inherited) == 0 && inherited.sa_handler == SIG_IGN) continue;
+    ::sigaction(s, &action, nullptr);
+  }
 }
 
 void deferInterrupts() noexcept { g_deferred.store(true); }

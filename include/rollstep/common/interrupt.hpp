@@ -29,7 +29,9 @@ class Interrupted : public std::runtime_error {
 };
 
 /// Installs the handlers of SIGINT, SIGTERM and SIGHUP (without SA_RESTART: a blocking
-/// read or wait returns EINTR, so the caller sees the interrupt at once).
+/// read or wait returns EINTR, so the caller sees the interrupt at once). A signal the
+/// process was started ignoring (nohup's SIGHUP, SIGINT in a script's background job) stays
+/// ignored.
 void installInterruptHandlers();
 
 /// From now on an interrupt sets the flag instead of ending the process. Idempotent.
