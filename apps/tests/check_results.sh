@@ -113,6 +113,21 @@ grep -q "the figure script did not end within 2 s" "$out/hang/report.md" || fail
 grep -q "Not counted: 1 of 1 trial folders hold no result" "$out/hang/report.md" \
   || fail "the report does not list the unfinished trial"
 grep -q "unfinished_seed0007.*unfinished: no result.yaml" "$out/hang/report.md" || fail "the unfinished trial's reason"
+# ffmpeg that never takes its frames: stopped at the time limit, the report says why.
+mkdir -p "$out/bin"
+printf '#!/bin/sh\nexec sleep 1000\n' > "$out/bin/ffmpeg" && chmod +x "$out/bin/ffmpeg"
+t0=$(date +%s)
+PATH="$out/bin:$PATH" ROLLSTEP_FIGURES_SCRIPT="$out/none.py" ROLLSTEP_FIGURES_TIME_LIMIT=2 \
+  "$rollstep" report --experiments "$experiments" --only stand_video --out "$out/video" > /dev/null \
+  2> "$out/err" || fail "report with a stuck ffmpeg: $(cat "$out/err")"
+[ $(($(date +%s) - t0)) -lt 60 ] || fail "the report waited for ffmpeg"
+if grep -q "Videos not available" "$out/video/report.md"; then
+  echo "videos not available here: ffmpeg's time limit not checked"
+else
+  grep -q "Pictures failed: stand_video: ffmpeg did not finish .* within 2 s and was stopped" \
+    "$out/video/report.md" || fail "the report does not say why the video is missing"
+  [ -z "$(find "$out/video" -name 'video_*')" ] || fail "a part of the video is left"
+fi
 # Standard output on a full device: an error of every command, not exit status 0.
 if [ -w /dev/full ]; then
   "$rollstep" trials --collect "$out/t" > /dev/full 2> "$out/err" && fail "trials wrote to /dev/full"
