@@ -251,11 +251,9 @@ int runTrials(const TrialsOptions& o, const CLI::App& cmd) {
   } catch (const std::invalid_argument& e) {
     throw CLI::ValidationError("--seeds", e.what());
   }
-  // The scenario's scene file, loaded now: a command that would fail is not printed, and no
-  // trial starts that cannot run.
-  // The plant is built in the scenes at the corners of the trial ranges (the lowest and
-  // highest step, the start nearest and farthest): a range that puts the block inside the
-  // robot is an error now, not in every trial.
+  // The scenario's scene file, loaded now, and the plant built in the scenes at the corners
+  // of the trial ranges (the lowest and highest step, the start nearest and farthest): no
+  // command is printed that would fail, no trial starts that cannot run.
   const sim::SceneConfig base_scene = sceneOf(scenario);
   const TrialRanges& ranges = set.trials;
   for (double height : {ranges.step_height_min, ranges.step_height_max}) {
@@ -285,6 +283,9 @@ int runTrials(const TrialsOptions& o, const CLI::App& cmd) {
   const OutputFolder out_folder("trials", o.out, {"aggregate.md"});
   out_folder.create();
   if (o.no_aggregate) {
+    // An aggregate already in DIR would no longer describe the trials there.
+    std::error_code ec;
+    fs::remove(fs::path(o.out) / "aggregate.md", ec);
     deferInterrupts();
   } else {
     out_folder.begin();
@@ -431,7 +432,8 @@ void registerTrialsCommand(CLI::App& app, int& exit_status) {
   cmd->add_flag("--print-commands", o->print_commands,
                 "Print one self-contained command per trial and exit");
   cmd->add_flag("--no-aggregate", o->no_aggregate,
-                "Write only the trials' result files (the printed commands use it)");
+                "Write only the trials' result files (the printed commands use it); an "
+                "aggregate.md in DIR is removed (it would no longer describe DIR)");
   cmd->add_option("--collect", o->collect,
                   "Aggregate the result.yaml files under DIR (repeatable); no trial is run")
       ->check(kNotEmpty);
