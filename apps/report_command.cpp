@@ -583,7 +583,11 @@ int writeReport(const ReportOptions& o, const ExperimentSet& set, const Acceptan
         "--trials DIR`.");
   } else {
     std::string from;
-    for (const std::string& d : o.trials) from += (from.empty() ? "`" : ", `") + d + "`";
+    for (const std::string& d : o.trials) {
+      const std::string text = literalText(d);  // a folder's name shown as it is
+      from +=
+          (from.empty() ? "" : ", ") + (!text.empty() && text[0] == '`' ? text : "`" + text + "`");
+    }
     doc.paragraph("Results collected from " + from +
                   " (step height, friction, start offset and sensor noise scale drawn from each "
                   "trial's seed; the sensor noise reaches the runs whose state comes from the "
