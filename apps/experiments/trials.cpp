@@ -230,7 +230,7 @@ TrialResult parseTrialResult(const std::string& text, const std::string& source)
       r.traverse_time = optional_num(0.0, 1e6);  // a run lasts at most 1e6 s
       if (r.traverse_time && !(*r.traverse_time > 0.0)) throw fail("0 is not a traverse time");
     } else if (key == "mean_abs_vz") {
-      r.mean_abs_vz = optional_num(0.0, 100.0);
+      r.mean_abs_vz = optional_num(0.0, 1000.0);
     } else if (key == "mean_abs_wy") {
       r.mean_abs_wy = optional_num(0.0, 1000.0);
     } else if (key == "command") {

@@ -428,7 +428,7 @@ TEST(Trials, ResultFieldsAreCheckedLikeInputs) {
             "r.yaml: line 3: seed: '-1' is not a seed (an integer 0 to 999999999)");
   EXPECT_EQ(error("seed: 1\nfriction: 0"), "r.yaml: line 4: friction: 0 is outside [0.01, 5]");
   EXPECT_EQ(error("seed: 1\nmean_abs_vz: -0.1"),
-            "r.yaml: line 4: mean_abs_vz: -0.1 is outside [0, 100]");
+            "r.yaml: line 4: mean_abs_vz: -0.1 is outside [0, 1000]");
   EXPECT_EQ(error("seed: 1\ncontroller: [a, b]"),
             "r.yaml: line 4: controller: expected text, not a list or mapping");
   EXPECT_EQ(error("seed: 1\ncontroller: \"a|b\""),
