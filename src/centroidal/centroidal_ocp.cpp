@@ -108,9 +108,12 @@ CentroidalOcp::CentroidalOcp(const RobotOcpDescription& description, const OcpSe
   robot_ =
       std::make_shared<const CentroidalRobot>(model, contacts, pairs, description.contact_offset);
   const int nj = robot_->nj(), nc = robot_->nc(), ndx = robot_->ndx(), nu = robot_->nu();
+  const std::string description_name = description.source.empty()
+                                           ? std::string("robot description: ")
+                                           : "robot description " + description.source + ": ";
   const auto requireOnePerJoint = [&](const char* key, const Eigen::VectorXd& values) {
     if (values.size() != nj) {
-      throw std::invalid_argument("robot description: " + std::string(key) + " has " +
+      throw std::invalid_argument(description_name + std::string(key) + " has " +
                                   std::to_string(values.size()) + " entries, the URDF " +
                                   description.urdf + " has " + std::to_string(nj) + " joints");
     }
@@ -121,7 +124,7 @@ CentroidalOcp::CentroidalOcp(const RobotOcpDescription& description, const OcpSe
     const double lo = model->lowerPositionLimit[j], hi = model->upperPositionLimit[j];
     if (q < lo || q > hi) {
       std::ostringstream os;
-      os << "robot description: nominal_joint_positions[" << j << "] = " << q << " for joint '"
+      os << description_name << "nominal_joint_positions[" << j << "] = " << q << " for joint '"
          << model->jointNames[static_cast<std::size_t>(j)] << "' is outside its limits [" << lo
          << ", " << hi << "] in the URDF " << description.urdf;
       throw std::invalid_argument(os.str());

@@ -268,6 +268,7 @@ RobotOcpDescription parseRobotOcpDescription(const std::string& yaml_text,
                                              const std::string& base_directory) {
   const std::string prefix = "robot description " + source_name + ": ";
   RobotOcpDescription d;
+  d.source = source_name;
   parseDocument(yaml_text, prefix, [&](const yaml::Node& root) {
     const auto fail = [&](const yaml::Node& at, const std::string& what) {
       throw std::runtime_error(prefix + lineOf(at) + what);
