@@ -3,12 +3,13 @@
 #include <signal.h>
 
 #include <atomic>
+#include <cerrno>
 #include <cstring>
 
 namespace rollstep {
 namespace {
 
-constexpr int kMaxChildren = 64;
+constexpr int kMaxChildren = 512;  // trials --jobs runs up to 256 at once
 std::atomic<int> g_signal{0};
 std::atomic<bool> g_deferred{false};
 std::atomic<pid_t> g_children[kMaxChildren];

@@ -49,7 +49,7 @@ void throwIfInterrupted();
 /// "SIGINT", "SIGTERM", "SIGHUP", "SIGKILL", else "signal N".
 std::string signalName(int signal_number);
 
-/// Child processes that get the interrupts forwarded (at most 64 at once; more are not
+/// Child processes that get the interrupts forwarded (at most 512 at once; more are not
 /// forwarded). Safe to call from any thread.
 void registerChild(pid_t pid) noexcept;
 void unregisterChild(pid_t pid) noexcept;
