@@ -36,15 +36,52 @@ struct SplitMix64 {
 /// Numbers as text with 4 decimals: what the trial uses is what its file says.
 double rounded(double v) { return std::round(v * 1e4) / 1e4; }
 
+/// Length of the valid UTF-8 sequence at s[i], 0 if it is not one.
+std::size_t utf8Length(const std::string& s, std::size_t i) {
+  const auto byte = [&](std::size_t k) { return static_cast<unsigned char>(s[k]); };
+  const unsigned char c = byte(i);
+  const std::size_t n = c < 0x80           ? 1
+                        : (c >> 5) == 0x6  ? 2
+                        : (c >> 4) == 0xe  ? 3
+                        : (c >> 3) == 0x1e ? 4
+                                           : 0;
+  if (n == 0 || i + n > s.size()) return 0;
+  for (std::size_t k = 1; k < n; ++k) {
+    if ((byte(i + k) & 0xc0) != 0x80) return 0;
+  }
+  return n;
+}
+
+/// A YAML double-quoted scalar that reads back as `s`: quotes, backslashes, control
+/// characters and line separators escaped (a YAML reader refuses or folds them raw); a byte
+/// that is not UTF-8 (refused too) as '?'.
 std::string quoted(const std::string& s) {
   std::string out = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') out += '\\';
-    if (c == '\n') {
-      out += "\\n";
+  for (std::size_t i = 0; i < s.size();) {
+    const std::size_t n = utf8Length(s, i);
+    if (n == 0) {
+      out += '?';
+      ++i;
       continue;
     }
-    out += c;
+    std::uint32_t cp =
+        n == 1 ? static_cast<unsigned char>(s[i]) : static_cast<unsigned char>(s[i]) & (0x7fu >> n);
+    for (std::size_t k = 1; k < n; ++k)
+      cp = (cp << 6) | (static_cast<unsigned char>(s[i + k]) & 0x3fu);
+    if (cp == '"' || cp == '\\') {
+      out += '\\';
+      out += static_cast<char>(cp);
+    } else if (cp == '\n') {
+      out += "\\n";
+    } else if (cp < 0x20 || (cp >= 0x7f && cp <= 0x9f) || cp == 0x2028 || cp == 0x2029 ||
+               cp == 0xfeff || cp >= 0xfffe) {
+      char e[16];
+      std::snprintf(e, sizeof e, cp > 0xffff ? "\\U%08x" : "\\u%04x", static_cast<unsigned>(cp));
+      out += e;
+    } else {
+      out += s.substr(i, n);
+    }
+    i += n;
   }
   return out + "\"";
 }

@@ -448,6 +448,23 @@ TEST(Trials, ResultFieldsAreCheckedLikeInputs) {
                std::runtime_error);
 }
 
+// A result file always reads back: any failure text (a sim's message with a tab, a control
+// character, a line separator, a byte that is not UTF-8) is written so that it does.
+TEST(Trials, AnyFailureTextReadsBack) {
+  TrialResult r;
+  r.scenario = "s";
+  r.controller = "c";
+  r.parameters.friction = 0.5;
+  r.failure =
+      "a\tb\x01"
+      "c\"d\\e\nf\u2028g\u0085h\xff";
+  const TrialResult back = parseTrialResult(toYaml(r), "r.yaml");
+  EXPECT_EQ(back.failure,
+            "a\tb\x01"
+            "c\"d\\e\nf\u2028g\u0085h?");
+  EXPECT_EQ(toYaml(parseTrialResult(toYaml(back), "again")), toYaml(back));
+}
+
 // Text from result files in the aggregate: shown as it is, never as markup or table rows.
 TEST(Trials, FailureTextIsShownAsItIs) {
   EXPECT_EQ(literalText("did not traverse the step"), "did not traverse the step");
