@@ -19,6 +19,6 @@ void registerPlanCommand(CLI::App& app, int& exit_status);
 void registerReportCommand(CLI::App& app, int& exit_status);
 
 /// `rollstep trials`: randomized trials, their result files and aggregate.
-void registerTrialsCommand(CLI::App& app);
+void registerTrialsCommand(CLI::App& app, int& exit_status);
 
 }  // namespace rollstep::apps

@@ -1,8 +1,28 @@
 // rollstep: command line entry point. See `rollstep --help` and docs/USER_GUIDE.md.
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <exception>
+#include <string>
 
 #include "commands.hpp"
+#include "rollstep/common/interrupt.hpp"
+
+namespace {
+
+/// Every command's standard output is checked once more at the end (a full device, a closed
+/// pipe): its outputs may be complete, but what it printed is not, and the exit status
+/// says so.
+int checkedStdout(int exit_status) {
+  if (std::fflush(stdout) != 0 || std::ferror(stdout)) {
+    std::fprintf(stderr, "rollstep: error: cannot write to standard output: %s\n",
+                 std::strerror(errno != 0 ? errno : EIO));
+    return exit_status != 0 ? exit_status : 1;
+  }
+  return exit_status;
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{
@@ -26,14 +46,34 @@ int main(int argc, char** argv) {
   int exit_status = 0;
   rollstep::apps::registerPlanCommand(app, exit_status);
   rollstep::apps::registerReportCommand(app, exit_status);
-  rollstep::apps::registerTrialsCommand(app);
+  rollstep::apps::registerTrialsCommand(app, exit_status);
+  // A first word that is neither an option nor a command: CLI11 would only say that a
+  // subcommand is required.
+  std::string names;
+  bool known = false;
+  const CLI::App& commands = app;
+  for (const CLI::App* sub : commands.get_subcommands([](const CLI::App*) { return true; })) {
+    names += (names.empty() ? "" : ", ") + sub->get_name();
+    known = known || (argc > 1 && sub->get_name() == argv[1]);
+  }
+  if (argc > 1 && argv[1][0] != '-' && !known) {
+    std::fprintf(stderr,
+                 "rollstep: error: '%s' is not a command (the commands: %s; see "
+                 "rollstep --help)\n",
+                 argv[1], names.c_str());
+    return 2;
+  }
+  rollstep::installInterruptHandlers();
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);  // prints help or "error: ..." and returns the exit code
+    return checkedStdout(app.exit(e));  // prints help or "error: ..." and returns the code
+  } catch (const rollstep::Interrupted& e) {
+    std::fprintf(stderr, "rollstep: %s\n", e.what());
+    return 128 + e.signal();
   } catch (const std::exception& e) {
     std::fprintf(stderr, "rollstep: error: %s\n", e.what());
     return 1;
   }
-  return exit_status;
+  return checkedStdout(exit_status);
 }

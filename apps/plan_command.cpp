@@ -18,7 +18,9 @@
 
 #include "cli_util.hpp"
 #include "commands.hpp"
+#include "output_folder.hpp"
 #include "rollstep/centroidal/centroidal_ocp.hpp"
+#include "rollstep/common/interrupt.hpp"
 #include "rollstep/common/text_file.hpp"
 #include "rollstep/sim/scene.hpp"
 #include "rollstep/sim/scene_terrain.hpp"
@@ -183,19 +185,33 @@ int runPlan(const PlanOptions& o, bool scene_given) {
   summary += format("  base       (%.3f, %.3f, %.3f) m -> (%.3f, %.3f, %.3f) m\n", x0[0], x0[1],
                     x0[2], xN[0], xN[1], xN[2]);
 
-  // Outputs.
-  std::error_code ec;
-  if (fs::exists(o.out, ec) && !fs::is_directory(o.out, ec)) {
-    throw OutputError("--out '" + o.out + "': exists and is not a directory");
-  }
-  fs::create_directories(o.out, ec);
-  if (ec) throw OutputError("--out '" + o.out + "': cannot create the directory: " + ec.message());
+  // Outputs: the three files as a whole. The previous ones are removed only now (the solve
+  // above wrote nothing, and an interrupt during it ends the process with nothing touched);
+  // each file goes to a temporary first and all three are renamed into place only when all
+  // are written; on any failure (a full disk, an interrupt) only DIR/FAILED is left.
+  const OutputFolder folder("plan", o.out, {"trajectory.csv", "iterations.csv", "summary.txt"});
+  folder.create();
   const fs::path dir(o.out);
   summary += "  outputs    " + (dir / "trajectory.csv").string() + ", " +
              (dir / "iterations.csv").string() + ", " + (dir / "summary.txt").string() + "\n";
-  writeFileAtomically((dir / "trajectory.csv").string(), trajectoryCsv(ocp, solver));
-  writeFileAtomically((dir / "iterations.csv").string(), iterationsCsv(solver));
-  writeFileAtomically((dir / "summary.txt").string(), summary);
+  folder.begin();
+  try {
+    AtomicFileWriter trajectory((dir / "trajectory.csv").string());
+    AtomicFileWriter iterations((dir / "iterations.csv").string());
+    AtomicFileWriter summary_file((dir / "summary.txt").string());
+    trajectory.write(trajectoryCsv(ocp, solver));
+    iterations.write(iterationsCsv(solver));
+    summary_file.write(summary);
+    throwIfInterrupted();
+    trajectory.commit();
+    iterations.commit();
+    summary_file.commit();
+  } catch (const std::exception& e) {
+    const bool marked = folder.fail(e.what());
+    if (dynamic_cast<const Interrupted*>(&e) != nullptr) throw;
+    throw OutputError(std::string(e.what()) + "\n  the plan's outputs were not written" +
+                      (marked ? "; the error is in " + folder.failedPath() : ""));
+  }
   std::fputs(summary.c_str(), stdout);
   std::fflush(stdout);
   return status == solver::SolverStatus::Converged || status == solver::SolverStatus::Acceptable

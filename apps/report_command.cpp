@@ -24,6 +24,8 @@
 #include "experiments/runs.hpp"
 #include "experiments/scenarios.hpp"
 #include "experiments/trials.hpp"
+#include "output_folder.hpp"
+#include "rollstep/common/interrupt.hpp"
 #include "rollstep/common/text_file.hpp"
 #include "rollstep/sim/plant.hpp"
 
@@ -104,6 +106,19 @@ std::string figuresScript() {
   return ROLLSTEP_FIGURES_SCRIPT;
 }
 
+/// How long the figure script may run [s]: ROLLSTEP_FIGURES_TIME_LIMIT, default 600.
+double figuresTimeLimit() {
+  const char* text = std::getenv("ROLLSTEP_FIGURES_TIME_LIMIT");
+  if (text == nullptr || *text == '\0') return 600.0;
+  char* end = nullptr;
+  const double v = std::strtod(text, &end);
+  if (*end != '\0' || !std::isfinite(v) || v < 1.0 || v > 86400.0) {
+    throw InputError("ROLLSTEP_FIGURES_TIME_LIMIT '" + std::string(text) +
+                     "': not a number of seconds in [1, 86400]");
+  }
+  return v;
+}
+
 /// The figure script's complaint about figure `name` ("fig2: KeyError: ..."), or "".
 std::string figureError(const std::string& out, const std::string& name) {
   std::ifstream err(out + "/figures.err");
@@ -166,6 +181,11 @@ std::vector<std::size_t> rowsBetween(const LogTable& log, double t0, double t1, 
   return rows;
 }
 
+int writeReport(const ReportOptions& o, const ExperimentSet& set, const Acceptance& file_acceptance,
+                const std::vector<sim::SceneConfig>& scenes, const TrialCollection& trials,
+                const std::vector<TrialAggregate>& trial_aggregates, const std::string& out,
+                const std::vector<std::string>& argv);
+
 int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
   // Inputs first: nothing is written before they load.
   ExperimentSet set = loadExperimentSet(o.experiments);
@@ -174,6 +194,9 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
   if (!o.only.empty()) {
     std::vector<Scenario> chosen;
     for (const std::string& name : o.only) {
+      if (std::count(o.only.begin(), o.only.end(), name) > 1) {
+        throw CLI::ValidationError("--only", "scenario '" + name + "' is given twice");
+      }
       const Scenario* s = set.find(name);
       if (s == nullptr) {
         std::string have;
@@ -190,25 +213,45 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
   }
   std::vector<sim::SceneConfig> scenes;
   for (const Scenario& s : set.scenarios) scenes.push_back(sceneOf(s));
-  std::error_code ec;
-  if (fs::exists(o.out, ec) && !fs::is_directory(o.out, ec)) {
-    throw OutputError("--out '" + o.out + "': exists and is not a directory");
-  }
-  fs::create_directories(o.out + "/runs", ec);
-  if (ec) throw OutputError("--out '" + o.out + "': cannot create the directory: " + ec.message());
-  const std::string out = fs::absolute(o.out).lexically_normal().string();
-  for (const char* old : {"report.md", "report.html", "figures.json", "fig2.png", "fig4.png",
-                          "fig6.png", "fig8.png", "map.png", "snapshots.png"}) {
-    fs::remove(fs::path(out) / old, ec);
-  }
-
-  // Trial results to include (read now: a bad folder is an input error, before any run).
-  std::vector<TrialResult> trial_results;
+  // Trial results to include (read now: a bad result file is an input error, found before
+  // anything is deleted; unfinished trials are listed in the report).
+  TrialCollection trials;
   std::vector<TrialAggregate> trial_aggregates;
   if (!o.trials.empty()) {
-    trial_results = collectResults(o.trials);
-    trial_aggregates = aggregate(trial_results);
+    trials = collectTrials(o.trials);
+    for (const UncountedTrial& u : trials.uncounted) {
+      if (u.unreadable) throw InputError("--trials: trial folder '" + u.dir + "': " + u.reason);
+    }
+    trial_aggregates = aggregate(trials.results);
   }
+
+  (void)figuresTimeLimit();  // a bad ROLLSTEP_FIGURES_TIME_LIMIT is an input error too
+
+  // The report's files as a whole: removed now, written at the end; a run that fails or is
+  // interrupted leaves DIR/FAILED with the reason instead (each run's folder its own).
+  const std::string out = fs::absolute(o.out).lexically_normal().string();
+  const OutputFolder folder(
+      "report", out,
+      {"report.md", "report.html", "figures.json", "figures.log", "figures.err", "fig2.png",
+       "fig4.png", "fig6.png", "fig8.png", "map.png", "snapshots_*", "video_*"});
+  folder.create();
+  folder.begin();
+  try {
+    return writeReport(o, set, file_acceptance, scenes, trials, trial_aggregates, out, argv);
+  } catch (const std::exception& e) {
+    folder.fail(e.what());
+    throw;
+  }
+}
+
+int writeReport(const ReportOptions& o, const ExperimentSet& set, const Acceptance& file_acceptance,
+                const std::vector<sim::SceneConfig>& scenes, const TrialCollection& trials,
+                const std::vector<TrialAggregate>& trial_aggregates, const std::string& out,
+                const std::vector<std::string>& argv) {
+  const std::vector<TrialResult>& trial_results = trials.results;
+  std::error_code ec;
+  fs::create_directories(out + "/runs", ec);
+  if (ec) throw OutputError("'" + out + "/runs': cannot create the directory: " + ec.message());
 
   // 1. The runs.
   std::vector<RunOutcome> outcomes;
@@ -227,6 +270,7 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
           bar.update((i + done / total) / n,
                      s.name + " " + fixed(done, 1) + " of " + fixed(total, 1) + " s simulated");
         }));
+    throwIfInterrupted();  // the run was interrupted with us: its outcome is not a result
     bar.update((i + 1) / n, s.name + (outcomes.back().passed() ? " passed" : " FAILED"));
   }
   bar.finish("all " + std::to_string(set.scenarios.size()) + " runs done");
@@ -268,9 +312,15 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
       figures_gap = "the figure script " + script + " is missing";
     } else {
       std::fprintf(stderr, "rollstep report: drawing the figures (%s)\n", script.c_str());
+      bool timed_out = false;
+      const double limit = figuresTimeLimit();
       const int status = runProcess(python, {script, out + "/figures.json"}, out + "/figures.log",
-                                    out + "/figures.err", {});
-      if (status != 0) {
+                                    out + "/figures.err", {}, limit, &timed_out);
+      throwIfInterrupted();
+      if (timed_out) {
+        figures_gap = "the figure script did not end within " + fixed(limit, 0) +
+                      " s (ROLLSTEP_FIGURES_TIME_LIMIT) and was stopped";
+      } else if (status != 0) {
         std::ifstream err(out + "/figures.err");
         std::stringstream text;
         text << err.rdbuf();
@@ -311,6 +361,7 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
           const double t1 = w ? run.assessment.window.end : t.back();
           std::vector<Image> frames;
           for (std::size_t row : rowsBetween(log, t0, t1, 6)) {
+            throwIfInterrupted();
             frames.push_back(r.render(log, row, "t = " + fixed(t[row], 2) + " s"));
           }
           const std::string file = "snapshots_" + s.name + ".png";
@@ -327,8 +378,9 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
               std::max<std::size_t>(1, static_cast<std::size_t>(std::lround(1.0 / (kFps * dt))));
           Renderer r(plant, 480, 270, true);
           const std::string file = "video_" + s.name + ".mp4";
-          VideoWriter video(out + "/" + file, 480, 270, kFps);
+          VideoWriter video(out + "/" + file, 480, 270, kFps, figuresTimeLimit());
           for (std::size_t row = 0; row < t.size(); row += every) {
+            throwIfInterrupted();
             video.add(r.render(log, row, s.title + "  t = " + fixed(t[row], 1) + " s"));
             if (row % (every * 25) == 0) {
               rbar.update((i + static_cast<double>(row) / t.size()) / n, s.name + " video");
@@ -338,6 +390,8 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
           videos.emplace_back(file, s.title + " (" + fixed(t.back() - t.front(), 1) +
                                         " s at real speed, " + std::to_string(kFps) + " frames/s)");
         }
+      } catch (const Interrupted&) {
+        throw;
       } catch (const std::exception& e) {
         warn(s.name + ": pictures failed: " + e.what());
         video_failures.push_back(s.name + ": " + e.what());
@@ -529,7 +583,11 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
         "--trials DIR`.");
   } else {
     std::string from;
-    for (const std::string& d : o.trials) from += (from.empty() ? "`" : ", `") + d + "`";
+    for (const std::string& d : o.trials) {
+      const std::string text = literalText(d);  // a folder's name shown as it is
+      from +=
+          (from.empty() ? "" : ", ") + (!text.empty() && text[0] == '`' ? text : "`" + text + "`");
+    }
     doc.paragraph("Results collected from " + from +
                   " (step height, friction, start offset and sensor noise scale drawn from each "
                   "trial's seed; the sensor noise reaches the runs whose state comes from the "
@@ -549,6 +607,15 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
     doc.table({"scenario", "controller", "trials", "passed", "success rate", "traverse time [s]",
                "mean |v_z| [m/s]", "mean |w_y| [rad/s]"},
               rows);
+    if (!trials.uncounted.empty()) {
+      doc.paragraph("Not counted: " + std::to_string(trials.uncounted.size()) + " of " +
+                    std::to_string(trials.folders) + " trial folders hold no result:");
+      std::vector<std::string> items;
+      for (const UncountedTrial& u : trials.uncounted) {
+        items.push_back(literalText(u.dir) + ": " + literalText(u.reason));
+      }
+      doc.bullets(items);
+    }
     for (const TrialAggregate& a : trial_aggregates) {
       if (!a.failures.empty()) {
         doc.paragraph("Failed trials of " + a.scenario + ":");
@@ -664,8 +731,11 @@ void registerReportCommand(CLI::App& app, int& exit_status) {
       "Each run is a `rollstep sim` child process writing DIR/runs/<scenario>/; a failed run is "
       "reported as failed with its reason. Figures need /usr/bin/python3 with matplotlib, "
       "snapshots and videos OSMesa and ffmpeg: without them the report says they are not "
-      "available. Exit status: 0 when the report was written (with --check: 3 if a run failed "
-      "or the acceptance criteria were not met), 1 on bad options or inputs.");
+      "available. The figure script may run ROLLSTEP_FIGURES_TIME_LIMIT seconds (default "
+      "600), ffmpeg as long per video. The report's files are replaced as a whole: a report "
+      "that fails or is interrupted leaves DIR/FAILED with the reason instead. Exit status: 0 "
+      "when the report was written (with --check: 3 if a run failed or the acceptance criteria "
+      "were not met), 1 on bad options or inputs, 128 + the signal when interrupted.");
   cmd->add_option("--out", options->out, "Output directory (created if needed)")
       ->required()
       ->check(kNotEmpty);

@@ -30,9 +30,12 @@
 
 #include "cli_util.hpp"
 #include "commands.hpp"
+#include "output_folder.hpp"
 #include "rollstep/centroidal/centroidal_ocp.hpp"
+#include "rollstep/common/interrupt.hpp"
 #include "rollstep/common/number_text.hpp"
 #include "rollstep/common/text_file.hpp"
+#include "rollstep/common/yaml_tree.hpp"
 #include "rollstep/control/control_settings.hpp"
 #include "rollstep/perception/terrain_perception.hpp"
 #include "rollstep/sim/cbfqp_controller.hpp"
@@ -107,6 +110,8 @@ void prepareOutputDir(const std::string& dir, const OutputFiles& files) {
       throw OutputError("cannot remove the previous run's '" + p.string() + "': " + ec.message());
     }
   }
+  removeStaleTemporaries(dir,
+                         {"log.csv", "summary.txt", "FAILED", "mpc.csv", "mpc_violations.csv"});
 }
 
 /// After a failure: no result files, and DIR/FAILED with the error (best effort: returns
@@ -116,6 +121,7 @@ bool markFailed(const OutputFiles& files, const std::string& error) {
   fs::remove(files.log, ec);
   fs::remove(files.summary, ec);
   fs::remove(files.mpc, ec);
+  fs::remove(files.violations, ec);
   try {
     writeFileAtomically(files.failed.string(), "rollstep sim failed: " + error + "\n");
     return true;
@@ -123,6 +129,37 @@ bool markFailed(const OutputFiles& files, const std::string& error) {
     std::fprintf(stderr, "rollstep: warning: %s\n", e.what());
     return false;
   }
+}
+
+/// --log-map DIR: refused before anything is written if it names something that is not a
+/// directory (the map log's files would have nowhere to go).
+void checkMapLogDir(const std::string& dir) {
+  if (dir.empty()) return;
+  std::error_code ec;
+  if (fs::exists(dir, ec) && !fs::is_directory(dir, ec)) {
+    throw OutputError("--log-map '" + dir +
+                      "': cannot create the directory: exists and is not a directory");
+  }
+  fs::create_directories(dir, ec);
+  if (ec)
+    throw OutputError("--log-map '" + dir + "': cannot create the directory: " + ec.message());
+}
+
+/// After a failure: the map log's files of this run removed (its snapshots without their
+/// index would be a log that is not whole); FAILED is in --out.
+void discardMapLog(const std::string& dir) {
+  if (dir.empty()) return;
+  std::error_code ec;
+  for (const char* name : {"maps.csv", "regions.csv", "footholds.csv"})
+    fs::remove(fs::path(dir) / name, ec);
+  std::vector<fs::path> snapshots;
+  for (const auto& entry : fs::directory_iterator(dir, ec)) {
+    const std::string name = entry.path().filename().string();
+    if (name.rfind("heights_", 0) == 0 && entry.path().extension() == ".npy") {
+      snapshots.push_back(entry.path());
+    }
+  }
+  for (const fs::path& p : snapshots) fs::remove(p, ec);
 }
 
 /// MuJoCo's warnings on stderr (its default handler also appends them to MUJOCO_LOG.TXT in
@@ -147,7 +184,8 @@ GroundTruthErrors estimateErrors(const sim::EstimatorSource& e, const sim::Groun
 
 /// Parses --command "T:VX[:VY[:YAW]],...": one segment per comma, times [s] from the start
 /// (the first 0, increasing), speeds within --vx's, --vy's and --yaw-rate's ranges.
-std::vector<planning::TimedBaseCommand> parseCommandSchedule(const std::string& text) {
+std::vector<planning::TimedBaseCommand> parseCommandSchedule(const std::string& text,
+                                                             double duration) {
   const auto fail = [&](const std::string& what) -> std::vector<planning::TimedBaseCommand> {
     throw CLI::ValidationError("--command", "'" + text + "': " + what +
                                                 " (expected T:VX[:VY[:YAW_RATE]],... with T in "
@@ -157,6 +195,10 @@ std::vector<planning::TimedBaseCommand> parseCommandSchedule(const std::string& 
   std::stringstream entries(text);
   std::string entry;
   while (std::getline(entries, entry, ',')) {
+    if (entry.empty() || entry.front() == ':' || entry.back() == ':' ||
+        entry.find("::") != std::string::npos) {
+      return fail("entry '" + entry + "' has an empty number");
+    }
     std::vector<double> v;
     std::stringstream fields(entry);
     std::string field;
@@ -174,6 +216,10 @@ std::vector<planning::TimedBaseCommand> parseCommandSchedule(const std::string& 
     if (k == 0 && v[0] != 0.0) return fail("the first time must be 0");
     if (k > 0 && !(v[0] > out.back().time)) return fail("times must increase");
     if (v[0] > 3600.0) return fail("time " + numberText(v[0]) + " s beyond 3600 s");
+    if (k > 0 && v[0] >= duration) {
+      return fail("time " + numberText(v[0]) + " s is not before the run's end (--duration " +
+                  numberText(duration) + " s): the entry would never apply");
+    }
     if (std::abs(v[1]) > 1.0) return fail("vx " + numberText(v[1]) + " outside [-1, 1] m/s");
     if (std::abs(v[2]) > 0.5) return fail("vy " + numberText(v[2]) + " outside [-0.5, 0.5] m/s");
     if (std::abs(v[3]) > 1.0) {
@@ -183,6 +229,37 @@ std::vector<planning::TimedBaseCommand> parseCommandSchedule(const std::string& 
   }
   if (out.empty() || text.back() == ',') return fail("empty entry");
   return out;
+}
+
+/// The OCP's forces act contact_offset below the wheel centres: a description whose offset
+/// is not the simulated wheels' radius plans every contact off the ground.
+void checkContactOffset(const centroidal::RobotOcpDescription& robot,
+                        const std::string& description, const sim::Plant& plant) {
+  for (int leg = 0; leg < sim::kNumLegs; ++leg) {
+    if (std::abs(robot.contact_offset - plant.wheelRadius(leg)) > 1e-4) {
+      throw InputError("robot description '" + description +
+                       "': contact_offset: " + numberText(robot.contact_offset) +
+                       " m is not the wheel radius of the robot MJCF '" + plant.robotFile() +
+                       "' (" + numberText(plant.wheelRadius(leg)) + " m, " +
+                       sim::kLegNames[static_cast<std::size_t>(leg)] + " wheel)");
+    }
+  }
+}
+
+/// --controller cbfqp reads a control file's `baseline:` section: a file without one (an
+/// NMPC behaviour file) would silently run the baseline on the defaults, not its tuning.
+void requireBaselineSection(const std::string& path) {
+  const std::string text = readTextFile(path, "control settings");
+  const yaml::Document doc = yaml::Document::parse(text);
+  const yaml::Node root = doc.root();
+  for (std::size_t i = 0; root.isMapping() && i < root.size(); ++i) {
+    if (root.key(i).scalar() == "baseline") return;
+  }
+  throw CLI::ValidationError(
+      "--control-config",
+      "'" + path +
+          "' has no baseline: section, the cbfqp controller's tuning (an NMPC file? the "
+          "baseline's is config/baseline.yaml; write 'baseline: {}' for its defaults)");
 }
 
 /// Perception in closed loop (--terrain perception): the sensor and perception settings,
@@ -237,7 +314,7 @@ void runSim(const SimOptions& o, bool scene_given) {
   const std::vector<planning::TimedBaseCommand> schedule =
       o.command_schedule.empty()
           ? std::vector<planning::TimedBaseCommand>{{0.0, {o.vx, o.vy, o.yaw_rate}}}
-          : parseCommandSchedule(o.command_schedule);
+          : parseCommandSchedule(o.command_schedule, o.duration);
   sim::SceneConfig scene;
   if (!o.scene_config.empty()) scene = sim::loadSceneConfig(o.scene_config);
   if (scene_given || o.scene_config.empty()) scene.kind = sim::sceneKindFromString(o.scene);
@@ -262,6 +339,7 @@ void runSim(const SimOptions& o, bool scene_given) {
     const std::string description =
         o.robot_description.empty() ? defaultRobotDescription() : o.robot_description;
     const centroidal::RobotOcpDescription robot = centroidal::loadRobotOcpDescription(description);
+    checkContactOffset(robot, description, plant);
     control::ControlSettings settings;
     if (!o.control_config.empty()) settings = control::loadControlSettings(o.control_config);
     if (o.mpc_timing == "deterministic") settings.mpc.timing = control::MpcTiming::Deterministic;
@@ -338,9 +416,11 @@ void runSim(const SimOptions& o, bool scene_given) {
     const std::string description =
         o.robot_description.empty() ? defaultRobotDescription() : o.robot_description;
     const centroidal::RobotOcpDescription robot = centroidal::loadRobotOcpDescription(description);
+    checkContactOffset(robot, description, plant);
     const std::string config =
         o.control_config.empty() ? defaultBaselineConfig() : o.control_config;
     const control::ControlSettings settings = control::loadControlSettings(config);
+    if (!o.control_config.empty()) requireBaselineSection(config);
     const planning::BaseVelocityCommand command{o.vx, o.vy, o.yaw_rate};
     std::unique_ptr<sim::CbfQpController> cbfqp;
     std::string terrain_text = "scene ground truth";
@@ -397,17 +477,21 @@ void runSim(const SimOptions& o, bool scene_given) {
     controller_text = s.str();
   }
 
-  // Outputs.
+  // Outputs. From here an interrupt (SIGINT, SIGTERM) ends the run through the catch below:
+  // temporary files removed, FAILED with the reason.
+  checkMapLogDir(o.log_map);
   const OutputFiles files(o.out);
+  deferInterrupts();
+  throwIfInterrupted();
   prepareOutputDir(o.out, files);
-  if (nmpc_controller != nullptr && nmpc_controller->perception() != nullptr) {
-    nmpc_controller->perception()->openLog();
-  }
-  if (cbfqp_controller != nullptr && cbfqp_controller->perception() != nullptr) {
-    cbfqp_controller->perception()->openLog();
-  }
   std::string text;
   try {
+    if (nmpc_controller != nullptr && nmpc_controller->perception() != nullptr) {
+      nmpc_controller->perception()->openLog();
+    }
+    if (cbfqp_controller != nullptr && cbfqp_controller->perception() != nullptr) {
+      cbfqp_controller->perception()->openLog();
+    }
     sim::CsvLog log(files.log.string(), controller->logColumns());
     // A progress line on stderr for runs that take more than a few seconds.
     const auto progress = [](const sim::Progress& p) {
@@ -511,6 +595,13 @@ void runSim(const SimOptions& o, bool scene_given) {
     writeFileAtomically(files.summary.string(), text);
   } catch (const std::exception& e) {
     const bool marked = markFailed(files, e.what());
+    discardMapLog(o.log_map);
+    if (dynamic_cast<const Interrupted*>(&e) != nullptr) {
+      std::fprintf(stderr, "rollstep sim: %s: no %s or %s is left%s\n", e.what(), files.log.c_str(),
+                   files.summary.c_str(),
+                   marked ? ("; the reason is in " + files.failed.string()).c_str() : "");
+      throw;
+    }
     throw std::runtime_error(std::string(e.what()) + "\n  the run failed: no " +
                              files.log.string() + " or " + files.summary.string() + " is left" +
                              (marked ? "; the error is in " + files.failed.string() : ""));
@@ -662,11 +753,13 @@ void registerSimCommand(CLI::App& app) {
                                       "inekf (the state estimator on the plant's noisy sensors)")
                           ->check(CLI::IsMember({"ground_truth", "inekf"}))
                           ->capture_default_str());
-  nmpc_only.push_back(cmd->add_option("--estimator-config", options->estimator_config,
-                                      "nmpc only: YAML tuning of the state estimator "
-                                      "(default: estimation.yaml beside the robot description, "
-                                      "robots/tachyon3/estimation.yaml, which lists every key)")
-                          ->check(kNotEmpty));
+  CLI::Option* estimator_config =
+      cmd->add_option("--estimator-config", options->estimator_config,
+                      "nmpc only: YAML tuning of the state estimator "
+                      "(default: estimation.yaml beside the robot description, "
+                      "robots/tachyon3/estimation.yaml, which lists every key)")
+          ->check(kNotEmpty);
+  nmpc_only.push_back(estimator_config);
   cmd->add_option("--sensor-config", options->sensor_config,
                   "YAML sensor noise of the plant (config/sensors.yaml lists every key and its "
                   "default); default: ideal sensors, or the defaults with --state-source inekf")
@@ -700,7 +793,7 @@ void registerSimCommand(CLI::App& app) {
                   "$ROLLSTEP_ROBOTS_DIR/tachyon3/tachyon3.xml")
       ->check(kNotEmpty);
   cmd->final_callback([options, scene, speed, turn_speed, nmpc_only, pipeline_only, perception_only,
-                       command_schedule] {
+                       command_schedule, estimator_config] {
     if (options->terrain != "perception") {
       for (const CLI::Option* option : perception_only) {
         if (option->count() > 0) {
@@ -740,6 +833,17 @@ void registerSimCommand(CLI::App& app) {
                                      "--controller nmpc)");
         }
       }
+    }
+    // perception_only[2], [4]: --log-map and --log-map-rate.
+    if (perception_only[4]->count() > 0 && perception_only[2]->count() == 0) {
+      throw CLI::ValidationError("--log-map-rate",
+                                 "is used only with --log-map (no map log is written without "
+                                 "it)");
+    }
+    if (estimator_config->count() > 0 && options->state_source != "inekf") {
+      throw CLI::ValidationError("--estimator-config",
+                                 "is read only with --state-source inekf (the state here is "
+                                 "the simulator's ground truth)");
     }
     if (options->controller != "drive") {
       for (const CLI::Option* option : {speed, turn_speed}) {

@@ -5,20 +5,29 @@
 // own beyond --jobs.
 #include <sys/wait.h>
 
+#include <cerrno>
+#include <chrono>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <map>
 #include <memory>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "cli_util.hpp"
 #include "commands.hpp"
+#include "experiments/document.hpp"
 #include "experiments/process.hpp"
 #include "experiments/runs.hpp"
 #include "experiments/scenarios.hpp"
 #include "experiments/trials.hpp"
+#include "output_folder.hpp"
+#include "rollstep/common/interrupt.hpp"
+#include "rollstep/common/number_text.hpp"
 #include "rollstep/common/text_file.hpp"
+#include "rollstep/sim/plant.hpp"
 #include "rollstep/sim/scene.hpp"
 
 namespace rollstep::apps {
@@ -84,64 +93,155 @@ const Scenario& selectScenario(const ExperimentSet& set, const std::string& scen
                                                set.source + " (it has: " + have + ")");
 }
 
+/// A trial's folder: its files replaced as a whole (a run that does not end leaves FAILED
+/// with the reason and no result.yaml; --collect then says it is unfinished).
+OutputFolder trialFolder(const std::string& dir) {
+  return OutputFolder("trials", dir, {"result.yaml", "scene.yaml", "sensors.yaml"});
+}
+
 /// Runs one trial in this process (its sim as a child) and writes its result.yaml.
 TrialResult runTrial(const TrialsOptions& o, const ExperimentSet& set, const Scenario& s,
                      std::uint64_t seed) {
   const TrialParameters p = drawTrial(seed, set.trials);
   const sim::SceneConfig scene = trialScene(sceneOf(s), p);
   const std::string dir = trialDir(fs::absolute(o.out).string(), s, seed);
-  fs::create_directories(dir + "/sim");
-  writeFileAtomically(dir + "/scene.yaml", sim::toYaml(scene));
-  writeFileAtomically(dir + "/sensors.yaml", trialSensorNoise(p).toYaml());
-  Scenario trial = s;
-  const std::vector<std::string> extra = trialSimArgs(dir + "/sensors.yaml");
-  trial.args.insert(trial.args.end(), extra.begin(), extra.end());
-  const RunOutcome run = executeRun(trial, scene, dir + "/sim", set.criteria, dir + "/scene.yaml");
-  TrialResult r;
-  r.scenario = s.name;
-  r.controller = s.controller;
-  r.parameters = p;
-  r.sensor_noise_applied = readsSensors(s);
-  r.passed = run.passed();
-  r.failure = run.passed() ? "" : run.failureText();
-  if (run.assessment.metrics) {
-    r.traverse_time = run.assessment.metrics->traverse_time;
-    r.mean_abs_vz = run.assessment.metrics->mean_abs_vz;
-    r.mean_abs_wy = run.assessment.metrics->mean_abs_wy;
+  const OutputFolder folder = trialFolder(dir);
+  folder.create();
+  folder.begin();
+  try {
+    fs::create_directories(dir + "/sim");
+    writeFileAtomically(dir + "/scene.yaml", sim::toYaml(scene));
+    writeFileAtomically(dir + "/sensors.yaml", trialSensorNoise(p).toYaml());
+    Scenario trial = s;
+    const std::vector<std::string> extra = trialSimArgs(dir + "/sensors.yaml");
+    trial.args.insert(trial.args.end(), extra.begin(), extra.end());
+    const RunOutcome run =
+        executeRun(trial, scene, dir + "/sim", set.criteria, dir + "/scene.yaml");
+    throwIfInterrupted();  // the sim was interrupted with us: not a result
+    TrialResult r;
+    r.scenario = s.name;
+    r.controller = s.controller;
+    r.parameters = p;
+    r.sensor_noise_applied = readsSensors(s);
+    r.passed = run.passed();
+    r.failure = run.passed() ? "" : run.failureText();
+    if (run.assessment.metrics) {
+      r.traverse_time = run.assessment.metrics->traverse_time;
+      r.mean_abs_vz = run.assessment.metrics->mean_abs_vz;
+      r.mean_abs_wy = run.assessment.metrics->mean_abs_wy;
+    }
+    std::vector<std::string> command = trialCommand(o, seed);
+    command[0] = "rollstep";
+    r.command = shellCommand(command);
+    writeFileAtomically(dir + "/result.yaml", toYaml(r));
+    return r;
+  } catch (const std::exception& e) {
+    folder.fail(e.what());
+    throw;
   }
-  std::vector<std::string> command = trialCommand(o, seed);
-  command[0] = "rollstep";
-  r.command = shellCommand(command);
-  writeFileAtomically(dir + "/result.yaml", toYaml(r));
-  return r;
 }
 
-void writeAggregate(const std::vector<TrialResult>& results, const std::string& out_dir,
-                    const std::string& how) {
-  const std::vector<TrialAggregate> a = aggregate(results);
-  std::string text = "# rollstep trials: aggregate\n\n" + how + "\n\n" + aggregateMarkdown(a);
-  writeFileAtomically(out_dir + "/aggregate.md", text);
+/// The aggregate's text: the results, and the trial folders found without one.
+std::string aggregateText(const std::vector<TrialResult>& results,
+                          const std::vector<UncountedTrial>& uncounted, const std::string& how) {
+  std::string text =
+      "# rollstep trials: aggregate\n\n" + how + "\n\n" + aggregateMarkdown(aggregate(results));
+  if (!uncounted.empty()) {
+    text += "\nNot counted: " + std::to_string(uncounted.size()) + " of " +
+            std::to_string(uncounted.size() + results.size()) +
+            " trial folders hold no result that can be counted:\n\n";
+    for (const UncountedTrial& u : uncounted) {
+      text += "- " + literalText(u.dir) + ": " + literalText(u.reason) + "\n";
+    }
+  }
+  return text;
+}
+
+void writeAggregate(const std::string& text, std::size_t results, std::size_t uncounted,
+                    const std::string& out_dir) {
+  const OutputFolder folder("trials", out_dir, {"aggregate.md"});
+  folder.create();
+  folder.begin();
+  try {
+    writeFileAtomically(out_dir + "/aggregate.md", text);
+  } catch (const std::exception& e) {
+    folder.fail(e.what());
+    throw;
+  }
   std::fputs(text.c_str(), stdout);
-  std::printf("\nrollstep trials: %zu results; aggregate in %s/aggregate.md\n", results.size(),
-              out_dir.c_str());
+  std::printf("\nrollstep trials: %zu results", results);
+  if (uncounted > 0) {
+    std::printf("; %zu trial folders not counted (unfinished or unreadable: listed)", uncounted);
+  }
+  std::printf("; aggregate in %s/aggregate.md\n", out_dir.c_str());
 }
 
-void runTrials(const TrialsOptions& o) {
+/// Options that --collect does not use: refused rather than ignored.
+void refuseWithCollect(const CLI::App& cmd) {
+  for (const char* option : {"--scenario", "--controller", "--seeds", "--jobs", "--print-commands",
+                             "--no-aggregate", "--experiments"}) {
+    if (cmd.count(option) > 0) {
+      throw CLI::ValidationError(option,
+                                 "is not used by --collect (it aggregates the result "
+                                 "files found; no trial is run)");
+    }
+  }
+}
+
+int collectTrialResults(const TrialsOptions& o) {
+  const TrialCollection c = collectTrials(o.collect);
+  std::string from;
+  for (const std::string& d : o.collect) from += " " + literalText(d);
+  if (c.folders == 0) {
+    throw InputError("--collect: no result.yaml found under" + from +
+                     " (no trial folder: none holds a result.yaml or is named "
+                     "<scenario>_seed<N>)");
+  }
+  // The text first (a seed in two files is an error): nothing is replaced before.
+  const std::string text = aggregateText(c.results, c.uncounted, "Collected from:" + from);
+  for (const UncountedTrial& u : c.uncounted) {
+    std::fprintf(stderr, "rollstep trials: not counted: %s: %s\n", u.dir.c_str(), u.reason.c_str());
+  }
+  writeAggregate(text, c.results.size(), c.uncounted.size(),
+                 o.out.empty() ? o.collect.front() : o.out);
+  return c.uncounted.empty() ? 0 : 3;
+}
+
+/// Waits for the trial processes still running after an interrupt (each got it and ends
+/// within a second; after two, they are killed) and leaves FAILED in the folders of those
+/// that did not write it.
+void endRunningTrials(const std::map<pid_t, std::string>& running) {
+  for (const auto& [pid, dir] : running) {
+    int status = 0;
+    const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(2);
+    pid_t r = 0;
+    while ((r = ::waitpid(pid, &status, WNOHANG)) == 0 && std::chrono::steady_clock::now() < until)
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    if (r == 0) status = endProcess(pid, 0.0);
+    unregisterChild(pid);
+    std::error_code ec;
+    if (!fs::exists(dir + "/FAILED", ec)) {
+      trialFolder(dir).fail("the trial process was interrupted (exit status " +
+                            std::to_string(exitStatusOf(status)) + ")");
+    }
+  }
+}
+
+int runTrials(const TrialsOptions& o, const CLI::App& cmd) {
   if (!o.collect.empty()) {
-    const std::vector<TrialResult> results = collectResults(o.collect);
-    if (results.empty()) throw InputError("--collect: no result.yaml found");
-    const std::string out = o.out.empty() ? o.collect.front() : o.out;
-    fs::create_directories(out);
-    std::string from;
-    for (const std::string& d : o.collect) from += " " + d;
-    writeAggregate(results, out, "Collected from:" + from);
-    return;
+    refuseWithCollect(cmd);
+    return collectTrialResults(o);
   }
   if (o.scenario.empty() || o.seeds.empty() || o.out.empty()) {
     throw CLI::ValidationError(
         "trials",
         "needs --scenario, --seeds and --out (and --controller with a scene; or "
         "--collect DIR)");
+  }
+  if (o.print_commands && (cmd.count("--jobs") > 0 || o.no_aggregate)) {
+    throw CLI::ValidationError(cmd.count("--jobs") > 0 ? "--jobs" : "--no-aggregate",
+                               "is not used by --print-commands (each printed command runs one "
+                               "trial)");
   }
   const ExperimentSet set = loadExperimentSet(o.experiments);
   const Scenario& scenario = selectScenario(set, o.scenario, o.controller);
@@ -151,12 +251,45 @@ void runTrials(const TrialsOptions& o) {
   } catch (const std::invalid_argument& e) {
     throw CLI::ValidationError("--seeds", e.what());
   }
+  // The scenario's scene file, loaded now, and the plant built in the scenes at the corners
+  // of the trial ranges (the lowest and highest step, the start nearest and farthest): no
+  // command is printed that would fail, no trial starts that cannot run.
+  const sim::SceneConfig base_scene = sceneOf(scenario);
+  const TrialRanges& ranges = set.trials;
+  for (double height : {ranges.step_height_min, ranges.step_height_max}) {
+    for (double offset : {ranges.start_offset_min, ranges.start_offset_max}) {
+      TrialParameters corner;
+      corner.step_height = height;
+      corner.start_offset = offset;
+      corner.friction = ranges.friction_min;
+      sim::PlantOptions plant_options;
+      plant_options.robot_file = robotOf(scenario);
+      try {
+        const sim::Plant plant(trialScene(base_scene, corner), plant_options);
+      } catch (const std::exception& e) {
+        throw InputError("scenario " + scenario.name + " of " + set.source +
+                         " with the trial ranges (step height " + numberText(height) +
+                         " m, start offset " + numberText(offset) + " m): " + e.what());
+      }
+    }
+  }
   if (o.print_commands) {
     for (std::uint64_t seed : seeds)
       std::printf("%s\n", shellCommand(trialCommand(o, seed)).c_str());
-    return;
+    return 0;
   }
-  fs::create_directories(o.out);
+  // The aggregate is replaced as a whole at the end; until then, none (an interrupted run
+  // leaves DIR/FAILED, each unfinished trial its own FAILED).
+  const OutputFolder out_folder("trials", o.out, {"aggregate.md"});
+  out_folder.create();
+  if (o.no_aggregate) {
+    // An aggregate already in DIR would no longer describe the trials there.
+    std::error_code ec;
+    fs::remove(fs::path(o.out) / "aggregate.md", ec);
+    deferInterrupts();
+  } else {
+    out_folder.begin();
+  }
   ProgressBar bar("rollstep trials");
   std::vector<TrialResult> results;
   int passed = 0;
@@ -167,61 +300,81 @@ void runTrials(const TrialsOptions& o) {
                    std::to_string(passed) + " passed (seed " + std::to_string(seed) +
                    (ok ? " passed)" : " failed)"));
   };
-  if (o.jobs <= 1 || seeds.size() == 1) {
-    for (std::size_t i = 0; i < seeds.size(); ++i) {
-      bar.update(static_cast<double>(i) / seeds.size(), "seed " + std::to_string(seeds[i]));
-      results.push_back(runTrial(o, set, scenario, seeds[i]));
-      done(i + 1, seeds[i], results.back().passed);
-    }
-  } else {
-    // Local processes, each one trial's self-contained command (the --print-commands line).
-    std::map<pid_t, std::uint64_t> running;
-    std::size_t next = 0, finished = 0;
-    while (finished < seeds.size()) {
-      while (running.size() < static_cast<std::size_t>(o.jobs) && next < seeds.size()) {
-        const std::string dir = trialDir(fs::absolute(o.out).string(), scenario, seeds[next]);
-        fs::create_directories(dir);
-        std::vector<std::string> command = trialCommand(o, seeds[next]);
-        const std::string program = command[0];
-        command.erase(command.begin());
-        running[startProcess(program, command, dir + "/trial.out", dir + "/trial.err")] =
-            seeds[next];
-        ++next;
+  std::map<pid_t, std::string> running_dirs;  // trial processes, for an interrupt
+  try {
+    if (o.jobs <= 1 || seeds.size() == 1) {
+      for (std::size_t i = 0; i < seeds.size(); ++i) {
+        bar.update(static_cast<double>(i) / seeds.size(), "seed " + std::to_string(seeds[i]));
+        results.push_back(runTrial(o, set, scenario, seeds[i]));
+        done(i + 1, seeds[i], results.back().passed);
       }
-      int status = 0;
-      const pid_t pid = ::waitpid(-1, &status, 0);
-      if (pid < 0) {
-        if (errno == EINTR) continue;
-        throw std::runtime_error("waitpid failed");
-      }
-      const auto it = running.find(pid);
-      if (it == running.end()) continue;
-      const std::uint64_t seed = it->second;
-      running.erase(it);
-      ++finished;
-      const std::string dir = trialDir(fs::absolute(o.out).string(), scenario, seed);
-      bool ok = false;
-      if (exitStatusOf(status) == 0 && fs::exists(dir + "/result.yaml")) {
-        ok = parseTrialResult(readTextFile(dir + "/result.yaml", "trial result"), dir).passed;
-      } else {
-        // A trial whose process died still counts: as failed, with the reason.
-        const std::string why = "the trial process exited with status " +
-                                std::to_string(exitStatusOf(status)) + " (see " + dir +
-                                "/trial.err)";
-        std::fprintf(stderr, "rollstep trials: warning: seed %llu: %s\n",
-                     static_cast<unsigned long long>(seed), why.c_str());
+    } else {
+      // Local processes, each one trial's self-contained command (the --print-commands line).
+      std::map<pid_t, std::uint64_t> running;
+      std::size_t next = 0, finished = 0;
+      while (finished < seeds.size()) {
+        throwIfInterrupted();
+        while (running.size() < static_cast<std::size_t>(o.jobs) && next < seeds.size()) {
+          const std::string dir = trialDir(fs::absolute(o.out).string(), scenario, seeds[next]);
+          fs::create_directories(dir);
+          std::vector<std::string> command = trialCommand(o, seeds[next]);
+          const std::string program = command[0];
+          command.erase(command.begin());
+          const pid_t pid = startProcess(program, command, dir + "/trial.out", dir + "/trial.err");
+          registerChild(pid);
+          running[pid] = seeds[next];
+          running_dirs[pid] = dir;
+          ++next;
+        }
+        int status = 0;
+        const pid_t pid = ::waitpid(-1, &status, 0);
+        if (pid < 0) {
+          if (errno == EINTR) continue;
+          throw std::runtime_error(std::string("waitpid failed: ") + std::strerror(errno));
+        }
+        const auto it = running.find(pid);
+        if (it == running.end()) continue;
+        unregisterChild(pid);
+        const std::uint64_t seed = it->second;
+        running.erase(it);
+        running_dirs.erase(pid);
+        ++finished;
+        const std::string dir = trialDir(fs::absolute(o.out).string(), scenario, seed);
+        throwIfInterrupted();  // this trial's process too was interrupted: not a result
         TrialResult r;
-        r.scenario = scenario.name;
-        r.controller = scenario.controller;
-        r.parameters = drawTrial(seed, set.trials);
-        r.failure = why;
-        std::vector<std::string> command = trialCommand(o, seed);
-        command[0] = "rollstep";
-        r.command = shellCommand(command);
-        writeFileAtomically(dir + "/result.yaml", toYaml(r));
+        if (exitStatusOf(status) == 0 && fs::exists(dir + "/result.yaml")) {
+          r = parseTrialResult(readTextFile(dir + "/result.yaml", "trial result"), dir);
+        } else {
+          // A trial whose process died still counts: as failed, with the reason.
+          std::error_code ec;
+          const std::string failed =
+              fs::exists(dir + "/FAILED", ec) ? readTextFile(dir + "/FAILED", "FAILED") : "";
+          std::string why = "the trial process exited with status " +
+                            std::to_string(exitStatusOf(status)) + " (see " + dir + "/trial.err)";
+          if (!failed.empty()) why += ": " + failed.substr(0, failed.find('\n'));
+          std::fprintf(stderr, "rollstep trials: warning: seed %llu: %s\n",
+                       static_cast<unsigned long long>(seed), why.c_str());
+          r.scenario = scenario.name;
+          r.controller = scenario.controller;
+          r.parameters = drawTrial(seed, set.trials);
+          r.failure = why;
+          std::vector<std::string> command = trialCommand(o, seed);
+          command[0] = "rollstep";
+          r.command = shellCommand(command);
+          writeFileAtomically(dir + "/result.yaml", toYaml(r));
+          fs::remove(dir + "/FAILED", ec);
+        }
+        results.push_back(r);
+        done(finished, seed, r.passed);
       }
-      done(finished, seed, ok);
     }
+  } catch (const std::exception& e) {
+    endRunningTrials(running_dirs);
+    if (!o.no_aggregate) {
+      out_folder.fail(std::string(e.what()) + " (" + std::to_string(results.size()) + " of " +
+                      std::to_string(seeds.size()) + " trials ended)");
+    }
+    throw;
   }
   bar.finish(std::to_string(passed) + " of " + std::to_string(seeds.size()) + " passed");
   if (o.no_aggregate) {
@@ -230,15 +383,20 @@ void runTrials(const TrialsOptions& o) {
                   static_cast<unsigned long long>(r.parameters.seed),
                   r.passed ? "passed" : "FAILED: ", r.failure.c_str());
     }
-    return;
+    return 0;
   }
-  writeAggregate(collectResults({o.out}), o.out,
-                 "Scenario " + scenario.name + " (" + set.source + "), seeds " + o.seeds + ".");
+  // Exactly the seeds asked for: results of earlier runs in the same folder are not counted
+  // (`--collect DIR` aggregates everything a folder holds).
+  writeAggregate(aggregateText(results, {},
+                               "Scenario " + scenario.name + " (" + literalText(set.source) +
+                                   "), seeds " + o.seeds + "."),
+                 results.size(), 0, o.out);
+  return 0;
 }
 
 }  // namespace
 
-void registerTrialsCommand(CLI::App& app) {
+void registerTrialsCommand(CLI::App& app, int& exit_status) {
   auto o = std::make_shared<TrialsOptions>();
   o->experiments = defaultExperimentsFile();
   CLI::App* cmd = app.add_subcommand(
@@ -251,7 +409,13 @@ void registerTrialsCommand(CLI::App& app) {
       "Scale out: --print-commands prints one self-contained command per trial (for GNU parallel "
       "or a Slurm job array); afterwards `rollstep trials --collect DIR` aggregates the result "
       "files found under DIR. The sensor noise (DIR/<scenario>_seedNNNN/sensors.yaml) reaches "
-      "the controllers that read the sensors (--state-source inekf).");
+      "the controllers that read the sensors (--state-source inekf). The aggregate counts "
+      "exactly the seeds asked for; --collect counts every trial folder it finds and lists "
+      "those without a result (unfinished: FAILED or no result.yaml; unreadable: why). Exit "
+      "status: 0 when the trials ran (passed or not) and the aggregate was written; 3 with "
+      "--collect when some trial folders hold no result; 1 on bad options or inputs; 128 + "
+      "the signal when interrupted (SIGINT, SIGTERM: each unfinished trial folder then holds "
+      "FAILED with the reason, DIR no aggregate.md).");
   cmd->add_option("--scenario", o->scenario,
                   "A scene (" + sim::sceneNamesText() +
                       ": its first scenario with --controller) or a scenario's name in the "
@@ -268,14 +432,15 @@ void registerTrialsCommand(CLI::App& app) {
   cmd->add_flag("--print-commands", o->print_commands,
                 "Print one self-contained command per trial and exit");
   cmd->add_flag("--no-aggregate", o->no_aggregate,
-                "Write only the trials' result files (the printed commands use it)");
+                "Write only the trials' result files (the printed commands use it); an "
+                "aggregate.md in DIR is removed (it would no longer describe DIR)");
   cmd->add_option("--collect", o->collect,
                   "Aggregate the result.yaml files under DIR (repeatable); no trial is run")
       ->check(kNotEmpty);
   cmd->add_option("--experiments", o->experiments, "The experiments file")
       ->check(kNotEmpty)
       ->capture_default_str();
-  cmd->final_callback([o] { runTrials(*o); });
+  cmd->final_callback([o, cmd, &exit_status] { exit_status = runTrials(*o, *cmd); });
 }
 
 }  // namespace rollstep::apps

@@ -2,7 +2,8 @@
 // (rollstep::centroidal::parseOcpSettings / parseRobotOcpDescription,
 // rollstep::control::parseControlSettings, which nests the OCP's and the solver's).
 // Fine: settings that survive a toYaml round trip exactly and a description whose names
-// are contacts, or a std::runtime_error whose message starts with the documented prefix
+// are contacts (trot groups sharing no foot and holding all, a walk order listing each
+// once), or a std::runtime_error whose message starts with the documented prefix
 // naming the source. Anything else fails: a crash, a sanitizer report, an escaped parser
 // error (YamlError names no file), another exception type, a hang.
 #include <cstddef>
@@ -11,6 +12,7 @@
 #include <cstdlib>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "rollstep/centroidal/ocp_settings.hpp"
 #include "rollstep/control/control_settings.hpp"
@@ -51,6 +53,20 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     }
     if (d.contact_frames.empty() || d.nominal_joint_positions.size() == 0) {
       failure("accepted a description without contacts or posture");
+    }
+    // Trot groups share no foot and hold all of them; a walk order lists every foot.
+    const auto count = [](const std::vector<std::string>& names, const std::string& n) {
+      int k = 0;
+      for (const std::string& x : names) k += x == n ? 1 : 0;
+      return k;
+    };
+    for (const std::string& c : d.contact_frames) {
+      if (!d.trot_group_a.empty() && count(d.trot_group_a, c) + count(d.trot_group_b, c) != 1) {
+        failure("accepted trot groups that do not hold " + c + " exactly once");
+      }
+      if (!d.walk_order.empty() && count(d.walk_order, c) != 1) {
+        failure("accepted a walk order that does not list " + c + " once");
+      }
     }
   } catch (const std::runtime_error& e) {
     if (std::string(e.what()).rfind("robot description fuzz.yaml: ", 0) != 0) {

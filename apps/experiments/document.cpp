@@ -1,5 +1,7 @@
 #include "document.hpp"
 
+#include <string_view>
+
 #include "rollstep/common/markup.hpp"
 
 namespace rollstep::experiments {
@@ -39,6 +41,17 @@ std::string cellMarkdown(const std::string& s) {
 }
 
 }  // namespace
+
+std::string literalText(const std::string& text) {
+  std::string out;
+  bool markup = false;
+  for (char c : text) {
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) c = ' ';
+    if (std::string_view("|*_[]<>&#\\`~").find(c) != std::string_view::npos) markup = true;
+    out += c == '`' ? '\'' : c;
+  }
+  return markup ? "`" + out + "`" : out;
+}
 
 void Document::heading(int level, const std::string& text) {
   blocks_.push_back({Block::Heading, level, text, "", {}, {}});

@@ -6,6 +6,11 @@
 
 namespace rollstep::experiments {
 
+/// Text read from files (a trial's failure, a folder's name) made safe where it is rendered,
+/// in Markdown and in HTML alike: control characters (newlines) become spaces, and text that
+/// holds markup characters (| * _ [ ] < > & # \ `) becomes a code span, shown as it is.
+std::string literalText(const std::string& text);
+
 class Document {
  public:
   void heading(int level, const std::string& text);

@@ -1,12 +1,15 @@
 #include "process.hpp"
 
 #include <fcntl.h>
+#include <poll.h>
+#include <signal.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -14,6 +17,9 @@
 #include <set>
 #include <sstream>
 #include <stdexcept>
+#include <thread>
+
+#include "rollstep/common/interrupt.hpp"
 
 namespace rollstep::experiments {
 
@@ -98,15 +104,62 @@ int exitStatusOf(int wait_status) {
   return 255;
 }
 
+int endProcess(pid_t pid, double grace) {
+  ::kill(pid, SIGTERM);
+  int status = 0;
+  const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(grace);
+  for (;;) {
+    const pid_t r = ::waitpid(pid, &status, WNOHANG);
+    if (r == pid || (r < 0 && errno != EINTR)) return status;
+    if (std::chrono::steady_clock::now() >= until) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ::kill(pid, SIGKILL);
+  while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  return status;
+}
+
 int runProcess(const std::string& program, const std::vector<std::string>& args,
                const std::string& stdout_path, const std::string& stderr_path,
-               const std::function<void(const std::string&)>& on_line) {
+               const std::function<void(const std::string&)>& on_line, double time_limit,
+               bool* timed_out) {
   std::ofstream log(stderr_path);
   int fd = -1;
   const pid_t pid = startProcess(program, args, stdout_path, stderr_path, &fd);
+  registerChild(pid);
+  if (timed_out != nullptr) *timed_out = false;
+  using Clock = std::chrono::steady_clock;
+  const Clock::time_point deadline =
+      Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                         std::chrono::duration<double>(time_limit > 0.0 ? time_limit : 0.0));
+  // The child got this process's interrupt (forwarded): it has a second to end on its own.
+  Clock::time_point interrupted_until = Clock::time_point::max();
+  // Milliseconds to wait for the child at most, -1 for no limit; 0: end it now.
+  const auto wait_ms = [&]() -> int {
+    const Clock::time_point now = Clock::now();
+    if (interruptRequested() && interrupted_until == Clock::time_point::max()) {
+      interrupted_until = now + std::chrono::seconds(1);
+    }
+    Clock::time_point until = interrupted_until;
+    if (time_limit > 0.0) until = std::min(until, deadline);
+    if (until == Clock::time_point::max()) return -1;
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(until - now).count();
+    return left > 0 ? static_cast<int>(std::min<long long>(left, 1000000)) : 0;
+  };
+  bool give_up = false;
   std::string pending;
   char buffer[4096];
   while (true) {
+    struct pollfd p {
+      fd, POLLIN, 0
+    };
+    const int ready = ::poll(&p, 1, wait_ms());
+    if (ready < 0 && errno == EINTR) continue;  // an interrupt: forwarded to the child
+    if (ready == 0) {
+      give_up = true;
+      break;
+    }
     const ssize_t n = ::read(fd, buffer, sizeof buffer);
     if (n < 0 && errno == EINTR) continue;
     if (n <= 0) break;
@@ -125,8 +178,25 @@ int runProcess(const std::string& program, const std::vector<std::string>& args,
   }
   ::close(fd);
   int status = 0;
-  while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  for (;;) {  // its standard error closed: wait for its end, within the same limits
+    if (give_up) {
+      status = endProcess(pid);
+      break;
+    }
+    const pid_t r = ::waitpid(pid, &status, WNOHANG);
+    if (r == pid) break;
+    if (r < 0 && errno != EINTR) break;
+    if (r == 0) {
+      if (wait_ms() == 0) {
+        give_up = true;
+        continue;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
   }
+  const bool expired = give_up && time_limit > 0.0 && Clock::now() >= deadline;
+  unregisterChild(pid);
+  if (timed_out != nullptr) *timed_out = expired;
   return exitStatusOf(status);
 }
 

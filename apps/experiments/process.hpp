@@ -30,10 +30,18 @@ pid_t startProcess(const std::string& program, const std::vector<std::string>& a
 int exitStatusOf(int wait_status);
 
 /// Runs a program to its end; every line of its standard error goes to `on_line` and to the
-/// file `stderr_path`. Returns the exit status (exitStatusOf).
+/// file `stderr_path`. Returns the exit status (exitStatusOf). The child gets this process's
+/// interrupts (rollstep::registerChild) and is ended (SIGTERM, then SIGKILL a second later)
+/// if it is still running a second after one. With a `time_limit` [s] > 0, a program still
+/// running after it is ended the same way and `*timed_out` set.
 int runProcess(const std::string& program, const std::vector<std::string>& args,
                const std::string& stdout_path, const std::string& stderr_path,
-               const std::function<void(const std::string&)>& on_line);
+               const std::function<void(const std::string&)>& on_line, double time_limit = 0.0,
+               bool* timed_out = nullptr);
+
+/// Ends child `pid` (SIGTERM, then SIGKILL after `grace` seconds) and reaps it; returns its
+/// wait status.
+int endProcess(pid_t pid, double grace = 1.0);
 
 /// The first line of `command`'s standard output (run with /bin/sh), or "" if it fails.
 std::string commandOutput(const std::string& command);

@@ -1,15 +1,24 @@
 #include "render.hpp"
 
+#include <fcntl.h>
 #include <mujoco/mujoco.h>
+#include <poll.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
 #include <csignal>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
+#include <thread>
 
 #include "process.hpp"
+#include "rollstep/common/interrupt.hpp"
 
 #ifdef ROLLSTEP_HAVE_OSMESA
 #include <GL/osmesa.h>
@@ -189,55 +198,162 @@ Image tile(const std::vector<Image>& frames, int columns) {
   return out;
 }
 
-VideoWriter::VideoWriter(const std::string& path, int width, int height, int fps)
-    : path_(path), log_path_(path + ".ffmpeg.txt"), width_(width), height_(height) {
+VideoWriter::VideoWriter(const std::string& path, int width, int height, int fps, double time_limit)
+    : path_(path),
+      log_path_(path + ".ffmpeg.txt"),
+      width_(width),
+      height_(height),
+      deadline_(std::chrono::steady_clock::now() +
+                std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                    std::chrono::duration<double>(time_limit))),
+      time_limit_(time_limit) {
   if (!onPath("ffmpeg")) {
     throw std::runtime_error("ffmpeg is not installed (Debian package ffmpeg)");
   }
   // A broken pipe (ffmpeg died) must be an error of this writer, not a signal that kills us.
   std::signal(SIGPIPE, SIG_IGN);
-  const std::string command =
-      shellCommand({"ffmpeg",    "-y",
-                    "-loglevel", "error",
-                    "-f",        "rawvideo",
-                    "-pix_fmt",  "rgb24",
-                    "-s",        std::to_string(width) + "x" + std::to_string(height),
-                    "-r",        std::to_string(fps),
-                    "-i",        "-",
-                    "-c:v",      "libx264",
-                    "-preset",   "veryfast",
-                    "-crf",      "26",
-                    "-pix_fmt",  "yuv420p",
-                    "-threads",  "1",
-                    path}) +
-      " > " + shellCommand({log_path_}) + " 2>&1";
-  pipe_ = ::popen(command.c_str(), "w");
-  if (pipe_ == nullptr)
+  const std::vector<std::string> args = {"-y",
+                                         "-loglevel",
+                                         "error",
+                                         "-f",
+                                         "rawvideo",
+                                         "-pix_fmt",
+                                         "rgb24",
+                                         "-s",
+                                         std::to_string(width) + "x" + std::to_string(height),
+                                         "-r",
+                                         std::to_string(fps),
+                                         "-i",
+                                         "-",
+                                         "-c:v",
+                                         "libx264",
+                                         "-preset",
+                                         "veryfast",
+                                         "-crf",
+                                         "26",
+                                         "-pix_fmt",
+                                         "yuv420p",
+                                         "-threads",
+                                         "1",
+                                         path};
+  // ffmpeg as a child of its own (not popen): its frames written with a time limit, and
+  // ended if it stops taking them, or on an interrupt.
+  int fds[2] = {-1, -1};
+  if (::pipe2(fds, O_CLOEXEC) != 0) {
     throw std::runtime_error("cannot start ffmpeg: " + std::string(std::strerror(errno)));
+  }
+  std::vector<std::string> argv_text{"ffmpeg"};
+  argv_text.insert(argv_text.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (std::string& a : argv_text) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  const int log = ::open(log_path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  std::fflush(nullptr);
+  pid_ = ::fork();
+  if (pid_ == 0) {
+    ::dup2(fds[0], 0);
+    if (log >= 0) {
+      ::dup2(log, 1);
+      ::dup2(log, 2);
+    }
+    ::execvp("ffmpeg", argv.data());
+    ::_exit(127);
+  }
+  const int fork_errno = errno;
+  ::close(fds[0]);
+  if (log >= 0) ::close(log);
+  if (pid_ < 0) {
+    ::close(fds[1]);
+    throw std::runtime_error("cannot start ffmpeg: " + std::string(std::strerror(fork_errno)));
+  }
+  registerChild(pid_);
+  fd_ = fds[1];
+  ::fcntl(fd_, F_SETFL, ::fcntl(fd_, F_GETFL) | O_NONBLOCK);
 }
 
 VideoWriter::~VideoWriter() {
-  if (pipe_ != nullptr) ::pclose(pipe_);
+  if (fd_ >= 0) ::close(fd_);
+  if (pid_ > 0) {
+    endProcess(pid_, 1.0);
+    unregisterChild(pid_);
+  }
+}
+
+int VideoWriter::remainingMs() const {
+  const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+                        deadline_ - std::chrono::steady_clock::now())
+                        .count();
+  return left > 0 ? static_cast<int>(std::min<long long>(left, 1000000)) : 0;
 }
 
 void VideoWriter::add(const Image& frame) {
-  if (failed_ || pipe_ == nullptr) return;
-  if (frame.width != width_ || frame.height != height_ ||
-      std::fwrite(frame.rgb.data(), 1, frame.rgb.size(), pipe_) != frame.rgb.size()) {
+  if (failed_ || fd_ < 0) return;
+  if (frame.width != width_ || frame.height != height_) {
     failed_ = true;
+    return;
+  }
+  const unsigned char* data = frame.rgb.data();
+  std::size_t left = frame.rgb.size();
+  while (left > 0) {
+    const ssize_t n = ::write(fd_, data, left);
+    if (n > 0) {
+      data += n;
+      left -= static_cast<std::size_t>(n);
+      continue;
+    }
+    if (n < 0 && errno == EINTR) {
+      if (interruptRequested()) return;  // the caller ends the video
+      continue;
+    }
+    if (n < 0 && errno == EAGAIN) {
+      struct pollfd p {
+        fd_, POLLOUT, 0
+      };
+      const int ready = ::poll(&p, 1, std::min(remainingMs(), 100));
+      if (ready == 0 && remainingMs() == 0) {
+        timed_out_ = true;
+        failed_ = true;
+        return;
+      }
+      if (interruptRequested()) return;
+      continue;
+    }
+    failed_ = true;  // ffmpeg is gone (EPIPE)
+    return;
   }
 }
 
 void VideoWriter::finish() {
-  if (pipe_ == nullptr) return;
-  const int status = ::pclose(pipe_);
-  pipe_ = nullptr;
+  if (pid_ <= 0) return;
+  ::close(fd_);
+  fd_ = -1;
+  int status = 0;
+  pid_t r = 0;
+  while (!timed_out_ && (r = ::waitpid(pid_, &status, WNOHANG)) == 0) {
+    if (remainingMs() == 0) {
+      timed_out_ = true;
+      break;
+    }
+    if (interruptRequested()) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  const bool ended = r == pid_;  // by itself, not stopped
+  if (!ended) status = endProcess(pid_, 1.0);
+  unregisterChild(pid_);
+  pid_ = -1;
   std::ifstream log(log_path_);
   std::stringstream messages;
   messages << log.rdbuf();
   std::remove(log_path_.c_str());
-  if (failed_ || status != 0) {
+  if (failed_ || !ended || exitStatusOf(status) != 0) {
     std::remove(path_.c_str());
+    throwIfInterrupted();
+    if (timed_out_) {
+      char limit[64];
+      std::snprintf(limit, sizeof limit, "%.0f", time_limit_);
+      throw std::runtime_error("ffmpeg did not finish '" + path_ + "' within " + limit +
+                               " s and was stopped");
+    }
     throw std::runtime_error("ffmpeg failed to write '" + path_ + "': " + messages.str());
   }
 }

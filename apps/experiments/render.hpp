@@ -4,6 +4,9 @@
 // (no display needed). PNGs through lodepng (MuJoCo's own dependency), videos through
 // Debian's ffmpeg fed raw frames on a pipe. Without OSMesa at build time, or ffmpeg at run
 // time, the functions say so (available() false with the reason), never crash.
+#include <sys/types.h>
+
+#include <chrono>
 #include <memory>
 #include <string>
 #include <vector>
@@ -50,20 +53,30 @@ void writePng(const std::string& path, const Image& image);
 /// An MP4 (H.264) written by ffmpeg from raw RGB frames on its standard input.
 class VideoWriter {
  public:
-  /// Starts ffmpeg; throws std::runtime_error if it is not on PATH or does not start.
-  VideoWriter(const std::string& path, int width, int height, int fps);
+  /// Starts ffmpeg; throws std::runtime_error if it is not on PATH or does not start. It
+  /// gets this process's interrupts; all of it (every frame and the end) must take at most
+  /// `time_limit` seconds.
+  VideoWriter(const std::string& path, int width, int height, int fps, double time_limit = 600.0);
+  /// Ends ffmpeg if it still runs (an exception left the video unfinished).
   ~VideoWriter();
   VideoWriter(const VideoWriter&) = delete;
   VideoWriter& operator=(const VideoWriter&) = delete;
+  /// Writes a frame (returns at once after an interrupt; the caller ends the video).
   void add(const Image& frame);
-  /// Closes the pipe and waits; throws std::runtime_error with ffmpeg's messages if it failed.
+  /// Closes the pipe and waits; throws std::runtime_error with ffmpeg's messages if it
+  /// failed or ran past the time limit (then ended), Interrupted after an interrupt.
   void finish();
 
  private:
+  int remainingMs() const;
+
   std::string path_, log_path_;
   int width_, height_;
-  FILE* pipe_ = nullptr;
-  bool failed_ = false;
+  std::chrono::steady_clock::time_point deadline_;
+  double time_limit_;
+  pid_t pid_ = -1;
+  int fd_ = -1;
+  bool failed_ = false, timed_out_ = false;
 };
 
 }  // namespace rollstep::experiments

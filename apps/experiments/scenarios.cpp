@@ -199,6 +199,11 @@ ExperimentSet parseExperimentSet(const std::string& text, const std::string& sou
          if (a.candidate.empty() || a.baseline.empty()) {
            r.fail(n, key, "needs candidate and baseline");
          }
+         if (a.candidate == a.baseline) {
+           r.fail(n, key,
+                  "candidate and baseline are both '" + a.candidate +
+                      "' (a scenario compared with itself)");
+         }
        }},
       {"trials",
        [&](const yaml::Node& n, const std::string& key) {
@@ -263,6 +268,20 @@ ExperimentSet parseExperimentSet(const std::string& text, const std::string& sou
                 [&](const yaml::Node& v, const std::string& k) {
                   words(r)(v, k, s.args);
                   for (std::size_t a = 0; a < s.args.size(); ++a) {
+                    // Options the scenario's keys or the command set: given twice, every
+                    // run would fail ("At Most 1 required but received 2").
+                    for (const auto& [option, by] :
+                         {std::pair<const char*, const char*>{"--out", "the command (runs/<name>)"},
+                          {"--duration", "the scenario's duration key"},
+                          {"--scene", "the scenario's scene key"},
+                          {"--scene-config", "the scenario's scene_config key"},
+                          {"--controller", "the scenario's controller key"}}) {
+                      const std::string with_value = std::string(option) + "=";
+                      if (s.args[a] == option || s.args[a].rfind(with_value, 0) == 0) {
+                        r.fail(v.item(a), k,
+                               "'" + std::string(option) + "' is set by " + by + ", not in args");
+                      }
+                    }
                     if (s.args[a] == "--control-config") {
                       r.fail(v.item(a), k,
                              "'--control-config' is set by the scenario's control_config key "

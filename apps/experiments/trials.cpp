@@ -1,12 +1,15 @@
 #include "trials.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <map>
+#include <set>
 #include <stdexcept>
 
+#include "document.hpp"
 #include "rollstep/common/number_text.hpp"
 #include "rollstep/common/text_file.hpp"
 #include "rollstep/common/yaml_tree.hpp"
@@ -33,15 +36,52 @@ struct SplitMix64 {
 /// Numbers as text with 4 decimals: what the trial uses is what its file says.
 double rounded(double v) { return std::round(v * 1e4) / 1e4; }
 
+/// Length of the valid UTF-8 sequence at s[i], 0 if it is not one.
+std::size_t utf8Length(const std::string& s, std::size_t i) {
+  const auto byte = [&](std::size_t k) { return static_cast<unsigned char>(s[k]); };
+  const unsigned char c = byte(i);
+  const std::size_t n = c < 0x80           ? 1
+                        : (c >> 5) == 0x6  ? 2
+                        : (c >> 4) == 0xe  ? 3
+                        : (c >> 3) == 0x1e ? 4
+                                           : 0;
+  if (n == 0 || i + n > s.size()) return 0;
+  for (std::size_t k = 1; k < n; ++k) {
+    if ((byte(i + k) & 0xc0) != 0x80) return 0;
+  }
+  return n;
+}
+
+/// A YAML double-quoted scalar that reads back as `s`: quotes, backslashes, control
+/// characters and line separators escaped (a YAML reader refuses or folds them raw); a byte
+/// that is not UTF-8 (refused too) as '?'.
 std::string quoted(const std::string& s) {
   std::string out = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') out += '\\';
-    if (c == '\n') {
-      out += "\\n";
+  for (std::size_t i = 0; i < s.size();) {
+    const std::size_t n = utf8Length(s, i);
+    if (n == 0) {
+      out += '?';
+      ++i;
       continue;
     }
-    out += c;
+    std::uint32_t cp =
+        n == 1 ? static_cast<unsigned char>(s[i]) : static_cast<unsigned char>(s[i]) & (0x7fu >> n);
+    for (std::size_t k = 1; k < n; ++k)
+      cp = (cp << 6) | (static_cast<unsigned char>(s[i + k]) & 0x3fu);
+    if (cp == '"' || cp == '\\') {
+      out += '\\';
+      out += static_cast<char>(cp);
+    } else if (cp == '\n') {
+      out += "\\n";
+    } else if (cp < 0x20 || (cp >= 0x7f && cp <= 0x9f) || cp == 0x2028 || cp == 0x2029 ||
+               cp == 0xfeff || cp >= 0xfffe) {
+      char e[16];
+      std::snprintf(e, sizeof e, cp > 0xffff ? "\\U%08x" : "\\u%04x", static_cast<unsigned>(cp));
+      out += e;
+    } else {
+      out += s.substr(i, n);
+    }
+    i += n;
   }
   return out + "\"";
 }
@@ -163,14 +203,34 @@ TrialResult parseTrialResult(const std::string& text, const std::string& source)
     };
     if (seen[key]) throw fail("given twice");
     seen[key] = true;
-    const auto num = [&]() {
+    // Every field is checked as an input would be: its type and its range (a result file
+    // may come from anywhere: --collect, report --trials).
+    const auto num = [&](double lo, double hi) {
       double x = 0.0;
       if (!v.isScalar() || !v.toDouble(x) || !std::isfinite(x)) throw fail("not a finite number");
+      if (x < lo || x > hi) {
+        throw fail(shortestNumberText(x) + " is outside [" + shortestNumberText(lo) + ", " +
+                   shortestNumberText(hi) + "]");
+      }
       return x;
     };
-    const auto optional_num = [&]() -> std::optional<double> {
+    const auto optional_num = [&](double lo, double hi) -> std::optional<double> {
       if (v.isNull()) return std::nullopt;
-      return num();
+      return num(lo, hi);
+    };
+    const auto scalar_text = [&]() {
+      if (!v.isScalar()) throw fail("expected text, not a list or mapping");
+      if (v.scalar().size() > 10000) throw fail("text of more than 10000 characters");
+      return v.scalar();
+    };
+    // Scenario and controller names appear in tables: names as the experiments file allows.
+    const auto name = [&]() {
+      const std::string n = scalar_text();
+      const bool ok = !n.empty() && n.size() <= 100 && std::all_of(n.begin(), n.end(), [](char c) {
+        return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.';
+      });
+      if (!ok) throw fail("'" + n.substr(0, 100) + "' is not a name (letters, digits, _ - .)");
+      return n;
     };
     const auto flag = [&]() {
       bool b = false;
@@ -178,42 +238,53 @@ TrialResult parseTrialResult(const std::string& text, const std::string& source)
       return b;
     };
     if (key == "scenario") {
-      r.scenario = v.scalar();
+      r.scenario = name();
     } else if (key == "controller") {
-      r.controller = v.scalar();
+      r.controller = name();
     } else if (key == "seed") {
-      const double s = num();
-      if (s < 0 || s != std::floor(s)) throw fail("not a seed");
-      r.parameters.seed = static_cast<std::uint64_t>(s);
+      // As --seeds takes them: digits only (no 1e30, no sign, no 2^64 wrapping around).
+      const std::string s = v.isScalar() ? v.scalar() : std::string();
+      if (s.empty() || s.size() > 9 ||
+          !std::all_of(s.begin(), s.end(), [](char c) { return c >= '0' && c <= '9'; })) {
+        throw fail("'" + s.substr(0, 40) + "' is not a seed (an integer 0 to 999999999)");
+      }
+      r.parameters.seed = std::stoull(s);
     } else if (key == "step_height") {
-      r.parameters.step_height = num();
+      r.parameters.step_height = num(0.0, 1.0);
     } else if (key == "friction") {
-      r.parameters.friction = num();
+      r.parameters.friction = num(0.01, 5.0);
     } else if (key == "start_offset") {
-      r.parameters.start_offset = num();
+      r.parameters.start_offset = num(-10.0, 10.0);
     } else if (key == "sensor_noise") {
-      r.parameters.sensor_noise = num();
+      r.parameters.sensor_noise = num(0.0, 100.0);
     } else if (key == "sensor_noise_applied") {
       r.sensor_noise_applied = flag();
     } else if (key == "passed") {
       r.passed = flag();
     } else if (key == "failure") {
-      r.failure = v.scalar();
+      r.failure = scalar_text();
     } else if (key == "traverse_time") {
-      r.traverse_time = optional_num();
+      r.traverse_time = optional_num(0.0, 1e6);  // a run lasts at most 1e6 s
+      if (r.traverse_time && !(*r.traverse_time > 0.0)) throw fail("0 is not a traverse time");
     } else if (key == "mean_abs_vz") {
-      r.mean_abs_vz = optional_num();
+      r.mean_abs_vz = optional_num(0.0, 1000.0);
     } else if (key == "mean_abs_wy") {
-      r.mean_abs_wy = optional_num();
+      r.mean_abs_wy = optional_num(0.0, 1000.0);
     } else if (key == "command") {
-      r.command = v.scalar();
+      r.command = scalar_text();
     } else {
       throw std::runtime_error(source + ": line " + std::to_string(root.key(i).line()) +
                                ": unknown key '" + key + "'");
     }
   }
-  for (const char* required : {"scenario", "seed", "passed"}) {
+  // The trial's parameters too: a result without them does not say what was run.
+  for (const char* required : {"scenario", "controller", "seed", "step_height", "friction",
+                               "start_offset", "sensor_noise", "passed"}) {
     if (!seen[required]) throw std::runtime_error(source + ": missing key '" + required + "'");
+  }
+  if (r.passed && !r.failure.empty()) {
+    throw std::runtime_error(source + ": passed: true with a failure ('" +
+                             r.failure.substr(0, 100) + "')");
   }
   return r;
 }
@@ -267,7 +338,8 @@ std::vector<TrialAggregate> aggregate(std::vector<TrialResult> results) {
         if (r->mean_abs_vz) vz.push_back(*r->mean_abs_vz);
         if (r->mean_abs_wy) wy.push_back(*r->mean_abs_wy);
       } else {
-        a.failures.push_back("seed " + std::to_string(r->parameters.seed) + ": " + r->failure);
+        a.failures.push_back("seed " + std::to_string(r->parameters.seed) + ": " +
+                             literalText(r->failure));
       }
     }
     a.traverse_time = spreadOf(t);
@@ -351,24 +423,90 @@ std::string aggregateMarkdown(const std::vector<TrialAggregate>& aggregates) {
 
 namespace fs = std::filesystem;
 
-std::vector<TrialResult> collectResults(const std::vector<std::string>& dirs) {
-  std::vector<TrialResult> results;
+namespace {
+
+/// Whether `name` is a trial folder's name as `rollstep trials` writes it: <scenario>_seed<digits>.
+bool trialFolderName(const std::string& name) {
+  const std::size_t at = name.rfind("_seed");
+  if (at == std::string::npos || at == 0 || at + 5 == name.size()) return false;
+  return std::all_of(name.begin() + static_cast<std::ptrdiff_t>(at + 5), name.end(),
+                     [](char c) { return c >= '0' && c <= '9'; });
+}
+
+std::string firstLine(const fs::path& file) {
+  try {
+    std::string text = readTextFile(file.string(), "FAILED", 1 << 16);
+    text = text.substr(0, text.find('\n'));
+    return text;
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+}
+
+void collectFolder(const fs::path& dir, std::set<fs::path>& visited, TrialCollection& out) {
+  std::error_code ec;
+  const fs::path real = fs::canonical(dir, ec);
+  if (ec || !visited.insert(real).second) return;  // a loop of links, or seen already
+  const fs::path result = dir / "result.yaml";
+  const bool has_result = fs::symlink_status(result, ec).type() != fs::file_type::not_found;
+  if (has_result || trialFolderName(dir.filename().string())) {
+    ++out.folders;
+    if (!has_result) {
+      const std::string why = fs::exists(dir / "FAILED", ec)
+                                  ? firstLine(dir / "FAILED")
+                                  : "no result.yaml (the trial did not end)";
+      out.uncounted.push_back({dir.string(), "unfinished: " + why, false});
+      return;
+    }
+    try {
+      out.results.push_back(
+          parseTrialResult(readTextFile(result.string(), "trial result"), result.string()));
+    } catch (const std::exception& e) {
+      out.uncounted.push_back({dir.string(), std::string("unreadable: ") + e.what(), true});
+    }
+    return;
+  }
+  std::vector<fs::path> children;
+  for (auto it = fs::directory_iterator(dir, ec); !ec && it != fs::directory_iterator();
+       it.increment(ec)) {
+    std::error_code type_ec;
+    if (fs::is_directory(it->path(), type_ec)) children.push_back(it->path());  // links followed
+  }
+  if (ec) {
+    out.uncounted.push_back(
+        {dir.string(), "unreadable: cannot list the folder: " + ec.message(), true});
+    ++out.folders;
+    return;
+  }
+  std::sort(children.begin(), children.end());
+  for (const fs::path& child : children) collectFolder(child, visited, out);
+}
+
+}  // namespace
+
+TrialCollection collectTrials(const std::vector<std::string>& dirs) {
+  TrialCollection out;
+  std::set<fs::path> visited;
   for (const std::string& d : dirs) {
     std::error_code ec;
     if (!fs::is_directory(d, ec))
       throw InputError("trial results folder '" + d + "': not a directory");
-    std::vector<fs::path> files;
-    for (auto it = fs::recursive_directory_iterator(d, ec);
-         !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
-      if (it->is_regular_file() && it->path().filename() == "result.yaml")
-        files.push_back(it->path());
-    }
-    std::sort(files.begin(), files.end());
-    for (const fs::path& f : files) {
-      results.push_back(parseTrialResult(readTextFile(f.string(), "trial result"), f.string()));
-    }
+    collectFolder(fs::path(d), visited, out);
   }
-  return results;
+  return out;
+}
+
+std::vector<TrialResult> collectResults(const std::vector<std::string>& dirs) {
+  TrialCollection c = collectTrials(dirs);
+  if (!c.uncounted.empty()) {
+    const UncountedTrial& u = c.uncounted.front();
+    throw std::runtime_error(
+        "trial folder '" + u.dir + "': " + u.reason +
+        (c.uncounted.size() > 1
+             ? " (and " + std::to_string(c.uncounted.size() - 1) + " more folders without a result)"
+             : std::string()));
+  }
+  return std::move(c.results);
 }
 
 }  // namespace rollstep::experiments

@@ -75,8 +75,27 @@ struct TrialAggregate {
 /// Results grouped by scenario (in order of first appearance), seeds sorted; a seed given
 /// twice for the same scenario is an error naming both files.
 std::vector<TrialAggregate> aggregate(std::vector<TrialResult> results);
-/// Every result.yaml under the folders (recursively, sorted by path), read. Throws
-/// InputError for a folder that is not one, std::runtime_error for a malformed file.
+/// A trial folder found without a result that can be counted.
+struct UncountedTrial {
+  std::string dir;
+  std::string reason;       ///< e.g. "unfinished: rollstep trials failed: interrupted by SIGINT"
+  bool unreadable = false;  ///< a result.yaml that is there but is not a valid result
+};
+/// What the trial folders under some folders hold.
+struct TrialCollection {
+  std::vector<TrialResult> results;
+  std::vector<UncountedTrial> uncounted;  ///< unfinished or unreadable, sorted by path
+  int folders = 0;                        ///< trial folders found: results + uncounted
+};
+/// Every trial folder under the folders, recursively (symbolic links to folders followed,
+/// each folder once): a folder holding a result.yaml, or named <scenario>_seed<digits> as
+/// `rollstep trials` names them. A folder without a readable result.yaml is uncounted, with
+/// the reason: unfinished (its FAILED, or no result.yaml: the trial never ended) or
+/// unreadable (not a regular file, malformed, a field out of its range). Throws InputError
+/// for a folder given that is not one.
+TrialCollection collectTrials(const std::vector<std::string>& dirs);
+/// collectTrials, but every uncounted folder is an error: throws std::runtime_error naming
+/// the first one and why (the results of an unfinished run would be counted as a whole).
 std::vector<TrialResult> collectResults(const std::vector<std::string>& dirs);
 /// Two scenarios' trials compared seed by seed: the means of each Table 1 metric over the
 /// seeds that both passed (the same step height, friction and start offset for both), so

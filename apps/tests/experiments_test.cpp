@@ -250,6 +250,19 @@ TEST(ExperimentSet, LoadsTheProjectsFileAndRefusesMistakes) {
             "f: line 3: acceptance: no scenario named 'b'");
   EXPECT_EQ(error(ok + "acceptance: {candidate: a, baseline: a, trial_success_rate: 1.5}\n"),
             "f: line 3: acceptance.trial_success_rate: 1.5 is outside [0, 1]");
+  EXPECT_EQ(error(ok + "acceptance: {candidate: a, baseline: a}\n"),
+            "f: line 3: acceptance: candidate and baseline are both 'a' (a scenario compared with "
+            "itself)");
+  // Options the scenario's keys set, repeated in args: each run would fail.
+  for (const std::string option :
+       {"--out", "--duration", "--scene", "--scene-config", "--controller", "--duration=3"}) {
+    EXPECT_NE(error("scenarios:\n  - {name: a, scene: flat, controller: x, args: [" + option +
+                    ", '1']}\n")
+                  .find("f: line 2: scenarios[0].args: '" + option.substr(0, option.find('=')) +
+                        "' is set by "),
+              std::string::npos)
+        << option;
+  }
   EXPECT_EQ(error(ok + "trials: {friction: [1.0, 0.6]}\n"),
             "f: line 3: trials.friction: min is above max");
   EXPECT_EQ(error("scenarios:\n  - {name: a/b, scene: flat, controller: x}\n"),
@@ -384,6 +397,87 @@ TEST(Trials, ResultFilesRoundTripAndAggregate) {
   EXPECT_THROW(parseTrialResult("scenario: a\nseed: 1\n", "x"), std::runtime_error);
   EXPECT_THROW(parseTrialResult("scenario: a\nseed: 1\npassed: true\nextra: 1\n", "x"),
                std::runtime_error);
+}
+
+// A result file is an input: every field checked for its type and range, the error naming
+// the file, the line and the key.
+TEST(Trials, ResultFieldsAreCheckedLikeInputs) {
+  const std::string head = "scenario: s\npassed: false\n";
+  const std::string parameters =
+      "\ncontroller: c\nstep_height: 0.1\nfriction: 0.5\nstart_offset: 0\nsensor_noise: 1";
+  const auto error = [&](const std::string& line) {
+    try {
+      parseTrialResult(head + line + "\n", "r.yaml");
+    } catch (const std::runtime_error& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  EXPECT_EQ(error("seed: 1\ntraverse_time: 1e308"),
+            "r.yaml: line 4: traverse_time: 1e+308 is outside [0, 1000000]");
+  EXPECT_EQ(error("seed: 1\ntraverse_time: -100"),
+            "r.yaml: line 4: traverse_time: -100 is outside [0, 1000000]");
+  EXPECT_EQ(error("seed: 1\ntraverse_time: 0"),
+            "r.yaml: line 4: traverse_time: 0 is not a traverse time");
+  EXPECT_EQ(error("seed: 1e30"),
+            "r.yaml: line 3: seed: '1e30' is not a seed (an integer 0 to 999999999)");
+  EXPECT_EQ(
+      error("seed: 18446744073709551616"),
+      "r.yaml: line 3: seed: '18446744073709551616' is not a seed (an integer 0 to 999999999)");
+  EXPECT_EQ(error("seed: -1"),
+            "r.yaml: line 3: seed: '-1' is not a seed (an integer 0 to 999999999)");
+  EXPECT_EQ(error("seed: 1\nfriction: 0"), "r.yaml: line 4: friction: 0 is outside [0.01, 5]");
+  EXPECT_EQ(error("seed: 1\nmean_abs_vz: -0.1"),
+            "r.yaml: line 4: mean_abs_vz: -0.1 is outside [0, 1000]");
+  EXPECT_EQ(error("seed: 1\ncontroller: [a, b]"),
+            "r.yaml: line 4: controller: expected text, not a list or mapping");
+  EXPECT_EQ(error("seed: 1\ncontroller: \"a|b\""),
+            "r.yaml: line 4: controller: 'a|b' is not a name (letters, digits, _ - .)");
+  EXPECT_EQ(error("seed: 1\nfailure: {a: 1}"),
+            "r.yaml: line 4: failure: expected text, not a list or mapping");
+  EXPECT_EQ(error("seed: 7" + parameters), "accepted");
+  EXPECT_EQ(error("seed: 7"), "r.yaml: missing key 'controller'");
+  try {
+    parseTrialResult("scenario: {a: 1}\nseed: 1\npassed: true\n", "r.yaml");
+    ADD_FAILURE() << "a mapping as the scenario's name";
+  } catch (const std::runtime_error& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "r.yaml: line 1: scenario: expected text, not a list or mapping");
+  }
+  EXPECT_THROW(parseTrialResult("scenario: s\nseed: 1\npassed: true\nfailure: fell\n", "r"),
+               std::runtime_error);
+}
+
+// A result file always reads back: any failure text (a sim's message with a tab, a control
+// character, a line separator, a byte that is not UTF-8) is written so that it does.
+TEST(Trials, AnyFailureTextReadsBack) {
+  TrialResult r;
+  r.scenario = "s";
+  r.controller = "c";
+  r.parameters.friction = 0.5;
+  r.failure =
+      "a\tb\x01"
+      "c\"d\\e\nf\u2028g\u0085h\xff";
+  const TrialResult back = parseTrialResult(toYaml(r), "r.yaml");
+  EXPECT_EQ(back.failure,
+            "a\tb\x01"
+            "c\"d\\e\nf\u2028g\u0085h?");
+  EXPECT_EQ(toYaml(parseTrialResult(toYaml(back), "again")), toYaml(back));
+}
+
+// Text from result files in the aggregate: shown as it is, never as markup or table rows.
+TEST(Trials, FailureTextIsShownAsItIs) {
+  EXPECT_EQ(literalText("did not traverse the step"), "did not traverse the step");
+  EXPECT_EQ(literalText("a\n| x | y |\n<script>`b`"), "`a | x | y | <script>'b'`");
+  TrialResult r;
+  r.scenario = "s";
+  r.failure = "fell\n| s | x | 1 | 1 | 100.0 % |";
+  const std::string md = aggregateMarkdown(aggregate({r}));
+  EXPECT_EQ(md.find("\n| s | x"), std::string::npos) << md;
+  EXPECT_NE(md.find("- seed 0: `fell | s | x | 1 | 1 | 100.0 % |`\n"), std::string::npos) << md;
+  Document doc;
+  doc.bullets({literalText("<script>alert(1)</script>")});
+  EXPECT_EQ(doc.html("t").find("<script>"), std::string::npos);
 }
 
 TEST(Trials, ComparisonPairsTheSeedsBothPassed) {

@@ -19,4 +19,18 @@ echo "$err" | grep -q "log.csv.*No space left on device" || { echo "FAIL: messag
 case "$left" in
   *log.csv* | *summary.txt* | *.tmp.*) echo "FAIL: left behind: $left"; exit 1 ;;
 esac
+# plan replaces its three files as a whole: a longer plan (about 250 kB) fills the disk that
+# held the first (150 kB) part-way; no new file is left beside an old one, only FAILED with
+# the reason.
+mount -t tmpfs -o size=200k tmpfs "$dir" || exit 1
+"$rollstep" plan --duration 1.5 --out "$dir/plan" > /dev/null 2>&1 || { umount "$dir"; echo "FAIL: the first plan"; exit 1; }
+err=$("$rollstep" plan --duration 2.5 --out "$dir/plan" 2>&1 >/dev/null)
+rc=$?
+echo "$err"
+left=$(ls -A "$dir/plan" | tr '\n' ' ')
+failed=$(cat "$dir/plan/FAILED" 2>/dev/null)
+umount "$dir"
+[ $rc -ge 1 ] && [ $rc -le 123 ] || { echo "FAIL: plan on a full disk: exit status $rc"; exit 1; }
+[ "$left" = "FAILED " ] || { echo "FAIL: plan on a full disk left: $left"; exit 1; }
+echo "$failed" | grep -q "rollstep plan failed: .*No space left on device" || { echo "FAIL: plan's FAILED: $failed"; exit 1; }
 echo "full disk reported, nothing partial left ($left)"

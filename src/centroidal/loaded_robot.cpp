@@ -1,6 +1,7 @@
 #include "rollstep/centroidal/loaded_robot.hpp"
 
 #include <limits>
+#include <sstream>
 #include <stdexcept>
 
 #include "rollstep/centroidal/precomputation.hpp"
@@ -59,14 +60,28 @@ LoadedRobot loadRobot(const RobotOcpDescription& description) {
       std::make_shared<const CentroidalRobot>(model, contacts, pairs, description.contact_offset);
   const CentroidalRobot& robot = *out.robot;
   const int nj = robot.nj(), nc = robot.nc();
+  const std::string description_name = description.source.empty()
+                                           ? std::string("robot description: ")
+                                           : "robot description " + description.source + ": ";
   const auto requireOnePerJoint = [&](const char* key, const Eigen::VectorXd& values) {
     if (values.size() != nj) {
-      throw std::invalid_argument("robot description: " + std::string(key) + " has " +
+      throw std::invalid_argument(description_name + std::string(key) + " has " +
                                   std::to_string(values.size()) + " entries, the URDF " +
                                   description.urdf + " has " + std::to_string(nj) + " joints");
     }
   };
   requireOnePerJoint("nominal_joint_positions", description.nominal_joint_positions);
+  for (int j = 0; j < nj; ++j) {  // the posture every term pulls towards must be reachable
+    const double q = description.nominal_joint_positions[j];
+    const double lo = model->lowerPositionLimit[j], hi = model->upperPositionLimit[j];
+    if (q < lo || q > hi) {
+      std::ostringstream os;
+      os << description_name << "nominal_joint_positions[" << j << "] = " << q << " for joint '"
+         << model->jointNames[static_cast<std::size_t>(j)] << "' is outside its limits [" << lo
+         << ", " << hi << "] in the URDF " << description.urdf;
+      throw std::invalid_argument(os.str());
+    }
+  }
   if (description.servo_stiffness.size() != 0) {
     requireOnePerJoint("servo_stiffness", description.servo_stiffness);
   }

@@ -1,5 +1,6 @@
 #include "rollstep/centroidal/ocp_settings.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <limits>
@@ -267,6 +268,7 @@ RobotOcpDescription parseRobotOcpDescription(const std::string& yaml_text,
                                              const std::string& base_directory) {
   const std::string prefix = "robot description " + source_name + ": ";
   RobotOcpDescription d;
+  d.source = source_name;
   parseDocument(yaml_text, prefix, [&](const yaml::Node& root) {
     const auto fail = [&](const yaml::Node& at, const std::string& what) {
       throw std::runtime_error(prefix + lineOf(at) + what);
@@ -359,6 +361,27 @@ RobotOcpDescription parseRobotOcpDescription(const std::string& yaml_text,
       for (const auto* group : {&d.trot_group_a, &d.trot_group_b}) {
         for (const std::string& name : *group) {
           if (!isContact(name)) fail(groups, "trot_groups: '" + name + "' is not a contact frame");
+        }
+      }
+      // A trot alternates two groups that share no foot and together hold all of them.
+      const auto in = [](const std::vector<std::string>& group, const std::string& name) {
+        return std::find(group.begin(), group.end(), name) != group.end();
+      };
+      for (const std::string& frame : d.contact_frames) {
+        const bool a = in(d.trot_group_a, frame), b = in(d.trot_group_b, frame);
+        if (a && b) fail(groups, "trot_groups: '" + frame + "' is in both groups");
+        if (!a && !b) {
+          fail(groups, "trot_groups: '" + frame +
+                           "' is in neither group (each contact frame in exactly one)");
+        }
+      }
+    }
+    if (!d.walk_order.empty()) {
+      for (const std::string& frame : d.contact_frames) {
+        if (std::find(d.walk_order.begin(), d.walk_order.end(), frame) == d.walk_order.end()) {
+          fail(given.at("walk_order"), "walk_order: '" + frame +
+                                           "' is missing (the order lists every contact "
+                                           "frame once)");
         }
       }
     }

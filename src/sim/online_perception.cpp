@@ -65,11 +65,25 @@ void OnlinePerception::openLog() {
     throw OutputError("--log-map '" + options_.log_dir + "': cannot create the directory" +
                       (ec ? ": " + ec.message() : std::string()));
   }
-  // Snapshots of an earlier run would mix with this one's.
+  // Files of an earlier run would mix with this one's: its snapshots and its index (should
+  // this run fail, the index of the earlier one would otherwise sit beside these snapshots).
+  std::vector<fs::path> earlier;
   for (const auto& entry : fs::directory_iterator(options_.log_dir, ec)) {
     const std::string name = entry.path().filename().string();
-    if (name.rfind("heights_", 0) == 0 && entry.path().extension() == ".npy") {
-      fs::remove(entry.path(), ec);
+    // ... and the temporaries of one that was killed (SIGKILL: it could not clean up).
+    const bool stale = name.find(".tmp.") != std::string::npos &&
+                       (name.rfind(".maps.csv", 0) == 0 || name.rfind(".regions.csv", 0) == 0 ||
+                        name.rfind(".footholds.csv", 0) == 0 || name.rfind(".heights_", 0) == 0);
+    if ((name.rfind("heights_", 0) == 0 && entry.path().extension() == ".npy") ||
+        name == "maps.csv" || name == "regions.csv" || name == "footholds.csv" || stale) {
+      earlier.push_back(entry.path());
+    }
+  }
+  for (const fs::path& p : earlier) {
+    fs::remove(p, ec);
+    if (ec) {
+      throw OutputError("--log-map: cannot remove the earlier run's '" + p.string() +
+                        "': " + ec.message());
     }
   }
   const fs::path dir(options_.log_dir);

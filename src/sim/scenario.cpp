@@ -7,6 +7,8 @@
 #include <string>
 #include <thread>
 
+#include "rollstep/common/interrupt.hpp"
+
 namespace rollstep::sim {
 
 std::string csvHeader() {
@@ -91,6 +93,7 @@ RunSummary runScenario(Plant& plant, Controller& controller, double duration, Cs
   const bool paced = controller.paceToWallClock();
   const auto period = std::chrono::duration<double>(plant.controlPeriod());
   for (long k = 1; k <= steps; ++k) {
+    throwIfInterrupted();  // SIGINT/SIGTERM once the program has deferred them (interrupt.hpp)
     if (paced) {
       std::this_thread::sleep_until(wall0 +
                                     std::chrono::duration_cast<std::chrono::steady_clock::duration>(

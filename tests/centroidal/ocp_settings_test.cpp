@@ -133,6 +133,15 @@ TEST(RobotOcpDescription, Tachyon3FileReadsAndErrorsAreNamed) {
   EXPECT_TRUE(has(error(base + "servo_stiffness: [0]\n"),
                   "line 4: servo_stiffness: '0' is not a finite number > 0"));
   EXPECT_TRUE(has(error(base + "servo_stiffness: 5\n"), "servo_stiffness: expected a list"));
+  // A trot's two groups hold every foot exactly once; a walk order lists every foot.
+  EXPECT_EQ(error(base + "trot_groups: [[A], [B]]\nwalk_order: [B, A]\n"), "");
+  EXPECT_TRUE(
+      has(error(base + "trot_groups: [[A], []]\n"),
+          "line 4: trot_groups: 'B' is in neither group (each contact frame in exactly one)"));
+  EXPECT_TRUE(has(error(base + "trot_groups: [[A, B], [B]]\n"),
+                  "line 4: trot_groups: 'B' is in both groups"));
+  EXPECT_TRUE(has(error(base + "walk_order: [B]\n"),
+                  "line 4: walk_order: 'A' is missing (the order lists every contact frame once)"));
 }
 
 }  // namespace

@@ -224,14 +224,17 @@ struct RobotOcpDescription {
   Eigen::VectorXd servo_stiffness;
   std::vector<std::string> trot_group_a, trot_group_b;  ///< the two trot groups
   std::vector<std::string> walk_order;                  ///< static walk: one foot at a time
+  std::string source;  ///< where it was read from (the file): errors found later name it
 };
 
 /// Reads a robot description (keys: urdf, contact_frames, drive_wheels, side_pairs,
 /// contact_offset, nominal_joint_positions, servo_stiffness, trot_groups, walk_order; all
 /// required but drive_wheels, side_pairs, contact_offset, servo_stiffness, trot_groups and
-/// walk_order). Names are checked
-/// against each other here and against the URDF when the OCP is built. Errors:
-/// std::runtime_error "robot description <source>: line L: <key>: <what>".
+/// walk_order). Names are checked against each other here (trot groups holding every
+/// contact frame once, a walk order listing each) and against the URDF when the OCP is
+/// built (one entry per joint, the posture inside the joint limits: std::invalid_argument
+/// "robot description <source>: ..."). Errors: std::runtime_error "robot description
+/// <source>: line L: <key>: <what>".
 RobotOcpDescription parseRobotOcpDescription(const std::string& yaml_text,
                                              const std::string& source_name,
                                              const std::string& base_directory = "");

@@ -72,7 +72,8 @@ using ProgressCallback = std::function<void(const Progress&)>;
 /// step with the wall clock if the controller asks for it (Controller::paceToWallClock). Throws
 /// std::invalid_argument if duration is not finite, negative or more than 1e6 s, or
 /// log_every < 1; SimError if the simulation diverges; OutputError if the log cannot
-/// be written.
+/// be written; Interrupted (rollstep/common/interrupt.hpp) at the next control period after
+/// a deferred SIGINT, SIGTERM or SIGHUP.
 RunSummary runScenario(Plant& plant, Controller& controller, double duration, CsvLog* log = nullptr,
                        int log_every = 10, const ProgressCallback& progress = {});
 
