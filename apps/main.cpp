@@ -21,12 +21,14 @@ int main(int argc, char** argv) {
       "  rollstep report --out out/report\n"
       "  rollstep trials --scenario step20 --controller nmpc --seeds 0-29 --jobs 2 --out "
       "out/trials\n"
+      "  rollstep view out/drive\n"
       "Exit status: 0 on success, non-zero on bad options or a failed run.");
   rollstep::apps::registerSimCommand(app);
   int exit_status = 0;
   rollstep::apps::registerPlanCommand(app, exit_status);
   rollstep::apps::registerReportCommand(app, exit_status);
   rollstep::apps::registerTrialsCommand(app);
+  rollstep::apps::registerViewCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
