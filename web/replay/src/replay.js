@@ -166,6 +166,10 @@ for (const polygon of data.model.regions) {
 const arrows = data.model.contacts.map(() => {
   const a = new THREE.ArrowHelper(new THREE.Vector3(0, 0, 1), new THREE.Vector3(), 0.1,
     COLOURS.force, 0.04, 0.025);
+  // Drawn over the robot: the arrows start at the wheel centres, inside the wheels.
+  a.line.material.depthTest = false;
+  a.cone.material.depthTest = false;
+  a.renderOrder = 10;
   scene.add(a);
   return a;
 });
@@ -186,8 +190,11 @@ const feetNames = data.model.contacts.map((c) => c.name);
 const planFeet = Object.keys(plan).filter((n) => n.endsWith('_x[m]') && n.startsWith('foot_'))
   .map((n) => n.slice(5, -5));
 function line(colour) {
-  const l = new THREE.Line(new THREE.BufferGeometry(), new THREE.LineBasicMaterial({ color: colour }));
+  // Drawn over the robot: the planned base path runs inside the body.
+  const l = new THREE.Line(new THREE.BufferGeometry(),
+    new THREE.LineBasicMaterial({ color: colour, depthTest: false }));
   l.frustumCulled = false;
+  l.renderOrder = 5;
   scene.add(l);
   return l;
 }
@@ -281,13 +288,16 @@ function resize() {
   render();
 }
 
+let playTime = 0;  // [s] run time being shown while playing (between log frames)
 function tick(now) {
   if (playing) {
     const speed = Number(document.getElementById('speed').value);
-    if (last !== null) {
-      const target = times[frame] + speed * (now - last) / 1000;
+    if (last === null) {
+      playTime = times[frame];
+    } else {
+      playTime += speed * (now - last) / 1000;
       let f = frame;
-      while (f + 1 < frames && times[f + 1] <= target) ++f;
+      while (f + 1 < frames && times[f + 1] <= playTime) ++f;
       if (f === frames - 1) playing = false;
       if (f !== frame) show(f);
     }
@@ -303,12 +313,17 @@ function toggle() {
   if (!playing && frame === frames - 1) show(0);
   playing = !playing;
 }
-document.getElementById('play').addEventListener('click', toggle);
+// The button gives the focus back: space on a focused button would click it a second time.
+document.getElementById('play').addEventListener('click', (e) => { toggle(); e.currentTarget.blur(); });
 slider.addEventListener('input', () => show(Number(slider.value)));
 controls.addEventListener('change', render);
 window.addEventListener('resize', resize);
 window.addEventListener('keydown', (e) => {
-  if (e.key === ' ') { toggle(); e.preventDefault(); }
+  if (e.key === ' ') {
+    if (e.target instanceof HTMLButtonElement) return;  // its click toggles
+    toggle();
+    e.preventDefault();
+  }
   else if (e.key === 'ArrowRight') { playing = false; show(frame + (e.shiftKey ? 10 : 1)); e.preventDefault(); }
   else if (e.key === 'ArrowLeft') { playing = false; show(frame - (e.shiftKey ? 10 : 1)); e.preventDefault(); }
 });
