@@ -12,8 +12,22 @@ namespace rollstep::experiments {
 
 namespace {
 
+/// Markdown of text: '<' outside `code` spans escaped (text such as "<scenario>" is not an
+/// HTML tag; the report's raw HTML is only its video players).
+std::string textMarkdown(const std::string& s) {
+  std::string out;
+  bool in_code = false;
+  for (char c : s) {
+    if (c == '`') in_code = !in_code;
+    if (c == '<' && !in_code) out += '\\';
+    out += c;
+  }
+  return out;
+}
+
 /// A Markdown table cell: '|' escaped, newlines as spaces.
-std::string cellMarkdown(const std::string& s) {
+std::string cellMarkdown(const std::string& text) {
+  const std::string s = textMarkdown(text);
   std::string out;
   for (char c : s) {
     if (c == '|')
@@ -78,13 +92,14 @@ std::string Document::markdown() const {
   for (const Block& b : blocks_) {
     switch (b.kind) {
       case Block::Heading:
-        out += std::string(static_cast<std::size_t>(b.level), '#') + " " + b.text + "\n\n";
+        out += std::string(static_cast<std::size_t>(b.level), '#') + " " + textMarkdown(b.text) +
+               "\n\n";
         break;
       case Block::Paragraph:
-        out += b.text + "\n\n";
+        out += textMarkdown(b.text) + "\n\n";
         break;
       case Block::Bullets:
-        for (const std::string& i : b.items) out += "- " + i + "\n";
+        for (const std::string& i : b.items) out += "- " + textMarkdown(i) + "\n";
         out += "\n";
         break;
       case Block::Table: {
