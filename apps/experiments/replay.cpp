@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -82,6 +83,80 @@ json columnsOf(const LogTable& table, std::size_t stride) {
     columns.push_back(std::move(values));
   }
   return json{{"names", names}, {"columns", columns}};
+}
+
+/// A float32 n x n map of `rollstep sim --log-map` (NumPy .npy 1.0, little-endian, C
+/// order; docs/PERCEPTION.md). Throws std::runtime_error naming the file.
+std::vector<float> readHeights(const std::string& path, int n) {
+  const std::string bytes = readAll(path, "elevation map");
+  const auto bad = [&](const std::string& why) {
+    return std::runtime_error("elevation map '" + path + "': " + why);
+  };
+  if (bytes.size() < 10 || bytes.compare(0, 6, "\x93NUMPY") != 0 || bytes[6] != 1) {
+    throw bad("not a NumPy .npy 1.0 file");
+  }
+  const std::size_t header = static_cast<unsigned char>(bytes[8]) |
+                             static_cast<std::size_t>(static_cast<unsigned char>(bytes[9])) << 8;
+  const std::string dict = bytes.substr(10, header);
+  const std::string shape = "'shape': (" + std::to_string(n) + ", " + std::to_string(n) + ")";
+  if (dict.find("'descr': '<f4'") == std::string::npos ||
+      dict.find("'fortran_order': False") == std::string::npos ||
+      dict.find(shape) == std::string::npos) {
+    throw bad("expected little-endian float32 in C order, " + shape);
+  }
+  const std::size_t count = static_cast<std::size_t>(n) * static_cast<std::size_t>(n);
+  if (bytes.size() != 10 + header + 4 * count) throw bad("size does not match its shape");
+  std::vector<float> out(count);
+  std::memcpy(out.data(), bytes.data() + 10 + header, 4 * count);
+  return out;
+}
+
+/// The elevation maps and foothold regions of a `--log-map` folder (maps.csv, regions.csv,
+/// heights_NNNN.npy), at most 40 snapshots evenly chosen, maps halved to at most 100 x 100
+/// cells (heights rounded to mm): a few MB for a 30 s run. null without a map log.
+json mapSnapshots(const std::string& dir) {
+  if (!fs::exists(dir + "/maps.csv")) return nullptr;
+  const LogTable maps = LogTable::read(dir + "/maps.csv", "map log");
+  const LogTable regions = LogTable::read(dir + "/regions.csv", "map regions");
+  const std::vector<std::string>& files = maps.text("heights_file");
+  const std::size_t n = maps.rows();
+  const std::size_t every = std::max<std::size_t>(1, (n + 39) / 40);
+  json out = json::array();
+  for (std::size_t r = 0; r < n; r += every) {
+    const int size = static_cast<int>(maps.column("size[-]")[r]);
+    const int snapshot = static_cast<int>(maps.column("snapshot[-]")[r]);
+    if (size <= 0 || size > 4096) throw std::runtime_error("map log '" + dir + "': bad size");
+    const std::vector<float> h = readHeights(dir + "/" + files[r], size);
+    const int step = size > 100 ? 2 : 1;
+    json cells = json::array();
+    for (int i = 0; i < size; i += step) {
+      for (int j = 0; j < size; j += step) {
+        const float v = h[static_cast<std::size_t>(i) * static_cast<std::size_t>(size) +
+                          static_cast<std::size_t>(j)];
+        if (std::isfinite(v)) {
+          cells.push_back(std::round(static_cast<double>(v) * 1000.0) / 1000.0);
+        } else {
+          cells.push_back(nullptr);
+        }
+      }
+    }
+    json polygons = json::array();
+    const auto& rs = regions.column("snapshot[-]");
+    for (std::size_t k = 0; k < regions.rows(); ++k) {
+      if (static_cast<int>(rs[k]) != snapshot) continue;
+      if (polygons.empty() || regions.column("vertex[-]")[k] == 0)
+        polygons.push_back(json::array());
+      polygons.back().push_back(
+          {regions.column("x[m]")[k], regions.column("y[m]")[k], regions.column("z[m]")[k]});
+    }
+    out.push_back({{"time", maps.column("time[s]")[r]},
+                   {"origin", {maps.column("origin_x[m]")[r], maps.column("origin_y[m]")[r]}},
+                   {"resolution", maps.column("resolution[m]")[r] * step},
+                   {"size", (size + step - 1) / step},
+                   {"heights", cells},
+                   {"regions", polygons}});
+  }
+  return out;
 }
 
 }  // namespace
@@ -204,6 +279,7 @@ void writeReplayPage(const std::string& run_dir, const std::string& page,
   if (fs::exists(run_dir + "/plan.csv")) {
     data["plan"] = columnsOf(LogTable::read(run_dir + "/plan.csv", "plan"), 1);
   }
+  data["maps"] = mapSnapshots(run_dir + "/map");
   const std::string script = replayScriptPath();
   const std::string code = readAll(script, "replay page script (build the target replay_script)");
   std::string text = data.dump();

@@ -22,6 +22,7 @@ function columns(table) {
 }
 const log = columns(data.log);
 const plan = columns(data.plan);
+const maps = data.maps || [];  // elevation map snapshots (perception runs with a map log)
 const times = log['time[s]'];
 const frames = times.length;
 
@@ -52,7 +53,8 @@ document.body.insertAdjacentHTML('beforeend', `
   <span class="swatch" style="background:#ff7f0e"></span>MPC plan: base path
   <span class="swatch" style="background:#17becf"></span>MPC plan: foot paths
   <span class="swatch" style="background:#e377c2"></span>MPC plan: footholds
-  <span class="swatch" style="background:#2ca02c"></span>foothold regions (${escapeHtml(data.model.regions_source)})
+  <span class="swatch" style="background:#2ca02c"></span>foothold regions (${maps.length ? 'perception: the map log\'s snapshot at that time' : escapeHtml(data.model.regions_source)})
+  ${maps.length ? '<span class="swatch" style="background:linear-gradient(90deg,#3350cc,#ffe633)"></span>elevation map (perception; colour: height, low to high)' : ''}
   <span class="swatch" style="background:#d62728;height:2px"></span>plot cursor: the slider's time
   <div id="status"></div>
 </div>
@@ -154,12 +156,55 @@ function pose(frame) {
   return world;
 }
 
-// Foothold regions (static: those in use at the start).
-for (const polygon of data.model.regions) {
-  const points = polygon.map((p) => new THREE.Vector3(p[0], p[1], p[2] + 0.003));
-  points.push(points[0].clone());
-  scene.add(new THREE.Line(new THREE.BufferGeometry().setFromPoints(points),
-    new THREE.LineBasicMaterial({ color: COLOURS.region })));
+// Foothold regions: those in use at the start, or with a map log those of its snapshot.
+const regionGroup = new THREE.Group();
+scene.add(regionGroup);
+function drawRegions(polygons) {
+  regionGroup.children.forEach((c) => c.geometry.dispose());
+  regionGroup.clear();
+  for (const polygon of polygons) {
+    const points = polygon.map((p) => new THREE.Vector3(p[0], p[1], p[2] + 0.003));
+    points.push(points[0].clone());
+    regionGroup.add(new THREE.Line(new THREE.BufferGeometry().setFromPoints(points),
+      new THREE.LineBasicMaterial({ color: COLOURS.region })));
+  }
+}
+drawRegions(data.model.regions);
+
+// The elevation map of perception runs (the map log's snapshots): cells as points coloured
+// by height, blue (low) to yellow (high).
+const mapPoints = new THREE.Points(new THREE.BufferGeometry(),
+  new THREE.PointsMaterial({ size: 0.03, vertexColors: true }));
+mapPoints.frustumCulled = false;
+scene.add(mapPoints);
+let shownMap = -1;
+function drawMap(t) {
+  let k = -1;
+  for (let i = 0; i < maps.length && maps[i].time <= t + 1e-9; ++i) k = i;
+  if (k === shownMap) return;
+  shownMap = k;
+  if (k < 0) {
+    mapPoints.visible = false;
+    drawRegions(data.model.regions);
+    return;
+  }
+  const m = maps[k];
+  const positions = [], colours = [];
+  const finite = m.heights.filter((h) => h !== null);
+  const lo = Math.min(...finite), hi = Math.max(...finite);
+  const colour = new THREE.Color();
+  m.heights.forEach((h, i) => {
+    if (h === null) return;
+    const r = Math.floor(i / m.size), c = i % m.size;
+    positions.push(m.origin[0] + (c + 0.5) * m.resolution, m.origin[1] + (r + 0.5) * m.resolution, h + 0.002);
+    const u = hi > lo ? (h - lo) / (hi - lo) : 0;
+    colour.setRGB(0.2 + 0.8 * u, 0.3 + 0.6 * u, 0.8 - 0.6 * u);
+    colours.push(colour.r, colour.g, colour.b);
+  });
+  mapPoints.geometry.setAttribute('position', new THREE.Float32BufferAttribute(positions, 3));
+  mapPoints.geometry.setAttribute('color', new THREE.Float32BufferAttribute(colours, 3));
+  mapPoints.visible = true;
+  drawRegions(m.regions);
 }
 
 // Contact forces.
@@ -268,6 +313,7 @@ function show(f) {
     }
   });
   const t = times[frame];
+  drawMap(t);
   const s = drawPlan(t);
   clock.textContent = `t = ${t.toFixed(2)} s`;
   const active = log['qp_active[-]'] ? log['qp_active[-]'][frame] : null;
