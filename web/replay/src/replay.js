@@ -412,6 +412,7 @@ function plot(title, names) {
 plot('Base', ['base_z[m]', 'base_vx[m/s]', 'base_wy[rad/s]']);
 plot('Contact normal forces [N]', data.model.contacts.map((c) => `fz_${c.name}[N]`));
 plot('Joints', Object.keys(log).filter((n) => n.startsWith('q_')));
+plot('CBF-QP', ['qp_active[-]', 'qp_correction[m/s^2]']);
 
 resize();
 show(0);
