@@ -59,9 +59,9 @@ std::string readAll(const std::string& path, const char* what) {
   return s.str();
 }
 
-/// Columns of `table`, every `stride`-th row (and the last), rounded to 1e-5: what the page
-/// plots and poses from, a few hundred kB for a 30 s run.
-json columnsOf(const LogTable& table, std::size_t stride) {
+/// Columns of `table`, every `stride`-th row (and the last), rounded to 1 / `scale` (a power
+/// of ten: the division gives the shortest decimal): what the page plots and poses from.
+json columnsOf(const LogTable& table, std::size_t stride, double scale) {
   std::vector<std::size_t> rows;
   for (std::size_t r = 0; r < table.rows(); r += stride) rows.push_back(r);
   if (!rows.empty() && rows.back() + 1 != table.rows()) rows.push_back(table.rows() - 1);
@@ -72,7 +72,7 @@ json columnsOf(const LogTable& table, std::size_t stride) {
     bool any = false;
     for (std::size_t r : rows) {
       if (std::isfinite(c[r])) {
-        values.push_back(std::round(c[r] * 1e5) / 1e5);
+        values.push_back(std::round(c[r] * scale) / scale);
         any = true;
       } else {
         values.push_back(nullptr);
@@ -274,10 +274,11 @@ void writeReplayPage(const std::string& run_dir, const std::string& page,
   // 50 frames per second at most: smooth enough, small enough.
   const std::size_t stride =
       dt > 0 ? std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil(0.02 / dt - 1e-9))) : 1;
-  json data{{"title", title}, {"model", model}, {"log", columnsOf(log, stride)}};
+  json data{{"title", title}, {"model", model}, {"log", columnsOf(log, stride, 1e5)}};
   data["plan"] = nullptr;
   if (fs::exists(run_dir + "/plan.csv")) {
-    data["plan"] = columnsOf(LogTable::read(run_dir + "/plan.csv", "plan"), 1);
+    // Plans to the millimetre: what a drawing shows, a third smaller than plan.csv.
+    data["plan"] = columnsOf(LogTable::read(run_dir + "/plan.csv", "plan"), 1, 1e3);
   }
   data["maps"] = mapSnapshots(run_dir + "/map");
   const std::string script = replayScriptPath();
