@@ -21,4 +21,7 @@ void registerReportCommand(CLI::App& app, int& exit_status);
 /// `rollstep trials`: randomized trials, their result files and aggregate.
 void registerTrialsCommand(CLI::App& app, int& exit_status);
 
+/// `rollstep view DIR`: write the replay page of a `rollstep sim` output folder.
+void registerViewCommand(CLI::App& app);
+
 }  // namespace rollstep::apps

@@ -41,12 +41,14 @@ int main(int argc, char** argv) {
       "  rollstep report --out out/report\n"
       "  rollstep trials --scenario step20 --controller nmpc --seeds 0-29 --jobs 2 --out "
       "out/trials\n"
+      "  rollstep view out/drive\n"
       "Exit status: 0 on success, non-zero on bad options or a failed run.");
   rollstep::apps::registerSimCommand(app);
   int exit_status = 0;
   rollstep::apps::registerPlanCommand(app, exit_status);
   rollstep::apps::registerReportCommand(app, exit_status);
   rollstep::apps::registerTrialsCommand(app, exit_status);
+  rollstep::apps::registerViewCommand(app);
   // A first word that is neither an option nor a command: CLI11 would only say that a
   // subcommand is required.
   std::string names;

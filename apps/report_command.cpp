@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -21,6 +22,7 @@
 #include "experiments/document.hpp"
 #include "experiments/process.hpp"
 #include "experiments/render.hpp"
+#include "experiments/replay.hpp"
 #include "experiments/runs.hpp"
 #include "experiments/scenarios.hpp"
 #include "experiments/trials.hpp"
@@ -59,46 +61,38 @@ std::string percent(double v) {
   return text;
 }
 
-std::string jsonString(const std::string& s) {
-  std::string out = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') {
-      out += '\\';
-      out += c;
-    } else if (static_cast<unsigned char>(c) < 0x20) {
-      char e[8];
-      std::snprintf(e, sizeof e, "\\u%04x", c);
-      out += e;
-    } else {
-      out += c;
-    }
-  }
-  return out + "\"";
+using Json = nlohmann::ordered_json;  // keys in the order written
+
+/// `v` rounded to `digits` decimals (as the figures read it); null when not finite.
+Json rounded(double v, int digits) {
+  if (!std::isfinite(v)) return nullptr;
+  const double scale = std::pow(10.0, digits);
+  return std::round(v * scale) / scale;
 }
 
 /// One run as the figure script sees it.
-std::string runJson(const Scenario& s, const RunOutcome& o, const std::vector<JointLimit>& limits) {
-  std::string j = "{\"name\": " + jsonString(s.name) + ", \"title\": " + jsonString(s.title);
-  j += ", \"log\": " + (o.log ? jsonString(o.dir + "/log.csv") : std::string("null"));
-  j += ", \"mpc\": " + (o.mpc ? jsonString(o.dir + "/mpc.csv") : std::string("null"));
+Json runJson(const Scenario& s, const RunOutcome& o, const std::vector<JointLimit>& limits) {
+  Json j;
+  j["name"] = s.name;
+  j["title"] = s.title;
+  j["log"] = o.log ? Json(o.dir + "/log.csv") : Json(nullptr);
+  j["mpc"] = o.mpc ? Json(o.dir + "/mpc.csv") : Json(nullptr);
   const std::string maps = o.dir + "/map/maps.csv";
-  j += ", \"map\": " +
-       (s.feeds("map") && fs::exists(maps) ? jsonString(o.dir + "/map") : std::string("null"));
-  j += ", \"terrain\": " + jsonString(s.terrainText());
-  j += std::string(", \"passed\": ") + (o.passed() ? "true" : "false");
-  j += ", \"failure\": " + jsonString(o.failureText());
+  j["map"] = s.feeds("map") && fs::exists(maps) ? Json(o.dir + "/map") : Json(nullptr);
+  j["terrain"] = s.terrainText();
+  j["passed"] = o.passed();
+  j["failure"] = o.failureText();
   if (o.log && o.assessment.window.found) {
-    j += ", \"window\": [" + fixed(o.assessment.window.start, 4) + ", " +
-         fixed(o.assessment.window.end, 4) + "]";
+    j["window"] = {rounded(o.assessment.window.start, 4), rounded(o.assessment.window.end, 4)};
   } else {
-    j += ", \"window\": null";
+    j["window"] = nullptr;
   }
-  j += ", \"limits\": {";
-  for (std::size_t i = 0; i < limits.size(); ++i) {
-    j += (i ? ", " : "") + jsonString(limits[i].name) + ": [" + fixed(limits[i].lower, 6) + ", " +
-         fixed(limits[i].upper, 6) + "]";
+  Json l = Json::object();
+  for (const JointLimit& limit : limits) {
+    l[limit.name] = {rounded(limit.lower, 6), rounded(limit.upper, 6)};
   }
-  return j + "}}";
+  j["limits"] = l;
+  return j;
 }
 
 std::string figuresScript() {
@@ -233,7 +227,8 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
   const OutputFolder folder(
       "report", out,
       {"report.md", "report.html", "figures.json", "figures.log", "figures.err", "fig2.png",
-       "fig4.png", "fig6.png", "fig8.png", "map.png", "snapshots_*", "video_*"});
+       "fig4.png", "fig6.png", "fig8.png", "map.png", "snapshots_*", "video_*", "replay.js",
+       "replay_*"});
   folder.create();
   folder.begin();
   try {
@@ -278,31 +273,27 @@ int writeReport(const ReportOptions& o, const ExperimentSet& set, const Acceptan
   // 2. Figures (matplotlib).
   std::string figures_gap;
   {
-    std::string json = "{\"out\": " + jsonString(out) +
-                       ", \"machine\": " + jsonString(machineDescription()) + ", \"runs\": {";
+    Json json;
+    json["out"] = out;
+    json["machine"] = machineDescription();
+    json["runs"] = Json::object();
     for (std::size_t i = 0; i < set.scenarios.size(); ++i) {
       std::vector<JointLimit> limits;
       try {
         limits = jointLimits(scenes[i], robotOf(set.scenarios[i]));
       } catch (const std::exception&) {
       }
-      json += (i ? ", " : "") + jsonString(set.scenarios[i].name) + ": " +
-              runJson(set.scenarios[i], outcomes[i], limits);
+      json["runs"][set.scenarios[i].name] = runJson(set.scenarios[i], outcomes[i], limits);
     }
-    json += "}, \"figures\": {";
-    const char* const kFigures[] = {"table1", "fig4", "fig6", "fig8", "map"};
-    for (std::size_t f = 0; f < 5; ++f) {
-      json += (f ? ", " : "") + jsonString(kFigures[f]) + ": [";
-      bool first = true;
+    json["figures"] = Json::object();
+    for (const char* figure : {"table1", "fig4", "fig6", "fig8", "map"}) {
+      Json names = Json::array();
       for (const Scenario& s : set.scenarios) {
-        if (!s.feeds(kFigures[f])) continue;
-        json += (first ? "" : ", ") + jsonString(s.name);
-        first = false;
+        if (s.feeds(figure)) names.push_back(s.name);
       }
-      json += "]";
+      json["figures"][figure] = names;
     }
-    json += "}}\n";
-    writeFileAtomically(out + "/figures.json", json);
+    writeFileAtomically(out + "/figures.json", json.dump() + "\n");
     const std::string python = "/usr/bin/python3";
     const std::string script = figuresScript();
     if (!fs::exists(python)) {
@@ -401,7 +392,23 @@ int writeReport(const ReportOptions& o, const ExperimentSet& set, const Acceptan
     rbar.finish("done");
   }
 
-  // 4. The report.
+  // 4. The replay pages (interactive 3D, from each run's replay.json, log.csv, plan.csv).
+  std::vector<std::pair<std::string, std::string>> replays;  // file, title
+  std::vector<std::string> replay_failures;
+  for (std::size_t i = 0; i < set.scenarios.size(); ++i) {
+    const Scenario& s = set.scenarios[i];
+    if (!outcomes[i].log || !fs::exists(outcomes[i].dir + "/replay.json")) continue;
+    const std::string file = "replay_" + s.name + ".html";
+    try {
+      writeReplayPage(outcomes[i].dir, out + "/" + file, s.name + ": " + s.title);
+      replays.emplace_back(file, s.title);
+    } catch (const std::exception& e) {
+      warn(s.name + ": replay page failed: " + e.what());
+      replay_failures.push_back(s.name + ": " + e.what());
+    }
+  }
+
+  // 5. The report.
   Document doc;
   doc.heading(1, "rollstep report: the paper's experiments in simulation");
   doc.paragraph(
@@ -573,6 +580,18 @@ int writeReport(const ReportOptions& o, const ExperimentSet& set, const Acceptan
   }
   for (const auto& [file, caption] : videos) doc.video(file, caption);
   for (const std::string& f : video_failures) doc.paragraph("Pictures failed: " + f);
+  doc.heading(2, "Replays");
+  doc.paragraph(
+      "Each run in 3D, in the browser from disk: the robot drawn from its model file, the "
+      "terrain, the contact forces, the foothold regions and the MPC's plan in use at the "
+      "time of a slider, with plots of the main signals (docs/REPLAY.md).");
+  if (replays.empty() && replay_failures.empty()) doc.paragraph("No run left a replay.");
+  {
+    std::vector<std::string> links;
+    for (const auto& [file, title] : replays) links.push_back("[" + title + "](" + file + ")");
+    if (!links.empty()) doc.bullets(links);
+  }
+  for (const std::string& f : replay_failures) doc.paragraph("Replay failed: " + f);
 
   bool trials_met = true;
   doc.heading(2, "Randomized trials");

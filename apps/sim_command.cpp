@@ -31,6 +31,7 @@
 #include "cli_util.hpp"
 #include "commands.hpp"
 #include "output_folder.hpp"
+#include "experiments/replay.hpp"
 #include "rollstep/centroidal/centroidal_ocp.hpp"
 #include "rollstep/common/interrupt.hpp"
 #include "rollstep/common/number_text.hpp"
@@ -54,6 +55,10 @@ namespace rollstep::apps {
 namespace {
 
 namespace fs = std::filesystem;
+
+// plan.csv keeps every 5th node of each plan (and the last): 20 of the 100 nodes, enough to
+// draw the planned paths; about 180 kB per simulated second at the default 50 Hz MPC.
+constexpr int kPlanNodeStride = 5;
 
 struct SimOptions {
   std::string scene = "flat";
@@ -87,13 +92,15 @@ struct SimOptions {
 
 /// Result files of a run in the output directory.
 struct OutputFiles {
-  fs::path log, summary, failed, mpc, violations;
+  fs::path log, summary, failed, mpc, violations, replay, plan;
   explicit OutputFiles(const fs::path& dir)
       : log(dir / "log.csv"),
         summary(dir / "summary.txt"),
         failed(dir / "FAILED"),
         mpc(dir / "mpc.csv"),
-        violations(dir / "mpc_violations.csv") {}
+        violations(dir / "mpc_violations.csv"),
+        replay(dir / "replay.json"),
+        plan(dir / "plan.csv") {}
 };
 
 /// Creates the output directory if needed and removes the previous run's result files.
@@ -104,7 +111,8 @@ void prepareOutputDir(const std::string& dir, const OutputFiles& files) {
   }
   fs::create_directories(dir, ec);
   if (ec) throw OutputError("--out '" + dir + "': cannot create the directory: " + ec.message());
-  for (const fs::path& p : {files.log, files.summary, files.failed, files.mpc, files.violations}) {
+  for (const fs::path& p : {files.log, files.summary, files.failed, files.mpc, files.violations,
+                            files.replay, files.plan}) {
     fs::remove(p, ec);
     if (ec) {
       throw OutputError("cannot remove the previous run's '" + p.string() + "': " + ec.message());
@@ -122,6 +130,8 @@ bool markFailed(const OutputFiles& files, const std::string& error) {
   fs::remove(files.summary, ec);
   fs::remove(files.mpc, ec);
   fs::remove(files.violations, ec);
+  fs::remove(files.replay, ec);
+  fs::remove(files.plan, ec);
   try {
     writeFileAtomically(files.failed.string(), "rollstep sim failed: " + error + "\n");
     return true;
@@ -332,6 +342,9 @@ void runSim(const SimOptions& o, bool scene_given) {
   sim::NmpcController* nmpc_controller = nullptr;
   sim::CbfQpController* cbfqp_controller = nullptr;
   std::string controller_text;
+  // The foothold regions the replay page draws: those in use at the start.
+  planning::TerrainModel replay_regions;
+  std::string replay_regions_source = "none (this controller plans no footholds)";
   if (o.controller == "stand") {
     controller = std::make_unique<sim::StandController>(plant.nominalCommand());
     controller_text = "stand (nominal posture, wheels at rest)";
@@ -379,6 +392,9 @@ void runSim(const SimOptions& o, bool scene_given) {
                                                       schedule, source, edge_capacity);
     if (online) nmpc->setPerception(std::move(online), margin);
     nmpc_controller = nmpc.get();
+    nmpc->enablePlanLog(kPlanNodeStride);
+    replay_regions = terrain;
+    replay_regions_source = o.terrain == "perception" ? "perception at the start" : "scene";
     if (o.log_violations) {
       if (settings.mpc.timing != control::MpcTiming::Deterministic) {
         throw std::invalid_argument("--log-violations needs --mpc-timing deterministic");
@@ -443,6 +459,12 @@ void runSim(const SimOptions& o, bool scene_given) {
           sim::terrainFromScene(scene, 0.0), centroidal::gaitKindFromString(o.gait), command);
     }
     cbfqp_controller = cbfqp.get();
+    if (o.terrain != "perception") {
+      replay_regions = sim::terrainFromScene(scene, settings.baseline.foothold_margin);
+      replay_regions_source = "scene";
+    } else {
+      replay_regions_source = "none (perception: see the map log, --log-map)";
+    }
     controller = std::move(cbfqp);
     controller_text = format(
         "cbfqp (CBF-QP baseline, no MPC; gait %s, command (%s m/s, %s m/s, %s rad/s), "
@@ -511,9 +533,12 @@ void runSim(const SimOptions& o, bool scene_given) {
       cbfqp_controller->perception()->stop();
     }
     log.commit();
+    writeFileAtomically(files.replay.string(),
+                        experiments::replayModelJson(plant, replay_regions, replay_regions_source));
     std::string mpc_text;
     if (nmpc_controller != nullptr) {
       writeFileAtomically(files.mpc.string(), nmpc_controller->mpcUpdatesCsv());
+      writeFileAtomically(files.plan.string(), nmpc_controller->planCsv());
       if (o.log_violations) {
         writeFileAtomically(files.violations.string(), nmpc_controller->violationsCsv());
       }

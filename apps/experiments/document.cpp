@@ -1,5 +1,10 @@
 #include "document.hpp"
 
+#include <cmark-gfm-core-extensions.h>
+#include <cmark-gfm.h>
+
+#include <cstdlib>
+#include <stdexcept>
 #include <string_view>
 
 #include "rollstep/common/markup.hpp"
@@ -8,26 +13,22 @@ namespace rollstep::experiments {
 
 namespace {
 
-/// HTML of inline text: `code` spans become <code>.
-std::string inlineHtml(const std::string& s) {
+/// Markdown of text: '<' outside `code` spans escaped (text such as "<scenario>" is not an
+/// HTML tag; the report's raw HTML is only its video players).
+std::string textMarkdown(const std::string& s) {
   std::string out;
   bool in_code = false;
-  std::string part;
   for (char c : s) {
-    if (c == '`') {
-      out += in_code ? "<code>" + escapeMarkup(part) + "</code>" : escapeMarkup(part);
-      part.clear();
-      in_code = !in_code;
-    } else {
-      part += c;
-    }
+    if (c == '`') in_code = !in_code;
+    if (c == '<' && !in_code) out += '\\';
+    out += c;
   }
-  out += in_code ? "`" + escapeMarkup(part) : escapeMarkup(part);
   return out;
 }
 
 /// A Markdown table cell: '|' escaped, newlines as spaces.
-std::string cellMarkdown(const std::string& s) {
+std::string cellMarkdown(const std::string& text) {
+  const std::string s = textMarkdown(text);
   std::string out;
   for (char c : s) {
     if (c == '|')
@@ -37,6 +38,27 @@ std::string cellMarkdown(const std::string& s) {
     else
       out += c;
   }
+  return out;
+}
+
+/// GitHub Flavored Markdown to HTML by cmark-gfm (its table extension). Raw HTML (the
+/// videos' elements) is kept: the document is ours, not user input.
+std::string gfmToHtml(const std::string& markdown) {
+  cmark_gfm_core_extensions_ensure_registered();
+  const int options = CMARK_OPT_UNSAFE;
+  cmark_parser* parser = cmark_parser_new(options);
+  if (parser == nullptr) throw std::runtime_error("cmark-gfm: no parser");
+  if (cmark_syntax_extension* table = cmark_find_syntax_extension("table"); table != nullptr) {
+    cmark_parser_attach_syntax_extension(parser, table);
+  }
+  cmark_parser_feed(parser, markdown.data(), markdown.size());
+  cmark_node* root = cmark_parser_finish(parser);
+  char* html = cmark_render_html(root, options, cmark_parser_get_syntax_extensions(parser));
+  std::string out = html != nullptr ? html : "";
+  std::free(html);
+  cmark_node_free(root);
+  cmark_parser_free(parser);
+  if (html == nullptr) throw std::runtime_error("cmark-gfm: rendering failed");
   return out;
 }
 
@@ -82,13 +104,14 @@ std::string Document::markdown() const {
   for (const Block& b : blocks_) {
     switch (b.kind) {
       case Block::Heading:
-        out += std::string(static_cast<std::size_t>(b.level), '#') + " " + b.text + "\n\n";
+        out += std::string(static_cast<std::size_t>(b.level), '#') + " " + textMarkdown(b.text) +
+               "\n\n";
         break;
       case Block::Paragraph:
-        out += b.text + "\n\n";
+        out += textMarkdown(b.text) + "\n\n";
         break;
       case Block::Bullets:
-        for (const std::string& i : b.items) out += "- " + i + "\n";
+        for (const std::string& i : b.items) out += "- " + textMarkdown(i) + "\n";
         out += "\n";
         break;
       case Block::Table: {
@@ -109,6 +132,8 @@ std::string Document::markdown() const {
         out += "![" + b.text + "](" + b.file + ")\n\n*" + b.text + "*\n\n";
         break;
       case Block::Video:
+        // The player as raw HTML (GFM keeps it), then the link for viewers that drop it.
+        out += "<video controls src=\"" + escapeMarkup(b.file) + "\"></video>\n\n";
         out += "Video: [" + b.file + "](" + b.file + ") — " + b.text + "\n\n";
         break;
       case Block::Code:
@@ -120,57 +145,14 @@ std::string Document::markdown() const {
 }
 
 std::string Document::html(const std::string& title) const {
-  std::string out =
-      "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n<title>" +
-      escapeMarkup(title) +
-      "</title>\n<style>\nbody{font-family:sans-serif;max-width:1100px;margin:2em "
-      "auto;padding:0 1em;line-height:1.45;color:#222}\ntable{border-collapse:collapse;margin:1em "
-      "0}\nth,td{border:1px solid #bbb;padding:4px 8px;text-align:left;vertical-align:top}\nth{"
-      "background:#eee}\npre{background:#f6f6f6;padding:0.8em;overflow-x:auto;font-size:"
-      "85%}\nimg,video{max-width:100%}\nfigure{margin:1em 0}\nfigcaption{font-style:italic}\n"
-      "</style></head><body>\n";
-  for (const Block& b : blocks_) {
-    switch (b.kind) {
-      case Block::Heading: {
-        const std::string tag = "h" + std::to_string(b.level);
-        out += "<" + tag + ">" + inlineHtml(b.text) + "</" + tag + ">\n";
-        break;
-      }
-      case Block::Paragraph:
-        out += "<p>" + inlineHtml(b.text) + "</p>\n";
-        break;
-      case Block::Bullets:
-        out += "<ul>\n";
-        for (const std::string& i : b.items) out += "<li>" + inlineHtml(i) + "</li>\n";
-        out += "</ul>\n";
-        break;
-      case Block::Table:
-        out += "<table>\n<tr>";
-        for (const std::string& h : b.items) out += "<th>" + inlineHtml(h) + "</th>";
-        out += "</tr>\n";
-        for (const auto& row : b.rows) {
-          out += "<tr>";
-          for (const std::string& c : row) out += "<td>" + inlineHtml(c) + "</td>";
-          out += "</tr>\n";
-        }
-        out += "</table>\n";
-        break;
-      case Block::Image:
-        out += "<figure><img src=\"" + escapeMarkup(b.file) + "\" alt=\"" + escapeMarkup(b.text) +
-               "\"><figcaption>" + inlineHtml(b.text) + "</figcaption></figure>\n";
-        break;
-      case Block::Video:
-        out += "<figure><video controls src=\"" + escapeMarkup(b.file) + "\"></video><figcaption>" +
-               inlineHtml(b.text) + " (<a href=\"" + escapeMarkup(b.file) + "\">" +
-               escapeMarkup(b.file) + "</a>)</figcaption></figure>\n";
-        break;
-      case Block::Code:
-        out += "<pre>" + escapeMarkup(b.text) + "</pre>\n";
-        break;
-    }
-  }
-  out += "</body></html>\n";
-  return out;
+  return "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n<title>" +
+         escapeMarkup(title) +
+         "</title>\n<style>\nbody{font-family:sans-serif;max-width:1100px;margin:2em "
+         "auto;padding:0 1em;line-height:1.45;color:#222}\ntable{border-collapse:collapse;margin:"
+         "1em 0}\nth,td{border:1px solid #bbb;padding:4px 8px;text-align:left;vertical-align:"
+         "top}\nth{background:#eee}\npre{background:#f6f6f6;padding:0.8em;overflow-x:auto;font-"
+         "size:85%}\nimg,video{max-width:100%}\n</style></head><body>\n" +
+         gfmToHtml(markdown()) + "</body></html>\n";
 }
 
 }  // namespace rollstep::experiments

@@ -9,7 +9,7 @@ rollstep=$1 robot=$2 out=$3
 fail() { echo "FAIL: $*"; ls -la "$out"; exit 1; }
 rm -rf "$out"
 "$rollstep" sim --duration 0.05 --out "$out" || fail "first run failed"
-[ -f "$out/log.csv" ] && [ -f "$out/summary.txt" ] || fail "no log.csv or summary.txt"
+[ -f "$out/log.csv" ] && [ -f "$out/summary.txt" ] && [ -f "$out/replay.json" ] || fail "no log.csv, summary.txt or replay.json"
 head -n 1 "$out/log.csv" | grep -q 'time\[s\],base_x\[m\]' || fail "no units in the CSV header"
 "$rollstep" sim --duration 0.05 --robot "$robot" --out "$out"
 rc=$?

@@ -7,6 +7,7 @@ rollstep=$1
 experiments=$2
 out=$3
 rm -rf "$out" "$out.again"
+mkdir -p "$(dirname "$out")"
 fail() { echo "FAIL: $*"; exit 1; }
 "$rollstep" report --out "$out" --experiments "$experiments" --check > "$out.stdout" 2> "$out.stderr"
 rc=$?

@@ -531,8 +531,10 @@ TEST(Document, MarkdownAndHtmlCarryTheSameContent) {
   Document d;
   d.heading(2, "Table 1");
   d.paragraph("mean |v_z| <with> `code`");
-  d.table({"a", "b|c"}, {{"1", "x|y"}});
+  d.table({"a", "b|c"}, {{"1", "x|y"}, {"2", "**not met**"}});
   d.image("fig2.png", "caption");
+  d.video("video_a.mp4", "a run");
+  d.paragraph("[a replay](replay_a.html)");
   d.code("rollstep report --out 'a b'");
   const std::string md = d.markdown();
   const std::string html = d.html("t");
@@ -542,7 +544,13 @@ TEST(Document, MarkdownAndHtmlCarryTheSameContent) {
   EXPECT_NE(html.find("<h2>Table 1</h2>"), std::string::npos);
   EXPECT_NE(html.find("mean |v_z| &lt;with&gt; <code>code</code>"), std::string::npos);
   EXPECT_NE(html.find("<img src=\"fig2.png\""), std::string::npos);
-  EXPECT_NE(html.find("<pre>rollstep report --out 'a b'</pre>"), std::string::npos);
+  EXPECT_NE(html.find("<pre><code>rollstep report --out 'a b'\n</code></pre>"), std::string::npos);
+  // GFM (cmark-gfm): a table, emphasis inside a cell, the video player, a link.
+  EXPECT_NE(html.find("<td>x|y</td>"), std::string::npos);
+  EXPECT_NE(html.find("<td><strong>not met</strong></td>"), std::string::npos);
+  EXPECT_EQ(html.find("**"), std::string::npos);
+  EXPECT_NE(html.find("<video controls src=\"video_a.mp4\"></video>"), std::string::npos);
+  EXPECT_NE(html.find("<a href=\"replay_a.html\">a replay</a>"), std::string::npos);
 }
 
 TEST(Process, ShellQuoting) {

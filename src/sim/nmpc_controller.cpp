@@ -1,5 +1,6 @@
 #include "rollstep/sim/nmpc_controller.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
@@ -272,6 +273,63 @@ Eigen::Matrix3Xd NmpcController::plannedFootholds() const {
   return out;
 }
 
+void NmpcController::enablePlanLog(int node_stride) {
+  if (node_stride < 1) throw std::invalid_argument("nmpc: plan log node stride must be >= 1");
+  const centroidal::CentroidalRobot& robot = pipeline_->robot();
+  plan_stride_ = node_stride;
+  plan_columns_ = 4 + 3 + 3 * robot.nc();  // t0, node time, sequence, mode, base, feet
+  plan_data_ = std::make_unique<model::Data>(robot.model());
+  plan_feet_.resize(3, robot.nc());
+  const control::MpcSolution& s = pipeline_->lastSolution();
+  const double period = pipeline_->settings().mpc.period;
+  const std::size_t nodes = s.xs.size() / static_cast<std::size_t>(node_stride) + 2;
+  const std::size_t updates = period > 0 ? static_cast<std::size_t>(60.0 / period) + 2 : 4096;
+  plan_.reserve(updates * nodes * static_cast<std::size_t>(plan_columns_));
+  recordPlan();  // the solution in use now
+}
+
+void NmpcController::recordPlan() {
+  const control::MpcSolution& s = pipeline_->lastSolution();
+  const centroidal::CentroidalRobot& robot = pipeline_->robot();
+  const std::size_t n = std::min(s.xs.size(), s.modes.size());
+  for (std::size_t k = 0; k < n; ++k) {
+    if (k % static_cast<std::size_t>(plan_stride_) != 0 && k + 1 != n) continue;
+    centroidal::contactPositionsOfState(robot, *plan_data_, s.xs[k], plan_feet_);
+    plan_.push_back(s.t0);
+    plan_.push_back(s.t0 + s.dt * static_cast<double>(k));
+    plan_.push_back(static_cast<double>(s.sequence));
+    plan_.push_back(static_cast<double>(s.modes[k]));
+    for (int i = 0; i < 3; ++i) plan_.push_back(s.xs[k][i]);
+    for (int c = 0; c < robot.nc(); ++c) {
+      for (int i = 0; i < 3; ++i) plan_.push_back(plan_feet_(i, c));
+    }
+  }
+}
+
+std::string NmpcController::planCsv() const {
+  if (plan_stride_ == 0) return "";
+  const centroidal::CentroidalRobot& robot = pipeline_->robot();
+  std::string out = "solution_time[s],time[s],sequence[-],mode[-],base_x[m],base_y[m],base_z[m]";
+  for (int c = 0; c < robot.nc(); ++c) {
+    const std::string& name = robot.contact(c).frame;
+    for (const char* axis : {"x", "y", "z"}) out += ",foot_" + name + "_" + axis + "[m]";
+  }
+  out += "\n";
+  char cell[32];
+  const std::size_t columns = static_cast<std::size_t>(plan_columns_);
+  for (std::size_t r = 0; r + columns <= plan_.size(); r += columns) {
+    std::snprintf(cell, sizeof cell, "%.4f,%.4f,%.0f,%.0f", plan_[r], plan_[r + 1], plan_[r + 2],
+                  plan_[r + 3]);
+    out += cell;
+    for (std::size_t i = 4; i < columns; ++i) {
+      std::snprintf(cell, sizeof cell, ",%.4f", plan_[r + i]);
+      out += cell;
+    }
+    out += '\n';
+  }
+  return out;
+}
+
 void NmpcController::compute(double t, const SensorReadings& sensors, PlantCommand& command) {
   if (source_->read(t, sensors, state_)) {
     // Perception (not real-time: the pipeline's tick below is) at the LiDAR's rate, at the
@@ -280,6 +338,7 @@ void NmpcController::compute(double t, const SensorReadings& sensors, PlantComma
     pipeline_->tick(state_, command_);
     const control::TickRecord& r = pipeline_->lastTick();
     if (r.new_solution) record(t, r.solution_adopted);
+    if (r.solution_adopted && plan_stride_ > 0) recordPlan();
   }
   for (size_t j = 0; j < joint_map_.size(); ++j) {
     command.joint_position[joint_map_[j]] = command_.joint_position[static_cast<Eigen::Index>(j)];

@@ -8,7 +8,9 @@
 #include <chrono>
 #include <cmath>
 #include <memory>
+#include <string>
 #include <thread>
+#include <vector>
 
 #include "common/alloc_counter.hpp"
 #include "rollstep/sim/online_perception.hpp"
@@ -81,6 +83,70 @@ TEST(NmpcController, TrotTickMakesNoAllocationAndRefusesBadStates) {
   EXPECT_EQ(pipeline.counters().invalid_states, invalid + 1);
   EXPECT_EQ(out.joint_position, before.joint_position);
   EXPECT_EQ(out.wheel_velocity, before.wheel_velocity);
+}
+
+// The replay's plan log (plan.csv): every adopted solution, every 5th node and the last,
+// its base and contact positions as solved; recording allocates nothing in the loop.
+TEST(NmpcController, PlanLogRecordsTheAdoptedSolutions) {
+  SceneConfig scene;
+  Plant plant(scene);
+  const centroidal::RobotOcpDescription robot =
+      centroidal::loadRobotOcpDescription(tachyon3Description());
+  NmpcController controller(plant, robot, shortHorizon(), terrainFromScene(scene, 0.085),
+                            planning::GaitKind::Trot, planning::BaseVelocityCommand{0.1, 0, 0});
+  EXPECT_EQ(controller.planCsv(), "");
+  controller.enablePlanLog(5);
+  PlantCommand command = plant.command();
+  std::size_t allocations = 0;
+  for (int k = 0; k < 60; ++k) {  // three deterministic solves, adopted
+    rollstep::test::AllocationGuard guard;
+    controller.compute(plant.time(), plant.sensors(), command);
+    allocations += guard.count();
+    plant.setCommand(command);
+    plant.step();
+  }
+  EXPECT_EQ(allocations, 0u) << "recording the plans allocated in the loop";
+  const std::string csv = controller.planCsv();
+  const std::size_t header_end = csv.find('\n');
+  ASSERT_NE(header_end, std::string::npos);
+  EXPECT_EQ(csv.substr(0, header_end)
+                .rfind("solution_time[s],time[s],sequence[-],mode[-],base_x[m],base_y[m],base_z[m],"
+                       "foot_LF_wheel_x[m],foot_LF_wheel_y[m],foot_LF_wheel_z[m]",
+                       0),
+            0u);
+  // Rows: 9 per solution of 41 nodes (0, 5, ..., 40); the newest is the one in use.
+  std::vector<std::vector<double>> rows;
+  std::size_t at = header_end + 1;
+  while (at < csv.size()) {
+    const std::size_t end = csv.find('\n', at);
+    std::vector<double> row;
+    std::size_t p = at;
+    while (p < end) {
+      std::size_t q = csv.find(',', p);
+      if (q == std::string::npos || q > end) q = end;
+      row.push_back(std::stod(csv.substr(p, q - p)));
+      p = q + 1;
+    }
+    rows.push_back(row);
+    at = end + 1;
+  }
+  const control::MpcSolution& s = controller.pipeline().lastSolution();
+  ASSERT_GE(rows.size(), 3u * 9u);  // the initial solution and those adopted since
+  EXPECT_EQ(rows.size() % 9, 0u);
+  const std::vector<double>* first_of_last = &rows[rows.size() - 9];
+  EXPECT_EQ((*first_of_last)[2], static_cast<double>(s.sequence));
+  EXPECT_NEAR((*first_of_last)[0], s.t0, 1e-4);
+  EXPECT_NEAR(rows.back()[1], s.t0 + 40 * s.dt, 1e-4);
+  for (int i = 0; i < 3; ++i) EXPECT_NEAR((*first_of_last)[4 + i], s.xs[0][i], 1e-4);
+  // Stance wheels at node 0 stand on the floor: their centres a wheel radius up.
+  const int mode = static_cast<int>((*first_of_last)[3]);
+  int stance = 0;
+  for (int c = 0; c < 6; ++c) {
+    if (((mode >> c) & 1) == 0) continue;
+    ++stance;
+    EXPECT_NEAR((*first_of_last)[7 + 3 * c + 2], 0.075, 5e-3) << "contact " << c;
+  }
+  EXPECT_GE(stance, 3);
 }
 
 // Late touch-downs (ocp.late_touchdown_tolerance): LF's measured wheel held 4 cm above

@@ -154,7 +154,15 @@ class NmpcController final : public Controller {
   /// plan touches it down in the horizon, or at node 0 for a stance foot (3 x n, world).
   Eigen::Matrix3Xd plannedFootholds() const;
 
+  /// Records, from now on, every adopted MPC solution's plan for the replay page: every
+  /// `node_stride`-th node (and the last) with its contact mask, base position and contact
+  /// positions (planCsv). Storage for about a minute of updates is reserved here.
+  void enablePlanLog(int node_stride);
+  /// The recorded plans as CSV (docs/REPLAY.md: plan.csv), header included; "" if not enabled.
+  std::string planCsv() const;
+
  private:
+  void recordPlan();
   void record(double t, bool adopted);
   void updatePerception(double t);
 
@@ -171,6 +179,12 @@ class NmpcController final : public Controller {
   const Plant* plant_ = nullptr;
   std::unique_ptr<OnlinePerception> perception_;
   double perception_margin_ = 0.0;
+  // Plan log (enablePlanLog): nodes of adopted solutions, plan_columns_ floats each.
+  int plan_stride_ = 0;
+  int plan_columns_ = 0;
+  std::vector<double> plan_;
+  std::unique_ptr<model::Data> plan_data_;
+  Eigen::Matrix3Xd plan_feet_;
 };
 
 }  // namespace rollstep::sim

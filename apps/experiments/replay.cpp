@@ -1,0 +1,311 @@
+#include "replay.hpp"
+
+#include <mujoco/mujoco.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "log_table.hpp"
+#include "rollstep/common/text_file.hpp"
+
+namespace rollstep::experiments {
+
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+json vec(const mjtNum* v, int n) {
+  json a = json::array();
+  for (int i = 0; i < n; ++i) a.push_back(v[i]);
+  return a;
+}
+
+const char* geomTypeName(int type) {
+  switch (type) {
+    case mjGEOM_PLANE:
+      return "plane";
+    case mjGEOM_SPHERE:
+      return "sphere";
+    case mjGEOM_CAPSULE:
+      return "capsule";
+    case mjGEOM_ELLIPSOID:
+      return "ellipsoid";
+    case mjGEOM_CYLINDER:
+      return "cylinder";
+    case mjGEOM_BOX:
+      return "box";
+    case mjGEOM_MESH:
+      return "mesh";
+    default:
+      return nullptr;  // height fields and the rest: not drawn
+  }
+}
+
+std::string readAll(const std::string& path, const char* what) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error(std::string(what) + " '" + path + "': cannot be read");
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+/// Columns of `table`, every `stride`-th row (and the last), rounded to 1 / `scale` (a power
+/// of ten: the division gives the shortest decimal): what the page plots and poses from.
+json columnsOf(const LogTable& table, std::size_t stride, double scale) {
+  std::vector<std::size_t> rows;
+  for (std::size_t r = 0; r < table.rows(); r += stride) rows.push_back(r);
+  if (!rows.empty() && rows.back() + 1 != table.rows()) rows.push_back(table.rows() - 1);
+  json names = json::array(), columns = json::array();
+  for (const std::string& name : table.names()) {
+    const std::vector<double>& c = table.column(name);
+    json values = json::array();
+    bool any = false;
+    for (std::size_t r : rows) {
+      if (std::isfinite(c[r])) {
+        values.push_back(std::round(c[r] * scale) / scale);
+        any = true;
+      } else {
+        values.push_back(nullptr);
+      }
+    }
+    if (!any) continue;  // a word column (qp_status): not plotted
+    names.push_back(name);
+    columns.push_back(std::move(values));
+  }
+  return json{{"names", names}, {"columns", columns}};
+}
+
+/// A float32 n x n map of `rollstep sim --log-map` (NumPy .npy 1.0, little-endian, C
+/// order; docs/PERCEPTION.md). Throws std::runtime_error naming the file.
+std::vector<float> readHeights(const std::string& path, int n) {
+  const std::string bytes = readAll(path, "elevation map");
+  const auto bad = [&](const std::string& why) {
+    return std::runtime_error("elevation map '" + path + "': " + why);
+  };
+  if (bytes.size() < 10 || bytes.compare(0, 6, "\x93NUMPY") != 0 || bytes[6] != 1) {
+    throw bad("not a NumPy .npy 1.0 file");
+  }
+  const std::size_t header = static_cast<unsigned char>(bytes[8]) |
+                             static_cast<std::size_t>(static_cast<unsigned char>(bytes[9])) << 8;
+  const std::string dict = bytes.substr(10, header);
+  const std::string shape = "'shape': (" + std::to_string(n) + ", " + std::to_string(n) + ")";
+  if (dict.find("'descr': '<f4'") == std::string::npos ||
+      dict.find("'fortran_order': False") == std::string::npos ||
+      dict.find(shape) == std::string::npos) {
+    throw bad("expected little-endian float32 in C order, " + shape);
+  }
+  const std::size_t count = static_cast<std::size_t>(n) * static_cast<std::size_t>(n);
+  if (bytes.size() != 10 + header + 4 * count) throw bad("size does not match its shape");
+  std::vector<float> out(count);
+  std::memcpy(out.data(), bytes.data() + 10 + header, 4 * count);
+  return out;
+}
+
+/// The elevation maps and foothold regions of a `--log-map` folder (maps.csv, regions.csv,
+/// heights_NNNN.npy), at most 40 snapshots evenly chosen, maps halved to at most 100 x 100
+/// cells (heights rounded to mm): a few MB for a 30 s run. null without a map log.
+json mapSnapshots(const std::string& dir) {
+  if (!fs::exists(dir + "/maps.csv")) return nullptr;
+  const LogTable maps = LogTable::read(dir + "/maps.csv", "map log");
+  const LogTable regions = LogTable::read(dir + "/regions.csv", "map regions");
+  const std::vector<std::string>& files = maps.text("heights_file");
+  const std::size_t n = maps.rows();
+  const std::size_t every = std::max<std::size_t>(1, (n + 39) / 40);
+  json out = json::array();
+  for (std::size_t r = 0; r < n; r += every) {
+    const int size = static_cast<int>(maps.column("size[-]")[r]);
+    const int snapshot = static_cast<int>(maps.column("snapshot[-]")[r]);
+    if (size <= 0 || size > 4096) throw std::runtime_error("map log '" + dir + "': bad size");
+    const std::vector<float> h = readHeights(dir + "/" + files[r], size);
+    const int step = size > 100 ? 2 : 1;
+    json cells = json::array();
+    for (int i = 0; i < size; i += step) {
+      for (int j = 0; j < size; j += step) {
+        const float v = h[static_cast<std::size_t>(i) * static_cast<std::size_t>(size) +
+                          static_cast<std::size_t>(j)];
+        if (std::isfinite(v)) {
+          cells.push_back(std::round(static_cast<double>(v) * 1000.0) / 1000.0);
+        } else {
+          cells.push_back(nullptr);
+        }
+      }
+    }
+    json polygons = json::array();
+    const auto& rs = regions.column("snapshot[-]");
+    for (std::size_t k = 0; k < regions.rows(); ++k) {
+      if (static_cast<int>(rs[k]) != snapshot) continue;
+      if (polygons.empty() || regions.column("vertex[-]")[k] == 0)
+        polygons.push_back(json::array());
+      polygons.back().push_back(
+          {regions.column("x[m]")[k], regions.column("y[m]")[k], regions.column("z[m]")[k]});
+    }
+    out.push_back({{"time", maps.column("time[s]")[r]},
+                   {"origin", {maps.column("origin_x[m]")[r], maps.column("origin_y[m]")[r]}},
+                   {"resolution", maps.column("resolution[m]")[r] * step},
+                   {"size", (size + step - 1) / step},
+                   {"heights", cells},
+                   {"regions", polygons}});
+  }
+  return out;
+}
+
+}  // namespace
+
+std::string replayModelJson(const sim::Plant& plant, const planning::TerrainModel& regions,
+                            const std::string& regions_source) {
+  const mjModel* m = plant.mujocoModel();
+  json bodies = json::array();
+  for (int b = 0; b < m->nbody; ++b) {
+    const char* name = mj_id2name(m, mjOBJ_BODY, b);
+    json joints = json::array();
+    for (int j = m->body_jntadr[b]; j >= 0 && j < m->body_jntadr[b] + m->body_jntnum[b]; ++j) {
+      const char* jname = mj_id2name(m, mjOBJ_JOINT, j);
+      const std::string n = jname != nullptr ? jname : "";
+      const int type = m->jnt_type[j];
+      const char* kind = type == mjJNT_FREE    ? "free"
+                         : type == mjJNT_HINGE ? "hinge"
+                         : type == mjJNT_SLIDE ? "slide"
+                                               : "ball";
+      json joint{{"name", n},
+                 {"type", kind},
+                 {"axis", vec(m->jnt_axis + 3 * j, 3)},
+                 {"pos", vec(m->jnt_pos + 3 * j, 3)}};
+      if (type == mjJNT_HINGE) joint["column"] = "q_" + n + "[rad]";
+      if (type == mjJNT_SLIDE) joint["column"] = "q_" + n + "[m]";
+      joints.push_back(joint);
+    }
+    bodies.push_back({{"name", name != nullptr ? name : ""},
+                      {"parent", m->body_parentid[b]},
+                      {"pos", vec(m->body_pos + 3 * b, 3)},
+                      {"quat", vec(m->body_quat + 4 * b, 4)},
+                      {"joints", joints}});
+  }
+  json geoms = json::array(), meshes = json::object();
+  for (int g = 0; g < m->ngeom; ++g) {
+    const char* type = geomTypeName(m->geom_type[g]);
+    const float* rgba =
+        m->geom_matid[g] >= 0 ? m->mat_rgba + 4 * m->geom_matid[g] : m->geom_rgba + 4 * g;
+    if (type == nullptr || rgba[3] <= 0.0f || m->geom_group[g] > 2) continue;  // not shown
+    json geom{{"body", m->geom_bodyid[g]},
+              {"type", type},
+              {"size", vec(m->geom_size + 3 * g, 3)},
+              {"pos", vec(m->geom_pos + 3 * g, 3)},
+              {"quat", vec(m->geom_quat + 4 * g, 4)},
+              {"rgba", {rgba[0], rgba[1], rgba[2], rgba[3]}}};
+    if (m->geom_type[g] == mjGEOM_MESH) {
+      const int id = m->geom_dataid[g];
+      const std::string key = std::to_string(id);
+      geom["mesh"] = key;
+      if (!meshes.contains(key)) {
+        json v = json::array(), f = json::array();
+        for (int i = 0; i < 3 * m->mesh_vertnum[id]; ++i) {
+          v.push_back(m->mesh_vert[3 * m->mesh_vertadr[id] + i]);
+        }
+        for (int i = 0; i < 3 * m->mesh_facenum[id]; ++i) {
+          f.push_back(m->mesh_face[3 * m->mesh_faceadr[id] + i]);
+        }
+        meshes[key] = {{"vertices", v}, {"faces", f}};
+      }
+    }
+    geoms.push_back(geom);
+  }
+  json regs = json::array();
+  for (const planning::ConvexRegion& r : regions.regions()) {
+    json polygon = json::array();
+    for (const Eigen::Vector2d& p : r.vertices) {
+      // The surface plane through the centroid at its height.
+      const double z = r.height - (r.normal.x() * (p.x() - r.centroid.x()) +
+                                   r.normal.y() * (p.y() - r.centroid.y())) /
+                                      r.normal.z();
+      polygon.push_back({p.x(), p.y(), z});
+    }
+    regs.push_back(polygon);
+  }
+  json contacts = json::array();
+  for (const char* leg : sim::kLegNames) {
+    const int body = mj_name2id(m, mjOBJ_BODY, (std::string(leg) + "_wheel").c_str());
+    if (body >= 0) contacts.push_back({{"name", leg}, {"body", body}});
+  }
+  const json out{{"format", "rollstep replay 1"},
+                 {"robot_file", plant.robotFile()},
+                 {"bodies", bodies},
+                 {"geoms", geoms},
+                 {"meshes", meshes},
+                 {"contacts", contacts},
+                 {"regions", regs},
+                 {"regions_source", regions_source}};
+  return out.dump() + "\n";
+}
+
+std::string replayScriptPath() {
+  if (const char* s = std::getenv("ROLLSTEP_REPLAY_SCRIPT"); s != nullptr && *s != '\0') return s;
+  return ROLLSTEP_REPLAY_SCRIPT;
+}
+
+void writeReplayPage(const std::string& run_dir, const std::string& page,
+                     const std::string& title) {
+  const std::string model_path = run_dir + "/replay.json";
+  json model;
+  try {
+    model = json::parse(readAll(model_path, "replay model"));
+  } catch (const json::exception& e) {
+    throw std::runtime_error("replay model '" + model_path + "': " + e.what());
+  }
+  if (!model.is_object() || model.value("format", "") != "rollstep replay 1") {
+    throw std::runtime_error("replay model '" + model_path +
+                             "': not a rollstep replay file (format 'rollstep replay 1')");
+  }
+  const LogTable log = LogTable::read(run_dir + "/log.csv");
+  if (!log.has("time[s]") || log.rows() == 0) {
+    throw std::runtime_error("log '" + run_dir + "/log.csv': no rows or no time[s] column");
+  }
+  const std::vector<double>& t = log.column("time[s]");
+  const double dt = t.size() > 1 ? (t.back() - t.front()) / static_cast<double>(t.size() - 1) : 1;
+  // 50 frames per second at most: smooth enough, small enough.
+  const std::size_t stride =
+      dt > 0 ? std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil(0.02 / dt - 1e-9))) : 1;
+  json data{{"title", title}, {"model", model}, {"log", columnsOf(log, stride, 1e5)}};
+  data["plan"] = nullptr;
+  if (fs::exists(run_dir + "/plan.csv")) {
+    // Plans to the millimetre: what a drawing shows, a third smaller than plan.csv.
+    data["plan"] = columnsOf(LogTable::read(run_dir + "/plan.csv", "plan"), 1, 1e3);
+  }
+  data["maps"] = mapSnapshots(run_dir + "/map");
+  const std::string script = replayScriptPath();
+  const std::string code = readAll(script, "replay page script (build the target replay_script)");
+  std::string text = data.dump();
+  // Inside <script>: no "</script>" may end it early.
+  for (std::size_t p = text.find("</"); p != std::string::npos; p = text.find("</", p + 3)) {
+    text.replace(p, 2, "<\\/");
+  }
+  std::string escaped_title;
+  for (char c : title) {
+    if (c == '<')
+      escaped_title += "&lt;";
+    else if (c == '&')
+      escaped_title += "&amp;";
+    else
+      escaped_title += c;
+  }
+  const std::string html =
+      "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>Replay: " +
+      escaped_title +
+      "</title>\n<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n"
+      "</head>\n<body>\n<script>window.ROLLSTEP_REPLAY = " +
+      text + ";</script>\n<script src=\"replay.js\"></script>\n</body>\n</html>\n";
+  const fs::path dir = fs::absolute(page).parent_path();
+  writeFileAtomically((dir / "replay.js").string(), code);
+  writeFileAtomically(page, html);
+}
+
+}  // namespace rollstep::experiments

@@ -1,0 +1,151 @@
+// Browser checks of the report and the replay pages (ctest label browser): headless Chromium
+// (Debian's chromium) opens each page from disk through puppeteer-core (pinned in
+// ../package.json) and fails on any console error, page error or failed resource.
+//   node browser_check.js replay PAGE   the 3D view is drawn, the slider and the keys move
+//                                       the robot and the plan drawn
+//   node browser_check.js report PAGE   every image and video loads, no markdown shows as
+//                                       text, every replay page linked from it loads too
+// Exit status: 0 passed, 1 failed (the reasons on stderr), 77 no chromium (skipped).
+'use strict';
+const fs = require('fs');
+const path = require('path');
+const puppeteer = require('puppeteer-core');
+
+const chromium = process.env.CHROMIUM || '/usr/bin/chromium';
+const [mode, page0] = process.argv.slice(2);
+if (!fs.existsSync(chromium)) {
+  console.log(`browser check skipped: ${chromium} not found (Debian package chromium)`);
+  process.exit(77);
+}
+if (!['replay', 'report'].includes(mode) || !page0 || !fs.existsSync(page0)) {
+  console.error('usage: node browser_check.js replay|report PAGE (an existing .html file)');
+  process.exit(2);
+}
+
+const failures = [];
+function fail(what) { failures.push(what); console.error(`FAIL: ${what}`); }
+
+async function open(browser, file) {
+  const page = await browser.newPage();
+  await page.setViewport({ width: 1200, height: 900 });
+  const name = path.basename(file);
+  page.on('console', (m) => { if (m.type() === 'error') fail(`${name}: console error: ${m.text()}`); });
+  page.on('pageerror', (e) => fail(`${name}: page error: ${e.message}`));
+  page.on('requestfailed', (r) => fail(`${name}: resource failed: ${r.url()} (${r.failure() && r.failure().errorText})`));
+  page.on('request', (r) => {
+    if (!r.url().startsWith('file:') && !r.url().startsWith('data:')) fail(`${name}: network request: ${r.url()}`);
+  });
+  await page.goto('file://' + path.resolve(file), { waitUntil: 'load' });
+  return page;
+}
+
+async function checkReplay(browser, file) {
+  const page = await open(browser, file);
+  await page.waitForFunction('window.replay !== undefined', { timeout: 10000 });
+  const frames = await page.evaluate('window.replay.frames');
+  const stats = await page.evaluate('window.replay.canvasStats()');
+  const pixels = (stats.width * stats.height) / 7;
+  if (stats.nonBackground < 0.02 * pixels || stats.colours < 20) {
+    fail(`${file}: the 3D view looks blank (${stats.nonBackground} of ${Math.round(pixels)} sampled pixels not background, ${stats.colours} colours)`);
+  }
+  const canvas = await page.$('#view canvas');
+  const shot = async () => Buffer.from(await canvas.screenshot());
+  const state = () => page.evaluate(() => ({
+    frame: window.replay.frame, status: document.getElementById('status').textContent,
+  }));
+  const first = await shot();
+  const s0 = await state();
+  // The slider to the end, as a user drags it.
+  await page.evaluate(() => {
+    const s = document.getElementById('slider');
+    s.value = s.max;
+    s.dispatchEvent(new Event('input'));
+  });
+  const last = await shot();
+  const s1 = await state();
+  if (s1.frame !== frames - 1) fail(`${file}: the slider did not move the replay to its end (frame ${s1.frame} of ${frames})`);
+  if (first.equals(last)) fail(`${file}: the 3D view is the same at the start and the end of the run`);
+  if (await page.evaluate('window.replay.solutions') > 0 && s0.status === s1.status) {
+    fail(`${file}: the MPC plan in use did not change with the slider (${s1.status})`);
+  }
+  // The keys: arrows step, space plays.
+  await page.keyboard.press('ArrowLeft');
+  if ((await state()).frame !== frames - 2) fail(`${file}: ArrowLeft did not step back one frame`);
+  await page.evaluate(() => window.replay.show(0));
+  await page.keyboard.press('ArrowRight');
+  if ((await state()).frame !== 1) fail(`${file}: ArrowRight did not step one frame`);
+  await page.keyboard.press(' ');
+  const played = await page.waitForFunction('window.replay.frame > 3', { timeout: 10000 })
+    .then(() => true, () => false);
+  await page.keyboard.press(' ');
+  if (!played) fail(`${file}: space did not play the replay (frame ${(await state()).frame})`);
+  const legend = await page.$eval('#legend', (e) => e.innerText);
+  for (const word of ['contact normal force', 'base path', 'foot paths', 'footholds', 'foothold regions']) {
+    if (!legend.includes(word)) fail(`${file}: the legend does not say what '${word}' looks like`);
+  }
+  const plots = await page.$$eval('.uplot', (e) => e.length);
+  if (plots < 2) fail(`${file}: ${plots} plots, expected the linked plots`);
+  console.log(`${path.basename(file)}: ${frames} frames, ${stats.colours} colours, plan solutions ${await page.evaluate('window.replay.solutions')}`);
+  await page.close();
+}
+
+async function checkReport(browser, file) {
+  const page = await open(browser, file);
+  const images = await page.$$eval('img', (l) => l.map((i) => ({ src: i.getAttribute('src'), ok: i.complete && i.naturalWidth > 0 })));
+  for (const i of images) if (!i.ok) fail(`${file}: image ${i.src} did not load`);
+  const videos = await page.$$eval('video', (l) => l.map((v) => v.currentSrc || v.querySelector('source')?.src));
+  for (const src of videos) {
+    const ok = await page.evaluate((s) => new Promise((resolve) => {
+      const v = document.createElement('video');
+      v.onloadedmetadata = () => resolve(v.videoWidth > 0);
+      v.onerror = () => resolve(false);
+      v.src = s;
+      setTimeout(() => resolve(false), 10000);
+    }), src);
+    if (!ok) fail(`${file}: video ${src} did not load`);
+  }
+  // Markdown syntax shown as text: emphasis, headings, table rules, links, code marks.
+  const text = await page.evaluate(() => {
+    const clone = document.body.cloneNode(true);
+    clone.querySelectorAll('pre, code').forEach((e) => e.remove());
+    return clone.innerText;
+  });
+  const syntax = [[/\*\*[^*\n]+\*\*/, 'bold'], [/^#{1,6} /m, 'heading'], [/\|\s*-{3,}/, 'table rule'],
+    [/\]\([^)]*\)/, 'link'], [/`[^`\n]+`/, 'code span'], [/^\s*\|.*\|\s*$/m, 'table row']];
+  for (const [re, what] of syntax) {
+    const m = text.match(re);
+    if (m) fail(`${file}: markdown ${what} shown as text: '${m[0]}'`);
+  }
+  const strong = await page.$$eval('strong', (l) => l.map((e) => e.textContent));
+  const replays = await page.$$eval('a[href$=".html"]', (l) => l.map((a) => a.getAttribute('href')));
+  console.log(`${path.basename(file)}: ${images.length} images, ${videos.length} videos, ${strong.length} bold, ${replays.length} replay links`);
+  await page.close();
+  if (replays.length === 0) fail(`${file}: no replay page linked`);
+  for (const r of replays) {
+    const target = path.resolve(path.dirname(file), r);
+    if (!fs.existsSync(target)) fail(`${file}: linked replay page ${r} is missing`);
+    else await checkReplay(browser, target);
+  }
+}
+
+(async () => {
+  const browser = await puppeteer.launch({
+    executablePath: chromium,
+    headless: true,
+    args: ['--no-sandbox', '--disable-gpu', '--use-angle=swiftshader', '--enable-unsafe-swiftshader',
+      '--allow-file-access-from-files'],
+  });
+  try {
+    if (mode === 'replay') await checkReplay(browser, page0);
+    else await checkReport(browser, page0);
+  } catch (e) {
+    fail(`${page0}: ${e.stack || e}`);
+  } finally {
+    await browser.close();
+  }
+  if (failures.length) {
+    console.error(`browser check failed: ${failures.length} problem(s)`);
+    process.exit(1);
+  }
+  console.log('browser check passed');
+})();
