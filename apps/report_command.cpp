@@ -224,11 +224,10 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
   // The report's files as a whole: removed now, written at the end; a run that fails or is
   // interrupted leaves DIR/FAILED with the reason instead (each run's folder its own).
   const std::string out = fs::absolute(o.out).lexically_normal().string();
-  const OutputFolder folder(
-      "report", out,
-      {"report.md", "report.html", "figures.json", "figures.log", "figures.err", "fig2.png",
-       "fig4.png", "fig6.png", "fig8.png", "map.png", "snapshots_*", "video_*", "replay.js",
-       "replay_*"});
+  const OutputFolder folder("report", out,
+                            {"report.md", "report.html", "figures.json", "figures.log",
+                             "figures.err", "fig2.png", "fig4.png", "fig6.png", "fig8.png",
+                             "map.png", "snapshots_*", "video_*", "replay.js", "replay_*"});
   folder.create();
   folder.begin();
   try {
