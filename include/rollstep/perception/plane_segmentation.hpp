@@ -28,6 +28,10 @@
 
 namespace rollstep::perception {
 
+namespace segmentation {
+struct Workspace;  // the stages' buffers (src/perception/segmentation_stages.hpp)
+}
+
 struct SegmentationSettings {
   int window_half = 2;                ///< local fit window: (2 h + 1)^2 cells
   double min_window_fill = 0.5;       ///< fraction of the window that must be measured
@@ -105,9 +109,8 @@ class PlaneSegmenter {
   void segment(const ElevationMap& map, Segmentation& out);
 
  private:
-  struct Workspace;
   SegmentationSettings settings_;
-  std::unique_ptr<Workspace> ws_;
+  std::unique_ptr<segmentation::Workspace> ws_;
 };
 
 }  // namespace rollstep::perception
