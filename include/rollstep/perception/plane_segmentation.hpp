@@ -19,7 +19,8 @@
 //  5. step edges (cells whose neighbourhood spans more than step_height) are obstacles,
 //     traced as polygons too.
 // The map is read as an image with OpenCV (core, imgproc). Buffers are kept between
-// calls; only the result's polygon lists allocate.
+// calls; only the result's polygon lists allocate. Each step is a function of its own
+// (src/perception/segmentation_stages.hpp), tested on its own.
 #include <Eigen/Core>
 #include <memory>
 #include <vector>
