@@ -116,7 +116,8 @@ TEST(SegmentationStages, AFloorAndARampFromItGrowIntoTwoRegionsWithTheirPlanes) 
 }
 
 // At a 10 cm step the regions first stop where the window fit stops (a window's half-width
-// plus one short of it); grown back, each reaches the step, so the floor's polygon ends on
+// short of it); grown back, each reaches the step and no further (the other side is off its
+// plane), so the floor's polygon ends on
 // x = 0, the top's begins there and the step edge's obstacle covers the cell on each side.
 TEST(SegmentationStages, GrowBackMovesEachRegionsBoundaryOntoTheStep) {
   ElevationMap map;
@@ -159,15 +160,47 @@ TEST(SegmentationStages, GrowBackMovesEachRegionsBoundaryOntoTheStep) {
   EXPECT_NEAR(iou(out.step_edges, step_truth), 1.0, 1e-9);
 }
 
+// Grow-back reaches window_half + 1 cells past a region's border, no further, and only over
+// cells within grow_tolerance of its plane: labels by hand, a region over columns 0-49 on a
+// floor (z = 0) that ends at column 52 (3 cm higher beyond) and one over 150-199.
+TEST(SegmentationStages, GrowBackReachesAWindowsHalfWidthPlusOneCellOnItsPlane) {
+  ElevationMap map;
+  const int n = map.size();
+  setHeights(map, [&](int, int c) { return c < 52 ? 0.0 : 0.03; });
+  SegmentationSettings s;
+  s.window_half = 3;
+  Workspace w;
+  Segmentation out;
+  localFits(map, s, w, out);
+  for (int r = 0; r < n; ++r) {
+    for (int c = 0; c < n; ++c)
+      out.labels[static_cast<std::size_t>(r * n + c)] = c < 50 ? 0 : c >= 150 ? 1 : -1;
+  }
+  out.regions.resize(2);
+  fitRegionPlanes(map, w, out);
+  growBack(map, s, w, out);
+  const int reach = s.window_half + 1;
+  ASSERT_GT(50 + reach, 52);
+  for (int r = 0; r < n; ++r) {
+    for (int c = 0; c < n; ++c) {
+      const int expected = c < 52 ? 0 : c >= 150 - reach ? 1 : -1;
+      ASSERT_EQ(out.label(r, c), expected) << r << ", " << c;
+    }
+  }
+}
+
 // Labels by hand on a floor (z = 0) with a tread 10 cm up at column 150: a strip of the floor
-// (columns 0-19, region 0) beside the rest of it (region 1) lies on the floor's plane and
+// (columns 0-19, region 0) beside the rest of it (region 1) lies near the floor's plane and
 // joins it, keeping the lower index; the merged plane is fitted to both parts' cells (its
 // anchor at their common centroid); the tread (region 2) stays apart.
 TEST(SegmentationStages, AStripOnTheFloorsPlaneJoinsTheFloorButATreadDoesNot) {
   ElevationMap map;
   const int n = map.size();
   const double res = map.resolution();
-  setHeights(map, [&](int, int c) { return c < 150 ? 0.0 : 0.1; });
+  // The strip's cells scatter by 1 cm (a checkerboard): near the floor's plane, not on it.
+  setHeights(map, [&](int r, int c) {
+    return c < 20 ? 0.01 * ((r + c) % 2) : c < 150 ? 0.0 : 0.1;
+  });
   const SegmentationSettings s;
   Workspace w;
   Segmentation out;
@@ -185,7 +218,8 @@ TEST(SegmentationStages, AStripOnTheFloorsPlaneJoinsTheFloorButATreadDoesNot) {
     for (int c = 0; c < n; ++c) ASSERT_EQ(out.label(r, c), c < 150 ? 0 : 1) << r << ", " << c;
   }
   EXPECT_NEAR(out.regions[0].anchor.x(), map.origin().x() + 75 * res, 1e-9);
-  EXPECT_NEAR(out.regions[0].height, 0.0, 1e-9);
+  // The strip's 20 of 150 columns average 5 mm.
+  EXPECT_NEAR(out.regions[0].height, 0.005 * 20 / 150, 1e-6);
   EXPECT_NEAR(out.regions[1].height, 0.1, 1e-6);
   EXPECT_NEAR(out.regions[1].anchor.x(), map.origin().x() + 175 * res, 1e-9);
 }
