@@ -11,6 +11,7 @@
 
 #include "rollstep/common/number_text.hpp"
 #include "rollstep/perception/polygon.hpp"
+#include "segmentation_stages.hpp"
 
 namespace rollstep::perception {
 
@@ -25,9 +26,6 @@ void require(bool ok, const char* name, double value, const char* what) {
                                 shortestNumberText(value) + ": " + what);
   }
 }
-
-// Summed-area table channels of the local fit (x = column, y = row, z = height).
-enum Channel { kN, kX, kY, kZ, kXX, kXY, kYY, kXZ, kYZ, kZZ, kChannels };
 
 }  // namespace
 
@@ -65,51 +63,39 @@ int Segmentation::regionAt(const Eigen::Vector2d& p) const {
   return label(static_cast<int>(q.y()), static_cast<int>(q.x()));
 }
 
-struct PlaneSegmenter::Workspace {
-  int n = 0;
-  std::vector<double> sat;    // (n + 1)^2 x kChannels, interleaved
-  std::vector<float> fitted;  // local plane height at the cell (NaN: none)
-  std::vector<float> gx, gy;  // local gradient [m/m]
-  std::vector<unsigned char> planar;
-  std::vector<int> queue, depth;
-  cv::Mat hmax, hmin, step;                 // CV_32F, CV_32F, CV_8U
-  cv::Mat region_mask;                      // CV_8U
-  cv::Mat hole_fill;                        // CV_8U, one hole of a region's mask
-  std::vector<int> rmin, rmax, cmin, cmax;  // bounding box of each region's cells
-  std::vector<int> remap;                   // old region index -> new (-1: dropped)
-  std::vector<int> parent;                  // union-find over regions (joining strips)
-  std::vector<int> pair_cells;              // regions x regions: shared border cell pairs
-  std::vector<int> on_plane;                // (l, m): cells of l within step_height of m's plane
-  std::vector<int> region_cells;            // cells per region
-  std::vector<Eigen::Matrix<double, 10, 1>> acc;  // per region: least-squares sums
-  std::vector<std::vector<cv::Point>> contours;
-  std::vector<cv::Vec4i> hierarchy;
-
-  void resize(int size) {
-    if (n == size) return;
-    n = size;
-    const auto cells = static_cast<std::size_t>(n) * static_cast<std::size_t>(n);
-    sat.assign(static_cast<std::size_t>(n + 1) * static_cast<std::size_t>(n + 1) * kChannels, 0.0);
-    fitted.assign(cells, kNaN);
-    gx.assign(cells, 0.f);
-    gy.assign(cells, 0.f);
-    planar.assign(cells, 0);
-    queue.reserve(cells);
-    depth.assign(cells, 0);
-    hmax.create(n, n, CV_32F);
-    hmin.create(n, n, CV_32F);
-    step.create(n, n, CV_8U);
-    region_mask.create(n + 2, n + 2, CV_8U);
-  }
-};
-
 PlaneSegmenter::PlaneSegmenter(const SegmentationSettings& settings)
-    : settings_(settings), ws_(std::make_unique<Workspace>()) {
+    : settings_(settings), ws_(std::make_unique<segmentation::Workspace>()) {
   settings_.validate();
 }
 PlaneSegmenter::~PlaneSegmenter() = default;
 PlaneSegmenter::PlaneSegmenter(PlaneSegmenter&&) noexcept = default;
 PlaneSegmenter& PlaneSegmenter::operator=(PlaneSegmenter&&) noexcept = default;
+
+void PlaneSegmenter::segment(const ElevationMap& map, Segmentation& out) {
+  using namespace segmentation;
+  Workspace& w = *ws_;
+  beginSegmentation(map, w, out);
+  // 1. Local plane fits and step edges.
+  referenceHeight(map, w);
+  sumMeasuredCells(map, w);
+  markStepEdges(map, settings_, w);
+  fitLocalPlanes(map, settings_, w);
+  // 2. Regions of planar cells.
+  growRegions(map, settings_, w, out);
+  if (out.regions.empty()) return;
+  // 3. One plane per region, grown back over its blurred border; strips join their floor.
+  fitRegionPlanes(map, w, out);
+  growBack(map, settings_, w, out);
+  joinRegionsOnPlanes(map, settings_, w, out);
+  // 4. Holes filled, polygons traced.
+  regionBoundingBoxes(w, out);
+  if (fillHoles(map, settings_, w, out)) dropEmptyRegions(w, out);
+  traceRegionPolygons(w, out);
+  // 5. Step edges as obstacles.
+  traceStepEdges(w, out);
+}
+
+namespace segmentation {
 
 namespace {
 
@@ -153,32 +139,94 @@ std::vector<PolygonWithHoles> tracePolygons(const cv::Mat& mask, const Eigen::Ve
   return out;
 }
 
+/// The height a region's plane is fitted to: measured, else the local fit's (a filled hole).
+inline double cellHeight(const std::vector<float>& H, const Workspace& w, std::size_t i) {
+  return static_cast<double>(std::isnan(H[i]) ? w.fitted[i] : H[i]);
+}
+
+/// The plane of least-squares sums `a` (cells' x, y relative to origin, z to zref).
+void fitPlane(const PlaneSums& a, const Eigen::Vector2d& origin, double zref, PlanarRegion& reg) {
+  const double cnt = a[kN];
+  const double mx = a[kX] / cnt, my = a[kY] / cnt, mz = a[kZ] / cnt;
+  const double cxx = a[kXX] / cnt - mx * mx, cxy = a[kXY] / cnt - mx * my;
+  const double cyy = a[kYY] / cnt - my * my, cxz = a[kXZ] / cnt - mx * mz;
+  const double cyz = a[kYZ] / cnt - my * mz, czz = a[kZZ] / cnt - mz * mz;
+  Eigen::Matrix2d C;
+  C << cxx, cxy, cxy, cyy;
+  Eigen::Vector2d g = Eigen::Vector2d::Zero();
+  if (C.determinant() > 1e-12) g = C.ldlt().solve(Eigen::Vector2d(cxz, cyz));
+  reg.anchor = origin + Eigen::Vector2d(mx, my);
+  reg.height = mz + zref;
+  reg.gradient = g;
+  reg.normal = Eigen::Vector3d(-g.x(), -g.y(), 1.0).normalized();
+  reg.rms = std::sqrt(std::max(0.0, czz - g.dot(Eigen::Vector2d(cxz, cyz))));
+}
+
+/// Region k's mask in its box with a one-pixel zero border: pixel (u, v) = cell
+/// (rmin + v - 1, cmin + u - 1). Empty (0 x 0) for a region without cells.
+cv::Mat regionMask(Workspace& w, const Segmentation& out, int k) {
+  const int n = out.size;
+  const std::vector<int>& labels = out.labels;
+  const auto kk = static_cast<std::size_t>(k);
+  if (w.rmax[kk] < 0) return cv::Mat();
+  const int rows = w.rmax[kk] - w.rmin[kk] + 1, cols = w.cmax[kk] - w.cmin[kk] + 1;
+  cv::Mat mask = w.region_mask(cv::Rect(0, 0, cols + 2, rows + 2));
+  mask.setTo(0);
+  for (int r = 0; r < rows; ++r) {
+    unsigned char* row = mask.ptr<unsigned char>(r + 1);
+    for (int c = 0; c < cols; ++c) {
+      row[c + 1] =
+          labels[static_cast<std::size_t>((w.rmin[kk] + r) * n + w.cmin[kk] + c)] == k ? 1 : 0;
+    }
+  }
+  return mask;
+}
+
 }  // namespace
 
-void PlaneSegmenter::segment(const ElevationMap& map, Segmentation& out) {
-  Workspace& w = *ws_;
+void Workspace::resize(int size) {
+  if (n == size) return;
+  n = size;
+  const auto cells = static_cast<std::size_t>(n) * static_cast<std::size_t>(n);
+  sat.assign(static_cast<std::size_t>(n + 1) * static_cast<std::size_t>(n + 1) * kChannels, 0.0);
+  fitted.assign(cells, kNaN);
+  gx.assign(cells, 0.f);
+  gy.assign(cells, 0.f);
+  planar.assign(cells, 0);
+  queue.reserve(cells);
+  depth.assign(cells, 0);
+  hmax.create(n, n, CV_32F);
+  hmin.create(n, n, CV_32F);
+  step.create(n, n, CV_8U);
+  region_mask.create(n + 2, n + 2, CV_8U);
+}
+
+void beginSegmentation(const ElevationMap& map, Workspace& w, Segmentation& out) {
   const int n = map.size();
   w.resize(n);
-  const double res = map.resolution();
-  const std::vector<float>& H = map.heights();
   const auto cells = static_cast<std::size_t>(n) * static_cast<std::size_t>(n);
   out.size = n;
-  out.resolution = res;
+  out.resolution = map.resolution();
   out.origin = map.origin();
   out.regions.clear();
   out.step_edges.clear();
   out.labels.assign(cells, -1);
+}
 
-  // Reference height: keeps the summed squares small.
-  double zref = 0.0;
-  for (float h : H) {
+void referenceHeight(const ElevationMap& map, Workspace& w) {
+  w.zref = 0.0;
+  for (float h : map.heights()) {
     if (!std::isnan(h)) {
-      zref = static_cast<double>(h);
+      w.zref = static_cast<double>(h);
       break;
     }
   }
+}
 
-  // 1. Summed-area tables of the measured cells.
+void sumMeasuredCells(const ElevationMap& map, Workspace& w) {
+  const int n = map.size();
+  const std::vector<float>& H = map.heights();
+  const double zref = w.zref;
   const int m = n + 1;
   double* S = w.sat.data();
   std::fill(w.sat.begin(), w.sat.end(), 0.0);
@@ -204,36 +252,42 @@ void PlaneSegmenter::segment(const ElevationMap& map, Segmentation& out) {
       for (int k = 0; k < kChannels; ++k) dst[k] = above[k] + row[k];
     }
   }
+}
 
-  // Step edges: neighbourhoods (3 x 3) spanning more than step_height.
-  {
-    cv::Mat h(n, n, CV_32F, const_cast<float*>(H.data()));
-    cv::Mat low, high;
-    h.copyTo(w.hmax);
-    h.copyTo(w.hmin);
-    cv::patchNaNs(w.hmax, -1e6);
-    cv::patchNaNs(w.hmin, 1e6);
-    cv::dilate(w.hmax, w.hmax, cv::Mat());
-    cv::erode(w.hmin, w.hmin, cv::Mat());
-    for (int r = 0; r < n; ++r) {
-      const float* hi = w.hmax.ptr<float>(r);
-      const float* lo = w.hmin.ptr<float>(r);
-      unsigned char* st = w.step.ptr<unsigned char>(r);
-      for (int c = 0; c < n; ++c) {
-        const double span = static_cast<double>(hi[c]) - static_cast<double>(lo[c]);
-        st[c] = (span > settings_.step_height && span < 1e5 &&
-                 !std::isnan(H[static_cast<std::size_t>(r * n + c)]))
-                    ? 1
-                    : 0;
-      }
+void markStepEdges(const ElevationMap& map, const SegmentationSettings& settings, Workspace& w) {
+  const int n = map.size();
+  const std::vector<float>& H = map.heights();
+  cv::Mat h(n, n, CV_32F, const_cast<float*>(H.data()));
+  h.copyTo(w.hmax);
+  h.copyTo(w.hmin);
+  cv::patchNaNs(w.hmax, -1e6);
+  cv::patchNaNs(w.hmin, 1e6);
+  cv::dilate(w.hmax, w.hmax, cv::Mat());
+  cv::erode(w.hmin, w.hmin, cv::Mat());
+  for (int r = 0; r < n; ++r) {
+    const float* hi = w.hmax.ptr<float>(r);
+    const float* lo = w.hmin.ptr<float>(r);
+    unsigned char* st = w.step.ptr<unsigned char>(r);
+    for (int c = 0; c < n; ++c) {
+      const double span = static_cast<double>(hi[c]) - static_cast<double>(lo[c]);
+      st[c] = (span > settings.step_height && span < 1e5 &&
+               !std::isnan(H[static_cast<std::size_t>(r * n + c)]))
+                  ? 1
+                  : 0;
     }
   }
+}
 
-  // Local plane fits.
-  const int hw = settings_.window_half;
-  const double min_count = settings_.min_window_fill * (2 * hw + 1) * (2 * hw + 1);
-  const double max_sse_per_point = settings_.max_residual * settings_.max_residual;
-  const double max_grad = std::tan(settings_.max_slope_deg * kPi / 180.0);
+void fitLocalPlanes(const ElevationMap& map, const SegmentationSettings& settings, Workspace& w) {
+  const int n = map.size();
+  const double res = map.resolution();
+  const double zref = w.zref;
+  const int m = n + 1;
+  const double* S = w.sat.data();
+  const int hw = settings.window_half;
+  const double min_count = settings.min_window_fill * (2 * hw + 1) * (2 * hw + 1);
+  const double max_sse_per_point = settings.max_residual * settings.max_residual;
+  const double max_grad = std::tan(settings.max_slope_deg * kPi / 180.0);
   const double max_grad2 = max_grad * max_grad;
   for (int r = 0; r < n; ++r) {
     const int r0 = std::max(0, r - hw), r1 = std::min(n, r + hw + 1);
@@ -274,11 +328,16 @@ void PlaneSegmenter::segment(const ElevationMap& map, Segmentation& out) {
                         : 0;
     }
   }
+}
 
-  // 2. Region growing over planar cells.
-  const double cos_max = std::cos(settings_.max_normal_angle_deg * kPi / 180.0);
+void growRegions(const ElevationMap& map, const SegmentationSettings& settings, Workspace& w,
+                 Segmentation& out) {
+  const int n = map.size();
+  const double res = map.resolution();
+  const auto cells = static_cast<std::size_t>(n) * static_cast<std::size_t>(n);
+  const double cos_max = std::cos(settings.max_normal_angle_deg * kPi / 180.0);
   const int min_cells =
-      std::max(1, static_cast<int>(std::ceil(settings_.min_region_area / (res * res))));
+      std::max(1, static_cast<int>(std::ceil(settings.min_region_area / (res * res))));
   std::vector<int>& labels = out.labels;
   auto normalOf = [&](std::size_t i) {
     return Eigen::Vector3d(-static_cast<double>(w.gx[i]), -static_cast<double>(w.gy[i]), 1.0)
@@ -302,7 +361,7 @@ void PlaneSegmenter::segment(const ElevationMap& map, Segmentation& out) {
         const auto j = static_cast<std::size_t>(q[0] * n + q[1]);
         if (!w.planar[j] || labels[j] != -1) continue;
         if (std::abs(static_cast<double>(w.fitted[j] - w.fitted[static_cast<std::size_t>(i)])) >
-            settings_.max_height_step)
+            settings.max_height_step)
           continue;
         const Eigen::Vector3d nj = normalOf(j);
         if (nj.dot(nmean) < cos_max) continue;
@@ -320,56 +379,49 @@ void PlaneSegmenter::segment(const ElevationMap& map, Segmentation& out) {
   for (int& l : labels) {
     if (l == kRejected) l = -1;
   }
-  int nreg = next;
-  if (nreg == 0) return;
+  out.regions.resize(static_cast<std::size_t>(next));
+}
 
-  // 3. One plane per region (least squares over its cells, measured height or fitted).
-  auto cellHeight = [&](std::size_t i) {
-    return static_cast<double>(std::isnan(H[i]) ? w.fitted[i] : H[i]);
-  };
-  out.regions.resize(static_cast<std::size_t>(nreg));
-  auto fitPlane = [&](const Eigen::Matrix<double, 10, 1>& a, PlanarRegion& reg) {
-    const double cnt = a[kN];
-    const double mx = a[kX] / cnt, my = a[kY] / cnt, mz = a[kZ] / cnt;
-    const double cxx = a[kXX] / cnt - mx * mx, cxy = a[kXY] / cnt - mx * my;
-    const double cyy = a[kYY] / cnt - my * my, cxz = a[kXZ] / cnt - mx * mz;
-    const double cyz = a[kYZ] / cnt - my * mz, czz = a[kZZ] / cnt - mz * mz;
-    Eigen::Matrix2d C;
-    C << cxx, cxy, cxy, cyy;
-    Eigen::Vector2d g = Eigen::Vector2d::Zero();
-    if (C.determinant() > 1e-12) g = C.ldlt().solve(Eigen::Vector2d(cxz, cyz));
-    reg.anchor = out.origin + Eigen::Vector2d(mx, my);
-    reg.height = mz + zref;
-    reg.gradient = g;
-    reg.normal = Eigen::Vector3d(-g.x(), -g.y(), 1.0).normalized();
-    reg.rms = std::sqrt(std::max(0.0, czz - g.dot(Eigen::Vector2d(cxz, cyz))));
-  };
-  {
-    std::vector<Eigen::Matrix<double, 10, 1>>& acc = w.acc;
-    acc.assign(static_cast<std::size_t>(nreg), Eigen::Matrix<double, 10, 1>::Zero());
-    for (int r = 0; r < n; ++r) {
-      for (int c = 0; c < n; ++c) {
-        const auto i = static_cast<std::size_t>(r * n + c);
-        if (labels[i] < 0) continue;
-        const double x = (c + 0.5) * res, y = (r + 0.5) * res, z = cellHeight(i) - zref;
-        Eigen::Matrix<double, 10, 1>& a = acc[static_cast<std::size_t>(labels[i])];
-        a[kN] += 1;
-        a[kX] += x;
-        a[kY] += y;
-        a[kZ] += z;
-        a[kXX] += x * x;
-        a[kXY] += x * y;
-        a[kYY] += y * y;
-        a[kXZ] += x * z;
-        a[kYZ] += y * z;
-        a[kZZ] += z * z;
-      }
+void fitRegionPlanes(const ElevationMap& map, Workspace& w, Segmentation& out) {
+  const int n = map.size();
+  const double res = map.resolution();
+  const std::vector<float>& H = map.heights();
+  const std::vector<int>& labels = out.labels;
+  const double zref = w.zref;
+  const int nreg = static_cast<int>(out.regions.size());
+  std::vector<PlaneSums>& acc = w.acc;
+  acc.assign(static_cast<std::size_t>(nreg), PlaneSums::Zero());
+  for (int r = 0; r < n; ++r) {
+    for (int c = 0; c < n; ++c) {
+      const auto i = static_cast<std::size_t>(r * n + c);
+      if (labels[i] < 0) continue;
+      const double x = (c + 0.5) * res, y = (r + 0.5) * res, z = cellHeight(H, w, i) - zref;
+      PlaneSums& a = acc[static_cast<std::size_t>(labels[i])];
+      a[kN] += 1;
+      a[kX] += x;
+      a[kY] += y;
+      a[kZ] += z;
+      a[kXX] += x * x;
+      a[kXY] += x * y;
+      a[kYY] += y * y;
+      a[kXZ] += x * z;
+      a[kYZ] += y * z;
+      a[kZZ] += z * z;
     }
-    for (int k = 0; k < nreg; ++k)
-      fitPlane(acc[static_cast<std::size_t>(k)], out.regions[static_cast<std::size_t>(k)]);
   }
+  for (int k = 0; k < nreg; ++k) {
+    fitPlane(acc[static_cast<std::size_t>(k)], out.origin, zref,
+             out.regions[static_cast<std::size_t>(k)]);
+  }
+}
 
-  // Grow back over the border the window fit rejected (breadth first from every region).
+void growBack(const ElevationMap& map, const SegmentationSettings& settings, Workspace& w,
+              Segmentation& out) {
+  const int n = map.size();
+  const std::vector<float>& H = map.heights();
+  const auto cells = static_cast<std::size_t>(n) * static_cast<std::size_t>(n);
+  std::vector<int>& labels = out.labels;
+  const int hw = settings.window_half;
   w.queue.clear();
   for (std::size_t i = 0; i < cells; ++i) {
     w.depth[i] = 0;
@@ -390,150 +442,140 @@ void PlaneSegmenter::segment(const ElevationMap& map, Segmentation& out) {
       const auto j = static_cast<std::size_t>(q[0] * n + q[1]);
       if (labels[j] != -1 || std::isnan(H[j])) continue;
       const Eigen::Vector2d p = out.cellCenter(q[0], q[1]);
-      if (std::abs(static_cast<double>(H[j]) - reg.heightAt(p)) > settings_.grow_tolerance)
-        continue;
+      if (std::abs(static_cast<double>(H[j]) - reg.heightAt(p)) > settings.grow_tolerance) continue;
       labels[j] = L;
       w.depth[j] = d + 1;
       w.queue.push_back(static_cast<int>(j));
     }
   }
+}
 
-  // A region lying on an adjacent, larger region's plane joins it. The band of cells the
-  // window fit rejects at the foot of a riser (mixed cells a centimetre or two high) can cut
-  // a strip of the floor off the rest and fit it as a slope (16 deg over 83 cells); grown
-  // back, the two touch across the band. Left apart, the strip is an obstacle to the floor's
-  // convex pieces, which then began 10-25 cm past a block's far edge (step20 on
-  // perception). Joined when 95 % of the smaller region's cells lie within step_height of the
-  // larger one's plane, as a level hole is (a tread or a ramp beside a floor does not).
-  {
-    const auto R = static_cast<std::size_t>(nreg);
-    w.pair_cells.assign(R * R, 0);
-    for (int r = 0; r < n; ++r) {
-      for (int c = 0; c < n; ++c) {
-        const int L = labels[static_cast<std::size_t>(r * n + c)];
-        if (L < 0) continue;
-        const int nb[2][2] = {{r, c + 1}, {r + 1, c}};
-        for (const auto& q : nb) {
-          if (q[0] >= n || q[1] >= n) continue;
-          const int M = labels[static_cast<std::size_t>(q[0] * n + q[1])];
-          if (M < 0 || M == L) continue;
-          ++w.pair_cells[static_cast<std::size_t>(std::min(L, M)) * R +
-                         static_cast<std::size_t>(std::max(L, M))];
-        }
-      }
-    }
-    // Regions touching along at least two cell pairs (a corner is not a border).
-    auto touching = [&](std::size_t a, std::size_t b) {
-      return w.pair_cells[std::min(a, b) * R + std::max(a, b)] >= 2;
-    };
-    // Per region: its cells, and how many lie within step_height of each touching region's
-    // plane.
-    w.on_plane.assign(R * R, 0);
-    w.region_cells.assign(R, 0);
-    for (std::size_t i = 0; i < cells; ++i) {
-      const int L = labels[i];
+// The band of cells the window fit rejects at the foot of a riser (mixed cells a centimetre
+// or two high) can cut a strip of the floor off the rest and fit it as a slope (16 deg over
+// 83 cells); grown back, the two touch across the band. Left apart, the strip is an obstacle
+// to the floor's convex pieces, which then began 10-25 cm past a block's far edge (step20 on
+// perception). Joined when 95 % of the smaller region's cells lie within step_height of the
+// larger one's plane, as a level hole is (a tread or a ramp beside a floor does not).
+void joinRegionsOnPlanes(const ElevationMap& map, const SegmentationSettings& settings,
+                         Workspace& w, Segmentation& out) {
+  const int n = map.size();
+  const std::vector<float>& H = map.heights();
+  const auto cells = static_cast<std::size_t>(n) * static_cast<std::size_t>(n);
+  std::vector<int>& labels = out.labels;
+  const auto R = out.regions.size();
+  w.pair_cells.assign(R * R, 0);
+  for (int r = 0; r < n; ++r) {
+    for (int c = 0; c < n; ++c) {
+      const int L = labels[static_cast<std::size_t>(r * n + c)];
       if (L < 0) continue;
-      const auto l = static_cast<std::size_t>(L);
-      ++w.region_cells[l];
-      const Eigen::Vector2d p = out.cellCenter(static_cast<int>(i) / n, static_cast<int>(i) % n);
-      for (std::size_t o = 0; o < R; ++o) {
-        if (o == l || !touching(l, o)) continue;
-        if (std::abs(cellHeight(i) - out.regions[o].heightAt(p)) <= settings_.step_height)
-          ++w.on_plane[l * R + o];
+      const int nb[2][2] = {{r, c + 1}, {r + 1, c}};
+      for (const auto& q : nb) {
+        if (q[0] >= n || q[1] >= n) continue;
+        const int M = labels[static_cast<std::size_t>(q[0] * n + q[1])];
+        if (M < 0 || M == L) continue;
+        ++w.pair_cells[static_cast<std::size_t>(std::min(L, M)) * R +
+                       static_cast<std::size_t>(std::max(L, M))];
       }
-    }
-    w.parent.resize(R);
-    for (std::size_t k = 0; k < R; ++k) w.parent[k] = static_cast<int>(k);
-    auto root = [&](int k) {
-      while (w.parent[static_cast<std::size_t>(k)] != k) k = w.parent[static_cast<std::size_t>(k)];
-      return k;
-    };
-    bool merged = false;
-    for (std::size_t a = 0; a < R; ++a) {
-      for (std::size_t b = a + 1; b < R; ++b) {
-        if (!touching(a, b)) continue;
-        // The smaller region (fewer cells) on the larger one's plane.
-        const bool a_small = w.region_cells[a] <= w.region_cells[b];
-        const std::size_t sm = a_small ? a : b, lg = a_small ? b : a;
-        if (w.on_plane[sm * R + lg] < 0.95 * w.region_cells[sm]) continue;
-        const int ra = root(static_cast<int>(a)), rb = root(static_cast<int>(b));
-        if (ra == rb) continue;
-        w.parent[static_cast<std::size_t>(std::max(ra, rb))] = std::min(ra, rb);
-        merged = true;
-      }
-    }
-    if (merged) {
-      // Roots keep their order; each merged region's plane is fitted to all its parts' cells.
-      w.remap.assign(R, -1);
-      int kept = 0;
-      for (std::size_t k = 0; k < R; ++k) {
-        if (root(static_cast<int>(k)) == static_cast<int>(k)) w.remap[k] = kept++;
-      }
-      for (std::size_t k = 0; k < R; ++k) {
-        const int rk = root(static_cast<int>(k));
-        if (rk != static_cast<int>(k)) w.acc[static_cast<std::size_t>(rk)] += w.acc[k];
-      }
-      for (std::size_t k = 0; k < R; ++k) {
-        if (w.remap[k] < 0) continue;
-        fitPlane(w.acc[k], out.regions[static_cast<std::size_t>(w.remap[k])]);
-      }
-      out.regions.resize(static_cast<std::size_t>(kept));
-      for (int& l : labels) {
-        if (l >= 0) l = w.remap[static_cast<std::size_t>(root(l))];
-      }
-      nreg = kept;
     }
   }
+  // Regions touching along at least two cell pairs (a corner is not a border).
+  auto touching = [&](std::size_t a, std::size_t b) {
+    return w.pair_cells[std::min(a, b) * R + std::max(a, b)] >= 2;
+  };
+  // Per region: its cells, and how many lie within step_height of each touching region's
+  // plane.
+  w.on_plane.assign(R * R, 0);
+  w.region_cells.assign(R, 0);
+  for (std::size_t i = 0; i < cells; ++i) {
+    const int L = labels[i];
+    if (L < 0) continue;
+    const auto l = static_cast<std::size_t>(L);
+    ++w.region_cells[l];
+    const Eigen::Vector2d p = out.cellCenter(static_cast<int>(i) / n, static_cast<int>(i) % n);
+    for (std::size_t o = 0; o < R; ++o) {
+      if (o == l || !touching(l, o)) continue;
+      if (std::abs(cellHeight(H, w, i) - out.regions[o].heightAt(p)) <= settings.step_height)
+        ++w.on_plane[l * R + o];
+    }
+  }
+  w.parent.resize(R);
+  for (std::size_t k = 0; k < R; ++k) w.parent[k] = static_cast<int>(k);
+  auto root = [&](int k) {
+    while (w.parent[static_cast<std::size_t>(k)] != k) k = w.parent[static_cast<std::size_t>(k)];
+    return k;
+  };
+  bool merged = false;
+  for (std::size_t a = 0; a < R; ++a) {
+    for (std::size_t b = a + 1; b < R; ++b) {
+      if (!touching(a, b)) continue;
+      // The smaller region (fewer cells) on the larger one's plane.
+      const bool a_small = w.region_cells[a] <= w.region_cells[b];
+      const std::size_t sm = a_small ? a : b, lg = a_small ? b : a;
+      if (w.on_plane[sm * R + lg] < 0.95 * w.region_cells[sm]) continue;
+      const int ra = root(static_cast<int>(a)), rb = root(static_cast<int>(b));
+      if (ra == rb) continue;
+      w.parent[static_cast<std::size_t>(std::max(ra, rb))] = std::min(ra, rb);
+      merged = true;
+    }
+  }
+  if (!merged) return;
+  // Roots keep their order; each merged region's plane is fitted to all its parts' cells.
+  w.remap.assign(R, -1);
+  int kept = 0;
+  for (std::size_t k = 0; k < R; ++k) {
+    if (root(static_cast<int>(k)) == static_cast<int>(k)) w.remap[k] = kept++;
+  }
+  for (std::size_t k = 0; k < R; ++k) {
+    const int rk = root(static_cast<int>(k));
+    if (rk != static_cast<int>(k)) w.acc[static_cast<std::size_t>(rk)] += w.acc[k];
+  }
+  for (std::size_t k = 0; k < R; ++k) {
+    if (w.remap[k] < 0) continue;
+    fitPlane(w.acc[k], out.origin, w.zref, out.regions[static_cast<std::size_t>(w.remap[k])]);
+  }
+  out.regions.resize(static_cast<std::size_t>(kept));
+  for (int& l : labels) {
+    if (l >= 0) l = w.remap[static_cast<std::size_t>(root(l))];
+  }
+}
 
-  // 4. Per region: holes filled, then polygons. A hole (cells the region encloses) is
-  // filled when it is small (max_hole_area), or level (max_level_hole_area): every cell in
-  // it measured (or gap-filled), within step_height of the region's plane, no step edge. A
-  // level hole is the surface itself: noisy cells the window fit rejected (the few, steep
-  // rays at the rim of the sensor's blind spot), a patch that grew into a region of its own;
-  // an obstacle or a pit in it has a step edge or cells off the plane, and an unseen patch
-  // stays a hole (never a foothold). Cells of other regions inside a level hole join the
-  // region (a region left without cells is dropped).
-  auto boundingBoxes = [&]() {
-    w.rmin.assign(static_cast<std::size_t>(nreg), n);
-    w.rmax.assign(static_cast<std::size_t>(nreg), -1);
-    w.cmin.assign(static_cast<std::size_t>(nreg), n);
-    w.cmax.assign(static_cast<std::size_t>(nreg), -1);
-    for (int r = 0; r < n; ++r) {
-      for (int c = 0; c < n; ++c) {
-        const int L = labels[static_cast<std::size_t>(r * n + c)];
-        if (L < 0) continue;
-        const auto k = static_cast<std::size_t>(L);
-        w.rmin[k] = std::min(w.rmin[k], r);
-        w.rmax[k] = std::max(w.rmax[k], r);
-        w.cmin[k] = std::min(w.cmin[k], c);
-        w.cmax[k] = std::max(w.cmax[k], c);
-      }
+void regionBoundingBoxes(Workspace& w, const Segmentation& out) {
+  const int n = out.size;
+  const auto nreg = out.regions.size();
+  w.rmin.assign(nreg, n);
+  w.rmax.assign(nreg, -1);
+  w.cmin.assign(nreg, n);
+  w.cmax.assign(nreg, -1);
+  for (int r = 0; r < n; ++r) {
+    for (int c = 0; c < n; ++c) {
+      const int L = out.labels[static_cast<std::size_t>(r * n + c)];
+      if (L < 0) continue;
+      const auto k = static_cast<std::size_t>(L);
+      w.rmin[k] = std::min(w.rmin[k], r);
+      w.rmax[k] = std::max(w.rmax[k], r);
+      w.cmin[k] = std::min(w.cmin[k], c);
+      w.cmax[k] = std::max(w.cmax[k], c);
     }
-  };
-  // Region k's mask in its box with a one-pixel zero border: pixel (u, v) = cell
-  // (rmin + v - 1, cmin + u - 1). Empty (0 x 0) for a region without cells.
-  auto regionMask = [&](int k) {
-    const auto kk = static_cast<std::size_t>(k);
-    if (w.rmax[kk] < 0) return cv::Mat();
-    const int rows = w.rmax[kk] - w.rmin[kk] + 1, cols = w.cmax[kk] - w.cmin[kk] + 1;
-    cv::Mat mask = w.region_mask(cv::Rect(0, 0, cols + 2, rows + 2));
-    mask.setTo(0);
-    for (int r = 0; r < rows; ++r) {
-      unsigned char* row = mask.ptr<unsigned char>(r + 1);
-      for (int c = 0; c < cols; ++c) {
-        row[c + 1] =
-            labels[static_cast<std::size_t>((w.rmin[kk] + r) * n + w.cmin[kk] + c)] == k ? 1 : 0;
-      }
-    }
-    return mask;
-  };
-  boundingBoxes();
-  const double max_hole_cells = settings_.max_hole_area / (res * res);
-  const double max_level_cells = settings_.max_level_hole_area / (res * res);
+  }
+}
+
+// A level hole is the surface itself: noisy cells the window fit rejected (the few, steep
+// rays at the rim of the sensor's blind spot), a patch that grew into a region of its own;
+// an obstacle or a pit in it has a step edge or cells off the plane, and an unseen patch
+// stays a hole (never a foothold).
+bool fillHoles(const ElevationMap& map, const SegmentationSettings& settings, Workspace& w,
+               Segmentation& out) {
+  const int n = map.size();
+  const double res = map.resolution();
+  const std::vector<float>& H = map.heights();
+  std::vector<int>& labels = out.labels;
+  const int nreg = static_cast<int>(out.regions.size());
+  const double max_hole_cells = settings.max_hole_area / (res * res);
+  const double max_level_cells = settings.max_level_hole_area / (res * res);
   bool absorbed = false;
   for (int k = 0; k < nreg; ++k) {
     const auto kk = static_cast<std::size_t>(k);
-    cv::Mat mask = regionMask(k);
+    cv::Mat mask = regionMask(w, out, k);
     if (mask.empty()) continue;
     const PlanarRegion& reg = out.regions[kk];
     w.contours.clear();
@@ -559,7 +601,7 @@ void PlaneSegmenter::segment(const ElevationMap& map, Segmentation& out) {
           const int r = static_cast<int>(i) / n, c = static_cast<int>(i) % n;
           if (std::isnan(H[i]) || w.step.at<unsigned char>(r, c) ||
               std::abs(static_cast<double>(H[i]) - reg.heightAt(out.cellCenter(r, c))) >
-                  settings_.step_height) {
+                  settings.step_height) {
             level = false;
             break;
           }
@@ -578,45 +620,52 @@ void PlaneSegmenter::segment(const ElevationMap& map, Segmentation& out) {
       }
     }
   }
-  // Regions emptied by a level hole around them are dropped (labels renumbered).
-  int kept = nreg;
-  if (absorbed) {
-    boundingBoxes();
-    w.remap.assign(static_cast<std::size_t>(nreg), -1);
-    kept = 0;
-    for (int k = 0; k < nreg; ++k) {
-      const auto kk = static_cast<std::size_t>(k);
-      if (w.rmax[kk] < 0) continue;
-      w.remap[kk] = kept;
-      if (kept != k) out.regions[static_cast<std::size_t>(kept)] = std::move(out.regions[kk]);
-      ++kept;
-    }
-    out.regions.resize(static_cast<std::size_t>(kept));
-    for (int& l : labels) {
-      if (l >= 0) l = w.remap[static_cast<std::size_t>(l)];
-    }
-    boundingBoxes();
+  return absorbed;
+}
+
+void dropEmptyRegions(Workspace& w, Segmentation& out) {
+  const int nreg = static_cast<int>(out.regions.size());
+  regionBoundingBoxes(w, out);
+  w.remap.assign(static_cast<std::size_t>(nreg), -1);
+  int kept = 0;
+  for (int k = 0; k < nreg; ++k) {
+    const auto kk = static_cast<std::size_t>(k);
+    if (w.rmax[kk] < 0) continue;
+    w.remap[kk] = kept;
+    if (kept != k) out.regions[static_cast<std::size_t>(kept)] = std::move(out.regions[kk]);
+    ++kept;
   }
-  // Otherwise the boxes stand: a filled hole lies inside its region's box.
+  out.regions.resize(static_cast<std::size_t>(kept));
+  for (int& l : out.labels) {
+    if (l >= 0) l = w.remap[static_cast<std::size_t>(l)];
+  }
+  regionBoundingBoxes(w, out);
+}
+
+void traceRegionPolygons(Workspace& w, Segmentation& out) {
+  const double res = out.resolution;
+  const int kept = static_cast<int>(out.regions.size());
   for (int k = 0; k < kept; ++k) {
     const auto kk = static_cast<std::size_t>(k);
-    cv::Mat mask = regionMask(k);
+    cv::Mat mask = regionMask(w, out, k);
     PlanarRegion& reg = out.regions[kk];
     const Eigen::Vector2d roi_origin = out.origin + res * Eigen::Vector2d(w.cmin[kk], w.rmin[kk]);
     reg.polygons = tracePolygons(mask, roi_origin, res, w.contours, w.hierarchy);
   }
-  for (std::size_t i = 0; i < cells; ++i) {
-    if (labels[i] >= 0) ++out.regions[static_cast<std::size_t>(labels[i])].cells;
+  for (std::size_t i = 0; i < out.labels.size(); ++i) {
+    if (out.labels[i] >= 0) ++out.regions[static_cast<std::size_t>(out.labels[i])].cells;
   }
   for (PlanarRegion& reg : out.regions) reg.area = reg.cells * res * res;
-
-  // 5. Step edges as obstacle polygons.
-  {
-    cv::Mat mask = w.region_mask(cv::Rect(0, 0, n + 2, n + 2));
-    mask.setTo(0);
-    w.step.copyTo(mask(cv::Rect(1, 1, n, n)));
-    out.step_edges = tracePolygons(mask, out.origin, res, w.contours, w.hierarchy);
-  }
 }
+
+void traceStepEdges(Workspace& w, Segmentation& out) {
+  const int n = out.size;
+  cv::Mat mask = w.region_mask(cv::Rect(0, 0, n + 2, n + 2));
+  mask.setTo(0);
+  w.step.copyTo(mask(cv::Rect(1, 1, n, n)));
+  out.step_edges = tracePolygons(mask, out.origin, out.resolution, w.contours, w.hierarchy);
+}
+
+}  // namespace segmentation
 
 }  // namespace rollstep::perception

@@ -19,7 +19,8 @@
 //  5. step edges (cells whose neighbourhood spans more than step_height) are obstacles,
 //     traced as polygons too.
 // The map is read as an image with OpenCV (core, imgproc). Buffers are kept between
-// calls; only the result's polygon lists allocate.
+// calls; only the result's polygon lists allocate. Each step is a function of its own
+// (src/perception/segmentation_stages.hpp), tested on its own.
 #include <Eigen/Core>
 #include <memory>
 #include <vector>
@@ -27,6 +28,10 @@
 #include "rollstep/perception/elevation_map.hpp"
 
 namespace rollstep::perception {
+
+namespace segmentation {
+struct Workspace;  // the stages' buffers (src/perception/segmentation_stages.hpp)
+}
 
 struct SegmentationSettings {
   int window_half = 2;                ///< local fit window: (2 h + 1)^2 cells
@@ -105,9 +110,8 @@ class PlaneSegmenter {
   void segment(const ElevationMap& map, Segmentation& out);
 
  private:
-  struct Workspace;
   SegmentationSettings settings_;
-  std::unique_ptr<Workspace> ws_;
+  std::unique_ptr<segmentation::Workspace> ws_;
 };
 
 }  // namespace rollstep::perception
