@@ -169,28 +169,6 @@ ReportInputs loadInputs(const ReportOptions& o, const std::vector<std::string>& 
   return in;
 }
 
-int writeReport(const ReportInputs& in, bool check);
-
-int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
-  // Inputs first: nothing is written before they load.
-  const ReportInputs in = loadInputs(o, argv);
-
-  // The report's files as a whole: removed now, written at the end; a run that fails or is
-  // interrupted leaves DIR/FAILED with the reason instead (each run's folder its own).
-  const OutputFolder folder("report", in.out,
-                            {"report.md", "report.html", "figures.json", "figures.log",
-                             "figures.err", "fig2.png", "fig4.png", "fig6.png", "fig8.png",
-                             "map.png", "snapshots_*", "video_*", "replay.js", "replay_*"});
-  folder.create();
-  folder.begin();
-  try {
-    return writeReport(in, o.check);
-  } catch (const std::exception& e) {
-    folder.fail(e.what());
-    throw;
-  }
-}
-
 /// Runs every scenario as a `rollstep sim` child into DIR/runs/<name>/ (its previous
 /// outputs removed first, so that a stale log is never judged), with a progress bar, and
 /// judges each from what it wrote. An interrupt ends the report: a cut run is no result.
@@ -469,6 +447,28 @@ int writeReport(const ReportInputs& in, bool check) {
   writeFileAtomically(in.out + "/report.html", report.document.html("rollstep report"));
 
   return printSummary(in, results, check);
+}
+
+/// Loads and checks the inputs, prepares the report's folder (its old files removed; on any
+/// failure DIR/FAILED says why) and writes the report.
+int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
+  // Inputs first: nothing is written before they load.
+  const ReportInputs in = loadInputs(o, argv);
+
+  // The report's files as a whole: removed now, written at the end; a run that fails or is
+  // interrupted leaves DIR/FAILED with the reason instead (each run's folder its own).
+  const OutputFolder folder("report", in.out,
+                            {"report.md", "report.html", "figures.json", "figures.log",
+                             "figures.err", "fig2.png", "fig4.png", "fig6.png", "fig8.png",
+                             "map.png", "snapshots_*", "video_*", "replay.js", "replay_*"});
+  folder.create();
+  folder.begin();
+  try {
+    return writeReport(in, o.check);
+  } catch (const std::exception& e) {
+    folder.fail(e.what());
+    throw;
+  }
 }
 
 }  // namespace

@@ -1,8 +1,9 @@
 #pragma once
 // What `rollstep report` says: the inputs its stages share, what each stage left (the runs'
 // outcomes, the figures, pictures and replay pages made or why not, the acceptance verdict),
-// and the document composed from them, section by section. Nothing is run or drawn here: the
-// document only shows what the stages made, so that it cannot claim more than they did.
+// and the document composed from them, section by section. Nothing is run or drawn here (the
+// composition reads only which figure files exist and figures.err): the document shows what
+// the stages made, so that it cannot claim more than they did.
 #include <cstddef>
 #include <string>
 #include <vector>
