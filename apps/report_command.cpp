@@ -4,6 +4,11 @@
 // apps/report/figures.py), renders snapshots and videos (MuJoCo offscreen, ffmpeg), and
 // writes DIR/report.md and DIR/report.html with the same content. A failed run is shown as
 // failed with its reason; nothing is invented; a missing tool is a stated gap, not a crash.
+//
+// The stages, in writeReport's order: runScenarios, drawFigures, renderSnapshotsAndVideos,
+// writeReplayPages, judgeAcceptance, then the document (experiments/report_document.cpp)
+// and the summary on stdout. Each reads the ReportInputs and the results of the stages
+// before it (ReportResults).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -23,6 +28,7 @@
 #include "experiments/process.hpp"
 #include "experiments/render.hpp"
 #include "experiments/replay.hpp"
+#include "experiments/report_document.hpp"
 #include "experiments/runs.hpp"
 #include "experiments/scenarios.hpp"
 #include "experiments/trials.hpp"
@@ -46,20 +52,6 @@ struct ReportOptions {
   std::vector<std::string> only;
   std::vector<std::string> trials;
 };
-
-std::string fixed(double v, int digits) {
-  if (!std::isfinite(v)) return "-";
-  char text[64];
-  std::snprintf(text, sizeof text, "%.*f", digits, v);
-  return text;
-}
-
-std::string percent(double v) {
-  if (!std::isfinite(v)) return "-";
-  char text[64];
-  std::snprintf(text, sizeof text, "%+.0f %%", 100.0 * v);
-  return text;
-}
 
 using Json = nlohmann::ordered_json;  // keys in the order written
 
@@ -113,49 +105,6 @@ double figuresTimeLimit() {
   return v;
 }
 
-/// The figure script's complaint about figure `name` ("fig2: KeyError: ..."), or "".
-std::string figureError(const std::string& out, const std::string& name) {
-  std::ifstream err(out + "/figures.err");
-  std::string line;
-  while (std::getline(err, line)) {
-    if (line.rfind(name + ": ", 0) == 0) return line.substr(name.size() + 2);
-  }
-  return "";
-}
-
-/// What one MPC update of each Fig. 6 run did, from its own outputs: the horizon from its
-/// summary ("N = 100") and the Newton iterations of its updates after the first, converging
-/// solve (mpc.csv), e.g. "step20_nmpc: N = 100, 2 real-time iterations per update".
-std::string mpcUpdateDescription(const ExperimentSet& set,
-                                 const std::vector<RunOutcome>& outcomes) {
-  std::string text;
-  for (std::size_t i = 0; i < set.scenarios.size() && i < outcomes.size(); ++i) {
-    const RunOutcome& o = outcomes[i];
-    if (!set.scenarios[i].feeds("fig6") || !o.mpc || !o.mpc->has("iterations[-]")) continue;
-    const std::vector<double>& iterations = o.mpc->column("iterations[-]");
-    int least = 0, most = 0;
-    for (std::size_t r = 1; r < iterations.size(); ++r) {
-      if (!(iterations[r] >= 1)) continue;  // NaN or a failed update
-      const int k = static_cast<int>(iterations[r]);
-      least = least == 0 ? k : std::min(least, k);
-      most = std::max(most, k);
-    }
-    if (most == 0) continue;
-    std::string what = set.scenarios[i].name + ": ";
-    const std::string horizon_key = ", N = ";  // summary.txt's first line
-    if (const std::size_t n = o.summary.find(horizon_key); n != std::string::npos) {
-      const std::size_t from = n + horizon_key.size();
-      const std::size_t end = o.summary.find_first_not_of("0123456789", from);
-      what += "N = " + o.summary.substr(from, end - from) + ", ";
-    }
-    what += least == most ? std::to_string(most)
-                          : std::to_string(least) + " to " + std::to_string(most);
-    what += most == 1 ? " real-time iteration per update" : " real-time iterations per update";
-    text += (text.empty() ? "" : "; ") + what;
-  }
-  return text;
-}
-
 void warn(const std::string& text) {
   std::fprintf(stderr, "rollstep report: warning: %s\n", text.c_str());
 }
@@ -175,16 +124,13 @@ std::vector<std::size_t> rowsBetween(const LogTable& log, double t0, double t1, 
   return rows;
 }
 
-int writeReport(const ReportOptions& o, const ExperimentSet& set, const Acceptance& file_acceptance,
-                const std::vector<sim::SceneConfig>& scenes, const TrialCollection& trials,
-                const std::vector<TrialAggregate>& trial_aggregates, const std::string& out,
-                const std::vector<std::string>& argv);
-
-int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
-  // Inputs first: nothing is written before they load.
-  ExperimentSet set = loadExperimentSet(o.experiments);
-  // The file's acceptance, whatever --only keeps: its trial part is judged on trial results.
-  const Acceptance file_acceptance = set.acceptance;
+/// The report's inputs, loaded and checked before anything is written: the experiments
+/// (--only applied), their scenes, the trial results given.
+ReportInputs loadInputs(const ReportOptions& o, const std::vector<std::string>& argv) {
+  ReportInputs in;
+  in.set = loadExperimentSet(o.experiments);
+  ExperimentSet& set = in.set;
+  in.file_acceptance = set.acceptance;
   if (!o.only.empty()) {
     std::vector<Scenario> chosen;
     for (const std::string& name : o.only) {
@@ -205,517 +151,260 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
     set.acceptance.given = set.acceptance.given && set.find(set.acceptance.candidate) != nullptr &&
                            set.find(set.acceptance.baseline) != nullptr;
   }
-  std::vector<sim::SceneConfig> scenes;
-  for (const Scenario& s : set.scenarios) scenes.push_back(sceneOf(s));
+  for (const Scenario& s : set.scenarios) in.scenes.push_back(sceneOf(s));
   // Trial results to include (read now: a bad result file is an input error, found before
   // anything is deleted; unfinished trials are listed in the report).
-  TrialCollection trials;
-  std::vector<TrialAggregate> trial_aggregates;
+  in.trial_dirs = o.trials;
   if (!o.trials.empty()) {
-    trials = collectTrials(o.trials);
-    for (const UncountedTrial& u : trials.uncounted) {
+    in.trials = collectTrials(o.trials);
+    for (const UncountedTrial& u : in.trials.uncounted) {
       if (u.unreadable) throw InputError("--trials: trial folder '" + u.dir + "': " + u.reason);
     }
-    trial_aggregates = aggregate(trials.results);
+    in.trial_aggregates = aggregate(in.trials.results);
   }
-
   (void)figuresTimeLimit();  // a bad ROLLSTEP_FIGURES_TIME_LIMIT is an input error too
-
-  // The report's files as a whole: removed now, written at the end; a run that fails or is
-  // interrupted leaves DIR/FAILED with the reason instead (each run's folder its own).
-  const std::string out = fs::absolute(o.out).lexically_normal().string();
-  const OutputFolder folder("report", out,
-                            {"report.md", "report.html", "figures.json", "figures.log",
-                             "figures.err", "fig2.png", "fig4.png", "fig6.png", "fig8.png",
-                             "map.png", "snapshots_*", "video_*", "replay.js", "replay_*"});
-  folder.create();
-  folder.begin();
-  try {
-    return writeReport(o, set, file_acceptance, scenes, trials, trial_aggregates, out, argv);
-  } catch (const std::exception& e) {
-    folder.fail(e.what());
-    throw;
-  }
+  in.out = fs::absolute(o.out).lexically_normal().string();
+  in.argv = argv;
+  in.videos = o.videos;
+  return in;
 }
 
-int writeReport(const ReportOptions& o, const ExperimentSet& set, const Acceptance& file_acceptance,
-                const std::vector<sim::SceneConfig>& scenes, const TrialCollection& trials,
-                const std::vector<TrialAggregate>& trial_aggregates, const std::string& out,
-                const std::vector<std::string>& argv) {
-  const std::vector<TrialResult>& trial_results = trials.results;
+/// Runs every scenario as a `rollstep sim` child into DIR/runs/<name>/ (its previous
+/// outputs removed first, so that a stale log is never judged), with a progress bar, and
+/// judges each from what it wrote. An interrupt ends the report: a cut run is no result.
+std::vector<RunOutcome> runScenarios(const ReportInputs& in) {
+  const ExperimentSet& set = in.set;
   std::error_code ec;
-  fs::create_directories(out + "/runs", ec);
-  if (ec) throw OutputError("'" + out + "/runs': cannot create the directory: " + ec.message());
-
-  // 1. The runs.
   std::vector<RunOutcome> outcomes;
   ProgressBar bar("rollstep report: runs");
   const double n = static_cast<double>(set.scenarios.size());
   for (std::size_t i = 0; i < set.scenarios.size(); ++i) {
     const Scenario& s = set.scenarios[i];
-    const std::string dir = out + "/runs/" + s.name;
+    const std::string dir = in.out + "/runs/" + s.name;
     for (const char* f : {"log.csv", "mpc.csv", "summary.txt", "FAILED"}) {
       fs::remove(fs::path(dir) / f, ec);
     }
     bar.update(i / n, s.name + " starting (" + std::to_string(i + 1) + "/" +
                           std::to_string(set.scenarios.size()) + ")");
     outcomes.push_back(
-        executeRun(s, scenes[i], dir, set.criteria, "", [&](double done, double total) {
-          bar.update((i + done / total) / n,
-                     s.name + " " + fixed(done, 1) + " of " + fixed(total, 1) + " s simulated");
+        executeRun(s, in.scenes[i], dir, set.criteria, "", [&](double done, double total) {
+          bar.update((i + done / total) / n, s.name + " " + decimalText(done, 1) + " of " +
+                                                 decimalText(total, 1) + " s simulated");
         }));
     throwIfInterrupted();  // the run was interrupted with us: its outcome is not a result
     bar.update((i + 1) / n, s.name + (outcomes.back().passed() ? " passed" : " FAILED"));
   }
   bar.finish("all " + std::to_string(set.scenarios.size()) + " runs done");
+  return outcomes;
+}
 
-  // 2. Figures (matplotlib).
+/// Writes DIR/figures.json (each run's files, window and joint limits; which runs feed
+/// which figure) and has the figure script draw from it. Returns why no figure could be
+/// drawn ("" when the script ran): the document states it instead of a missing picture.
+std::string drawFigures(const ReportInputs& in, const std::vector<RunOutcome>& outcomes) {
+  const ExperimentSet& set = in.set;
+  const std::string& out = in.out;
   std::string figures_gap;
-  {
-    Json json;
-    json["out"] = out;
-    json["machine"] = machineDescription();
-    json["runs"] = Json::object();
-    for (std::size_t i = 0; i < set.scenarios.size(); ++i) {
-      std::vector<JointLimit> limits;
-      try {
-        limits = jointLimits(scenes[i], robotOf(set.scenarios[i]));
-      } catch (const std::exception&) {
-      }
-      json["runs"][set.scenarios[i].name] = runJson(set.scenarios[i], outcomes[i], limits);
+  Json json;
+  json["out"] = out;
+  json["machine"] = machineDescription();
+  json["runs"] = Json::object();
+  for (std::size_t i = 0; i < set.scenarios.size(); ++i) {
+    std::vector<JointLimit> limits;
+    try {
+      limits = jointLimits(in.scenes[i], robotOf(set.scenarios[i]));
+    } catch (const std::exception&) {
     }
-    json["figures"] = Json::object();
-    for (const char* figure : {"table1", "fig4", "fig6", "fig8", "map"}) {
-      Json names = Json::array();
-      for (const Scenario& s : set.scenarios) {
-        if (s.feeds(figure)) names.push_back(s.name);
-      }
-      json["figures"][figure] = names;
-    }
-    writeFileAtomically(out + "/figures.json", json.dump() + "\n");
-    const std::string python = "/usr/bin/python3";
-    const std::string script = figuresScript();
-    if (!fs::exists(python)) {
-      figures_gap =
-          "/usr/bin/python3 is not installed (Debian packages python3, python3-matplotlib)";
-    } else if (!fs::exists(script)) {
-      figures_gap = "the figure script " + script + " is missing";
-    } else {
-      std::fprintf(stderr, "rollstep report: drawing the figures (%s)\n", script.c_str());
-      bool timed_out = false;
-      const double limit = figuresTimeLimit();
-      const int status = runProcess(python, {script, out + "/figures.json"}, out + "/figures.log",
-                                    out + "/figures.err", {}, limit, &timed_out);
-      throwIfInterrupted();
-      if (timed_out) {
-        figures_gap = "the figure script did not end within " + fixed(limit, 0) +
-                      " s (ROLLSTEP_FIGURES_TIME_LIMIT) and was stopped";
-      } else if (status != 0) {
-        std::ifstream err(out + "/figures.err");
-        std::stringstream text;
-        text << err.rdbuf();
-        figures_gap =
-            "the figure script failed (exit " + std::to_string(status) + "): " + text.str();
-      }
-    }
-    if (!figures_gap.empty()) warn("figures not available: " + figures_gap);
+    json["runs"][set.scenarios[i].name] = runJson(set.scenarios[i], outcomes[i], limits);
   }
-
-  // 3. Snapshots and videos (MuJoCo offscreen + ffmpeg).
-  std::string render_gap, video_gap;
-  std::vector<std::pair<std::string, std::string>> snapshots, videos;  // file, caption
-  std::vector<std::string> video_failures;
-  if (!Renderer::available(render_gap)) {
-    warn("snapshots and videos not available: " + render_gap);
+  json["figures"] = Json::object();
+  for (const char* figure : {"table1", "fig4", "fig6", "fig8", "map"}) {
+    Json names = Json::array();
+    for (const Scenario& s : set.scenarios) {
+      if (s.feeds(figure)) names.push_back(s.name);
+    }
+    json["figures"][figure] = names;
+  }
+  writeFileAtomically(out + "/figures.json", json.dump() + "\n");
+  const std::string python = "/usr/bin/python3";
+  const std::string script = figuresScript();
+  if (!fs::exists(python)) {
+    figures_gap = "/usr/bin/python3 is not installed (Debian packages python3, python3-matplotlib)";
+  } else if (!fs::exists(script)) {
+    figures_gap = "the figure script " + script + " is missing";
   } else {
-    if (!o.videos)
-      video_gap = "not made (--no-videos)";
-    else if (!onPath("ffmpeg"))
-      video_gap = "ffmpeg is not installed (Debian package ffmpeg)";
-    if (o.videos && !video_gap.empty()) warn("videos not available: " + video_gap);
-    ProgressBar rbar("rollstep report: pictures");
-    for (std::size_t i = 0; i < set.scenarios.size(); ++i) {
-      const Scenario& s = set.scenarios[i];
-      const RunOutcome& run = outcomes[i];
-      if (!run.log || run.log->rows() == 0) continue;
-      try {
-        sim::PlantOptions po;
-        po.robot_file = robotOf(s);
-        const sim::Plant plant(scenes[i], po);
-        const LogTable& log = *run.log;
-        const auto& t = log.column("time[s]");
-        if (s.feeds("snapshots")) {
-          Renderer r(plant, 400, 300);
-          const bool w = run.assessment.window.found;
-          const double t0 = w ? run.assessment.window.start : t.front();
-          const double t1 = w ? run.assessment.window.end : t.back();
-          std::vector<Image> frames;
-          for (std::size_t row : rowsBetween(log, t0, t1, 6)) {
-            throwIfInterrupted();
-            frames.push_back(r.render(log, row, "t = " + fixed(t[row], 2) + " s"));
-          }
-          const std::string file = "snapshots_" + s.name + ".png";
-          writePng(out + "/" + file, tile(frames, 3));
-          snapshots.emplace_back(
-              file, s.title + ": six moments, evenly spaced from t = " + fixed(t0, 2) + " s to " +
-                        fixed(t1, 2) + " s (" +
-                        (w ? "the traverse window" : "the whole run: no traverse window") + ")");
-        }
-        if (s.video && video_gap.empty()) {
-          constexpr int kFps = 20;
-          const double dt = t.size() > 1 ? t[1] - t[0] : 0.01;
-          const std::size_t every =
-              std::max<std::size_t>(1, static_cast<std::size_t>(std::lround(1.0 / (kFps * dt))));
-          Renderer r(plant, 480, 270, true);
-          const std::string file = "video_" + s.name + ".mp4";
-          VideoWriter video(out + "/" + file, 480, 270, kFps, figuresTimeLimit());
-          for (std::size_t row = 0; row < t.size(); row += every) {
-            throwIfInterrupted();
-            video.add(r.render(log, row, s.title + "  t = " + fixed(t[row], 1) + " s"));
-            if (row % (every * 25) == 0) {
-              rbar.update((i + static_cast<double>(row) / t.size()) / n, s.name + " video");
-            }
-          }
-          video.finish();
-          videos.emplace_back(file, s.title + " (" + fixed(t.back() - t.front(), 1) +
-                                        " s at real speed, " + std::to_string(kFps) + " frames/s)");
-        }
-      } catch (const Interrupted&) {
-        throw;
-      } catch (const std::exception& e) {
-        warn(s.name + ": pictures failed: " + e.what());
-        video_failures.push_back(s.name + ": " + e.what());
-      }
-      rbar.update((i + 1) / n, s.name);
+    std::fprintf(stderr, "rollstep report: drawing the figures (%s)\n", script.c_str());
+    bool timed_out = false;
+    const double limit = figuresTimeLimit();
+    const int status = runProcess(python, {script, out + "/figures.json"}, out + "/figures.log",
+                                  out + "/figures.err", {}, limit, &timed_out);
+    throwIfInterrupted();
+    if (timed_out) {
+      figures_gap = "the figure script did not end within " + decimalText(limit, 0) +
+                    " s (ROLLSTEP_FIGURES_TIME_LIMIT) and was stopped";
+    } else if (status != 0) {
+      std::ifstream err(out + "/figures.err");
+      std::stringstream text;
+      text << err.rdbuf();
+      figures_gap = "the figure script failed (exit " + std::to_string(status) + "): " + text.str();
     }
-    rbar.finish("done");
   }
+  if (!figures_gap.empty()) warn("figures not available: " + figures_gap);
+  return figures_gap;
+}
 
-  // 4. The replay pages (interactive 3D, from each run's replay.json, log.csv, plan.csv).
-  std::vector<std::pair<std::string, std::string>> replays;  // file, title
-  std::vector<std::string> replay_failures;
+/// Renders each logged run offscreen from its log.csv: six snapshots over its traverse
+/// window (or the whole run) for the runs that feed "snapshots", and a real-speed video
+/// (ffmpeg) for the runs with `video`. A run whose pictures fail is listed, not fatal;
+/// without OSMesa or ffmpeg the gap is stated.
+ReportPictures renderSnapshotsAndVideos(const ReportInputs& in,
+                                        const std::vector<RunOutcome>& outcomes) {
+  const ExperimentSet& set = in.set;
+  const std::string& out = in.out;
+  ReportPictures pictures;
+  if (!Renderer::available(pictures.render_gap)) {
+    warn("snapshots and videos not available: " + pictures.render_gap);
+    return pictures;
+  }
+  if (!in.videos)
+    pictures.video_gap = "not made (--no-videos)";
+  else if (!onPath("ffmpeg"))
+    pictures.video_gap = "ffmpeg is not installed (Debian package ffmpeg)";
+  if (in.videos && !pictures.video_gap.empty()) warn("videos not available: " + pictures.video_gap);
+  ProgressBar rbar("rollstep report: pictures");
+  const double n = static_cast<double>(set.scenarios.size());
   for (std::size_t i = 0; i < set.scenarios.size(); ++i) {
     const Scenario& s = set.scenarios[i];
+    const RunOutcome& run = outcomes[i];
+    if (!run.log || run.log->rows() == 0) continue;
+    try {
+      sim::PlantOptions po;
+      po.robot_file = robotOf(s);
+      const sim::Plant plant(in.scenes[i], po);
+      const LogTable& log = *run.log;
+      const auto& t = log.column("time[s]");
+      if (s.feeds("snapshots")) {
+        Renderer r(plant, 400, 300);
+        const bool w = run.assessment.window.found;
+        const double t0 = w ? run.assessment.window.start : t.front();
+        const double t1 = w ? run.assessment.window.end : t.back();
+        std::vector<Image> frames;
+        for (std::size_t row : rowsBetween(log, t0, t1, 6)) {
+          throwIfInterrupted();
+          frames.push_back(r.render(log, row, "t = " + decimalText(t[row], 2) + " s"));
+        }
+        const std::string file = "snapshots_" + s.name + ".png";
+        writePng(out + "/" + file, tile(frames, 3));
+        pictures.snapshots.push_back(
+            {file, s.title + ": six moments, evenly spaced from t = " + decimalText(t0, 2) +
+                       " s to " + decimalText(t1, 2) + " s (" +
+                       (w ? "the traverse window" : "the whole run: no traverse window") + ")"});
+      }
+      if (s.video && pictures.video_gap.empty()) {
+        constexpr int kFps = 20;
+        const double dt = t.size() > 1 ? t[1] - t[0] : 0.01;
+        const std::size_t every =
+            std::max<std::size_t>(1, static_cast<std::size_t>(std::lround(1.0 / (kFps * dt))));
+        Renderer r(plant, 480, 270, true);
+        const std::string file = "video_" + s.name + ".mp4";
+        VideoWriter video(out + "/" + file, 480, 270, kFps, figuresTimeLimit());
+        for (std::size_t row = 0; row < t.size(); row += every) {
+          throwIfInterrupted();
+          video.add(r.render(log, row, s.title + "  t = " + decimalText(t[row], 1) + " s"));
+          if (row % (every * 25) == 0) {
+            rbar.update((i + static_cast<double>(row) / t.size()) / n, s.name + " video");
+          }
+        }
+        video.finish();
+        pictures.videos.push_back({file, s.title + " (" + decimalText(t.back() - t.front(), 1) +
+                                             " s at real speed, " + std::to_string(kFps) +
+                                             " frames/s)"});
+      }
+    } catch (const Interrupted&) {
+      throw;
+    } catch (const std::exception& e) {
+      warn(s.name + ": pictures failed: " + e.what());
+      pictures.failures.push_back(s.name + ": " + e.what());
+    }
+    rbar.update((i + 1) / n, s.name);
+  }
+  rbar.finish("done");
+  return pictures;
+}
+
+/// Writes an interactive 3D page (DIR/replay_<name>.html) for each run that left a log and
+/// a replay.json; a page that fails is listed, not fatal.
+ReportReplays writeReplayPages(const ReportInputs& in, const std::vector<RunOutcome>& outcomes) {
+  ReportReplays replays;
+  for (std::size_t i = 0; i < in.set.scenarios.size(); ++i) {
+    const Scenario& s = in.set.scenarios[i];
     if (!outcomes[i].log || !fs::exists(outcomes[i].dir + "/replay.json")) continue;
     const std::string file = "replay_" + s.name + ".html";
     try {
-      writeReplayPage(outcomes[i].dir, out + "/" + file, s.name + ": " + s.title);
-      replays.emplace_back(file, s.title);
+      writeReplayPage(outcomes[i].dir, in.out + "/" + file, s.name + ": " + s.title);
+      replays.pages.push_back({file, s.title});
     } catch (const std::exception& e) {
       warn(s.name + ": replay page failed: " + e.what());
-      replay_failures.push_back(s.name + ": " + e.what());
+      replays.failures.push_back(s.name + ": " + e.what());
     }
   }
+  return replays;
+}
 
-  // 5. The report.
-  Document doc;
-  doc.heading(1, "rollstep report: the paper's experiments in simulation");
-  doc.paragraph(
-      "Tachyon 3 in MuJoCo, reproducing Section 4 of the paper (full-centroidal NMPC + CBF-QP "
-      "against CBF-QP alone). Every number below is computed from the runs' own outputs "
-      "(`runs/<scenario>/log.csv`, `mpc.csv`, `summary.txt`); a run that failed is shown as failed "
-      "with its reason.");
-  doc.bullets({"Command: `" + shellCommand(argv) + "`", "Version: " + versionDescription(),
-               "Machine: " + machineDescription(),
-               "Experiments: `" + set.source + "` (quoted in full at the end)",
-               "State and terrain sources: per run, in the table below (terrain: the scene's "
-               "blocks as convex regions, or perception in closed loop from the simulated "
-               "LiDAR)."});
-
-  doc.heading(2, "Runs");
-  {
-    std::vector<std::vector<std::string>> rows;
-    for (std::size_t i = 0; i < outcomes.size(); ++i) {
-      const RunOutcome& r = outcomes[i];
-      rows.push_back({set.scenarios[i].name, set.scenarios[i].title, set.scenarios[i].terrainText(),
-                      r.passed() ? "passed" : "**FAILED**",
-                      r.passed() ? "no fall, body clear of the terrain, joints inside limits" +
-                                       std::string(set.scenarios[i].traverse ? ", traversed" : "")
-                                 : r.failureText()});
-    }
-    doc.table({"scenario", "what", "terrain", "result", "criteria / reason"}, rows);
-    doc.paragraph(
-        "Pass criteria: no fall (base tilt at most " +
-        fixed(set.criteria.max_tilt * 180.0 / M_PI, 0) +
-        " deg), the body never touched the terrain (`body_contact_periods` stays 0), every "
-        "joint inside its MJCF range (tolerance " +
-        fixed(set.criteria.joint_limit_tolerance, 3) +
-        " rad or m), and for the step scenarios the traverse completed.");
-  }
-
-  doc.heading(2, "Table 1: step traverse");
-  doc.paragraph(
-      "Traverse time: from the first MF lift-off for the climb to the last MR touch-down after the "
-      "descent; mean |v_z| and mean |w_y|: base local frame, over that window (paper's Table 1).");
-  {
-    std::vector<std::vector<std::string>> rows;
-    for (std::size_t i = 0; i < set.scenarios.size(); ++i) {
-      const Scenario& s = set.scenarios[i];
-      if (!s.feeds("table1")) continue;
-      const RunOutcome& r = outcomes[i];
-      const auto& m = r.assessment.metrics;
-      const bool have = r.log && m.has_value();
-      const std::string paper_t = s.paper.given ? fixed(s.paper.traverse_time, 0) : "-";
-      rows.push_back({s.title, have ? fixed(m->traverse_time, 2) : "not measured", paper_t,
-                      have ? fixed(m->mean_abs_vz, 4) : "not measured",
-                      s.paper.given ? fixed(s.paper.mean_abs_vz, 3) : "-",
-                      have ? fixed(m->mean_abs_wy, 4) : "not measured",
-                      s.paper.given ? fixed(s.paper.mean_abs_wy, 3) : "-",
-                      r.passed() ? "passed" : "**FAILED**: " + r.failureText()});
-    }
-    doc.table({"controller", "traverse time [s]", "paper", "mean |v_z| [m/s]", "paper",
-               "mean |w_y| [rad/s]", "paper", "run"},
-              rows);
-  }
-  bool acceptance_met = true;
-  std::string margins;  // each margin's verdict, for the summary on stdout
-  if (set.acceptance.given) {
+/// The acceptance criteria of the experiments file: on the runs, each Table 1 margin of the
+/// candidate against the baseline (both must pass to be compared); on the trials given, the
+/// candidate's success rate. --check and the summary read this verdict, the document shows it.
+ReportVerdict judgeAcceptance(const ReportInputs& in, const std::vector<RunOutcome>& outcomes) {
+  const ExperimentSet& set = in.set;
+  ReportVerdict v;
+  v.runs_given = set.acceptance.given;
+  if (v.runs_given) {
     const Acceptance& a = set.acceptance;
-    doc.heading(3, "Acceptance");
-    std::size_t ci = 0, bi = 0;
     for (std::size_t i = 0; i < set.scenarios.size(); ++i) {
-      if (set.scenarios[i].name == a.candidate) ci = i;
-      if (set.scenarios[i].name == a.baseline) bi = i;
+      if (set.scenarios[i].name == a.candidate) v.candidate = i;
+      if (set.scenarios[i].name == a.baseline) v.baseline = i;
     }
-    const RunOutcome& c = outcomes[ci];
-    const RunOutcome& b = outcomes[bi];
-    if (!c.passed() || !b.passed() || !c.assessment.metrics || !b.assessment.metrics) {
-      acceptance_met = false;
-      doc.paragraph("**Not met**: " + a.candidate + " and " + a.baseline +
-                    " must both pass to be compared (" + a.candidate + ": " +
-                    (c.passed() ? "passed" : c.failureText()) + "; " + a.baseline + ": " +
-                    (b.passed() ? "passed" : b.failureText()) + ").");
+    const RunOutcome& c = outcomes[v.candidate];
+    const RunOutcome& b = outcomes[v.baseline];
+    v.runs_compared = c.passed() && b.passed() && c.assessment.metrics && b.assessment.metrics;
+    if (!v.runs_compared) {
+      v.runs_met = false;
     } else {
       const Table1Metrics& cm = *c.assessment.metrics;
       const Table1Metrics& bm = *b.assessment.metrics;
-      std::vector<std::vector<std::string>> rows;
-      const auto row = [&](const char* what, double cv, double bv, double need) {
+      const auto margin = [&](const char* metric, double cv, double bv, double need) {
         const double change = relativeChange(cv, bv);
         const bool ok = meetsMargin(change, need);
-        acceptance_met = acceptance_met && ok;
-        rows.push_back(
-            {what, percent(change), "at most " + percent(need), ok ? "met" : "**not met**"});
-        margins += (margins.empty() ? "" : "; ") + std::string(what) + " " + percent(change) +
-                   " (at most " + percent(need) + ") " + (ok ? "met" : "not met");
+        v.runs_met = v.runs_met && ok;
+        v.margins.push_back({metric, change, need, ok});
       };
-      row("traverse time", cm.traverse_time, bm.traverse_time, a.traverse_time);
-      row("mean |v_z|", cm.mean_abs_vz, bm.mean_abs_vz, a.mean_abs_vz);
-      row("mean |w_y|", cm.mean_abs_wy, bm.mean_abs_wy, a.mean_abs_wy);
-      doc.table({a.candidate + " vs " + a.baseline, "change", "required", "result"}, rows);
-      // The traverse time is bounded by the distance the window spans and the speed the
-      // robot may go: say what the margin asks of the candidate.
-      if (cm.traverse_time > 0 && bm.traverse_time > 0 && a.traverse_time > -1) {
-        doc.paragraph(
-            "Mean speed over the traverse window (base travel / traverse time): " + a.candidate +
-            " " + fixed(cm.distance, 3) + " m in " + fixed(cm.traverse_time, 2) + " s, " +
-            fixed(cm.distance / cm.traverse_time, 3) + " m/s; " + a.baseline + " " +
-            fixed(bm.distance, 3) + " m in " + fixed(bm.traverse_time, 2) + " s, " +
-            fixed(bm.distance / bm.traverse_time, 3) + " m/s. The traverse margin asks " +
-            a.candidate + " to cover its window in " +
-            fixed((1 + a.traverse_time) * bm.traverse_time, 2) + " s, a mean speed of " +
-            fixed(cm.distance / ((1 + a.traverse_time) * bm.traverse_time), 3) +
-            " m/s; compare the commanded speed in the scenarios' commands below.");
-      }
+      margin("traverse time", cm.traverse_time, bm.traverse_time, a.traverse_time);
+      margin("mean |v_z|", cm.mean_abs_vz, bm.mean_abs_vz, a.mean_abs_vz);
+      margin("mean |w_y|", cm.mean_abs_wy, bm.mean_abs_wy, a.mean_abs_wy);
     }
   }
-
-  const auto figure = [&](const std::string& file, const std::string& caption,
-                          const std::string& needs) {
-    if (fs::exists(out + "/" + file)) {
-      doc.image(file, caption);
-    } else if (!figures_gap.empty()) {
-      doc.paragraph("Figure not available: " + figures_gap);
-    } else if (const std::string why = figureError(out, file.substr(0, file.find('.')));
-               !why.empty()) {
-      doc.paragraph("Figure not drawn: " + why);
-      warn("figure " + file + " not drawn: " + why);
-    } else {
-      doc.paragraph("Figure not drawn: " + needs);
-    }
-  };
-  doc.heading(2, "Fig. 2: step20 time histories");
-  figure("fig2.png",
-         "Base local v_z, base local w_y, MF and MR wheel heights over time for each controller "
-         "(shaded: the traverse window).",
-         "no table1 run left a log");
-  doc.heading(2, "Fig. 4: stairs2 histories");
-  figure("fig4.png",
-         "Base velocity (local), joint positions with their limits dashed, wheel heights.",
-         "no fig4 run left a log");
-  doc.heading(2, "Fig. 6: CPU time of every MPC update");
-  const std::string updates = mpcUpdateDescription(set, outcomes);
-  figure("fig6.png",
-         "Wall time of each MPC update over the run" +
-             (updates.empty() ? std::string() : " (" + updates + ")") + ", on " +
-             machineDescription() +
-             ". Machine-dependent: the one set of numbers in this report that re-running does not "
-             "reproduce exactly.",
-         "no fig6 run left an mpc.csv");
-  doc.heading(2, "Fig. 8: joint commands with and without the internal state integrator");
-  figure("fig8.png",
-         "Target (command) and actual joint positions with the internal state integrator and with "
-         "naive state feedback (`--integrator naive`).",
-         "no fig8 run left a log");
-
-  doc.heading(2, "Perception: top view");
-  figure("map.png",
-         "The elevation map (colour: height), the convex foothold regions in use (outlines) and "
-         "the planned footholds (crosses) at three moments of each run with terrain perception "
-         "(`runs/<scenario>/map/`, docs/PERCEPTION.md).",
-         "no map run (figures: [map], terrain: perception) left a map log");
-
-  doc.heading(2, "Snapshots");
-  if (!render_gap.empty()) {
-    doc.paragraph("Snapshots not available: " + render_gap);
-  } else if (snapshots.empty()) {
-    doc.paragraph("No snapshots: no snapshots run left a log.");
+  v.trials_judged = !in.trial_dirs.empty() && in.file_acceptance.given;
+  if (v.trials_judged) {
+    const Acceptance& a = in.file_acceptance;
+    v.trials = compareTrials(in.trials.results, a.candidate, a.baseline);
+    v.trials_met =
+        v.trials.candidate_trials > 0 && v.trials.candidateSuccessRate() >= a.trial_success_rate;
   }
-  for (const auto& [file, caption] : snapshots) doc.image(file, caption);
-  doc.heading(2, "Videos");
-  if (!render_gap.empty()) {
-    doc.paragraph("Videos not available: " + render_gap);
-  } else if (!video_gap.empty()) {
-    doc.paragraph("Videos not available: " + video_gap);
-  }
-  for (const auto& [file, caption] : videos) doc.video(file, caption);
-  for (const std::string& f : video_failures) doc.paragraph("Pictures failed: " + f);
-  doc.heading(2, "Replays");
-  doc.paragraph(
-      "Each run in 3D, in the browser from disk: the robot drawn from its model file, the "
-      "terrain, the contact forces, the foothold regions and the MPC's plan in use at the "
-      "time of a slider, with plots of the main signals (docs/REPLAY.md).");
-  if (replays.empty() && replay_failures.empty()) doc.paragraph("No run left a replay.");
-  {
-    std::vector<std::string> links;
-    for (const auto& [file, title] : replays) links.push_back("[" + title + "](" + file + ")");
-    if (!links.empty()) doc.bullets(links);
-  }
-  for (const std::string& f : replay_failures) doc.paragraph("Replay failed: " + f);
+  return v;
+}
 
-  bool trials_met = true;
-  doc.heading(2, "Randomized trials");
-  if (o.trials.empty()) {
-    doc.paragraph(
-        "No trials in this report: run `rollstep trials --scenario step20 --controller nmpc "
-        "--seeds 0-29 --out DIR` (and the same with the other controller), then `rollstep report "
-        "--trials DIR`.");
-  } else {
-    std::string from;
-    for (const std::string& d : o.trials) {
-      const std::string text = literalText(d);  // a folder's name shown as it is
-      from +=
-          (from.empty() ? "" : ", ") + (!text.empty() && text[0] == '`' ? text : "`" + text + "`");
-    }
-    doc.paragraph("Results collected from " + from +
-                  " (step height, friction, start offset and sensor noise scale drawn from each "
-                  "trial's seed; the sensor noise reaches the runs whose state comes from the "
-                  "estimator, `--state-source inekf`). Metrics over the passed "
-                  "trials: mean ± sample standard deviation (min to max).");
-    std::vector<std::vector<std::string>> rows;
-    const auto cell = [](const Spread& s, int digits) {
-      if (s.n == 0) return std::string("-");
-      return fixed(s.mean, digits) + " ± " + fixed(s.stddev, digits) + " (" + fixed(s.min, digits) +
-             " to " + fixed(s.max, digits) + ")";
-    };
-    for (const TrialAggregate& a : trial_aggregates) {
-      rows.push_back({a.scenario, a.controller, std::to_string(a.trials), std::to_string(a.passed),
-                      fixed(100.0 * a.successRate(), 1) + " %", cell(a.traverse_time, 2),
-                      cell(a.mean_abs_vz, 4), cell(a.mean_abs_wy, 4)});
-    }
-    doc.table({"scenario", "controller", "trials", "passed", "success rate", "traverse time [s]",
-               "mean |v_z| [m/s]", "mean |w_y| [rad/s]"},
-              rows);
-    if (!trials.uncounted.empty()) {
-      doc.paragraph("Not counted: " + std::to_string(trials.uncounted.size()) + " of " +
-                    std::to_string(trials.folders) + " trial folders hold no result:");
-      std::vector<std::string> items;
-      for (const UncountedTrial& u : trials.uncounted) {
-        items.push_back(literalText(u.dir) + ": " + literalText(u.reason));
-      }
-      doc.bullets(items);
-    }
-    for (const TrialAggregate& a : trial_aggregates) {
-      if (!a.failures.empty()) {
-        doc.paragraph("Failed trials of " + a.scenario + ":");
-        doc.bullets(a.failures);
-      }
-    }
-    if (file_acceptance.given) {
-      // The acceptance's trial part: the candidate's success rate; beside it the Table 1
-      // margins over the seeds both controllers passed (the same terrains), for reference.
-      const Acceptance& a = file_acceptance;
-      const PairedComparison c = compareTrials(trial_results, a.candidate, a.baseline);
-      doc.heading(3, "Acceptance over the trials");
-      if (c.candidate_trials == 0) {
-        trials_met = false;
-        doc.paragraph("**Not met**: no trials of " + a.candidate + " among the results.");
-      } else {
-        const bool ok = c.candidateSuccessRate() >= a.trial_success_rate;
-        trials_met = ok;
-        std::string text = a.candidate + ": " + std::to_string(c.candidate_passed) + " of " +
-                           std::to_string(c.candidate_trials) + " trials passed (" +
-                           fixed(100.0 * c.candidateSuccessRate(), 1) + " %; required at least " +
-                           fixed(100.0 * a.trial_success_rate, 1) +
-                           " %): " + (ok ? "met" : "**not met**") + ".";
-        if (c.baseline_trials > 0) {
-          text += " " + a.baseline + ": " + std::to_string(c.baseline_passed) + " of " +
-                  std::to_string(c.baseline_trials) + " passed (" +
-                  fixed(100.0 * c.baselineSuccessRate(), 1) + " %).";
-        }
-        doc.paragraph(text);
-      }
-      if (c.paired > 0) {
-        std::vector<std::vector<std::string>> paired_rows;
-        const auto row = [&](const char* what, double cv, double bv, double need, int digits) {
-          const double change = relativeChange(cv, bv);
-          const bool ok = meetsMargin(change, need);
-          paired_rows.push_back({what, fixed(cv, digits), fixed(bv, digits), percent(change),
-                                 "at most " + percent(need), ok ? "met" : "not met"});
-        };
-        row("traverse time [s]", c.candidate_traverse_time, c.baseline_traverse_time,
-            a.traverse_time, 2);
-        row("mean |v_z| [m/s]", c.candidate_mean_abs_vz, c.baseline_mean_abs_vz, a.mean_abs_vz, 4);
-        row("mean |w_y| [rad/s]", c.candidate_mean_abs_wy, c.baseline_mean_abs_wy, a.mean_abs_wy,
-            4);
-        doc.paragraph("Table 1 over the " + std::to_string(c.paired) +
-                      " seeds that both controllers passed (the same step height, friction and "
-                      "start offset for both; means). For reference: the margins are judged on "
-                      "the single runs above.");
-        doc.table({"metric", a.candidate, a.baseline, "change", "margin", "result"}, paired_rows);
-      } else if (c.baseline_trials > 0) {
-        doc.paragraph("No seed passed by both " + a.candidate + " and " + a.baseline + " (of " +
-                      std::to_string(c.common) + " run by both): no paired Table 1.");
-      }
-    }
-  }
-
-  doc.heading(2, "How each run was made");
-  for (std::size_t i = 0; i < outcomes.size(); ++i) {
-    const RunOutcome& r = outcomes[i];
-    doc.heading(3, set.scenarios[i].name);
-    doc.paragraph("Outputs: `runs/" + set.scenarios[i].name + "/`; exit status " +
-                  std::to_string(r.exit_status) + ".");
-    doc.code(r.command);
-    if (!r.summary.empty()) doc.code(r.summary);
-    if (!r.error.empty()) doc.paragraph("Error: " + r.error);
-  }
-  doc.heading(2, "Configuration");
-  doc.paragraph("The experiments file `" + set.source +
-                "`. Settings not given in a run's options are the defaults documented in "
-                "`config/control.yaml`, `config/ocp.yaml` and the robot files of `robots/`.");
-  doc.code(set.text);
-
-  writeFileAtomically(out + "/report.md", doc.markdown());
-  writeFileAtomically(out + "/report.html", doc.html("rollstep report"));
-
+/// The summary on stdout: runs passed and failed, the acceptance verdict, each run's result
+/// and metrics, the margins. Returns the exit status (3 under --check when a run failed or
+/// the acceptance was not met).
+int printSummary(const ReportInputs& in, const ReportResults& r, bool check) {
+  const std::vector<RunOutcome>& outcomes = r.outcomes;
   int failed = 0;
-  for (const RunOutcome& r : outcomes) failed += r.passed() ? 0 : 1;
+  for (const RunOutcome& o : outcomes) failed += o.passed() ? 0 : 1;
   std::printf("rollstep report: %zu runs, %d passed, %d failed", outcomes.size(),
               static_cast<int>(outcomes.size()) - failed, failed);
   // The runs' margins and, when trials were given, the candidate's trial success rate.
-  const bool judged = set.acceptance.given || (file_acceptance.given && !o.trials.empty());
-  acceptance_met = acceptance_met && trials_met;
-  if (judged) std::printf("; acceptance %s", acceptance_met ? "met" : "NOT met");
+  const bool acceptance_met = r.verdict.met();
+  if (r.verdict.judged()) std::printf("; acceptance %s", acceptance_met ? "met" : "NOT met");
   std::printf("\n");
   for (std::size_t i = 0; i < outcomes.size(); ++i) {
     std::printf("  %-22s %s%s\n", outcomes[i].name.c_str(),
@@ -727,11 +416,59 @@ int writeReport(const ReportOptions& o, const ExperimentSet& set, const Acceptan
                   m.traverse_time, m.mean_abs_vz, m.mean_abs_wy);
     }
   }
+  std::string margins;  // each margin's verdict
+  for (const MarginVerdict& m : r.verdict.margins) {
+    margins += (margins.empty() ? "" : "; ") + m.metric + " " + percentText(m.change) +
+               " (at most " + percentText(m.margin) + ") " + (m.met ? "met" : "not met");
+  }
   if (!margins.empty()) std::printf("  margins    %s\n", margins.c_str());
-  std::printf("  report     %s/report.html (also report.md)\n", out.c_str());
+  std::printf("  report     %s/report.html (also report.md)\n", in.out.c_str());
   std::fflush(stdout);
-  if (o.check && (failed > 0 || !acceptance_met)) return 3;
+  if (check && (failed > 0 || !acceptance_met)) return 3;
   return 0;
+}
+
+/// The report's stages in order, into the folder runReport prepared.
+int writeReport(const ReportInputs& in, bool check) {
+  std::error_code ec;
+  fs::create_directories(in.out + "/runs", ec);
+  if (ec) throw OutputError("'" + in.out + "/runs': cannot create the directory: " + ec.message());
+
+  ReportResults results;
+  results.outcomes = runScenarios(in);
+  results.figures_gap = drawFigures(in, results.outcomes);
+  results.pictures = renderSnapshotsAndVideos(in, results.outcomes);
+  results.replays = writeReplayPages(in, results.outcomes);
+  results.verdict = judgeAcceptance(in, results.outcomes);
+
+  const ComposedReport report = composeReport(in, results);
+  for (const std::string& w : report.warnings) warn(w);
+  writeFileAtomically(in.out + "/report.md", report.document.markdown());
+  writeFileAtomically(in.out + "/report.html", report.document.html("rollstep report"));
+
+  return printSummary(in, results, check);
+}
+
+/// Loads and checks the inputs, prepares the report's folder (its old files removed; on any
+/// failure DIR/FAILED says why) and writes the report.
+int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
+  // Inputs first: nothing is written before they load.
+  const ReportInputs in = loadInputs(o, argv);
+
+  // The report's files as a whole: removed now, written at the end; a run that fails or is
+  // interrupted leaves DIR/FAILED with the reason instead (each run's folder its own).
+  const OutputFolder folder("report", in.out,
+                            {"report.md", "report.html", "figures.json", "figures.log",
+                             "figures.err", "fig2.png", "fig4.png", "fig6.png", "fig8.png",
+                             "map.png", "snapshots_*", "video_*", "replay.js", "replay_*"});
+  folder.create();
+  folder.begin();
+  try {
+    return writeReport(in, o.check);
+  } catch (const std::exception& e) {
+    folder.fail(e.what());
+    throw;
+  }
 }
 
 }  // namespace
