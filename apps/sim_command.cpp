@@ -30,8 +30,8 @@
 
 #include "cli_util.hpp"
 #include "commands.hpp"
-#include "output_folder.hpp"
 #include "experiments/replay.hpp"
+#include "output_folder.hpp"
 #include "rollstep/centroidal/centroidal_ocp.hpp"
 #include "rollstep/common/interrupt.hpp"
 #include "rollstep/common/number_text.hpp"
