@@ -231,6 +231,31 @@ std::string perceptionText(const sim::OnlinePerception& p, std::uint64_t refused
   return text;
 }
 
+/// The summary's line on the speed rule: the trot's timing and where the command was slowed
+/// down at a step (within the run's duration); empty without speed adaptation.
+std::string speedRuleText(const sim::NmpcController& nmpc, double duration) {
+  const control::ControlPipeline& pipeline = nmpc.pipeline();
+  if (!pipeline.settings().ocp.speed_adaptation) return "";
+  std::string text = "  speed      ";
+  const planning::TrotTiming& t = nmpc.trotTiming();
+  if (t.period > 0.0) {
+    text += format("trot period %.2f s, duty %.2f (swing %.2f s); step speed limit %.2f m/s",
+                   t.period, t.duty, t.swing, pipeline.stepSpeedLimit());
+  } else {
+    text += "no trot: the command ramped only";
+  }
+  int slowdowns = 0;
+  for (const planning::StepSlowdown& d : pipeline.stepSlowdowns()) {
+    if (d.start >= duration) continue;
+    text += format("%s slowed down at a step from %.2f to %.2f m/s, %.2f-%.2f s",
+                   slowdowns == 0 ? ";" : ",", d.commanded_speed, d.limited_speed, d.start,
+                   std::min(d.end, duration));
+    ++slowdowns;
+  }
+  if (slowdowns == 0 && t.period > 0.0) text += "; not slowed down";
+  return text + "\n";
+}
+
 void runSim(const SimOptions& o, bool scene_given) {
   mju_user_warning = printMujocoWarning;
   // Inputs: nothing is written before they have all loaded.
@@ -262,8 +287,8 @@ void runSim(const SimOptions& o, bool scene_given) {
     const std::string description =
         o.robot_description.empty() ? defaultRobotDescription() : o.robot_description;
     const centroidal::RobotOcpDescription robot = centroidal::loadRobotOcpDescription(description);
-    control::ControlSettings settings;
-    if (!o.control_config.empty()) settings = control::loadControlSettings(o.control_config);
+    control::ControlSettings settings = control::loadControlSettings(
+        o.control_config.empty() ? defaultNmpcConfig(o.terrain == "perception") : o.control_config);
     if (o.mpc_timing == "deterministic") settings.mpc.timing = control::MpcTiming::Deterministic;
     if (o.mpc_timing == "asynchronous") settings.mpc.timing = control::MpcTiming::Asynchronous;
     if (o.integrator == "internal") settings.integrator.mode = control::IntegratorMode::Internal;
@@ -453,6 +478,7 @@ void runSim(const SimOptions& o, bool scene_given) {
                          static_cast<unsigned long long>(c.watchdog_trips),
                          static_cast<unsigned long long>(c.holding_ticks),
                          static_cast<unsigned long long>(c.stale_solutions));
+      mpc_text += speedRuleText(*nmpc_controller, o.duration);
       if (c.late_touchdown_ticks > 0) {
         mpc_text += format("  landing    %llu ticks with a late touch-down under way\n",
                            static_cast<unsigned long long>(c.late_touchdown_ticks));
