@@ -459,6 +459,7 @@ void runSim(const SimOptions& o, bool scene_given) {
         writeFileAtomically(files.violations.string(), nmpc_controller->violationsCsv());
       }
       const control::PipelineCounters& c = nmpc_controller->pipeline().counters();
+      const control::MpcRunner& runner = nmpc_controller->pipeline().runner();
       double solve_sum = 0.0, solve_max = 0.0;
       const auto& updates = nmpc_controller->mpcUpdates();
       for (size_t k = 1; k < updates.size(); ++k) {  // the first is the initial cold solve
@@ -479,6 +480,11 @@ void runSim(const SimOptions& o, bool scene_given) {
                          static_cast<unsigned long long>(c.holding_ticks),
                          static_cast<unsigned long long>(c.stale_solutions));
       mpc_text += speedRuleText(*nmpc_controller, o.duration);
+      if (runner.solveExceptions() > 0) {
+        mpc_text += format("  MPC errors %llu solves failed on an exception, the first: %s\n",
+                           static_cast<unsigned long long>(runner.solveExceptions()),
+                           runner.firstSolveException());
+      }
       if (c.late_touchdown_ticks > 0) {
         mpc_text += format("  landing    %llu ticks with a late touch-down under way\n",
                            static_cast<unsigned long long>(c.late_touchdown_ticks));
