@@ -626,9 +626,11 @@ void registerSimCommand(CLI::App& app) {
   pipeline_only.push_back(
       cmd->add_option("--control-config", options->control_config,
                       "nmpc, cbfqp only: YAML control settings (config/control.yaml lists every "
-                      "key and its default; the OCP's and the solver's keys nest in it). cbfqp "
-                      "default: config/baseline.yaml (the baseline's tuning; "
-                      "$ROLLSTEP_CONFIG_DIR/baseline.yaml if set)")
+                      "key and its default; the OCP's and the solver's keys nest in it). nmpc "
+                      "default: config/nmpc.yaml (with --terrain perception "
+                      "config/nmpc_perception.yaml): walks and climbs steps at any speed, the "
+                      "trot timed for the command; cbfqp default: config/baseline.yaml (the "
+                      "baseline's tuning); $ROLLSTEP_CONFIG_DIR/... if set")
           ->check(kNotEmpty));
   pipeline_only.push_back(cmd->add_option("--robot-description", options->robot_description,
                                           "nmpc, cbfqp only: the robot's OCP description "

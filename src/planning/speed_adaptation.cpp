@@ -81,6 +81,9 @@ TrotTiming adaptTrotToSpeed(double speed, const SpeedAdaptationLimits& limits) {
   t.period = t.swing + t.stance;
   t.duty = t.stance / t.period;
   t.speed_limited = v > t.step_speed_limit;
+  const double v_gait = std::min(v, t.step_speed_limit);
+  t.max_edge_hold =
+      v_gait > 0.0 ? limits.stance_stroke / v_gait : std::numeric_limits<double>::infinity();
   return t;
 }
 

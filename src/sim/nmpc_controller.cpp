@@ -1,5 +1,6 @@
 #include "rollstep/sim/nmpc_controller.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
@@ -109,6 +110,9 @@ NmpcController::NmpcController(const Plant& plant, const centroidal::RobotOcpDes
         schedule, control::turnRadius(model, robot.contact_frames, robot.nominal_joint_positions));
     adapted.ocp.gait_period = timing.period;
     adapted.ocp.trot_duty = timing.duty;
+    adapted.ocp.step_up_max_hold = std::min(settings.ocp.step_up_max_hold, timing.max_edge_hold);
+    adapted.ocp.step_down_max_hold =
+        std::min(settings.ocp.step_down_max_hold, timing.max_edge_hold);
     trot_timing_ = timing;
   }
   pipeline_ = std::make_unique<control::ControlPipeline>(robot, adapted, terrain, gait,

@@ -187,7 +187,7 @@ struct OcpSettings {
   double swing_knee_speed_share = 0.75;
   /// Share of the hips' sweep (the wheel's travel over the narrowest hip range at the
   /// nominal leg length) the body may pass over a stance foot held at a riser, in (0, 10].
-  double stance_stroke_share = 1.2;
+  double stance_stroke_share = 1.0;
   /// [m] A step counts for the slowdown when it lies within this distance ahead of or behind
   /// a nominal foot along the travel. In [0, 10].
   double step_speed_reach = 0.3;

@@ -18,6 +18,8 @@
 // - From rest and between commands the reference speed changes at most `max_acceleration`
 //   (a staircase of short segments): a step in the command asks the body for an impulse that
 //   pitches it and throws the swings.
+// - The gait's waits at a step's edge (edge_holds.hpp) keep a foot at the edge while the body
+//   passes: at most stance_stroke / speed.
 //
 // Everything here runs once, when a command schedule is set (it allocates); nothing is
 // real-time.
@@ -48,6 +50,11 @@ struct TrotTiming {
   double duty = 0.0;              ///< stance / period
   double step_speed_limit = 0.0;  ///< [m/s] the fastest a step can be crossed with this rule
   bool speed_limited = false;     ///< the speed asked exceeds step_speed_limit
+  /// [s] The longest the gait may wait at a step's edge (every foot in stance while the body
+  /// rolls on): a foot at the edge cannot roll on, so the body may pass over it for at most
+  /// stance_stroke / speed (at the speed the gait is timed for: at most the step speed
+  /// limit); infinite at speed 0.
+  double max_edge_hold = 0.0;
 };
 
 /// The trot timed for `speed` [m/s] (its magnitude; the timing of speed 0 is the low-speed
