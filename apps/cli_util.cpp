@@ -124,6 +124,10 @@ std::string configFile(const std::string& name) {
 
 std::string defaultBaselineConfig() { return configFile("baseline.yaml"); }
 
+std::string defaultNmpcConfig(bool perception) {
+  return configFile(perception ? "nmpc_perception.yaml" : "nmpc.yaml");
+}
+
 std::string defaultExperimentsFile() { return configFile("experiments.yaml"); }
 
 }  // namespace rollstep::apps

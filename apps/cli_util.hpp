@@ -30,6 +30,10 @@ std::string configFile(const std::string& name);
 /// variable is set, else the source tree's config/baseline.yaml.
 std::string defaultBaselineConfig();
 
+/// The NMPC's default control settings: configFile("nmpc.yaml"), on terrain from perception
+/// configFile("nmpc_perception.yaml").
+std::string defaultNmpcConfig(bool perception);
+
 /// The experiments of `rollstep report` and `rollstep trials`: configFile("experiments.yaml").
 std::string defaultExperimentsFile();
 

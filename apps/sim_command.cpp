@@ -318,6 +318,31 @@ std::string perceptionText(const sim::OnlinePerception& p, std::uint64_t refused
   return text;
 }
 
+/// The summary's line on the speed rule: the trot's timing and where the command was slowed
+/// down at a step (within the run's duration); empty without speed adaptation.
+std::string speedRuleText(const sim::NmpcController& nmpc, double duration) {
+  const control::ControlPipeline& pipeline = nmpc.pipeline();
+  if (!pipeline.settings().ocp.speed_adaptation) return "";
+  std::string text = "  speed      ";
+  const planning::TrotTiming& t = nmpc.trotTiming();
+  if (t.period > 0.0) {
+    text += format("trot period %.2f s, duty %.2f (swing %.2f s); step speed limit %.2f m/s",
+                   t.period, t.duty, t.swing, pipeline.stepSpeedLimit());
+  } else {
+    text += "no trot: the command ramped only";
+  }
+  int slowdowns = 0;
+  for (const planning::StepSlowdown& d : pipeline.stepSlowdowns()) {
+    if (d.start >= duration) continue;
+    text += format("%s slowed down at a step from %.2f to %.2f m/s, %.2f-%.2f s",
+                   slowdowns == 0 ? ";" : ",", d.commanded_speed, d.limited_speed, d.start,
+                   std::min(d.end, duration));
+    ++slowdowns;
+  }
+  if (slowdowns == 0 && t.period > 0.0) text += "; not slowed down";
+  return text + "\n";
+}
+
 void runSim(const SimOptions& o, bool scene_given) {
   mju_user_warning = printMujocoWarning;
   // Inputs: nothing is written before they have all loaded.
@@ -353,8 +378,8 @@ void runSim(const SimOptions& o, bool scene_given) {
         o.robot_description.empty() ? defaultRobotDescription() : o.robot_description;
     const centroidal::RobotOcpDescription robot = centroidal::loadRobotOcpDescription(description);
     checkContactOffset(robot, description, plant);
-    control::ControlSettings settings;
-    if (!o.control_config.empty()) settings = control::loadControlSettings(o.control_config);
+    control::ControlSettings settings = control::loadControlSettings(
+        o.control_config.empty() ? defaultNmpcConfig(o.terrain == "perception") : o.control_config);
     if (o.mpc_timing == "deterministic") settings.mpc.timing = control::MpcTiming::Deterministic;
     if (o.mpc_timing == "asynchronous") settings.mpc.timing = control::MpcTiming::Asynchronous;
     if (o.integrator == "internal") settings.integrator.mode = control::IntegratorMode::Internal;
@@ -543,6 +568,7 @@ void runSim(const SimOptions& o, bool scene_given) {
         writeFileAtomically(files.violations.string(), nmpc_controller->violationsCsv());
       }
       const control::PipelineCounters& c = nmpc_controller->pipeline().counters();
+      const control::MpcRunner& runner = nmpc_controller->pipeline().runner();
       double solve_sum = 0.0, solve_max = 0.0;
       const auto& updates = nmpc_controller->mpcUpdates();
       for (size_t k = 1; k < updates.size(); ++k) {  // the first is the initial cold solve
@@ -562,6 +588,12 @@ void runSim(const SimOptions& o, bool scene_given) {
                          static_cast<unsigned long long>(c.watchdog_trips),
                          static_cast<unsigned long long>(c.holding_ticks),
                          static_cast<unsigned long long>(c.stale_solutions));
+      mpc_text += speedRuleText(*nmpc_controller, o.duration);
+      if (runner.solveExceptions() > 0) {
+        mpc_text += format("  MPC errors %llu solves failed on an exception, the first: %s\n",
+                           static_cast<unsigned long long>(runner.solveExceptions()),
+                           runner.firstSolveException());
+      }
       if (c.late_touchdown_ticks > 0) {
         mpc_text += format("  landing    %llu ticks with a late touch-down under way\n",
                            static_cast<unsigned long long>(c.late_touchdown_ticks));
@@ -710,9 +742,11 @@ void registerSimCommand(CLI::App& app) {
   pipeline_only.push_back(
       cmd->add_option("--control-config", options->control_config,
                       "nmpc, cbfqp only: YAML control settings (config/control.yaml lists every "
-                      "key and its default; the OCP's and the solver's keys nest in it). cbfqp "
-                      "default: config/baseline.yaml (the baseline's tuning; "
-                      "$ROLLSTEP_CONFIG_DIR/baseline.yaml if set)")
+                      "key and its default; the OCP's and the solver's keys nest in it). nmpc "
+                      "default: config/nmpc.yaml (with --terrain perception "
+                      "config/nmpc_perception.yaml): walks and climbs steps at any speed, the "
+                      "trot timed for the command; cbfqp default: config/baseline.yaml (the "
+                      "baseline's tuning); $ROLLSTEP_CONFIG_DIR/... if set")
           ->check(kNotEmpty));
   pipeline_only.push_back(cmd->add_option("--robot-description", options->robot_description,
                                           "nmpc, cbfqp only: the robot's OCP description "

@@ -112,7 +112,7 @@ TrialResult runTrial(const TrialsOptions& o, const ExperimentSet& set, const Sce
     fs::create_directories(dir + "/sim");
     writeFileAtomically(dir + "/scene.yaml", sim::toYaml(scene));
     writeFileAtomically(dir + "/sensors.yaml", trialSensorNoise(p).toYaml());
-    Scenario trial = s;
+    Scenario trial = trialScenario(s, p);
     const std::vector<std::string> extra = trialSimArgs(dir + "/sensors.yaml");
     trial.args.insert(trial.args.end(), extra.begin(), extra.end());
     const RunOutcome run =

@@ -221,8 +221,13 @@ ExperimentSet parseExperimentSet(const std::string& text, const std::string& sou
                   [&](const yaml::Node& v, const std::string& k) {
                     range(r, -10.0, 10.0)(v, k, t.start_offset_min, t.start_offset_max);
                   }},
-                 {"sensor_noise", [&](const yaml::Node& v, const std::string& k) {
+                 {"sensor_noise",
+                  [&](const yaml::Node& v, const std::string& k) {
                     range(r, 0.0, 100.0)(v, k, t.sensor_noise_min, t.sensor_noise_max);
+                  }},
+                 {"speed", [&](const yaml::Node& v, const std::string& k) {
+                    range(r, 0.001, 1.8)(v, k, t.speed_min, t.speed_max);
+                    t.has_speed = true;
                   }}});
        }},
       {"scenarios",

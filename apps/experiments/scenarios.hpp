@@ -71,6 +71,10 @@ struct TrialRanges {
   double friction_min = 0.6, friction_max = 1.0;           ///< terrain friction
   double start_offset_min = -0.2, start_offset_max = 0.2;  ///< [m] added to start_x
   double sensor_noise_min = 0.5, sensor_noise_max = 1.5;   ///< scale of the sensor noise
+  /// [m/s] The command speed (optional): each trial's --vx, or its --command schedule's
+  /// speeds, scaled to a speed drawn here (trialScenario).
+  bool has_speed = false;
+  double speed_min = 0.05, speed_max = 0.5;
 };
 
 struct ExperimentSet {

@@ -4,6 +4,7 @@
 #include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <map>
 #include <set>
@@ -100,7 +101,73 @@ TrialParameters drawTrial(std::uint64_t seed, const TrialRanges& r) {
   p.friction = rounded(rng.uniform(r.friction_min, r.friction_max));
   p.start_offset = rounded(rng.uniform(r.start_offset_min, r.start_offset_max));
   p.sensor_noise = rounded(rng.uniform(r.sensor_noise_min, r.sensor_noise_max));
+  if (r.has_speed) p.speed = rounded(rng.uniform(r.speed_min, r.speed_max));
   return p;
+}
+
+namespace {
+
+/// Splits "a,b,c" at `separator`.
+std::vector<std::string> split(const std::string& text, char separator) {
+  std::vector<std::string> parts;
+  std::size_t start = 0;
+  while (true) {
+    const std::size_t at = text.find(separator, start);
+    parts.push_back(text.substr(start, at == std::string::npos ? std::string::npos : at - start));
+    if (at == std::string::npos) return parts;
+    start = at + 1;
+  }
+}
+
+double numberIn(const std::string& text, const std::string& what) {
+  char* end = nullptr;
+  const double v = std::strtod(text.c_str(), &end);
+  if (text.empty() || end != text.c_str() + text.size() || !std::isfinite(v)) {
+    throw std::invalid_argument("trial speed: '" + text + "' in " + what + " is not a number");
+  }
+  return v;
+}
+
+}  // namespace
+
+Scenario trialScenario(const Scenario& s, const TrialParameters& p) {
+  if (p.speed <= 0.0) return s;
+  Scenario out = s;
+  for (std::size_t i = 0; i + 1 < out.args.size(); ++i) {
+    if (out.args[i] == "--vx") {
+      const double v = numberIn(out.args[i + 1], "--vx");
+      if (v == 0.0) return s;
+      out.args[i + 1] = shortestNumberText(std::copysign(p.speed, v));
+      out.duration = s.duration * std::abs(v) / p.speed + kTrialSpeedMargin;
+      return out;
+    }
+    if (out.args[i] == "--command") {
+      // T:VX[:VY[:YAW]] entries: scale the speeds by k, the times by 1 / k.
+      std::vector<std::vector<std::string>> entries;
+      double fastest = 0.0;
+      for (const std::string& entry : split(out.args[i + 1], ',')) {
+        entries.push_back(split(entry, ':'));
+        if (entries.back().size() < 2) {
+          throw std::invalid_argument("trial speed: --command entry '" + entry + "' has no speed");
+        }
+        fastest = std::max(fastest, std::abs(numberIn(entries.back()[1], "--command")));
+      }
+      if (fastest == 0.0) return s;
+      const double k = p.speed / fastest;
+      std::string text;
+      for (const std::vector<std::string>& e : entries) {
+        text += text.empty() ? "" : ",";
+        text += shortestNumberText(rounded(numberIn(e[0], "--command") / k));
+        for (std::size_t j = 1; j < e.size(); ++j) {
+          text += ":" + shortestNumberText(rounded(numberIn(e[j], "--command") * k));
+        }
+      }
+      out.args[i + 1] = text;
+      out.duration = s.duration / k + kTrialSpeedMargin;
+      return out;
+    }
+  }
+  return s;
 }
 
 sim::SceneConfig trialScene(const sim::SceneConfig& base, const TrialParameters& p) {
@@ -177,6 +244,9 @@ std::string toYaml(const TrialResult& r) {
   out += "friction: " + shortestNumberText(r.parameters.friction) + "\n";
   out += "start_offset: " + shortestNumberText(r.parameters.start_offset) + "\n";
   out += "sensor_noise: " + shortestNumberText(r.parameters.sensor_noise) + "\n";
+  if (r.parameters.speed > 0.0) {
+    out += "speed: " + shortestNumberText(r.parameters.speed) + "\n";
+  }
   out += std::string("sensor_noise_applied: ") + (r.sensor_noise_applied ? "true" : "false") + "\n";
   out += std::string("passed: ") + (r.passed ? "true" : "false") + "\n";
   out += "failure: " + quoted(r.failure) + "\n";
@@ -257,6 +327,8 @@ TrialResult parseTrialResult(const std::string& text, const std::string& source)
       r.parameters.start_offset = num(-10.0, 10.0);
     } else if (key == "sensor_noise") {
       r.parameters.sensor_noise = num(0.0, 100.0);
+    } else if (key == "speed") {
+      r.parameters.speed = num(0.0, 100.0);
     } else if (key == "sensor_noise_applied") {
       r.sensor_noise_applied = flag();
     } else if (key == "passed") {

@@ -22,10 +22,22 @@ struct TrialParameters {
   /// bias of sim::SensorNoiseConfig's defaults times this (trialSensorNoise); encoder
   /// resolutions and the contact-flag threshold stay as they are.
   double sensor_noise = 0.0;
+  /// [m/s] The command speed, drawn after the others (the same terrains as without it);
+  /// 0: not drawn (the experiments file gives no speed range).
+  double speed = 0.0;
 };
 
 /// The parameters of trial `seed`: each uniform in its range of `ranges`.
 TrialParameters drawTrial(std::uint64_t seed, const TrialRanges& ranges);
+/// The scenario a trial runs: `s` with its command at the trial's speed when one was drawn.
+/// The scenario's own speed is the largest |v_x| of its --vx or --command schedule; every
+/// speed of the command is scaled by p.speed over it (direction and sign kept), and the
+/// schedule's times and the duration by its inverse (the same path), plus
+/// kTrialSpeedMargin seconds (the ramp from rest and slowdowns at steps). A scenario with
+/// no forward command is run as it is. Throws std::invalid_argument naming a malformed
+/// --command of the scenario.
+Scenario trialScenario(const Scenario& s, const TrialParameters& p);
+inline constexpr double kTrialSpeedMargin = 6.0;  ///< [s]
 /// `base` with the trial's step height, friction and start offset.
 sim::SceneConfig trialScene(const sim::SceneConfig& base, const TrialParameters& p);
 /// The trial's sensor noise: the defaults scaled by p.sensor_noise, seeded with p.seed.

@@ -36,7 +36,7 @@ for fig in fig2 fig4 fig6 fig8 map; do
 done
 # Fig. 6's caption says what an update of its run did, read from the run's own outputs.
 if [ -s "$out/fig6.png" ]; then
-  grep -q 'Wall time of each MPC update over the run (flat_trot: N = 100, 1 real-time iteration per update)' "$md" \
+  grep -q 'Wall time of each MPC update over the run (flat_trot: N = 100, 3 real-time iterations per update)' "$md" \
     || fail "Fig. 6's caption does not give flat_trot's horizon and iterations per update"
 fi
 # Pictures: made, or stated as not available with a warning.

@@ -201,6 +201,8 @@ TEST(ExperimentSet, LoadsTheProjectsFileAndRefusesMistakes) {
   EXPECT_EQ(set.acceptance.traverse_time, -0.20);
   EXPECT_EQ(set.acceptance.trial_success_rate, 0.95);
   EXPECT_EQ(set.trials.step_height_min, 0.10);
+  EXPECT_TRUE(set.trials.has_speed);
+  EXPECT_EQ(set.trials.speed_max, 0.5);
   const std::vector<std::string> args = set.find("step20_nmpc")->simArgs("/o");
   EXPECT_EQ(shellCommand(args).substr(0, 53),
             "sim --scene step20 --controller nmpc --duration 28 --");
@@ -338,6 +340,51 @@ TEST(Trials, DrawsAreFixedBySeedAndInRange) {
   EXPECT_FALSE(readsSensors(cbfqp));
   EXPECT_EQ(trialSimArgs("d/sensors.yaml"),
             (std::vector<std::string>{"--sensor-config", "d/sensors.yaml"}));
+}
+
+TEST(Trials, DrawASpeedAfterTheOtherDrawsAndScaleTheCommandToIt) {
+  TrialRanges with_speed;
+  with_speed.has_speed = true;
+  with_speed.speed_min = 0.05;
+  with_speed.speed_max = 0.5;
+  std::set<double> speeds;
+  for (std::uint64_t seed = 0; seed < 200; ++seed) {
+    const TrialParameters p = drawTrial(seed, with_speed);
+    const TrialParameters without = drawTrial(seed, TrialRanges{});
+    // The terrain and noise draws are those of the trials without a speed.
+    EXPECT_EQ(p.step_height, without.step_height);
+    EXPECT_EQ(p.start_offset, without.start_offset);
+    EXPECT_EQ(p.sensor_noise, without.sensor_noise);
+    EXPECT_EQ(without.speed, 0.0);
+    EXPECT_EQ(p.speed, drawTrial(seed, with_speed).speed);
+    EXPECT_GE(p.speed, 0.05);
+    EXPECT_LE(p.speed, 0.5);
+    speeds.insert(p.speed);
+  }
+  EXPECT_GT(speeds.size(), 150u);
+  TrialParameters p;
+  p.speed = 0.3;
+  Scenario step;
+  step.duration = 28;
+  step.args = {"--gait", "trot", "--vx", "0.15", "--mpc-timing", "deterministic"};
+  const Scenario fast = trialScenario(step, p);
+  EXPECT_EQ(fast.option("--vx"), "0.3");
+  EXPECT_DOUBLE_EQ(fast.duration, 14.0 + kTrialSpeedMargin);
+  // A schedule: speeds scaled, times scaled back, backwards kept backwards.
+  Scenario stairs;
+  stairs.duration = 44;
+  stairs.args = {"--gait", "trot", "--command", "0:0.15,19:0,21:-0.15"};
+  const Scenario there_and_back = trialScenario(stairs, p);
+  EXPECT_EQ(there_and_back.option("--command"), "0:0.3,9.5:0,10.5:-0.3");
+  EXPECT_DOUBLE_EQ(there_and_back.duration, 22.0 + kTrialSpeedMargin);
+  // No speed drawn, or no forward command: the scenario as it is.
+  EXPECT_EQ(trialScenario(step, TrialParameters{}).args, step.args);
+  Scenario standing;
+  standing.args = {"--gait", "standing"};
+  EXPECT_EQ(trialScenario(standing, p).args, standing.args);
+  Scenario bad = stairs;
+  bad.args.back() = "0:fast";
+  EXPECT_THROW(trialScenario(bad, p), std::invalid_argument);
 }
 
 TEST(Trials, SeedLists) {

@@ -32,7 +32,7 @@ struct Field {
 };
 
 // The one table of keys (config/ocp.yaml documents each, in this order).
-const std::array<Field, 47> kFields{{
+const std::array<Field, 53> kFields{{
     {"horizon", &OcpSettings::horizon, 1, 10000, false, false},
     {"dt", &OcpSettings::dt, 0, 10, true, false},
     {"base_velocity_weight", &OcpSettings::base_velocity_weight, 0, 1e12, false, false},
@@ -81,6 +81,12 @@ const std::array<Field, 47> kFields{{
     {"trot_duty", &OcpSettings::trot_duty, 0, 1, true, true},
     {"walk_duty", &OcpSettings::walk_duty, 0, 1, true, true},
     {"walk_period", &OcpSettings::walk_period, 0, 100, true, false},
+    {"speed_adaptation", &OcpSettings::speed_adaptation, 0, 0, false, false},
+    {"max_step_height", &OcpSettings::max_step_height, 0, 2, true, false},
+    {"swing_knee_speed_share", &OcpSettings::swing_knee_speed_share, 0, 1, true, false},
+    {"stance_stroke_share", &OcpSettings::stance_stroke_share, 0, 10, true, false},
+    {"step_speed_reach", &OcpSettings::step_speed_reach, 0, 10, false, false},
+    {"command_acceleration", &OcpSettings::command_acceleration, 0, 100, false, false},
     {"solver", Member{}, 0, 0, false, false},  // nested mapping, read by the solver layer
 }};
 

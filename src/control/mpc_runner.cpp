@@ -19,6 +19,12 @@ namespace {
 
 /// Loop times closer than this count as equal (t = k * 0.001 against a grid of periods).
 constexpr double kTimeTolerance = 1e-9;
+/// [periods] Tolerance of the deterministic solve grid's period count: a simulation clock
+/// that accumulates its step (MuJoCo's time) drifts by about 1e-10 s over a minute, which
+/// is more than kTimeTolerance in periods; counted one short, the next solve came one tick
+/// later, superseded the pending solution before its release, and with a latency of one
+/// period no solution was ever released again (the watchdog held the robot still).
+constexpr double kGridTolerance = 1e-6;
 /// How long the asynchronous thread sleeps when it has nothing to do.
 constexpr std::chrono::microseconds kIdleSleep{200};
 
@@ -233,7 +239,9 @@ class DeterministicDriver final : public MpcDriver {
 
   void post(double t, const Eigen::VectorXd& x) noexcept override {
     const double period = settings_.period;
-    if (t < grid_start_ + static_cast<double>(next_index_) * period - kTimeTolerance) return;
+    if (t < grid_start_ + static_cast<double>(next_index_) * period - kGridTolerance * period) {
+      return;
+    }
     const auto start = std::chrono::steady_clock::now();
     const solver::SolverStatus status = step_.solve(t, x);
     double release = t + settings_.latency;
@@ -254,13 +262,13 @@ class DeterministicDriver final : public MpcDriver {
     }
     if (stall) {
       // The thread is busy until the release: the next solve starts after it.
-      const double periods = std::floor((release - grid_start_) / period + kTimeTolerance);
+      const double periods = std::floor((release - grid_start_) / period + kGridTolerance);
       next_index_ = static_cast<std::int64_t>(periods) + 1;
       return;
     }
     // The next solve time: the first point of the grid t_init + k period after t (one
     // period on when on time, further when more than a period behind).
-    const double periods = std::floor((t - grid_start_) / period + kTimeTolerance);
+    const double periods = std::floor((t - grid_start_) / period + kGridTolerance);
     next_index_ = static_cast<std::int64_t>(periods) + 1;
   }
 

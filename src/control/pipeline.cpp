@@ -4,6 +4,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "rollstep/control/speed_rule.hpp"
 #include "rollstep/control/wheel_speed.hpp"
 #include "rollstep/model/centroidal.hpp"
 #include "rollstep/model/gravity.hpp"
@@ -101,11 +102,12 @@ solver::SolverStatus ControlPipeline::initializeSchedule(
   measure(state);
   // The references start at the state's pose (they keep its x, y and yaw).
   const lie::SE3 start(state.base_position, state.base_orientation);
+  adaptSchedule(start, schedule);
   // The clock the MPC's first plan has (its edge holds), until a solution brings its own.
-  planner_->resetSchedule(state.time, start, schedule);
+  planner_->resetSchedule(state.time, start, reference_schedule_);
   planner_->planSchedule(state.time, schedule_);
   const solver::SolverStatus status =
-      runner_->initializeSchedule(state.time, start, schedule, x_meas_);
+      runner_->initializeSchedule(state.time, start, reference_schedule_, x_meas_);
   tracking_->reset(q_meas_, v_meas_);
   solution_.sequence = 0;
   if (runner_->poll(state.time, solution_)) {
@@ -116,6 +118,32 @@ solver::SolverStatus ControlPipeline::initializeSchedule(
   counters_ = PipelineCounters{};
   initialized_ = true;
   return status;
+}
+
+void ControlPipeline::adaptSchedule(const lie::SE3& start,
+                                    const std::vector<planning::TimedBaseCommand>& schedule) {
+  step_slowdowns_.clear();
+  step_speed_limit_ = 0.0;
+  const centroidal::OcpSettings& ocp = settings_.ocp;
+  if (!ocp.speed_adaptation) {
+    reference_schedule_ = schedule;
+    return;
+  }
+  const centroidal::CentroidalRobot& r = robot();
+  std::vector<std::string> frames;
+  for (int i = 0; i < r.nc(); ++i) frames.push_back(r.contact(i).frame);
+  planning::SpeedScheduleConfig config;
+  config.turn_radius = turnRadius(r.model(), frames, robot_.description.nominal_joint_positions);
+  if (planner_->gait().kind() == planning::GaitKind::Trot) {
+    const planning::SpeedAdaptationLimits limits =
+        speedRuleLimits(r.model(), frames, robot_.description.nominal_joint_positions, ocp);
+    step_speed_limit_ = planning::adaptTrotToSpeed(0.0, limits).step_speed_limit;
+    config.step_speed_limit = step_speed_limit_;
+  }
+  config.step_reach = ocp.step_speed_reach;
+  config.max_acceleration = ocp.command_acceleration;
+  reference_schedule_ = planning::adaptScheduleToTerrain(
+      schedule, start, planner_->terrain(), planner_->stance().feet, config, &step_slowdowns_);
 }
 
 void ControlPipeline::measure(const RobotState& state) noexcept {

@@ -297,6 +297,29 @@ TEST(MpcRunner, DeterministicSolvesEveryPeriodAndReleasesLatencyLater) {
   }
 }
 
+TEST(MpcRunner, DeterministicGridToleratesAClockThatDrifts) {
+  // A simulation clock that accumulates its step (MuJoCo's time) lags the exact grid by
+  // about 1e-10 s after a minute. With a latency of one period, a solve counted one period
+  // short came one tick late, superseded the pending solution before its release, and no
+  // solution was handed out again: every solve must still come on its period and be handed
+  // out one period later.
+  ControlSettings settings = shortHorizon(20);
+  settings.mpc.period = 0.02;
+  settings.mpc.latency = 0.02;
+  auto runner = makeRunner(settings, planning::GaitKind::Standing);
+  const Eigen::VectorXd x0 = initializeStanding(*runner);
+  MpcSolution out = runner->makeSolution();
+  ASSERT_TRUE(runner->poll(0.0, out));
+  int handouts = 0;
+  for (int i = 1; i <= 200; ++i) {
+    const double t = 1e-3 * i - 3e-10;  // behind the grid
+    runner->post(t, perturbed(x0, t, 1e-3));
+    if (runner->poll(t, out)) ++handouts;
+  }
+  EXPECT_EQ(runner->solvesStarted(), 10u);
+  EXPECT_EQ(handouts, 9);  // the solves of 20..180 ms, each at the next one
+}
+
 TEST(MpcRunner, DeterministicSkipsAheadAndIgnoresBadStates) {
   auto runner = makeRunner(shortHorizon(20), planning::GaitKind::Standing);
   const Eigen::VectorXd x0 = initializeStanding(*runner);

@@ -172,6 +172,28 @@ struct OcpSettings {
   /// [s] one static-walk cycle (> 0): each foot swings (1 - walk_duty) of it, 0.36 s here;
   /// with gait_period's 0.8 s a 0.12 s swing would need knee speeds above the limit.
   double walk_period = 2.4;
+  // --- speed adaptation (planning/speed_adaptation.hpp) ----------------------------------
+  /// The trot's timing from the commanded speed and the robot's limits, and the command
+  /// slowed down near steps to what that timing can cross and ramped from rest (the
+  /// controller applies it when it is given its command schedule: sim::NmpcController,
+  /// control::ControlPipeline). With it, gait_period is ignored for a trot and trot_duty is
+  /// its stance share at low speed. Off by default (the paper's fixed timing).
+  bool speed_adaptation = false;
+  /// [m] The tallest step a trot's swing is timed to climb (with swing_clearance above it).
+  /// In (0, 2].
+  double max_step_height = 0.2;
+  /// Share of the knees' velocity limit the swing's steepest rise may ask, in (0, 1]: the
+  /// rest is left to the swing height feedback and the servos' lag.
+  double swing_knee_speed_share = 0.75;
+  /// Share of the hips' sweep (the wheel's travel over the narrowest hip range at the
+  /// nominal leg length) the body may pass over a stance foot held at a riser, in (0, 10].
+  double stance_stroke_share = 1.0;
+  /// [m] A step counts for the slowdown when it lies within this distance ahead of or behind
+  /// a nominal foot along the travel. In [0, 10].
+  double step_speed_reach = 0.3;
+  /// [m/s^2] Largest change of the reference speed (from rest, between commands, into and
+  /// out of a slowdown); 0: none. In [0, 100].
+  double command_acceleration = 0.5;
   // --- the solver ------------------------------------------------------------------------
   /// Nested `solver:` mapping (config/solver.yaml's keys). Defaults: the solver's, but a
   /// Gauss-Newton Hessian (exact_hessian false) as in the paper: on Tachyon 3 standing it

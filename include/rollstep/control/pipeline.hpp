@@ -86,6 +86,7 @@
 #include "rollstep/control/robot_state.hpp"
 #include "rollstep/control/state_integrator.hpp"
 #include "rollstep/control/tracking_stage.hpp"
+#include "rollstep/planning/speed_adaptation.hpp"
 
 namespace rollstep::control {
 
@@ -109,9 +110,20 @@ class ControlPipeline {
   solver::SolverStatus initialize(const RobotState& state,
                                   const planning::BaseVelocityCommand& command);
   /// Same with a command schedule (planning::BaseReference::reset; its times count from
-  /// state.time).
+  /// state.time). With ocp.speed_adaptation the references follow the schedule adapted to
+  /// the terrain known now (planning::adaptScheduleToTerrain: ramped at
+  /// ocp.command_acceleration and, for a trot, slowed down near steps to the speed rule's
+  /// step speed limit; referenceSchedule(), stepSlowdowns()).
   solver::SolverStatus initializeSchedule(const RobotState& state,
                                           const std::vector<planning::TimedBaseCommand>& schedule);
+  /// The schedule the references follow (the one given, or its adaptation).
+  const std::vector<planning::TimedBaseCommand>& referenceSchedule() const {
+    return reference_schedule_;
+  }
+  /// Where initializeSchedule slowed the command down at a step (times from state.time).
+  const std::vector<planning::StepSlowdown>& stepSlowdowns() const { return step_slowdowns_; }
+  /// [m/s] The speed rule's step speed limit (0: no trot, or no speed adaptation).
+  double stepSpeedLimit() const { return step_speed_limit_; }
   /// One real-time tick at state.time. Never allocates, locks or throws.
   void tick(const RobotState& state, JointCommand& command) noexcept;
   /// Stops the MPC thread (asynchronous mode); idempotent.
@@ -149,6 +161,9 @@ class ControlPipeline {
   const std::vector<int>& driveWheelContacts() const { return drive_wheels_; }
 
  private:
+  /// reference_schedule_, step_slowdowns_ and step_speed_limit_ for a schedule from `start`.
+  void adaptSchedule(const lie::SE3& start,
+                     const std::vector<planning::TimedBaseCommand>& schedule);
   /// q_meas_, v_meas_ and the centroidal state x_meas_ (h = A(q) v) of a valid state.
   void measure(const RobotState& state) noexcept;
   void computeTargets() noexcept;
@@ -181,6 +196,9 @@ class ControlPipeline {
   bool holding_ = false;     // watchdog: safe posture held since hold_time_
   double hold_time_ = 0.0;
   bool initialized_ = false;
+  std::vector<planning::TimedBaseCommand> reference_schedule_;
+  std::vector<planning::StepSlowdown> step_slowdowns_;
+  double step_speed_limit_ = 0.0;
 };
 
 }  // namespace rollstep::control

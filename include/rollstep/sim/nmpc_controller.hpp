@@ -12,6 +12,7 @@
 
 #include "rollstep/control/pipeline.hpp"
 #include "rollstep/estimation/invariant_ekf.hpp"
+#include "rollstep/planning/speed_adaptation.hpp"
 #include "rollstep/sim/online_perception.hpp"
 #include "rollstep/sim/plant.hpp"
 #include "rollstep/sim/simple_controllers.hpp"
@@ -136,6 +137,8 @@ class NmpcController final : public Controller {
   const EstimatorSource* estimator() const { return estimator_; }
   /// Status of the first (converging) solve.
   solver::SolverStatus initialStatus() const { return initial_status_; }
+  /// The trot timed by the speed rule (ocp.speed_adaptation with a trot; else period 0).
+  const planning::TrotTiming& trotTiming() const { return trot_timing_; }
 
   /// Perception in closed loop (online_perception.hpp; started already): every scan that is
   /// due is taken at the state source's base pose before the tick (deterministic perception:
@@ -174,6 +177,7 @@ class NmpcController final : public Controller {
   control::RobotState state_;
   control::JointCommand command_;
   solver::SolverStatus initial_status_ = solver::SolverStatus::InvalidInput;
+  planning::TrotTiming trot_timing_;
   std::string violations_csv_;
   std::vector<MpcUpdateRecord> updates_;
   const Plant* plant_ = nullptr;

@@ -1,0 +1,96 @@
+#include "rollstep/control/speed_rule.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include "rollstep/model/data.hpp"
+#include "rollstep/model/kinematics.hpp"
+
+namespace rollstep::control {
+
+namespace {
+
+/// The model's configuration at the origin, upright, with the joints at `nominal_joints`.
+Eigen::VectorXd nominalConfiguration(const model::Model& model,
+                                     const Eigen::VectorXd& nominal_joints) {
+  if (nominal_joints.size() != model.nj) {
+    throw std::invalid_argument("speed rule: nominal_joints has " +
+                                std::to_string(nominal_joints.size()) + " entries, the model " +
+                                std::to_string(model.nj) + " joints");
+  }
+  Eigen::VectorXd q(model.nq);
+  // Origin, identity quaternion (x, y, z, w), the joints.
+  q << Eigen::Vector3d::Zero(), 0.0, 0.0, 0.0, 1.0, nominal_joints;
+  return q;
+}
+
+}  // namespace
+
+planning::SpeedAdaptationLimits speedRuleLimits(const model::Model& model,
+                                                const std::vector<std::string>& contact_frames,
+                                                const Eigen::VectorXd& nominal_joints,
+                                                const centroidal::OcpSettings& settings) {
+  model::Data data(model);
+  model::forwardKinematics(model, data, nominalConfiguration(model, nominal_joints));
+  model::updateFramePlacements(model, data);
+  const double inf = std::numeric_limits<double>::infinity();
+  double prismatic_speed = inf, revolute_speed = inf, sweep = inf;
+  for (const std::string& name : contact_frames) {
+    const model::FrameIndex f = model.getFrameId(name);
+    const Eigen::Vector3d foot = data.opf[static_cast<std::size_t>(f)];
+    int hip = -1;
+    for (int b = model.frames[static_cast<std::size_t>(f)].body; b > 0;
+         b = model.bodies[static_cast<std::size_t>(b)].parent) {
+      const model::Body& body = model.bodies[static_cast<std::size_t>(b)];
+      const int j = body.idxV - model.nvBase;
+      if (std::isfinite(model.lowerPositionLimit[j]) &&
+          std::isfinite(model.upperPositionLimit[j])) {
+        if (body.type == model::JointType::Prismatic) {
+          prismatic_speed = std::min(prismatic_speed, model.velocityLimit[j]);
+        } else {
+          hip = b;  // the last one found is the nearest the base
+        }
+      }
+    }
+    if (hip < 0) {
+      throw std::invalid_argument("speedRuleLimits: contact frame '" + name +
+                                  "' has no revolute joint with finite limits above it");
+    }
+    const model::Body& h = model.bodies[static_cast<std::size_t>(hip)];
+    const int j = h.idxV - model.nvBase;
+    const double length = (foot - data.opb[static_cast<std::size_t>(hip)]).norm();
+    const double half_range = 0.5 * (model.upperPositionLimit[j] - model.lowerPositionLimit[j]);
+    sweep = std::min(sweep, 2.0 * length * std::sin(std::min(half_range, M_PI / 2)));
+    revolute_speed = std::min(revolute_speed, model.velocityLimit[j] * length);
+  }
+  planning::SpeedAdaptationLimits limits;
+  limits.knee_speed = settings.swing_knee_speed_share *
+                      (std::isfinite(prismatic_speed) ? prismatic_speed : revolute_speed);
+  limits.rise = settings.max_step_height + settings.swing_clearance;
+  limits.apex_margin = settings.swing_apex_margin;
+  limits.stance_stroke = settings.stance_stroke_share * sweep;
+  limits.max_duty = std::max(settings.trot_duty, limits.min_duty);
+  return limits;
+}
+
+double turnRadius(const model::Model& model, const std::vector<std::string>& contact_frames,
+                  const Eigen::VectorXd& nominal_joints) {
+  model::Data data(model);
+  model::forwardKinematics(model, data, nominalConfiguration(model, nominal_joints));
+  model::updateFramePlacements(model, data);
+  double r = 0.0;
+  for (const std::string& name : contact_frames) {
+    r = std::max(r, data.opf[static_cast<std::size_t>(model.getFrameId(name))].head<2>().norm());
+  }
+  return r;
+}
+
+planning::TrotTiming trotTimingFor(const planning::SpeedAdaptationLimits& limits,
+                                   const std::vector<planning::TimedBaseCommand>& schedule,
+                                   double turn_radius) {
+  return planning::adaptTrotToSpeed(planning::maxCommandSpeed(schedule, turn_radius), limits);
+}
+
+}  // namespace rollstep::control

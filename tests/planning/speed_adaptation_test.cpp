@@ -1,0 +1,185 @@
+// The speed rule: the trot's timing against the knee's speed and the hips' stroke at every
+// speed, and the command schedule slowed at steps (step20's block) and ramped from rest.
+#include "rollstep/planning/speed_adaptation.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <stdexcept>
+#include <vector>
+
+namespace {
+
+using Eigen::Vector2d;
+using namespace rollstep;
+
+const std::vector<Vector2d> kNominal{{0.33, 0.22},  {0.33, 0.0},  {0.33, -0.22},
+                                     {-0.33, 0.22}, {-0.33, 0.0}, {-0.33, -0.22}};
+constexpr double kEdgeUp = 1.0, kEdgeDown = 2.2;  // the block's edges [m]
+
+planning::TerrainModel blockTerrain() {
+  return planning::terrainFromBoxes({-5.0, 10.0, -1.5, 1.5, 0.0}, 0.0,
+                                    {{kEdgeUp, kEdgeDown, -1.5, 1.5, 0.20}}, 0.085);
+}
+
+planning::SpeedAdaptationLimits limits() {
+  planning::SpeedAdaptationLimits l;
+  l.knee_speed = 0.6;
+  l.rise = 0.23;
+  l.apex_margin = 0.2;
+  l.stance_stroke = 0.25;
+  l.max_duty = 0.6;
+  l.min_duty = 0.5;
+  return l;
+}
+
+TEST(TrotTiming, TheSwingRisesWithinTheKneeSpeedAndTheStanceWithinTheStroke) {
+  const planning::SpeedAdaptationLimits l = limits();
+  for (double v = 0.0; v <= 1.0; v += 0.01) {
+    const planning::TrotTiming t = planning::adaptTrotToSpeed(v, l);
+    // The steepest vertical speed of the swing's cubic: 1.5 x rise over the rising part.
+    EXPECT_LE(1.5 * l.rise / ((1.0 - l.apex_margin) * t.swing), l.knee_speed * (1 + 1e-12)) << v;
+    EXPECT_NEAR(t.period, t.swing + t.stance, 1e-12);
+    EXPECT_NEAR(t.duty, t.stance / t.period, 1e-12);
+    EXPECT_GE(t.duty, l.min_duty - 1e-12) << v;
+    EXPECT_LE(t.duty, l.max_duty + 1e-12) << v;
+    if (v <= t.step_speed_limit) {
+      EXPECT_LE(v * t.stance, l.stance_stroke * (1 + 1e-12)) << v;
+      EXPECT_FALSE(t.speed_limited) << v;
+    } else {
+      EXPECT_TRUE(t.speed_limited) << v;
+      // At the limit's timing the stroke is used up exactly.
+      EXPECT_NEAR(t.step_speed_limit * t.stance, l.stance_stroke, 1e-12);
+    }
+  }
+  // Slow: the long, overlapped trot; the direction does not matter.
+  const planning::TrotTiming slow = planning::adaptTrotToSpeed(0.05, l);
+  EXPECT_NEAR(slow.duty, l.max_duty, 1e-12);
+  const planning::TrotTiming back = planning::adaptTrotToSpeed(-0.3, l);
+  EXPECT_EQ(back.period, planning::adaptTrotToSpeed(0.3, l).period);
+}
+
+TEST(TrotTiming, IsContinuousAndShortensWithSpeed) {
+  const planning::SpeedAdaptationLimits l = limits();
+  planning::TrotTiming previous = planning::adaptTrotToSpeed(0.0, l);
+  for (double v = 0.001; v <= 1.0; v += 0.001) {
+    const planning::TrotTiming t = planning::adaptTrotToSpeed(v, l);
+    EXPECT_LE(t.period, previous.period + 1e-12) << v;
+    EXPECT_LT(std::abs(t.period - previous.period), 0.01) << "a jump at " << v;
+    previous = t;
+  }
+}
+
+TEST(TrotTiming, RefusesBadLimits) {
+  planning::SpeedAdaptationLimits l = limits();
+  l.knee_speed = 0.0;
+  EXPECT_THROW(planning::adaptTrotToSpeed(0.2, l), std::invalid_argument);
+  l = limits();
+  l.max_duty = 0.4;  // below min_duty
+  EXPECT_THROW(planning::adaptTrotToSpeed(0.2, l), std::invalid_argument);
+  EXPECT_THROW(planning::adaptTrotToSpeed(std::nan(""), limits()), std::invalid_argument);
+}
+
+/// The base's planar path under a schedule, sampled every dt: (t, x, y, planar speed).
+struct PathSample {
+  double t, x, y, speed;
+};
+std::vector<PathSample> integrate(const std::vector<planning::TimedBaseCommand>& schedule,
+                                  double x0, double duration, double dt = 0.005) {
+  std::vector<PathSample> out;
+  double x = x0, y = 0.0, yaw = 0.0;
+  std::size_t k = 0;
+  for (double t = 0.0; t <= duration; t += dt) {
+    while (k + 1 < schedule.size() && t >= schedule[k + 1].time - 1e-12) ++k;
+    const planning::BaseVelocityCommand& c = schedule[k].command;
+    out.push_back({t, x, y, std::hypot(c.v_x, c.v_y)});
+    x += dt * (std::cos(yaw) * c.v_x - std::sin(yaw) * c.v_y);
+    y += dt * (std::sin(yaw) * c.v_x + std::cos(yaw) * c.v_y);
+    yaw += dt * c.yaw_rate;
+  }
+  return out;
+}
+
+TEST(StepSpeed, SlowsDownOnlyNearTheStepAndSaysWhere) {
+  const planning::TerrainModel terrain = blockTerrain();
+  planning::SpeedScheduleConfig config;
+  config.step_speed_limit = 0.3;
+  config.step_reach = 0.3;
+  config.max_acceleration = 0.5;
+  for (const double v : {0.5, -0.45}) {
+    // Backwards the robot starts beyond the block and comes back over it.
+    const double x0 = v > 0 ? 0.0 : 3.4;
+    std::vector<planning::StepSlowdown> slowdowns;
+    const auto schedule = planning::adaptScheduleToTerrain(
+        {{0.0, {v, 0.0, 0.0}}},
+        lie::SE3(Eigen::Vector3d(x0, 0.0, 0.0), Eigen::Quaterniond::Identity()), terrain, kNominal,
+        config, &slowdowns);
+    ASSERT_FALSE(slowdowns.empty()) << v;
+    bool full_speed = false;
+    for (const PathSample& s : integrate(schedule, x0, 20.0)) {
+      // A foot within the reach of an edge: at most the limit.
+      bool near_edge = false;
+      for (const Vector2d& f : kNominal) {
+        for (const double edge : {kEdgeUp, kEdgeDown}) {
+          near_edge = near_edge || std::abs(s.x + f.x() - edge) < config.step_reach - 0.1;
+        }
+      }
+      if (near_edge) {
+        EXPECT_LE(s.speed, config.step_speed_limit + 1e-9) << "v " << v << " at x " << s.x;
+      }
+      full_speed = full_speed || std::abs(s.speed - std::abs(v)) < 1e-9;
+    }
+    EXPECT_TRUE(full_speed) << "never at the command's speed, v " << v;
+    for (const planning::StepSlowdown& d : slowdowns) {
+      EXPECT_LT(d.start, d.end);
+      EXPECT_NEAR(d.commanded_speed, std::abs(v), 1e-12);
+      EXPECT_NEAR(d.limited_speed, config.step_speed_limit, 1e-12);
+    }
+    // The speed never changes faster than the acceleration limit.
+    for (std::size_t k = 1; k < schedule.size(); ++k) {
+      const auto& a = schedule[k - 1];
+      const auto& b = schedule[k];
+      const double dv = std::hypot(b.command.v_x - a.command.v_x, b.command.v_y - a.command.v_y);
+      EXPECT_LE(dv, config.max_acceleration * (b.time - a.time) + 1e-9) << k;
+    }
+  }
+}
+
+TEST(StepSpeed, LeavesASlowCommandAndLevelGroundAlone) {
+  planning::SpeedScheduleConfig config;
+  config.step_speed_limit = 0.3;
+  const lie::SE3 start = lie::SE3::Identity();
+  // No acceleration limit and slower than the step limit: the schedule as given.
+  const std::vector<planning::TimedBaseCommand> slow{{0.0, {0.2, 0.05, 0.0}}, {5.0, {-0.1, 0, 0}}};
+  const auto same =
+      planning::adaptScheduleToTerrain(slow, start, blockTerrain(), kNominal, config, nullptr);
+  ASSERT_EQ(same.size(), slow.size());
+  for (std::size_t k = 0; k < slow.size(); ++k) {
+    EXPECT_EQ(same[k].time, slow[k].time);
+    EXPECT_EQ(same[k].command.v_x, slow[k].command.v_x);
+  }
+  // Level ground, fast, with the acceleration limit: a ramp from rest, then the command.
+  config.max_acceleration = 0.5;
+  const planning::TerrainModel flat =
+      planning::terrainFromBoxes({-5.0, 50.0, -1.5, 1.5, 0.0}, 0.0, {}, 0.085);
+  std::vector<planning::StepSlowdown> slowdowns;
+  const auto ramp = planning::adaptScheduleToTerrain({{0.0, {0.5, 0.0, 0.0}}}, start, flat,
+                                                     kNominal, config, &slowdowns);
+  EXPECT_TRUE(slowdowns.empty());
+  EXPECT_EQ(ramp.front().time, 0.0);
+  EXPECT_NEAR(ramp.back().command.v_x, 0.5, 1e-12);
+  EXPECT_NEAR(ramp.back().time, 0.5 / 0.5 - config.resolution, 1e-9);
+}
+
+TEST(StepSpeed, RefusesABadSchedule) {
+  planning::SpeedScheduleConfig config;
+  config.max_acceleration = 0.5;
+  EXPECT_THROW(planning::adaptScheduleToTerrain({}, lie::SE3::Identity(), blockTerrain(), kNominal,
+                                                config, nullptr),
+               std::invalid_argument);
+  EXPECT_THROW(planning::adaptScheduleToTerrain({{1.0, {0.1, 0, 0}}}, lie::SE3::Identity(),
+                                                blockTerrain(), kNominal, config, nullptr),
+               std::invalid_argument);
+}
+
+}  // namespace
