@@ -241,8 +241,9 @@ struct Solver::Impl {
   /// need it, so that solve() never allocates and a real-time-only solver never holds it.
   void reserveCurvature();
   bool curvature_reserved = false;
-  /// SolverSettings::huge_pages: the advice for the span of the nodes' data and stages.
-  void adviseHugePagesForNodes();
+  /// SolverSettings::huge_pages: the advice for the span of the nodes' data and stages;
+  /// `collapse`: collapse them now too (real-time solvers only).
+  void adviseHugePagesForNodes(bool collapse);
   double last_delta = 0.0;  // last inertia correction
   bool pc_active = false;   // this solve uses Mehrotra's predictor-corrector
   bool tiny_step = false;   // the last step was tiny: decrease the barrier

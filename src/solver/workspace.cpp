@@ -24,12 +24,16 @@ constexpr bool kSanitizer = false;
 #endif
 
 /// SolverSettings::huge_pages: asks Linux to back the 2 MB-aligned cover of [lo, hi) with
-/// transparent huge pages, and to collapse the pages already there now (MADV_COLLAPSE,
-/// Linux 6.1; older kernels ignore it). Advice only: the memory's contents never change,
-/// and every failure leaves things as they were. Skipped for spans under 4 MB (few TLB
-/// entries anyway) or over 1 GB (not one heap region), and in sanitizer builds (whose
-/// allocators spread small blocks over large sparse regions that a collapse would fill).
-void adviseHugePages(std::uintptr_t lo, std::uintptr_t hi) {
+/// transparent huge pages, and with `collapse` to collapse the pages already there now
+/// (MADV_COLLAPSE, Linux 6.1; older kernels ignore it). The collapse is only for a solver
+/// built for real-time iterations: it can take seconds on a busy machine, in the kernel,
+/// where a signal waits for it (a converging solve, as `rollstep plan` runs, must end within
+/// a second of Ctrl-C); without it the kernel's background thread collapses them later. Advice
+/// only: the memory's contents never change, and every failure leaves things as they were. Skipped
+/// for spans under 4 MB (few TLB entries anyway) or over 1 GB (not one heap region), and in
+/// sanitizer builds (whose allocators spread small blocks over large sparse regions that a collapse
+/// would fill).
+void adviseHugePages(std::uintptr_t lo, std::uintptr_t hi, bool collapse) {
 #if defined(__linux__) && defined(MADV_HUGEPAGE)
   constexpr std::uintptr_t kHuge = std::uintptr_t{1} << 21;
   if (kSanitizer || hi <= lo || hi - lo < 2 * kHuge || hi - lo > (std::uintptr_t{1} << 30)) {
@@ -39,7 +43,7 @@ void adviseHugePages(std::uintptr_t lo, std::uintptr_t hi) {
   hi = (hi + kHuge - 1) & ~(kHuge - 1);
   void* p = reinterpret_cast<void*>(lo);
   const std::size_t len = hi - lo;
-  if (madvise(p, len, MADV_HUGEPAGE) != 0) return;
+  if (madvise(p, len, MADV_HUGEPAGE) != 0 || !collapse) return;
 #ifdef MADV_COLLAPSE
   (void)madvise(p, len, MADV_COLLAPSE);
 #else
@@ -48,6 +52,7 @@ void adviseHugePages(std::uintptr_t lo, std::uintptr_t hi) {
 #else
   (void)lo;
   (void)hi;
+  (void)collapse;
 #endif
 }
 
@@ -154,7 +159,7 @@ Solver::Impl::Impl(std::shared_ptr<ocp::OptimalControlProblem> p, SolverSettings
   stats.reserve(static_cast<std::size_t>(std::max(set.max_iterations, 1)) + 2);
   filter.reserve(static_cast<std::size_t>(std::max(set.max_iterations, 1)) + 2);
   scaled.assign(static_cast<std::size_t>(N) + 1, VectorXd::Zero(ndx));
-  if (set.huge_pages) adviseHugePagesForNodes();
+  if (set.huge_pages) adviseHugePagesForNodes(set.mode == SolverMode::RealTime);
   // After all that an iteration touches, outside the span advised to huge pages.
   if (needsCurvature(set)) reserveCurvature();
 }
@@ -176,7 +181,7 @@ void Solver::Impl::reserveCurvature() {
   curvature_reserved = true;
 }
 
-void Solver::Impl::adviseHugePagesForNodes() {
+void Solver::Impl::adviseHugePagesForNodes(bool collapse) {
   // The span of the heap that holds the Riccati stages and the nodes' data.
   std::uintptr_t lo = ~std::uintptr_t{0}, hi = 0;
   const auto span = [&lo, &hi](const void* ptr) {
@@ -199,7 +204,7 @@ void Solver::Impl::adviseHugePagesForNodes() {
     span(lq.stage(k).Q.data());
     span(lq.stage(k).Eu.data());
   }
-  adviseHugePages(lo, hi);
+  adviseHugePages(lo, hi, collapse);
 }
 
 }  // namespace rollstep::solver
