@@ -130,8 +130,8 @@ void ControlPipeline::adaptSchedule(const lie::SE3& start,
     return;
   }
   const centroidal::CentroidalRobot& r = robot();
-  std::vector<std::string> frames;
-  for (int i = 0; i < r.nc(); ++i) frames.push_back(r.contact(i).frame);
+  // The contacts are the description's frames, in its order (centroidal::loadRobot).
+  const std::vector<std::string>& frames = robot_.description.contact_frames;
   planning::SpeedScheduleConfig config;
   config.turn_radius = turnRadius(r.model(), frames, robot_.description.nominal_joint_positions);
   if (planner_->gait().kind() == planning::GaitKind::Trot) {
