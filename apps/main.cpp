@@ -7,6 +7,7 @@
 
 #include "commands.hpp"
 #include "rollstep/common/interrupt.hpp"
+#include "rollstep/common/text_file.hpp"
 
 namespace {
 
@@ -42,7 +43,9 @@ int main(int argc, char** argv) {
       "  rollstep trials --scenario step20 --controller nmpc --seeds 0-29 --jobs 2 --out "
       "out/trials\n"
       "  rollstep view out/drive\n"
-      "Exit status: 0 on success, non-zero on bad options or a failed run.");
+      "Exit status: 0 on success; 74 when an output could not be written (a full disk, no\n"
+      "permission): the outputs are absent, not the run's verdict; 128 + N after signal N;\n"
+      "another non-zero status on bad options or a failed run.");
   rollstep::apps::registerSimCommand(app);
   int exit_status = 0;
   rollstep::apps::registerPlanCommand(app, exit_status);
@@ -73,6 +76,9 @@ int main(int argc, char** argv) {
   } catch (const rollstep::Interrupted& e) {
     std::fprintf(stderr, "rollstep: %s\n", e.what());
     return 128 + e.signal();
+  } catch (const rollstep::OutputError& e) {
+    std::fprintf(stderr, "rollstep: error: %s\n", e.what());
+    return rollstep::kOutputErrorExitStatus;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "rollstep: error: %s\n", e.what());
     return 1;

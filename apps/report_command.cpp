@@ -343,6 +343,8 @@ ReportReplays writeReplayPages(const ReportInputs& in, const std::vector<RunOutc
     try {
       writeReplayPage(outcomes[i].dir, in.out + "/" + file, s.name + ": " + s.title);
       replays.pages.push_back({file, s.title});
+    } catch (const OutputError&) {
+      throw;  // a page that cannot be written (full disk): the report is not complete
     } catch (const std::exception& e) {
       warn(s.name + ": replay page failed: " + e.what());
       replays.failures.push_back(s.name + ": " + e.what());

@@ -659,9 +659,13 @@ void runSim(const SimOptions& o, bool scene_given) {
                    marked ? ("; the reason is in " + files.failed.string()).c_str() : "");
       throw;
     }
-    throw std::runtime_error(std::string(e.what()) + "\n  the run failed: no " +
-                             files.log.string() + " or " + files.summary.string() + " is left" +
-                             (marked ? "; the error is in " + files.failed.string() : ""));
+    const std::string message = std::string(e.what()) + "\n  the run failed: no " +
+                                files.log.string() + " or " + files.summary.string() +
+                                " is left" +
+                                (marked ? "; the error is in " + files.failed.string() : "");
+    // Kept apart: an output that cannot be written ends the program with its own status.
+    if (dynamic_cast<const OutputError*>(&e) != nullptr) throw OutputError(message);
+    throw std::runtime_error(message);
   }
   std::fputs(text.c_str(), stdout);
   if (std::fflush(stdout) != 0 || std::ferror(stdout)) {

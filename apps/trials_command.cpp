@@ -342,6 +342,14 @@ int runTrials(const TrialsOptions& o, const CLI::App& cmd) {
         const std::string dir = trialDir(fs::absolute(o.out).string(), scenario, seed);
         throwIfInterrupted();  // this trial's process too was interrupted: not a result
         TrialResult r;
+        if (exitStatusOf(status) == kOutputErrorExitStatus) {
+          // The trial could not write its outputs: no verdict on the controller.
+          std::error_code ec;
+          const std::string failed =
+              fs::exists(dir + "/FAILED", ec) ? readTextFile(dir + "/FAILED", "FAILED") : "";
+          throw OutputError("trial seed " + std::to_string(seed) + " could not write its outputs" +
+                            (failed.empty() ? "" : ": " + failed.substr(0, failed.find('\n'))));
+        }
         if (exitStatusOf(status) == 0 && fs::exists(dir + "/result.yaml")) {
           r = parseTrialResult(readTextFile(dir + "/result.yaml", "trial result"), dir);
         } else {

@@ -110,6 +110,10 @@ RunOutcome judgeRun(const Scenario& scenario, const sim::SceneConfig& scene, con
       reason = last.empty() ? "no message" : last;
     }
     o.error = "rollstep sim exited with status " + std::to_string(exit_status) + ": " + reason;
+    // A run that could not write its outputs says nothing about the controller.
+    if (exit_status == kOutputErrorExitStatus) {
+      throw OutputError("run '" + scenario.name + "' could not write its outputs: " + reason);
+    }
   }
   try {
     if (fs::exists(d / "log.csv")) o.log = LogTable::read((d / "log.csv").string(), "log");

@@ -30,6 +30,11 @@ class OutputError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// Exit status of a program ended by an OutputError (sysexits.h's EX_IOERR): the environment
+/// failed (a full disk, no permission), not the experiment. `rollstep report` and `trials`
+/// read it from their child runs and fail as a whole rather than record a failed run.
+inline constexpr int kOutputErrorExitStatus = 74;
+
 /// Default size limit of readTextFile: 64 MiB, far above any robot or configuration file.
 constexpr std::size_t kDefaultMaxInputBytes = std::size_t{64} << 20;
 
