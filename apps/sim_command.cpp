@@ -660,8 +660,7 @@ void runSim(const SimOptions& o, bool scene_given) {
       throw;
     }
     const std::string message = std::string(e.what()) + "\n  the run failed: no " +
-                                files.log.string() + " or " + files.summary.string() +
-                                " is left" +
+                                files.log.string() + " or " + files.summary.string() + " is left" +
                                 (marked ? "; the error is in " + files.failed.string() : "");
     // Kept apart: an output that cannot be written ends the program with its own status.
     if (dynamic_cast<const OutputError*>(&e) != nullptr) throw OutputError(message);
