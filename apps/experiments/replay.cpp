@@ -252,8 +252,8 @@ std::string replayScriptPath() {
   return ROLLSTEP_REPLAY_SCRIPT;
 }
 
-void writeReplayPage(const std::string& run_dir, const std::string& page,
-                     const std::string& title) {
+void writeReplayPage(const std::string& run_dir, const std::string& page, const std::string& title,
+                     const std::string& map_dir) {
   const std::string model_path = run_dir + "/replay.json";
   json model;
   try {
@@ -280,7 +280,11 @@ void writeReplayPage(const std::string& run_dir, const std::string& page,
     // Plans to the millimetre: what a drawing shows, a third smaller than plan.csv.
     data["plan"] = columnsOf(LogTable::read(run_dir + "/plan.csv", "plan"), 1, 1e3);
   }
-  data["maps"] = mapSnapshots(run_dir + "/map");
+  if (!map_dir.empty() && !fs::exists(map_dir + "/maps.csv")) {
+    throw std::runtime_error("map log '" + map_dir +
+                             "': no maps.csv (a folder written by rollstep sim --log-map)");
+  }
+  data["maps"] = mapSnapshots(map_dir.empty() ? run_dir + "/map" : map_dir);
   const std::string script = replayScriptPath();
   const std::string code = readAll(script, "replay page script (build the target replay_script)");
   std::string text = data.dump();

@@ -24,6 +24,8 @@ std::string replayScriptPath();
 /// replay.json and log.csv, plan.csv when present) and copies the page's script beside it
 /// (replay.js). The page and the script are written complete or not at all. Throws
 /// std::runtime_error naming the file for a missing or malformed input or a missing script.
-void writeReplayPage(const std::string& run_dir, const std::string& page, const std::string& title);
+/// `map_dir`: the run's map log (rollstep sim --log-map); empty = run_dir/map if it exists.
+void writeReplayPage(const std::string& run_dir, const std::string& page, const std::string& title,
+                     const std::string& map_dir = "");
 
 }  // namespace rollstep::experiments
