@@ -300,19 +300,24 @@ class LqProblem:
         min  sum_{k<N} 0.5 x'Q_k x + 0.5 u'R_k u + u'S_k x + q_k'x + r_k'u
              + 0.5 x_N'QN x_N + qN'x_N
         s.t. x_{k+1} = A_k x_k + B_k u_k + c_k,   x_0 = x0,
-             u_lo <= u_k <= u_hi,  x_lo <= x_k <= x_hi (k >= 1),
-             lg_k <= C_k x_k + D_k u_k <= ug_k (k < N),  lgN <= CN x_N <= ugN.
+             u_lo_k <= u_k <= u_hi_k (k < N),  x_lo_k <= x_k <= x_hi_k (k >= 1),
+             lg_k <= C_k x_k + D_k u_k <= ug_k (k < N),  lgN <= CN x_N <= ugN,
+             E_k x_k + F_k u_k = e_k (k < N).
 
     Per-node data is one array for every node or a sequence (or stacked array) of N of them.
     A and B are required (their shapes give nx, nu; len(A) or A.shape[0] gives N when A is
     given per node, else pass horizon). Every other term defaults to zero / none; infinite
-    bounds are dropped. C_k may have a different number of rows at each node. settings:
-    SolverSettings (default: converging mode). solve() releases the GIL.
+    bounds are dropped. C_k and E_k may have a different number of rows at each node.
+    u_bounds = (u_lo, u_hi): arrays (nu,) for every node or (N, nu), row k for node k;
+    x_bounds = (x_lo, x_hi): (nx,) for every node or (N, nx), row k - 1 for node k = 1..N.
+    Equalities (E, F, e) are eliminated through the input: F_k must have full row rank
+    (a state-only equality is an inequality row with lg = ug). settings: SolverSettings
+    (default: converging mode). solve() releases the GIL.
     """
 
     def __init__(self, A, B, c=None, Q=None, R=None, S=None, q=None, r=None, QN=None, qN=None,
                  u_bounds=None, x_bounds=None, C=None, D=None, lg=None, ug=None, CN=None,
-                 lgN=None, ugN=None, horizon=None, settings=None):
+                 lgN=None, ugN=None, E=None, F=None, e=None, horizon=None, settings=None):
         A0 = np.asarray(A[0] if isinstance(A, (list, tuple)) else A, dtype=float)
         if isinstance(A, (list, tuple)):
             n = len(A)
@@ -333,6 +338,22 @@ class LqProblem:
         ugs = _per_node(ug, n, (0,), "ug") if ug is not None else [np.full(mk, np.inf) for mk in m]
         ulo, uhi = u_bounds if u_bounds is not None else (np.full(nu, -np.inf), np.full(nu, np.inf))
         xlo, xhi = x_bounds if x_bounds is not None else (np.full(nx, -np.inf), np.full(nx, np.inf))
+        Es = _per_node(E, n, (0, nx), "E") if E is not None else [np.zeros((0, nx))] * n
+        me = [ek.shape[0] for ek in Es]
+        Fs = _per_node(F, n, (0, nu), "F") if F is not None else [np.zeros((mk, nu)) for mk in me]
+        es = _per_node(e, n, (0,), "e") if e is not None else [np.zeros(mk) for mk in me]
+
+        def bounds(lo, hi, size):
+            lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+            if lo.ndim == 2 or hi.ndim == 2:  # per node
+                rows = max(lo.shape[0] if lo.ndim == 2 else 1, hi.shape[0] if hi.ndim == 2 else 1)
+                return (np.broadcast_to(lo, (rows, size)).copy(),
+                        np.broadcast_to(hi, (rows, size)).copy())
+            return (np.broadcast_to(lo, (size,)).reshape(1, size).copy(),
+                    np.broadcast_to(hi, (size,)).reshape(1, size).copy())
+
+        ulo, uhi = bounds(ulo, uhi, nu)
+        xlo, xhi = bounds(xlo, xhi, nx)
         CN = np.zeros((0, nx)) if CN is None else np.asarray(CN, dtype=float)
         mN = CN.shape[0]
         self._lq = _rollstep._LqProblem(
@@ -341,14 +362,11 @@ class LqProblem:
             _per_node(q, n, (nx,), "q"), _per_node(r, n, (nu,), "r"),
             np.zeros((nx, nx)) if QN is None else np.asarray(QN, dtype=float),
             np.zeros(nx) if qN is None else np.asarray(qN, dtype=float),
-            np.broadcast_to(np.asarray(ulo, dtype=float), (nu,)).copy(),
-            np.broadcast_to(np.asarray(uhi, dtype=float), (nu,)).copy(),
-            np.broadcast_to(np.asarray(xlo, dtype=float), (nx,)).copy(),
-            np.broadcast_to(np.asarray(xhi, dtype=float), (nx,)).copy(),
+            ulo, uhi, xlo, xhi,
             Cs, Ds, lgs, ugs, CN,
             np.full(mN, -np.inf) if lgN is None else np.asarray(lgN, dtype=float),
             np.full(mN, np.inf) if ugN is None else np.asarray(ugN, dtype=float),
-            _settings_cpp(settings, SolverSettings))
+            Es, Fs, es, _settings_cpp(settings, SolverSettings))
 
     nx = property(lambda self: self._lq.nx, doc="State size.")
     nu = property(lambda self: self._lq.nu, doc="Input size.")

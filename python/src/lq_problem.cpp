@@ -1,10 +1,14 @@
 // A user's linear-quadratic problem from numpy arrays, solved by rollstep's solver:
 //   min sum_k 0.5 x'Q_k x + 0.5 u'R_k u + u'S_k x + q_k'x + r_k'u + 0.5 x_N'Q_N x_N + q_N'x_N
 //   s.t. x_{k+1} = A_k x_k + B_k u_k + c_k,  x_0 given,
-//        u_lo <= u_k <= u_hi, x_lo <= x_k <= x_hi (k >= 1),
-//        lg_k <= C_k x_k + D_k u_k <= ug_k (k < N),  lg_N <= C_N x_N <= ug_N.
+//        u_lo_k <= u_k <= u_hi_k, x_lo_k <= x_k <= x_hi_k (k >= 1),
+//        lg_k <= C_k x_k + D_k u_k <= ug_k (k < N),  lg_N <= C_N x_N <= ug_N,
+//        E_k x_k + F_k u_k = e_k (k < N; F_k of full row rank).
+// Bounds shared by every node go to the solver's bound rows; bounds that differ between
+// nodes become identity rows of the general rows of their node.
 // Every term is exact (linear dynamics and rows, exact Hessians): the solver's converging
 // mode is an interior point method on the QP.
+#include <Eigen/LU>
 #include <chrono>
 #include <cmath>
 #include <memory>
@@ -164,6 +168,39 @@ class LinearRows final : public ocp::Residual {
   bool terminal_;
 };
 
+/// r = E x + F u - e = 0 per node (eliminated by the solver through the input, so F must
+/// have full row rank).
+class LinearEqualities final : public ocp::Residual {
+ public:
+  struct Node {
+    MatrixXd E, F;
+    VectorXd e;
+  };
+  LinearEqualities(int nx, int nu, int max_rows, std::vector<Node> nodes)
+      : Residual(nx, nu, max_rows), nodes_(std::move(nodes)) {}
+  int rows(const NodeContext& ctx) const override {
+    return static_cast<int>(nodes_[static_cast<std::size_t>(ctx.node)].e.size());
+  }
+  bool isLinear() const override { return true; }
+  void calc(const NodeContext& ctx, ConstVecRef x, ConstVecRef u,
+            ocp::ResidualData& d) const override {
+    const Node& n = nodes_[static_cast<std::size_t>(ctx.node)];
+    const Eigen::Index m = n.e.size();
+    d.r.head(m).noalias() = n.E * x;
+    d.r.head(m).noalias() += n.F * u;
+    d.r.head(m) -= n.e;
+  }
+  void calcDiff(const NodeContext& ctx, ConstVecRef, ConstVecRef,
+                ocp::ResidualData& d) const override {
+    const Node& n = nodes_[static_cast<std::size_t>(ctx.node)];
+    d.Rx.topRows(n.e.size()) = n.E;
+    d.Ru.topRows(n.e.size()) = n.F;
+  }
+
+ private:
+  std::vector<Node> nodes_;
+};
+
 LinearRows::Node rowsOf(const MatrixXd& C, const MatrixXd& D, const VectorXd& lo,
                         const VectorXd& hi) {
   int m = 0;
@@ -184,6 +221,26 @@ LinearRows::Node rowsOf(const MatrixXd& C, const MatrixXd& D, const VectorXd& lo
     }
   }
   return n;
+}
+
+/// `extra` appended below `n`'s rows.
+void appendRows(LinearRows::Node& n, const LinearRows::Node& extra) {
+  const Eigen::Index m = n.g0.size(), k = extra.g0.size();
+  if (k == 0) return;
+  MatrixXd Gx(m + k, n.Gx.cols()), Gu(m + k, n.Gu.cols());
+  VectorXd g0(m + k);
+  Gx << n.Gx, extra.Gx;
+  Gu << n.Gu, extra.Gu;
+  g0 << n.g0, extra.g0;
+  n = {std::move(Gx), std::move(Gu), std::move(g0)};
+}
+
+/// Whether every row of a per-node bound matrix equals the first.
+bool sameOnEveryNode(const MatrixXd& lo, const MatrixXd& hi) {
+  for (Eigen::Index k = 1; k < lo.rows(); ++k) {
+    if (lo.row(k) != lo.row(0) || hi.row(k) != hi.row(0)) return false;
+  }
+  return true;
 }
 
 void checkBounds(const VectorXd& lo, const VectorXd& hi, Eigen::Index n, const std::string& what) {
@@ -211,11 +268,13 @@ std::unique_ptr<LqProblem> makeLq(const std::vector<MatrixXd>& A, const std::vec
                                   const std::vector<VectorXd>& c, const std::vector<MatrixXd>& Q,
                                   const std::vector<MatrixXd>& R, const std::vector<MatrixXd>& S,
                                   const std::vector<VectorXd>& q, const std::vector<VectorXd>& r,
-                                  const MatrixXd& QN, const VectorXd& qN, const VectorXd& u_lo,
-                                  const VectorXd& u_hi, const VectorXd& x_lo, const VectorXd& x_hi,
+                                  const MatrixXd& QN, const VectorXd& qN, const MatrixXd& u_lo,
+                                  const MatrixXd& u_hi, const MatrixXd& x_lo, const MatrixXd& x_hi,
                                   const std::vector<MatrixXd>& C, const std::vector<MatrixXd>& D,
                                   const std::vector<VectorXd>& lg, const std::vector<VectorXd>& ug,
                                   const MatrixXd& CN, const VectorXd& lgN, const VectorXd& ugN,
+                                  const std::vector<MatrixXd>& E, const std::vector<MatrixXd>& F,
+                                  const std::vector<VectorXd>& e,
                                   const solver::SolverSettings& settings) {
   if (A.empty()) throw std::invalid_argument("A: at least one node (horizon N >= 1)");
   auto lq = std::make_unique<LqProblem>();
@@ -242,6 +301,32 @@ std::unique_ptr<LqProblem> makeLq(const std::vector<MatrixXd>& A, const std::vec
   count(D.size(), "D");
   count(lg.size(), "lg");
   count(ug.size(), "ug");
+  count(E.size(), "E");
+  count(F.size(), "F");
+  count(e.size(), "e");
+  // Bounds: one row shared by every node, or one row per node (x: nodes 1..N).
+  const auto boundRows = [N](const MatrixXd& lo, const MatrixXd& hi, Eigen::Index n,
+                             const char* what) {
+    for (const MatrixXd* b : {&lo, &hi}) {
+      if ((b->rows() != 1 && b->rows() != static_cast<Eigen::Index>(N)) || b->cols() != n) {
+        throw std::invalid_argument(std::string(what) + " have shape " + shapeText(*b) +
+                                    "; expected (" + std::to_string(n) + ",) for every node or (" +
+                                    std::to_string(N) + ", " + std::to_string(n) + ") per node");
+      }
+    }
+    if (lo.rows() != hi.rows()) {
+      throw std::invalid_argument(std::string(what) + ": lower and upper have different shapes");
+    }
+    for (Eigen::Index k = 0; k < lo.rows(); ++k) {
+      checkBounds(lo.row(k).transpose(), hi.row(k).transpose(), n,
+                  lo.rows() == 1 ? std::string(what) : at(what, static_cast<std::size_t>(k)));
+    }
+  };
+  boundRows(u_lo, u_hi, nu, "input bounds");
+  boundRows(x_lo, x_hi, nx, "state bounds");
+  const bool shared_u = sameOnEveryNode(u_lo, u_hi), shared_x = sameOnEveryNode(x_lo, x_hi);
+  int max_equalities = 0;
+  std::vector<LinearEqualities::Node> equalities;
   int max_rows = 0;
   std::vector<LinearRows::Node> rows;
   for (std::size_t k = 0; k < N; ++k) {
@@ -258,14 +343,35 @@ std::unique_ptr<LqProblem> makeLq(const std::vector<MatrixXd>& A, const std::vec
     checkShape(D[k], m, nu, at("D", k));
     checkBounds(lg[k], ug[k], m, at("general rows", k));
     rows.push_back(rowsOf(C[k], D[k], lg[k], ug[k]));
+    if (!shared_u) {
+      appendRows(rows.back(), rowsOf(MatrixXd::Zero(nu, nx), MatrixXd::Identity(nu, nu),
+                                     u_lo.row(static_cast<Eigen::Index>(k)).transpose(),
+                                     u_hi.row(static_cast<Eigen::Index>(k)).transpose()));
+    }
+    if (!shared_x && k >= 1) {
+      appendRows(rows.back(), rowsOf(MatrixXd::Identity(nx, nx), MatrixXd::Zero(nx, nu),
+                                     x_lo.row(static_cast<Eigen::Index>(k) - 1).transpose(),
+                                     x_hi.row(static_cast<Eigen::Index>(k) - 1).transpose()));
+    }
     max_rows = std::max(max_rows, static_cast<int>(rows.back().g0.size()));
+    const Eigen::Index me = E[k].rows();
+    checkShape(E[k], me, nx, at("E", k));
+    checkShape(F[k], me, nu, at("F", k));
+    checkVector(e[k], me, at("e", k));
+    if (me > 0 && Eigen::FullPivLU<MatrixXd>(F[k]).rank() < me) {
+      throw std::invalid_argument(at("F", k) + " has rank " +
+                                  std::to_string(Eigen::FullPivLU<MatrixXd>(F[k]).rank()) +
+                                  " below its " + std::to_string(me) +
+                                  " rows: the solver eliminates equalities through the input, "
+                                  "so F_k must have full row rank");
+    }
+    equalities.push_back({E[k], F[k], e[k]});
+    max_equalities = std::max(max_equalities, static_cast<int>(me));
   }
   checkShape(QN, nx, nx, "QN");
   checkVector(qN, nx, "qN");
   checkShape(CN, CN.rows(), nx, "CN");
   checkBounds(lgN, ugN, CN.rows(), "terminal rows");
-  checkBounds(u_lo, u_hi, nu, "input bounds");
-  checkBounds(x_lo, x_hi, nx, "state bounds");
 
   auto dynamics = std::make_shared<LinearDynamics>(nx, nu, A, B, c);
   // dt = 1: the running costs are summed as given.
@@ -283,7 +389,15 @@ std::unique_ptr<LqProblem> makeLq(const std::vector<MatrixXd>& A, const std::vec
         "rows", std::make_shared<LinearRows>(nx, nu, max_rows, std::move(rows), false),
         ocp::Stage::Running);
   }
+  if (max_equalities > 0) {
+    lq->problem->addEquality("equalities", std::make_shared<LinearEqualities>(
+                                               nx, nu, max_equalities, std::move(equalities)));
+  }
   LinearRows::Node terminal = rowsOf(CN, MatrixXd::Zero(CN.rows(), nu), lgN, ugN);
+  if (!shared_x) {
+    appendRows(terminal, rowsOf(MatrixXd::Identity(nx, nx), MatrixXd::Zero(nx, nu),
+                                x_lo.bottomRows(1).transpose(), x_hi.bottomRows(1).transpose()));
+  }
   if (terminal.g0.size() > 0) {
     const int m = static_cast<int>(terminal.g0.size());
     lq->problem->addInequality(
@@ -291,11 +405,11 @@ std::unique_ptr<LqProblem> makeLq(const std::vector<MatrixXd>& A, const std::vec
         std::make_shared<LinearRows>(nx, nu, m, std::vector<LinearRows::Node>{terminal}, true),
         ocp::Stage::Terminal);
   }
-  if (!(u_lo.array() == -INFINITY).all() || !(u_hi.array() == INFINITY).all()) {
-    lq->problem->setInputBounds(u_lo, u_hi);
+  if (shared_u && (!(u_lo.array() == -INFINITY).all() || !(u_hi.array() == INFINITY).all())) {
+    lq->problem->setInputBounds(u_lo.row(0).transpose(), u_hi.row(0).transpose());
   }
-  if (!(x_lo.array() == -INFINITY).all() || !(x_hi.array() == INFINITY).all()) {
-    lq->problem->setStateBounds(x_lo, x_hi);
+  if (shared_x && (!(x_lo.array() == -INFINITY).all() || !(x_hi.array() == INFINITY).all())) {
+    lq->problem->setStateBounds(x_lo.row(0).transpose(), x_hi.row(0).transpose());
   }
   lq->solver = std::make_unique<solver::Solver>(lq->problem, settings);
   return lq;
