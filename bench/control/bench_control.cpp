@@ -12,6 +12,15 @@
 //   cpu_median_us, cpu_p99_us   thread CPU time per tick (the wall tail on a shared machine is
 //                               other processes)
 //   solutions                   MPC solutions received per second of ticks
+//
+//   BM_MpcUpdateFastTrot/0|1    the MPC update at the fastest gait the speed rule gives: a trot
+//                     commanded at 0.5 m/s (the rule's shortest period) towards a 0.2 m step
+//                     (slowed to the step speed limit there), with the library's default
+//                     control settings; /0 deterministic timing (the update runs inside the
+//                     tick at its solve time), /1 asynchronous (the MPC on its own thread).
+//                     Counters from each adopted solution's solve time: update_median_ms,
+//                     update_p99_ms, update_max_ms against period_ms (the MPC period), and
+//                     p99_share = update_p99_ms / period_ms (< 1: real time holds).
 #include <benchmark/benchmark.h>
 #include <time.h>
 
@@ -20,6 +29,8 @@
 #include <vector>
 
 #include "rollstep/control/pipeline.hpp"
+#include "rollstep/control/speed_rule.hpp"
+#include "rollstep/model/model.hpp"
 #include "rollstep/planning/terrain.hpp"
 
 namespace {
@@ -89,5 +100,84 @@ void BM_RealTimeTick(benchmark::State& state) {
   state.counters["qp_fallbacks"] = static_cast<double>(pipeline.counters().qp_fallbacks);
 }
 BENCHMARK(BM_RealTimeTick)->UseManualTime()->Iterations(5000)->Unit(benchmark::kMicrosecond);
+
+void BM_MpcUpdateFastTrot(benchmark::State& state) {
+  const centroidal::RobotOcpDescription robot = centroidal::loadRobotOcpDescription(
+      std::string(ROLLSTEP_ROBOTS_DIR) + "/tachyon3/centroidal.yaml");
+  control::ControlSettings settings;
+  settings.mpc.timing =
+      state.range(0) == 0 ? control::MpcTiming::Deterministic : control::MpcTiming::Asynchronous;
+  const std::vector<planning::TimedBaseCommand> schedule{{0.0, {0.5, 0.0, 0.0}}};
+  if (settings.ocp.speed_adaptation) {
+    // The trot timed for the command, as rollstep sim times it.
+    const model::Model model = model::buildModelFromUrdfFile(robot.urdf);
+    const planning::TrotTiming timing = control::trotTimingFor(
+        control::speedRuleLimits(model, robot.contact_frames, robot.nominal_joint_positions,
+                                 settings.ocp),
+        schedule, control::turnRadius(model, robot.contact_frames, robot.nominal_joint_positions));
+    settings.ocp.gait_period = timing.period;
+    settings.ocp.trot_duty = timing.duty;
+    settings.ocp.step_up_max_hold = std::min(settings.ocp.step_up_max_hold, timing.max_edge_hold);
+    settings.ocp.step_down_max_hold =
+        std::min(settings.ocp.step_down_max_hold, timing.max_edge_hold);
+  }
+  const planning::TerrainBox floor{-50.0, 50.0, -50.0, 50.0, 0.0};
+  const planning::TerrainBox step{1.5, 2.5, -1.0, 1.0, 0.2};
+  const planning::TerrainModel terrain =
+      planning::terrainFromBoxes(floor, 0.0, {step}, robot.contact_offset + 0.01);
+  control::ControlPipeline pipeline(robot, settings, terrain, planning::GaitKind::Trot);
+  control::RobotState s = pipeline.makeState();
+  s.base_position = Eigen::Vector3d(0.0, 0.0, pipeline.contactPlanner().stance().height);
+  s.joint_position = pipeline.loadedRobot().description.nominal_joint_positions;
+  pipeline.initializeSchedule(s, schedule);
+  control::JointCommand command = pipeline.makeCommand();
+  const double dt = settings.control_period;
+  std::vector<double> update_ms;
+  update_ms.reserve(1 << 16);
+  std::vector<int> iterations;
+  iterations.reserve(1 << 16);
+  std::uint64_t last_sequence = pipeline.lastSolution().sequence;
+  for (auto _ : state) {
+    control::fromModelState(s.time + dt, pipeline.integrator().q(), pipeline.integrator().v(), s);
+    const auto w0 = std::chrono::steady_clock::now();
+    pipeline.tick(s, command);
+    state.SetIterationTime(
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count());
+    const control::MpcSolution& solution = pipeline.lastSolution();
+    if (solution.sequence != last_sequence) {
+      last_sequence = solution.sequence;
+      if (update_ms.size() < update_ms.capacity()) {
+        update_ms.push_back(solution.solve_time_ms);
+        iterations.push_back(solution.iterations);
+      }
+    }
+    if (settings.mpc.timing == control::MpcTiming::Asynchronous) {
+      // The loop's 1 kHz rhythm, so the MPC thread sees robot time pass at its real rate.
+      const auto until = w0 + std::chrono::microseconds(1000);
+      while (std::chrono::steady_clock::now() < until) {
+      }
+    }
+  }
+  pipeline.stop();
+  const double period_ms = 1e3 * settings.mpc.period;
+  state.counters["updates"] = static_cast<double>(update_ms.size());
+  state.counters["update_median_ms"] = percentile(update_ms, 0.5);
+  state.counters["update_p99_ms"] = percentile(update_ms, 0.99);
+  state.counters["update_max_ms"] =
+      update_ms.empty() ? 0.0 : *std::max_element(update_ms.begin(), update_ms.end());
+  state.counters["period_ms"] = period_ms;
+  state.counters["p99_share"] = percentile(update_ms, 0.99) / period_ms;
+  state.counters["iterations_max"] =
+      iterations.empty() ? 0.0 : *std::max_element(iterations.begin(), iterations.end());
+  state.counters["gait_period_s"] = settings.ocp.gait_period;
+  state.counters["qp_fallbacks"] = static_cast<double>(pipeline.counters().qp_fallbacks);
+}
+// 6 s of robot time: the approach at full speed, the slowdown and the climb onto the step.
+BENCHMARK(BM_MpcUpdateFastTrot)
+    ->Arg(0)
+    ->Arg(1)
+    ->UseManualTime()
+    ->Iterations(6000)
+    ->Unit(benchmark::kMicrosecond);
 
 }  // namespace
