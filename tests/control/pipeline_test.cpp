@@ -1,4 +1,5 @@
-// The 1 kHz control pipeline on Tachyon 3 on a flat floor, closed on an ideal plant (the
+// The 1 kHz control pipeline on Tachyon 3 (and on wheelquad, a wheeled quadruped) on a flat
+// floor, closed on an ideal plant (the
 // robot does what it is commanded: the measured state of each tick is the internal
 // integrator's state after the last): standing settles at the nominal posture; trotting,
 // the contact modes are the contact planner's gait and every joint command stays inside
@@ -23,6 +24,13 @@ namespace {
 const centroidal::RobotOcpDescription& tachyon3() {
   static const centroidal::RobotOcpDescription d = centroidal::loadRobotOcpDescription(
       std::string(ROLLSTEP_ROBOTS_DIR) + "/tachyon3/centroidal.yaml");
+  return d;
+}
+
+/// The second robot: a wheeled quadruped, three revolute joints per leg, four drive wheels.
+const centroidal::RobotOcpDescription& wheelquad() {
+  static const centroidal::RobotOcpDescription d = centroidal::loadRobotOcpDescription(
+      std::string(ROLLSTEP_ROBOTS_DIR) + "/wheelquad/centroidal.yaml");
   return d;
 }
 
@@ -126,6 +134,22 @@ TEST(ControlPipeline, TrottingKeepsTheGaitsModesAndEveryJointInsideItsLimits) {
   EXPECT_EQ(pipeline.counters().qp_fallbacks, 0u);
   EXPECT_EQ(pipeline.counters().solutions_rejected, 0u);
   EXPECT_EQ(pipeline.counters().watchdog_trips, 0u);
+  EXPECT_EQ(run.allocations, 0u);
+}
+
+TEST(ControlPipeline, WheelquadStandingHoldsTheNominalPosture) {
+  ControlPipeline pipeline(wheelquad(), settings(), flatFloor(), planning::GaitKind::Standing);
+  const double nominal = pipeline.contactPlanner().stance().height;
+  const IdealRun run = runIdeal(pipeline, planning::BaseVelocityCommand{}, 1500);
+  EXPECT_NEAR(run.min_height, nominal, 0.015);
+  EXPECT_NEAR(run.max_height, nominal, 0.015);
+  EXPECT_NEAR(run.last.base_position.z(), run.height_before_end, 1e-3);
+  EXPECT_LT(run.max_joint_error, 0.03);
+  EXPECT_LE(run.joint_limit_excess, 0.0);
+  EXPECT_EQ(run.mode_mismatches, 0);
+  EXPECT_LT(run.last.base_position.head<2>().norm(), 0.01);
+  EXPECT_EQ(pipeline.counters().qp_fallbacks, 0u);
+  EXPECT_EQ(pipeline.counters().solutions_rejected, 0u);
   EXPECT_EQ(run.allocations, 0u);
 }
 
