@@ -3,7 +3,8 @@
 // types, axes, limits and efforts, the four wheel centres at 20 random joint configurations,
 // to 1e-9); the servos have the gains of wheelquad.md; the keyframe "nominal" is the OCP
 // description's posture with the wheels touching; and in MuJoCo, on a flat floor under its
-// position servos, the robot stands at that keyframe.
+// position servos, the robot stands at that keyframe, rolls straight on its wheels and turns on
+// the spot by skid steering.
 //
 // The URDF side is computed here directly from urdfdom (a small recursive forward
 // kinematics), independent of the model layer; the MJCF side by MuJoCo itself.
@@ -291,28 +292,59 @@ struct Vfs {
   }
 };
 
+/// The robot on a floor of friction 0.8 (the reference scenes'), at the nominal keyframe
+/// (its servos' targets the nominal posture, the wheels braked).
+struct OnAFloor {
+  mjModel* m = nullptr;
+  mjData* d = nullptr;
+  OnAFloor() {
+    Vfs vfs;
+    const std::string scene =
+        "<mujoco model=\"wheelquad_floor\">\n  <include file=\"wheelquad.xml\"/>\n"
+        "  <worldbody>\n    <geom name=\"floor\" type=\"plane\" size=\"20 20 0.1\" group=\"0\" "
+        "contype=\"1\" conaffinity=\"1\" friction=\"0.8 0.005 0.0001\"/>\n  </worldbody>\n"
+        "</mujoco>\n";
+    EXPECT_TRUE(vfs.add("wheelquad.xml", readFile(kMjcf)));
+    EXPECT_TRUE(vfs.add("wheelquad_floor.xml", scene));
+    char err[1000] = "";
+    m = mj_loadXML((kDir + "wheelquad_floor.xml").c_str(), vfs.vfs.get(), err, sizeof err);
+    EXPECT_NE(m, nullptr) << err;
+    if (m == nullptr) return;
+    d = mj_makeData(m);
+    const int key = mj_name2id(m, mjOBJ_KEY, "nominal");
+    EXPECT_GE(key, 0);
+    if (key >= 0) mj_resetDataKeyframe(m, d, key);
+  }
+  ~OnAFloor() {
+    if (d != nullptr) mj_deleteData(d);
+    if (m != nullptr) mj_deleteModel(m);
+  }
+  OnAFloor(const OnAFloor&) = delete;
+  OnAFloor& operator=(const OnAFloor&) = delete;
+  Eigen::Vector3d base() const { return {d->qpos[0], d->qpos[1], d->qpos[2]}; }
+  Eigen::Quaterniond attitude() const {
+    return Eigen::Quaterniond(d->qpos[3], d->qpos[4], d->qpos[5], d->qpos[6]);
+  }
+  void setWheelSpeed(const std::string& leg, double speed) {
+    d->ctrl[mj_name2id(m, mjOBJ_ACTUATOR, (leg + "_wheel_servo").c_str())] = speed;
+  }
+  void run(double seconds) {
+    for (int step = 0; step < static_cast<int>(std::lround(seconds / m->opt.timestep)); ++step) {
+      mj_step(m, d);
+    }
+  }
+};
+
 TEST(WheelquadInMujoco, StandsAtTheNominalKeyframeUnderItsServos) {
-  // The robot on a floor of friction 0.8 (the reference scenes'), released at the nominal
-  // keyframe with its servos holding the nominal posture and the wheels braked (velocity
-  // target 0): after 3 s it stands still where it started, a few millimetres lower (the
-  // soft contacts and the servos' deflection under load), level, every wheel loaded.
-  Vfs vfs;
-  const std::string scene =
-      "<mujoco model=\"wheelquad_floor\">\n  <include file=\"wheelquad.xml\"/>\n"
-      "  <worldbody>\n    <geom name=\"floor\" type=\"plane\" size=\"20 20 0.1\" group=\"0\" "
-      "contype=\"1\" conaffinity=\"1\" friction=\"0.8 0.005 0.0001\"/>\n  </worldbody>\n"
-      "</mujoco>\n";
-  ASSERT_TRUE(vfs.add("wheelquad.xml", readFile(kMjcf)));
-  ASSERT_TRUE(vfs.add("wheelquad_floor.xml", scene));
-  char err[1000] = "";
-  mjModel* m = mj_loadXML((kDir + "wheelquad_floor.xml").c_str(), vfs.vfs.get(), err, sizeof err);
-  ASSERT_NE(m, nullptr) << err;
-  mjData* d = mj_makeData(m);
-  const int key = mj_name2id(m, mjOBJ_KEY, "nominal");
-  ASSERT_GE(key, 0);
-  mj_resetDataKeyframe(m, d, key);
-  const Eigen::Vector3d start(d->qpos[0], d->qpos[1], d->qpos[2]);
-  for (int step = 0; step < 3000; ++step) mj_step(m, d);
+  // Released at the nominal keyframe: after 3 s it stands still where it started, a few
+  // millimetres lower (the soft contacts and the servos' deflection under load), level,
+  // every wheel loaded.
+  OnAFloor f;
+  ASSERT_NE(f.d, nullptr);
+  mjModel* m = f.m;
+  mjData* d = f.d;
+  const Eigen::Vector3d start = f.base();
+  f.run(3.0);
 
   const Eigen::Vector3d end(d->qpos[0], d->qpos[1], d->qpos[2]);
   const Eigen::Quaterniond attitude(d->qpos[3], d->qpos[4], d->qpos[5], d->qpos[6]);
@@ -340,8 +372,48 @@ TEST(WheelquadInMujoco, StandsAtTheNominalKeyframeUnderItsServos) {
     EXPECT_GT(load, 0.15 * weight) << leg;
     EXPECT_LT(load, 0.35 * weight) << leg;
   }
-  mj_deleteData(d);
-  mj_deleteModel(m);
+}
+
+TEST(WheelquadInMujoco, RollsStraightAtOneMetrePerSecondOnItsWheels) {
+  // The four velocity servos at 1 m/s over the wheel radius, the legs held at the nominal
+  // posture: after 1 s of acceleration it rolls at about 1 m/s (a little less: a loaded
+  // wheel rolls on a radius a few millimetres smaller), straight, level, on four wheels.
+  OnAFloor f;
+  ASSERT_NE(f.d, nullptr);
+  for (const std::string& leg : kLegs) f.setWheelSpeed(leg, 1.0 / kWheelRadius);
+  f.run(1.5);
+  const Eigen::Vector3d start = f.base();
+  f.run(1.0);
+  const Eigen::Vector3d travel = f.base() - start;
+  std::printf("rolled (%.4f, %.4f, %.4f) m in 1 s\n", travel.x(), travel.y(), travel.z());
+  EXPECT_NEAR(travel.x(), 1.0, 0.05);
+  EXPECT_LT(std::abs(travel.y()), 0.01);
+  EXPECT_LT(std::abs(travel.z()), 0.005);
+  EXPECT_GT((f.attitude() * Eigen::Vector3d::UnitZ()).z(), std::cos(0.02));
+  for (const std::string& leg : kLegs) {
+    const int touch = mj_name2id(f.m, mjOBJ_SENSOR, (leg + "_touch").c_str());
+    EXPECT_GT(f.d->sensordata[f.m->sensor_adr[touch]], 0.15 * mj_getTotalmass(f.m) * 9.81) << leg;
+  }
+}
+
+TEST(WheelquadInMujoco, TurnsOnTheSpotBySkidSteering) {
+  // Left wheels backwards, right wheels forwards (0.3 m/s at the rim): the body turns
+  // counter-clockwise about a point near its centre (the centre of mass lies 1.5 cm behind
+  // it), the wheels sliding sideways. Sliding wheels realize only part of the 1.5 rad/s a
+  // 0.4 m track gives without slip (measured 0.4 rad/s: an effective track about 4 times
+  // the geometric one, as Tachyon 3's, config/behaviours/turn_in_place.yaml).
+  OnAFloor f;
+  ASSERT_NE(f.d, nullptr);
+  for (const std::string& leg : kLegs)
+    f.setWheelSpeed(leg, (leg[0] == 'L' ? -0.3 : 0.3) / kWheelRadius);
+  f.run(3.0);
+  const Eigen::Vector3d forward = f.attitude() * Eigen::Vector3d::UnitX();
+  const double yaw = std::atan2(forward.y(), forward.x());
+  std::printf("turned %.3f rad in 3 s, base moved %.4f m\n", yaw, f.base().head<2>().norm());
+  EXPECT_GT(yaw, 0.15 * 1.5 * 3.0);
+  EXPECT_LT(yaw, 0.5 * 1.5 * 3.0);
+  EXPECT_LT(f.base().head<2>().norm(), 0.1);
+  EXPECT_GT((f.attitude() * Eigen::Vector3d::UnitZ()).z(), std::cos(0.05));
 }
 
 }  // namespace
