@@ -1,11 +1,10 @@
-// The 1 kHz control pipeline on Tachyon 3 (and on wheelquad, a wheeled quadruped) on a flat
-// floor, closed on an ideal plant (the
-// robot does what it is commanded: the measured state of each tick is the internal
-// integrator's state after the last): standing settles at the nominal posture; trotting,
-// the contact modes are the contact planner's gait and every joint command stays inside
-// its limits (the ideal plant has no ground to hold the body: its height drifts, which
-// makes it a test of the safety filter too); tick() allocates nothing. The closed loops on
-// the simulated robot are in tests/sim.
+// The 1 kHz control pipeline on a flat floor, closed on an ideal plant (the robot does what
+// it is commanded: the measured state of each tick is the internal integrator's state after
+// the last). Tachyon 3: standing settles at the nominal posture; trotting, the contact modes
+// are the contact planner's gait and every joint command stays inside its limits (the ideal
+// plant has no ground to hold the body: its height drifts, which makes it a test of the
+// safety filter too). wheelquad (a wheeled quadruped): standing, and rolling at 1 m/s.
+// tick() allocates nothing. The closed loops on the simulated robot are in tests/sim.
 #include "rollstep/control/pipeline.hpp"
 
 #include <gtest/gtest.h>
@@ -148,6 +147,25 @@ TEST(ControlPipeline, WheelquadStandingHoldsTheNominalPosture) {
   EXPECT_LE(run.joint_limit_excess, 0.0);
   EXPECT_EQ(run.mode_mismatches, 0);
   EXPECT_LT(run.last.base_position.head<2>().norm(), 0.01);
+  EXPECT_EQ(pipeline.counters().qp_fallbacks, 0u);
+  EXPECT_EQ(pipeline.counters().solutions_rejected, 0u);
+  EXPECT_EQ(run.allocations, 0u);
+}
+
+TEST(ControlPipeline, WheelquadRollsAtOneMetrePerSecond) {
+  ControlPipeline pipeline(wheelquad(), settings(), flatFloor(), planning::GaitKind::Rolling);
+  const double nominal = pipeline.contactPlanner().stance().height;
+  const IdealRun run = runIdeal(pipeline, planning::BaseVelocityCommand{1.0, 0.0, 0.0}, 3000);
+  EXPECT_EQ(run.mode_mismatches, 0);
+  EXPECT_LE(run.joint_limit_excess, 0.0);
+  EXPECT_NEAR(run.min_height, nominal, 0.015);
+  EXPECT_NEAR(run.max_height, nominal, 0.015);
+  // 3 s at 1 m/s: the base reference starts at the command's speed, so the robot, starting
+  // from rest, runs a little faster for a while to catch up with it.
+  EXPECT_GT(run.last.base_position.x(), 2.7);
+  EXPECT_LT(run.last.base_position.x(), 3.2);
+  EXPECT_NEAR(run.last.base_linear_velocity.x(), 1.0, 0.1);
+  EXPECT_LT(std::abs(run.last.base_position.y()), 0.02);
   EXPECT_EQ(pipeline.counters().qp_fallbacks, 0u);
   EXPECT_EQ(pipeline.counters().solutions_rejected, 0u);
   EXPECT_EQ(run.allocations, 0u);
