@@ -174,10 +174,13 @@ TEST(ControlPipeline, WheelquadRollsAtOneMetrePerSecond) {
 
 TEST(ControlPipeline, WheelquadTrotsOnItsDiagonalsWithTheNmpcSettings) {
   // The settings of `rollstep sim --controller nmpc` (config/nmpc.yaml: the speed rule's
-  // trot timing, late touch-downs landing first, two Newton iterations per update, ...). With
-  // the library's defaults the diagonal trot does not stay bounded on this plant: a swing
-  // held back near the ground by the clearance barrier touches down in the air and is held
-  // there by its stance rows.
+  // trot timing, late touch-downs landing first, two Newton iterations per update, the
+  // weights that damp bobbing and pitching, ...). With the library's defaults (and the
+  // 0.6 s horizon of settings()) the diagonal trot does not stay bounded on this plant: near
+  // the ground the clearance barrier holds each swing back, it touches down about 1.5 cm in
+  // the air, and the body oscillates more with every step; none of nmpc.yaml's keys alone
+  // (late touch-downs, the speed rule, two iterations with 20 ms latency, the weights) is
+  // enough.
   ControlSettings s = loadControlSettings(std::string(ROLLSTEP_CONFIG_DIR) + "/nmpc.yaml");
   ControlPipeline pipeline(wheelquad(), s, flatFloor(), planning::GaitKind::Trot);
   const double nominal = pipeline.contactPlanner().stance().height;
