@@ -12,6 +12,10 @@ namespace rollstep::control {
 
 namespace {
 
+/// |axis . e_y| at or above this (45 deg): a revolute joint that moves its foot in the
+/// base's x-z plane (a hip or knee flexion joint, not an abduction joint).
+constexpr double kSagittalAxis = 0.7071067811865476;
+
 /// The model's configuration at the origin, upright, with the joints at `nominal_joints`.
 Eigen::VectorXd nominalConfiguration(const model::Model& model,
                                      const Eigen::VectorXd& nominal_joints) {
@@ -36,38 +40,45 @@ planning::SpeedAdaptationLimits speedRuleLimits(const model::Model& model,
   model::forwardKinematics(model, data, nominalConfiguration(model, nominal_joints));
   model::updateFramePlacements(model, data);
   const double inf = std::numeric_limits<double>::infinity();
-  double prismatic_speed = inf, revolute_speed = inf, sweep = inf;
+  double vertical_speed = inf, sweep = inf;
   for (const std::string& name : contact_frames) {
     const model::FrameIndex f = model.getFrameId(name);
     const Eigen::Vector3d foot = data.opf[static_cast<std::size_t>(f)];
     int hip = -1;
+    double leg_vertical_speed = 0.0;
     for (int b = model.frames[static_cast<std::size_t>(f)].body; b > 0;
          b = model.bodies[static_cast<std::size_t>(b)].parent) {
       const model::Body& body = model.bodies[static_cast<std::size_t>(b)];
       const int j = body.idxV - model.nvBase;
-      if (std::isfinite(model.lowerPositionLimit[j]) &&
-          std::isfinite(model.upperPositionLimit[j])) {
-        if (body.type == model::JointType::Prismatic) {
-          prismatic_speed = std::min(prismatic_speed, model.velocityLimit[j]);
-        } else {
-          hip = b;  // the last one found is the nearest the base
-        }
+      if (!std::isfinite(model.lowerPositionLimit[j]) ||
+          !std::isfinite(model.upperPositionLimit[j])) {
+        continue;
+      }
+      // The base is upright at the origin: world axes are the base's.
+      const Eigen::Vector3d axis = data.oRb[static_cast<std::size_t>(b)] * body.axis;
+      if (body.type == model::JointType::Prismatic) {
+        leg_vertical_speed += std::abs(axis.z()) * model.velocityLimit[j];
+      } else if (std::abs(axis.y()) >= kSagittalAxis) {
+        // Swings the foot fore and aft and up and down: dz/dq = (axis x r).z.
+        const Eigen::Vector3d r = foot - data.opb[static_cast<std::size_t>(b)];
+        leg_vertical_speed += std::abs(axis.cross(r).z()) * model.velocityLimit[j];
+        hip = b;  // the last one found is the nearest the base
       }
     }
     if (hip < 0) {
       throw std::invalid_argument("speedRuleLimits: contact frame '" + name +
-                                  "' has no revolute joint with finite limits above it");
+                                  "' has no revolute joint with finite limits about the base's "
+                                  "y axis above it");
     }
+    vertical_speed = std::min(vertical_speed, leg_vertical_speed);
     const model::Body& h = model.bodies[static_cast<std::size_t>(hip)];
     const int j = h.idxV - model.nvBase;
     const double length = (foot - data.opb[static_cast<std::size_t>(hip)]).norm();
     const double half_range = 0.5 * (model.upperPositionLimit[j] - model.lowerPositionLimit[j]);
     sweep = std::min(sweep, 2.0 * length * std::sin(std::min(half_range, M_PI / 2)));
-    revolute_speed = std::min(revolute_speed, model.velocityLimit[j] * length);
   }
   planning::SpeedAdaptationLimits limits;
-  limits.knee_speed = settings.swing_knee_speed_share *
-                      (std::isfinite(prismatic_speed) ? prismatic_speed : revolute_speed);
+  limits.knee_speed = settings.swing_knee_speed_share * vertical_speed;
   limits.rise = settings.max_step_height + settings.swing_clearance;
   limits.apex_margin = settings.swing_apex_margin;
   limits.stance_stroke = settings.stance_stroke_share * sweep;

@@ -56,6 +56,26 @@ TEST(SpeedRule, LimitsComeFromTheRobotModel) {
               2.0 * planning::adaptTrotToSpeed(0.0, l).step_speed_limit, 1e-12);
 }
 
+TEST(SpeedRule, RevoluteLegsCountTheirFlexionJoints) {
+  // wheelquad (robots/wheelquad/wheelquad.md): per leg abduction (about x), flexion and knee
+  // (about y), 12 rad/s each; at the nominal posture (0, 0.8, -1.6) the wheel is under the
+  // flexion axis, the knee 0.3 sin(0.8) behind it. Only the knee raises the foot there; the
+  // abduction joint counts neither for the speed nor as the hip.
+  const centroidal::RobotOcpDescription robot = centroidal::loadRobotOcpDescription(
+      std::string(ROLLSTEP_ROBOTS_DIR) + "/wheelquad/centroidal.yaml");
+  const model::Model model = model::buildModelFromUrdfFile(robot.urdf);
+  centroidal::OcpSettings s;
+  s.swing_knee_speed_share = 0.75;
+  const planning::SpeedAdaptationLimits l =
+      control::speedRuleLimits(model, robot.contact_frames, robot.nominal_joint_positions, s);
+  EXPECT_NEAR(l.knee_speed, 0.75 * 12.0 * 0.3 * std::sin(0.8), 1e-9);
+  // Flexion range [-1, 2.5] rad: half of it is more than 90 deg, so the sweep is 2 L, L the
+  // flexion axis to wheel centre distance 0.6 cos(0.8).
+  EXPECT_NEAR(l.stance_stroke, 2.0 * 0.6 * std::cos(0.8), 1e-9);
+  EXPECT_NEAR(control::turnRadius(model, robot.contact_frames, robot.nominal_joint_positions),
+              std::hypot(0.3, 0.2), 1e-9);
+}
+
 TEST(SpeedRule, RefusesAWrongPosture) {
   const Tachyon3 t;
   EXPECT_THROW(control::speedRuleLimits(t.model, t.robot.contact_frames, Eigen::VectorXd::Zero(3),

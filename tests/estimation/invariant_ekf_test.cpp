@@ -240,5 +240,17 @@ TEST(InvariantEkf, TickDoesNotAllocate) {
   EXPECT_TRUE(f.finite());
 }
 
+TEST(InekfSettings, EveryRobotsTuningLoads) {
+  // Each robot folder's estimation.yaml reads without errors; wheelquad's is Tachyon 3's
+  // tuning (robots/wheelquad/estimation.yaml says why), key for key.
+  const InekfSettings tachyon3 =
+      loadInekfSettings(std::string(ROLLSTEP_ROBOTS_DIR) + "/tachyon3/estimation.yaml");
+  const InekfSettings wheelquad =
+      loadInekfSettings(std::string(ROLLSTEP_ROBOTS_DIR) + "/wheelquad/estimation.yaml");
+  EXPECT_EQ(wheelquad.contact_velocity_noise, tachyon3.contact_velocity_noise);
+  EXPECT_EQ(wheelquad.rolling_radius_offset, tachyon3.rolling_radius_offset);
+  EXPECT_EQ(wheelquad.gyro_noise, tachyon3.gyro_noise);
+}
+
 }  // namespace
 }  // namespace rollstep::estimation

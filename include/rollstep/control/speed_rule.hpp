@@ -1,6 +1,6 @@
 #pragma once
 // The speed rule (planning/speed_adaptation.hpp) for one robot and one set of settings: the
-// limits it needs, from the robot's model (the knees' velocity limit, the hips' sweep), and
+// limits it needs, from the robot's model (the legs' vertical speed, the hips' sweep), and
 // the trot timed for a command schedule. Used where the controller is configured
 // (sim::NmpcController: the gait; ControlPipeline: the schedule slowed down near steps).
 #include <vector>
@@ -12,14 +12,17 @@
 
 namespace rollstep::control {
 
-/// The rule's limits: knee_speed = swing_knee_speed_share x the lowest velocity limit of a
-/// prismatic joint between the base and a contact frame (without one: of a revolute joint,
-/// times the leg's length); rise = max_step_height + swing_clearance; stance_stroke =
-/// stance_stroke_share x the smallest sweep of a leg, 2 L sin(half the range of its hip,
-/// the revolute joint with finite limits nearest the base), L the hip-to-contact distance
-/// at `nominal_joints`; apex_margin, max_duty from the settings (swing_apex_margin,
-/// trot_duty). Throws std::invalid_argument naming the frame when a contact has no joint
-/// with finite limits between it and the base.
+/// The rule's limits, from the legs at `nominal_joints` (base upright at the origin):
+/// knee_speed = swing_knee_speed_share x the smallest over the legs of the foot's vertical
+/// speed when each of its sagittal joints moves at its velocity limit (the joints with finite
+/// limits between the base and the contact frame: prismatic ones |axis_z| v_max, revolute
+/// ones about an axis within 45 deg of the base's y |(axis x r)_z| v_max, r from the joint
+/// to the contact frame; abduction joints do not count); rise = max_step_height +
+/// swing_clearance; stance_stroke = stance_stroke_share x the smallest sweep of a leg,
+/// 2 L sin(half the range of its hip: the sagittal revolute joint nearest the base), L the
+/// hip-to-contact distance; apex_margin, max_duty from the settings (swing_apex_margin,
+/// trot_duty). Throws std::invalid_argument naming the frame when a contact has no
+/// sagittal revolute joint with finite limits between it and the base.
 planning::SpeedAdaptationLimits speedRuleLimits(const model::Model& model,
                                                 const std::vector<std::string>& contact_frames,
                                                 const Eigen::VectorXd& nominal_joints,
