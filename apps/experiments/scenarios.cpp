@@ -461,7 +461,11 @@ ExperimentSet parseExperimentSet(const std::string& text, const std::string& sou
           fail("'" + name + "' has no forward command (--vx or --command) to scale");
         }
         s.name = sweepRunName(name, speed);
-        if (set.find(s.name) != nullptr) fail("'" + s.name + "' is also a scenario's name");
+        if (set.find(s.name) != nullptr ||
+            std::any_of(runs.begin(), runs.end(),
+                        [&](const Scenario& r) { return r.name == s.name; })) {
+          fail("'" + s.name + "' names two runs (speeds within 0.01 m/s, or a scenario's name)");
+        }
         char speed_text[32];
         std::snprintf(speed_text, sizeof speed_text, "%.2f", speed);
         s.title = base->title + " at " + speed_text + " m/s";

@@ -435,6 +435,7 @@ TEST(SpeedSweep, ExpandsEachScenarioAtEachSpeedAndRefusesMistakes) {
   fails("speed_sweep: {scenarios: [n], speeds: [0.1], candidate: n, baseline: b}\n",
         "not one of its scenarios");
   fails("speed_sweep: {scenarios: [n], speeds: [0.1], pace: 2}\n", "unknown key");
+  fails("speed_sweep: {scenarios: [n], speeds: [0.101, 0.102]}\n", "'n_v010' names two runs");
 }
 
 TEST(SpeedSweep, JudgesRatiosAtTheComparedSpeedsAndTheFastestPassingTraverse) {
