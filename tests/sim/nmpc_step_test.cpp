@@ -24,6 +24,7 @@ TEST(NmpcSchedule, TrotThereAndBack) {
   sc.gait = planning::GaitKind::Trot;
   sc.schedule = {{0.0, {0.15, 0.0, 0.0}}, {4.0, {-0.15, 0.0, 0.0}}};
   sc.duration = 8.0;
+  sc.settings.ocp.speed_adaptation = false;  // each command at once (the rule ramps them)
   const NmpcOutcome o = runNmpc(sc);
   std::printf("there and back: furthest x %.3f m, end x %.3f m (%s)\n", o.max_x, o.end.x(),
               describe(o).c_str());
