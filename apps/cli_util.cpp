@@ -125,7 +125,7 @@ std::string configFile(const std::string& name) {
 std::string defaultBaselineConfig() { return configFile("baseline.yaml"); }
 
 std::string defaultNmpcConfig(bool perception) {
-  return configFile(perception ? "nmpc_perception.yaml" : "nmpc.yaml");
+  return perception ? configFile("nmpc_perception.yaml") : std::string();
 }
 
 std::string defaultExperimentsFile() { return configFile("experiments.yaml"); }

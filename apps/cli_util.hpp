@@ -30,8 +30,9 @@ std::string configFile(const std::string& name);
 /// variable is set, else the source tree's config/baseline.yaml.
 std::string defaultBaselineConfig();
 
-/// The NMPC's default control settings: configFile("nmpc.yaml"), on terrain from perception
-/// configFile("nmpc_perception.yaml").
+/// The NMPC's default control settings file: none (empty: the library's defaults,
+/// ControlSettings{}) on the scene's terrain; on terrain from perception
+/// configFile("nmpc_perception.yaml"), what a terrain that changes with every scan adds.
 std::string defaultNmpcConfig(bool perception);
 
 /// The experiments of `rollstep report` and `rollstep trials`: configFile("experiments.yaml").

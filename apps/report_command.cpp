@@ -225,6 +225,22 @@ std::string drawFigures(const ReportInputs& in, const std::vector<RunOutcome>& o
     }
     json["figures"][figure] = names;
   }
+  // The speed sweep's points, per scenario of the sweep (speed_sweep.png).
+  Json sweep = Json::array();
+  for (const SweepSeries& series : sweepSeries(set, outcomes)) {
+    Json points = Json::array();
+    for (const SweepPoint& p : series.points) {
+      Json point;
+      point["speed"] = rounded(p.speed, 4);
+      point["passed"] = p.passed;
+      point["traverse_time"] = p.metrics ? rounded(p.metrics->traverse_time, 4) : Json(nullptr);
+      point["mean_abs_vz"] = p.metrics ? rounded(p.metrics->mean_abs_vz, 6) : Json(nullptr);
+      point["mean_abs_wy"] = p.metrics ? rounded(p.metrics->mean_abs_wy, 6) : Json(nullptr);
+      points.push_back(point);
+    }
+    sweep.push_back({{"scenario", series.scenario}, {"title", series.title}, {"points", points}});
+  }
+  json["speed_sweep"] = sweep;
   writeFileAtomically(out + "/figures.json", json.dump() + "\n");
   const std::string python = "/usr/bin/python3";
   const std::string script = figuresScript();
@@ -385,6 +401,8 @@ ReportVerdict judgeAcceptance(const ReportInputs& in, const std::vector<RunOutco
       margin("mean |w_y|", cm.mean_abs_wy, bm.mean_abs_wy, a.mean_abs_wy);
     }
   }
+  v.sweep_series = sweepSeries(set, outcomes);
+  v.sweep = judgeSpeedSweep(set.sweep, v.sweep_series);
   v.trials_judged = !in.trial_dirs.empty() && in.file_acceptance.given;
   if (v.trials_judged) {
     const Acceptance& a = in.file_acceptance;
@@ -424,6 +442,23 @@ int printSummary(const ReportInputs& in, const ReportResults& r, bool check) {
                " (at most " + percentText(m.margin) + ") " + (m.met ? "met" : "not met");
   }
   if (!margins.empty()) std::printf("  margins    %s\n", margins.c_str());
+  if (r.verdict.sweep.judged) {
+    const SweepVerdict& s = r.verdict.sweep;
+    std::string ratios;
+    for (const SweepRatio& x : s.ratios) {
+      ratios += (ratios.empty() ? "" : "; ") + x.metric + " at " + decimalText(x.speed, 2) + " " +
+                (x.compared ? decimalText(x.ratio, 2) + "x " + (x.met ? "met" : "not met")
+                            : std::string("not compared"));
+    }
+    const std::string fastest = s.fastest_compared
+                                    ? decimalText(s.candidate_time, 2) + " s at " +
+                                          decimalText(s.candidate_speed, 2) + " m/s vs " +
+                                          decimalText(s.baseline_time, 2) + " s at " +
+                                          decimalText(s.baseline_speed, 2) + " m/s "
+                                    : std::string();
+    std::printf("  speed sweep %s%sfastest passing %s%s\n", ratios.c_str(),
+                ratios.empty() ? "" : "; ", fastest.c_str(), s.fastest_met ? "met" : "not met");
+  }
   std::printf("  report     %s/report.html (also report.md)\n", in.out.c_str());
   std::fflush(stdout);
   if (check && (failed > 0 || !acceptance_met)) return 3;
@@ -459,10 +494,11 @@ int runReport(const ReportOptions& o, const std::vector<std::string>& argv) {
 
   // The report's files as a whole: removed now, written at the end; a run that fails or is
   // interrupted leaves DIR/FAILED with the reason instead (each run's folder its own).
-  const OutputFolder folder("report", in.out,
-                            {"report.md", "report.html", "figures.json", "figures.log",
-                             "figures.err", "fig2.png", "fig4.png", "fig6.png", "fig8.png",
-                             "map.png", "snapshots_*", "video_*", "replay.js", "replay_*"});
+  const OutputFolder folder(
+      "report", in.out,
+      {"report.md", "report.html", "figures.json", "figures.log", "figures.err", "fig2.png",
+       "fig4.png", "fig6.png", "fig8.png", "map.png", "speed_sweep.png", "snapshots_*", "video_*",
+       "replay.js", "replay_*"});
   folder.create();
   folder.begin();
   try {

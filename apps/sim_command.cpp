@@ -378,8 +378,11 @@ void runSim(const SimOptions& o, bool scene_given) {
         o.robot_description.empty() ? defaultRobotDescription() : o.robot_description;
     const centroidal::RobotOcpDescription robot = centroidal::loadRobotOcpDescription(description);
     checkContactOffset(robot, description, plant);
-    control::ControlSettings settings = control::loadControlSettings(
-        o.control_config.empty() ? defaultNmpcConfig(o.terrain == "perception") : o.control_config);
+    const std::string settings_file =
+        o.control_config.empty() ? defaultNmpcConfig(o.terrain == "perception") : o.control_config;
+    control::ControlSettings settings = settings_file.empty()
+                                            ? control::ControlSettings{}
+                                            : control::loadControlSettings(settings_file);
     if (o.mpc_timing == "deterministic") settings.mpc.timing = control::MpcTiming::Deterministic;
     if (o.mpc_timing == "asynchronous") settings.mpc.timing = control::MpcTiming::Asynchronous;
     if (o.integrator == "internal") settings.integrator.mode = control::IntegratorMode::Internal;
@@ -746,10 +749,11 @@ void registerSimCommand(CLI::App& app) {
       cmd->add_option("--control-config", options->control_config,
                       "nmpc, cbfqp only: YAML control settings (config/control.yaml lists every "
                       "key and its default; the OCP's and the solver's keys nest in it). nmpc "
-                      "default: config/nmpc.yaml (with --terrain perception "
-                      "config/nmpc_perception.yaml): walks and climbs steps at any speed, the "
-                      "trot timed for the command; cbfqp default: config/baseline.yaml (the "
-                      "baseline's tuning); $ROLLSTEP_CONFIG_DIR/... if set")
+                      "default: those defaults (with --terrain perception "
+                      "config/nmpc_perception.yaml over them): walks and climbs steps at any "
+                      "speed, the trot timed for the command; cbfqp default: "
+                      "config/baseline.yaml (the baseline's tuning); $ROLLSTEP_CONFIG_DIR/... "
+                      "if set")
           ->check(kNotEmpty));
   pipeline_only.push_back(cmd->add_option("--robot-description", options->robot_description,
                                           "nmpc, cbfqp only: the robot's OCP description "

@@ -164,6 +164,92 @@ void addRunAcceptance(Document& doc, const ReportInputs& in,
   }
 }
 
+/// The speed sweep: per commanded speed each controller's result and Table 1 metrics, the
+/// figure, and the comparison's verdicts, computed from the runs.
+void addSpeedSweep(Document& doc, const ReportInputs& in, const ReportResults& results,
+                   std::vector<std::string>& warnings) {
+  const SpeedSweep& sweep = in.set.sweep;
+  const std::vector<SweepSeries>& series = results.verdict.sweep_series;
+  if (!sweep.given || series.empty()) return;
+  doc.heading(2, "Speed sweep");
+  doc.paragraph(
+      "Each controller's scenario run again at each commanded speed (its command scaled to the "
+      "speed, the run's duration scaled back, plus " +
+      decimalText(kTrialSpeedMargin, 0) +
+      " s). Traverse time, mean |v_z| and mean |w_y| as in Table 1; a failed run shows its "
+      "reason.");
+  std::vector<std::string> header = {"speed [m/s]"};
+  for (const SweepSeries& s : series) {
+    for (const char* column : {"", " traverse [s]", " mean |v_z| [m/s]", " mean |w_y| [rad/s]"}) {
+      header.push_back(s.title + column);
+    }
+  }
+  std::vector<double> speeds;
+  for (const SweepSeries& s : series) {
+    for (const SweepPoint& p : s.points) {
+      if (std::none_of(speeds.begin(), speeds.end(),
+                       [&](double v) { return std::abs(v - p.speed) < 1e-9; })) {
+        speeds.push_back(p.speed);
+      }
+    }
+  }
+  std::sort(speeds.begin(), speeds.end());
+  std::vector<std::vector<std::string>> rows;
+  for (double speed : speeds) {
+    std::vector<std::string> row = {decimalText(speed, 2)};
+    for (const SweepSeries& s : series) {
+      const SweepPoint* p = s.at(speed);
+      if (p == nullptr) {
+        row.insert(row.end(), {"not run", "-", "-", "-"});
+        continue;
+      }
+      const bool have = p->metrics.has_value();
+      row.push_back(p->passed ? "passed" : "**FAILED**: " + p->failure);
+      row.push_back(have ? decimalText(p->metrics->traverse_time, 2) : "not measured");
+      row.push_back(have ? decimalText(p->metrics->mean_abs_vz, 4) : "not measured");
+      row.push_back(have ? decimalText(p->metrics->mean_abs_wy, 4) : "not measured");
+    }
+    rows.push_back(row);
+  }
+  doc.table(header, rows);
+  const std::string figure = "speed_sweep.png";
+  if (fs::exists(in.out + "/" + figure)) {
+    doc.image(figure,
+              "Traverse time, mean |v_z| and mean |w_y| against the commanded speed (crosses: "
+              "failed runs, at the speed they were commanded).");
+  } else if (!results.figures_gap.empty()) {
+    doc.paragraph("Figure not available: " + results.figures_gap);
+  } else if (const std::string why = figureError(in.out, "speed_sweep"); !why.empty()) {
+    doc.paragraph("Figure not drawn: " + why);
+    warnings.push_back("figure " + figure + " not drawn: " + why);
+  } else {
+    doc.paragraph("Figure not drawn: no sweep run left a log");
+  }
+  const SweepVerdict& v = results.verdict.sweep;
+  if (!v.judged) return;
+  doc.heading(3, "Acceptance over the sweep");
+  std::vector<std::vector<std::string>> verdicts;
+  for (const SweepRatio& r : v.ratios) {
+    verdicts.push_back({r.metric + " at " + decimalText(r.speed, 2) + " m/s",
+                        r.compared
+                            ? decimalText(r.candidate, 4) + " vs " + decimalText(r.baseline, 4) +
+                                  ": " + decimalText(r.ratio, 2) + "x"
+                            : "not compared (a run is missing or failed)",
+                        "at most " + decimalText(sweep.max_ratio, 2) + "x",
+                        r.compared && r.met ? "met" : "**not met**"});
+  }
+  const auto fastest = [](double speed, double time) {
+    return decimalText(time, 2) + " s at " + decimalText(speed, 2) + " m/s";
+  };
+  verdicts.push_back({"traverse time at the fastest passing speed",
+                      v.fastest_compared ? fastest(v.candidate_speed, v.candidate_time) + " vs " +
+                                               fastest(v.baseline_speed, v.baseline_time)
+                                         : "a controller has no passing run",
+                      "at most the baseline's", v.fastest_met ? "met" : "**not met**"});
+  doc.table({sweep.candidate + " vs " + sweep.baseline, "measured", "required", "result"},
+            verdicts);
+}
+
 /// Figs. 2, 4, 6, 8 and the perception top view: each drawn, or why not (the figure
 /// script missing or failed, its complaint about that figure, or no run to draw it from).
 void addFigures(Document& doc, const ReportInputs& in, const ReportResults& results,
@@ -397,6 +483,7 @@ ComposedReport composeReport(const ReportInputs& in, const ReportResults& result
   addRuns(doc, in, results.outcomes);
   addTable1(doc, in, results.outcomes);
   addRunAcceptance(doc, in, results.outcomes, results.verdict);
+  addSpeedSweep(doc, in, results, report.warnings);
   addFigures(doc, in, results, report.warnings);
   addPictures(doc, results.pictures);
   addReplays(doc, results.replays);

@@ -12,6 +12,7 @@
 #include "rollstep/sim/scene.hpp"
 #include "runs.hpp"
 #include "scenarios.hpp"
+#include "speed_sweep.hpp"
 #include "trials.hpp"
 
 namespace rollstep::experiments {
@@ -71,9 +72,12 @@ struct ReportVerdict {
   bool trials_judged = false;
   PairedComparison trials;
   bool trials_met = true;
+  // The speed sweep (when the experiments file has one): its runs and its comparison.
+  std::vector<SweepSeries> sweep_series;
+  SweepVerdict sweep;
 
-  bool judged() const { return runs_given || trials_judged; }
-  bool met() const { return runs_met && trials_met; }
+  bool judged() const { return runs_given || trials_judged || sweep.judged; }
+  bool met() const { return runs_met && trials_met && sweep.met(); }
 };
 
 /// What the report's stages made, in the order they ran.

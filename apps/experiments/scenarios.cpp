@@ -1,6 +1,8 @@
 #include "scenarios.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <functional>
 #include <map>
@@ -10,6 +12,7 @@
 #include "rollstep/common/text_file.hpp"
 #include "rollstep/common/yaml_tree.hpp"
 #include "rollstep/sim/scene.hpp"
+#include "trials.hpp"
 
 namespace rollstep::experiments {
 
@@ -48,6 +51,12 @@ std::string Scenario::option(const std::string& flag) const {
     if (args[i] == flag) return args[i + 1];
   }
   return "";
+}
+
+std::string sweepRunName(const std::string& scenario, double speed) {
+  char text[32];
+  std::snprintf(text, sizeof text, "_v%03ld", std::lround(speed * 100.0));
+  return scenario + text;
 }
 
 const Scenario* ExperimentSet::find(const std::string& name) const {
@@ -158,8 +167,64 @@ ExperimentSet parseExperimentSet(const std::string& text, const std::string& sou
     };
   };
 
+  // A list of numbers in [lo, hi], increasing.
+  const auto increasing = [&](const MappingReader& r, double lo, double hi) {
+    return [&r, lo, hi, number](const yaml::Node& n, const std::string& key,
+                                std::vector<double>& out) {
+      if (!n.isSequence() || n.size() == 0) r.fail(n, key, "expected a list of numbers");
+      const auto num = number(r, lo, hi);
+      for (std::size_t i = 0; i < n.size(); ++i) {
+        double v = 0.0;
+        num(n.item(i), key, v);
+        if (!out.empty() && v <= out.back()) r.fail(n.item(i), key, "the values must increase");
+        out.push_back(v);
+      }
+    };
+  };
+
   int acceptance_line = 0;
+  int sweep_line = 0;
   top.each({
+      {"speed_sweep",
+       [&](const yaml::Node& n, const std::string& key) {
+         MappingReader r(n, source, key + ".");
+         sweep_line = n.line();
+         SpeedSweep& w = set.sweep;
+         w.given = true;
+         r.each(
+             {{"scenarios",
+               [&](const yaml::Node& v, const std::string& k) { words(r)(v, k, w.scenarios); }},
+              {"speeds", [&](const yaml::Node& v,
+                             const std::string& k) { increasing(r, 0.01, 1.0)(v, k, w.speeds); }},
+              {"candidate",
+               [&](const yaml::Node& v, const std::string& k) { word(r)(v, k, w.candidate); }},
+              {"baseline",
+               [&](const yaml::Node& v, const std::string& k) { word(r)(v, k, w.baseline); }},
+              {"compared_speeds",
+               [&](const yaml::Node& v, const std::string& k) {
+                 increasing(r, 0.01, 1.0)(v, k, w.compared_speeds);
+               }},
+              {"max_ratio", [&](const yaml::Node& v, const std::string& k) {
+                 number(r, 0.0, 100.0)(v, k, w.max_ratio);
+               }}});
+         if (w.scenarios.empty() || w.speeds.empty()) r.fail(n, key, "needs scenarios and speeds");
+         for (const std::string* name : {&w.candidate, &w.baseline}) {
+           if (!name->empty() &&
+               std::find(w.scenarios.begin(), w.scenarios.end(), *name) == w.scenarios.end()) {
+             r.fail(n, key, "'" + *name + "' (candidate or baseline) is not one of its scenarios");
+           }
+         }
+         if (w.candidate.empty() != w.baseline.empty() ||
+             (!w.candidate.empty() && w.candidate == w.baseline)) {
+           r.fail(n, key, "candidate and baseline: two different scenarios, or neither");
+         }
+         for (double v : w.compared_speeds) {
+           if (std::none_of(w.speeds.begin(), w.speeds.end(),
+                            [v](double s) { return std::abs(s - v) < 1e-9; })) {
+             r.fail(n, key, "compared speed " + shortestNumberText(v) + " is not one of speeds");
+           }
+         }
+       }},
       {"criteria",
        [&](const yaml::Node& n, const std::string& key) {
          MappingReader r(n, source, key + ".");
@@ -374,6 +439,46 @@ ExperimentSet parseExperimentSet(const std::string& text, const std::string& sou
     }
   }
   if (set.scenarios.empty()) throw std::runtime_error(source + ": no scenarios");
+  if (set.sweep.given) {
+    const auto fail = [&](const std::string& what) {
+      throw std::runtime_error(source + ": line " + std::to_string(sweep_line) +
+                               ": speed_sweep: " + what);
+    };
+    std::vector<Scenario> runs;
+    for (const std::string& name : set.sweep.scenarios) {
+      const Scenario* base = set.find(name);
+      if (base == nullptr) fail("no scenario named '" + name + "'");
+      for (double speed : set.sweep.speeds) {
+        TrialParameters p;
+        p.speed = speed;
+        Scenario s;
+        try {
+          s = trialScenario(*base, p);
+        } catch (const std::invalid_argument& e) {
+          fail(std::string(e.what()));
+        }
+        if (s.duration == base->duration && s.args == base->args) {  // as it was: no speed
+          fail("'" + name + "' has no forward command (--vx or --command) to scale");
+        }
+        s.name = sweepRunName(name, speed);
+        if (set.find(s.name) != nullptr ||
+            std::any_of(runs.begin(), runs.end(),
+                        [&](const Scenario& r) { return r.name == s.name; })) {
+          fail("'" + s.name + "' names two runs (speeds within 0.01 m/s, or a scenario's name)");
+        }
+        char speed_text[32];
+        std::snprintf(speed_text, sizeof speed_text, "%.2f", speed);
+        s.title = base->title + " at " + speed_text + " m/s";
+        s.figures.clear();
+        s.video = false;
+        s.paper = PaperFigures{};
+        s.sweep_of = name;
+        s.sweep_speed = speed;
+        runs.push_back(std::move(s));
+      }
+    }
+    set.scenarios.insert(set.scenarios.end(), runs.begin(), runs.end());
+  }
   return set;
 }
 

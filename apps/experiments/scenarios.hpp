@@ -41,6 +41,9 @@ struct Scenario {
   std::vector<std::string> figures;
   bool video = true;
   PaperFigures paper;
+  /// A run of the speed sweep: the scenario it repeats at sweep_speed (empty: not one).
+  std::string sweep_of;
+  double sweep_speed = 0.0;  ///< [m/s]
 
   bool feeds(const std::string& figure) const;
   /// "scene ground truth" or "perception (closed loop)".
@@ -77,12 +80,33 @@ struct TrialRanges {
   double speed_min = 0.05, speed_max = 0.5;
 };
 
+/// The speed sweep (`speed_sweep:`): each of `scenarios` run again at each of `speeds`
+/// (its --vx or --command scaled to the speed as a trial's, trialScenario), and the
+/// comparison of `candidate` against `baseline` (two of them) over the sweep: at each of
+/// `compared_speeds` the candidate's mean |v_z| and mean |w_y| at most max_ratio times the
+/// baseline's, and the candidate's traverse time at its fastest passing speed no longer
+/// than the baseline's at its own.
+struct SpeedSweep {
+  std::vector<std::string> scenarios;
+  std::vector<double> speeds;  ///< [m/s], increasing
+  std::string candidate, baseline;
+  std::vector<double> compared_speeds;  ///< [m/s], each one of speeds
+  double max_ratio = 0.7;
+  bool given = false;
+};
+
+/// The name of `scenario`'s sweep run at `speed`: "<scenario>_v030" for 0.30 m/s (cm/s).
+std::string sweepRunName(const std::string& scenario, double speed);
+
 struct ExperimentSet {
   std::string source;  ///< the file it came from
   std::string text;    ///< its text (the report quotes it)
   RunCriteria criteria;
   Acceptance acceptance;
   TrialRanges trials;
+  SpeedSweep sweep;
+  /// The file's scenarios, then the speed sweep's runs (scenario by scenario, speed by
+  /// speed; Scenario::sweep_of set).
   std::vector<Scenario> scenarios;
 
   /// The scenario named `name`, or nullptr.
@@ -91,8 +115,9 @@ struct ExperimentSet {
 
 /// Reads an experiments file. Throws std::runtime_error "experiments '<file>': line L:
 /// <key>: <problem>" for unknown or repeated keys, wrong types, out-of-range numbers,
-/// unknown scenes or figure names, repeated scenario names, an acceptance naming a scenario
-/// that is not there, and missing required keys (name, scene, controller).
+/// unknown scenes or figure names, repeated scenario names, an acceptance or a speed sweep
+/// naming a scenario that is not there (or one without a forward command), and missing
+/// required keys (name, scene, controller).
 ExperimentSet loadExperimentSet(const std::string& file);
 ExperimentSet parseExperimentSet(const std::string& text, const std::string& source,
                                  const std::string& base_dir);

@@ -281,6 +281,37 @@ def fig_map(spec, runs, out):
     return True
 
 
+def fig_speed_sweep(spec, out):
+    series = spec.get("speed_sweep") or []
+    if not any(s["points"] for s in series):
+        return False
+    fig, axes = plt.subplots(3, 1, figsize=(7, 8), sharex=True)
+    keys = [("traverse_time", "traverse time [s]"), ("mean_abs_vz", "mean |v_z| [m/s]"),
+            ("mean_abs_wy", "mean |w_y| [rad/s]")]
+    for k, s in enumerate(series):
+        color = "C%d" % k
+        for ax, (key, ylabel) in zip(axes, keys):
+            ok = [(p["speed"], p[key]) for p in s["points"] if p["passed"] and p[key] is not None]
+            if ok:
+                ax.plot([x for x, _ in ok], [y for _, y in ok], "o-", color=color, lw=1.2, ms=4,
+                        label=s["title"] if ax is axes[0] else None)
+            # Failed runs: a cross at their value, or on the axis when they have none.
+            bad = [(p["speed"], p[key] if p[key] is not None else 0.0)
+                   for p in s["points"] if not p["passed"]]
+            if bad:
+                ax.plot([x for x, _ in bad], [y for _, y in bad], "x", color=color, ms=8, mew=2,
+                        label=(s["title"] + " (failed)") if ax is axes[0] else None)
+            ax.set_ylabel(ylabel)
+            ax.grid(alpha=0.3)
+    axes[-1].set_xlabel("commanded speed [m/s]")
+    axes[0].legend(loc="upper right", fontsize=8)
+    fig.suptitle("Speed sweep: Table 1 metrics against the commanded speed")
+    fig.tight_layout()
+    fig.savefig(os.path.join(out, "speed_sweep.png"), dpi=90)
+    plt.close(fig)
+    return True
+
+
 def main():
     if len(sys.argv) != 2:
         sys.exit("usage: figures.py FIGURES_JSON")
@@ -294,7 +325,8 @@ def main():
             ("fig4", lambda: fig4(spec, pick("fig4"), out)),
             ("fig6", lambda: fig6(spec, pick("fig6"), spec["machine"], out)),
             ("fig8", lambda: fig8(spec, pick("fig8"), out)),
-            ("map", lambda: fig_map(spec, pick("map"), out))]
+            ("map", lambda: fig_map(spec, pick("map"), out)),
+            ("speed_sweep", lambda: fig_speed_sweep(spec, out))]
     for name, job in jobs:
         # One figure's trouble (a log without a column) must not cost the others.
         try:

@@ -13,6 +13,7 @@
 #include "experiments/metrics.hpp"
 #include "experiments/process.hpp"
 #include "experiments/scenarios.hpp"
+#include "experiments/speed_sweep.hpp"
 #include "experiments/trials.hpp"
 
 namespace rollstep::experiments {
@@ -203,6 +204,11 @@ TEST(ExperimentSet, LoadsTheProjectsFileAndRefusesMistakes) {
   EXPECT_EQ(set.trials.step_height_min, 0.10);
   EXPECT_TRUE(set.trials.has_speed);
   EXPECT_EQ(set.trials.speed_max, 0.5);
+  // The speed sweep: both step20 controllers at each speed, compared at three.
+  EXPECT_TRUE(set.sweep.given);
+  ASSERT_NE(set.find("step20_nmpc_v045"), nullptr);
+  EXPECT_EQ(set.find("step20_cbfqp_v005")->option("--vx"), "0.05");
+  EXPECT_EQ(set.sweep.compared_speeds, (std::vector<double>{0.15, 0.3, 0.45}));
   const std::vector<std::string> args = set.find("step20_nmpc")->simArgs("/o");
   EXPECT_EQ(shellCommand(args).substr(0, 53),
             "sim --scene step20 --controller nmpc --duration 28 --");
@@ -385,6 +391,106 @@ TEST(Trials, DrawASpeedAfterTheOtherDrawsAndScaleTheCommandToIt) {
   Scenario bad = stairs;
   bad.args.back() = "0:fast";
   EXPECT_THROW(trialScenario(bad, p), std::invalid_argument);
+}
+
+TEST(SpeedSweep, ExpandsEachScenarioAtEachSpeedAndRefusesMistakes) {
+  const std::string base =
+      "scenarios:\n"
+      "  - {name: n, title: N, scene: step20, controller: nmpc, duration: 28, traverse: true,\n"
+      "     figures: [table1], args: [--gait, trot, --vx, '0.15']}\n"
+      "  - {name: b, scene: step20, controller: cbfqp, duration: 28, args: [--vx, '0.15']}\n"
+      "  - {name: still, scene: flat, controller: nmpc, args: [--gait, standing]}\n";
+  const ExperimentSet set = parseExperimentSet(
+      "speed_sweep: {scenarios: [n, b], speeds: [0.05, 0.3], candidate: n, baseline: b,\n"
+      "  compared_speeds: [0.3], max_ratio: 0.7}\n" +
+          base,
+      "f", "/d");
+  ASSERT_EQ(set.scenarios.size(), 7u);  // the file's three, then n and b at two speeds
+  const Scenario* slow = set.find("n_v005");
+  ASSERT_NE(slow, nullptr);
+  EXPECT_EQ(slow->option("--vx"), "0.05");
+  EXPECT_DOUBLE_EQ(slow->duration, 28 * 3 + kTrialSpeedMargin);
+  EXPECT_TRUE(slow->traverse);
+  EXPECT_FALSE(slow->feeds("table1"));  // the sweep has its own table
+  EXPECT_EQ(slow->sweep_of, "n");
+  EXPECT_EQ(slow->title, "N at 0.05 m/s");
+  ASSERT_NE(set.find("b_v030"), nullptr);
+  EXPECT_EQ(set.find("b_v030")->option("--vx"), "0.3");
+  EXPECT_EQ(set.find("n")->sweep_of, "");
+  const auto fails = [&](const std::string& sweep, const std::string& part) {
+    try {
+      parseExperimentSet(sweep + base, "f", "/d");
+      ADD_FAILURE() << "accepted: " << sweep;
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find(part), std::string::npos) << e.what();
+    }
+  };
+  fails("speed_sweep: {scenarios: [x], speeds: [0.1]}\n", "no scenario named 'x'");
+  fails("speed_sweep: {scenarios: [still], speeds: [0.1]}\n", "no forward command");
+  fails("speed_sweep: {scenarios: [n], speeds: [0.2, 0.1]}\n", "must increase");
+  fails(
+      "speed_sweep: {scenarios: [n, b], speeds: [0.1], candidate: n, baseline: b,\n"
+      "  compared_speeds: [0.2]}\n",
+      "not one of speeds");
+  fails("speed_sweep: {scenarios: [n], speeds: [0.1], candidate: n, baseline: b}\n",
+        "not one of its scenarios");
+  fails("speed_sweep: {scenarios: [n], speeds: [0.1], pace: 2}\n", "unknown key");
+  fails("speed_sweep: {scenarios: [n], speeds: [0.101, 0.102]}\n", "'n_v010' names two runs");
+}
+
+TEST(SpeedSweep, JudgesRatiosAtTheComparedSpeedsAndTheFastestPassingTraverse) {
+  const auto point = [](double speed, bool passed, double time, double vz, double wy) {
+    SweepPoint p;
+    p.speed = speed;
+    p.passed = passed;
+    if (time > 0) p.metrics = Table1Metrics{time, vz, wy, 100, 2.0};
+    return p;
+  };
+  SpeedSweep sweep;
+  sweep.given = true;
+  sweep.scenarios = {"n", "b"};
+  sweep.speeds = {0.15, 0.3, 0.45};
+  sweep.candidate = "n";
+  sweep.baseline = "b";
+  sweep.compared_speeds = {0.15, 0.3};
+  sweep.max_ratio = 0.7;
+  SweepSeries n{"n",
+                "N",
+                {point(0.15, true, 12, 0.01, 0.04), point(0.3, true, 6, 0.03, 0.06),
+                 point(0.45, false, 0, 0, 0)}};
+  SweepSeries b{"b",
+                "B",
+                {point(0.15, true, 13, 0.05, 0.05), point(0.3, true, 8, 0.05, 0.1),
+                 point(0.45, true, 6.3, 0.09, 0.1)}};
+  SweepVerdict v = judgeSpeedSweep(sweep, {n, b});
+  ASSERT_TRUE(v.judged);
+  ASSERT_EQ(v.ratios.size(), 4u);
+  // In order: |v_z| and |w_y| at 0.15, then at 0.3.
+  EXPECT_TRUE(v.ratios[0].met);  // 0.2x
+  EXPECT_NEAR(v.ratios[1].ratio, 0.8, 1e-12);
+  EXPECT_FALSE(v.ratios[1].met);
+  EXPECT_TRUE(v.ratios[2].met);  // 0.6x
+  EXPECT_NEAR(v.ratios[3].ratio, 0.6, 1e-12);
+  EXPECT_TRUE(v.ratios[3].met);
+  EXPECT_FALSE(v.met());
+  // The candidate's fastest pass is 6 s at 0.3, the baseline's 6.3 s at 0.45: met.
+  EXPECT_EQ(v.candidate_speed, 0.3);
+  EXPECT_EQ(v.baseline_speed, 0.45);
+  EXPECT_TRUE(v.fastest_met);
+  // A failed run at a compared speed is not a comparison, and not met.
+  sweep.compared_speeds = {0.45};
+  v = judgeSpeedSweep(sweep, {n, b});
+  EXPECT_FALSE(v.ratios[0].compared);
+  EXPECT_FALSE(v.met());
+  // A slower fastest traverse is not met.
+  b.points[2].metrics->traverse_time = 5.9;
+  sweep.compared_speeds = {};
+  v = judgeSpeedSweep(sweep, {n, b});
+  EXPECT_FALSE(v.fastest_met);
+  EXPECT_FALSE(v.met());
+  // No candidate: listed, not judged.
+  sweep.candidate.clear();
+  EXPECT_FALSE(judgeSpeedSweep(sweep, {n, b}).judged);
 }
 
 TEST(Trials, SeedLists) {

@@ -184,6 +184,7 @@ BENCHMARK(BM_RealTimeIterationN100)->Unit(benchmark::kMillisecond);
 /// measure what the advice gains.
 void BM_Tachyon3RtiUpdateN100(benchmark::State& state) {
   OcpSettings settings;
+  settings.solver.realtime_iterations = 1;  // one iteration per update (the NMPC's runs two)
   settings.solver.num_threads = static_cast<int>(state.range(0));
   const char* huge = std::getenv("ROLLSTEP_BENCH_HUGE_PAGES");
   if (huge != nullptr && std::string(huge) == "0") settings.solver.huge_pages = false;

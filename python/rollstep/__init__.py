@@ -407,9 +407,9 @@ class Simulation:
                    NMPC + CBF-QP + state integrator on the ground-truth state) or 'cbfqp'
                    (the CBF-QP baseline without MPC)
       gait, command  for nmpc and cbfqp: gait name and (vx [m/s], vy [m/s], yaw_rate [rad/s])
-      control      ControlSettings, a YAML file or a dict (nmpc default: config/nmpc.yaml,
-                   as `rollstep sim`, with deterministic MPC timing; cbfqp default:
-                   config/baseline.yaml)
+      control      ControlSettings, a YAML file or a dict (nmpc default: ControlSettings(),
+                   the library's defaults, as `rollstep sim`, with deterministic MPC timing;
+                   cbfqp default: config/baseline.yaml)
       robot        robot folder (its centroidal.yaml and MJCF); default: default_robot()
       log_every    control periods between log rows
 
@@ -430,9 +430,9 @@ class Simulation:
         if control is None and controller == "cbfqp":
             control = os.path.join(config_dir(), "baseline.yaml")
         if control is None:
-            # The NMPC's defaults, as `rollstep sim` without --control-config: climbing and
-            # the speed rule (config/nmpc.yaml), deterministic MPC timing.
-            control = ControlSettings.load(os.path.join(config_dir(), "nmpc.yaml"))
+            # The NMPC's defaults, as `rollstep sim` without --control-config (climbing and
+            # the speed rule), deterministic MPC timing.
+            control = ControlSettings()
             control.mpc.timing = "deterministic"
         vx, vy, wz = (float(c) for c in command)
         self._sim = _rollstep._Simulation(_scene(scene), controller, mjcf, description,

@@ -1,4 +1,6 @@
 """Settings objects: the YAML keys as attributes, the C++ readers' checks and messages."""
+import os
+
 import numpy as np
 import pytest
 
@@ -9,8 +11,16 @@ def test_defaults_and_names_are_the_yaml_keys():
     s = rollstep.OcpSettings()
     assert s.horizon == 100
     assert s.dt == pytest.approx(0.015)
-    np.testing.assert_array_equal(s.base_velocity_weight, [10, 10, 10, 5, 5, 5])
+    np.testing.assert_array_equal(s.base_velocity_weight, [10, 10, 300, 5, 100, 5])
     assert s.solver.exact_hessian is False
+    # The NMPC's default behaviour: the speed rule and two iterations per update.
+    assert s.speed_adaptation is True
+    assert s.solver.realtime_iterations == 2
+    # ControlSettings() is what `rollstep sim --controller nmpc` runs without a file, and
+    # what config/control.yaml documents.
+    c = rollstep.ControlSettings()
+    assert c == rollstep.ControlSettings.load(os.path.join(rollstep.config_dir(), "control.yaml"))
+    assert c.mpc.latency == pytest.approx(0.02)
     assert "horizon" in dir(s) and "solver" in s.keys()
 
 

@@ -45,6 +45,32 @@ inline void solveAndCheck(CentroidalOcp& ocp, solver::Solver& s, const Eigen::Ve
   }
 }
 
+/// The OCP settings without the climbing rules and the speed rule (the values the library
+/// had before they became its defaults): level costs, a fixed 0.8 s trot, mid-swing apex,
+/// no body-height ramp, no gap rule, no waits at edges, no late touch-downs, one
+/// iteration per real-time update. For the plans written for that OCP (the paper's).
+inline OcpSettings withoutClimbingRules() {
+  OcpSettings s;
+  s.base_velocity_weight << 10, 10, 10, 5, 5, 5;
+  s.base_position_weight = Eigen::Vector3d(100, 100, 200);
+  s.joint_position_weight = 20;
+  s.swing_height_max_correction = 0;
+  s.joint_limit_margin = 0;
+  s.swing_clearance = 0.04;
+  s.swing_apex_margin = 0.5;
+  s.base_height_reach = 0;
+  s.base_height_slope = 0;
+  s.base_height_rate = false;
+  s.late_touchdown_tolerance = 0;
+  s.foothold_gap_reach = 0;
+  s.step_down_max_hold = 0;
+  s.step_up_max_hold = 0;
+  s.gait_period = 0.8;
+  s.speed_adaptation = false;
+  s.solver.realtime_iterations = 1;
+  return s;
+}
+
 /// One solved plan: the OCP on `terrain` with `gait` and forward command vx, from the
 /// standing posture at x = x_start.
 struct PlanRun {

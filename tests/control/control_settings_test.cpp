@@ -196,7 +196,7 @@ TEST(ControlSettings, ErrorsNameTheSourceLineAndFullKey) {
       // contradictions between keys: the line of the first key named
       {"mpc:\n  timing: deterministic\n  period: 0\n", "line 3: mpc.period: 0 is allowed in"},
       {"mpc:\n  period: 0.01\n  latency: 0.02\n", "line 3: mpc.latency: 0.02 is above mpc.period"},
-      {"mpc:\n  period: 0.005\n", "line 2: mpc.latency: 0.01 is above mpc.period"},
+      {"mpc:\n  period: 0.005\n", "line 2: mpc.latency: 0.02 is above mpc.period"},
       {"ocp:\n  step_down_max_hold: 0.5\n  edge_hold_lead: 0.1\n",
        "ocp.edge_hold_lead: 0.1 is below mpc.max_solution_age (0.2)"},
       // the nested OCP and solver

@@ -41,10 +41,13 @@ planning::TerrainModel flatFloor() {
 }
 
 /// Default settings with a short horizon (the full N = 100 is not needed here and costs
-/// ~15 ms per real-time iteration).
+/// ~15 ms per real-time iteration), one real-time iteration per solve and a 10 ms latency:
+/// the runner's timing and counts below are written for those.
 ControlSettings shortHorizon(int horizon) {
   ControlSettings s;
   s.ocp.horizon = horizon;
+  s.ocp.solver.realtime_iterations = 1;
+  s.mpc.latency = 0.01;
   return s;
 }
 
@@ -535,6 +538,9 @@ TEST(MpcRunner, StepDownHoldsTravelWithTheSolution) {
   settings.ocp.gait_period = 1.8;
   settings.ocp.foothold_gap_reach = 0.2;
   settings.ocp.step_down_max_hold = 0.9;
+  // The state posted never moves: late touch-downs (on by default) would keep its feet in
+  // swing past the gait's stance starts, and the modes checked below are the gait's.
+  settings.ocp.late_touchdown_tolerance = 0.0;
   auto runner = std::make_unique<MpcRunner>(tachyon3(), settings,
                                             planning::terrainFromBoxes(floor, 0.0, {top}, 0.085),
                                             planning::GaitKind::Trot);

@@ -18,7 +18,11 @@
 namespace rollstep::centroidal {
 
 /// Every weight is a diagonal entry of a least-squares cost 0.5 r^T W r (running costs are
-/// integrated over dt). Defaults are the values of config/ocp.yaml.
+/// integrated over dt). Defaults are the values of config/ocp.yaml: the NMPC's default
+/// behaviour, which walks on level ground and trots up and down steps at any commanded
+/// speed (the climbing values below and the speed rule; how each was found:
+/// docs/CLIMBING.md). `rollstep sim`, `rollstep plan` and the Python bindings all start
+/// from them.
 struct OcpSettings {
   // --- horizon ---------------------------------------------------------------------------
   int horizon = 100;  ///< N, nodes of the horizon (1..10000)
@@ -26,12 +30,12 @@ struct OcpSettings {
   // --- costs -----------------------------------------------------------------------------
   /// Base local velocity tracking v_b(x, u) - v_ref: [vx vy vz wx wy wz].
   Eigen::Matrix<double, 6, 1> base_velocity_weight =
-      (Eigen::Matrix<double, 6, 1>() << 10.0, 10.0, 10.0, 5.0, 5.0, 5.0).finished();
+      (Eigen::Matrix<double, 6, 1>() << 10.0, 10.0, 300.0, 5.0, 100.0, 5.0).finished();
   /// State tracking x (-) x_ref(t): base position (world-aligned, local tangent), base
   /// orientation, every joint position, centroidal momentum [linear; angular].
-  Eigen::Vector3d base_position_weight = Eigen::Vector3d(100.0, 100.0, 200.0);
+  Eigen::Vector3d base_position_weight = Eigen::Vector3d(100.0, 100.0, 2000.0);
   Eigen::Vector3d base_orientation_weight = Eigen::Vector3d(100.0, 100.0, 100.0);
-  double joint_position_weight = 20.0;
+  double joint_position_weight = 5.0;
   Eigen::Matrix<double, 6, 1> momentum_weight =
       (Eigen::Matrix<double, 6, 1>() << 1e-3, 1e-3, 1e-3, 1e-3, 1e-3, 1e-3).finished();
   /// Input tracking u - u_ref(t): joint velocities and contact forces (u_ref: stance
@@ -59,12 +63,12 @@ struct OcpSettings {
   /// [m/s] Saturation of that feedback, max_correction tanh(Kp e / max_correction) (>= 0;
   /// 0: none): a foot far from its spline is asked for at most this much extra vertical
   /// speed, so that the equality stays compatible with the joint velocity bounds.
-  double swing_height_max_correction = 0.0;
+  double swing_height_max_correction = 0.1;
   // --- inequalities ----------------------------------------------------------------------
   double friction_coefficient = 0.6;  ///< mu of the friction pyramid (> 0), below the scene's
   double min_normal_force = 0.0;      ///< [N] lower bound on a stance normal force (>= 0)
   double torque_limit_scale = 1.0;    ///< share of the effort limits used, in (0, 1]
-  double joint_limit_margin = 0.0;    ///< [rad or m] kept from each joint position limit (>= 0)
+  double joint_limit_margin = 0.01;   ///< [rad or m] kept from each joint position limit (>= 0)
   double velocity_limit_scale = 1.0;  ///< share of the joint velocity limits used, in (0, 1]
   /// State-only inequalities (joint positions, foothold and swing regions) as soft
   /// (relaxed barrier) rows: they may be violated where the horizon starts infeasible.
@@ -91,41 +95,41 @@ struct OcpSettings {
   // --- planning inputs -------------------------------------------------------------------
   /// [m] swing apex above the higher end (>= 0). The knees stand 5 cm off their stop: a
   /// swing higher than that needs the hips or the body (0.08 left a static walk infeasible).
-  double swing_clearance = 0.04;
+  double swing_clearance = 0.03;
   /// Apex placement of the swing height spline, in (0, 0.5] (planning::SwingHeightSpline):
   /// 0.5 = mid-swing (the paper); less lets the apex of a swing up a step move later, to
   /// rise / (rise + fall) of the swing but no further than 1 - margin, so that the knee
   /// is not asked for a faster rise than its velocity limit allows.
-  double swing_apex_margin = 0.5;
+  double swing_apex_margin = 0.2;
   /// [m] The base height reference's terrain (planning::BaseReferenceConfig): 0 averages the
   /// terrain under the nominal feet; > 0 takes the highest terrain within this distance of
   /// a nominal foot along the travel, lowered by base_height_slope per metre, so that the
   /// body rises before a step up and comes down after a step down. In [0, 10].
-  double base_height_reach = 0.0;
-  double base_height_slope = 0.0;  ///< [-] grade of that ramp, in [0, 100]
+  double base_height_reach = 0.45;
+  double base_height_slope = 0.5;  ///< [-] grade of that ramp, in [0, 100]
   /// The base velocity cost's vertical reference is that ramp's rate (planning::
   /// BaseReference::velocityAt) instead of 0, so that a large vertical-rate weight damps
   /// the trot's bobbing without holding the body back on the ramps. Needs
   /// base_height_reach > 0 (otherwise the reference has no rate and this changes nothing).
-  bool base_height_rate = false;
+  bool base_height_rate = true;
   /// The current stances' regions and heights, and the lift-off end of the swings under
   /// way, from where the feet stand in the measured state (CentroidalOcp::anchorStanceFeet,
   /// planning::FootReferencePlanner::anchorStance) instead of their nominal footholds,
   /// which a robot lagging its base reference has not reached. Off by default (when on,
   /// the step20 climb on the estimator's state fell; on perception it helps, see
-  /// config/behaviours/climb_perception.yaml).
+  /// config/nmpc_perception.yaml).
   bool anchor_stance_feet = false;
   /// The touch-down region of each swing under way stays the one chosen when the swing was
   /// first planned after its lift-off (planning::FootReferencePlanner::latchTouchdown, by
   /// CentroidalOcp::anchorStanceFeet): a new terrain or the gap rule cannot switch it mid-
   /// swing from up onto a step to level before it. Off by default (see
-  /// config/behaviours/climb_perception.yaml).
+  /// config/nmpc_perception.yaml).
   bool latch_touchdowns = false;
   /// [m] Late touch-downs (CentroidalOcp::landLateFeet): a foot whose stance has begun while
   /// its contact point is still more than this above the stance's surface (in the measured
   /// state) stays in swing and comes down to the surface first, instead of being held in
   /// the air by the stance's zero vertical velocity. 0: off. In [0, 1].
-  double late_touchdown_tolerance = 0.0;
+  double late_touchdown_tolerance = 0.01;
   /// [m/s] Mean descent speed of such a landing (its duration: height / speed, at least two
   /// nodes). In (0, 100].
   double late_touchdown_speed = 0.5;
@@ -136,12 +140,12 @@ struct OcpSettings {
   /// along the travel when that begins within this distance (planning::FootReferenceConfig::
   /// gap_reach); 0: onto the nearest region, which at a step edge is the one the foot is
   /// leaving, so it stops at that region's edge until a later swing. In [0, 10].
-  double foothold_gap_reach = 0.0;
+  double foothold_gap_reach = 0.2;
   /// [s] The longest the gait may wait, every foot in stance and rolling with the base,
   /// so that a swing that would touch down on the brink of a step down steps past it
   /// instead (planning::planEdgeHolds; needs foothold_gap_reach across the gap); 0:
   /// never (the paper's fixed gait timing). In [0, 10].
-  double step_down_max_hold = 0.0;
+  double step_down_max_hold = 0.9;
   /// [s] Such a wait begins at least this long after the state a plan starts from, so that
   /// the real-time side has the plan (and its gait clock) before it begins: at least the
   /// oldest plan it uses (control.yaml's mpc.max_solution_age). In [0, 10].
@@ -153,7 +157,7 @@ struct OcpSettings {
   /// [s] The same before a step up: a swing that would touch down on the surface before it,
   /// short of its end, waits until it lands step_up_setback short of that end, so that the
   /// next swing climbs from close to the riser. 0: never. In [0, 10].
-  double step_up_max_hold = 0.0;
+  double step_up_max_hold = 1.5;
   /// [m] See step_up_max_hold. In [0, 1].
   double step_up_setback = 0.02;
   /// [m] A swing whose nominal touch-down lies in the gap before a riser (the foothold rule
@@ -166,7 +170,7 @@ struct OcpSettings {
   /// that a wheel keeps off the edges and risers; used where the regions are made from a
   /// terrain (`rollstep plan`, `rollstep sim --controller nmpc`). In [0, 1].
   double foothold_edge_clearance = 0.01;
-  double gait_period = 0.8;  ///< [s] one gait cycle (> 0)
+  double gait_period = 1.8;  ///< [s] one gait cycle (> 0)
   double trot_duty = 0.6;    ///< stance share of a trot cycle, in (0, 1)
   double walk_duty = 0.85;   ///< stance share of a static-walk cycle, in (0, 1)
   /// [s] one static-walk cycle (> 0): each foot swings (1 - walk_duty) of it, 0.36 s here;
@@ -177,8 +181,8 @@ struct OcpSettings {
   /// slowed down near steps to what that timing can cross and ramped from rest (the
   /// controller applies it when it is given its command schedule: sim::NmpcController,
   /// control::ControlPipeline). With it, gait_period is ignored for a trot and trot_duty is
-  /// its stance share at low speed. Off by default (the paper's fixed timing).
-  bool speed_adaptation = false;
+  /// its stance share at low speed. Off: the fixed timing of gait_period (the paper's).
+  bool speed_adaptation = true;
   /// [m] The tallest step a trot's swing is timed to climb (with swing_clearance above it).
   /// In (0, 2].
   double max_step_height = 0.2;
@@ -204,6 +208,7 @@ struct OcpSettings {
   static solver::SolverSettings defaultSolverSettings() {
     solver::SolverSettings s;
     s.exact_hessian = false;
+    s.realtime_iterations = 2;
     return s;
   }
 };

@@ -50,7 +50,7 @@ struct MpcSettings {
   double period = 0.02;
   /// [s] Deterministic: a solve's result is used from this long after the state it started
   /// from (the modelled solve time); a multiple of the control period is exact.
-  double latency = 0.01;
+  double latency = 0.02;
   /// Iteration limit of the converging solve from a cold start that gives the first
   /// solution (at initialisation, not real-time).
   int initial_iterations = 100;
@@ -162,15 +162,15 @@ struct IntegratorSettings {
   IntegratorMode mode = IntegratorMode::Internal;
   /// [s] Time constants of the blend of the measured state into the internal one: each tick
   /// moves the internal position (velocity) by dt / tau of its difference to the measured one.
-  double position_time_constant = 0.1;
-  double velocity_time_constant = 0.02;
+  double position_time_constant = 0.5;
+  double velocity_time_constant = 0.2;
   /// [-] Share of the servos' static deflection added to the joint position commands: a
   /// position servo of stiffness K carrying torque tau sits tau / K short of its command, so
   /// the command becomes q + gain tau / K with tau the static joint torque of the planned
   /// contact forces (model::computeStaticTorque) and K the robot description's
   /// servo_stiffness. Without it the body sags under the servos' compliance, more on three
   /// legs than on six, i.e. at every lift-off of a trot. 0: off.
-  double deflection_compensation = 0.0;
+  double deflection_compensation = 1.0;
 };
 
 /// Drive-wheel velocity commands under skid steering (pipeline.hpp, "Skid steering"). Used
