@@ -123,7 +123,7 @@ void expectRegionsMatchRaycast(const std::string& yaml, int expected_regions_at_
     for (double y = -3.0; y <= 3.0; y += 0.0413) {
       const Eigen::Vector2d p(x, y);
       if (std::hypot(x, y) < 1.2) continue;  // the robot stands there
-      if (distanceToAnEdge(g, p) < 0.02) continue;
+      if (distanceToAnEdge(g, p) < 0.03) continue;
       const double distance =
           plant.raycast(Eigen::Vector3d(x, y, 3.0), -Eigen::Vector3d::UnitZ(), 10.0);
       ASSERT_GT(distance, 0.0) << x << " " << y;

@@ -100,7 +100,7 @@ TEST(SceneFiles, ToYamlRoundTrips) {
     SceneConfig c = loadScene(name);
     if (name != std::string("flat")) setSceneNumber(c, "start_x", 1.2345678901234567);
     setSceneNumber(c, "friction", 0.123456789);
-    const SceneConfig back = parseSceneConfig(toYaml(c), "round trip");
+    const SceneConfig back = parseSceneConfig(toYaml(c), std::string("copy/") + name + ".yaml");
     const SceneGeometry a = resolveScene(c), b = resolveScene(back);
     EXPECT_EQ(a.friction, b.friction) << name;
     ASSERT_EQ(a.solids.size(), b.solids.size()) << name;
