@@ -243,7 +243,7 @@ TEST(ExperimentSet, LoadsTheProjectsFileAndRefusesMistakes) {
     return std::string("no error");
   };
   EXPECT_EQ(error("scenarios:\n  - {name: a, scene: moon, controller: nmpc}\n"),
-            "f: line 2: scenarios[0].scene: 'moon' is not flat, step20 or stairs2");
+            "f: line 2: scenarios[0].scene: 'moon' is not flat, stairs2, step20 or step20_custom");
   EXPECT_EQ(error("scenarios:\n  - {name: a, scene: flat, controler: nmpc}\n").substr(0, 48),
             "f: line 2: unknown key 'scenarios[0].controler' ");
   EXPECT_EQ(error("scenarios:\n  - {name: a, scene: flat}\n"),
@@ -500,7 +500,7 @@ TEST(Trials, ResultFieldsAreCheckedLikeInputs) {
   EXPECT_EQ(error("seed: -1"),
             "r.yaml: line 3: seed: '-1' is not a seed (an integer 0 to 999999999)");
   EXPECT_EQ(error("seed: 1\nfriction: 1e7"),
-            "r.yaml: line 4: friction: 1e+07 is outside [-1000000, 1000000]");
+            "r.yaml: line 4: friction: 10000000 is outside [-1000000, 1000000]");
   EXPECT_EQ(error("seed: 1\nfriction: [1]"), "r.yaml: line 4: unknown key 'friction'");
   EXPECT_EQ(error("seed: 1\nmean_abs_vz: -0.1"),
             "r.yaml: line 4: mean_abs_vz: -0.1 is outside [0, 1000]");

@@ -365,7 +365,8 @@ TEST(PlantComposition, TerrainNameClashNamesSceneAndRobot) {
     FAIL() << "no error";
   } catch (const SimError& e) {
     const std::string what = e.what();
-    EXPECT_NE(what.find("scene step20 with robot model '" + path + "'"), std::string::npos) << what;
+    EXPECT_NE(what.find("scene step20 of scene config '"), std::string::npos) << what;
+    EXPECT_NE(what.find("step20.yaml' with robot model '" + path + "'"), std::string::npos) << what;
     EXPECT_NE(what.find("block0"), std::string::npos) << what;
   }
 }
