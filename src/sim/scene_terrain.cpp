@@ -39,6 +39,9 @@ struct Surface {
 struct Line {
   Eigen::Vector2d a;
   double c;
+  /// Where the cut matters: only cells overlapping all of these footprints are cut (a
+  /// top face's edge matters on that face only, two surfaces' crossing where both are).
+  std::vector<const Polygon*> scope;
 };
 
 double area(const Polygon& p) { return planning::signedPolygonArea(p); }
@@ -95,6 +98,17 @@ Polygon hull(Polygon points) {
   return h;
 }
 
+/// Whether two convex counter-clockwise polygons share some area.
+bool overlaps(const Polygon& a, const Polygon& b) {
+  Polygon piece = a;
+  for (std::size_t k = 0; k < b.size() && piece.size() >= 3; ++k) {
+    const Eigen::Vector2d d = (b[(k + 1) % b.size()] - b[k]).normalized();
+    const Eigen::Vector2d n(-d.y(), d.x());  // inwards for counter-clockwise
+    piece = clip(piece, Line{n, -n.dot(b[k]), {}}, 1.0);
+  }
+  return piece.size() >= 3 && area(piece) > kAreaTolerance;
+}
+
 planning::TerrainModel axisAlignedTerrain(const SceneGeometry& g, double margin) {
   std::vector<planning::TerrainBox> boxes;
   for (const SceneSolid& s : g.solids) {
@@ -141,7 +155,7 @@ planning::TerrainModel terrainFromScene(const SceneGeometry& g, double margin) {
     for (std::size_t k = 0; k < f.size(); ++k) {
       const Eigen::Vector2d d = (f[(k + 1) % f.size()] - f[k]).normalized();
       const Eigen::Vector2d a(-d.y(), d.x());
-      lines.push_back({a, -a.dot(f[k])});
+      lines.push_back({a, -a.dot(f[k]), {&f}});
     }
   }
   for (std::size_t i = 0; i < surfaces.size(); ++i) {
@@ -153,13 +167,20 @@ planning::TerrainModel terrainFromScene(const SceneGeometry& g, double margin) {
       const double norm = a.norm();
       if (norm < 1e-12) continue;
       const double c = (s.z0 - s.gradient.dot(s.p0)) - (t.z0 - t.gradient.dot(t.p0));
-      lines.push_back({a / norm, c / norm});
+      if (!overlaps(s.footprint, t.footprint)) continue;
+      lines.push_back({a / norm, c / norm, {&s.footprint, &t.footprint}});
     }
   }
   std::vector<Polygon> cells{floor.footprint};
   for (const Line& line : lines) {
     std::vector<Polygon> next;
     for (const Polygon& cell : cells) {
+      bool inside_scope = true;
+      for (const Polygon* f : line.scope) inside_scope = inside_scope && overlaps(cell, *f);
+      if (!inside_scope) {
+        next.push_back(cell);
+        continue;
+      }
       bool above = false, below = false;
       for (const Eigen::Vector2d& p : cell) {
         const double d = line.a.dot(p) + line.c;
@@ -189,21 +210,27 @@ planning::TerrainModel terrainFromScene(const SceneGeometry& g, double margin) {
     owner.push_back(best);
   }
   // Merge pieces of one surface while their union is convex (its hull has their area).
+  // Passes until none merges; a cell that grew is tried again against the rest at once.
   bool merged = true;
   while (merged) {
     merged = false;
-    for (std::size_t i = 0; i < cells.size() && !merged; ++i) {
-      for (std::size_t j = i + 1; j < cells.size() && !merged; ++j) {
-        if (owner[i] != owner[j]) continue;
-        Polygon both = cells[i];
-        both.insert(both.end(), cells[j].begin(), cells[j].end());
-        Polygon h = hull(both);
-        const double sum = area(cells[i]) + area(cells[j]);
-        if (std::abs(area(h) - sum) > 1e-9 * std::max(1.0, sum)) continue;
-        cells[i] = std::move(h);
-        cells.erase(cells.begin() + static_cast<std::ptrdiff_t>(j));
-        owner.erase(owner.begin() + static_cast<std::ptrdiff_t>(j));
-        merged = true;
+    for (std::size_t i = 0; i < cells.size(); ++i) {
+      for (std::size_t j = i + 1; j < cells.size();) {
+        if (owner[i] == owner[j]) {
+          Polygon both = cells[i];
+          both.insert(both.end(), cells[j].begin(), cells[j].end());
+          Polygon h = hull(both);
+          const double sum = area(cells[i]) + area(cells[j]);
+          if (std::abs(area(h) - sum) <= 1e-9 * std::max(1.0, sum)) {
+            cells[i] = std::move(h);
+            cells.erase(cells.begin() + static_cast<std::ptrdiff_t>(j));
+            owner.erase(owner.begin() + static_cast<std::ptrdiff_t>(j));
+            merged = true;
+            j = i + 1;
+            continue;
+          }
+        }
+        ++j;
       }
     }
   }

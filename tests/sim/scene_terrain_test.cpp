@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <string>
 
 #include "rollstep/sim/plant.hpp"
@@ -173,6 +174,45 @@ TEST(SceneTerrain, OverlappingBoxesMatchTheRaycast) {
       "boxes:\n  - {position: [4, 0, 0.15], size: [1.5, 2, 0.3]}\n"
       "ramps:\n  - {position: [2.6, 0, 0.12], size: [2, 1, 0.1], slope_deg: 12}\n",
       3);
+}
+
+}  // namespace
+
+namespace {
+
+// Many overlapping solids, yawed and sloped: the regions give the scene's own height
+// everywhere away from the edges (heights where surfaces cross included).
+TEST(SceneTerrain, ManyOverlappingSolidsGiveTheScenesHeights) {
+  std::string yaml = "boxes:\n";
+  for (int k = 0; k < 8; ++k) {
+    yaml += "  - {position: [" + std::to_string(2.0 + 0.45 * k) + ", " +
+            std::to_string(0.3 * ((k % 3) - 1)) + ", " + std::to_string(0.05 + 0.02 * k) +
+            "], size: [0.9, 1.1, " + std::to_string(0.1 + 0.04 * k) +
+            "], yaw_deg: " + std::to_string(17 * k) + "}\n";
+  }
+  yaml += "ramps:\n";
+  for (int k = 0; k < 4; ++k) {
+    yaml += "  - {position: [" + std::to_string(2.5 + 0.8 * k) + ", " +
+            std::to_string(0.6 - 0.4 * k) +
+            ", 0.15], size: [1.6, 0.8, 0.1], yaw_deg: " + std::to_string(-40 + 25 * k) +
+            ", slope_deg: " + std::to_string(18 - 9 * k) + "}\n";
+  }
+  const sim::SceneGeometry g = sim::resolveScene(sim::parseSceneConfig(yaml, "many.yaml"));
+  const planning::TerrainModel t = sim::terrainFromScene(g);
+  std::printf("12 solids: %d regions\n", t.size());
+  int checked = 0;
+  for (double x = 0.5; x <= 7.5; x += 0.0317) {
+    for (double y = -2.0; y <= 2.0; y += 0.0291) {
+      if (distanceToAnEdge(g, {x, y}) < 0.01) continue;
+      const double h = sim::terrainHeight(g, x, y);
+      // Where two surfaces cross the highest changes: not an edge of a footprint, but the
+      // heights agree there anyway (both sides of the crossing have the same height on it).
+      EXPECT_NEAR(t.heightAt({x, y}), h, 1e-9) << x << " " << y;
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 20000);
+  EXPECT_NO_THROW(sim::terrainFromScene(g, 0.03));
 }
 
 }  // namespace
