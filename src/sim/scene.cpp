@@ -10,6 +10,7 @@
 #include <functional>
 #include <map>
 #include <stdexcept>
+#include <type_traits>
 #include <utility>
 
 #include "rollstep/common/number_text.hpp"
@@ -31,6 +32,14 @@ bool isName(std::string_view s) {
   return std::all_of(s.begin(), s.end(), [](char c) {
     return std::isalnum(static_cast<unsigned char>(c)) || c == '_';
   });
+}
+
+/// A scene name: letters, digits, _ and - (a file NAME.yaml of the scenes directory).
+bool isSceneFileName(std::string_view s) {
+  return !s.empty() && s.size() <= 100 && s[0] != '-' &&
+         std::all_of(s.begin(), s.end(), [](char c) {
+           return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-';
+         });
 }
 
 // ---- Expressions: numbers and parameter names with + - * / and parentheses. ----
@@ -311,7 +320,8 @@ std::vector<std::string> sceneNames() {
   std::error_code ec;
   for (const auto& entry : std::filesystem::directory_iterator(scenesDirectory(), ec)) {
     const std::filesystem::path& p = entry.path();
-    if (p.extension() == ".yaml" && isName(p.stem().string()) && entry.is_regular_file(ec)) {
+    if (p.extension() == ".yaml" && isSceneFileName(p.stem().string()) &&
+        entry.is_regular_file(ec)) {
       names.push_back(p.stem().string());
     }
   }
@@ -320,7 +330,7 @@ std::vector<std::string> sceneNames() {
 }
 
 bool isSceneName(std::string_view name) {
-  if (!isName(name)) return false;
+  if (!isSceneFileName(name)) return false;
   const std::vector<std::string> names = sceneNames();
   return std::find(names.begin(), names.end(), name) != names.end();
 }
@@ -500,6 +510,7 @@ SceneConfig parseScene(const std::string& yaml_text, const std::string& source_n
   if (!root.isMapping())
     r.fail(root, "", "expected a mapping (parameters, friction, boxes, ramps)");
   // The base first, whatever the order of the keys: the rest changes or extends it.
+  bool has_base = false;
   for (std::size_t i = 0; i < root.size(); ++i) {
     if (!root.key(i).isScalar() || root.key(i).scalar() != "base") continue;
     const yaml::Node v = root.value(i);
@@ -517,10 +528,8 @@ SceneConfig parseScene(const std::string& yaml_text, const std::string& source_n
     } catch (const std::exception& e) {  // a bad file, or an unknown name
       r.fail(v, "base", e.what());
     }
-    for (SceneParameter& p : config.parameters) p.where = r.where(v) + " (base)";
+    has_base = true;
   }
-  const bool has_base =
-      !config.parameters.empty() || !config.boxes.empty() || !config.ramps.empty();
   std::vector<Reader::Key> keys{
       {"base", [](const yaml::Node&, const std::string&) {}},
       {"parameters",
