@@ -352,13 +352,14 @@ void Plant::checkStartPosition() {
   const double min_start_x = minStartX();
   if (const SceneSolid* solid = solidAtStart(geometry, min_start_x); solid != nullptr) {
     char text[1024];
-    std::snprintf(text, sizeof text,
-                  "scene %s: %s reaches inside, under or against the robot '%s' (its front is "
-                  "at x = %.3f m at the nominal pose); for this robot, nothing may reach into "
-                  "|x|, |y| < %.3f m around the start (%.2f m clearance), e.g. start_x >= "
-                  "%.3f m",
-                  sceneName().c_str(), solid->label.c_str(), robot_file_.c_str(), front_extent_,
-                  min_start_x, kStartClearance, min_start_x);
+    std::snprintf(
+        text, sizeof text,
+        "scene %s: %s reaches inside, under or against the robot '%s' (its front is "
+        "at x = %.3f m at the nominal pose); for this robot, nothing may reach into "
+        "|x|, |y| < %.3f m around the start (%.2f m clearance; in step20 and stairs2: start_x >= "
+        "%.3f m)",
+        sceneName().c_str(), solid->label.c_str(), robot_file_.c_str(), front_extent_, min_start_x,
+        kStartClearance, min_start_x);
     throw SimError(text);
   }
 }
