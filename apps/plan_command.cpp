@@ -125,11 +125,10 @@ std::string iterationsCsv(const solver::Solver& s) {
   return out;
 }
 
-int runPlan(const PlanOptions& o, bool scene_given) {
+int runPlan(const PlanOptions& o) {
   // Inputs: everything loads before anything is written.
-  sim::SceneConfig scene;
-  if (!o.scene_config.empty()) scene = sim::loadSceneConfig(o.scene_config);
-  if (scene_given || o.scene_config.empty()) scene.kind = sim::sceneKindFromString(o.scene);
+  const sim::SceneConfig scene =
+      o.scene_config.empty() ? sim::loadScene(o.scene) : sim::loadSceneConfig(o.scene_config);
   const std::string robot_file = o.robot.empty() ? defaultRobotDescription() : o.robot;
   const centroidal::RobotOcpDescription robot = centroidal::loadRobotOcpDescription(robot_file);
   centroidal::OcpSettings settings;
@@ -169,12 +168,11 @@ int runPlan(const PlanOptions& o, bool scene_given) {
       "  solver     %s after %d iterations in %.3f s; KKT error %.3g (tolerance %.3g); cost %.6g\n"
       "%s"
       "  largest violation per constraint group (at node):\n",
-      std::string(sim::toString(scene.kind)).c_str(), o.gait.c_str(), numberText(o.vx).c_str(),
-      numberText(o.vy).c_str(), numberText(o.yaw_rate).c_str(), numberText(o.duration).c_str(),
-      settings.horizon, numberText(settings.dt).c_str(), robot_file.c_str(), robot.urdf.c_str(),
-      statusName(status), solver.iterations(), solve_s,
-      solver.stats().empty() ? 0.0 : solver.stats().back().kkt_error, settings.solver.kkt_tolerance,
-      solver.cost(),
+      scene.name.c_str(), o.gait.c_str(), numberText(o.vx).c_str(), numberText(o.vy).c_str(),
+      numberText(o.yaw_rate).c_str(), numberText(o.duration).c_str(), settings.horizon,
+      numberText(settings.dt).c_str(), robot_file.c_str(), robot.urdf.c_str(), statusName(status),
+      solver.iterations(), solve_s, solver.stats().empty() ? 0.0 : solver.stats().back().kkt_error,
+      settings.solver.kkt_tolerance, solver.cost(),
       *solver.message() != '\0' ? format("  message    %s\n", solver.message()).c_str() : "");
   for (const centroidal::ConstraintViolation& v :
        centroidal::constraintViolations(*ocp.problem(), solver.states(), solver.inputs())) {
@@ -235,12 +233,14 @@ void registerPlanCommand(CLI::App& app, int& exit_status) {
       "acceptable_tolerance), 3 not converged (files written, the summary says why), 1 on "
       "bad options or inputs.\n"
       "Example: rollstep plan --scene step20 --gait trot --vx 0.15 --duration 1.5 --out out/plan");
-  CLI::Option* scene = cmd->add_option("--scene", options->scene,
-                                       "Scene: " + sim::sceneNamesText() + " (as for sim)")
-                           ->check(CLI::IsMember(sim::sceneNames()))
-                           ->capture_default_str();
-  cmd->add_option("--scene-config", options->scene_config, "YAML file of scene parameters")
-      ->check(kNotEmpty);
+  CLI::Option* scene =
+      cmd->add_option("--scene", options->scene,
+                      "Scene: a name (" + sim::sceneNamesText() + ") or a scene file (as for sim)")
+          ->capture_default_str();
+  CLI::Option* scene_config =
+      cmd->add_option("--scene-config", options->scene_config, "Scene file (as for sim)")
+          ->check(kNotEmpty);
+  scene->excludes(scene_config);
   cmd->add_option("--gait", options->gait, "standing, rolling, trot or static_walk")
       ->check(CLI::IsMember({"standing", "rolling", "trot", "static_walk"}))
       ->capture_default_str();
@@ -270,8 +270,7 @@ void registerPlanCommand(CLI::App& app, int& exit_status) {
   cmd->add_option("--out", options->out, "Output directory (created if needed)")
       ->check(kNotEmpty)
       ->capture_default_str();
-  cmd->final_callback(
-      [options, scene, &exit_status] { exit_status = runPlan(*options, scene->count() > 0); });
+  cmd->final_callback([options, &exit_status] { exit_status = runPlan(*options); });
 }
 
 }  // namespace rollstep::apps

@@ -343,16 +343,15 @@ std::string speedRuleText(const sim::NmpcController& nmpc, double duration) {
   return text + "\n";
 }
 
-void runSim(const SimOptions& o, bool scene_given) {
+void runSim(const SimOptions& o) {
   mju_user_warning = printMujocoWarning;
   // Inputs: nothing is written before they have all loaded.
   const std::vector<planning::TimedBaseCommand> schedule =
       o.command_schedule.empty()
           ? std::vector<planning::TimedBaseCommand>{{0.0, {o.vx, o.vy, o.yaw_rate}}}
           : parseCommandSchedule(o.command_schedule, o.duration);
-  sim::SceneConfig scene;
-  if (!o.scene_config.empty()) scene = sim::loadSceneConfig(o.scene_config);
-  if (scene_given || o.scene_config.empty()) scene.kind = sim::sceneKindFromString(o.scene);
+  const sim::SceneConfig scene =
+      o.scene_config.empty() ? sim::loadScene(o.scene) : sim::loadSceneConfig(o.scene_config);
 
   sim::PlantOptions plant_options;
   plant_options.robot_file = o.robot;
@@ -643,13 +642,12 @@ void runSim(const SimOptions& o, bool scene_given) {
         "  MuJoCo     %d warnings\n"
         "%s"
         "  outputs    %s (CSV, units in the header, every %d ms), %s\n",
-        std::string(sim::toString(scene.kind)).c_str(), controller_text.c_str(),
-        plant.robotFile().c_str(), s.sim_time, 1.0 / plant.controlPeriod(), s.wall_time,
-        s.real_time_factor, s.start_position.x(), s.start_position.y(), s.start_position.z(),
-        s.end_position.x(), s.end_position.y(), s.end_position.z(),
-        (s.end_position - s.start_position).head<2>().norm(), s.yaw_change * deg, s.min_base_height,
-        s.max_base_height, s.mean_forward_speed, 100.0 * s.all_feet_contact_fraction, s.warnings,
-        mpc_text.c_str(), files.log.c_str(),
+        scene.name.c_str(), controller_text.c_str(), plant.robotFile().c_str(), s.sim_time,
+        1.0 / plant.controlPeriod(), s.wall_time, s.real_time_factor, s.start_position.x(),
+        s.start_position.y(), s.start_position.z(), s.end_position.x(), s.end_position.y(),
+        s.end_position.z(), (s.end_position - s.start_position).head<2>().norm(),
+        s.yaw_change * deg, s.min_base_height, s.max_base_height, s.mean_forward_speed,
+        100.0 * s.all_feet_contact_fraction, s.warnings, mpc_text.c_str(), files.log.c_str(),
         static_cast<int>(std::lround(o.log_every * plant.controlPeriod() * 1000.0)),
         files.summary.c_str());
     writeFileAtomically(files.summary.string(), text);
@@ -696,16 +694,16 @@ void registerSimCommand(CLI::App& app) {
       "Example scene file: config/scenes/step20_custom.yaml");
   CLI::Option* scene =
       cmd->add_option("--scene", options->scene,
-                      "Scene: flat, step20 (0.20 m block 1.0 m ahead) or stairs2 (0.20 m + "
-                      "0.165 m steps). Overrides the scene key of --scene-config.")
-          ->check(CLI::IsMember(sim::sceneNames()))
+                      "Scene: a name (" + sim::sceneNamesText() + ": the files NAME.yaml of " +
+                          sim::scenesDirectory() +
+                          ") or a scene file (a path with a '/' or ending in .yaml)")
           ->capture_default_str();
-  cmd->add_option("--scene-config", options->scene_config,
-                  "YAML file of scene parameters (keys: scene, friction, start_x, width, "
-                  "step1_height, step1_length, step2_height, step2_length; unknown or "
-                  "repeated keys and out-of-range values are errors), e.g. "
-                  "config/scenes/step20_custom.yaml")
-      ->check(kNotEmpty);
+  CLI::Option* scene_config =
+      cmd->add_option("--scene-config", options->scene_config,
+                      "Scene file (boxes, ramps, friction and parameters; docs/USER_GUIDE.md "
+                      "\"Scenes\"), e.g. config/scenes/step20_custom.yaml")
+          ->check(kNotEmpty);
+  scene->excludes(scene_config);
   cmd->add_option("--controller", options->controller,
                   "stand: hold the nominal posture; drive: hold it and roll on the four "
                   "drive wheels at --speed (turning with --turn-speed); nmpc: the control "
@@ -858,7 +856,7 @@ void registerSimCommand(CLI::App& app) {
                   "Default: robots/tachyon3/tachyon3.xml of the source tree, or "
                   "$ROLLSTEP_ROBOTS_DIR/tachyon3/tachyon3.xml")
       ->check(kNotEmpty);
-  cmd->final_callback([options, scene, speed, turn_speed, nmpc_only, pipeline_only, perception_only,
+  cmd->final_callback([options, speed, turn_speed, nmpc_only, pipeline_only, perception_only,
                        command_schedule, estimator_config] {
     if (options->terrain != "perception") {
       for (const CLI::Option* option : perception_only) {
@@ -921,7 +919,7 @@ void registerSimCommand(CLI::App& app) {
         }
       }
     }
-    runSim(*options, scene->count() > 0);
+    runSim(*options);
   });
 }
 

@@ -252,25 +252,37 @@ int runTrials(const TrialsOptions& o, const CLI::App& cmd) {
     throw CLI::ValidationError("--seeds", e.what());
   }
   // The scenario's scene file, loaded now, and the plant built in the scenes at the corners
-  // of the trial ranges (the lowest and highest step, the start nearest and farthest): no
-  // command is printed that would fail, no trial starts that cannot run.
+  // of the scene draws' ranges (every combination of their ends): no command is printed
+  // that would fail, no trial starts that cannot run.
   const sim::SceneConfig base_scene = sceneOf(scenario);
-  const TrialRanges& ranges = set.trials;
-  for (double height : {ranges.step_height_min, ranges.step_height_max}) {
-    for (double offset : {ranges.start_offset_min, ranges.start_offset_max}) {
-      TrialParameters corner;
-      corner.step_height = height;
-      corner.start_offset = offset;
-      corner.friction = ranges.friction_min;
-      sim::PlantOptions plant_options;
-      plant_options.robot_file = robotOf(scenario);
-      try {
-        const sim::Plant plant(trialScene(base_scene, corner), plant_options);
-      } catch (const std::exception& e) {
-        throw InputError("scenario " + scenario.name + " of " + set.source +
-                         " with the trial ranges (step height " + numberText(height) +
-                         " m, start offset " + numberText(offset) + " m): " + e.what());
-      }
+  const std::vector<SceneDraw>& draws = set.trials.scene;
+  for (const SceneDraw& d : draws) {
+    if (!sim::hasSceneNumber(base_scene, d.key)) {
+      std::fprintf(stderr,
+                   "rollstep trials: scene %s of scenario %s has no number '%s': %s is "
+                   "drawn (result.yaml) but not used\n",
+                   base_scene.name.c_str(), scenario.name.c_str(), d.key.c_str(), d.name.c_str());
+    }
+  }
+  if (draws.size() > 10) {
+    throw InputError(set.source + ": trials.scene: more than 10 scene numbers drawn");
+  }
+  for (std::size_t corner_bits = 0; corner_bits < (std::size_t{1} << draws.size()); ++corner_bits) {
+    TrialParameters corner;
+    std::string text;
+    for (std::size_t k = 0; k < draws.size(); ++k) {
+      const SceneDraw& d = draws[k];
+      const double v = (corner_bits >> k) & 1 ? d.max : d.min;
+      corner.scene.push_back({d.name, d.key, d.offset, v});
+      text += (text.empty() ? "" : ", ") + d.name + " " + numberText(v);
+    }
+    sim::PlantOptions plant_options;
+    plant_options.robot_file = robotOf(scenario);
+    try {
+      const sim::Plant plant(trialScene(base_scene, corner), plant_options);
+    } catch (const std::exception& e) {
+      throw InputError("scenario " + scenario.name + " of " + set.source +
+                       " with the trial ranges (" + text + "): " + e.what());
     }
   }
   if (o.print_commands) {

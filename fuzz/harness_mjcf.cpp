@@ -2,7 +2,7 @@
 // with PlantOptions::robot_xml): MuJoCo parses the robot file inside the scene MJCF that
 // includes it, then the plant checks the robot's structure and the start position.
 // Fine: a plant that loads and steps (or reports a diverging step as SimError), or a
-// SimError naming the robot file (the documented error; the start_x check names it as
+// SimError naming the robot file (the documented error; the start check names it as
 // "the robot '<file>'"). Anything else fails: a crash, a
 // sanitizer report in our code, another exception type, a hang, or MuJoCo aborting the
 // process (its error handler exits: the plant must refuse such models first).
@@ -36,8 +36,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   PlantOptions options;
   options.robot_file = robot_file;
   options.robot_xml.assign(reinterpret_cast<const char*>(data), size);
-  SceneConfig scene;
-  scene.kind = SceneKind::kStep20;
+  SceneConfig scene = loadScene("step20");
   try {
     Plant plant(scene, options);
     try {

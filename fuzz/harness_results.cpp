@@ -40,10 +40,12 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   try {
     const TrialResult r = parseTrialResult(text, "fuzz.yaml");
     const TrialParameters& p = r.parameters;
-    if (p.seed > 999999999 || !(p.step_height >= 0 && p.step_height <= 1) ||
-        !(p.friction >= 0.01 && p.friction <= 5) ||
-        !(p.start_offset >= -10 && p.start_offset <= 10) ||
-        !(p.sensor_noise >= 0 && p.sensor_noise <= 100) || !within(r.traverse_time, 1e-300, 1e6) ||
+    for (const TrialParameters::SceneValue& v : p.scene) {
+      if (!isDrawName(v.name) || !(v.value >= -1e6 && v.value <= 1e6)) {
+        failure("accepted a scene number outside its range or with a bad name: " + v.name);
+      }
+    }
+    if (p.seed > 999999999 || !(p.sensor_noise >= 0 && p.sensor_noise <= 100) || !within(r.traverse_time, 1e-300, 1e6) ||
         !within(r.mean_abs_vz, 0, 1000) || !within(r.mean_abs_wy, 0, 1000)) {
       failure("accepted a field outside its range");
     }

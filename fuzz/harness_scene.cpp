@@ -1,9 +1,9 @@
 // Fuzz harness: YAML text -> SceneConfig (rollstep::sim::parseSceneConfig).
-// Fine: a config that validate() accepts, whose terrain is finite and inside the documented
-// ranges and that survives a toYaml round trip exactly; or a std::runtime_error whose
-// message starts with "scene config 'fuzz.yaml': " (the documented error). Anything else
-// fails: a crash, a sanitizer report, an escaped parser error (YamlError names
-// no file), another exception type, a hang.
+// Fine: a scene that resolves (resolveScene) to finite geometry inside the documented
+// ranges, whose terrain MJCF has no NaN and that survives a toYaml round trip exactly; or a
+// std::runtime_error whose message starts with "scene config 'fuzz.yaml': " (the
+// documented error). Anything else fails: a crash, a sanitizer report, an escaped parser
+// error (YamlError names no file), another exception type, a hang.
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -26,19 +26,24 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const std::string text(reinterpret_cast<const char*>(data), size);
   try {
     const SceneConfig c = parseSceneConfig(text, "fuzz.yaml");
-    c.validate();  // throws std::invalid_argument: not a runtime_error, so it fails
-    for (const SceneField& f : sceneFields()) {
-      const double v = c.*f.member;
-      if (!std::isfinite(v) || v < f.min || v > f.max) failure(std::string("accepted ") + f.key);
+    const SceneGeometry g = resolveScene(c);  // std::invalid_argument: not a runtime_error
+    if (!std::isfinite(g.friction) || g.friction < kSceneMinFriction ||
+        g.friction > kSceneMaxFriction) {
+      failure("accepted friction");
     }
-    for (const TerrainBox& b : terrainBoxes(c)) {
-      if (!b.center.allFinite() || !b.half_size.allFinite() || (b.half_size.array() <= 0).any()) {
-        failure("terrain box not finite or empty");
+    for (const SceneSolid& s : g.solids) {
+      if (!s.center.allFinite() || !s.half_size.allFinite() || (s.half_size.array() <= 0).any() ||
+          !std::isfinite(s.yaw) || !std::isfinite(s.slope) ||
+          std::abs(s.slope) > kSceneMaxSlopeDeg * 3.14159265358979323846 / 180.0 + 1e-12) {
+        failure("solid not finite, empty or too steep: " + s.label);
       }
     }
     if (terrainMjcf(c).find("nan") != std::string::npos) failure("nan in the terrain MJCF");
     const std::string yaml = toYaml(c);
-    if (toYaml(parseSceneConfig(yaml, "round-trip")) != yaml) failure("round trip differs");
+    // The same name (the file's stem), another file: an error there is not the documented one.
+    if (toYaml(parseSceneConfig(yaml, "round-trip/fuzz.yaml")) != yaml) {
+      failure("round trip differs");
+    }
   } catch (const std::runtime_error& e) {
     const std::string message = e.what();
     if (message.rfind("scene config 'fuzz.yaml': ", 0) != 0) {

@@ -41,10 +41,8 @@ std::string RunOutcome::failureText() const {
 }
 
 sim::SceneConfig sceneOf(const Scenario& scenario) {
-  sim::SceneConfig scene;
-  if (!scenario.scene_config.empty()) scene = sim::loadSceneConfig(scenario.scene_config);
-  scene.kind = sim::sceneKindFromString(scenario.scene);
-  return scene;
+  return scenario.scene_config.empty() ? sim::loadScene(scenario.scene)
+                                       : sim::loadSceneConfig(scenario.scene_config);
 }
 
 std::string robotOf(const Scenario& scenario) { return scenario.option("--robot"); }
@@ -130,7 +128,7 @@ RunOutcome judgeRun(const Scenario& scenario, const sim::SceneConfig& scene, con
     sim::PlantOptions options;
     options.robot_file = robotOf(scenario);
     const sim::Plant plant(scene, options);
-    o.up_height = plant.wheelRadius(1) + 0.5 * scene.step1_height;
+    o.up_height = plant.wheelRadius(1) + 0.5 * sim::firstRise(sim::resolveScene(scene));
     o.assessment = assessRun(*o.log, jointLimits(scene, options.robot_file), criteria,
                              scenario.traverse, o.up_height);
   } catch (const std::exception& e) {

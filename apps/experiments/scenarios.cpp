@@ -1,10 +1,12 @@
 #include "scenarios.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <functional>
+#include <iterator>
 #include <map>
 #include <stdexcept>
 
@@ -27,13 +29,30 @@ std::string Scenario::terrainText() const {
   return terrain == "perception" ? "perception (LiDAR, closed loop)" : "scene ground truth";
 }
 
+bool isDrawName(const std::string& name) {
+  static const char* const kResultKeys[] = {"scenario",     "controller",  "seed",
+                                            "sensor_noise", "speed",       "sensor_noise_applied",
+                                            "passed",       "failure",     "traverse_time",
+                                            "mean_abs_vz",  "mean_abs_wy", "command"};
+  if (name.empty() || name.size() > 64 || !std::isalpha(static_cast<unsigned char>(name[0]))) {
+    return false;
+  }
+  for (char c : name) {
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_') return false;
+  }
+  return std::none_of(std::begin(kResultKeys), std::end(kResultKeys),
+                      [&](const char* k) { return name == k; });
+}
+
 std::vector<std::string> Scenario::simArgs(const std::string& out_dir,
                                            const std::string& scene_config_override) const {
-  std::vector<std::string> a{"sim", "--scene", scene};
+  // The scene file when there is one (it names its scene), else the scene by name.
   const std::string& config = scene_config_override.empty() ? scene_config : scene_config_override;
-  if (!config.empty()) {
-    a.push_back("--scene-config");
-    a.push_back(config);
+  std::vector<std::string> a{"sim"};
+  if (config.empty()) {
+    a.insert(a.end(), {"--scene", scene});
+  } else {
+    a.insert(a.end(), {"--scene-config", config});
   }
   a.insert(a.end(), {"--controller", controller, "--duration", shortestNumberText(duration)});
   if (!control_config.empty()) a.insert(a.end(), {"--control-config", control_config});
@@ -274,17 +293,61 @@ ExperimentSet parseExperimentSet(const std::string& text, const std::string& sou
        [&](const yaml::Node& n, const std::string& key) {
          MappingReader r(n, source, key + ".");
          TrialRanges& t = set.trials;
-         r.each({{"step_height",
+         r.each({{"scene",
                   [&](const yaml::Node& v, const std::string& k) {
-                    range(r, 0.001, 1.0)(v, k, t.step_height_min, t.step_height_max);
-                  }},
-                 {"friction",
-                  [&](const yaml::Node& v, const std::string& k) {
-                    range(r, 0.01, 5.0)(v, k, t.friction_min, t.friction_max);
-                  }},
-                 {"start_offset",
-                  [&](const yaml::Node& v, const std::string& k) {
-                    range(r, -10.0, 10.0)(v, k, t.start_offset_min, t.start_offset_max);
+                    // The list replaces the default draws (an empty list: none).
+                    if (!v.isSequence())
+                      r.fail(v, k, std::string("expected a list, got ") + v.kindName());
+                    t.scene.clear();
+                    for (std::size_t i = 0; i < v.size(); ++i) {
+                      const std::string ik = k + "[" + std::to_string(i) + "]";
+                      MappingReader d(v.item(i), source, ik + ".");
+                      SceneDraw draw;
+                      bool has_range = false, has_offset = false;
+                      d.each({{"name",
+                               [&](const yaml::Node& x, const std::string& xk) {
+                                 word(d)(x, xk, draw.name);
+                                 if (!isDrawName(draw.name)) {
+                                   d.fail(x, xk,
+                                          "'" + draw.name +
+                                              "' is not a name for result.yaml (a letter, "
+                                              "then letters, digits, _; not a key of "
+                                              "result.yaml)");
+                                 }
+                               }},
+                              {"key", [&](const yaml::Node& x,
+                                          const std::string& xk) { word(d)(x, xk, draw.key); }},
+                              {"range",
+                               [&](const yaml::Node& x, const std::string& xk) {
+                                 range(d, -1e6, 1e6)(x, xk, draw.min, draw.max);
+                                 has_range = true;
+                               }},
+                              {"offset", [&](const yaml::Node& x, const std::string& xk) {
+                                 range(d, -1e6, 1e6)(x, xk, draw.min, draw.max);
+                                 has_offset = true;
+                                 draw.offset = true;
+                               }}});
+                      if (draw.key.empty())
+                        r.fail(v.item(i), ik, "key (a scene number) is missing");
+                      if (has_range == has_offset) {
+                        r.fail(v.item(i), ik,
+                               "needs one of range: [min, max] (the value) or "
+                               "offset: [min, max] (added to the file's value)");
+                      }
+                      if (draw.name.empty()) {
+                        if (!isDrawName(draw.key)) {
+                          r.fail(v.item(i), ik,
+                                 "name is missing (the key '" + draw.key +
+                                     "' cannot name it in result.yaml)");
+                        }
+                        draw.name = draw.key;
+                      }
+                      for (const SceneDraw& other : t.scene) {
+                        if (other.name == draw.name)
+                          r.fail(v.item(i), ik, "name '" + draw.name + "' is drawn twice");
+                      }
+                      t.scene.push_back(draw);
+                    }
                   }},
                  {"sensor_noise",
                   [&](const yaml::Node& v, const std::string& k) {

@@ -68,12 +68,28 @@ struct Acceptance {
   bool given = false;
 };
 
-/// Ranges of the randomized trials: each value is drawn uniformly in [min, max].
+/// Whether `name` can name a drawn scene number in a trial's result.yaml: a letter, then
+/// letters, digits and _ (at most 64), and not one of result.yaml's own keys.
+bool isDrawName(const std::string& name);
+
+/// A number of the scenario's scene file that trials draw (sim::setSceneNumber's key
+/// paths: a parameter, friction, boxes[0].size[2], ...).
+struct SceneDraw {
+  std::string name;     ///< its key in a trial's result.yaml
+  std::string key;      ///< its key path in the scene file
+  bool offset = false;  ///< true: the draw is added to the file's value; false: replaces it
+  double min = 0.0, max = 0.0;
+};
+
+/// Ranges of the randomized trials: each value is drawn uniformly in [min, max], the scene
+/// numbers first (in their order), then the sensor noise and the speed.
 struct TrialRanges {
-  double step_height_min = 0.10, step_height_max = 0.20;   ///< [m] step1_height
-  double friction_min = 0.6, friction_max = 1.0;           ///< terrain friction
-  double start_offset_min = -0.2, start_offset_max = 0.2;  ///< [m] added to start_x
-  double sensor_noise_min = 0.5, sensor_noise_max = 1.5;   ///< scale of the sensor noise
+  std::vector<SceneDraw> scene{
+      {"step_height", "step1_height", false, 0.10, 0.20},  // [m] height of the first step
+      {"friction", "friction", false, 0.6, 1.0},           // terrain friction
+      {"start_offset", "start_x", true, -0.2, 0.2},        // [m] added to start_x
+  };
+  double sensor_noise_min = 0.5, sensor_noise_max = 1.5;  ///< scale of the sensor noise
   /// [m/s] The command speed (optional): each trial's --vx, or its --command schedule's
   /// speeds, scaled to a speed drawn here (trialScenario).
   bool has_speed = false;

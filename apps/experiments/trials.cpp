@@ -93,13 +93,20 @@ std::string numberOrNull(const std::optional<double>& v) {
 
 }  // namespace
 
+double TrialParameters::sceneValue(const std::string& name) const {
+  for (const SceneValue& v : scene) {
+    if (v.name == name) return v.value;
+  }
+  throw std::out_of_range("trial " + std::to_string(seed) + " drew no scene number '" + name + "'");
+}
+
 TrialParameters drawTrial(std::uint64_t seed, const TrialRanges& r) {
   SplitMix64 rng{seed};
   TrialParameters p;
   p.seed = seed;
-  p.step_height = rounded(rng.uniform(r.step_height_min, r.step_height_max));
-  p.friction = rounded(rng.uniform(r.friction_min, r.friction_max));
-  p.start_offset = rounded(rng.uniform(r.start_offset_min, r.start_offset_max));
+  for (const SceneDraw& d : r.scene) {
+    p.scene.push_back({d.name, d.key, d.offset, rounded(rng.uniform(d.min, d.max))});
+  }
   p.sensor_noise = rounded(rng.uniform(r.sensor_noise_min, r.sensor_noise_max));
   if (r.has_speed) p.speed = rounded(rng.uniform(r.speed_min, r.speed_max));
   return p;
@@ -172,9 +179,11 @@ Scenario trialScenario(const Scenario& s, const TrialParameters& p) {
 
 sim::SceneConfig trialScene(const sim::SceneConfig& base, const TrialParameters& p) {
   sim::SceneConfig s = base;
-  s.step1_height = p.step_height;
-  s.friction = p.friction;
-  s.start_x = base.start_x + p.start_offset;
+  for (const TrialParameters::SceneValue& v : p.scene) {
+    if (!sim::hasSceneNumber(base, v.key)) continue;  // e.g. the step height on the flat
+    const double value = v.offset ? sim::sceneNumber(base, v.key) + v.value : v.value;
+    sim::setSceneNumber(s, v.key, value);
+  }
   return s;
 }
 
@@ -240,9 +249,9 @@ std::string toYaml(const TrialResult& r) {
   out += "scenario: " + r.scenario + "\n";
   out += "controller: " + r.controller + "\n";
   out += "seed: " + std::to_string(r.parameters.seed) + "\n";
-  out += "step_height: " + shortestNumberText(r.parameters.step_height) + "\n";
-  out += "friction: " + shortestNumberText(r.parameters.friction) + "\n";
-  out += "start_offset: " + shortestNumberText(r.parameters.start_offset) + "\n";
+  for (const TrialParameters::SceneValue& v : r.parameters.scene) {
+    out += v.name + ": " + shortestNumberText(v.value) + "\n";
+  }
   out += "sensor_noise: " + shortestNumberText(r.parameters.sensor_noise) + "\n";
   if (r.parameters.speed > 0.0) {
     out += "speed: " + shortestNumberText(r.parameters.speed) + "\n";
@@ -319,12 +328,6 @@ TrialResult parseTrialResult(const std::string& text, const std::string& source)
         throw fail("'" + s.substr(0, 40) + "' is not a seed (an integer 0 to 999999999)");
       }
       r.parameters.seed = std::stoull(s);
-    } else if (key == "step_height") {
-      r.parameters.step_height = num(0.0, 1.0);
-    } else if (key == "friction") {
-      r.parameters.friction = num(0.01, 5.0);
-    } else if (key == "start_offset") {
-      r.parameters.start_offset = num(-10.0, 10.0);
     } else if (key == "sensor_noise") {
       r.parameters.sensor_noise = num(0.0, 100.0);
     } else if (key == "speed") {
@@ -344,14 +347,16 @@ TrialResult parseTrialResult(const std::string& text, const std::string& source)
       r.mean_abs_wy = optional_num(0.0, 1000.0);
     } else if (key == "command") {
       r.command = scalar_text();
+    } else if (isDrawName(key) && v.isScalar() && v.plain()) {
+      // Any other name with a number: a scene number the trial drew (TrialRanges::scene).
+      r.parameters.scene.push_back({key, "", false, num(-1e6, 1e6)});
     } else {
       throw std::runtime_error(source + ": line " + std::to_string(root.key(i).line()) +
                                ": unknown key '" + key + "'");
     }
   }
   // The trial's parameters too: a result without them does not say what was run.
-  for (const char* required : {"scenario", "controller", "seed", "step_height", "friction",
-                               "start_offset", "sensor_noise", "passed"}) {
+  for (const char* required : {"scenario", "controller", "seed", "sensor_noise", "passed"}) {
     if (!seen[required]) throw std::runtime_error(source + ": missing key '" + required + "'");
   }
   if (r.passed && !r.failure.empty()) {

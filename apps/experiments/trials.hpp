@@ -15,9 +15,17 @@ namespace rollstep::experiments {
 
 struct TrialParameters {
   std::uint64_t seed = 0;
-  double step_height = 0.0;   ///< [m] the first step's height
-  double friction = 0.0;      ///< terrain friction coefficient
-  double start_offset = 0.0;  ///< [m] added to the scene's start_x
+  /// The scene numbers drawn (TrialRanges::scene's names and values, in its order; a
+  /// result read back from its file has no key paths).
+  struct SceneValue {
+    std::string name;
+    std::string key;
+    bool offset = false;
+    double value = 0.0;
+  };
+  std::vector<SceneValue> scene;
+  /// The drawn value named `name`; throws std::out_of_range when there is none.
+  double sceneValue(const std::string& name) const;
   /// Scale of the sensor noise: every white-noise density, bias random walk and initial
   /// bias of sim::SensorNoiseConfig's defaults times this (trialSensorNoise); encoder
   /// resolutions and the contact-flag threshold stay as they are.
@@ -38,7 +46,9 @@ TrialParameters drawTrial(std::uint64_t seed, const TrialRanges& ranges);
 /// --command of the scenario.
 Scenario trialScenario(const Scenario& s, const TrialParameters& p);
 inline constexpr double kTrialSpeedMargin = 6.0;  ///< [s]
-/// `base` with the trial's step height, friction and start offset.
+/// `base` with the trial's scene numbers (each replacing the file's number, or added to it);
+/// a number the scene does not have (the step height of the flat floor) is left out
+/// (`rollstep trials` says so before the trials start).
 sim::SceneConfig trialScene(const sim::SceneConfig& base, const TrialParameters& p);
 /// The trial's sensor noise: the defaults scaled by p.sensor_noise, seeded with p.seed.
 sim::SensorNoiseConfig trialSensorNoise(const TrialParameters& p);

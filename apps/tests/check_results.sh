@@ -97,10 +97,10 @@ grep -q "bad_scene.yaml" "$out/err" || fail "--print-commands' error: $(cat "$ou
 # block inside the robot is an error before any trial.
 printf 'scenarios:\n  - {name: s, title: s, scene: step20, controller: stand, duration: 1, scene_config: %s}\n' \
   "$out/near_scene.yaml" > "$out/near_experiments.yaml"
-printf 'start_x: 0.5\n' > "$out/near_scene.yaml"
+printf 'base: step20\nparameters: {start_x: 0.5}\n' > "$out/near_scene.yaml"
 "$rollstep" trials --experiments "$out/near_experiments.yaml" --scenario s --seeds 0-2 \
   --print-commands --out "$out/p" > "$out/p.out" 2> "$out/err" && fail "--print-commands with the block in the robot"
-grep -q "start offset -0.2 m.*start_x = 0.3 m puts block 1 inside" "$out/err" || fail "near start: $(cat "$out/err")"
+grep -q "start_offset -0.2.*boxes\[0\] (scene config .*step20.yaml': line 12) reaches inside" "$out/err" || fail "near start: $(cat "$out/err")"
 # A figure script that never ends is stopped at its time limit, and the report says so.
 printf 'import time\ntime.sleep(1000)\n' > "$out/hang.py"
 t0=$(date +%s)

@@ -201,7 +201,11 @@ TEST(ExperimentSet, LoadsTheProjectsFileAndRefusesMistakes) {
   EXPECT_EQ(set.find("step20_cbfqp")->paper.mean_abs_vz, 0.055);
   EXPECT_EQ(set.acceptance.traverse_time, -0.20);
   EXPECT_EQ(set.acceptance.trial_success_rate, 0.95);
-  EXPECT_EQ(set.trials.step_height_min, 0.10);
+  ASSERT_EQ(set.trials.scene.size(), 3u);
+  EXPECT_EQ(set.trials.scene[0].name, "step_height");
+  EXPECT_EQ(set.trials.scene[0].key, "step1_height");
+  EXPECT_EQ(set.trials.scene[0].min, 0.10);
+  EXPECT_TRUE(set.trials.scene[2].offset);
   EXPECT_TRUE(set.trials.has_speed);
   EXPECT_EQ(set.trials.speed_max, 0.5);
   // The speed sweep: both step20 controllers at each speed, compared at three.
@@ -245,7 +249,7 @@ TEST(ExperimentSet, LoadsTheProjectsFileAndRefusesMistakes) {
     return std::string("no error");
   };
   EXPECT_EQ(error("scenarios:\n  - {name: a, scene: moon, controller: nmpc}\n"),
-            "f: line 2: scenarios[0].scene: 'moon' is not flat, step20 or stairs2");
+            "f: line 2: scenarios[0].scene: 'moon' is not flat, stairs2, step20 or step20_custom");
   EXPECT_EQ(error("scenarios:\n  - {name: a, scene: flat, controler: nmpc}\n").substr(0, 48),
             "f: line 2: unknown key 'scenarios[0].controler' ");
   EXPECT_EQ(error("scenarios:\n  - {name: a, scene: flat}\n"),
@@ -271,8 +275,19 @@ TEST(ExperimentSet, LoadsTheProjectsFileAndRefusesMistakes) {
               std::string::npos)
         << option;
   }
-  EXPECT_EQ(error(ok + "trials: {friction: [1.0, 0.6]}\n"),
-            "f: line 3: trials.friction: min is above max");
+  EXPECT_EQ(error(ok + "trials: {scene: [{key: friction, range: [1.0, 0.6]}]}\n"),
+            "f: line 3: trials.scene[0].range: min is above max");
+  EXPECT_EQ(error(ok + "trials: {scene: [{key: friction}]}\n"),
+            "f: line 3: trials.scene[0]: needs one of range: [min, max] (the value) or offset: "
+            "[min, max] (added to the file's value)");
+  EXPECT_EQ(error(ok + "trials: {scene: [{key: 'boxes[0].size[2]', range: [0.1, 0.2]}]}\n"),
+            "f: line 3: trials.scene[0]: name is missing (the key 'boxes[0].size[2]' cannot name "
+            "it in result.yaml)");
+  EXPECT_EQ(error(ok + "trials: {scene: [{key: a, name: seed, range: [0, 1]}]}\n"),
+            "f: line 3: trials.scene[0].name: 'seed' is not a name for result.yaml (a letter, then "
+            "letters, digits, _; not a key of result.yaml)");
+  EXPECT_EQ(error(ok + "trials: {scene: [{key: a, range: [0, 1]}, {key: a, offset: [0, 1]}]}\n"),
+            "f: line 3: trials.scene[1]: name 'a' is drawn twice");
   EXPECT_EQ(error("scenarios:\n  - {name: a/b, scene: flat, controller: x}\n"),
             "f: line 2: scenarios[0].name: 'a/b': only letters, digits, '_' and '-' (it names a "
             "folder)");
@@ -303,30 +318,40 @@ TEST(Trials, DrawsAreFixedBySeedAndInRange) {
   for (std::uint64_t seed = 0; seed < 200; ++seed) {
     const TrialParameters p = drawTrial(seed, r);
     const TrialParameters q = drawTrial(seed, r);
-    EXPECT_EQ(p.step_height, q.step_height);
-    EXPECT_EQ(p.friction, q.friction);
-    EXPECT_GE(p.step_height, 0.10);
-    EXPECT_LE(p.step_height, 0.20);
-    EXPECT_GE(p.friction, 0.6);
-    EXPECT_LE(p.friction, 1.0);
-    EXPECT_GE(p.start_offset, -0.2);
-    EXPECT_LE(p.start_offset, 0.2);
-    heights.insert(p.step_height);
+    EXPECT_EQ(p.sceneValue("step_height"), q.sceneValue("step_height"));
+    EXPECT_EQ(p.sceneValue("friction"), q.sceneValue("friction"));
+    EXPECT_GE(p.sceneValue("step_height"), 0.10);
+    EXPECT_LE(p.sceneValue("step_height"), 0.20);
+    EXPECT_GE(p.sceneValue("friction"), 0.6);
+    EXPECT_LE(p.sceneValue("friction"), 1.0);
+    EXPECT_GE(p.sceneValue("start_offset"), -0.2);
+    EXPECT_LE(p.sceneValue("start_offset"), 0.2);
+    heights.insert(p.sceneValue("step_height"));
   }
   EXPECT_GT(heights.size(), 150u);  // not a constant
   // Fixed numbers: the same on every machine (splitmix64, not the library's distributions).
   const TrialParameters p7 = drawTrial(7, r);
   // (Computed independently with Python's integers from the splitmix64 definition.)
-  EXPECT_EQ(p7.step_height, 0.139);
-  EXPECT_EQ(p7.friction, 0.6067);
-  EXPECT_EQ(p7.start_offset, 0.1603);
+  EXPECT_EQ(p7.sceneValue("step_height"), 0.139);
+  EXPECT_EQ(p7.sceneValue("friction"), 0.6067);
+  EXPECT_EQ(p7.sceneValue("start_offset"), 0.1603);
   EXPECT_EQ(p7.sensor_noise, 1.0829);
-  sim::SceneConfig base;
-  base.kind = sim::SceneKind::kStep20;
+  const sim::SceneConfig base = sim::loadScene("step20");
   const sim::SceneConfig s = trialScene(base, p7);
-  EXPECT_EQ(s.step1_height, p7.step_height);
-  EXPECT_EQ(s.friction, p7.friction);
-  EXPECT_NEAR(s.start_x, 1.0 + p7.start_offset, 1e-12);
+  EXPECT_EQ(sim::sceneNumber(s, "step1_height"), 0.139);
+  EXPECT_EQ(sim::sceneNumber(s, "friction"), 0.6067);
+  EXPECT_EQ(sim::sceneNumber(s, "start_x"), 1.0 + 0.1603);
+  EXPECT_DOUBLE_EQ(sim::resolveScene(s).solids[0].topCenter().z(), 0.139);
+  // Any number of the file by its key path; a key the scene lacks is an error.
+  TrialRanges yaw;
+  yaw.scene = {{"yaw", "boxes[0].yaw_deg", false, -30.0, 30.0}};
+  const TrialParameters py = drawTrial(7, yaw);
+  EXPECT_EQ(sim::resolveScene(trialScene(base, py)).solids[0].yaw,
+            py.sceneValue("yaw") * (M_PI / 180.0));
+  // The flat floor has no step: only its friction is drawn into it.
+  const sim::SceneConfig flat = trialScene(sim::loadScene("flat"), p7);
+  EXPECT_EQ(sim::sceneNumber(flat, "friction"), 0.6067);
+  EXPECT_TRUE(sim::resolveScene(flat).solids.empty());
   // The sensor noise: the defaults' noise terms times the draw, seeded by the trial; the
   // file the sim reads gives the same config back.
   const sim::SensorNoiseConfig defaults, n = trialSensorNoise(p7);
@@ -358,8 +383,8 @@ TEST(Trials, DrawASpeedAfterTheOtherDrawsAndScaleTheCommandToIt) {
     const TrialParameters p = drawTrial(seed, with_speed);
     const TrialParameters without = drawTrial(seed, TrialRanges{});
     // The terrain and noise draws are those of the trials without a speed.
-    EXPECT_EQ(p.step_height, without.step_height);
-    EXPECT_EQ(p.start_offset, without.start_offset);
+    EXPECT_EQ(p.sceneValue("step_height"), without.sceneValue("step_height"));
+    EXPECT_EQ(p.sceneValue("start_offset"), without.sceneValue("start_offset"));
     EXPECT_EQ(p.sensor_noise, without.sensor_noise);
     EXPECT_EQ(without.speed, 0.0);
     EXPECT_EQ(p.speed, drawTrial(seed, with_speed).speed);
@@ -519,7 +544,8 @@ TEST(Trials, ResultFilesRoundTripAndAggregate) {
     }
     r.command = "rollstep trials --seeds " + std::to_string(seed);
     const TrialResult back = parseTrialResult(toYaml(r), "r" + std::to_string(seed));
-    EXPECT_EQ(back.parameters.step_height, r.parameters.step_height);
+    EXPECT_EQ(back.parameters.sceneValue("step_height"), r.parameters.sceneValue("step_height"));
+    EXPECT_EQ(back.parameters.scene.size(), 3u);
     EXPECT_EQ(back.passed, r.passed);
     EXPECT_EQ(back.failure, r.failure);
     EXPECT_EQ(back.traverse_time, r.traverse_time);
@@ -579,7 +605,9 @@ TEST(Trials, ResultFieldsAreCheckedLikeInputs) {
       "r.yaml: line 3: seed: '18446744073709551616' is not a seed (an integer 0 to 999999999)");
   EXPECT_EQ(error("seed: -1"),
             "r.yaml: line 3: seed: '-1' is not a seed (an integer 0 to 999999999)");
-  EXPECT_EQ(error("seed: 1\nfriction: 0"), "r.yaml: line 4: friction: 0 is outside [0.01, 5]");
+  EXPECT_EQ(error("seed: 1\nfriction: 1e7"),
+            "r.yaml: line 4: friction: 10000000 is outside [-1000000, 1000000]");
+  EXPECT_EQ(error("seed: 1\nfriction: [1]"), "r.yaml: line 4: unknown key 'friction'");
   EXPECT_EQ(error("seed: 1\nmean_abs_vz: -0.1"),
             "r.yaml: line 4: mean_abs_vz: -0.1 is outside [0, 1000]");
   EXPECT_EQ(error("seed: 1\ncontroller: [a, b]"),
@@ -607,7 +635,7 @@ TEST(Trials, AnyFailureTextReadsBack) {
   TrialResult r;
   r.scenario = "s";
   r.controller = "c";
-  r.parameters.friction = 0.5;
+  r.parameters.scene = {{"friction", "friction", false, 0.5}};
   r.failure =
       "a\tb\x01"
       "c\"d\\e\nf\u2028g\u0085h\xff";

@@ -15,10 +15,10 @@ namespace {
 
 using rollstep::sim::Controller;
 using rollstep::sim::DriveController;
+using rollstep::sim::loadScene;
 using rollstep::sim::Plant;
 using rollstep::sim::PlantCommand;
 using rollstep::sim::SceneConfig;
-using rollstep::sim::SceneKind;
 using rollstep::sim::StandController;
 
 void runOneSecond(benchmark::State& state, Plant& plant, Controller& controller) {
@@ -55,16 +55,14 @@ void BM_PlantDriveFlat(benchmark::State& state) {
 }
 
 void BM_PlantDriveStep20(benchmark::State& state) {
-  SceneConfig scene;
-  scene.kind = SceneKind::kStep20;
+  const SceneConfig scene = loadScene("step20");
   Plant plant(scene);
   DriveController drive(plant.nominalCommand(), plant.wheelRadius(0), DriveController::Params{});
   runOneSecond(state, plant, drive);
 }
 
 void BM_PlantRaycast(benchmark::State& state) {
-  SceneConfig scene;
-  scene.kind = SceneKind::kStairs2;
+  const SceneConfig scene = loadScene("stairs2");
   Plant plant(scene);
   double sum = 0.0;
   for (auto _ : state) {

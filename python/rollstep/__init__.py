@@ -138,8 +138,8 @@ class CentroidalOcp:
     Arguments:
       robot     robot folder or its centroidal.yaml (default: default_robot())
       settings  OcpSettings, a YAML file name or a dict of keys (default: the defaults)
-      scene     terrain: a scene name ('flat', 'step20', 'stairs2'), a SceneConfig, a scene
-                YAML file or a dict of scene keys
+      scene     terrain: a scene name ('flat', 'step20', 'stairs2': config/scenes/NAME.yaml),
+                a SceneConfig, a scene file or a dict of a scene file's keys
       gait      'standing', 'rolling', 'trot' or 'static_walk'
       command   (vx [m/s], vy [m/s], yaw_rate [rad/s]) base velocity command, base frame
       start     (x [m], y [m], yaw [rad]) planar start pose of the references at t0 = 0
@@ -401,7 +401,7 @@ class Simulation:
     at the control rate (1 kHz) with the state readable between steps.
 
     Arguments:
-      scene        a scene name ('flat', 'step20', 'stairs2'), SceneConfig, file or dict
+      scene        a scene name ('flat', 'step20', 'stairs2', ...), SceneConfig, file or dict
       controller   'stand' (hold the nominal posture), 'drive' (roll on the drive wheels at
                    speed [m/s], turning with turn_speed [m/s]), 'nmpc' (the full pipeline:
                    NMPC + CBF-QP + state integrator on the ground-truth state) or 'cbfqp'

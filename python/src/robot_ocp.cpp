@@ -1,6 +1,7 @@
 // The robot's full-centroidal OCP (centroidal::CentroidalOcp) with its solver, built as
 // `rollstep plan` builds it (apps/plan_command.cpp), and the scene description its terrain
 // comes from. Solves release the GIL: two OCPs solve in parallel from two Python threads.
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <memory>
@@ -10,6 +11,7 @@
 
 #include "bindings.hpp"
 #include "rollstep/centroidal/centroidal_ocp.hpp"
+#include "rollstep/common/number_text.hpp"
 #include "rollstep/sim/scene.hpp"
 #include "rollstep/sim/scene_terrain.hpp"
 #include "rollstep/solver/solver.hpp"
@@ -152,57 +154,66 @@ constexpr const char* kStatsDoc =
 void bindRobotOcp(py::module_& m) {
   py::class_<sim::SceneConfig> scene_class(
       m, "SceneConfig",
-      "Scene parameters (the YAML keys of a scene config file): kind ('flat', 'step20', "
-      "'stairs2'), friction [-], start_x [m] (base start to the near edge of block 1), "
-      "width [m], step1_height [m], step1_length [m], step2_height [m], step2_length [m]. "
-      "Assignments are checked as the file loader checks them (ValueError naming the "
-      "parameter, its value and the valid range).");
+      "A scene (docs/USER_GUIDE.md \"Scenes\"): friction, boxes and ramps, and the named "
+      "parameters their numbers are computed from. Read and assign a parameter or friction as "
+      "an attribute (scene.step1_height = 0.1), any number by its key path with get/set "
+      "(scene.set('boxes[0].yaw_deg', 30)). Assignments are checked as the file loader checks "
+      "the file (ValueError naming the key and the problem; the scene is left as it was).");
+  // Sets one number, checked; the scene is unchanged when the result is invalid.
+  const auto set_number = [](sim::SceneConfig& s, const std::string& path, double value) {
+    sim::SceneConfig trial = s;
+    sim::setSceneNumber(trial, path, value);
+    try {
+      trial.validate();
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(path + " = " + shortestNumberText(value) + ": " + e.what());
+    }
+    s = std::move(trial);
+  };
   scene_class
-      .def(py::init([](const std::string& kind) {
-             sim::SceneConfig s;
-             s.kind = sim::sceneKindFromString(kind);
-             return s;
-           }),
-           py::arg("kind") = "flat", "A scene of this kind with the default parameters.")
+      .def(py::init([](const std::string& name) { return sim::loadScene(name); }),
+           py::arg("name") = "flat", "The scene of that name (config/scenes/NAME.yaml) or file.")
       .def_static(
           "load", [](const py::object& path) { return sim::loadSceneConfig(pathString(path)); },
-          py::arg("path"), "Reads a scene config YAML file.")
+          py::arg("path"), "Reads a scene file.")
       .def_static("parse", &sim::parseSceneConfig, py::arg("text"), py::arg("source") = "<text>",
-                  "Reads scene config YAML text.")
+                  "Reads scene YAML text.")
       .def(
           "to_yaml", [](const sim::SceneConfig& s) { return sim::toYaml(s); },
-          "Every parameter as YAML text that parse reads back exactly.")
-      .def_property(
-          "kind", [](const sim::SceneConfig& s) { return std::string(sim::toString(s.kind)); },
-          [](sim::SceneConfig& s, const std::string& k) { s.kind = sim::sceneKindFromString(k); },
-          "Scene kind: 'flat', 'step20' or 'stairs2'.");
+          "The scene as a complete scene file that parse reads back exactly.")
+      .def_property_readonly(
+          "name", [](const sim::SceneConfig& s) { return s.name; }, "The scene's name.")
+      .def_property_readonly(
+          "parameters",
+          [](const sim::SceneConfig& s) {
+            py::dict d;
+            for (const sim::SceneParameter& p : s.parameters) d[py::str(p.name)] = p.value;
+            return d;
+          },
+          "The named parameters and their values (a copy).")
+      .def(
+          "get",
+          [](const sim::SceneConfig& s, const std::string& path) {
+            return sim::sceneNumber(s, path);
+          },
+          py::arg("key"), "A number by key path: a parameter, 'friction', 'boxes[0].size[2]', ...")
+      .def("set", set_number, py::arg("key"), py::arg("value"),
+           "Sets a number by key path (checked).")
+      .def("__getattr__",
+           [](const sim::SceneConfig& s, const std::string& name) {
+             if (name != "friction" &&
+                 std::none_of(s.parameters.begin(), s.parameters.end(),
+                              [&](const sim::SceneParameter& p) { return p.name == name; })) {
+               throw py::attribute_error("scene " + s.name + " has no parameter '" + name + "'");
+             }
+             return sim::sceneNumber(s, name);
+           })
+      .def("__setattr__", [set_number](sim::SceneConfig& s, const std::string& name, double value) {
+        set_number(s, name, value);
+      });
   scene_class.def("__repr__", [](const sim::SceneConfig& s) {
-    return "<rollstep.SceneConfig " + std::string(sim::toString(s.kind)) + ">";
+    return "<rollstep.SceneConfig " + s.name + ">";
   });
-  // The numeric parameters, each assignment validated (and undone when invalid).
-  const auto field = [&](const char* name, double sim::SceneConfig::*member, const char* doc) {
-    scene_class.def_property(
-        name, [member](const sim::SceneConfig& s) { return s.*member; },
-        [member](sim::SceneConfig& s, double value) {
-          sim::SceneConfig trial = s;
-          trial.*member = value;
-          trial.validate();
-          s = trial;
-        },
-        doc);
-  };
-  field("friction", &sim::SceneConfig::friction,
-        "Sliding friction coefficient of the terrain [-].");
-  field("start_x", &sim::SceneConfig::start_x,
-        "[m] base start (x = 0) to the near edge of block 1.");
-  field("width", &sim::SceneConfig::width, "[m] lateral extent of the blocks.");
-  field("step1_height", &sim::SceneConfig::step1_height,
-        "[m] step20 block height; stairs2 first rise.");
-  field("step1_length", &sim::SceneConfig::step1_length,
-        "[m] step20 block length; stairs2 first landing.");
-  field("step2_height", &sim::SceneConfig::step2_height,
-        "[m] stairs2 second rise (top at step1 + step2).");
-  field("step2_length", &sim::SceneConfig::step2_length, "[m] stairs2 top landing length.");
 
   py::class_<RobotOcp>(m, "_RobotOcp",
                        "C++ side of rollstep.CentroidalOcp (see its documentation).")

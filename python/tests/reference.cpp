@@ -76,8 +76,7 @@ int runOcp(const std::string& robot_file, const std::string& settings_file,
            const std::string& scene_name, const std::string& gait, double vx) {
   const centroidal::RobotOcpDescription robot = centroidal::loadRobotOcpDescription(robot_file);
   const centroidal::OcpSettings settings = centroidal::loadOcpSettings(settings_file);
-  sim::SceneConfig scene;
-  scene.kind = sim::sceneKindFromString(scene_name);
+  const sim::SceneConfig scene = sim::loadScene(scene_name);
   centroidal::CentroidalOcp ocp(
       robot, settings,
       sim::terrainFromScene(scene, centroidal::footholdRegionMargin(robot, settings)),

@@ -66,12 +66,18 @@ def test_load_the_shipped_files():
 
 def test_scene_config_checks():
     sc = rollstep.SceneConfig("step20")
-    assert sc.kind == "step20"
+    assert sc.name == "step20"
     sc.step1_height = 0.1
     assert sc.step1_height == 0.1
     with pytest.raises(ValueError, match="step1_height"):
         sc.step1_height = -1.0
     assert sc.step1_height == 0.1
-    with pytest.raises(ValueError, match="flat, step20 or stairs2"):
+    with pytest.raises(ValueError, match="unknown scene 'moon'"):
         rollstep.SceneConfig("moon")
     assert rollstep.SceneConfig.parse(sc.to_yaml()).step1_height == 0.1
+    sc.set("boxes[0].yaw_deg", 30)
+    assert sc.get("boxes[0].yaw_deg") == 30
+    with pytest.raises(ValueError, match="slope"):
+        ramp = rollstep.SceneConfig.parse(
+            "ramps:\n  - {position: [2, 0, 0], size: [2, 1, 0.1], slope_deg: 10}\n")
+        ramp.set("ramps[0].slope_deg", 25)

@@ -21,7 +21,9 @@ std::vector<estimation::ContactSpec> estimatorContacts(const centroidal::Centroi
 EstimatorSource::EstimatorSource(const Plant& plant, const centroidal::CentroidalRobot& robot,
                                  std::vector<int> joint_map,
                                  const estimation::InekfSettings& settings, bool ground_heights)
-    : joint_map_(std::move(joint_map)), scene_(plant.scene()), ground_heights_(ground_heights) {
+    : joint_map_(std::move(joint_map)),
+      scene_(resolveScene(plant.scene())),
+      ground_heights_(ground_heights) {
   filter_ =
       std::make_unique<estimation::InvariantEkf>(robot.model(), estimatorContacts(robot), settings);
   for (int i = 0; i < robot.nc(); ++i) {

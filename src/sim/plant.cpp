@@ -348,24 +348,24 @@ void Plant::checkStartPosition() {
         std::max(front_extent_, data_->geom_xpos[3 * g] + geomExtentX(model_, data_, g));
   }
   if (!std::isfinite(front_extent_)) front_extent_ = 0.0;
-  const std::vector<TerrainBox> boxes = terrainBoxes(scene_);
-  if (boxes.empty()) return;
-  const double near_edge = boxes.front().center.x() - boxes.front().half_size.x();
+  const SceneGeometry geometry = resolveScene(scene_);
   const double min_start_x = minStartX();
-  if (near_edge < min_start_x) {
-    char text[512];
-    std::snprintf(text, sizeof text,
-                  "scene %s: start_x = %g m puts block 1 inside, under or against the robot "
-                  "'%s' (its front is at x = %.3f m at the nominal pose); valid range for this "
-                  "robot: start_x >= %.3f m (%.2f m clearance)",
-                  sceneName().c_str(), scene_.start_x, robot_file_.c_str(), front_extent_,
-                  min_start_x, kStartClearance);
+  if (const SceneSolid* solid = solidAtStart(geometry, min_start_x); solid != nullptr) {
+    char text[1024];
+    std::snprintf(
+        text, sizeof text,
+        "scene %s: %s reaches inside, under or against the robot '%s' (its front is "
+        "at x = %.3f m at the nominal pose); for this robot, nothing may reach into "
+        "|x|, |y| < %.3f m around the start (%.2f m clearance; in step20 and stairs2: start_x >= "
+        "%.3f m)",
+        sceneName().c_str(), solid->label.c_str(), robot_file_.c_str(), front_extent_, min_start_x,
+        kStartClearance, min_start_x);
     throw SimError(text);
   }
 }
 
 std::string Plant::sceneName() const {
-  return std::string(toString(scene_.kind)) + (scene_.source.empty() ? "" : " of " + scene_.source);
+  return scene_.name + (scene_.source.empty() ? "" : " of " + scene_.source);
 }
 
 Plant::~Plant() {

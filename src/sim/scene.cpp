@@ -1,14 +1,17 @@
 #include "rollstep/sim/scene.hpp"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <limits>
+#include <filesystem>
+#include <functional>
 #include <map>
-#include <sstream>
 #include <stdexcept>
+#include <type_traits>
+#include <utility>
 
 #include "rollstep/common/number_text.hpp"
 #include "rollstep/common/text_file.hpp"
@@ -17,42 +20,324 @@
 namespace rollstep::sim {
 
 namespace {
+
 constexpr std::size_t kMaxSceneConfigBytes = std::size_t{1} << 20;
-// Every scene kind, in declaration order: the one list the names are read from.
-constexpr SceneKind kSceneKinds[] = {SceneKind::kFlat, SceneKind::kStep20, SceneKind::kStairs2};
+constexpr int kMaxBaseDepth = 8;  // base chains longer than this are a loop
+constexpr double kDegree = 3.14159265358979323846 / 180.0;
+
+std::string numberText(double v) { return shortestNumberText(v); }
+
+bool isName(std::string_view s) {
+  if (s.empty() || !(std::isalpha(static_cast<unsigned char>(s[0])) || s[0] == '_')) return false;
+  return std::all_of(s.begin(), s.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '_';
+  });
+}
+
+/// A scene name: letters, digits, _ and - (a file NAME.yaml of the scenes directory).
+bool isSceneFileName(std::string_view s) {
+  return !s.empty() && s.size() <= 100 && s[0] != '-' &&
+         std::all_of(s.begin(), s.end(), [](char c) {
+           return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-';
+         });
+}
+
+// ---- Expressions: numbers and parameter names with + - * / and parentheses. ----
+
+class Expression {
+ public:
+  Expression(const std::string& text, const std::vector<SceneParameter>& parameters)
+      : text_(text), parameters_(parameters) {}
+
+  /// The value, or throws std::invalid_argument saying what is wrong with the text.
+  double evaluate() {
+    skipSpace();
+    if (at_ == text_.size()) fail("no value");
+    const double v = sum();
+    if (at_ != text_.size()) fail("unexpected '" + text_.substr(at_, 1) + "'");
+    return v;
+  }
+
+ private:
+  [[noreturn]] void fail(const std::string& what) const {
+    throw std::invalid_argument("'" + text_ + "' is not a number or an expression of the " +
+                                "scene's parameters (" + what + ")");
+  }
+  void skipSpace() {
+    while (at_ < text_.size() && std::isspace(static_cast<unsigned char>(text_[at_]))) ++at_;
+  }
+  bool take(char c) {
+    skipSpace();
+    if (at_ < text_.size() && text_[at_] == c) {
+      ++at_;
+      return true;
+    }
+    return false;
+  }
+  double sum() {
+    double v = product();
+    while (true) {
+      if (take('+')) {
+        v = v + product();
+      } else if (take('-')) {
+        v = v - product();
+      } else {
+        return v;
+      }
+    }
+  }
+  double product() {
+    double v = factor();
+    while (true) {
+      if (take('*')) {
+        v = v * factor();
+      } else if (take('/')) {
+        v = v / factor();
+      } else {
+        return v;
+      }
+    }
+  }
+  double factor() {
+    if (++depth_ > 64) fail("nested too deeply");
+    double v = 0.0;
+    if (take('-')) {
+      v = -factor();
+    } else if (take('+')) {
+      v = factor();
+    } else if (take('(')) {
+      v = sum();
+      if (!take(')')) fail("a '(' is not closed");
+    } else {
+      skipSpace();
+      v = atom();
+    }
+    --depth_;
+    return v;
+  }
+  double atom() {
+    const auto digit = [&](std::size_t i) {
+      return i < text_.size() && std::isdigit(static_cast<unsigned char>(text_[i]));
+    };
+    const std::size_t start = at_;
+    if (at_ < text_.size() &&
+        (std::isalpha(static_cast<unsigned char>(text_[at_])) || text_[at_] == '_')) {
+      while (at_ < text_.size() &&
+             (std::isalnum(static_cast<unsigned char>(text_[at_])) || text_[at_] == '_')) {
+        ++at_;
+      }
+      const std::string name = text_.substr(start, at_ - start);
+      for (const SceneParameter& p : parameters_) {
+        if (p.name == name) return p.value;
+      }
+      std::string known;
+      for (const SceneParameter& p : parameters_) known += (known.empty() ? "" : ", ") + p.name;
+      fail("'" + name +
+           "' is not a parameter; the scene's parameters: " + (known.empty() ? "none" : known));
+    }
+    // [digits][.digits][(e|E)[+-]digits], at least one digit: a decimal number.
+    std::size_t digits = 0;
+    while (digit(at_)) ++at_, ++digits;
+    if (at_ < text_.size() && text_[at_] == '.') {
+      ++at_;
+      while (digit(at_)) ++at_, ++digits;
+    }
+    if (digits == 0) {
+      fail(at_ < text_.size() ? "unexpected '" + text_.substr(at_, 1) + "'" : "a value is missing");
+    }
+    if (at_ < text_.size() && (text_[at_] == 'e' || text_[at_] == 'E')) {
+      ++at_;
+      if (at_ < text_.size() && (text_[at_] == '+' || text_[at_] == '-')) ++at_;
+      if (!digit(at_)) fail("an exponent has no digits");
+      while (digit(at_)) ++at_;
+    }
+    return std::strtod(text_.substr(start, at_ - start).c_str(), nullptr);
+  }
+
+  const std::string& text_;
+  const std::vector<SceneParameter>& parameters_;
+  std::size_t at_ = 0;
+  int depth_ = 0;
+};
+
+// ---- Checks of resolved numbers. ----
+
+/// "<where>: <path>: " for messages.
+std::string at(const std::string& where, const std::string& path) {
+  return (where.empty() ? std::string() : where + ": ") + path + ": ";
+}
+
+double valueOf(const SceneValue& v, const std::vector<SceneParameter>& parameters,
+               const std::string& path) {
+  double x = 0.0;
+  try {
+    x = Expression(v.text, parameters).evaluate();
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(at(v.where, path) + e.what());
+  }
+  if (!std::isfinite(x)) {
+    throw std::invalid_argument(at(v.where, path) + "'" + v.text + "' = " + numberText(x) +
+                                " is not a finite number");
+  }
+  return x;
+}
+
+std::string label(const char* list, std::size_t i) {
+  return std::string(list) + "[" + std::to_string(i) + "]";
+}
+
+SceneSolid resolveSolid(const SceneSolidSpec& s, bool ramp, const std::string& name,
+                        const std::vector<SceneParameter>& parameters) {
+  SceneSolid out;
+  out.ramp = ramp;
+  out.label = name + (s.where.empty() ? "" : " (" + s.where + ")");
+  for (int k = 0; k < 3; ++k) {
+    const std::string index = "[" + std::to_string(k) + "]";
+    out.center[k] = valueOf(s.position[k], parameters, name + ".position" + index);
+    const double size = valueOf(s.size[k], parameters, name + ".size" + index);
+    if (!(size > 0.0) || size > kSceneMaxSize) {
+      throw std::invalid_argument(
+          at(s.size[k].where, name + ".size" + index) + numberText(size) +
+          " m is out of range; a size must be > 0 and <= " + numberText(kSceneMaxSize) + " m");
+    }
+    out.half_size[k] = 0.5 * size;
+  }
+  const double yaw_deg = valueOf(s.yaw_deg, parameters, name + ".yaw_deg");
+  if (std::abs(yaw_deg) > 360.0) {
+    throw std::invalid_argument(at(s.yaw_deg.where, name + ".yaw_deg") + numberText(yaw_deg) +
+                                " deg is out of range [-360, 360] deg");
+  }
+  out.yaw = yaw_deg * kDegree;
+  if (ramp) {
+    const double slope_deg = valueOf(s.slope_deg, parameters, name + ".slope_deg");
+    if (std::abs(slope_deg) > kSceneMaxSlopeDeg) {
+      throw std::invalid_argument(at(s.slope_deg.where, name + ".slope_deg") +
+                                  numberText(slope_deg) + " deg is steeper than the " +
+                                  numberText(kSceneMaxSlopeDeg) + " deg a ramp may have");
+    }
+    out.slope = slope_deg * kDegree;
+  }
+  // Everything on the floor (seen from above) and not absurdly high.
+  for (const Eigen::Vector2d& c : out.topFootprint()) {
+    if (std::abs(c.x()) > kSceneMaxExtent || std::abs(c.y()) > kSceneMaxExtent) {
+      throw std::invalid_argument(at(s.where, name) + "reaches beyond the floor (|x|, |y| <= " +
+                                  numberText(kSceneMaxExtent) + " m)");
+    }
+  }
+  if (std::abs(out.center.z()) > kSceneMaxSize) {
+    throw std::invalid_argument(at(s.position[2].where, name + ".position[2]") +
+                                numberText(out.center.z()) + " m is out of range [-" +
+                                numberText(kSceneMaxSize) + ", " + numberText(kSceneMaxSize) +
+                                "] m");
+  }
+  return out;
+}
+
 }  // namespace
 
-std::string_view toString(SceneKind kind) {
-  switch (kind) {
-    case SceneKind::kFlat:
-      return "flat";
-    case SceneKind::kStep20:
-      return "step20";
-    case SceneKind::kStairs2:
-      return "stairs2";
-  }
-  return "?";
+// ---- SceneSolid ----
+
+Eigen::Matrix3d SceneSolid::rotation() const {
+  return (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
+          Eigen::AngleAxisd(-slope, Eigen::Vector3d::UnitY()))
+      .toRotationMatrix();
 }
 
-SceneKind sceneKindFromString(std::string_view name) {
-  for (const SceneKind kind : kSceneKinds) {
-    if (toString(kind) == name) return kind;
-  }
-  throw std::invalid_argument("unknown scene '" + std::string(name) + "' (expected " +
-                              sceneNamesText() + ")");
+Eigen::Vector3d SceneSolid::topNormal() const {
+  if (yaw == 0.0 && slope == 0.0) return Eigen::Vector3d::UnitZ();
+  return rotation().col(2);
 }
 
-const std::vector<std::string>& sceneNames() {
-  static const std::vector<std::string> names = [] {
-    std::vector<std::string> v;
-    for (const SceneKind kind : kSceneKinds) v.emplace_back(toString(kind));
-    return v;
-  }();
+Eigen::Vector3d SceneSolid::topCenter() const {
+  // Axis-aligned: exactly the centre plus the half height (as the terrain always was).
+  if (yaw == 0.0 && slope == 0.0) {
+    return Eigen::Vector3d(center.x(), center.y(), center.z() + half_size.z());
+  }
+  return center + rotation().col(2) * half_size.z();
+}
+
+std::array<Eigen::Vector2d, 4> SceneSolid::topFootprint() const {
+  const Eigen::Vector3d t = topCenter();
+  const double hx = half_size.x() * std::cos(slope), hy = half_size.y();
+  const Eigen::Vector2d ex(std::cos(yaw), std::sin(yaw)), ey(-std::sin(yaw), std::cos(yaw));
+  const Eigen::Vector2d c(t.x(), t.y());
+  return {c - hx * ex - hy * ey, c + hx * ex - hy * ey, c + hx * ex + hy * ey,
+          c - hx * ex + hy * ey};
+}
+
+bool SceneSolid::coversTop(double x, double y) const {
+  const Eigen::Vector3d t = topCenter();
+  const double dx = x - t.x(), dy = y - t.y();
+  if (yaw == 0.0 && slope == 0.0) {
+    return std::abs(dx) <= half_size.x() && std::abs(dy) <= half_size.y();
+  }
+  const double c = std::cos(yaw), s = std::sin(yaw);
+  const double u = c * dx + s * dy, v = -s * dx + c * dy;
+  return std::abs(u) <= half_size.x() * std::cos(slope) && std::abs(v) <= half_size.y();
+}
+
+double SceneSolid::topHeightAt(double x, double y) const {
+  const Eigen::Vector3d t = topCenter();
+  if (slope == 0.0) return t.z();
+  const double u = std::cos(yaw) * (x - t.x()) + std::sin(yaw) * (y - t.y());
+  return t.z() + std::tan(slope) * u;
+}
+
+// ---- Resolving and checking ----
+
+SceneGeometry resolveScene(const SceneConfig& config) {
+  SceneGeometry g;
+  g.name = config.name;
+  g.friction = valueOf(config.friction, config.parameters, "friction");
+  if (g.friction < kSceneMinFriction || g.friction > kSceneMaxFriction) {
+    throw std::invalid_argument(at(config.friction.where, "friction") + numberText(g.friction) +
+                                " is out of range; valid range [" + numberText(kSceneMinFriction) +
+                                ", " + numberText(kSceneMaxFriction) +
+                                "] (terrain friction coefficient)");
+  }
+  for (std::size_t i = 0; i < config.boxes.size(); ++i) {
+    g.solids.push_back(resolveSolid(config.boxes[i], false, label("boxes", i), config.parameters));
+  }
+  for (std::size_t i = 0; i < config.ramps.size(); ++i) {
+    g.solids.push_back(resolveSolid(config.ramps[i], true, label("ramps", i), config.parameters));
+  }
+  return g;
+}
+
+void SceneConfig::validate() const { resolveScene(*this); }
+
+// ---- Scene names ----
+
+std::string scenesDirectory() {
+  if (const char* dir = std::getenv("ROLLSTEP_SCENES_DIR"); dir != nullptr && *dir != '\0') {
+    return dir;
+  }
+  return ROLLSTEP_SCENES_DIR;
+}
+
+std::vector<std::string> sceneNames() {
+  std::vector<std::string> names;
+  std::error_code ec;
+  for (const auto& entry : std::filesystem::directory_iterator(scenesDirectory(), ec)) {
+    const std::filesystem::path& p = entry.path();
+    if (p.extension() == ".yaml" && isSceneFileName(p.stem().string()) &&
+        entry.is_regular_file(ec)) {
+      names.push_back(p.stem().string());
+    }
+  }
+  std::sort(names.begin(), names.end());
   return names;
 }
 
+bool isSceneName(std::string_view name) {
+  if (!isSceneFileName(name)) return false;
+  const std::vector<std::string> names = sceneNames();
+  return std::find(names.begin(), names.end(), name) != names.end();
+}
+
 std::string sceneNamesText() {
-  const std::vector<std::string>& names = sceneNames();
+  const std::vector<std::string> names = sceneNames();
+  if (names.empty()) return "none (no NAME.yaml in " + scenesDirectory() + ")";
   std::string text;
   for (std::size_t i = 0; i < names.size(); ++i) {
     text += (i == 0 ? "" : i + 1 == names.size() ? " or " : ", ") + names[i];
@@ -60,255 +345,465 @@ std::string sceneNamesText() {
   return text;
 }
 
-bool isSceneName(std::string_view name) {
-  for (const std::string& s : sceneNames()) {
-    if (s == name) return true;
-  }
-  return false;
-}
-
 namespace {
 
-// The one table of numeric scene parameters (docs/USER_GUIDE.md "Scene parameters" mirrors it).
-// Ranges: what the terrain model and MuJoCo's collision handle well and what a scene of
-// this robot can sensibly be; the robot-dependent lower bound of start_x is the Plant's.
-const std::array<SceneField, kNumSceneFields> kSceneFields{{
-    {"friction", &SceneConfig::friction, "", 0.01, 5.0, "terrain friction coefficient"},
-    {"start_x", &SceneConfig::start_x, "m", 0.0, 50.0,
-     "robot start (base centre at x = 0) to the near edge of block 1"},
-    {"width", &SceneConfig::width, "m", 0.1, 100.0, "lateral extent of the blocks"},
-    {"step1_height", &SceneConfig::step1_height, "m", 0.001, 1.0,
-     "step20 block height / stairs2 first rise"},
-    {"step1_length", &SceneConfig::step1_length, "m", 0.01, 50.0,
-     "step20 block length / stairs2 first landing"},
-    {"step2_height", &SceneConfig::step2_height, "m", 0.001, 1.0, "stairs2 second rise"},
-    {"step2_length", &SceneConfig::step2_length, "m", 0.01, 50.0, "stairs2 top landing"},
-}};
-
-std::string numberText(double v) { return shortestNumberText(v); }
-
-std::string withUnit(double v, const SceneField& f) {
-  return numberText(v) + (*f.unit ? std::string(" ") + f.unit : std::string());
+bool looksLikeFile(const std::string& s) {
+  return s.find('/') != std::string::npos ||
+         (s.size() > 5 && s.compare(s.size() - 5, 5, ".yaml") == 0);
 }
 
-std::string rangeText(const SceneField& f) {
-  return "valid range [" + numberText(f.min) + ", " + numberText(f.max) + "]" +
-         (*f.unit ? std::string(" ") + f.unit : std::string()) + " (" + f.meaning + ")";
-}
+SceneConfig parseScene(const std::string& yaml_text, const std::string& source_name, int depth);
 
-/// Empty if v is a valid value of f, else what is wrong with it.
-std::string problemWith(const SceneField& f, double v) {
-  if (!std::isfinite(v)) return numberText(v) + " is not a finite number; " + rangeText(f);
-  if (v < f.min || v > f.max) return withUnit(v, f) + " is out of range; " + rangeText(f);
-  return {};
-}
-
-std::string knownKeys() {
-  std::string keys = "scene";
-  for (const SceneField& f : kSceneFields) keys += std::string(", ") + f.key;
-  return keys;
-}
-
-/// A YAML plain scalar as a number: [+-]digits[.digits][(e|E)[+-]digits] (no hexadecimal,
-/// octal or trailing text), or YAML's .inf/.nan (and nan/inf), which parse to be refused
-/// as not finite. Returns false if the text is not a number.
-bool parseNumber(const std::string& text, double& value) {
-  std::string lower;
-  for (char c : text) lower += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  const std::size_t sign = (!lower.empty() && (lower[0] == '+' || lower[0] == '-')) ? 1 : 0;
-  const std::string unsigned_text = lower.substr(sign);
-  if (unsigned_text == ".nan" || unsigned_text == "nan") {
-    value = std::numeric_limits<double>::quiet_NaN();
-    return true;
-  }
-  if (unsigned_text == ".inf" || unsigned_text == "inf" || unsigned_text == "infinity") {
-    value = (lower[0] == '-' ? -1.0 : 1.0) * std::numeric_limits<double>::infinity();
-    return true;
-  }
-  const auto digit = [&](std::size_t i) {
-    return i < lower.size() && std::isdigit(static_cast<unsigned char>(lower[i]));
-  };
-  std::size_t i = sign, digits = 0;
-  while (digit(i)) ++i, ++digits;
-  if (i < lower.size() && lower[i] == '.') {
-    ++i;
-    while (digit(i)) ++i, ++digits;
-  }
-  if (digits == 0) return false;
-  if (i < lower.size() && lower[i] == 'e') {
-    ++i;
-    if (i < lower.size() && (lower[i] == '+' || lower[i] == '-')) ++i;
-    if (!digit(i)) return false;
-    while (digit(i)) ++i;
-  }
-  if (i != lower.size()) return false;
-  value = std::strtod(text.c_str(), nullptr);  // 1e400 overflows to inf: refused as such
-  return true;
-}
-
-}  // namespace
-
-const std::array<SceneField, kNumSceneFields>& sceneFields() { return kSceneFields; }
-
-void SceneConfig::validate() const {
-  for (const SceneField& f : kSceneFields) {
-    const std::string problem = problemWith(f, this->*f.member);
-    if (!problem.empty()) throw std::invalid_argument(std::string(f.key) + ": " + problem);
-  }
-}
-
-SceneConfig parseSceneConfig(const std::string& yaml_text, const std::string& source_name) {
-  const std::string where = "scene config '" + source_name + "': ";
-  const auto fail = [&](const std::string& what) -> void {
-    throw std::runtime_error(where + what);
-  };
-  const auto line = [](const yaml::Node& node) {
-    return "line " + std::to_string(node.line()) + ": ";
-  };
-  SceneConfig config;
-  config.source = "scene config '" + source_name + "'";
-  // libyaml's parse (yaml_tree.hpp): malformed text and a second document are errors.
-  yaml::Document document = [&]() {
-    try {
-      return yaml::Document::parse(yaml_text);
-    } catch (const yaml::YamlError& e) {
-      const std::string what = e.what();
-      if (what.rfind("holds more than one", 0) == 0) {
-        fail(what + "; a scene config is one mapping of key: value");
-      }
-      fail("YAML error: " + what);
-      throw;  // unreachable: fail throws
-    }
-  }();
-  const yaml::Node root = document.root();
-  if (root.isNull()) return config;  // empty file or comments only: all defaults
-  if (!root.isMapping()) fail(line(root) + "expected a mapping of key: value");
-  std::map<std::string, int> seen;  // key -> line (1-based) where it was first given
-  for (std::size_t item = 0; item < root.size(); ++item) {
-    const yaml::Node key_node = root.key(item);
-    const yaml::Node value = root.value(item);
-    if (!key_node.isScalar()) fail(line(key_node) + "a key must be a plain name");
-    const std::string key = key_node.scalar();
-    const int key_line = key_node.line();
-    const std::string at = line(key_node) + key + ": ";
-    const SceneField* field = nullptr;
-    for (const SceneField& f : kSceneFields) {
-      if (key == f.key) field = &f;
-    }
-    if (field == nullptr && key != "scene") {
-      fail(line(key_node) + "unknown key '" + key + "' (known: " + knownKeys() + ")");
-    }
-    // YAML forbids a repeated key; the last would otherwise win silently.
-    if (const auto it = seen.find(key); it != seen.end()) {
-      fail(line(key_node) + "key '" + key + "' given twice (first on line " +
-           std::to_string(it->second) + ")");
-    }
-    seen.emplace(key, key_line);
-    if (value.isNull()) fail(at + "no value");
-    if (!value.isScalar()) fail(at + "expected a single value, got " + value.kindName());
-    const std::string& text = value.scalar();
-    if (field == nullptr) {  // scene
-      try {
-        config.kind = sceneKindFromString(text);
-      } catch (const std::invalid_argument& e) {
-        fail(at + e.what());
-      }
-      continue;
-    }
-    double number = 0.0;
-    if (!value.plain() || !parseNumber(text, number)) {
-      const std::string why = value.plain()         ? ""
-                              : value.tag().empty() ? " (it is quoted)"
-                                                    : " (it has the tag " + value.tag() + ")";
-      fail(at + "'" + text + "' is not a number" + why + "; " + rangeText(*field));
-    }
-    if (!std::isfinite(number)) {
-      fail(at + "'" + text + "' is not a finite number; " + rangeText(*field));
-    }
-    const std::string problem = problemWith(*field, number);
-    if (!problem.empty()) fail(at + problem);
-    config.*(field->member) = number;
-  }
-  try {
-    config.validate();
-  } catch (const std::invalid_argument& e) {
-    fail(e.what());
-  }
-  return config;
-}
-
-SceneConfig loadSceneConfig(const std::string& yaml_file) {
+SceneConfig loadSceneFile(const std::string& yaml_file, int depth) {
   std::string text;
   try {
     text = readTextFile(yaml_file, "scene config", kMaxSceneConfigBytes);
   } catch (const InputError& e) {
     throw std::runtime_error(e.what());
   }
-  return parseSceneConfig(text, yaml_file);
+  return parseScene(text, yaml_file, depth);
+}
+
+SceneConfig loadSceneNamed(const std::string& name_or_file, int depth) {
+  if (looksLikeFile(name_or_file)) return loadSceneFile(name_or_file, depth);
+  if (!isSceneName(name_or_file)) {
+    throw std::invalid_argument("unknown scene '" + name_or_file + "' (expected " +
+                                sceneNamesText() + ", or a scene file)");
+  }
+  return loadSceneFile(scenesDirectory() + "/" + name_or_file + ".yaml", depth);
+}
+
+// ---- The reader: one table of keys per mapping (easy to move onto a settings table). ----
+
+struct Reader {
+  std::string prefix;  // "scene config 'FILE': "
+
+  [[noreturn]] void fail(const yaml::Node& node, const std::string& path,
+                         const std::string& what) const {
+    throw std::runtime_error(prefix + "line " + std::to_string(node.line()) + ": " +
+                             (path.empty() ? "" : path + ": ") + what);
+  }
+  std::string where(const yaml::Node& node) const {
+    return prefix.substr(0, prefix.size() - 2) + ": line " + std::to_string(node.line());
+  }
+
+  using Handler = std::function<void(const yaml::Node& value, const std::string& path)>;
+  struct Key {
+    const char* name;
+    Handler read;
+  };
+  /// Every entry of `mapping` to its key's handler; unknown and repeated keys are errors.
+  void each(const yaml::Node& mapping, const std::string& path,
+            const std::vector<Key>& keys) const {
+    if (!mapping.isMapping()) {
+      fail(mapping, path, std::string("expected a mapping, got ") + mapping.kindName());
+    }
+    std::map<std::string, int> seen;
+    for (std::size_t i = 0; i < mapping.size(); ++i) {
+      const yaml::Node k = mapping.key(i);
+      if (!k.isScalar()) fail(k, path, "a key must be a plain name");
+      const std::string name = k.scalar();
+      const std::string sub = path.empty() ? name : path + "." + name;
+      if (const auto it = seen.find(name); it != seen.end()) {
+        fail(k, sub,
+             "key '" + name + "' given twice (first on line " + std::to_string(it->second) + ")");
+      }
+      seen.emplace(name, k.line());
+      const Key* key = nullptr;
+      for (const Key& candidate : keys) {
+        if (name == candidate.name) key = &candidate;
+      }
+      if (key == nullptr) {
+        std::string known;
+        for (const Key& candidate : keys)
+          known += (known.empty() ? "" : ", ") + std::string(candidate.name);
+        fail(k, path, "unknown key '" + name + "' (known: " + known + ")");
+      }
+      key->read(mapping.value(i), sub);
+    }
+  }
+  /// A number or an expression: a plain scalar (a quoted one is text, not a number).
+  SceneValue value(const yaml::Node& node, const std::string& path) const {
+    if (node.isNull()) fail(node, path, "no value");
+    if (!node.isScalar()) {
+      fail(node, path, std::string("expected a number, got ") + node.kindName());
+    }
+    if (!node.plain()) {
+      fail(node, path,
+           "'" + node.scalar() + "' is not a number (it is " +
+               (node.tag().empty() ? "quoted" : "tagged " + node.tag()) + ")");
+    }
+    return SceneValue{node.scalar(), where(node)};
+  }
+  std::array<SceneValue, 3> triple(const yaml::Node& node, const std::string& path) const {
+    if (!node.isSequence() || node.size() != 3) {
+      fail(node, path,
+           std::string("expected a list of 3 numbers [x, y, z], got ") +
+               (node.isSequence() ? std::to_string(node.size()) + " items" : node.kindName()));
+    }
+    std::array<SceneValue, 3> out;
+    for (std::size_t k = 0; k < 3; ++k) {
+      out[k] = value(node.item(k), path + "[" + std::to_string(k) + "]");
+    }
+    return out;
+  }
+  std::vector<SceneSolidSpec> solids(const yaml::Node& node, const std::string& path,
+                                     bool ramp) const {
+    if (!node.isSequence()) {
+      fail(node, path, std::string("expected a list, got ") + node.kindName());
+    }
+    std::vector<SceneSolidSpec> out;
+    for (std::size_t i = 0; i < node.size(); ++i) {
+      const yaml::Node item = node.item(i);
+      const std::string sub = path + "[" + std::to_string(i) + "]";
+      SceneSolidSpec s;
+      s.where = where(item);
+      s.yaw_deg.where = s.slope_deg.where = s.where;
+      bool has_position = false, has_size = false, has_slope = false;
+      std::vector<Key> keys{
+          {"position",
+           [&](const yaml::Node& v, const std::string& p) {
+             s.position = triple(v, p);
+             has_position = true;
+           }},
+          {"size",
+           [&](const yaml::Node& v, const std::string& p) {
+             s.size = triple(v, p);
+             has_size = true;
+           }},
+          {"yaw_deg", [&](const yaml::Node& v, const std::string& p) { s.yaw_deg = value(v, p); }},
+      };
+      if (ramp) {
+        keys.push_back({"slope_deg", [&](const yaml::Node& v, const std::string& p) {
+                          s.slope_deg = value(v, p);
+                          has_slope = true;
+                        }});
+      }
+      each(item, sub, keys);
+      if (!has_position) fail(item, sub, "position [x, y, z] is missing");
+      if (!has_size) fail(item, sub, "size [x, y, z] is missing");
+      if (ramp && !has_slope) fail(item, sub, "slope_deg is missing");
+      out.push_back(std::move(s));
+    }
+    return out;
+  }
+};
+
+const char* const kReservedNames[] = {"friction", "boxes", "ramps", "base", "parameters"};
+
+SceneConfig parseScene(const std::string& yaml_text, const std::string& source_name, int depth) {
+  const Reader r{"scene config '" + source_name + "': "};
+  if (depth > kMaxBaseDepth) {
+    throw std::runtime_error(r.prefix + "base: scenes based on each other more than " +
+                             std::to_string(kMaxBaseDepth) +
+                             " deep (a file that is its own base?)");
+  }
+  SceneConfig config;
+  config.source = "scene config '" + source_name + "'";
+  {
+    const std::string stem = std::filesystem::path(source_name).stem().string();
+    config.name = stem.empty() ? source_name : stem;
+  }
+  const yaml::Document document = yaml::parseDocument(yaml_text, r.prefix);
+  const yaml::Node root = document.root();
+  if (root.isNull()) return config;  // empty file: the floor alone
+  if (!root.isMapping())
+    r.fail(root, "", "expected a mapping (parameters, friction, boxes, ramps)");
+  // The base first, whatever the order of the keys: the rest changes or extends it.
+  bool has_base = false;
+  for (std::size_t i = 0; i < root.size(); ++i) {
+    if (!root.key(i).isScalar() || root.key(i).scalar() != "base") continue;
+    const yaml::Node v = root.value(i);
+    if (!v.isScalar() || v.scalar().empty()) r.fail(v, "base", "expected a scene name or file");
+    std::string base = v.scalar();
+    if (looksLikeFile(base) && base[0] != '/') {
+      const std::filesystem::path dir = std::filesystem::path(source_name).parent_path();
+      base = (dir / base).string();
+    }
+    try {
+      const std::string name = config.name, source = config.source;
+      config = loadSceneNamed(base, depth + 1);
+      config.name = name;
+      config.source = source;
+    } catch (const std::exception& e) {  // a bad file, or an unknown name
+      r.fail(v, "base", e.what());
+    }
+    has_base = true;
+  }
+  std::vector<Reader::Key> keys{
+      {"base", [](const yaml::Node&, const std::string&) {}},
+      {"parameters",
+       [&](const yaml::Node& v, const std::string& path) {
+         if (v.isNull()) return;
+         if (!v.isMapping())
+           r.fail(v, path, std::string("expected a mapping, got ") + v.kindName());
+         const std::size_t inherited = config.parameters.size();
+         std::map<std::string, int> seen;
+         for (std::size_t i = 0; i < v.size(); ++i) {
+           const yaml::Node k = v.key(i);
+           const std::string name = k.isScalar() ? k.scalar() : std::string();
+           const std::string sub = path + "." + name;
+           if (!isName(name)) {
+             r.fail(k, path, "'" + name + "' is not a parameter name (letters, digits, _)");
+           }
+           for (const char* reserved : kReservedNames) {
+             if (name == reserved) r.fail(k, sub, "'" + name + "' is a key of the scene file");
+           }
+           if (const auto it = seen.find(name); it != seen.end()) {
+             r.fail(k, sub,
+                    "key '" + name + "' given twice (first on line " + std::to_string(it->second) +
+                        ")");
+           }
+           seen.emplace(name, k.line());
+           // A parameter's value is a plain number (expressions are for the geometry).
+           const yaml::Node value = v.value(i);
+           double number = 0.0;
+           if (!value.isScalar() || !value.toDouble(number)) {
+             r.fail(value, sub,
+                    value.isScalar() ? "'" + value.scalar() + "' is not a number"
+                                     : std::string("expected a number, got ") + value.kindName());
+           }
+           if (!std::isfinite(number)) {
+             r.fail(value, sub, "'" + value.scalar() + "' is not a finite number");
+           }
+           auto it =
+               std::find_if(config.parameters.begin(),
+                            config.parameters.begin() + static_cast<std::ptrdiff_t>(inherited),
+                            [&](const SceneParameter& p) { return p.name == name; });
+           if (it != config.parameters.begin() + static_cast<std::ptrdiff_t>(inherited)) {
+             it->value = number;
+             it->where = r.where(value);
+           } else if (has_base) {
+             std::string known;
+             for (std::size_t j = 0; j < inherited; ++j) {
+               known += (known.empty() ? "" : ", ") + config.parameters[j].name;
+             }
+             r.fail(k, sub,
+                    "'" + name + "' is not a parameter of the base scene (it has: " +
+                        (known.empty() ? "none" : known) + ")");
+           } else {
+             config.parameters.push_back({name, number, r.where(value)});
+           }
+         }
+       }},
+      {"friction",
+       [&](const yaml::Node& v, const std::string& path) { config.friction = r.value(v, path); }},
+      {"boxes",
+       [&](const yaml::Node& v, const std::string& path) {
+         for (SceneSolidSpec& s : r.solids(v, path, false)) config.boxes.push_back(std::move(s));
+       }},
+      {"ramps",
+       [&](const yaml::Node& v, const std::string& path) {
+         for (SceneSolidSpec& s : r.solids(v, path, true)) config.ramps.push_back(std::move(s));
+       }},
+  };
+  r.each(root, "", keys);
+  try {
+    config.validate();
+  } catch (const std::invalid_argument& e) {
+    // "<this file>: " once: the message names the file of the bad number (a base's).
+    throw std::runtime_error(std::string(e.what()).rfind(r.prefix, 0) == 0 ? e.what()
+                                                                           : r.prefix + e.what());
+  }
+  return config;
+}
+
+}  // namespace
+
+SceneConfig loadScene(const std::string& name_or_file) { return loadSceneNamed(name_or_file, 0); }
+
+SceneConfig loadSceneConfig(const std::string& yaml_file) { return loadSceneFile(yaml_file, 0); }
+
+SceneConfig parseSceneConfig(const std::string& yaml_text, const std::string& source_name) {
+  return parseScene(yaml_text, source_name, 0);
 }
 
 std::string toYaml(const SceneConfig& config) {
-  std::string out = "scene: " + std::string(toString(config.kind)) + "\n";
-  for (const SceneField& f : kSceneFields) {
-    out += std::string(f.key) + ": " + numberText(config.*f.member) + "\n";
+  std::string out = "# scene " + config.name + "\n";
+  if (!config.parameters.empty()) {
+    out += "parameters:\n";
+    for (const SceneParameter& p : config.parameters) {
+      out += "  " + p.name + ": " + numberText(p.value) + "\n";
+    }
   }
+  out += "friction: " + config.friction.text + "\n";
+  const auto triple = [](const std::array<SceneValue, 3>& v) {
+    return "[" + v[0].text + ", " + v[1].text + ", " + v[2].text + "]";
+  };
+  const auto list = [&](const char* key, const std::vector<SceneSolidSpec>& solids, bool ramp) {
+    if (solids.empty()) return;
+    out += std::string(key) + ":\n";
+    for (const SceneSolidSpec& s : solids) {
+      out += "  - position: " + triple(s.position) + "\n";
+      out += "    size: " + triple(s.size) + "\n";
+      out += "    yaw_deg: " + s.yaw_deg.text + "\n";
+      if (ramp) out += "    slope_deg: " + s.slope_deg.text + "\n";
+    }
+  };
+  list("boxes", config.boxes, false);
+  list("ramps", config.ramps, true);
   return out;
 }
 
-std::vector<TerrainBox> terrainBoxes(const SceneConfig& c) {
-  std::vector<TerrainBox> boxes;
-  const auto add = [&](double x0, double length, double height) {
-    boxes.push_back(TerrainBox{Eigen::Vector3d(x0 + 0.5 * length, 0.0, 0.5 * height),
-                               Eigen::Vector3d(0.5 * length, 0.5 * c.width, 0.5 * height)});
-  };
-  switch (c.kind) {
-    case SceneKind::kFlat:
-      break;
-    case SceneKind::kStep20:
-      add(c.start_x, c.step1_length, c.step1_height);
-      break;
-    case SceneKind::kStairs2:
-      // Lower block runs under the top landing so that there is no gap.
-      add(c.start_x, c.step1_length + c.step2_length, c.step1_height);
-      add(c.start_x + c.step1_length, c.step2_length, c.step1_height + c.step2_height);
-      break;
+// ---- Numbers by key path ----
+
+namespace {
+
+/// The SceneValue at `path` ("friction", "boxes[0].size[2]", ...), or nullptr; parameters
+/// are not SceneValues (see sceneNumber).
+template <class Config>
+auto* valueAt(Config& config, const std::string& path) {
+  using Value = std::conditional_t<std::is_const_v<Config>, const SceneValue, SceneValue>;
+  Value* none = nullptr;
+  if (path == "friction") return &config.friction;
+  for (const char* list : {"boxes", "ramps"}) {
+    const std::string head = std::string(list) + "[";
+    if (path.rfind(head, 0) != 0) continue;
+    auto& solids = std::string(list) == "boxes" ? config.boxes : config.ramps;
+    std::size_t close = path.find(']');
+    if (close == std::string::npos || close == head.size()) return none;
+    const std::string index = path.substr(head.size(), close - head.size());
+    if (!std::all_of(index.begin(), index.end(),
+                     [](char c) { return std::isdigit(static_cast<unsigned char>(c)); }) ||
+        index.size() > 6) {
+      return none;
+    }
+    const std::size_t i = static_cast<std::size_t>(std::stoul(index));
+    if (i >= solids.size()) return none;
+    auto& s = solids[i];
+    const std::string rest = path.substr(close + 1);
+    if (rest == ".yaw_deg") return &s.yaw_deg;
+    if (rest == ".slope_deg" && std::string(list) == "ramps") return &s.slope_deg;
+    for (int k = 0; k < 3; ++k) {
+      const std::string kk = "[" + std::to_string(k) + "]";
+      if (rest == ".position" + kk) return &s.position[static_cast<std::size_t>(k)];
+      if (rest == ".size" + kk) return &s.size[static_cast<std::size_t>(k)];
+    }
+    return none;
   }
-  return boxes;
+  return none;
 }
 
-double terrainHeight(const SceneConfig& config, double x, double y) {
-  double h = 0.0;
-  for (const TerrainBox& b : terrainBoxes(config)) {
-    if (std::abs(x - b.center.x()) <= b.half_size.x() &&
-        std::abs(y - b.center.y()) <= b.half_size.y()) {
-      h = std::max(h, b.center.z() + b.half_size.z());
+[[noreturn]] void noSuchNumber(const SceneConfig& config, const std::string& path) {
+  std::string keys = "friction";
+  for (const SceneParameter& p : config.parameters) keys += ", " + p.name;
+  if (!config.boxes.empty()) {
+    keys += ", boxes[0.." + std::to_string(config.boxes.size() - 1) +
+            "].position[0..2] / .size[0..2] / .yaw_deg";
+  }
+  if (!config.ramps.empty()) {
+    keys += ", ramps[0.." + std::to_string(config.ramps.size() - 1) +
+            "].position[0..2] / .size[0..2] / .yaw_deg / .slope_deg";
+  }
+  throw std::invalid_argument("scene " + config.name + " has no number '" + path +
+                              "' (it has: " + keys + ")");
+}
+
+}  // namespace
+
+double sceneNumber(const SceneConfig& config, const std::string& path) {
+  for (const SceneParameter& p : config.parameters) {
+    if (p.name == path) return p.value;
+  }
+  const SceneValue* v = valueAt(config, path);
+  if (v == nullptr) noSuchNumber(config, path);
+  return valueOf(*v, config.parameters, path);
+}
+
+bool hasSceneNumber(const SceneConfig& config, const std::string& path) {
+  for (const SceneParameter& p : config.parameters) {
+    if (p.name == path) return true;
+  }
+  return valueAt(config, path) != nullptr;
+}
+
+void setSceneNumber(SceneConfig& config, const std::string& path, double value) {
+  for (SceneParameter& p : config.parameters) {
+    if (p.name == path) {
+      p.value = value;
+      return;
     }
+  }
+  SceneValue* v = valueAt(config, path);
+  if (v == nullptr) noSuchNumber(config, path);
+  v->text = numberText(value);
+}
+
+// ---- Queries ----
+
+double terrainHeight(const SceneGeometry& geometry, double x, double y) {
+  double h = 0.0;
+  for (const SceneSolid& s : geometry.solids) {
+    if (s.coversTop(x, y)) h = std::max(h, s.topHeightAt(x, y));
   }
   return h;
 }
 
+double terrainHeight(const SceneConfig& config, double x, double y) {
+  return terrainHeight(resolveScene(config), x, y);
+}
+
+double firstRise(const SceneGeometry& geometry) {
+  return geometry.solids.empty() ? 0.0 : geometry.solids.front().topCenter().z();
+}
+
 std::string terrainMjcf(const SceneConfig& config) {
-  config.validate();
+  const SceneGeometry g = resolveScene(config);
   std::string xml;
-  char buf[512];
+  char buf[640];
   std::snprintf(buf, sizeof buf,
                 "    <light name=\"sun\" directional=\"true\" pos=\"0 0 5\" dir=\"0.3 0.2 -1\"/>\n"
                 "    <geom name=\"floor\" type=\"plane\" size=\"50 50 0.1\" group=\"0\" "
                 "contype=\"1\" conaffinity=\"1\" friction=\"%.17g 0.005 0.0001\" "
                 "rgba=\"0.55 0.6 0.55 1\"/>\n",
-                config.friction);
+                g.friction);
   xml += buf;
-  int i = 0;
-  for (const TerrainBox& b : terrainBoxes(config)) {
+  int boxes = 0, ramps = 0;
+  for (const SceneSolid& s : g.solids) {
+    // A rotation only when there is one: an axis-aligned box is written as it always was.
+    std::string quat;
+    if (s.yaw != 0.0 || s.slope != 0.0) {
+      const Eigen::Quaterniond q(s.rotation());
+      std::snprintf(buf, sizeof buf, " quat=\"%.17g %.17g %.17g %.17g\"", q.w(), q.x(), q.y(),
+                    q.z());
+      quat = buf;
+    }
     std::snprintf(buf, sizeof buf,
-                  "    <geom name=\"block%d\" type=\"box\" pos=\"%.17g %.17g %.17g\" "
+                  "    <geom name=\"%s%d\" type=\"box\" pos=\"%.17g %.17g %.17g\"%s "
                   "size=\"%.17g %.17g %.17g\" group=\"0\" contype=\"1\" conaffinity=\"1\" "
                   "friction=\"%.17g 0.005 0.0001\" rgba=\"0.6 0.55 0.5 1\"/>\n",
-                  i++, b.center.x(), b.center.y(), b.center.z(), b.half_size.x(), b.half_size.y(),
-                  b.half_size.z(), config.friction);
+                  s.ramp ? "ramp" : "block", s.ramp ? ramps++ : boxes++, s.center.x(), s.center.y(),
+                  s.center.z(), quat.c_str(), s.half_size.x(), s.half_size.y(), s.half_size.z(),
+                  g.friction);
     xml += buf;
   }
   return xml;
+}
+
+const SceneSolid* solidAtStart(const SceneGeometry& geometry, double half_extent) {
+  for (const SceneSolid& s : geometry.solids) {
+    // The solid seen from above is a rectangle along its yaw (the slope tilts it within
+    // that vertical plane); separating axes: the square's and the rectangle's.
+    const double c = std::cos(s.yaw), sn = std::sin(s.yaw);
+    const double hx =
+        s.half_size.x() * std::cos(s.slope) + s.half_size.z() * std::abs(std::sin(s.slope));
+    const double hy = s.half_size.y();
+    const Eigen::Vector2d center(s.center.x(), s.center.y());
+    const Eigen::Vector2d ex(c, sn), ey(-sn, c);
+    bool separated = false;
+    // The square's axes: the rectangle's extent along x and y.
+    const double rx = hx * std::abs(ex.x()) + hy * std::abs(ey.x());
+    const double ry = hx * std::abs(ex.y()) + hy * std::abs(ey.y());
+    if (center.x() - rx >= half_extent || center.x() + rx <= -half_extent) separated = true;
+    if (center.y() - ry >= half_extent || center.y() + ry <= -half_extent) separated = true;
+    // The rectangle's axes: the square's extent along them.
+    for (const auto& [axis, h] : {std::pair{ex, hx}, std::pair{ey, hy}}) {
+      const double reach = half_extent * (std::abs(axis.x()) + std::abs(axis.y()));
+      if (std::abs(axis.dot(center)) >= h + reach) separated = true;
+    }
+    if (!separated) return &s;
+  }
+  return nullptr;
 }
 
 }  // namespace rollstep::sim

@@ -24,7 +24,7 @@ void expectPhysical(const CbfQpOutcome& o, double max_tilt_deg) {
 
 TEST(CbfQpClosedLoop, TrotsOverTheStep20BlockAndStopsBeyondIt) {
   CbfQpScenario sc;
-  sc.scene = sim::SceneKind::kStep20;
+  sc.scene = "step20";
   sc.command.v_x = 0.15;
   sc.duration = 28.0;
   sc.stop_at_x = 3.3;  // the rear wheels (0.33 m behind the base) 0.77 m beyond the block

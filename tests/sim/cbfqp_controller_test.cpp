@@ -24,8 +24,7 @@ using sim::test::runTicks;
 /// The plant on step20, Tachyon 3's OCP description and the baseline's settings.
 struct Step20Baseline {
   SceneConfig scene = [] {
-    SceneConfig s;
-    s.kind = SceneKind::kStep20;
+    SceneConfig s = loadScene("step20");
     return s;
   }();
   Plant plant{scene};

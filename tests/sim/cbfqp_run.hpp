@@ -19,7 +19,7 @@
 namespace rollstep::sim::test {
 
 struct CbfQpScenario {
-  SceneKind scene = SceneKind::kFlat;
+  std::string scene = "flat";
   planning::BaseVelocityCommand command;
   double duration = 10.0;
   /// The command drops to zero once the base is this far (x) [m]; +inf: never.
@@ -56,8 +56,7 @@ inline std::string baselineConfig() {
 }
 
 inline CbfQpOutcome runCbfQp(const CbfQpScenario& sc) {
-  SceneConfig scene;
-  scene.kind = sc.scene;
+  SceneConfig scene = loadScene(sc.scene);
   Plant plant(scene);
   const centroidal::RobotOcpDescription robot = centroidal::loadRobotOcpDescription(
       std::string(ROLLSTEP_ROBOTS_DIR) + "/tachyon3/centroidal.yaml");

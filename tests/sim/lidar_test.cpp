@@ -51,8 +51,7 @@ TEST(Lidar, TheDesignSensorFileDiffersFromTheBuiltInDefaultsOnlyWhereItSaysSo) {
 }
 
 TEST(Lidar, ScansTheFloorAtItsHeightWithNoiseAndDropouts) {
-  SceneConfig c;
-  c.kind = SceneKind::kFlat;
+  SceneConfig c = loadScene("flat");
   Plant plant(c);
   Lidar lidar(loadLidarSettings(ROLLSTEP_CONFIG_DIR "/lidar.yaml"));
   const std::vector<Eigen::Vector3d>& pts = lidar.scan(plant);
@@ -105,10 +104,9 @@ TEST(LidarSettings, RangeErrorsShowTheValueGiven) {
 
 /// Drives at 0.3 m/s towards the blocks for `duration`, a scan every 100 ms, then checks
 /// every ground-truth surface the map observed on the path ahead against its region.
-Approach approach(SceneKind kind, double start_x, double duration) {
-  SceneConfig config;
-  config.kind = kind;
-  config.start_x = start_x;
+Approach approach(const std::string& kind, double start_x, double duration) {
+  SceneConfig config = loadScene(kind);
+  setSceneNumber(config, "start_x", start_x);
   Plant plant(config);
   Lidar lidar(loadLidarSettings(ROLLSTEP_CONFIG_DIR "/lidar.yaml"));
   perception::TerrainPerception perception(
@@ -126,10 +124,8 @@ Approach approach(SceneKind kind, double start_x, double duration) {
     plant.step();
   }
   EXPECT_EQ(status, perception::PerceptionStatus::Ok);
-  std::printf("%s: base at x = %.3f\n", kind == SceneKind::kStep20 ? "step20" : "stairs2",
-              plant.groundTruth().base_position.x());
-  return evaluate(config, perception, lidar.lastPose().translation().x(),
-                  kind == SceneKind::kStep20 ? "step20" : "stairs2");
+  std::printf("%s: base at x = %.3f\n", kind.c_str(), plant.groundTruth().base_position.x());
+  return evaluate(config, perception, lidar.lastPose().translation().x(), kind.c_str());
 }
 
 // Start 1.8 m before the block, drive 1.2 m towards it in 4.5 s.
@@ -137,13 +133,12 @@ Approach approach(SceneKind kind, double start_x, double duration) {
 // first landing and to the second rise (the base 0.375 m above the surface under it),
 // as if the robot climbed; here the top landing is seen from close by.
 TEST(LidarPerception, Stairs2PlacedAlongTheClimbMatchesEverySurface) {
-  SceneConfig config;
-  config.kind = SceneKind::kStairs2;
+  SceneConfig config = loadScene("stairs2");
   Plant plant(config);
   Lidar lidar(loadLidarSettings(ROLLSTEP_CONFIG_DIR "/lidar.yaml"));
   perception::TerrainPerception perception(
       perception::loadPerceptionSettings(ROLLSTEP_CONFIG_DIR "/perception.yaml"));
-  const double x_end = config.start_x + config.step1_length - 0.5;
+  const double x_end = sceneNumber(config, "start_x") + sceneNumber(config, "step1_length") - 0.5;
   double t = 0;
   for (double x = 0; x <= x_end; x += 0.03, t += 0.1) {
     const Eigen::Vector3d base(x, 0.0, 0.375 + terrainHeight(config, x, 0.0));
@@ -160,7 +155,7 @@ TEST(LidarPerception, Stairs2PlacedAlongTheClimbMatchesEverySurface) {
 }
 
 TEST(LidarPerception, Step20RegionsMatchTheScene) {
-  const Approach a = approach(SceneKind::kStep20, 1.8, 4.5);
+  const Approach a = approach("step20", 1.8, 4.5);
   expectMatch(a[0], "floor");
   expectMatch(a[1], "block top");
 }
@@ -170,7 +165,7 @@ TEST(LidarPerception, Step20RegionsMatchTheScene) {
 // beam rings only from there: its figures are printed, not asserted (the climb test above
 // sees it from the first landing).
 TEST(LidarPerception, Stairs2FloorFirstRiseAndLandingMatchTheScene) {
-  const Approach a = approach(SceneKind::kStairs2, 1.8, 4.5);
+  const Approach a = approach("stairs2", 1.8, 4.5);
   expectMatch(a[0], "floor");
   // The landing's edges include the second rise's foot, where the riser's points smear;
   // its IoU and height are asserted, its first rise is checked through the floor's.
@@ -185,10 +180,9 @@ TEST(LidarPerception, Stairs2FloorFirstRiseAndLandingMatchTheScene) {
 // front wheels the cells before it stay unknown, none takes the floor's or the block's
 // height on trust.
 TEST(LidarPerception, TheStartFillsTheSensorsBlindZoneUpToLevelGroundOnly) {
-  const auto start = [](SceneKind kind, double start_x, double blind_zone_radius) {
-    SceneConfig config;
-    config.kind = kind;
-    config.start_x = start_x;
+  const auto start = [](const std::string& kind, double start_x, double blind_zone_radius) {
+    SceneConfig config = loadScene(kind);
+    if (hasSceneNumber(config, "start_x")) setSceneNumber(config, "start_x", start_x);
     Plant plant(config);
     OnlinePerceptionOptions options;
     options.lidar = loadLidarSettings(ROLLSTEP_CONFIG_DIR "/lidar.yaml");
@@ -218,15 +212,15 @@ TEST(LidarPerception, TheStartFillsTheSensorsBlindZoneUpToLevelGroundOnly) {
     }
   };
   int filled = 0, other = 0;
-  const auto [flat, front] = start(SceneKind::kFlat, 1.0, 1.5);
+  const auto [flat, front] = start("flat", 1.0, 1.5);
   ahead(*flat, front, filled, other);
   EXPECT_GE(filled, 11);  // all 12 or 13 cells
   EXPECT_EQ(other, 0);
-  const auto [off, front_off] = start(SceneKind::kFlat, 1.0, 0.0);
+  const auto [off, front_off] = start("flat", 1.0, 0.0);
   ahead(*off, front_off, filled, other);
   EXPECT_LE(filled, 4) << "the strip is seen without the fill: this test proves nothing";
   // The block's face 0.25 m past the front wheels, inside the blind zone.
-  const auto [block, front_block] = start(SceneKind::kStep20, 0.25 + front, 1.5);
+  const auto [block, front_block] = start("step20", 0.25 + front, 1.5);
   ahead(*block, front_block, filled, other);
   EXPECT_EQ(filled, 0) << "cells at the floor's height ahead of the wheels";
   int r = 0, c = 0;

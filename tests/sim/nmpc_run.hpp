@@ -27,7 +27,7 @@ inline std::string tachyon3Description() {
 }
 
 struct NmpcScenario {
-  SceneKind scene = SceneKind::kFlat;
+  std::string scene = "flat";
   planning::GaitKind gait = planning::GaitKind::Standing;
   planning::BaseVelocityCommand command;
   /// A command schedule instead of `command` when not empty.
@@ -85,8 +85,7 @@ inline void estimateErrors(const NmpcController& c, const GroundTruth& g, double
 }
 
 inline NmpcOutcome runNmpc(const NmpcScenario& sc) {
-  SceneConfig scene;
-  scene.kind = sc.scene;
+  SceneConfig scene = loadScene(sc.scene);
   PlantOptions plant_options;
   plant_options.sensor_noise = sc.sensor_noise;
   Plant plant(scene, plant_options);

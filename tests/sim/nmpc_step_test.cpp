@@ -37,7 +37,7 @@ TEST(NmpcSchedule, TrotThereAndBack) {
 /// Trot at 0.15 m/s towards step20 with config/behaviours/climb.yaml, for `duration` s.
 NmpcScenario climbStep20(double duration) {
   NmpcScenario sc;
-  sc.scene = SceneKind::kStep20;
+  sc.scene = "step20";
   sc.gait = planning::GaitKind::Trot;
   sc.command = {0.15, 0.0, 0.0};
   sc.duration = duration;
@@ -123,9 +123,11 @@ TEST(NmpcStep20, ClimbsOverTheBlockOnTheEstimatorsState) {
       "step20 climb on the estimate: furthest base x %.3f m, end (%.3f, %.3f) m, estimate "
       "error at the end %.3f m (%s)\n",
       o.max_x, o.end.x(), o.end.z(), o.estimate_position_error, describe(o).c_str());
-  const SceneConfig scene;
+  const SceneConfig scene = loadScene("step20");
   // The rear wheels past the block's far edge.
-  EXPECT_GT(o.end.x() - kWheelReach, scene.start_x + scene.step1_length) << describe(o);
+  EXPECT_GT(o.end.x() - kWheelReach,
+            sceneNumber(scene, "start_x") + sceneNumber(scene, "step1_length"))
+      << describe(o);
   EXPECT_LT(o.end.z(), 0.45) << describe(o);  // floor nominal 0.375; on the block 0.575
   expectUprightOverSteps(o, 15.0);            // roll 11 deg (the fall criterion: 45)
   EXPECT_TRUE(o.estimate_finite);
@@ -140,22 +142,25 @@ TEST(NmpcStairs2, UpBothStepsAndBackDown) {
   // backwards down both steps to the floor. The top landing ends in a 0.365 m drop 3.7 m
   // ahead: going on forwards falls off it.
   NmpcScenario sc = climbStep20(44.0);
-  sc.scene = SceneKind::kStairs2;
+  sc.scene = "stairs2";
   sc.schedule = {{0.0, {0.15, 0.0, 0.0}}, {19.0, {0.0, 0.0, 0.0}}, {21.0, {-0.15, 0.0, 0.0}}};
   const NmpcOutcome o = runNmpc(sc);
   std::printf(
       "stairs2 there and back: furthest base x %.3f m, base z up to %.3f m, end (%.3f, "
       "%.3f) m (%s)\n",
       o.max_x, o.max_base_height, o.end.x(), o.end.z(), describe(o).c_str());
-  const SceneConfig scene;
-  const double top = scene.step1_height + scene.step2_height;
+  const SceneConfig scene = loadScene("stairs2");
+  const double top = sceneNumber(scene, "step1_height") + sceneNumber(scene, "step2_height");
   // On the top landing: the base stood the nominal 0.3 m and more above it.
   EXPECT_GT(o.max_base_height, top + 0.3) << describe(o);
-  EXPECT_LT(o.max_x + kWheelReach, scene.start_x + scene.step1_length + scene.step2_length)
+  EXPECT_LT(o.max_x + kWheelReach, sceneNumber(scene, "start_x") +
+                                       sceneNumber(scene, "step1_length") +
+                                       sceneNumber(scene, "step2_length"))
       << "a front wheel went over the top landing's far edge";
   // Back on the floor, before the first step, facing the way it came.
-  EXPECT_LT(o.end.x() + kWheelReach, scene.start_x) << describe(o);
-  EXPECT_LT(o.end.z(), scene.step1_height + 0.3) << describe(o);  // not on a landing
+  EXPECT_LT(o.end.x() + kWheelReach, sceneNumber(scene, "start_x")) << describe(o);
+  EXPECT_LT(o.end.z(), sceneNumber(scene, "step1_height") + 0.3)
+      << describe(o);               // not on a landing
   expectUprightOverSteps(o, 10.0);  // roll 5.1 deg (the fall criterion: 45)
 }
 

@@ -114,7 +114,7 @@ TEST(PerceptionClosedLoop, NmpcTrotsOnThePerceivedTerrainAndKeepsItWhileBlind) {
 
 TEST(PerceptionClosedLoop, BaselineClimbsStep20OnThePerceivedTerrain) {
   CbfQpScenario sc;
-  sc.scene = SceneKind::kStep20;
+  sc.scene = "step20";
   sc.command.v_x = 0.15;
   sc.duration = 22.0;
   sc.perception = true;
@@ -143,10 +143,9 @@ TEST(PerceptionClosedLoop, BaselineClimbsStep20OnThePerceivedTerrain) {
 }
 
 TEST(PerceptionClosedLoop, BaselineClimbsStairs2OnThePerceivedTerrainWhoseRegionsMatchTheScene) {
-  SceneConfig config;
-  config.kind = SceneKind::kStairs2;
+  SceneConfig config = loadScene("stairs2");
   CbfQpScenario sc;
-  sc.scene = SceneKind::kStairs2;
+  sc.scene = "stairs2";
   sc.command.v_x = 0.15;
   sc.duration = 30.0;  // down the far edge by 28.5 s
   sc.perception = true;
@@ -156,7 +155,7 @@ TEST(PerceptionClosedLoop, BaselineClimbsStairs2OnThePerceivedTerrainWhoseRegion
   sc.perception_options.lidar.range_noise = 0.005;
   // On the first landing, 0.5 m before the second rise (where the test that places the
   // sensor along the climb looks too): the floor behind, both rises and the top landing ahead.
-  const double look_x = config.start_x + config.step1_length - 0.5;
+  const double look_x = sceneNumber(config, "start_x") + sceneNumber(config, "step1_length") - 0.5;
   Approach seen;
   double seen_at = -1.0;
   sc.observe = [&](const Plant& plant, const CbfQpController& controller) {
@@ -188,7 +187,8 @@ TEST(PerceptionClosedLoop, BaselineClimbsStairs2OnThePerceivedTerrainWhoseRegion
   EXPECT_GT(o.max_mf_wheel_z, 0.40);  // MF rolled on the top landing
   ASSERT_GT(o.traverse_start, 0.0);
   ASSERT_GT(o.traverse_end, o.traverse_start);  // MR came down beyond the top landing
-  EXPECT_GT(o.end.x(), config.start_x + config.step1_length + config.step2_length + 0.5);
+  EXPECT_GT(o.end.x(), sceneNumber(config, "start_x") + sceneNumber(config, "step1_length") +
+                           sceneNumber(config, "step2_length") + 0.5);
   EXPECT_NEAR(o.end.z(), 0.375, 0.03);
   EXPECT_LE(o.counters.qp_fallbacks, 20u);
 }

@@ -20,14 +20,13 @@
 namespace rollstep::sim {
 namespace {
 
-SceneConfig scene(SceneKind kind) {
-  SceneConfig c;
-  c.kind = kind;
+SceneConfig scene(const std::string& kind) {
+  SceneConfig c = loadScene(kind);
   return c;
 }
 
 TEST(Plant, LoadsEveryScene) {
-  for (SceneKind k : {SceneKind::kFlat, SceneKind::kStep20, SceneKind::kStairs2}) {
+  for (const char* k : {"flat", "step20", "stairs2"}) {
     Plant plant(scene(k));
     EXPECT_NEAR(plant.totalMass(), 60.4, 1e-9);
     EXPECT_DOUBLE_EQ(plant.time(), 0.0);
@@ -36,7 +35,7 @@ TEST(Plant, LoadsEveryScene) {
 }
 
 TEST(Plant, NominalPostureAndConventions) {
-  Plant plant(scene(SceneKind::kFlat));
+  Plant plant(scene("flat"));
   const GroundTruth& t = plant.groundTruth();
   EXPECT_NEAR(t.base_position.z(), 0.375, 1e-12);
   for (int leg = 0; leg < kNumLegs; ++leg) {
@@ -60,7 +59,7 @@ TEST(Plant, NominalPostureAndConventions) {
 }
 
 TEST(Plant, ResetPlacesTheBase) {
-  Plant plant(scene(SceneKind::kFlat));
+  Plant plant(scene("flat"));
   plant.reset(1.0, -2.0, 0.5);
   const GroundTruth& t = plant.groundTruth();
   EXPECT_NEAR(t.base_position.x(), 1.0, 1e-12);
@@ -70,7 +69,7 @@ TEST(Plant, ResetPlacesTheBase) {
 }
 
 TEST(Plant, RaycastSeesTerrainOnly) {
-  SceneConfig c = scene(SceneKind::kStep20);
+  SceneConfig c = scene("step20");
   Plant plant(c);
   // Straight down through the robot's base: the floor, not the robot.
   EXPECT_NEAR(plant.raycast(Eigen::Vector3d(0, 0, 2), -Eigen::Vector3d::UnitZ(), 10), 2.0, 1e-9);
@@ -84,7 +83,7 @@ TEST(Plant, RaycastSeesTerrainOnly) {
 }
 
 TEST(Plant, StandsOnTheStep20Block) {
-  Plant plant(scene(SceneKind::kStep20));
+  Plant plant(scene("step20"));
   plant.reset(1.6, 0.0, 0.0, 0.20);  // wheels on the block top, 0.20 m up
   for (int k = 0; k < 1000; ++k) plant.step();
   const GroundTruth& t = plant.groundTruth();
@@ -96,7 +95,7 @@ TEST(Plant, StandsOnTheStep20Block) {
 // The body contact flag and its count: none while standing on the wheels; a robot dropped
 // on its side touches the floor with its body; reset() clears the count.
 TEST(Plant, BodyContactIsSeenAndCounted) {
-  Plant plant(scene(SceneKind::kFlat));
+  Plant plant(scene("flat"));
   for (int k = 0; k < 500; ++k) plant.step();
   EXPECT_FALSE(plant.groundTruth().body_contact);
   EXPECT_EQ(plant.groundTruth().body_contact_periods, 0);
@@ -118,7 +117,7 @@ TEST(Plant, BodyContactIsSeenAndCounted) {
 }
 
 TEST(Plant, SensorsMatchGroundTruthAtRest) {
-  Plant plant(scene(SceneKind::kFlat));
+  Plant plant(scene("flat"));
   for (int k = 0; k < 500; ++k) plant.step();
   const SensorReadings& s = plant.sensors();
   const GroundTruth& t = plant.groundTruth();
@@ -135,7 +134,7 @@ TEST(Plant, SensorsMatchGroundTruthAtRest) {
 }
 
 TEST(Plant, StepDoesNotAllocate) {
-  Plant plant(scene(SceneKind::kStep20));
+  Plant plant(scene("step20"));
   PlantCommand command = plant.nominalCommand();
   command.wheel_velocity.setConstant(2.0);
   plant.step();
@@ -151,7 +150,7 @@ TEST(Plant, StepDoesNotAllocate) {
 
 TEST(Plant, Deterministic) {
   const auto run = [] {
-    Plant plant(scene(SceneKind::kFlat));
+    Plant plant(scene("flat"));
     PlantCommand command = plant.nominalCommand();
     command.wheel_velocity << 3.0, 5.0, 3.0, 5.0;
     plant.setCommand(command);
@@ -165,7 +164,7 @@ TEST(Plant, Deterministic) {
 }
 
 TEST(PlantErrors, NonFiniteCommandIsRefused) {
-  Plant plant(scene(SceneKind::kFlat));
+  Plant plant(scene("flat"));
   PlantCommand command = plant.nominalCommand();
   command.wheel_velocity.setConstant(1.0);
   plant.setCommand(command);
@@ -194,7 +193,7 @@ TEST(PlantErrors, NonFiniteCommandIsRefused) {
 }
 
 TEST(PlantErrors, DivergenceIsReportedNotHidden) {
-  Plant plant(scene(SceneKind::kFlat));
+  Plant plant(scene("flat"));
   for (int k = 0; k < 100; ++k) plant.step();
   // A state MuJoCo cannot integrate: it resets the data and warns; step() must say so
   // instead of returning a robot teleported back to its initial pose.
@@ -267,7 +266,7 @@ std::string replaced(std::string text, const std::string& from, const std::strin
 /// Loads step20 with the robot file: the floor and the block are there and the robot
 /// stands on the floor at its nominal height.
 void expectSceneIntact(const PlantOptions& options) {
-  Plant plant(scene(SceneKind::kStep20), options);
+  Plant plant(scene("step20"), options);
   const mjModel* m = plant.mujocoModel();
   EXPECT_GE(mj_name2id(m, mjOBJ_GEOM, "floor"), 0);
   EXPECT_GE(mj_name2id(m, mjOBJ_GEOM, "block0"), 0);
@@ -362,11 +361,12 @@ TEST(PlantComposition, TerrainNameClashNamesSceneAndRobot) {
   PlantOptions options;
   options.robot_file = path;
   try {
-    Plant plant(scene(SceneKind::kStep20), options);
+    Plant plant(scene("step20"), options);
     FAIL() << "no error";
   } catch (const SimError& e) {
     const std::string what = e.what();
-    EXPECT_NE(what.find("scene step20 with robot model '" + path + "'"), std::string::npos) << what;
+    EXPECT_NE(what.find("scene step20 of scene config '"), std::string::npos) << what;
+    EXPECT_NE(what.find("step20.yaml' with robot model '" + path + "'"), std::string::npos) << what;
     EXPECT_NE(what.find("block0"), std::string::npos) << what;
   }
 }
@@ -437,10 +437,10 @@ TEST(PlantStart, BlockMustClearTheRobotsFront) {
   const Plant flat(SceneConfig{});
   EXPECT_NEAR(flat.frontExtent(), 0.45, 1e-9);  // the base box: 0.45 m half length
   EXPECT_NEAR(flat.minStartX(), 0.45 + Plant::kStartClearance, 1e-9);
-  for (SceneKind kind : {SceneKind::kStep20, SceneKind::kStairs2}) {
+  for (const char* kind : {"step20", "stairs2"}) {
     SceneConfig c = scene(kind);
     for (double start_x : {0.0, 0.2, flat.minStartX() - 1e-3}) {
-      c.start_x = start_x;
+      setSceneNumber(c, "start_x", start_x);
       try {
         Plant plant(c);
         ADD_FAILURE() << "no error for start_x " << start_x;
@@ -450,7 +450,7 @@ TEST(PlantStart, BlockMustClearTheRobotsFront) {
         EXPECT_NE(what.find("start_x >= 0.500 m"), std::string::npos) << what;
       }
     }
-    c.start_x = flat.minStartX() + 1e-3;
+    setSceneNumber(c, "start_x", flat.minStartX() + 1e-3);
     Plant plant(c);
     for (int k = 0; k < 200; ++k) plant.step();
     EXPECT_NEAR(plant.groundTruth().base_position.z(), 0.375, 0.01);
@@ -460,8 +460,8 @@ TEST(PlantStart, BlockMustClearTheRobotsFront) {
   PlantOptions longer;
   longer.robot_xml = replaced(robotText(), "size=\"0.45 0.25 0.08\"", "size=\"0.7 0.25 0.08\"");
   EXPECT_NEAR(Plant(SceneConfig{}, longer).frontExtent(), 0.7, 1e-9);
-  SceneConfig c = scene(SceneKind::kStep20);
-  c.start_x = 0.6;
+  SceneConfig c = scene("step20");
+  setSceneNumber(c, "start_x", 0.6);
   EXPECT_NO_THROW(Plant plant(c));
   EXPECT_THROW(Plant plant(c, longer), SimError);
 }
@@ -489,9 +489,8 @@ TEST(PlantErrors, NotTheRobot) {
 }
 
 TEST(PlantErrors, BadSceneParameter) {
-  SceneConfig c;
-  c.kind = SceneKind::kStep20;
-  c.step1_height = -0.2;
+  SceneConfig c = loadScene("step20");
+  setSceneNumber(c, "step1_height", -0.2);
   EXPECT_THROW(Plant plant(c), SimError);
 }
 

@@ -66,17 +66,15 @@ inline Approach evaluate(const SceneConfig& config, const perception::TerrainPer
     EXPECT_LE(worst, 0.01);
   }
   // Ground truth per cell: the surface (0 floor, b + 1 block b's top) and its height.
-  const std::vector<TerrainBox> boxes = terrainBoxes(config);
+  const std::vector<SceneSolid> boxes = resolveScene(config).solids;
   const int n = seg.size;
   auto surfaceAt = [&](const Eigen::Vector2d& p) {
     int s = 0;
     double top = 0;
     for (std::size_t b = 0; b < boxes.size(); ++b) {
-      const Eigen::Vector3d lo = boxes[b].center - boxes[b].half_size,
-                            hi = boxes[b].center + boxes[b].half_size;
-      if (p.x() >= lo.x() && p.x() <= hi.x() && p.y() >= lo.y() && p.y() <= hi.y() &&
-          hi.z() > top) {
-        top = hi.z();
+      const double h = boxes[b].topHeightAt(p.x(), p.y());
+      if (boxes[b].coversTop(p.x(), p.y()) && h > top) {
+        top = h;
         s = static_cast<int>(b) + 1;
       }
     }

@@ -41,7 +41,7 @@ class EstimatorSource final : public StateSource {
   std::vector<int> contact_leg_;    // estimator contact -> plant leg
   std::vector<int> contact_wheel_;  // estimator contact -> plant drive wheel, or -1
   estimation::EstimatorInput input_;
-  SceneConfig scene_;
+  SceneGeometry scene_;  // resolved once: the ground heights are read every tick
   bool ground_heights_ = true;
 };
 

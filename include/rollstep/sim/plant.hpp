@@ -132,7 +132,8 @@ class Plant {
   /// a regular file, malformed (MuJoCo's message), or lacks an element the plant needs
   /// or has it of the wrong kind (joints, actuators, sensors, wheel geoms, keyframe
   /// "nominal"); if a scene parameter is invalid; if the first block is not clear of
-  /// the robot's front (start_x < minStartX()); or if an option is not finite.
+  /// the robot's front (a box or ramp within minStartX() of the start, solidAtStart); or
+  /// if an option is not finite.
   /// MuJoCo's virtual file system finds files by name without directories: a robot file
   /// that includes a file of its own name from another directory is refused ("already
   /// included").

@@ -1,7 +1,7 @@
 #pragma once
-// The planning layer's terrain model from a scene's ground truth: the scene's blocks
-// (terrainBoxes) on the floor plane, as convex foothold regions. Perception will build
-// the same planning::TerrainModel from LiDAR points later.
+// The planning layer's terrain model from a scene's ground truth: the floor and the top
+// faces of the scene's boxes and ramps, as convex foothold regions. Perception builds the
+// same planning::TerrainModel from LiDAR points.
 #include "rollstep/planning/terrain.hpp"
 #include "rollstep/sim/scene.hpp"
 
@@ -10,9 +10,16 @@ namespace rollstep::sim {
 /// Half extent [m] of the floor plane of every scene (terrainMjcf's floor geom).
 inline constexpr double kSceneFloorHalfExtent = 50.0;
 
-/// Convex regions of `config`'s terrain: the floor (height 0) cut around the blocks and
-/// each block top, each region shrunk by `margin` [m] (see planning::terrainFromBoxes).
-/// Validates the config first (std::invalid_argument naming the bad parameter).
+/// Convex regions of `config`'s terrain, each shrunk by `margin` [m]: what is seen from
+/// above, the floor (height 0) where nothing covers it and, elsewhere, the highest top face.
+/// Axis-aligned boxes alone (no yaw, no ramps) give planning::terrainFromBoxes's
+/// rectangles. Otherwise the floor is cut along every edge of every top face and along the
+/// lines where two surfaces cross, each piece gets the highest surface over it, and pieces
+/// of one surface are merged while their union stays convex; the margin then moves every
+/// edge inwards except seams (planning::shrinkTerrain). The strip of a ramp's high end face
+/// seen from above is not a foothold region. Resolves the config first
+/// (std::invalid_argument naming the bad number).
 planning::TerrainModel terrainFromScene(const SceneConfig& config, double margin = 0.0);
+planning::TerrainModel terrainFromScene(const SceneGeometry& geometry, double margin = 0.0);
 
 }  // namespace rollstep::sim
