@@ -365,6 +365,18 @@ Solver::Impl::Factorization Solver::Impl::linearizeAndFactor() {
   });
 }
 
+/// Each thread linearises, condenses and projects the nodes of its chunk (forNodes), the
+/// node's derivatives and LQ stage still in its cache, where a pass per phase would read
+/// them cold; then the backward sweep on this thread (the projected stages are all that it
+/// reads). The same arithmetic per node as linearize then condenseAndFactor.
+Solver::Impl::Factorization Solver::Impl::linearizeProjectAndFactor() {
+  forNodes([this](int k) {
+    linearizeNode(k);
+    projectNode(k);
+  });
+  return sweepSerially([](int) {});
+}
+
 /// Inertia correction (Ipopt), in every mode: when the factorisation failed or needed
 /// regularisation, the reduced Hessian is not positive definite (an exact Hessian with
 /// negative curvature, a non-convex cost): delta I is added to the Hessian, delta grown

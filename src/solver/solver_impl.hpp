@@ -191,9 +191,11 @@ struct Solver::Impl {
   bool has_curvature = true;   // the problem has terms with curvature (hasCurvature())
   bool reset_slacks = false;   // this iteration's linearisation resets slacks (slack_reset)
   bool use_curvature = false;  // this iteration adds the constraint curvature (H2)
-  // One thread, real time: linearizeNode condenses the node's Hessian and gradient while
-  // its derivatives are in cache, and the linearisation projects and factorises each node
-  // right after (linearizeAndFactor); the next condenseAndFactor returns its result.
+  // Real time: linearizeNode condenses the node's Hessian and gradient while its
+  // derivatives are in cache, and the linearisation projects each node right after and
+  // factorises (with one thread each node in turn, linearizeAndFactor; with more, the
+  // backward sweep after the threads' pass, linearizeProjectAndFactor); the next
+  // condenseAndFactor returns its result.
   bool condense_in_linearize = false;
   bool condensed_early = false;
   // The fused pass evaluates each node's cost Hessian straight into the stages' shared
@@ -212,8 +214,11 @@ struct Solver::Impl {
   // only a linearisation (with its condensing) overwrites.
   MatrixXd shared_A, shared_B, shared_stage_Ex, shared_stage_Eu;
   bool derivatives_shared = false;
-  void swapSharedHessian(NodeData& d) {
-    const RiccatiSolver::StageHessian h = lq.hessian(0);  // the shared set
+  /// The fused pass evaluates node k's cost Hessian straight into its stage's Q, R, S
+  /// (with one thread the one shared set; with more each stage's own, condensed and
+  /// projected right after by the thread that linearised the node).
+  void swapStageHessian(int k, NodeData& d) {
+    const RiccatiSolver::StageHessian h = lq.hessian(k);
     d.Lxx.swap(h.Q);
     d.Luu.swap(h.R);
     d.Lux.swap(h.S);
@@ -370,6 +375,9 @@ struct Solver::Impl {
   /// One thread, real time: linearizeNode(k), projection and backward Riccati step of each
   /// node k = N .. 0 in one pass (the same arithmetic as linearize then condenseAndFactor).
   Factorization linearizeAndFactor();
+  /// More threads, real time: linearizeNode(k) and the projection of every node k on the
+  /// threads (each node's data in its thread's cache), then the backward sweep.
+  Factorization linearizeProjectAndFactor();
   /// The backward sweep's bookkeeping: the first node (in the sweep's order) whose
   /// equalities are rank deficient stops it; so does a failed factorisation.
   void sweepStage(int k, int& rank_failed, bool& pd);
