@@ -365,16 +365,45 @@ Solver::Impl::Factorization Solver::Impl::linearizeAndFactor() {
   });
 }
 
-/// Each thread linearises, condenses and projects the nodes of its chunk (forNodes), the
-/// node's derivatives and LQ stage still in its cache, where a pass per phase would read
-/// them cold; then the backward sweep on this thread (the projected stages are all that it
-/// reads). The same arithmetic per node as linearize then condenseAndFactor.
+/// Each thread linearises, condenses and projects the nodes of its chunk (the partition of
+/// forNodes), the node's derivatives and LQ stage still in its cache, where a pass per
+/// phase would read them cold. Then the backward sweep, handed down from chunk to chunk:
+/// the last chunk's thread starts it at node N, each other thread takes it over at the
+/// top of its own chunk (the projected stages it just wrote) when it arrives there and
+/// hands it on at the bottom. The chunks shrink towards N (partitionNodes) so that the
+/// sweep of the upper chunks runs while the lower ones are still being linearised. The
+/// same arithmetic per node and the same sweep as linearize then condenseAndFactor.
 Solver::Impl::Factorization Solver::Impl::linearizeProjectAndFactor() {
-  forNodes([this](int k) {
-    linearizeNode(k);
-    projectNode(k);
-  });
-  return sweepSerially([](int) {});
+  int rank_failed = -1;
+  bool pd = true;
+  sweep_at.store(N + 1, std::memory_order_relaxed);
+  sweep_abort.store(false, std::memory_order_relaxed);
+  auto body = [&](int t, int) {
+    const int lo = chunkBegin(t), hi = chunkBegin(t + 1);
+    try {
+      for (int k = lo; k < hi; ++k) {
+        linearizeNode(k);
+        projectNode(k);
+      }
+    } catch (...) {
+      sweep_abort.store(true);  // the threads below would wait for this chunk forever
+      throw;
+    }
+    for (int i = 1; sweep_at.load(std::memory_order_acquire) != hi; ++i) {
+      if (sweep_abort.load()) return;
+      detail::ThreadPool::pause(i);
+    }
+    for (int k = hi - 1; k >= lo; --k) {
+      if (k == N) {
+        lq.beginBackward();
+      } else {
+        sweepStage(k, rank_failed, pd);
+      }
+    }
+    sweep_at.store(lo, std::memory_order_release);
+  };
+  pool.run(pool.size(), body);
+  return sweepResult(rank_failed, pd);
 }
 
 /// Inertia correction (Ipopt), in every mode: when the factorisation failed or needed

@@ -167,6 +167,14 @@ struct Solver::Impl {
   // (ThreadPool::run's static split of 0..N): a thread condenses and recovers the nodes it
   // linearised first (their data is in its cache), then helps with the others.
   std::unique_ptr<std::atomic<int>[]> chunk_next;
+  // The nodes' partition into the threads' chunks (partitionNodes): chunk t is
+  // [chunk_first[t], chunk_first[t + 1]). Fixed at construction: the nodes of one chunk
+  // share their terms' workspaces.
+  std::vector<int> chunk_first;
+  // linearizeProjectAndFactor: the backward sweep has factorised the stages from sweep_at
+  // up (N + 1: none yet); sweep_abort: a chunk threw, nobody waits for the sweep.
+  std::atomic<int> sweep_at{0};
+  std::atomic<bool> sweep_abort{false};
   std::vector<Node> nodes;
   std::vector<detail::BoundRow> bound_rows;  // decoded layout of rows ni_max.. (fixed)
   std::vector<VectorXd> xs, us, xs_bak, us_bak, xs_trial, us_trial;
@@ -293,15 +301,19 @@ struct Solver::Impl {
   const ocp::InequalityOptions& boundOptions(int i) const {
     return i < ni_max + 2 * nbu ? prob->inputBounds().options : prob->stateBounds().options;
   }
-  /// f(k) for every node k = 0..N, split over the threads (static partition).
+  /// f(k) for every node k = 0..N, split over the threads (the static partition: thread t
+  /// runs the nodes of chunk t in order).
   template <class F>
   void forNodes(F&& f) {
-    auto body = [&](int b, int e) {
-      for (int k = b; k < e; ++k) f(k);
+    auto body = [&](int t, int) {
+      for (int k = chunkBegin(t); k < chunkBegin(t + 1); ++k) f(k);
     };
-    pool.run(N + 1, body);
+    pool.run(pool.size(), body);
   }
-  int chunkBegin(int t) const { return pool.chunkBegin(N + 1, t); }
+  /// First node of thread t's chunk (t = 0..size: chunkBegin(size) = N + 1).
+  int chunkBegin(int t) const { return chunk_first[static_cast<std::size_t>(t)]; }
+  /// The static partition of the nodes 0..N into the threads' chunks (chunk_first).
+  void partitionNodes();
   /// Claims the next node of chunk t (downwards or upwards), or returns -1.
   int claimInChunk(int t, bool downwards) {
     auto& next = chunk_next[static_cast<std::size_t>(t)];
@@ -376,7 +388,8 @@ struct Solver::Impl {
   /// node k = N .. 0 in one pass (the same arithmetic as linearize then condenseAndFactor).
   Factorization linearizeAndFactor();
   /// More threads, real time: linearizeNode(k) and the projection of every node k on the
-  /// threads (each node's data in its thread's cache), then the backward sweep.
+  /// threads (each node's data in its thread's cache), each thread then continuing the
+  /// backward sweep through its own chunk once the sweep has come down to it.
   Factorization linearizeProjectAndFactor();
   /// The backward sweep's bookkeeping: the first node (in the sweep's order) whose
   /// equalities are rank deficient stops it; so does a failed factorisation.
