@@ -48,8 +48,8 @@ std::pair<int, int> columnSpan(const MatrixXd& G, int i, int r) {
 
 }  // namespace
 
-void Solver::Impl::condenseNode(int k) {
-  condenseRows(k);
+void Solver::Impl::condenseNode(int k, int thread) {
+  condenseRows(k, thread);
   projectNode(k);
 }
 
@@ -60,7 +60,7 @@ void Solver::Impl::projectNode(int k) {
   if (k < N) n.rank_ok = lq.projectStage(k, set.rank_tolerance, &n.pivot_ratio);
 }
 
-void Solver::Impl::condenseRows(int k) {
+void Solver::Impl::condenseRows(int k, int thread) {
   Node& n = node(k);
   const NodeData& d = *n.d;
   LqStage& st = lq.stage(k);
@@ -143,17 +143,15 @@ void Solver::Impl::condenseRows(int k) {
     };
     // Within a run, only the columns between the first and the last non-zero column of
     // its rows take part (columnSpan).
-    // The weighted rows, transposed (W_k G(k, :)^T as column k, in the memory of n.WGx and
-    // n.WGu), are the left operands of the products: the kernels read them down contiguous
-    // columns and the unweighted rows entry by entry.
+    // The weighted rows, transposed (W_k G(k, :)^T as column k, in the thread's scratch
+    // weighted_gx and weighted_gu), are the left operands of the products: the kernels
+    // read them down contiguous columns and the unweighted rows entry by entry.
     const auto W = n.Wc.head(m);
     const int ldtx = static_cast<int>(d.Gx.cols()), ldtu = static_cast<int>(d.Gu.cols());
-    // With one thread the nodes are condensed one after the other, and all share node 0's
-    // scratch: one block stays in cache instead of a fresh 35 KB per node (the threads of
-    // the pipeline condense different nodes at once and keep their own).
-    Node& scratch = pool.size() == 1 ? node(0) : n;
-    double* Tx = scratch.WGx.data();  // ndx x m
-    double* Tu = scratch.WGu.data();  // nu x m
+    // One scratch per thread: it stays in cache from node to node, where one per node
+    // would be a fresh 44 kB of the Tachyon 3 OCP at every node.
+    double* Tx = weighted_gx[static_cast<std::size_t>(thread)].data();  // ndx x m
+    double* Tu = weighted_gu[static_cast<std::size_t>(thread)].data();  // nu x m
     const double* Gx = d.Gx.data();
     const double* Gu = d.Gu.data();
     const Eigen::Index ldx = d.Gx.outerStride(), ldu = d.Gu.outerStride();
@@ -304,7 +302,7 @@ Solver::Impl::Factorization Solver::Impl::condenseAndFactor() {
   // Nodes factorised by the linearisation are not factorised again (once: the inertia
   // correction shifts the Hessian and condenses again).
   if (std::exchange(condensed_early, false)) return early_factorization;
-  if (pool.size() == 1) return sweepSerially([this](int k) { condenseNode(k); });
+  if (pool.size() == 1) return sweepSerially([this](int k) { condenseNode(k, 0); });
   int rank_failed = -1;
   bool pd = true;
   const std::uint64_t run = ++pipeline_run;
@@ -314,7 +312,7 @@ Solver::Impl::Factorization Solver::Impl::condenseAndFactor() {
   const auto condenseNext = [this, run](int id) {
     const int j = claimNode(id, true);
     if (j < 0) return false;
-    condenseNode(j);
+    condenseNode(j, id);
     ready[static_cast<std::size_t>(j)].store(run, std::memory_order_release);
     return true;
   };

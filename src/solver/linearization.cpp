@@ -114,8 +114,8 @@ void Solver::Impl::linearizeNode(int k) {
   n.delta = 0.0;
   if (use_curvature && n.finite) addCurvature(k, n);
   if (condense_in_linearize) {
-    swapStageHessian(k, d);  // the stage's Q, R, S hold the cost Hessian: condensed in place
-    condenseRows(k);
+    swapStageHessian(k, d);       // the stage's Q, R, S hold the cost Hessian: condensed in place
+    condenseRows(k, chunkOf(k));  // forNodes: the thread of k's chunk
   }
   if (share_jacobians) swapSharedJacobians(d);
 }

@@ -91,7 +91,6 @@ struct Solver::Impl {
     VectorXd c_it, defect_it, e_it, soc_rows, soc_defect, soc_e;
     MatrixXd J0, J1;       // difference Jacobians
     VectorXd rx, ru, tmp;  // dual residual pieces, scratch
-    MatrixXd WGu, WGx;     // weighted general-row Jacobians
     // Per general row: 1 if Gx != 0, | 2 if it acts on u (condensing scratch).
     Eigen::VectorXi row_parts;
     VectorXd W, gam;
@@ -176,6 +175,9 @@ struct Solver::Impl {
   std::atomic<int> sweep_at{0};
   std::atomic<bool> sweep_abort{false};
   std::vector<Node> nodes;
+  // Per thread: the condensing's scratch, the weighted general-row Jacobians (transposed,
+  // ndx x ni_max and nu x ni_max); condenseRows(k, t) on thread t.
+  std::vector<MatrixXd> weighted_gx, weighted_gu;
   std::vector<detail::BoundRow> bound_rows;  // decoded layout of rows ni_max.. (fixed)
   std::vector<VectorXd> xs, us, xs_bak, us_bak, xs_trial, us_trial;
   std::vector<VectorXd> scaled;  // per-node scaled tangent steps (manifold states)
@@ -312,6 +314,12 @@ struct Solver::Impl {
   }
   /// First node of thread t's chunk (t = 0..size: chunkBegin(size) = N + 1).
   int chunkBegin(int t) const { return chunk_first[static_cast<std::size_t>(t)]; }
+  /// The thread whose chunk holds node k.
+  int chunkOf(int k) const {
+    int t = 0;
+    while (k >= chunkBegin(t + 1)) ++t;
+    return t;
+  }
   /// The static partition of the nodes 0..N into the threads' chunks (chunk_first).
   void partitionNodes();
   /// Claims the next node of chunk t (downwards or upwards), or returns -1.
@@ -378,9 +386,10 @@ struct Solver::Impl {
   // ---- condensing, projection, factorisation (condensing.cpp) --------------------------------
   enum class Factorization { Ok, RankDeficient, NotPositiveDefinite };
   /// Condensing of node k (condenseRows) and the projection of its equalities.
-  void condenseNode(int k);
-  /// The barrier rows and the node's cost Hessian and gradient into its LQ stage.
-  void condenseRows(int k);
+  void condenseNode(int k, int thread);
+  /// The barrier rows and the node's cost Hessian and gradient into its LQ stage, with
+  /// the scratch of the calling thread.
+  void condenseRows(int k, int thread);
   void projectNode(int k);
   void condenseGradient(int k);
   Factorization condenseAndFactor();

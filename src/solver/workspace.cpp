@@ -128,12 +128,8 @@ Solver::Impl::Impl(std::shared_ptr<ocp::OptimalControlProblem> p, SolverSettings
     n.soft_dual = VectorXd::Zero(nrows);
     n.gblocks = Eigen::VectorXi::Zero(8 * std::max(ni_max, 1));
   }
-  // The condensing scratch in a second pass: allocated between the nodes, it would spread
-  // the memory that every iteration touches (35 KB per node) over more pages (TLB misses).
-  for (auto& n : nodes) {
-    n.WGu = MatrixXd::Zero(ni_max, nu);  // with one thread only node 0's is used
-    n.WGx = MatrixXd::Zero(ni_max, ndx);
-  }
+  weighted_gx.assign(static_cast<std::size_t>(pool.size()), MatrixXd::Zero(ndx, ni_max));
+  weighted_gu.assign(static_cast<std::size_t>(pool.size()), MatrixXd::Zero(nu, ni_max));
   if (pool.size() == 1) {  // linearizeAndFactor's shared derivatives (same shapes)
     const NodeData& d = *node(0).d;
     shared_Fx = d.Fx;
@@ -212,6 +208,7 @@ void Solver::Impl::adviseHugePagesForNodes(bool collapse) {
   // The span of the heap that holds the Riccati stages and the nodes' data.
   std::uintptr_t lo = ~std::uintptr_t{0}, hi = 0;
   const auto span = [&lo, &hi](const void* ptr) {
+    if (ptr == nullptr) return;  // released (shared) blocks
     const auto a = reinterpret_cast<std::uintptr_t>(ptr);
     lo = std::min(lo, a);
     hi = std::max(hi, a + 1);
@@ -227,7 +224,6 @@ void Solver::Impl::adviseHugePagesForNodes(bool collapse) {
     for (const auto& r : n.d->equality_data) span(r.get());
     for (const auto& r : n.d->inequality_data) span(r.get());
     span(n.s.data());
-    span(n.WGx.data());
     span(lq.stage(k).Q.data());
     span(lq.stage(k).Eu.data());
   }
