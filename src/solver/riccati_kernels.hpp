@@ -38,9 +38,9 @@ enum class Store { Set, Negate, Add, Subtract, Accumulate };
 namespace detail {
 
 namespace ei = Eigen::internal;
-// The target's widest packets: on AVX-512 the 8-wide tiles took 5-10 % less time than the
-// 4-wide AVX ones for the Riccati and projection benchmarks (bench_solver, Intel Xeon with
-// AVX-512, 2026-12-07), with the same results.
+// The target's widest packets: on an AVX-512 Xeon (2026-12-07) the 8-wide tiles were no
+// slower than the 4-wide AVX ones and up to 10 % faster in the Riccati and projection
+// benchmarks (bench_solver, a loaded machine), with the same results.
 using Packet = ei::packet_traits<double>::type;
 constexpr int kP = ei::packet_traits<double>::size;
 // Tiles of up to 3 packets of rows by 4 columns: 12 accumulators, 3 loaded packets and a
