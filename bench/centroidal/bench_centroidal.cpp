@@ -8,6 +8,9 @@
 #include <algorithm>
 #include <cstdlib>
 #include <string>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 
 #include "centroidal/assembly.hpp"
 #include "rollstep/centroidal/centroidal_ocp.hpp"
@@ -35,6 +38,16 @@ struct NodeFixture {
     ctx = makeContext(mode, scene.timeInMode(mode), scene.schedule.get(), cache.get());
   }
 };
+
+/// Bytes in use on the heap (glibc's count of allocated chunks; 0 elsewhere): the difference
+/// around a constructor is the memory it holds.
+double heapBytesInUse() {
+#if defined(__GLIBC__) && (__GLIBC__ > 2 || (__GLIBC__ == 2 && __GLIBC_MINOR__ >= 33))
+  return static_cast<double>(mallinfo2().uordblks);
+#else
+  return 0.0;
+#endif
+}
 
 NodeFixture& node() {
   static NodeFixture f;
@@ -181,7 +194,8 @@ BENCHMARK(BM_RealTimeIterationN100)->Unit(benchmark::kMillisecond);
 /// every node and term, condense, project, Riccati, update), from the same x0 and time so
 /// that every iteration does the same work. Arg: solver threads. The environment variable
 /// ROLLSTEP_BENCH_HUGE_PAGES=0 turns SolverSettings::huge_pages off (on by default), to
-/// measure what the advice gains.
+/// measure what the advice gains. Counter solver_bytes: the heap the solver holds (its
+/// workspace, the nodes' data and the Riccati stages), measured around its constructor.
 void BM_Tachyon3RtiUpdateN100(benchmark::State& state) {
   OcpSettings settings;
   settings.solver.realtime_iterations = 1;  // one iteration per update (the NMPC's runs two)
@@ -193,7 +207,9 @@ void BM_Tachyon3RtiUpdateN100(benchmark::State& state) {
   CentroidalOcp ocp(robot, settings, planning::terrainFromBoxes({-20, 20, -5, 5, 0}, 0.0, {}),
                     planning::GaitKind::Trot);
   ocp.reset(0.0, lie::SE3::Identity(), planning::BaseVelocityCommand{0.15, 0.0, 0.0});
+  const double heap_before = heapBytesInUse();
   solver::Solver solver(ocp.problem(), settings.solver);
+  const double solver_bytes = heapBytesInUse() - heap_before;
   const Eigen::VectorXd x0 = ocp.standingState(0.0, 0.0, 0.0);
   std::vector<Eigen::VectorXd> xs, us;
   ocp.initialGuess(xs, us);
@@ -212,6 +228,7 @@ void BM_Tachyon3RtiUpdateN100(benchmark::State& state) {
   state.counters["linearize_ms"] = lin / n;
   state.counters["riccati_ms"] = ric / n;
   state.counters["update_ms"] = upd / n;
+  state.counters["solver_bytes"] = solver_bytes;
 }
 BENCHMARK(BM_Tachyon3RtiUpdateN100)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
 

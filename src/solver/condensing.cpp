@@ -48,8 +48,8 @@ std::pair<int, int> columnSpan(const MatrixXd& G, int i, int r) {
 
 }  // namespace
 
-void Solver::Impl::condenseNode(int k) {
-  condenseRows(k);
+void Solver::Impl::condenseNode(int k, int thread) {
+  condenseRows(k, thread);
   projectNode(k);
 }
 
@@ -60,7 +60,7 @@ void Solver::Impl::projectNode(int k) {
   if (k < N) n.rank_ok = lq.projectStage(k, set.rank_tolerance, &n.pivot_ratio);
 }
 
-void Solver::Impl::condenseRows(int k) {
+void Solver::Impl::condenseRows(int k, int thread) {
   Node& n = node(k);
   const NodeData& d = *n.d;
   LqStage& st = lq.stage(k);
@@ -143,17 +143,15 @@ void Solver::Impl::condenseRows(int k) {
     };
     // Within a run, only the columns between the first and the last non-zero column of
     // its rows take part (columnSpan).
-    // The weighted rows, transposed (W_k G(k, :)^T as column k, in the memory of n.WGx and
-    // n.WGu), are the left operands of the products: the kernels read them down contiguous
-    // columns and the unweighted rows entry by entry.
+    // The weighted rows, transposed (W_k G(k, :)^T as column k, in the thread's scratch
+    // weighted_gx and weighted_gu), are the left operands of the products: the kernels
+    // read them down contiguous columns and the unweighted rows entry by entry.
     const auto W = n.Wc.head(m);
     const int ldtx = static_cast<int>(d.Gx.cols()), ldtu = static_cast<int>(d.Gu.cols());
-    // With one thread the nodes are condensed one after the other, and all share node 0's
-    // scratch: one block stays in cache instead of a fresh 35 KB per node (the threads of
-    // the pipeline condense different nodes at once and keep their own).
-    Node& scratch = pool.size() == 1 ? node(0) : n;
-    double* Tx = scratch.WGx.data();  // ndx x m
-    double* Tu = scratch.WGu.data();  // nu x m
+    // One scratch per thread: it stays in cache from node to node, where one per node
+    // would be a fresh 44 kB of the Tachyon 3 OCP at every node.
+    double* Tx = weighted_gx[static_cast<std::size_t>(thread)].data();  // ndx x m
+    double* Tu = weighted_gu[static_cast<std::size_t>(thread)].data();  // nu x m
     const double* Gx = d.Gx.data();
     const double* Gu = d.Gu.data();
     const Eigen::Index ldx = d.Gx.outerStride(), ldu = d.Gu.outerStride();
@@ -304,7 +302,7 @@ Solver::Impl::Factorization Solver::Impl::condenseAndFactor() {
   // Nodes factorised by the linearisation are not factorised again (once: the inertia
   // correction shifts the Hessian and condenses again).
   if (std::exchange(condensed_early, false)) return early_factorization;
-  if (pool.size() == 1) return sweepSerially([this](int k) { condenseNode(k); });
+  if (pool.size() == 1) return sweepSerially([this](int k) { condenseNode(k, 0); });
   int rank_failed = -1;
   bool pd = true;
   const std::uint64_t run = ++pipeline_run;
@@ -314,7 +312,7 @@ Solver::Impl::Factorization Solver::Impl::condenseAndFactor() {
   const auto condenseNext = [this, run](int id) {
     const int j = claimNode(id, true);
     if (j < 0) return false;
-    condenseNode(j);
+    condenseNode(j, id);
     ready[static_cast<std::size_t>(j)].store(run, std::memory_order_release);
     return true;
   };
@@ -363,6 +361,47 @@ Solver::Impl::Factorization Solver::Impl::linearizeAndFactor() {
     projectNode(k);
     if (k < N) swapSharedStageJacobians(k);
   });
+}
+
+/// Each thread linearises, condenses and projects the nodes of its chunk (the partition of
+/// forNodes), the node's derivatives and LQ stage still in its cache, where a pass per
+/// phase would read them cold. Then the backward sweep, handed down from chunk to chunk:
+/// the last chunk's thread starts it at node N, each other thread takes it over at the
+/// top of its own chunk (the projected stages it just wrote) when it arrives there and
+/// hands it on at the bottom. The chunks shrink towards N (partitionNodes) so that the
+/// sweep of the upper chunks runs while the lower ones are still being linearised. The
+/// same arithmetic per node and the same sweep as linearize then condenseAndFactor.
+Solver::Impl::Factorization Solver::Impl::linearizeProjectAndFactor() {
+  int rank_failed = -1;
+  bool pd = true;
+  sweep_at.store(N + 1, std::memory_order_relaxed);
+  sweep_abort.store(false, std::memory_order_relaxed);
+  auto body = [&](int t, int) {
+    const int lo = chunkBegin(t), hi = chunkBegin(t + 1);
+    try {
+      for (int k = lo; k < hi; ++k) {
+        linearizeNode(k);
+        projectNode(k);
+      }
+    } catch (...) {
+      sweep_abort.store(true);  // the threads below would wait for this chunk forever
+      throw;
+    }
+    for (int i = 1; sweep_at.load(std::memory_order_acquire) != hi; ++i) {
+      if (sweep_abort.load()) return;
+      detail::ThreadPool::pause(i);
+    }
+    for (int k = hi - 1; k >= lo; --k) {
+      if (k == N) {
+        lq.beginBackward();
+      } else {
+        sweepStage(k, rank_failed, pd);
+      }
+    }
+    sweep_at.store(lo, std::memory_order_release);
+  };
+  pool.run(pool.size(), body);
+  return sweepResult(rank_failed, pd);
 }
 
 /// Inertia correction (Ipopt), in every mode: when the factorisation failed or needed

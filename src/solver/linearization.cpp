@@ -26,10 +26,10 @@ Solver::Impl::Kkt Solver::Impl::linearize(bool realtime, IterationStats& it) {
   // thread, each node right after its linearisation, its derivatives still in cache, and
   // from the last node down, projected and factorised (backward Riccati step) at once,
   // its LQ stage still in cache too.
-  condense_in_linearize = realtime && pool.size() == 1 && !pc_active && !corrector;
+  condense_in_linearize = realtime && !pc_active && !corrector;
   if (condense_in_linearize) {
     target_mu = mu;
-    early_factorization = linearizeAndFactor();
+    early_factorization = pool.size() == 1 ? linearizeAndFactor() : linearizeProjectAndFactor();
   } else {
     forNodes([this](int k) { linearizeNode(k); });
   }
@@ -73,10 +73,10 @@ void Solver::Impl::linearizeNode(int k) {
   NodeData& d = *n.d;
   const VectorXd& x = xs[static_cast<std::size_t>(k)];
   const VectorXd& u = uOf(k);
-  if (condense_in_linearize) {
-    swapSharedHessian(d);
-    swapSharedJacobians(d);
-  }
+  // With one thread the derivatives go to one shared set too (linearizeAndFactor).
+  const bool share_jacobians = condense_in_linearize && pool.size() == 1;
+  if (condense_in_linearize) swapStageHessian(k, d);
+  if (share_jacobians) swapSharedJacobians(d);
   prob->linearize(k, x, u, d);
   n.mode_prev = d.context.mode;
   LqStage& st = lq.stage(k);
@@ -114,10 +114,10 @@ void Solver::Impl::linearizeNode(int k) {
   n.delta = 0.0;
   if (use_curvature && n.finite) addCurvature(k, n);
   if (condense_in_linearize) {
-    swapSharedHessian(d);  // the stage's Q, R, S hold the cost Hessian: condensed in place
-    condenseRows(k);
-    swapSharedJacobians(d);
+    swapStageHessian(k, d);       // the stage's Q, R, S hold the cost Hessian: condensed in place
+    condenseRows(k, chunkOf(k));  // forNodes: the thread of k's chunk
   }
+  if (share_jacobians) swapSharedJacobians(d);
 }
 
 /// Sets kind and value c of every row of node k from d (general rows) and (x, u).

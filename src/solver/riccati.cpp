@@ -59,7 +59,6 @@ RiccatiSolver::RiccatiSolver(int horizon, int nx, int nu, int ne_max)
     w.HDD = MatrixXd::Zero(ne_max, ne_max);
     w.BD = MatrixXd::Zero(nx, ne_max);
     w.Hr = MatrixXd::Zero(nz + 1, nz + 1);
-    w.cn = VectorXd::Zero(nu);
     w.gr = VectorXd::Zero(nz);
     w.BA = MatrixXd::Zero(nx, nz + 1);
     w.L = MatrixXd::Zero(nz, nu);
@@ -417,9 +416,25 @@ bool RiccatiSolver::backwardStage(int k) {
   return true;
 }
 
-void RiccatiSolver::shareReducedHessian(bool on) { share_hr_ = on; }
+void RiccatiSolver::shareReducedHessian(bool on) {
+  share_hr_ = on;
+  // The stages' own are released while shared (never read then).
+  const int n = on ? 0 : nu_ + nx_ + 1;
+  for (auto& w : work_) {
+    if (w.Hr.rows() != n) w.Hr = MatrixXd::Zero(n, n);
+  }
+}
 
-void RiccatiSolver::shareStageHessians(bool on) { share_h_ = on; }
+void RiccatiSolver::shareStageHessians(bool on) {
+  share_h_ = on;
+  const int nx = on ? 0 : nx_, nu = on ? 0 : nu_;
+  for (auto& s : stages_) {
+    if (s.Q.rows() == nx && s.R.rows() == nu) continue;
+    s.Q = MatrixXd::Zero(nx, nx);
+    s.R = MatrixXd::Zero(nu, nu);
+    s.S = MatrixXd::Zero(nu, nx);
+  }
+}
 
 RiccatiSolver::StageHessian RiccatiSolver::hessian(int k) {
   if (share_h_) return {Q_shared_, R_shared_, S_shared_};

@@ -91,7 +91,6 @@ struct Solver::Impl {
     VectorXd c_it, defect_it, e_it, soc_rows, soc_defect, soc_e;
     MatrixXd J0, J1;       // difference Jacobians
     VectorXd rx, ru, tmp;  // dual residual pieces, scratch
-    MatrixXd WGu, WGx;     // weighted general-row Jacobians
     // Per general row: 1 if Gx != 0, | 2 if it acts on u (condensing scratch).
     Eigen::VectorXi row_parts;
     VectorXd W, gam;
@@ -167,7 +166,18 @@ struct Solver::Impl {
   // (ThreadPool::run's static split of 0..N): a thread condenses and recovers the nodes it
   // linearised first (their data is in its cache), then helps with the others.
   std::unique_ptr<std::atomic<int>[]> chunk_next;
+  // The nodes' partition into the threads' chunks (partitionNodes): chunk t is
+  // [chunk_first[t], chunk_first[t + 1]). Fixed at construction: the nodes of one chunk
+  // share their terms' workspaces.
+  std::vector<int> chunk_first;
+  // linearizeProjectAndFactor: the backward sweep has factorised the stages from sweep_at
+  // up (N + 1: none yet); sweep_abort: a chunk threw, nobody waits for the sweep.
+  std::atomic<int> sweep_at{0};
+  std::atomic<bool> sweep_abort{false};
   std::vector<Node> nodes;
+  // Per thread: the condensing's scratch, the weighted general-row Jacobians (transposed,
+  // ndx x ni_max and nu x ni_max); condenseRows(k, t) on thread t.
+  std::vector<MatrixXd> weighted_gx, weighted_gu;
   std::vector<detail::BoundRow> bound_rows;  // decoded layout of rows ni_max.. (fixed)
   std::vector<VectorXd> xs, us, xs_bak, us_bak, xs_trial, us_trial;
   std::vector<VectorXd> scaled;  // per-node scaled tangent steps (manifold states)
@@ -191,9 +201,11 @@ struct Solver::Impl {
   bool has_curvature = true;   // the problem has terms with curvature (hasCurvature())
   bool reset_slacks = false;   // this iteration's linearisation resets slacks (slack_reset)
   bool use_curvature = false;  // this iteration adds the constraint curvature (H2)
-  // One thread, real time: linearizeNode condenses the node's Hessian and gradient while
-  // its derivatives are in cache, and the linearisation projects and factorises each node
-  // right after (linearizeAndFactor); the next condenseAndFactor returns its result.
+  // Real time: linearizeNode condenses the node's Hessian and gradient while its
+  // derivatives are in cache, and the linearisation projects each node right after and
+  // factorises (with one thread each node in turn, linearizeAndFactor; with more, the
+  // backward sweep after the threads' pass, linearizeProjectAndFactor); the next
+  // condenseAndFactor returns its result.
   bool condense_in_linearize = false;
   bool condensed_early = false;
   // The fused pass evaluates each node's cost Hessian straight into the stages' shared
@@ -212,8 +224,11 @@ struct Solver::Impl {
   // only a linearisation (with its condensing) overwrites.
   MatrixXd shared_A, shared_B, shared_stage_Ex, shared_stage_Eu;
   bool derivatives_shared = false;
-  void swapSharedHessian(NodeData& d) {
-    const RiccatiSolver::StageHessian h = lq.hessian(0);  // the shared set
+  /// The fused pass evaluates node k's cost Hessian straight into its stage's Q, R, S
+  /// (with one thread the one shared set; with more each stage's own, condensed and
+  /// projected right after by the thread that linearised the node).
+  void swapStageHessian(int k, NodeData& d) {
+    const RiccatiSolver::StageHessian h = lq.hessian(k);
     d.Lxx.swap(h.Q);
     d.Luu.swap(h.R);
     d.Lux.swap(h.S);
@@ -288,15 +303,25 @@ struct Solver::Impl {
   const ocp::InequalityOptions& boundOptions(int i) const {
     return i < ni_max + 2 * nbu ? prob->inputBounds().options : prob->stateBounds().options;
   }
-  /// f(k) for every node k = 0..N, split over the threads (static partition).
+  /// f(k) for every node k = 0..N, split over the threads (the static partition: thread t
+  /// runs the nodes of chunk t in order).
   template <class F>
   void forNodes(F&& f) {
-    auto body = [&](int b, int e) {
-      for (int k = b; k < e; ++k) f(k);
+    auto body = [&](int t, int) {
+      for (int k = chunkBegin(t); k < chunkBegin(t + 1); ++k) f(k);
     };
-    pool.run(N + 1, body);
+    pool.run(pool.size(), body);
   }
-  int chunkBegin(int t) const { return pool.chunkBegin(N + 1, t); }
+  /// First node of thread t's chunk (t = 0..size: chunkBegin(size) = N + 1).
+  int chunkBegin(int t) const { return chunk_first[static_cast<std::size_t>(t)]; }
+  /// The thread whose chunk holds node k.
+  int chunkOf(int k) const {
+    int t = 0;
+    while (k >= chunkBegin(t + 1)) ++t;
+    return t;
+  }
+  /// The static partition of the nodes 0..N into the threads' chunks (chunk_first).
+  void partitionNodes();
   /// Claims the next node of chunk t (downwards or upwards), or returns -1.
   int claimInChunk(int t, bool downwards) {
     auto& next = chunk_next[static_cast<std::size_t>(t)];
@@ -361,15 +386,20 @@ struct Solver::Impl {
   // ---- condensing, projection, factorisation (condensing.cpp) --------------------------------
   enum class Factorization { Ok, RankDeficient, NotPositiveDefinite };
   /// Condensing of node k (condenseRows) and the projection of its equalities.
-  void condenseNode(int k);
-  /// The barrier rows and the node's cost Hessian and gradient into its LQ stage.
-  void condenseRows(int k);
+  void condenseNode(int k, int thread);
+  /// The barrier rows and the node's cost Hessian and gradient into its LQ stage, with
+  /// the scratch of the calling thread.
+  void condenseRows(int k, int thread);
   void projectNode(int k);
   void condenseGradient(int k);
   Factorization condenseAndFactor();
   /// One thread, real time: linearizeNode(k), projection and backward Riccati step of each
   /// node k = N .. 0 in one pass (the same arithmetic as linearize then condenseAndFactor).
   Factorization linearizeAndFactor();
+  /// More threads, real time: linearizeNode(k) and the projection of every node k on the
+  /// threads (each node's data in its thread's cache), each thread then continuing the
+  /// backward sweep through its own chunk once the sweep has come down to it.
+  Factorization linearizeProjectAndFactor();
   /// The backward sweep's bookkeeping: the first node (in the sweep's order) whose
   /// equalities are rank deficient stops it; so does a failed factorisation.
   void sweepStage(int k, int& rank_failed, bool& pd);

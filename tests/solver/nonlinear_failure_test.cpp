@@ -318,11 +318,13 @@ class FailingCart final : public ocp::ContinuousDynamics {
   std::unique_ptr<ocp::DynamicsData> createData() const override {
     return std::make_unique<ocp::DynamicsData>();
   }
-  void calc(const ocp::NodeContext&, ocp::ConstVecRef x, ocp::ConstVecRef u, ocp::DynamicsData&,
+  void calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u, ocp::DynamicsData&,
             ocp::VecRef xdot) const override {
     const long c = ++calls_;
     const long at = throw_at_.load();
-    if (at > 0 && c >= at) throw std::runtime_error("cart model: lookup out of range");
+    if ((at > 0 && c >= at) || ctx.node == throw_node_.load()) {
+      throw std::runtime_error("cart model: lookup out of range");
+    }
     const double spring = spring_ ? 0.5 * std::sqrt(2.0 - x[0]) : 0.0;
     xdot << x[1], u[0] - 0.1 * x[1] * std::abs(x[1]) - spring;
   }
@@ -335,11 +337,14 @@ class FailingCart final : public ocp::ContinuousDynamics {
   long calls() const { return calls_.load(); }
   /// Throws from the n-th call after this one (0: never).
   void armIn(long n) const { throw_at_.store(n > 0 ? calls_.load() + n : 0); }
+  /// Throws from every call at node k (-1: never).
+  void armAtNode(int k) const { throw_node_.store(k); }
 
  private:
   bool spring_;
   mutable std::atomic<long> calls_{0};
   mutable std::atomic<long> throw_at_{0};
+  mutable std::atomic<int> throw_node_{-1};
 };
 
 /// The cart driven to rest at goal_position over N steps of 0.05 s.
@@ -407,6 +412,34 @@ TEST(NonlinearFailure, ACallbackExceptionReachesTheCallerWithAnyThreadCount) {
     cart->armIn(0);
     EXPECT_EQ(s.update(0.1, x0), SolverStatus::IterationDone) << s.message();
     expectFiniteOutputs(s);
+  }
+}
+
+// With more threads a real-time iteration hands its backward sweep down from the last
+// nodes' thread to the others: an exception there (the last running node's model) must
+// reach the caller rather than leave the other threads waiting for the sweep, and the next
+// update runs as usual.
+TEST(NonlinearFailure, AnExceptionInTheLastNodesReachesTheCallerOfARealTimeUpdate) {
+  auto cart = std::make_shared<FailingCart>(false);
+  const int N = 40;
+  auto pb = cartProblem(cart, N, 1.0);
+  const Eigen::VectorXd x0 = Eigen::Vector2d::Zero();
+  const std::vector<Eigen::VectorXd> xs(N + 1, x0), us(N, Eigen::VectorXd::Zero(1));
+  for (int threads : {2, 3}) {
+    SolverSettings set;
+    set.num_threads = threads;
+    Solver s(pb, set);
+    s.setInitialGuess(xs, us);
+    ASSERT_EQ(s.solve(x0), SolverStatus::Converged) << s.message();
+    set.mode = solver::SolverMode::RealTime;
+    s.setSettings(set);
+    for (const int node : {N - 1, 0}) {  // the last chunk's, the first chunk's
+      cart->armAtNode(node);
+      EXPECT_THROW(s.update(0.0, x0), std::runtime_error) << "threads " << threads;
+      cart->armAtNode(-1);
+      EXPECT_EQ(s.update(0.0, x0), SolverStatus::IterationDone) << s.message();
+      expectFiniteOutputs(s);
+    }
   }
 }
 

@@ -85,7 +85,8 @@ class RiccatiSolver {
   /// backwardStage(k) right after projectStage(k) for k = N-1 .. 0 (as the Solver does
   /// with one thread): it stays in cache, where one per stage ((nu + nx + 1)^2, 24 kB for
   /// the Tachyon 3 OCP) is written and read cold. Then backward() and solve(), which
-  /// project every stage first, throw std::logic_error. Off by default.
+  /// project every stage first, throw std::logic_error, and the stages' own buffers are
+  /// released (allocated again by turning it off). Off by default.
   void shareReducedHessian(bool on);
   /// The Hessian blocks of a stage, as the caller writes them: the stage's own Q, R, S,
   /// or with shareStageHessians one set for every stage.
@@ -100,7 +101,9 @@ class RiccatiSolver {
   /// beginBackward) and runs backwardStage(k) right after, as the Solver does with one
   /// thread: 17.6 kB per stage of the Tachyon 3 OCP that an iteration wrote and read cold.
   /// projectStage keeps what the later passes need (R's columns and S's rows of the fixed
-  /// inputs). Then backward() and solve() throw std::logic_error. Off by default.
+  /// inputs). Then backward() and solve() throw std::logic_error, and the stages' own
+  /// Q, R, S are released (empty; allocated again, zero, by turning it off). Off by
+  /// default.
   void shareStageHessians(bool on);
   /// Convenience: projectStage for every k, backward, forward, recoverStage for every k.
   bool solve(const Eigen::Ref<const Eigen::VectorXd>& dx0, double rank_tolerance = 1e-9);
@@ -147,7 +150,6 @@ class RiccatiSolver {
     Eigen::MatrixXd HDD;  // ne_max x ne_max
     Eigen::MatrixXd BD;   // nx x ne_max: dependent columns of B
     Eigen::MatrixXd Hr;   // (nu + nx + 1)^2: reduced augmented Hessian [w; dx; 1] (lower)
-    Eigen::VectorXd cn;   // nu: QR column norms
     Eigen::VectorXd gr;   // nu + nx: reduced gradient
     Eigen::MatrixXd BA;   // nx x (nu + nx + 1): reduced [B A | b]
     // (nu + nx) x nu: the first nw columns of M = [L 0; Lxw P] after backward (lower):

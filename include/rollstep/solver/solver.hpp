@@ -301,10 +301,11 @@ class Solver {
   /// full input (equality projection included). Computed on first access after a solve.
   const MatrixXd& feedbackGain(int k) const;
   /// The problem's evaluation of node k at the last linearisation or trial point
-  /// (ne, ni: rows in use; g, e values). After a one-thread real-time iteration its cost
-  /// Hessian, dynamics and equality Jacobians (Lxx, Luu, Lux, Fx, Fu, Ex, Eu) are not the
-  /// node's: they were evaluated into one shared set, the Hessian into the Riccati
-  /// stages' shared Q, R, S (Gx, Gu and the gradients are the node's).
+  /// (ne, ni: rows in use; g, e values). After a real-time iteration its cost Hessian
+  /// (Lxx, Luu, Lux) is not the node's: it was evaluated into the Riccati stage's Q, R, S
+  /// (with one thread one shared set); with one thread neither are its dynamics and
+  /// equality Jacobians (Fx, Fu, Ex, Eu: one shared set). Gx, Gu and the gradients are the
+  /// node's.
   const ocp::NodeData& nodeData(int k) const;
   const std::vector<IterationStats>& stats() const;  ///< of the last solve/update
   int iterations() const;
