@@ -241,17 +241,24 @@ std::vector<planning::TimedBaseCommand> parseCommandSchedule(const std::string& 
   return out;
 }
 
+/// A count in words up to twelve ("six"), else in digits.
+std::string countText(int n) {
+  static const char* const kWords[] = {"no",    "one",  "two", "three",  "four",   "five", "six",
+                                       "seven", "eight", "nine", "ten", "eleven", "twelve"};
+  return n >= 0 && n <= 12 ? kWords[n] : std::to_string(n);
+}
+
 /// The OCP's forces act contact_offset below the wheel centres: a description whose offset
 /// is not the simulated wheels' radius plans every contact off the ground.
 void checkContactOffset(const centroidal::RobotOcpDescription& robot,
                         const std::string& description, const sim::Plant& plant) {
-  for (int leg = 0; leg < sim::kNumLegs; ++leg) {
+  for (int leg = 0; leg < plant.layout().numLegs(); ++leg) {
     if (std::abs(robot.contact_offset - plant.wheelRadius(leg)) > 1e-4) {
       throw InputError("robot description '" + description +
                        "': contact_offset: " + numberText(robot.contact_offset) +
                        " m is not the wheel radius of the robot MJCF '" + plant.robotFile() +
                        "' (" + numberText(plant.wheelRadius(leg)) + " m, " +
-                       sim::kLegNames[static_cast<std::size_t>(leg)] + " wheel)");
+                       plant.layout().legs[static_cast<std::size_t>(leg)].contact_frame + ")");
     }
   }
 }
@@ -501,7 +508,15 @@ void runSim(const SimOptions& o, bool scene_given) {
   } else {
     // Each side's wheels run at speed -+ turn_speed: beyond the servos' limit they would
     // be clamped and the robot would not do what was asked.
-    const double limit = plant.wheelSpeedLimit() * plant.wheelRadius(0);
+    if (plant.layout().numDriveWheels() == 0) {
+      throw CLI::ValidationError("--controller",
+                                 "drive: the robot '" + plant.robotFile() + "' has no drive wheels");
+    }
+    double radius = std::numeric_limits<double>::infinity();
+    for (const int leg : plant.layout().drive_wheel_legs) {
+      radius = std::min(radius, plant.wheelRadius(leg));
+    }
+    const double limit = plant.wheelSpeedLimit() * radius;
     const double needed = std::abs(o.speed) + std::abs(o.turn_speed);
     if (needed > limit) {
       char text[400];
@@ -510,14 +525,13 @@ void runSim(const SimOptions& o, bool scene_given) {
                     "drive wheels of this robot reach %.3f m/s (%g rad/s x %g m): valid range "
                     "|speed| + |turn-speed| <= %.3f m/s",
                     o.speed, o.turn_speed, needed, limit, plant.wheelSpeedLimit(),
-                    plant.wheelRadius(0), limit);
+                    radius, limit);
       throw CLI::ValidationError("--speed", text);
     }
     sim::DriveController::Params p;
     p.speed = o.speed;
     p.turn_speed = o.turn_speed;
-    controller =
-        std::make_unique<sim::DriveController>(plant.nominalCommand(), plant.wheelRadius(0), p);
+    controller = std::make_unique<sim::DriveController>(plant, p);
     std::ostringstream s;
     s << "drive (nominal posture, wheel surface speed " << o.speed << " m/s, turn " << o.turn_speed
       << " m/s)";
@@ -539,7 +553,7 @@ void runSim(const SimOptions& o, bool scene_given) {
     if (cbfqp_controller != nullptr && cbfqp_controller->perception() != nullptr) {
       cbfqp_controller->perception()->openLog();
     }
-    sim::CsvLog log(files.log.string(), controller->logColumns());
+    sim::CsvLog log(files.log.string(), plant.layout(), controller->logColumns());
     // A progress line on stderr for runs that take more than a few seconds.
     const auto progress = [](const sim::Progress& p) {
       if (p.wall_time < 3.0) return;
@@ -636,7 +650,7 @@ void runSim(const SimOptions& o, bool scene_given) {
         "  base       start (%.3f, %.3f, %.3f) m -> end (%.3f, %.3f, %.3f) m, distance %.3f m, "
         "yaw change %.2f deg\n"
         "  height     min %.4f m, max %.4f m; mean forward speed %.3f m/s\n"
-        "  contacts   all six wheels on the ground %.1f %% of the time\n"
+        "  contacts   all %s wheels on the ground %.1f %% of the time\n"
         "  MuJoCo     %d warnings\n"
         "%s"
         "  outputs    %s (CSV, units in the header, every %d ms), %s\n",
@@ -645,7 +659,8 @@ void runSim(const SimOptions& o, bool scene_given) {
         s.real_time_factor, s.start_position.x(), s.start_position.y(), s.start_position.z(),
         s.end_position.x(), s.end_position.y(), s.end_position.z(),
         (s.end_position - s.start_position).head<2>().norm(), s.yaw_change * deg, s.min_base_height,
-        s.max_base_height, s.mean_forward_speed, 100.0 * s.all_feet_contact_fraction, s.warnings,
+        s.max_base_height, s.mean_forward_speed, countText(plant.layout().numLegs()).c_str(),
+        100.0 * s.all_feet_contact_fraction, s.warnings,
         mpc_text.c_str(), files.log.c_str(),
         static_cast<int>(std::lround(o.log_every * plant.controlPeriod() * 1000.0)),
         files.summary.c_str());

@@ -55,13 +55,10 @@ std::vector<JointLimit> jointLimits(const sim::SceneConfig& scene, const std::st
   const sim::Plant plant(scene, options);
   const mjModel* m = plant.mujocoModel();
   std::vector<JointLimit> limits;
-  for (int leg = 0; leg < sim::kNumLegs; ++leg) {
-    for (const char* joint : {"_hip", "_knee"}) {
-      const std::string name = std::string(sim::kLegNames[static_cast<std::size_t>(leg)]) + joint;
-      const int id = mj_name2id(m, mjOBJ_JOINT, name.c_str());
-      if (id < 0 || !m->jnt_limited[id]) continue;
-      limits.push_back({name, m->jnt_range[2 * id], m->jnt_range[2 * id + 1]});
-    }
+  for (const sim::PlantLayout::Joint& joint : plant.layout().joints) {
+    const int id = mj_name2id(m, mjOBJ_JOINT, joint.name.c_str());
+    if (id < 0 || !m->jnt_limited[id]) continue;
+    limits.push_back({joint.name, m->jnt_range[2 * id], m->jnt_range[2 * id + 1]});
   }
   return limits;
 }

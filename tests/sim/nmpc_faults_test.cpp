@@ -102,7 +102,7 @@ TEST(NmpcFaults, BadSensorSamplesAreRejected) {
     const auto at = [t](double when) { return std::abs(t - when) < 0.5e-3; };
     if (at(1.5)) r.imu_angular_velocity.y() = nan;
     if (at(2.0)) r.imu_acceleration.x() = 1e6;
-    if (at(2.5)) r.joint_position[kneeIndex(2)] = 1e9;
+    if (at(2.5)) r.joint_position[plant.layout().legs[2].joints[1]] = 1e9;
     if (at(3.0)) r.wheel_velocity[1] = nan;
   };
   const NmpcOutcome o = runNmpc(sc);

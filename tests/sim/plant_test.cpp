@@ -39,10 +39,17 @@ TEST(Plant, NominalPostureAndConventions) {
   Plant plant(scene(SceneKind::kFlat));
   const GroundTruth& t = plant.groundTruth();
   EXPECT_NEAR(t.base_position.z(), 0.375, 1e-12);
-  for (int leg = 0; leg < kNumLegs; ++leg) {
-    EXPECT_NEAR(plant.nominalCommand().joint_position[hipIndex(leg)], 0.0, 1e-12);
-    EXPECT_NEAR(plant.nominalCommand().joint_position[kneeIndex(leg)], 0.05, 1e-12);
-    EXPECT_NEAR(t.joint_position[kneeIndex(leg)], 0.05, 1e-12);
+  const PlantLayout& layout = plant.layout();
+  ASSERT_EQ(layout.numLegs(), 6);
+  ASSERT_EQ(layout.numJoints(), 12);
+  for (int leg = 0; leg < layout.numLegs(); ++leg) {
+    const std::vector<int>& joints = layout.legs[static_cast<std::size_t>(leg)].joints;
+    ASSERT_EQ(joints.size(), 2u);
+    EXPECT_FALSE(layout.joints[static_cast<std::size_t>(joints[0])].prismatic);
+    EXPECT_TRUE(layout.joints[static_cast<std::size_t>(joints[1])].prismatic);
+    EXPECT_NEAR(plant.nominalCommand().joint_position[joints[0]], 0.0, 1e-12);
+    EXPECT_NEAR(plant.nominalCommand().joint_position[joints[1]], 0.05, 1e-12);
+    EXPECT_NEAR(t.joint_position[joints[1]], 0.05, 1e-12);
     EXPECT_NEAR(plant.wheelRadius(leg), 0.075, 1e-12);
     // wheel centre = hip + 0.25 m down; wheel bottom touches the floor
     const Eigen::Vector3d expected =
@@ -55,8 +62,19 @@ TEST(Plant, NominalPostureAndConventions) {
   EXPECT_EQ(plant.hipPosition(1).y(), 0.0);
   EXPECT_LT(plant.hipPosition(2).y(), 0.0);
   EXPECT_LT(plant.hipPosition(3).x(), 0.0);
-  // Drive wheels are LF, RF, LR, RR.
-  EXPECT_STREQ(kLegNames[static_cast<std::size_t>(kDriveWheelLegs[1])], "RF");
+  // Legs in the description's contact-frame order, named from the frames; the joints per
+  // leg from the base down; drive wheels LF, RF, LR, RR.
+  std::string names;
+  for (const PlantLayout::Leg& leg : layout.legs) names += leg.name + " ";
+  EXPECT_EQ(names, "LF MF RF LR MR RR ");
+  std::string joints;
+  for (const PlantLayout::Joint& joint : layout.joints) joints += joint.name + " ";
+  EXPECT_EQ(joints,
+            "LF_hip LF_knee MF_hip MF_knee RF_hip RF_knee LR_hip LR_knee MR_hip MR_knee RR_hip "
+            "RR_knee ");
+  EXPECT_EQ(layout.drive_wheel_legs, (std::vector<int>{0, 2, 3, 5}));
+  EXPECT_EQ(layout.legs[1].drive_wheel, -1);
+  EXPECT_EQ(layout.legs[2].drive_wheel, 1);
 }
 
 TEST(Plant, ResetPlacesTheBase) {
@@ -126,9 +144,9 @@ TEST(Plant, SensorsMatchGroundTruthAtRest) {
   EXPECT_NEAR(s.imu_acceleration.z(), 9.81, 0.05);  // specific force: +g at rest
   EXPECT_NEAR(s.imu_angular_velocity.norm(), 0.0, 1e-3);
   EXPECT_NEAR(s.imu_orientation.angularDistance(t.base_orientation), 0.0, 1e-3);
-  for (int leg = 0; leg < kNumLegs; ++leg) {
+  for (int leg = 0; leg < plant.layout().numLegs(); ++leg) {
     EXPECT_TRUE(s.foot_contact[static_cast<std::size_t>(leg)])
-        << kLegNames[static_cast<std::size_t>(leg)];
+        << plant.layout().legs[static_cast<std::size_t>(leg)].name;
     EXPECT_NEAR(s.foot_normal_force[static_cast<std::size_t>(leg)],
                 t.foot_force[static_cast<std::size_t>(leg)].z(), 1.0);
   }
@@ -376,29 +394,34 @@ TEST(PlantErrors, WrongStructureNamesTheElement) {
   const std::string text = robotText();
   const std::vector<std::pair<std::string, std::string>> cases = {
       {replaced(text, "<joint name=\"LF_knee\" class=\"knee\"/>",
-                "<joint name=\"LF_knee\" class=\"knee\" type=\"hinge\"/>"),
-       "joint 'LF_knee' must be a slide joint"},
+                "<joint name=\"LF_knee\" class=\"knee\" type=\"ball\"/>"),
+       "joint 'LF_knee' of leg 'LF_wheel' must be a hinge or a slide joint"},
       {replaced(text, "<joint name=\"RR_wheel\" class=\"drive\"/>",
                 "<joint name=\"RR_wheel\" class=\"drive\" type=\"slide\"/>"),
-       "joint 'RR_wheel' must be a hinge"},
+       "body 'RR_wheel' (a drive wheel) needs one hinge joint, its axle"},
       {replaced(text, "name=\"LF_hip_servo\" joint=\"LF_hip\"",
                 "name=\"LF_hip_servo\" joint=\"MF_hip\""),
-       "actuator 'LF_hip_servo' must drive joint 'LF_hip'"},
+       "joint 'LF_hip' has no actuator"},
+      {replaced(text, "name=\"LF_knee_servo\" joint=\"LF_knee\"",
+                "name=\"LF_knee_servo\" joint=\"MF_knee\""),
+       "joint 'MF_knee' has two actuators, 'LF_knee_servo' and 'MF_knee_servo'"},
       {replaced(text, "<jointpos name=\"LF_hip_pos\" joint=\"LF_hip\"/>",
                 "<jointvel name=\"LF_hip_pos\" joint=\"LF_hip\"/>"),
-       "sensor 'LF_hip_pos' must be a jointpos sensor of joint 'LF_hip'"},
+       "no sensor for jointpos of joint 'LF_hip'"},
       {replaced(text, "<jointvel name=\"RR_wheel_vel\" joint=\"RR_wheel\"/>",
                 "<jointvel name=\"RR_wheel_vel\" joint=\"LR_wheel\"/>"),
-       "sensor 'RR_wheel_vel' must be a jointvel sensor of joint 'RR_wheel'"},
+       "no sensor for jointvel of drive wheel joint 'RR_wheel'"},
       {replaced(text, "<touch name=\"MF_touch\" site=\"MF_touch\"/>",
                 "<accelerometer name=\"MF_touch\" site=\"MF_touch\"/>"),
-       "sensor 'MF_touch' must be a touch sensor"},
+       "no sensor for touch on a site of body 'MF_wheel'"},
       {replaced(text, "<gyro name=\"imu_gyro\" site=\"imu\"/>",
                 "<velocimeter name=\"imu_gyro\" site=\"imu\"/>"),
-       "sensor 'imu_gyro' must be a gyro"},
+       "no sensor for the IMU's gyro"},
       {replaced(text, "<geom name=\"LF_wheel_geom\" type=\"sphere\" size=\"0.075\"",
                 "<geom name=\"LF_wheel_geom\" type=\"box\" size=\"0.075 0.075 0.075\""),
-       "geom 'LF_wheel_geom' must be a sphere of body 'LF_wheel'"},
+       "body 'LF_wheel' (a wheel) needs a sphere geom, the wheel"},
+      {replaced(text, "<body name=\"LF_wheel\"", "<body name=\"LF_wheel_x\""),
+       "no body named 'LF_wheel' (a contact frame of the robot)"},
       {replaced(text, "<key name=\"nominal\"", "<key name=\"other\""),
        "no keyframe named 'nominal'"},
       {replaced(text, "timestep=\"0.001\"", "timestep=\"0.0000001\""),
@@ -485,7 +508,7 @@ TEST(PlantErrors, NotTheRobot) {
                 "<mujoco><option timestep=\"0.001\"/><worldbody><body "
                 "name=\"base\"><freejoint/><geom type=\"sphere\" size=\"0.1\"/>"
                 "</body></worldbody></mujoco>\n");
-  expectLoadError(path, "no joint named 'LF_hip'");
+  expectLoadError(path, "no body named 'LF_wheel'");
 }
 
 TEST(PlantErrors, BadSceneParameter) {
