@@ -281,12 +281,18 @@ void requireBaselineSection(const std::string& path) {
 
 /// Perception in closed loop (--terrain perception): the sensor and perception settings,
 /// started at the plant's pose (its first terrain built), with the map log if asked for.
-std::unique_ptr<sim::OnlinePerception> startPerception(const SimOptions& o, const sim::Plant& plant,
+std::unique_ptr<sim::OnlinePerception> startPerception(const SimOptions& o,
+                                                       const sim::RobotFolder& robot,
+                                                       const sim::Plant& plant,
                                                        bool asynchronous_default) {
   sim::OnlinePerceptionOptions options;
   options.asynchronous =
       o.perception_timing.empty() ? asynchronous_default : o.perception_timing == "asynchronous";
-  if (!o.lidar_config.empty()) options.lidar = sim::loadLidarSettings(o.lidar_config);
+  if (!o.lidar_config.empty()) {
+    options.lidar = sim::loadLidarSettings(o.lidar_config);
+  } else if (!robot.lidar.empty()) {
+    options.lidar = sim::loadLidarSettings(robot.lidar);
+  }
   if (!o.perception_config.empty()) {
     options.perception = perception::loadPerceptionSettings(o.perception_config);
   }
@@ -361,12 +367,16 @@ void runSim(const SimOptions& o, bool scene_given) {
   if (!o.scene_config.empty()) scene = sim::loadSceneConfig(o.scene_config);
   if (scene_given || o.scene_config.empty()) scene.kind = sim::sceneKindFromString(o.scene);
 
-  sim::PlantOptions plant_options;
-  plant_options.robot_file = o.robot;
+  // The robot folder, its files checked against each other before anything runs.
+  const sim::RobotFolder robot_folder = robotFolderOption(o.robot);
+  sim::PlantOptions plant_options = sim::plantOptionsFor(robot_folder);
   if (!o.sensor_config.empty()) {
     plant_options.sensor_noise = sim::loadSensorNoiseConfig(o.sensor_config);
   } else if (o.state_source == "inekf") {
-    plant_options.sensor_noise = sim::SensorNoiseConfig{};  // an estimator reads real sensors
+    // An estimator reads real sensors: the robot's own (its sensors.yaml), else the defaults.
+    plant_options.sensor_noise = robot_folder.sensors.empty()
+                                     ? sim::SensorNoiseConfig{}
+                                     : sim::loadSensorNoiseConfig(robot_folder.sensors);
   }
   sim::Plant plant(scene, plant_options);
 
@@ -381,8 +391,7 @@ void runSim(const SimOptions& o, bool scene_given) {
     controller = std::make_unique<sim::StandController>(plant.nominalCommand());
     controller_text = "stand (nominal posture, wheels at rest)";
   } else if (o.controller == "nmpc") {
-    const std::string description =
-        o.robot_description.empty() ? defaultRobotDescription() : o.robot_description;
+    const std::string& description = robot_folder.description;
     const centroidal::RobotOcpDescription robot = centroidal::loadRobotOcpDescription(description);
     checkContactOffset(robot, description, plant);
     control::ControlSettings settings = control::loadControlSettings(
@@ -399,7 +408,8 @@ void runSim(const SimOptions& o, bool scene_given) {
     std::unique_ptr<sim::OnlinePerception> online;
     int edge_capacity = 0;
     if (o.terrain == "perception") {
-      online = startPerception(o, plant, settings.mpc.timing == control::MpcTiming::Asynchronous);
+      online = startPerception(o, robot_folder, plant,
+                               settings.mpc.timing == control::MpcTiming::Asynchronous);
       terrain = online->footholdTerrain(margin);
       edge_capacity = online->perception().settings().regions.directions;
       terrain_text = format(
@@ -413,10 +423,13 @@ void runSim(const SimOptions& o, bool scene_given) {
     source.kind = sim::stateSourceFromString(o.state_source);
     if (source.kind == sim::StateSourceKind::Inekf) {
       // The robot's tuning beside its description, unless another file is named.
+      if (o.estimator_config.empty() && robot_folder.estimation.empty()) {
+        throw InputError("robot folder '" + robot_folder.directory +
+                         "': no estimation.yaml (the state estimator's tuning) for "
+                         "--state-source inekf; add it or give --estimator-config");
+      }
       const std::string tuning =
-          o.estimator_config.empty()
-              ? (fs::path(description).parent_path() / "estimation.yaml").string()
-              : o.estimator_config;
+          o.estimator_config.empty() ? robot_folder.estimation : o.estimator_config;
       source.estimator = estimation::loadInekfSettings(tuning);
     }
     auto nmpc = std::make_unique<sim::NmpcController>(plant, robot, settings, terrain,
@@ -461,8 +474,7 @@ void runSim(const SimOptions& o, bool scene_given) {
                    runner.initialMessage().empty() ? "" : ": ", runner.initialMessage().c_str());
     }
   } else if (o.controller == "cbfqp") {
-    const std::string description =
-        o.robot_description.empty() ? defaultRobotDescription() : o.robot_description;
+    const std::string& description = robot_folder.description;
     const centroidal::RobotOcpDescription robot = centroidal::loadRobotOcpDescription(description);
     checkContactOffset(robot, description, plant);
     const std::string config =
@@ -474,7 +486,8 @@ void runSim(const SimOptions& o, bool scene_given) {
     std::string terrain_text = "scene ground truth";
     if (o.terrain == "perception") {
       // Perceived surfaces: unshrunk as the collision solids, shrunk as the footholds.
-      std::unique_ptr<sim::OnlinePerception> online = startPerception(o, plant, false);
+      std::unique_ptr<sim::OnlinePerception> online =
+          startPerception(o, robot_folder, plant, false);
       cbfqp = std::make_unique<sim::CbfQpController>(
           plant, robot, settings, online->footholdTerrain(settings.baseline.foothold_margin),
           online->terrain(), centroidal::gaitKindFromString(o.gait), command,
@@ -691,13 +704,13 @@ void registerSimCommand(CLI::App& app) {
   auto options = std::make_shared<SimOptions>();
   CLI::App* cmd = app.add_subcommand(
       "sim",
-      "Run the MuJoCo plant (Tachyon 3 in a scene) with a simple controller; write a CSV "
+      "Run the MuJoCo plant (a robot folder's robot in a scene) with a controller; write a CSV "
       "log (time, base pose and twist, joint positions, commands, contacts; units in the "
       "header) and a summary, and print the summary.");
   cmd->footer(
       "Numbers must be finite and within the ranges shown; --speed and --turn-speed only "
-      "apply to --controller drive; --gait, --vx, --vy, --yaw-rate, --control-config and "
-      "--robot-description only to --controller nmpc and cbfqp; --mpc-timing and "
+      "apply to --controller drive; --gait, --vx, --vy, --yaw-rate and --control-config "
+      "only to --controller nmpc and cbfqp; --mpc-timing and "
       "--integrator only to --controller nmpc.\n"
       "Outputs: DIR/log.csv and DIR/summary.txt appear only complete and only when the run "
       "succeeds; a run that fails once started removes the previous run's files and leaves "
@@ -763,10 +776,10 @@ void registerSimCommand(CLI::App& app) {
                       "trot timed for the command; cbfqp default: config/baseline.yaml (the "
                       "baseline's tuning); $ROLLSTEP_CONFIG_DIR/... if set")
           ->check(kNotEmpty));
-  pipeline_only.push_back(cmd->add_option("--robot-description", options->robot_description,
-                                          "nmpc, cbfqp only: the robot's OCP description "
-                                          "(default robots/tachyon3/centroidal.yaml)")
-                              ->check(kNotEmpty));
+  // Folded into --robot: a clear error instead of "unknown option" for old command lines.
+  CLI::Option* old_description =
+      cmd->add_option("--robot-description", options->robot_description,
+                      "Replaced by --robot NAME_OR_DIR (the robot folder holds the description)");
   nmpc_only.push_back(cmd->add_option("--mpc-timing", options->mpc_timing,
                                       "nmpc only: deterministic (a solve every MPC period of "
                                       "simulated time, reproducible) or asynchronous (a real "
@@ -790,7 +803,8 @@ void registerSimCommand(CLI::App& app) {
   perception_only.push_back(
       cmd->add_option("--lidar-config", options->lidar_config,
                       "--terrain perception only: YAML LiDAR settings (config/lidar.yaml lists "
-                      "every key; default: its defaults)")
+                      "every key; default: the robot folder's lidar.yaml, else the built-in "
+                      "defaults)")
           ->check(kNotEmpty));
   perception_only.push_back(
       cmd->add_option("--perception-config", options->perception_config,
@@ -830,13 +844,14 @@ void registerSimCommand(CLI::App& app) {
   CLI::Option* estimator_config =
       cmd->add_option("--estimator-config", options->estimator_config,
                       "nmpc only: YAML tuning of the state estimator "
-                      "(default: estimation.yaml beside the robot description, "
-                      "robots/tachyon3/estimation.yaml, which lists every key)")
+                      "(default: the robot folder's estimation.yaml; "
+                      "robots/tachyon3/estimation.yaml lists every key)")
           ->check(kNotEmpty);
   nmpc_only.push_back(estimator_config);
   cmd->add_option("--sensor-config", options->sensor_config,
-                  "YAML sensor noise of the plant (config/sensors.yaml lists every key and its "
-                  "default); default: ideal sensors, or the defaults with --state-source inekf")
+                  "YAML sensor noise of the plant (robots/tachyon3/sensors.yaml lists every key "
+                  "and its default); default: ideal sensors, or with --state-source inekf the "
+                  "robot folder's sensors.yaml (the defaults if it has none)")
       ->check(kNotEmpty);
   cmd->add_option("--duration", options->duration, "Simulated time [s]")
       ->check(numberIn(0.001, 3600.0, "s"))
@@ -860,14 +875,12 @@ void registerSimCommand(CLI::App& app) {
                   "Write a log row every N control periods (1 ms each)")
       ->check(integerIn(1, 100000))
       ->capture_default_str();
-  cmd->add_option("--robot", options->robot,
-                  "Robot MJCF file: the Tachyon 3 structure (joint, actuator, sensor and "
-                  "keyframe names of robots/tachyon3/tachyon3.xml) with your own numbers. "
-                  "Default: robots/tachyon3/tachyon3.xml of the source tree, or "
-                  "$ROLLSTEP_ROBOTS_DIR/tachyon3/tachyon3.xml")
-      ->check(kNotEmpty);
+  cmd->add_option("--robot", options->robot, kRobotOptionHelp)->check(kNotEmpty);
   cmd->final_callback([options, scene, speed, turn_speed, nmpc_only, pipeline_only, perception_only,
-                       command_schedule, estimator_config] {
+                       command_schedule, estimator_config, old_description] {
+    if (old_description->count() > 0) {
+      throw CLI::ValidationError("--robot-description", kRobotDescriptionFolded);
+    }
     if (options->terrain != "perception") {
       for (const CLI::Option* option : perception_only) {
         if (option->count() > 0) {

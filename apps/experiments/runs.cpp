@@ -49,10 +49,25 @@ sim::SceneConfig sceneOf(const Scenario& scenario) {
 
 std::string robotOf(const Scenario& scenario) { return scenario.option("--robot"); }
 
-std::vector<JointLimit> jointLimits(const sim::SceneConfig& scene, const std::string& robot_file) {
-  sim::PlantOptions options;
-  options.robot_file = robot_file;
-  const sim::Plant plant(scene, options);
+void setRobot(ExperimentSet& set, const std::string& robot) {
+  if (robot.empty()) return;
+  for (Scenario& s : set.scenarios) {
+    if (!robotOf(s).empty()) {
+      throw InputError("--robot " + robot + ": scenario " + s.name + " of " + set.source +
+                       " names its own robot (--robot " + robotOf(s) +
+                       " in its args); drop one of the two");
+    }
+    s.args.insert(s.args.end(), {"--robot", robot});
+  }
+}
+
+sim::PlantOptions plantOptionsOfRobot(const std::string& robot) {
+  return sim::plantOptionsFor(robot.empty() ? sim::defaultRobotFolder()
+                                            : sim::findRobotFolder(robot));
+}
+
+std::vector<JointLimit> jointLimits(const sim::SceneConfig& scene, const std::string& robot) {
+  const sim::Plant plant(scene, plantOptionsOfRobot(robot));
   const mjModel* m = plant.mujocoModel();
   std::vector<JointLimit> limits;
   for (const sim::PlantLayout::Joint& joint : plant.layout().joints) {
@@ -120,11 +135,9 @@ RunOutcome judgeRun(const Scenario& scenario, const sim::SceneConfig& scene, con
     return o;
   }
   try {
-    sim::PlantOptions options;
-    options.robot_file = robotOf(scenario);
-    const sim::Plant plant(scene, options);
+    const sim::Plant plant(scene, plantOptionsOfRobot(robotOf(scenario)));
     o.up_height = plant.wheelRadius(1) + 0.5 * scene.step1_height;
-    o.assessment = assessRun(*o.log, jointLimits(scene, options.robot_file), criteria,
+    o.assessment = assessRun(*o.log, jointLimits(scene, robotOf(scenario)), criteria,
                              scenario.traverse, o.up_height);
   } catch (const std::exception& e) {
     o.error = std::string("cannot judge the run: ") + e.what();

@@ -14,7 +14,7 @@
 //    near the threshold the flag chatters, as a force sensor's does.
 //  - The AHRS orientation of SensorReadings is left as the plant gives it (the state
 //    estimator does not read it).
-// Every number lives in a YAML file (config/sensors.yaml documents each with its
+// Every number lives in a YAML file (robots/tachyon3/sensors.yaml documents each with its
 // default); the seed makes runs reproducible. Allocation-free after construction.
 #include <Eigen/Core>
 #include <random>
