@@ -8,6 +8,7 @@
 
 #include "log_table.hpp"
 #include "metrics.hpp"
+#include "rollstep/sim/robot_folder.hpp"
 #include "rollstep/sim/scene.hpp"
 #include "scenarios.hpp"
 
