@@ -57,8 +57,8 @@ StandResult standTest(sim::Plant& plant, double duration) {
     plant.setCommand(command);
     plant.step();
     r.min_height = std::min(r.min_height, t.base_position.z());
-    const double tilt = std::acos(
-        std::clamp((t.base_orientation * Eigen::Vector3d::UnitZ()).z(), -1.0, 1.0));
+    const double tilt =
+        std::acos(std::clamp((t.base_orientation * Eigen::Vector3d::UnitZ()).z(), -1.0, 1.0));
     r.max_tilt = std::max(r.max_tilt, tilt);
     if (std::all_of(t.foot_contact.begin(), t.foot_contact.end(), [](bool c) { return c; })) {
       ++all_contact;
@@ -94,9 +94,8 @@ int runCheckRobot(const CheckRobotOptions& o) {
   };
   // The controllers' side: the description and its URDF (posture, servo stiffness, gait
   // groups), as the OCP and the pipelines load them.
-  attempt("description", [&] {
-    centroidal::loadRobot(centroidal::loadRobotOcpDescription(folder.description));
-  });
+  attempt("description",
+          [&] { centroidal::loadRobot(centroidal::loadRobotOcpDescription(folder.description)); });
   if (!folder.estimation.empty()) {
     attempt("estimation", [&] { estimation::loadInekfSettings(folder.estimation); });
   }
@@ -110,8 +109,8 @@ int runCheckRobot(const CheckRobotOptions& o) {
   std::printf("  %-12s %s\n", "URDF = MJCF", mismatches.empty() ? "ok" : "FAILED");
   problems.insert(problems.end(), mismatches.begin(), mismatches.end());
   if (!problems.empty()) {
-    std::string text = "robot folder '" + folder.directory + "': " +
-                       std::to_string(problems.size()) + " problem" +
+    std::string text = "robot folder '" + folder.directory +
+                       "': " + std::to_string(problems.size()) + " problem" +
                        (problems.size() > 1 ? "s" : "") + ":";
     for (const std::string& p : problems) text += "\n  " + p;
     throw InputError(text);
@@ -133,9 +132,9 @@ int runCheckRobot(const CheckRobotOptions& o) {
       "  stand        %.1f s on flat ground at the nominal posture: base height %.4f m -> %.4f "
       "m (min %.4f m), tilt max %.3f deg, joint error max %.5f (%s) after settling, all wheels "
       "on the ground %.1f %% of the time, body contact %ld periods, MuJoCo warnings %d\n",
-      o.duration, r.start_height, r.end_height, r.min_height, r.max_tilt * deg,
-      r.max_joint_error, r.worst_joint.empty() ? "-" : r.worst_joint.c_str(),
-      100.0 * r.contact_fraction, r.body_contact_periods, r.warnings);
+      o.duration, r.start_height, r.end_height, r.min_height, r.max_tilt * deg, r.max_joint_error,
+      r.worst_joint.empty() ? "-" : r.worst_joint.c_str(), 100.0 * r.contact_fraction,
+      r.body_contact_periods, r.warnings);
   std::vector<std::string> failures;
   if (r.body_contact_periods > 0) failures.push_back("the body touched the ground");
   if (r.max_tilt * deg > o.max_tilt_deg) {

@@ -241,10 +241,16 @@ std::vector<planning::TimedBaseCommand> parseCommandSchedule(const std::string& 
   return out;
 }
 
+/// The robot folder's own `file` (its controller defaults), else config/`file`.
+std::string robotOrProjectFile(const sim::RobotFolder& robot, const char* file) {
+  const std::string own = robot.optionalFile(file);
+  return own.empty() ? configFile(file) : own;
+}
+
 /// A count in words up to twelve ("six"), else in digits.
 std::string countText(int n) {
-  static const char* const kWords[] = {"no",    "one",  "two", "three",  "four",   "five", "six",
-                                       "seven", "eight", "nine", "ten", "eleven", "twelve"};
+  static const char* const kWords[] = {"no",    "one",   "two",  "three", "four",   "five",  "six",
+                                       "seven", "eight", "nine", "ten",   "eleven", "twelve"};
   return n >= 0 && n <= 12 ? kWords[n] : std::to_string(n);
 }
 
@@ -395,7 +401,10 @@ void runSim(const SimOptions& o, bool scene_given) {
     const centroidal::RobotOcpDescription robot = centroidal::loadRobotOcpDescription(description);
     checkContactOffset(robot, description, plant);
     control::ControlSettings settings = control::loadControlSettings(
-        o.control_config.empty() ? defaultNmpcConfig(o.terrain == "perception") : o.control_config);
+        !o.control_config.empty()
+            ? o.control_config
+            : robotOrProjectFile(robot_folder,
+                                 o.terrain == "perception" ? "nmpc_perception.yaml" : "nmpc.yaml"));
     if (o.mpc_timing == "deterministic") settings.mpc.timing = control::MpcTiming::Deterministic;
     if (o.mpc_timing == "asynchronous") settings.mpc.timing = control::MpcTiming::Asynchronous;
     if (o.integrator == "internal") settings.integrator.mode = control::IntegratorMode::Internal;
@@ -477,8 +486,9 @@ void runSim(const SimOptions& o, bool scene_given) {
     const std::string& description = robot_folder.description;
     const centroidal::RobotOcpDescription robot = centroidal::loadRobotOcpDescription(description);
     checkContactOffset(robot, description, plant);
-    const std::string config =
-        o.control_config.empty() ? defaultBaselineConfig() : o.control_config;
+    const std::string config = o.control_config.empty()
+                                   ? robotOrProjectFile(robot_folder, "baseline.yaml")
+                                   : o.control_config;
     const control::ControlSettings settings = control::loadControlSettings(config);
     if (!o.control_config.empty()) requireBaselineSection(config);
     const planning::BaseVelocityCommand command{o.vx, o.vy, o.yaw_rate};
@@ -522,8 +532,8 @@ void runSim(const SimOptions& o, bool scene_given) {
     // Each side's wheels run at speed -+ turn_speed: beyond the servos' limit they would
     // be clamped and the robot would not do what was asked.
     if (plant.layout().numDriveWheels() == 0) {
-      throw CLI::ValidationError("--controller",
-                                 "drive: the robot '" + plant.robotFile() + "' has no drive wheels");
+      throw CLI::ValidationError(
+          "--controller", "drive: the robot '" + plant.robotFile() + "' has no drive wheels");
     }
     double radius = std::numeric_limits<double>::infinity();
     for (const int leg : plant.layout().drive_wheel_legs) {
@@ -537,8 +547,7 @@ void runSim(const SimOptions& o, bool scene_given) {
                     "%g with --turn-speed %g needs a wheel surface speed of %g m/s; the "
                     "drive wheels of this robot reach %.3f m/s (%g rad/s x %g m): valid range "
                     "|speed| + |turn-speed| <= %.3f m/s",
-                    o.speed, o.turn_speed, needed, limit, plant.wheelSpeedLimit(),
-                    radius, limit);
+                    o.speed, o.turn_speed, needed, limit, plant.wheelSpeedLimit(), radius, limit);
       throw CLI::ValidationError("--speed", text);
     }
     sim::DriveController::Params p;
@@ -673,8 +682,7 @@ void runSim(const SimOptions& o, bool scene_given) {
         s.end_position.x(), s.end_position.y(), s.end_position.z(),
         (s.end_position - s.start_position).head<2>().norm(), s.yaw_change * deg, s.min_base_height,
         s.max_base_height, s.mean_forward_speed, countText(plant.layout().numLegs()).c_str(),
-        100.0 * s.all_feet_contact_fraction, s.warnings,
-        mpc_text.c_str(), files.log.c_str(),
+        100.0 * s.all_feet_contact_fraction, s.warnings, mpc_text.c_str(), files.log.c_str(),
         static_cast<int>(std::lround(o.log_every * plant.controlPeriod() * 1000.0)),
         files.summary.c_str());
     writeFileAtomically(files.summary.string(), text);
@@ -774,7 +782,8 @@ void registerSimCommand(CLI::App& app) {
                       "default: config/nmpc.yaml (with --terrain perception "
                       "config/nmpc_perception.yaml): walks and climbs steps at any speed, the "
                       "trot timed for the command; cbfqp default: config/baseline.yaml (the "
-                      "baseline's tuning); $ROLLSTEP_CONFIG_DIR/... if set")
+                      "baseline's tuning); $ROLLSTEP_CONFIG_DIR/... if set; a robot folder "
+                      "holding a file of that name gives its own default")
           ->check(kNotEmpty));
   // Folded into --robot: a clear error instead of "unknown option" for old command lines.
   CLI::Option* old_description =

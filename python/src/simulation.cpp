@@ -5,9 +5,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <limits>
 #include <cstdlib>
 #include <filesystem>
+#include <limits>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -78,7 +78,8 @@ struct Simulation {
       for (const int leg : plant.layout().drive_wheel_legs) {
         radius = std::min(radius, plant.wheelRadius(leg));
       }
-      const double limit = plant.layout().numDriveWheels() > 0 ? plant.wheelSpeedLimit() * radius : 0.0;
+      const double limit =
+          plant.layout().numDriveWheels() > 0 ? plant.wheelSpeedLimit() * radius : 0.0;
       if (!std::isfinite(speed) || !std::isfinite(turn_speed) ||
           std::abs(speed) + std::abs(turn_speed) > limit) {
         throw std::invalid_argument(

@@ -105,7 +105,9 @@ std::string robotsDirectory() {
 
 std::string defaultRobotFile() { return robotsDirectory() + "/tachyon3/tachyon3.xml"; }
 
-std::string defaultRobotDescriptionFile() { return robotsDirectory() + "/tachyon3/centroidal.yaml"; }
+std::string defaultRobotDescriptionFile() {
+  return robotsDirectory() + "/tachyon3/centroidal.yaml";
+}
 
 std::string legNameOfContactFrame(const std::string& frame) {
   const std::string suffix = "_wheel";
@@ -228,7 +230,8 @@ Plant::Plant(const SceneConfig& scene, const PlantOptions& options)
   try {
     checkStructure();
     if (options.sensor_noise) {
-      sensor_model_ = std::make_unique<SensorModel>(*options.sensor_noise, control_period_, layout_);
+      sensor_model_ =
+          std::make_unique<SensorModel>(*options.sensor_noise, control_period_, layout_);
     }
     // mjData holds the stack of nstack numbers; MuJoCo aborts the process when an
     // allocation fails, so a model asking for absurd sizes is refused here.
@@ -247,17 +250,20 @@ Plant::Plant(const SceneConfig& scene, const PlantOptions& options)
                                     data_->xquat[4 * base_body_ + 2],
                                     data_->xquat[4 * base_body_ + 3]);
     for (const PlantLayout::Leg& leg : layout_.legs) {
-      const int body = leg.joints.empty()
-                           ? wheel_body_[static_cast<std::size_t>(layout_.legOfContactFrame(leg.contact_frame))]
-                           : model_->jnt_bodyid[mj_name2id(
-                                 model_, mjOBJ_JOINT,
-                                 layout_.joints[static_cast<std::size_t>(leg.joints.front())].name.c_str())];
+      const int body =
+          leg.joints.empty()
+              ? wheel_body_[static_cast<std::size_t>(layout_.legOfContactFrame(leg.contact_frame))]
+              : model_->jnt_bodyid[mj_name2id(
+                    model_, mjOBJ_JOINT,
+                    layout_.joints[static_cast<std::size_t>(leg.joints.front())].name.c_str())];
       const bool child_of_base = model_->body_parentid[body] == base_body_;
       hip_position_.push_back(
-          child_of_base ? Eigen::Vector3d(model_->body_pos[3 * body], model_->body_pos[3 * body + 1],
-                                          model_->body_pos[3 * body + 2])
-                        : Eigen::Vector3d(base_q.conjugate() *
-                                          (Eigen::Map<const Eigen::Vector3d>(data_->xpos + 3 * body) - base_x)));
+          child_of_base
+              ? Eigen::Vector3d(model_->body_pos[3 * body], model_->body_pos[3 * body + 1],
+                                model_->body_pos[3 * body + 2])
+              : Eigen::Vector3d(
+                    base_q.conjugate() *
+                    (Eigen::Map<const Eigen::Vector3d>(data_->xpos + 3 * body) - base_x)));
     }
     checkStartPosition();
   } catch (...) {
@@ -359,7 +365,8 @@ void Plant::checkStructure() {
                "' must be a hinge or a slide joint");
         }
         const char* name = mj_id2name(model_, mjOBJ_JOINT, j);
-        if (name == nullptr) fail("joint #" + std::to_string(j) + " of leg '" + frame + "' has no name");
+        if (name == nullptr)
+          fail("joint #" + std::to_string(j) + " of leg '" + frame + "' has no name");
         l.joints.push_back(layout_.numJoints());
         layout_.joints.push_back({name, model_->jnt_type[j] == mjJNT_SLIDE, leg});
         joint_ids.push_back(j);
@@ -400,7 +407,8 @@ void Plant::checkStructure() {
     const std::string& frame = layout_.legs[l].contact_frame;
     const int body = wheel_body_[l];
     int geom = -1;
-    for (int g = model_->body_geomadr[body]; g < model_->body_geomadr[body] + model_->body_geomnum[body]; ++g) {
+    for (int g = model_->body_geomadr[body];
+         g < model_->body_geomadr[body] + model_->body_geomnum[body]; ++g) {
       if (model_->geom_type[g] != mjGEOM_SPHERE) continue;
       if (geom >= 0) fail("body '" + frame + "' (a wheel) has two sphere geoms");
       geom = g;
@@ -412,7 +420,8 @@ void Plant::checkStructure() {
     sensor_touch_.push_back(
         sensorOf(mjSENS_TOUCH, 1, -1, body, "touch on a site of body '" + frame + "'"));
     if (layout_.legs[l].drive_wheel < 0) continue;
-    if (model_->body_jntnum[body] != 1 || model_->jnt_type[model_->body_jntadr[body]] != mjJNT_HINGE) {
+    if (model_->body_jntnum[body] != 1 ||
+        model_->jnt_type[model_->body_jntadr[body]] != mjJNT_HINGE) {
       fail("body '" + frame + "' (a drive wheel) needs one hinge joint, its axle");
     }
     const int jid = model_->body_jntadr[body];

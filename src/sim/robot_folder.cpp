@@ -24,9 +24,9 @@ namespace {
 constexpr double kAxisTolerance = 1e-6;
 constexpr double kLimitTolerance = 1e-6;
 constexpr double kMassRelativeTolerance = 1e-6;
-constexpr double kMassAbsoluteTolerance = 1e-9;   // [kg]
-constexpr double kRadiusTolerance = 1e-4;         // [m], as rollstep sim's check
-constexpr double kPostureTolerance = 1e-9;        // [rad or m] outside a range
+constexpr double kMassAbsoluteTolerance = 1e-9;  // [kg]
+constexpr double kRadiusTolerance = 1e-4;        // [m], as rollstep sim's check
+constexpr double kPostureTolerance = 1e-9;       // [rad or m] outside a range
 
 std::string num(double v) {
   char text[32];
@@ -75,7 +75,8 @@ RobotFolder findRobotFolder(const std::string& name_or_dir) {
   f.name = fs::path(dir).lexically_normal().filename().string();
   if (f.name.empty() || f.name == "." || f.name == "..") {
     f.name = fs::absolute(dir, ec).lexically_normal().filename().string();
-    if (f.name.empty()) f.name = fs::absolute(dir, ec).lexically_normal().parent_path().filename().string();
+    if (f.name.empty())
+      f.name = fs::absolute(dir, ec).lexically_normal().parent_path().filename().string();
   }
   f.description = dir + "/centroidal.yaml";
   f.mjcf = dir + "/" + f.name + ".xml";
@@ -97,6 +98,11 @@ RobotFolder findRobotFolder(const std::string& name_or_dir) {
   f.sensors = optional("sensors.yaml");
   f.lidar = optional("lidar.yaml");
   return f;
+}
+
+std::string RobotFolder::optionalFile(const std::string& file) const {
+  const std::string path = directory + "/" + file;
+  return isFile(path) ? path : std::string();
 }
 
 RobotFolder defaultRobotFolder() { return findRobotFolder(robotsDirectory() + "/tachyon3"); }
@@ -174,10 +180,10 @@ std::vector<std::string> crossCheckRobotFolder(const RobotFolder& folder) {
     const Eigen::Vector3d mj_axis(m->jnt_axis[3 * j], m->jnt_axis[3 * j + 1],
                                   m->jnt_axis[3 * j + 2]);
     if ((mj_axis - body.axis.normalized()).norm() > kAxisTolerance) {
-      problems.push_back(what + ": axis (" + num(body.axis.x()) + ", " + num(body.axis.y()) +
-                         ", " + num(body.axis.z()) + ") in the " + in_urdf + ", (" +
-                         num(mj_axis.x()) + ", " + num(mj_axis.y()) + ", " + num(mj_axis.z()) +
-                         ") in the " + in_mjcf + " (each in its body's frame)");
+      problems.push_back(what + ": axis (" + num(body.axis.x()) + ", " + num(body.axis.y()) + ", " +
+                         num(body.axis.z()) + ") in the " + in_urdf + ", (" + num(mj_axis.x()) +
+                         ", " + num(mj_axis.y()) + ", " + num(mj_axis.z()) + ") in the " + in_mjcf +
+                         " (each in its body's frame)");
     }
     const int q = body.idxQ - urdf->nqBase;
     const double lower = urdf->lowerPositionLimit[q], upper = urdf->upperPositionLimit[q];

@@ -33,8 +33,7 @@ std::string csvHeader(const PlantLayout& layout) {
   return h;
 }
 
-CsvLog::CsvLog(const std::string& path, const PlantLayout& layout,
-               const std::string& extra_columns)
+CsvLog::CsvLog(const std::string& path, const PlantLayout& layout, const std::string& extra_columns)
     : file_(path) {
   file_.write(csvHeader(layout));
   file_.write(extra_columns);

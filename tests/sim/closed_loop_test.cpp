@@ -171,7 +171,8 @@ TEST(ClosedLoop, RaiseAndLowerKnees) {
   while (plant.time() < t0 + 5.0) {
     PlantCommand command = plant.nominalCommand();
     const double off = knee_offset(plant.time() - t0);
-    for (int leg = 0; leg < plant.layout().numLegs(); ++leg) command.joint_position[plant.layout().legs[leg].joints[1]] += off;
+    for (int leg = 0; leg < plant.layout().numLegs(); ++leg)
+      command.joint_position[plant.layout().legs[leg].joints[1]] += off;
     plant.setCommand(command);
     plant.step();
     if (std::abs(plant.time() - t0 - 2.5) < 1e-9) z_top = t.base_position.z();

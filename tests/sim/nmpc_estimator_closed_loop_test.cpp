@@ -23,8 +23,8 @@ NmpcScenario withEstimator(planning::GaitKind gait, double v_x, double duration)
   sc.gait = gait;
   sc.command.v_x = v_x;
   sc.duration = duration;
-  sc.sensor_noise =
-      loadSensorNoiseConfig(std::string(ROLLSTEP_TEST_DATA_DIR) + "/../../robots/tachyon3/sensors.yaml");
+  sc.sensor_noise = loadSensorNoiseConfig(std::string(ROLLSTEP_TEST_DATA_DIR) +
+                                          "/../../robots/tachyon3/sensors.yaml");
   sc.source.kind = StateSourceKind::Inekf;
   sc.source.estimator =
       estimation::loadInekfSettings(std::string(ROLLSTEP_ROBOTS_DIR) + "/tachyon3/estimation.yaml");

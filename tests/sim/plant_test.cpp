@@ -398,7 +398,8 @@ TEST(PlantErrors, WrongStructureNamesTheElement) {
       {replaced(replaced(text, "<joint name=\"LF_knee\" class=\"knee\"/>",
                          "<joint name=\"LF_knee\" class=\"knee\"/><joint name=\"LF_extra\" "
                          "type=\"ball\"/>"),
-                "qpos=\"0 0 0.375 1 0 0 0  0 0.05 0 ", "qpos=\"0 0 0.375 1 0 0 0  0 0.05 1 0 0 0 0 "),
+                "qpos=\"0 0 0.375 1 0 0 0  0 0.05 0 ",
+                "qpos=\"0 0 0.375 1 0 0 0  0 0.05 1 0 0 0 0 "),
        "joint 'LF_extra' of leg 'LF_wheel' must be a hinge or a slide joint"},
       {replaced(text, "<joint name=\"RR_wheel\" class=\"drive\"/>",
                 "<joint name=\"RR_wheel\" class=\"drive\" type=\"slide\"/>"),
@@ -406,8 +407,9 @@ TEST(PlantErrors, WrongStructureNamesTheElement) {
       {replaced(text, "name=\"LF_hip_servo\" joint=\"LF_hip\"",
                 "name=\"LF_hip_servo\" joint=\"MF_hip\""),
        "joint 'LF_hip' has no actuator"},
-      {replaced(replaced(text, "</actuator>", "<position name=\"extra\" joint=\"LF_hip\"/></actuator>"),
-                "0 0.05 0 0 0 0\"/>", "0 0.05 0 0 0 0 0\"/>"),
+      {replaced(
+           replaced(text, "</actuator>", "<position name=\"extra\" joint=\"LF_hip\"/></actuator>"),
+           "0 0.05 0 0 0 0\"/>", "0 0.05 0 0 0 0 0\"/>"),
        "joint 'LF_hip' has two actuators, 'LF_hip_servo' and 'extra'"},
       {replaced(text, "<jointpos name=\"LF_hip_pos\" joint=\"LF_hip\"/>",
                 "<jointvel name=\"LF_hip_pos\" joint=\"LF_hip\"/>"),
@@ -526,19 +528,24 @@ std::string quadrupedMjcf() {
     const std::string n = names[l];
     char pos[64];
     std::snprintf(pos, sizeof pos, "%g %g 0", xs[l], ys[l]);
-    legs += "<body name=\"" + n + "_hip\" pos=\"" + pos +
-            "\"><joint name=\"" + n + "_haa\" axis=\"1 0 0\" range=\"-0.5 0.5\" damping=\"20\"/>"
+    legs += "<body name=\"" + n + "_hip\" pos=\"" + pos + "\"><joint name=\"" + n +
+            "_haa\" axis=\"1 0 0\" range=\"-0.5 0.5\" damping=\"20\"/>"
             "<inertial pos=\"0 0 0\" mass=\"1\" diaginertia=\"0.002 0.002 0.002\"/>"
-            "<body name=\"" + n + "_thigh\"><joint name=\"" + n + "_hfe\" axis=\"0 1 0\" "
+            "<body name=\"" +
+            n + "_thigh\"><joint name=\"" + n +
+            "_hfe\" axis=\"0 1 0\" "
             "range=\"-1.5 1.5\" damping=\"20\"/><inertial pos=\"0 0 -0.15\" mass=\"1.5\" "
             "diaginertia=\"0.01 0.01 0.001\"/><geom type=\"capsule\" fromto=\"0 0 0 0 0 -0.3\" "
-            "size=\"0.03\"/><body name=\"" + n + "_shank\" pos=\"0 0 -0.3\"><joint name=\"" + n +
+            "size=\"0.03\"/><body name=\"" +
+            n + "_shank\" pos=\"0 0 -0.3\"><joint name=\"" + n +
             "_kfe\" axis=\"0 1 0\" range=\"-2.5 0\" damping=\"20\"/><inertial pos=\"0 0 -0.15\" "
-            "mass=\"1\" diaginertia=\"0.008 0.008 0.001\"/><body name=\"" + n +
-            "_wheel\" pos=\"0 0 -0.3\"><joint name=\"" + n + "_wheel\" axis=\"0 1 0\" "
+            "mass=\"1\" diaginertia=\"0.008 0.008 0.001\"/><body name=\"" +
+            n + "_wheel\" pos=\"0 0 -0.3\"><joint name=\"" + n +
+            "_wheel\" axis=\"0 1 0\" "
             "damping=\"0\" armature=\"0.01\"/><inertial pos=\"0 0 0\" mass=\"0.5\" "
             "diaginertia=\"0.001 0.002 0.001\"/><geom type=\"sphere\" size=\"0.08\"/><site "
-            "name=\"" + n + "_touch\" size=\"0.09\"/></body></body></body></body>";
+            "name=\"" +
+            n + "_touch\" size=\"0.09\"/></body></body></body></body>";
     for (const char* j : {"_haa", "_hfe", "_kfe"}) {
       actuators += "<position joint=\"" + n + j + "\" kp=\"500\"/>";
       sensors += "<jointpos joint=\"" + n + j + "\"/><jointvel joint=\"" + n + j + "\"/>";
@@ -549,7 +556,8 @@ std::string quadrupedMjcf() {
     qpos += " 0 0 0 0";
     ctrl += " 0 0 0 0";
   }
-  return "<mujoco><compiler autolimits=\"true\"/><option timestep=\"0.001\"/><default><geom contype=\"1\" conaffinity=\"0\" "
+  return "<mujoco><compiler autolimits=\"true\"/><option timestep=\"0.001\"/><default><geom "
+         "contype=\"1\" conaffinity=\"0\" "
          "group=\"1\"/></default><worldbody><body name=\"base\" pos=\"0 0 0.68\"><freejoint/>"
          "<inertial pos=\"0 0 0\" mass=\"30\" diaginertia=\"0.3 0.8 1\"/><geom type=\"box\" "
          "size=\"0.35 0.12 0.08\"/><site name=\"imu\"/>" +

@@ -13,7 +13,8 @@
 namespace rollstep::sim {
 namespace {
 
-const std::string kConfig = std::string(ROLLSTEP_TEST_DATA_DIR) + "/../../robots/tachyon3/sensors.yaml";
+const std::string kConfig =
+    std::string(ROLLSTEP_TEST_DATA_DIR) + "/../../robots/tachyon3/sensors.yaml";
 
 void expectError(const std::string& text, const std::string& fragment) {
   try {

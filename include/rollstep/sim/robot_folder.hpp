@@ -23,6 +23,10 @@ struct RobotFolder {
   std::string estimation;   ///< directory/estimation.yaml or ""
   std::string sensors;      ///< directory/sensors.yaml or ""
   std::string lidar;        ///< directory/lidar.yaml or ""
+
+  /// directory/`file` if it is a regular file, else "" (the robot's own controller
+  /// defaults: nmpc.yaml, nmpc_perception.yaml, baseline.yaml).
+  std::string optionalFile(const std::string& file) const;
 };
 
 /// The folder of `name_or_dir`: a path (it contains '/', or is "." or "..") is the folder

@@ -26,8 +26,7 @@ class CsvLog {
   /// Creates the temporary file and writes the header (csvHeader(layout) then
   /// `extra_columns`, a controller's Controller::logColumns()); throws OutputError naming the
   /// path and the reason on failure.
-  CsvLog(const std::string& path, const PlantLayout& layout,
-         const std::string& extra_columns = "");
+  CsvLog(const std::string& path, const PlantLayout& layout, const std::string& extra_columns = "");
   CsvLog(const CsvLog&) = delete;
   CsvLog& operator=(const CsvLog&) = delete;
   /// Appends a row (`extra`: the controller's Controller::logValues()); throws OutputError

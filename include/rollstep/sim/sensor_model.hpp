@@ -38,7 +38,7 @@ struct SensorNoiseConfig {
   // encoders:
   /// [rad] revolute joints (16-bit turn)
   double hip_resolution = 2.0 * 3.14159265358979323846 / 65536.0;
-  double knee_resolution = 1.0e-5;  ///< [m] prismatic joints
+  double knee_resolution = 1.0e-5;     ///< [m] prismatic joints
   double joint_position_noise = 0.0;   ///< [rad or m] std dev before quantisation
   double joint_velocity_noise = 0.01;  ///< [rad/s or m/s] std dev
   double wheel_resolution = 2.0 * 3.14159265358979323846 / 4096.0;  ///< [rad]
