@@ -22,7 +22,7 @@ using rollstep::sim::SceneKind;
 using rollstep::sim::StandController;
 
 void runOneSecond(benchmark::State& state, Plant& plant, Controller& controller) {
-  PlantCommand command;
+  PlantCommand command = plant.nominalCommand();  // sized: no allocation in the loop
   const int steps = static_cast<int>(1.0 / plant.controlPeriod());
   for (auto _ : state) {
     for (int k = 0; k < steps; ++k) {
@@ -50,7 +50,7 @@ void BM_PlantStandFlat(benchmark::State& state) {
 
 void BM_PlantDriveFlat(benchmark::State& state) {
   Plant plant(SceneConfig{});
-  DriveController drive(plant.nominalCommand(), plant.wheelRadius(0), DriveController::Params{});
+  DriveController drive(plant, DriveController::Params{});
   runOneSecond(state, plant, drive);
 }
 
@@ -58,7 +58,7 @@ void BM_PlantDriveStep20(benchmark::State& state) {
   SceneConfig scene;
   scene.kind = SceneKind::kStep20;
   Plant plant(scene);
-  DriveController drive(plant.nominalCommand(), plant.wheelRadius(0), DriveController::Params{});
+  DriveController drive(plant, DriveController::Params{});
   runOneSecond(state, plant, drive);
 }
 
