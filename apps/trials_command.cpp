@@ -55,7 +55,11 @@ std::vector<std::string> trialCommand(const TrialsOptions& o, std::uint64_t seed
                                       "--experiments",  fs::absolute(o.experiments).string(),
                                       "--scenario",     o.scenario};
   if (!o.controller.empty()) command.insert(command.end(), {"--controller", o.controller});
-  if (!o.robot.empty()) command.insert(command.end(), {"--robot", o.robot});
+  if (!o.robot.empty()) {
+    // A folder path as absolute as the others; a robot name as it is.
+    const bool path = o.robot.find('/') != std::string::npos || o.robot == "." || o.robot == "..";
+    command.insert(command.end(), {"--robot", path ? fs::absolute(o.robot).string() : o.robot});
+  }
   command.insert(command.end(), {"--seeds", std::to_string(seed), "--no-aggregate", "--out",
                                  fs::absolute(o.out).string()});
   return command;
