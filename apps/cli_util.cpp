@@ -7,6 +7,8 @@
 #include <cstdarg>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
+#include <system_error>
 
 #include "rollstep/common/number_text.hpp"
 
@@ -113,6 +115,29 @@ std::string defaultRobotDescription() {
     return std::string(dir) + "/tachyon3/centroidal.yaml";
   }
   return std::string(ROLLSTEP_ROBOTS_DIR) + "/tachyon3/centroidal.yaml";
+}
+
+const char* const kRobotOptionHelp =
+    "The robot: a name under robots/ (tachyon3; $ROLLSTEP_ROBOTS_DIR/NAME if set) or a robot "
+    "folder path (centroidal.yaml, the URDF it names, <folder name>.xml; docs/ROBOTS.md). "
+    "Its files are cross-checked before the run. Default: tachyon3";
+
+const char* const kRobotDescriptionFolded =
+    "was folded into --robot NAME_OR_DIR: a robot folder holds the description "
+    "(centroidal.yaml) and the MJCF (docs/ROBOTS.md)";
+
+sim::RobotFolder robotFolderOption(const std::string& value) {
+  std::error_code ec;
+  if (!value.empty() && std::filesystem::is_regular_file(value, ec)) {
+    throw CLI::ValidationError(
+        "--robot", "'" + value +
+                       "' is a file; --robot takes a robot name (robots/NAME) or a robot folder "
+                       "holding centroidal.yaml and the MJCF <folder name>.xml (docs/ROBOTS.md)");
+  }
+  const sim::RobotFolder folder =
+      value.empty() ? sim::defaultRobotFolder() : sim::findRobotFolder(value);
+  sim::requireConsistentRobotFolder(folder);
+  return folder;
 }
 
 std::string configFile(const std::string& name) {

@@ -4,6 +4,8 @@
 #include <CLI/CLI.hpp>
 #include <string>
 
+#include "rollstep/sim/robot_folder.hpp"
+
 namespace rollstep::apps {
 
 std::string numberText(double v);
@@ -19,9 +21,18 @@ std::string format(const char* fmt, ...) __attribute__((format(printf, 1, 2)));
 /// A file or directory name option: not empty.
 extern const CLI::Validator kNotEmpty;
 
-/// The Tachyon 3 OCP description: $ROLLSTEP_ROBOTS_DIR/tachyon3/centroidal.yaml if that
+/// The default robot's description: $ROLLSTEP_ROBOTS_DIR/tachyon3/centroidal.yaml if that
 /// environment variable is set, else the source tree's robots/ folder.
 std::string defaultRobotDescription();
+
+/// Help of the --robot option of sim, plan, trials and report.
+extern const char* const kRobotOptionHelp;
+/// Refusal of the former --robot-description option.
+extern const char* const kRobotDescriptionFolded;
+/// The robot folder of a --robot value ("" = the default robot), its files checked against
+/// each other (sim::requireConsistentRobotFolder). Throws CLI::ValidationError for a value
+/// that is a file (the former --robot MJCF), InputError naming the folder and the problems.
+sim::RobotFolder robotFolderOption(const std::string& value);
 /// `name` in $ROLLSTEP_CONFIG_DIR if that environment variable is set (an installed
 /// rollstep), else in the source tree's config/.
 std::string configFile(const std::string& name);

@@ -23,5 +23,7 @@ void registerTrialsCommand(CLI::App& app, int& exit_status);
 
 /// `rollstep view DIR`: write the replay page of a `rollstep sim` output folder.
 void registerViewCommand(CLI::App& app);
+/// `rollstep check-robot DIR`: a robot folder loaded, cross-checked and stood up.
+void registerCheckRobotCommand(CLI::App& app, int& exit_status);
 
 }  // namespace rollstep::apps

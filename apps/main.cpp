@@ -43,6 +43,7 @@ int main(int argc, char** argv) {
       "  rollstep trials --scenario step20 --controller nmpc --seeds 0-29 --jobs 2 --out "
       "out/trials\n"
       "  rollstep view out/drive\n"
+      "  rollstep check-robot robots/tachyon3\n"
       "Exit status: 0 on success; 74 when an output could not be written (a full disk, no\n"
       "permission): the outputs are absent, not the run's verdict; 128 + N after signal N;\n"
       "another non-zero status on bad options or a failed run.");
@@ -52,6 +53,7 @@ int main(int argc, char** argv) {
   rollstep::apps::registerReportCommand(app, exit_status);
   rollstep::apps::registerTrialsCommand(app, exit_status);
   rollstep::apps::registerViewCommand(app);
+  rollstep::apps::registerCheckRobotCommand(app, exit_status);
   // A first word that is neither an option nor a command: CLI11 would only say that a
   // subcommand is required.
   std::string names;

@@ -129,7 +129,7 @@ int runPlan(const PlanOptions& o) {
   // Inputs: everything loads before anything is written.
   const sim::SceneConfig scene =
       o.scene_config.empty() ? sim::loadScene(o.scene) : sim::loadSceneConfig(o.scene_config);
-  const std::string robot_file = o.robot.empty() ? defaultRobotDescription() : o.robot;
+  const std::string robot_file = robotFolderOption(o.robot).description;
   const centroidal::RobotOcpDescription robot = centroidal::loadRobotOcpDescription(robot_file);
   centroidal::OcpSettings settings;
   if (!o.config.empty()) settings = centroidal::loadOcpSettings(o.config);
@@ -263,10 +263,7 @@ void registerPlanCommand(CLI::App& app, int& exit_status) {
   cmd->add_option("--config", options->config,
                   "OCP settings YAML (config/ocp.yaml lists every key; default: its defaults)")
       ->check(kNotEmpty);
-  cmd->add_option("--robot", options->robot,
-                  "Robot description for the OCP (default: robots/tachyon3/centroidal.yaml of "
-                  "the source tree, or $ROLLSTEP_ROBOTS_DIR/tachyon3/centroidal.yaml)")
-      ->check(kNotEmpty);
+  cmd->add_option("--robot", options->robot, kRobotOptionHelp)->check(kNotEmpty);
   cmd->add_option("--out", options->out, "Output directory (created if needed)")
       ->check(kNotEmpty)
       ->capture_default_str();

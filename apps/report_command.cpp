@@ -51,6 +51,7 @@ struct ReportOptions {
   bool check = false;
   std::vector<std::string> only;
   std::vector<std::string> trials;
+  std::string robot;
 };
 
 using Json = nlohmann::ordered_json;  // keys in the order written
@@ -130,6 +131,8 @@ ReportInputs loadInputs(const ReportOptions& o, const std::vector<std::string>& 
   ReportInputs in;
   in.set = loadExperimentSet(o.experiments);
   ExperimentSet& set = in.set;
+  if (!o.robot.empty()) robotFolderOption(o.robot);  // cross-checked before any run
+  setRobot(set, o.robot);
   in.file_acceptance = set.acceptance;
   if (!o.only.empty()) {
     std::vector<Scenario> chosen;
@@ -294,9 +297,7 @@ ReportPictures renderSnapshotsAndVideos(const ReportInputs& in,
     const RunOutcome& run = outcomes[i];
     if (!run.log || run.log->rows() == 0) continue;
     try {
-      sim::PlantOptions po;
-      po.robot_file = robotOf(s);
-      const sim::Plant plant(in.scenes[i], po);
+      const sim::Plant plant(in.scenes[i], plantOptionsOfRobot(robotOf(s)));
       const LogTable& log = *run.log;
       const auto& t = log.column("time[s]");
       if (s.feeds("snapshots")) {
@@ -547,12 +548,14 @@ void registerReportCommand(CLI::App& app, int& exit_status) {
       ->check(kNotEmpty);
   cmd->add_flag("--check", options->check,
                 "Exit with status 3 if a run failed or the acceptance criteria were not met");
+  cmd->add_option("--robot", options->robot, kRobotOptionHelp)->check(kNotEmpty);
   cmd->final_callback([options, &exit_status, &app] {
     (void)app;
     std::vector<std::string> argv = {"rollstep",   "report",        "--out",
                                      options->out, "--experiments", options->experiments};
     if (!options->videos) argv.push_back("--no-videos");
     if (options->check) argv.push_back("--check");
+    if (!options->robot.empty()) argv.insert(argv.end(), {"--robot", options->robot});
     for (const std::string& d : options->trials) argv.insert(argv.end(), {"--trials", d});
     if (!options->only.empty()) {
       std::string names;

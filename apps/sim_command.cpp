@@ -241,17 +241,30 @@ std::vector<planning::TimedBaseCommand> parseCommandSchedule(const std::string& 
   return out;
 }
 
+/// The robot folder's own `file` (its controller defaults), else config/`file`.
+std::string robotOrProjectFile(const sim::RobotFolder& robot, const char* file) {
+  const std::string own = robot.optionalFile(file);
+  return own.empty() ? configFile(file) : own;
+}
+
+/// A count in words up to twelve ("six"), else in digits.
+std::string countText(int n) {
+  static const char* const kWords[] = {"no",    "one",   "two",  "three", "four",   "five",  "six",
+                                       "seven", "eight", "nine", "ten",   "eleven", "twelve"};
+  return n >= 0 && n <= 12 ? kWords[n] : std::to_string(n);
+}
+
 /// The OCP's forces act contact_offset below the wheel centres: a description whose offset
 /// is not the simulated wheels' radius plans every contact off the ground.
 void checkContactOffset(const centroidal::RobotOcpDescription& robot,
                         const std::string& description, const sim::Plant& plant) {
-  for (int leg = 0; leg < sim::kNumLegs; ++leg) {
+  for (int leg = 0; leg < plant.layout().numLegs(); ++leg) {
     if (std::abs(robot.contact_offset - plant.wheelRadius(leg)) > 1e-4) {
       throw InputError("robot description '" + description +
                        "': contact_offset: " + numberText(robot.contact_offset) +
                        " m is not the wheel radius of the robot MJCF '" + plant.robotFile() +
                        "' (" + numberText(plant.wheelRadius(leg)) + " m, " +
-                       sim::kLegNames[static_cast<std::size_t>(leg)] + " wheel)");
+                       plant.layout().legs[static_cast<std::size_t>(leg)].contact_frame + ")");
     }
   }
 }
@@ -274,12 +287,18 @@ void requireBaselineSection(const std::string& path) {
 
 /// Perception in closed loop (--terrain perception): the sensor and perception settings,
 /// started at the plant's pose (its first terrain built), with the map log if asked for.
-std::unique_ptr<sim::OnlinePerception> startPerception(const SimOptions& o, const sim::Plant& plant,
+std::unique_ptr<sim::OnlinePerception> startPerception(const SimOptions& o,
+                                                       const sim::RobotFolder& robot,
+                                                       const sim::Plant& plant,
                                                        bool asynchronous_default) {
   sim::OnlinePerceptionOptions options;
   options.asynchronous =
       o.perception_timing.empty() ? asynchronous_default : o.perception_timing == "asynchronous";
-  if (!o.lidar_config.empty()) options.lidar = sim::loadLidarSettings(o.lidar_config);
+  if (!o.lidar_config.empty()) {
+    options.lidar = sim::loadLidarSettings(o.lidar_config);
+  } else if (!robot.lidar.empty()) {
+    options.lidar = sim::loadLidarSettings(robot.lidar);
+  }
   if (!o.perception_config.empty()) {
     options.perception = perception::loadPerceptionSettings(o.perception_config);
   }
@@ -353,12 +372,16 @@ void runSim(const SimOptions& o) {
   const sim::SceneConfig scene =
       o.scene_config.empty() ? sim::loadScene(o.scene) : sim::loadSceneConfig(o.scene_config);
 
-  sim::PlantOptions plant_options;
-  plant_options.robot_file = o.robot;
+  // The robot folder, its files checked against each other before anything runs.
+  const sim::RobotFolder robot_folder = robotFolderOption(o.robot);
+  sim::PlantOptions plant_options = sim::plantOptionsFor(robot_folder);
   if (!o.sensor_config.empty()) {
     plant_options.sensor_noise = sim::loadSensorNoiseConfig(o.sensor_config);
   } else if (o.state_source == "inekf") {
-    plant_options.sensor_noise = sim::SensorNoiseConfig{};  // an estimator reads real sensors
+    // An estimator reads real sensors: the robot's own (its sensors.yaml), else the defaults.
+    plant_options.sensor_noise = robot_folder.sensors.empty()
+                                     ? sim::SensorNoiseConfig{}
+                                     : sim::loadSensorNoiseConfig(robot_folder.sensors);
   }
   sim::Plant plant(scene, plant_options);
 
@@ -373,12 +396,17 @@ void runSim(const SimOptions& o) {
     controller = std::make_unique<sim::StandController>(plant.nominalCommand());
     controller_text = "stand (nominal posture, wheels at rest)";
   } else if (o.controller == "nmpc") {
-    const std::string description =
-        o.robot_description.empty() ? defaultRobotDescription() : o.robot_description;
+    const std::string& description = robot_folder.description;
     const centroidal::RobotOcpDescription robot = centroidal::loadRobotOcpDescription(description);
     checkContactOffset(robot, description, plant);
-    const std::string settings_file =
-        o.control_config.empty() ? defaultNmpcConfig(o.terrain == "perception") : o.control_config;
+    // The robot folder's own file of the name, else the project's default (the library's
+    // defaults on ground truth; config/nmpc_perception.yaml over them on perception).
+    std::string settings_file = o.control_config;
+    if (settings_file.empty()) {
+      settings_file = robot_folder.optionalFile(o.terrain == "perception" ? "nmpc_perception.yaml"
+                                                                          : "nmpc.yaml");
+    }
+    if (settings_file.empty()) settings_file = defaultNmpcConfig(o.terrain == "perception");
     control::ControlSettings settings = settings_file.empty()
                                             ? control::ControlSettings{}
                                             : control::loadControlSettings(settings_file);
@@ -394,7 +422,8 @@ void runSim(const SimOptions& o) {
     std::unique_ptr<sim::OnlinePerception> online;
     int edge_capacity = 0;
     if (o.terrain == "perception") {
-      online = startPerception(o, plant, settings.mpc.timing == control::MpcTiming::Asynchronous);
+      online = startPerception(o, robot_folder, plant,
+                               settings.mpc.timing == control::MpcTiming::Asynchronous);
       terrain = online->footholdTerrain(margin);
       edge_capacity = online->perception().settings().regions.directions;
       terrain_text = format(
@@ -408,10 +437,13 @@ void runSim(const SimOptions& o) {
     source.kind = sim::stateSourceFromString(o.state_source);
     if (source.kind == sim::StateSourceKind::Inekf) {
       // The robot's tuning beside its description, unless another file is named.
+      if (o.estimator_config.empty() && robot_folder.estimation.empty()) {
+        throw InputError("robot folder '" + robot_folder.directory +
+                         "': no estimation.yaml (the state estimator's tuning) for "
+                         "--state-source inekf; add it or give --estimator-config");
+      }
       const std::string tuning =
-          o.estimator_config.empty()
-              ? (fs::path(description).parent_path() / "estimation.yaml").string()
-              : o.estimator_config;
+          o.estimator_config.empty() ? robot_folder.estimation : o.estimator_config;
       source.estimator = estimation::loadInekfSettings(tuning);
     }
     auto nmpc = std::make_unique<sim::NmpcController>(plant, robot, settings, terrain,
@@ -456,12 +488,12 @@ void runSim(const SimOptions& o) {
                    runner.initialMessage().empty() ? "" : ": ", runner.initialMessage().c_str());
     }
   } else if (o.controller == "cbfqp") {
-    const std::string description =
-        o.robot_description.empty() ? defaultRobotDescription() : o.robot_description;
+    const std::string& description = robot_folder.description;
     const centroidal::RobotOcpDescription robot = centroidal::loadRobotOcpDescription(description);
     checkContactOffset(robot, description, plant);
-    const std::string config =
-        o.control_config.empty() ? defaultBaselineConfig() : o.control_config;
+    const std::string config = o.control_config.empty()
+                                   ? robotOrProjectFile(robot_folder, "baseline.yaml")
+                                   : o.control_config;
     const control::ControlSettings settings = control::loadControlSettings(config);
     if (!o.control_config.empty()) requireBaselineSection(config);
     const planning::BaseVelocityCommand command{o.vx, o.vy, o.yaw_rate};
@@ -469,7 +501,8 @@ void runSim(const SimOptions& o) {
     std::string terrain_text = "scene ground truth";
     if (o.terrain == "perception") {
       // Perceived surfaces: unshrunk as the collision solids, shrunk as the footholds.
-      std::unique_ptr<sim::OnlinePerception> online = startPerception(o, plant, false);
+      std::unique_ptr<sim::OnlinePerception> online =
+          startPerception(o, robot_folder, plant, false);
       cbfqp = std::make_unique<sim::CbfQpController>(
           plant, robot, settings, online->footholdTerrain(settings.baseline.foothold_margin),
           online->terrain(), centroidal::gaitKindFromString(o.gait), command,
@@ -503,7 +536,15 @@ void runSim(const SimOptions& o) {
   } else {
     // Each side's wheels run at speed -+ turn_speed: beyond the servos' limit they would
     // be clamped and the robot would not do what was asked.
-    const double limit = plant.wheelSpeedLimit() * plant.wheelRadius(0);
+    if (plant.layout().numDriveWheels() == 0) {
+      throw CLI::ValidationError(
+          "--controller", "drive: the robot '" + plant.robotFile() + "' has no drive wheels");
+    }
+    double radius = std::numeric_limits<double>::infinity();
+    for (const int leg : plant.layout().drive_wheel_legs) {
+      radius = std::min(radius, plant.wheelRadius(leg));
+    }
+    const double limit = plant.wheelSpeedLimit() * radius;
     const double needed = std::abs(o.speed) + std::abs(o.turn_speed);
     if (needed > limit) {
       char text[400];
@@ -511,15 +552,13 @@ void runSim(const SimOptions& o) {
                     "%g with --turn-speed %g needs a wheel surface speed of %g m/s; the "
                     "drive wheels of this robot reach %.3f m/s (%g rad/s x %g m): valid range "
                     "|speed| + |turn-speed| <= %.3f m/s",
-                    o.speed, o.turn_speed, needed, limit, plant.wheelSpeedLimit(),
-                    plant.wheelRadius(0), limit);
+                    o.speed, o.turn_speed, needed, limit, plant.wheelSpeedLimit(), radius, limit);
       throw CLI::ValidationError("--speed", text);
     }
     sim::DriveController::Params p;
     p.speed = o.speed;
     p.turn_speed = o.turn_speed;
-    controller =
-        std::make_unique<sim::DriveController>(plant.nominalCommand(), plant.wheelRadius(0), p);
+    controller = std::make_unique<sim::DriveController>(plant, p);
     std::ostringstream s;
     s << "drive (nominal posture, wheel surface speed " << o.speed << " m/s, turn " << o.turn_speed
       << " m/s)";
@@ -541,7 +580,7 @@ void runSim(const SimOptions& o) {
     if (cbfqp_controller != nullptr && cbfqp_controller->perception() != nullptr) {
       cbfqp_controller->perception()->openLog();
     }
-    sim::CsvLog log(files.log.string(), controller->logColumns());
+    sim::CsvLog log(files.log.string(), plant.layout(), controller->logColumns());
     // A progress line on stderr for runs that take more than a few seconds.
     const auto progress = [](const sim::Progress& p) {
       if (p.wall_time < 3.0) return;
@@ -638,7 +677,7 @@ void runSim(const SimOptions& o) {
         "  base       start (%.3f, %.3f, %.3f) m -> end (%.3f, %.3f, %.3f) m, distance %.3f m, "
         "yaw change %.2f deg\n"
         "  height     min %.4f m, max %.4f m; mean forward speed %.3f m/s\n"
-        "  contacts   all six wheels on the ground %.1f %% of the time\n"
+        "  contacts   all %s wheels on the ground %.1f %% of the time\n"
         "  MuJoCo     %d warnings\n"
         "%s"
         "  outputs    %s (CSV, units in the header, every %d ms), %s\n",
@@ -647,7 +686,8 @@ void runSim(const SimOptions& o) {
         s.start_position.y(), s.start_position.z(), s.end_position.x(), s.end_position.y(),
         s.end_position.z(), (s.end_position - s.start_position).head<2>().norm(),
         s.yaw_change * deg, s.min_base_height, s.max_base_height, s.mean_forward_speed,
-        100.0 * s.all_feet_contact_fraction, s.warnings, mpc_text.c_str(), files.log.c_str(),
+        countText(plant.layout().numLegs()).c_str(), 100.0 * s.all_feet_contact_fraction,
+        s.warnings, mpc_text.c_str(), files.log.c_str(),
         static_cast<int>(std::lround(o.log_every * plant.controlPeriod() * 1000.0)),
         files.summary.c_str());
     writeFileAtomically(files.summary.string(), text);
@@ -680,13 +720,13 @@ void registerSimCommand(CLI::App& app) {
   auto options = std::make_shared<SimOptions>();
   CLI::App* cmd = app.add_subcommand(
       "sim",
-      "Run the MuJoCo plant (Tachyon 3 in a scene) with a simple controller; write a CSV "
+      "Run the MuJoCo plant (a robot folder's robot in a scene) with a controller; write a CSV "
       "log (time, base pose and twist, joint positions, commands, contacts; units in the "
       "header) and a summary, and print the summary.");
   cmd->footer(
       "Numbers must be finite and within the ranges shown; --speed and --turn-speed only "
-      "apply to --controller drive; --gait, --vx, --vy, --yaw-rate, --control-config and "
-      "--robot-description only to --controller nmpc and cbfqp; --mpc-timing and "
+      "apply to --controller drive; --gait, --vx, --vy, --yaw-rate and --control-config "
+      "only to --controller nmpc and cbfqp; --mpc-timing and "
       "--integrator only to --controller nmpc.\n"
       "Outputs: DIR/log.csv and DIR/summary.txt appear only complete and only when the run "
       "succeeds; a run that fails once started removes the previous run's files and leaves "
@@ -751,12 +791,13 @@ void registerSimCommand(CLI::App& app) {
                       "config/nmpc_perception.yaml over them): walks and climbs steps at any "
                       "speed, the trot timed for the command; cbfqp default: "
                       "config/baseline.yaml (the baseline's tuning); $ROLLSTEP_CONFIG_DIR/... "
-                      "if set")
+                      "if set; a robot folder holding nmpc.yaml, nmpc_perception.yaml or "
+                      "baseline.yaml gives its own default")
           ->check(kNotEmpty));
-  pipeline_only.push_back(cmd->add_option("--robot-description", options->robot_description,
-                                          "nmpc, cbfqp only: the robot's OCP description "
-                                          "(default robots/tachyon3/centroidal.yaml)")
-                              ->check(kNotEmpty));
+  // Folded into --robot: a clear error instead of "unknown option" for old command lines.
+  CLI::Option* old_description =
+      cmd->add_option("--robot-description", options->robot_description,
+                      "Replaced by --robot NAME_OR_DIR (the robot folder holds the description)");
   nmpc_only.push_back(cmd->add_option("--mpc-timing", options->mpc_timing,
                                       "nmpc only: deterministic (a solve every MPC period of "
                                       "simulated time, reproducible) or asynchronous (a real "
@@ -780,7 +821,8 @@ void registerSimCommand(CLI::App& app) {
   perception_only.push_back(
       cmd->add_option("--lidar-config", options->lidar_config,
                       "--terrain perception only: YAML LiDAR settings (config/lidar.yaml lists "
-                      "every key; default: its defaults)")
+                      "every key; default: the robot folder's lidar.yaml, else the built-in "
+                      "defaults)")
           ->check(kNotEmpty));
   perception_only.push_back(
       cmd->add_option("--perception-config", options->perception_config,
@@ -820,13 +862,14 @@ void registerSimCommand(CLI::App& app) {
   CLI::Option* estimator_config =
       cmd->add_option("--estimator-config", options->estimator_config,
                       "nmpc only: YAML tuning of the state estimator "
-                      "(default: estimation.yaml beside the robot description, "
-                      "robots/tachyon3/estimation.yaml, which lists every key)")
+                      "(default: the robot folder's estimation.yaml; "
+                      "robots/tachyon3/estimation.yaml lists every key)")
           ->check(kNotEmpty);
   nmpc_only.push_back(estimator_config);
   cmd->add_option("--sensor-config", options->sensor_config,
-                  "YAML sensor noise of the plant (config/sensors.yaml lists every key and its "
-                  "default); default: ideal sensors, or the defaults with --state-source inekf")
+                  "YAML sensor noise of the plant (robots/tachyon3/sensors.yaml lists every key "
+                  "and its default); default: ideal sensors, or with --state-source inekf the "
+                  "robot folder's sensors.yaml (the defaults if it has none)")
       ->check(kNotEmpty);
   cmd->add_option("--duration", options->duration, "Simulated time [s]")
       ->check(numberIn(0.001, 3600.0, "s"))
@@ -850,14 +893,12 @@ void registerSimCommand(CLI::App& app) {
                   "Write a log row every N control periods (1 ms each)")
       ->check(integerIn(1, 100000))
       ->capture_default_str();
-  cmd->add_option("--robot", options->robot,
-                  "Robot MJCF file: the Tachyon 3 structure (joint, actuator, sensor and "
-                  "keyframe names of robots/tachyon3/tachyon3.xml) with your own numbers. "
-                  "Default: robots/tachyon3/tachyon3.xml of the source tree, or "
-                  "$ROLLSTEP_ROBOTS_DIR/tachyon3/tachyon3.xml")
-      ->check(kNotEmpty);
+  cmd->add_option("--robot", options->robot, kRobotOptionHelp)->check(kNotEmpty);
   cmd->final_callback([options, speed, turn_speed, nmpc_only, pipeline_only, perception_only,
-                       command_schedule, estimator_config] {
+                       command_schedule, estimator_config, old_description] {
+    if (old_description->count() > 0) {
+      throw CLI::ValidationError("--robot-description", kRobotDescriptionFolded);
+    }
     if (options->terrain != "perception") {
       for (const CLI::Option* option : perception_only) {
         if (option->count() > 0) {

@@ -38,7 +38,7 @@ namespace fs = std::filesystem;
 using namespace rollstep::experiments;
 
 struct TrialsOptions {
-  std::string scenario, controller, seeds, out, experiments;
+  std::string scenario, controller, seeds, out, experiments, robot;
   int jobs = 1;
   bool print_commands = false, no_aggregate = false;
   std::vector<std::string> collect;
@@ -55,6 +55,11 @@ std::vector<std::string> trialCommand(const TrialsOptions& o, std::uint64_t seed
                                       "--experiments",  fs::absolute(o.experiments).string(),
                                       "--scenario",     o.scenario};
   if (!o.controller.empty()) command.insert(command.end(), {"--controller", o.controller});
+  if (!o.robot.empty()) {
+    // A folder path as absolute as the others; a robot name as it is.
+    const bool path = o.robot.find('/') != std::string::npos || o.robot == "." || o.robot == "..";
+    command.insert(command.end(), {"--robot", path ? fs::absolute(o.robot).string() : o.robot});
+  }
   command.insert(command.end(), {"--seeds", std::to_string(seed), "--no-aggregate", "--out",
                                  fs::absolute(o.out).string()});
   return command;
@@ -243,7 +248,9 @@ int runTrials(const TrialsOptions& o, const CLI::App& cmd) {
                                "is not used by --print-commands (each printed command runs one "
                                "trial)");
   }
-  const ExperimentSet set = loadExperimentSet(o.experiments);
+  ExperimentSet set = loadExperimentSet(o.experiments);
+  if (!o.robot.empty()) robotFolderOption(o.robot);  // cross-checked before any trial runs
+  setRobot(set, o.robot);
   const Scenario& scenario = selectScenario(set, o.scenario, o.controller);
   std::vector<std::uint64_t> seeds;
   try {
@@ -276,9 +283,8 @@ int runTrials(const TrialsOptions& o, const CLI::App& cmd) {
       corner.scene.push_back({d.name, d.key, d.offset, v});
       text += (text.empty() ? "" : ", ") + d.name + " " + numberText(v);
     }
-    sim::PlantOptions plant_options;
-    plant_options.robot_file = robotOf(scenario);
     try {
+      const sim::PlantOptions plant_options = plantOptionsOfRobot(robotOf(scenario));
       const sim::Plant plant(trialScene(base_scene, corner), plant_options);
     } catch (const std::exception& e) {
       throw InputError("scenario " + scenario.name + " of " + set.source +
@@ -460,6 +466,7 @@ void registerTrialsCommand(CLI::App& app, int& exit_status) {
   cmd->add_option("--experiments", o->experiments, "The experiments file")
       ->check(kNotEmpty)
       ->capture_default_str();
+  cmd->add_option("--robot", o->robot, kRobotOptionHelp)->check(kNotEmpty);
   cmd->final_callback([o, cmd, &exit_status] { exit_status = runTrials(*o, *cmd); });
 }
 

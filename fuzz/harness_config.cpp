@@ -1,5 +1,5 @@
 // Fuzz harness: YAML text -> the number-section configurations and the sensing settings:
-// rollstep::sim::parseSensorNoiseConfig (config/sensors.yaml),
+// rollstep::sim::parseSensorNoiseConfig (robots/tachyon3/sensors.yaml),
 // rollstep::estimation::parseInekfSettings (robots/tachyon3/estimation.yaml),
 // rollstep::perception::parsePerceptionSettings (config/perception.yaml) and
 // rollstep::sim::parseLidarSettings (config/lidar.yaml).

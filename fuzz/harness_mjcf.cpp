@@ -16,6 +16,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "rollstep/centroidal/ocp_settings.hpp"
 #include "rollstep/sim/plant.hpp"
 
 namespace {
@@ -33,8 +34,13 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   mju_user_error = mujocoError;
   mju_user_warning = quiet;
   const std::string robot_file = "/nonexistent-fuzz-dir/robot.xml";
+  // The default robot's legs (its description read once): the input is its MJCF.
+  static const rollstep::centroidal::RobotOcpDescription description =
+      rollstep::centroidal::loadRobotOcpDescription(defaultRobotDescriptionFile());
   PlantOptions options;
   options.robot_file = robot_file;
+  options.contact_frames = description.contact_frames;
+  options.drive_wheels = description.drive_wheels;
   options.robot_xml.assign(reinterpret_cast<const char*>(data), size);
   SceneConfig scene = loadScene("step20");
   try {

@@ -232,9 +232,9 @@ std::string replayModelJson(const sim::Plant& plant, const planning::TerrainMode
     regs.push_back(polygon);
   }
   json contacts = json::array();
-  for (const char* leg : sim::kLegNames) {
-    const int body = mj_name2id(m, mjOBJ_BODY, (std::string(leg) + "_wheel").c_str());
-    if (body >= 0) contacts.push_back({{"name", leg}, {"body", body}});
+  for (const sim::PlantLayout::Leg& leg : plant.layout().legs) {
+    const int body = mj_name2id(m, mjOBJ_BODY, leg.contact_frame.c_str());
+    if (body >= 0) contacts.push_back({{"name", leg.name}, {"body", body}});
   }
   const json out{{"format", "rollstep replay 1"},
                  {"robot_file", plant.robotFile()},

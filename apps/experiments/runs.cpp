@@ -47,19 +47,31 @@ sim::SceneConfig sceneOf(const Scenario& scenario) {
 
 std::string robotOf(const Scenario& scenario) { return scenario.option("--robot"); }
 
-std::vector<JointLimit> jointLimits(const sim::SceneConfig& scene, const std::string& robot_file) {
-  sim::PlantOptions options;
-  options.robot_file = robot_file;
-  const sim::Plant plant(scene, options);
+void setRobot(ExperimentSet& set, const std::string& robot) {
+  if (robot.empty()) return;
+  for (Scenario& s : set.scenarios) {
+    if (!robotOf(s).empty()) {
+      throw InputError("--robot " + robot + ": scenario " + s.name + " of " + set.source +
+                       " names its own robot (--robot " + robotOf(s) +
+                       " in its args); drop one of the two");
+    }
+    s.args.insert(s.args.end(), {"--robot", robot});
+  }
+}
+
+sim::PlantOptions plantOptionsOfRobot(const std::string& robot) {
+  return sim::plantOptionsFor(robot.empty() ? sim::defaultRobotFolder()
+                                            : sim::findRobotFolder(robot));
+}
+
+std::vector<JointLimit> jointLimits(const sim::SceneConfig& scene, const std::string& robot) {
+  const sim::Plant plant(scene, plantOptionsOfRobot(robot));
   const mjModel* m = plant.mujocoModel();
   std::vector<JointLimit> limits;
-  for (int leg = 0; leg < sim::kNumLegs; ++leg) {
-    for (const char* joint : {"_hip", "_knee"}) {
-      const std::string name = std::string(sim::kLegNames[static_cast<std::size_t>(leg)]) + joint;
-      const int id = mj_name2id(m, mjOBJ_JOINT, name.c_str());
-      if (id < 0 || !m->jnt_limited[id]) continue;
-      limits.push_back({name, m->jnt_range[2 * id], m->jnt_range[2 * id + 1]});
-    }
+  for (const sim::PlantLayout::Joint& joint : plant.layout().joints) {
+    const int id = mj_name2id(m, mjOBJ_JOINT, joint.name.c_str());
+    if (id < 0 || !m->jnt_limited[id]) continue;
+    limits.push_back({joint.name, m->jnt_range[2 * id], m->jnt_range[2 * id + 1]});
   }
   return limits;
 }
@@ -125,11 +137,9 @@ RunOutcome judgeRun(const Scenario& scenario, const sim::SceneConfig& scene, con
     return o;
   }
   try {
-    sim::PlantOptions options;
-    options.robot_file = robotOf(scenario);
-    const sim::Plant plant(scene, options);
+    const sim::Plant plant(scene, plantOptionsOfRobot(robotOf(scenario)));
     o.up_height = plant.wheelRadius(1) + 0.5 * sim::firstRise(sim::resolveScene(scene));
-    o.assessment = assessRun(*o.log, jointLimits(scene, options.robot_file), criteria,
+    o.assessment = assessRun(*o.log, jointLimits(scene, robotOf(scenario)), criteria,
                              scenario.traverse, o.up_height);
   } catch (const std::exception& e) {
     o.error = std::string("cannot judge the run: ") + e.what();

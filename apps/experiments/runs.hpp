@@ -8,6 +8,7 @@
 
 #include "log_table.hpp"
 #include "metrics.hpp"
+#include "rollstep/sim/robot_folder.hpp"
 #include "rollstep/sim/scene.hpp"
 #include "scenarios.hpp"
 
@@ -34,8 +35,17 @@ sim::SceneConfig sceneOf(const Scenario& scenario);
 /// The robot MJCF the run uses (its --robot option, or the default).
 std::string robotOf(const Scenario& scenario);
 
-/// Joint limits of the plant's MJCF (range of each hip and knee).
-std::vector<JointLimit> jointLimits(const sim::SceneConfig& scene, const std::string& robot_file);
+/// The command's --robot (a robot name or folder) for every scenario of `set`, as its
+/// `rollstep sim` option; "" leaves the set as it is. Throws InputError naming a scenario
+/// whose args name a robot of their own.
+void setRobot(ExperimentSet& set, const std::string& robot);
+
+/// Plant options of a --robot value (a robot name or folder; "" = the default robot).
+sim::PlantOptions plantOptionsOfRobot(const std::string& robot);
+
+/// Joint limits of the robot's MJCF (the range of each joint of its legs); `robot` as
+/// plantOptionsOfRobot.
+std::vector<JointLimit> jointLimits(const sim::SceneConfig& scene, const std::string& robot);
 
 /// Runs `rollstep sim` for the scenario into `dir` (created), with `scene_config_file`
 /// replacing the scenario's scene file when not empty; `on_progress(sim_time, duration)` is

@@ -20,7 +20,11 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-LEGS = ["LF", "MF", "RF", "LR", "MR", "RR"]
+
+def legs_of(columns):
+    """The robot's legs in the log's order: the names of its contact_<leg>[0/1] columns."""
+    return [k[len("contact_"):-len("[0/1]")] for k in columns
+            if k.startswith("contact_") and k.endswith("[0/1]")]
 
 
 def read_csv(path):
@@ -117,7 +121,7 @@ def fig4(spec, runs, out):
     axes[0].plot(t, local_vz(c), lw=0.9, label="v_z (local)")
     axes[0].set_ylabel("base velocity [m/s]")
     axes[0].legend(loc="upper right", fontsize=8)
-    for k, leg in enumerate(LEGS):
+    for k, leg in enumerate(legs_of(c)):
         color = "C%d" % k
         for ax, joint, unit in ((axes[1], "hip", "rad"), (axes[2], "knee", "m")):
             name = "%s_%s" % (leg, joint)

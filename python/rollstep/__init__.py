@@ -424,9 +424,9 @@ class Simulation:
         description = _description_file(robot_dir)
         mjcf = ""
         if os.path.isdir(robot_dir):
-            candidates = sorted(f for f in os.listdir(robot_dir) if f.endswith(".xml"))
-            if candidates:
-                mjcf = os.path.join(robot_dir, candidates[0])
+            # A robot folder's MJCF is named after the folder (docs/ROBOTS.md).
+            name = os.path.basename(os.path.normpath(os.path.abspath(robot_dir)))
+            mjcf = os.path.join(robot_dir, name + ".xml")
         if control is None and controller == "cbfqp":
             control = os.path.join(config_dir(), "baseline.yaml")
         if control is None:

@@ -2,9 +2,12 @@
 // plant and one of the existing controllers, stepped at the control rate with the state
 // readable between steps, and its log kept in memory at full precision (the columns and
 // units of sim::csvHeader() and the controller's own columns).
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <limits>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -42,6 +45,11 @@ std::vector<std::string> splitColumns(const std::string& text) {
   return out;
 }
 
+/// A robot folder's centroidal.yaml, or the file itself.
+std::string descriptionFile(const std::string& robot) {
+  return fs::is_directory(robot) ? (fs::path(robot) / "centroidal.yaml").string() : robot;
+}
+
 struct Simulation {
   Simulation(const sim::SceneConfig& scene, const std::string& controller_name,
              const std::string& robot_file, const std::string& robot_description,
@@ -51,6 +59,10 @@ struct Simulation {
               [&] {
                 sim::PlantOptions o;
                 o.robot_file = robot_file;
+                const centroidal::RobotOcpDescription d =
+                    centroidal::loadRobotOcpDescription(descriptionFile(robot_description));
+                o.contact_frames = d.contact_frames;
+                o.drive_wheels = d.drive_wheels;
                 return o;
               }()),
         log_every(log_every_) {
@@ -58,13 +70,16 @@ struct Simulation {
       throw std::invalid_argument("log_every = " + std::to_string(log_every) + ": must be >= 1");
     }
     checkFinite(Eigen::Vector3d(vx, vy, yaw_rate), "command");
-    const std::string description = fs::is_directory(robot_description)
-                                        ? (fs::path(robot_description) / "centroidal.yaml").string()
-                                        : robot_description;
+    const std::string description = descriptionFile(robot_description);
     if (controller_name == "stand") {
       controller = std::make_unique<sim::StandController>(plant.nominalCommand());
     } else if (controller_name == "drive") {
-      const double limit = plant.wheelSpeedLimit() * plant.wheelRadius(0);
+      double radius = std::numeric_limits<double>::infinity();
+      for (const int leg : plant.layout().drive_wheel_legs) {
+        radius = std::min(radius, plant.wheelRadius(leg));
+      }
+      const double limit =
+          plant.layout().numDriveWheels() > 0 ? plant.wheelSpeedLimit() * radius : 0.0;
       if (!std::isfinite(speed) || !std::isfinite(turn_speed) ||
           std::abs(speed) + std::abs(turn_speed) > limit) {
         throw std::invalid_argument(
@@ -75,8 +90,7 @@ struct Simulation {
       sim::DriveController::Params p;
       p.speed = speed;
       p.turn_speed = turn_speed;
-      controller =
-          std::make_unique<sim::DriveController>(plant.nominalCommand(), plant.wheelRadius(0), p);
+      controller = std::make_unique<sim::DriveController>(plant, p);
     } else if (controller_name == "nmpc") {
       const centroidal::RobotOcpDescription robot =
           centroidal::loadRobotOcpDescription(description);
@@ -95,7 +109,7 @@ struct Simulation {
       throw std::invalid_argument("controller '" + controller_name +
                                   "': valid: stand, drive, nmpc, cbfqp");
     }
-    names = splitColumns(sim::csvHeader() + controller->logColumns());
+    names = splitColumns(sim::csvHeader(plant.layout()) + controller->logColumns());
     columns.resize(names.size());
     command = plant.command();
     record();
@@ -114,10 +128,10 @@ struct Simulation {
     put(t.base_orientation.z());
     for (int i = 0; i < 3; ++i) put(t.base_linear_velocity[i]);
     for (int i = 0; i < 3; ++i) put(t.base_angular_velocity[i]);
-    for (int j = 0; j < sim::kNumJoints; ++j) put(t.joint_position[j]);
-    for (int j = 0; j < sim::kNumJoints; ++j) put(command.joint_position[j]);
-    for (int w = 0; w < sim::kNumDriveWheels; ++w) put(t.wheel_velocity[w]);
-    for (int w = 0; w < sim::kNumDriveWheels; ++w) put(command.wheel_velocity[w]);
+    for (Eigen::Index j = 0; j < t.joint_position.size(); ++j) put(t.joint_position[j]);
+    for (Eigen::Index j = 0; j < command.joint_position.size(); ++j) put(command.joint_position[j]);
+    for (Eigen::Index w = 0; w < t.wheel_velocity.size(); ++w) put(t.wheel_velocity[w]);
+    for (Eigen::Index w = 0; w < command.wheel_velocity.size(); ++w) put(command.wheel_velocity[w]);
     for (bool contact : t.foot_contact) put(contact ? 1.0 : 0.0);
     for (const Eigen::Vector3d& f : t.foot_force) put(f.z());
     for (const Eigen::Vector3d& w : t.wheel_center) put(w.z());
@@ -205,9 +219,10 @@ void bindSimulation(py::module_& m) {
              d["joint_velocity"] = vec(t.joint_velocity);
              d["wheel_position"] = vec(t.wheel_position);
              d["wheel_velocity"] = vec(t.wheel_velocity);
-             Eigen::MatrixXd centers(sim::kNumLegs, 3), forces(sim::kNumLegs, 3);
-             Eigen::VectorXd contact(sim::kNumLegs);
-             for (int i = 0; i < sim::kNumLegs; ++i) {
+             const int legs = s.plant.layout().numLegs();
+             Eigen::MatrixXd centers(legs, 3), forces(legs, 3);
+             Eigen::VectorXd contact(legs);
+             for (int i = 0; i < legs; ++i) {
                const auto u = static_cast<std::size_t>(i);
                centers.row(i) = t.wheel_center[u].transpose();
                forces.row(i) = t.foot_force[u].transpose();
@@ -230,7 +245,6 @@ void bindSimulation(py::module_& m) {
         }
         return out;
       });
-  m.def("_csv_header", &sim::csvHeader);
 }
 
 }  // namespace rollstep::python

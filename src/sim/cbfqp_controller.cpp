@@ -24,8 +24,8 @@ CbfQpController::CbfQpController(const Plant& plant, const centroidal::RobotOcpD
       std::make_unique<control::BaselinePipeline>(robot, settings, terrain, collision_terrain, gait,
                                                   region_edge_capacity, collision_prism_capacity);
   const centroidal::CentroidalRobot& r = pipeline_->robot();
-  joint_map_ = plantJointMap(r, "cbfqp");
-  wheel_map_ = plantWheelMap(r, pipeline_->driveWheelContacts(), "cbfqp");
+  joint_map_ = plantJointMap(r, plant.layout(), "cbfqp");
+  wheel_map_ = plantWheelMap(r, pipeline_->driveWheelContacts(), plant.layout(), "cbfqp");
   source_ = std::make_unique<GroundTruthSource>(plant, joint_map_);
   state_ = pipeline_->makeState();
   command_ = pipeline_->makeCommand();
@@ -84,8 +84,8 @@ void CbfQpController::compute(double t, const SensorReadings& sensors, PlantComm
   for (size_t j = 0; j < joint_map_.size(); ++j) {
     command.joint_position[joint_map_[j]] = command_.joint_position[static_cast<Eigen::Index>(j)];
   }
-  for (int w = 0; w < kNumDriveWheels; ++w) {
-    command.wheel_velocity[w] = command_.wheel_velocity[wheel_map_[static_cast<size_t>(w)]];
+  for (size_t w = 0; w < wheel_map_.size(); ++w) {
+    command.wheel_velocity[static_cast<Eigen::Index>(w)] = command_.wheel_velocity[wheel_map_[w]];
   }
 }
 

@@ -28,18 +28,12 @@ EstimatorSource::EstimatorSource(const Plant& plant, const centroidal::Centroida
       std::make_unique<estimation::InvariantEkf>(robot.model(), estimatorContacts(robot), settings);
   for (int i = 0; i < robot.nc(); ++i) {
     const std::string& frame = robot.contact(i).frame;
-    int leg = -1;
-    for (int l = 0; l < kNumLegs; ++l) {
-      if (frame.rfind(std::string(kLegNames[static_cast<size_t>(l)]) + "_", 0) == 0) leg = l;
-    }
+    const int leg = plant.layout().legOfContactFrame(frame);
     if (leg < 0) {
       throw std::invalid_argument("estimator: contact frame '" + frame +
-                                  "' names no leg of the plant");
+                                  "' is not a wheel of the plant");
     }
-    int wheel = -1;
-    for (int w = 0; w < kNumDriveWheels; ++w) {
-      if (kDriveWheelLegs[static_cast<size_t>(w)] == leg) wheel = w;
-    }
+    const int wheel = plant.layout().legs[static_cast<size_t>(leg)].drive_wheel;
     if (robot.contact(i).drive_wheel && wheel < 0) {
       throw std::invalid_argument("estimator: drive-wheel contact '" + frame +
                                   "' has no wheel encoder in the plant");

@@ -28,20 +28,17 @@ bool GroundTruthSource::read(double t, const SensorReadings&, control::RobotStat
   return true;
 }
 
-std::vector<int> plantJointMap(const centroidal::CentroidalRobot& r, const char* who) {
+std::vector<int> plantJointMap(const centroidal::CentroidalRobot& r, const PlantLayout& layout,
+                               const char* who) {
   const model::Model& m = r.model();
-  if (r.nj() != kNumJoints) {
+  if (r.nj() != layout.numJoints()) {
     throw std::invalid_argument(std::string(who) + ": the model has " + std::to_string(r.nj()) +
-                                " joints, the plant " + std::to_string(kNumJoints));
+                                " joints, the plant " + std::to_string(layout.numJoints()));
   }
   std::vector<int> map(static_cast<size_t>(r.nj()), -1);
   for (int j = 0; j < r.nj(); ++j) {
     const std::string& name = m.jointNames[static_cast<size_t>(j)];
-    for (int leg = 0; leg < kNumLegs; ++leg) {
-      const std::string prefix = std::string(kLegNames[static_cast<size_t>(leg)]);
-      if (name == prefix + "_hip") map[static_cast<size_t>(j)] = hipIndex(leg);
-      if (name == prefix + "_knee") map[static_cast<size_t>(j)] = kneeIndex(leg);
-    }
+    map[static_cast<size_t>(j)] = layout.jointIndex(name);
     if (map[static_cast<size_t>(j)] < 0) {
       throw std::invalid_argument(std::string(who) + ": model joint '" + name +
                                   "' is not a joint of the plant");
@@ -51,20 +48,20 @@ std::vector<int> plantJointMap(const centroidal::CentroidalRobot& r, const char*
 }
 
 std::vector<int> plantWheelMap(const centroidal::CentroidalRobot& r, const std::vector<int>& wheels,
-                               const char* who) {
-  std::vector<int> map(kNumDriveWheels, -1);
-  for (int w = 0; w < kNumDriveWheels; ++w) {
-    const std::string prefix =
-        std::string(kLegNames[static_cast<size_t>(kDriveWheelLegs[static_cast<size_t>(w)])]) + "_";
+                               const PlantLayout& layout, const char* who) {
+  std::vector<int> map(static_cast<size_t>(layout.numDriveWheels()), -1);
+  for (int w = 0; w < layout.numDriveWheels(); ++w) {
+    const std::string& frame =
+        layout.legs[static_cast<size_t>(layout.drive_wheel_legs[static_cast<size_t>(w)])]
+            .contact_frame;
     for (size_t k = 0; k < wheels.size(); ++k) {
-      const std::string& frame = r.contact(wheels[k]).frame;
-      if (frame.rfind(prefix, 0) == 0) map[static_cast<size_t>(w)] = static_cast<int>(k);
+      if (r.contact(wheels[k]).frame == frame) map[static_cast<size_t>(w)] = static_cast<int>(k);
     }
     if (map[static_cast<size_t>(w)] < 0) {
       throw std::invalid_argument(std::string(who) +
                                   ": no drive-wheel contact of the robot description for the "
-                                  "plant's wheel " +
-                                  prefix + "...");
+                                  "plant's drive wheel '" +
+                                  frame + "'");
     }
   }
   return map;
@@ -119,8 +116,8 @@ NmpcController::NmpcController(const Plant& plant, const centroidal::RobotOcpDes
                                                          region_edge_capacity);
   plant_ = &plant;
   const centroidal::CentroidalRobot& r = pipeline_->robot();
-  joint_map_ = plantJointMap(r, "nmpc");
-  wheel_map_ = plantWheelMap(r, pipeline_->driveWheelContacts(), "nmpc");
+  joint_map_ = plantJointMap(r, plant.layout(), "nmpc");
+  wheel_map_ = plantWheelMap(r, pipeline_->driveWheelContacts(), plant.layout(), "nmpc");
   if (source.kind == StateSourceKind::Inekf) {
     auto estimator = std::make_unique<EstimatorSource>(plant, r, joint_map_, source.estimator,
                                                        source.ground_heights);
@@ -361,8 +358,8 @@ void NmpcController::compute(double t, const SensorReadings& sensors, PlantComma
   for (size_t j = 0; j < joint_map_.size(); ++j) {
     command.joint_position[joint_map_[j]] = command_.joint_position[static_cast<Eigen::Index>(j)];
   }
-  for (int w = 0; w < kNumDriveWheels; ++w) {
-    command.wheel_velocity[w] = command_.wheel_velocity[wheel_map_[static_cast<size_t>(w)]];
+  for (size_t w = 0; w < wheel_map_.size(); ++w) {
+    command.wheel_velocity[static_cast<Eigen::Index>(w)] = command_.wheel_velocity[wheel_map_[w]];
   }
 }
 

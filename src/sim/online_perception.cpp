@@ -147,13 +147,14 @@ void OnlinePerception::start(const Plant& plant, const Eigen::Vector3d& base_pos
   }
   // Under the robot and in the LiDAR's blind zone the sensor sees nothing: the wheels'
   // ground contacts fill them.
-  std::array<Eigen::Vector3d, kNumLegs> contacts;
-  for (int leg = 0; leg < kNumLegs; ++leg) {
+  const int legs = plant.layout().numLegs();
+  std::vector<Eigen::Vector3d> contacts(static_cast<std::size_t>(legs));
+  for (int leg = 0; leg < legs; ++leg) {
     contacts[static_cast<std::size_t>(leg)] =
         plant.groundTruth().wheel_center[static_cast<std::size_t>(leg)] -
         plant.wheelRadius(leg) * Eigen::Vector3d::UnitZ();
   }
-  perception_.fillStartArea(contacts.data(), kNumLegs,
+  perception_.fillStartArea(contacts.data(), legs,
                             lidar_.sensorPose(base_position, base_orientation).translation());
   const perception::PerceptionStatus status = perception_.rebuild();
   if (!perception_.hasTerrain()) {

@@ -12,6 +12,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "rollstep/centroidal/ocp_settings.hpp"
 #include "rollstep/common/markup.hpp"
 #include "rollstep/common/text_file.hpp"
 
@@ -95,19 +96,79 @@ double geomExtentX(const mjModel* m, const mjData* d, int g) {
 
 }  // namespace
 
-std::string defaultRobotFile() {
+std::string robotsDirectory() {
   if (const char* dir = std::getenv("ROLLSTEP_ROBOTS_DIR"); dir != nullptr && *dir != '\0') {
-    return std::string(dir) + "/tachyon3/tachyon3.xml";
+    return dir;
   }
-  return std::string(ROLLSTEP_ROBOTS_DIR) + "/tachyon3/tachyon3.xml";
+  return ROLLSTEP_ROBOTS_DIR;
+}
+
+std::string defaultRobotFile() { return robotsDirectory() + "/tachyon3/tachyon3.xml"; }
+
+std::string defaultRobotDescriptionFile() {
+  return robotsDirectory() + "/tachyon3/centroidal.yaml";
+}
+
+std::string legNameOfContactFrame(const std::string& frame) {
+  const std::string suffix = "_wheel";
+  if (frame.size() > suffix.size() &&
+      frame.compare(frame.size() - suffix.size(), suffix.size(), suffix) == 0) {
+    return frame.substr(0, frame.size() - suffix.size());
+  }
+  return frame;
+}
+
+int PlantLayout::jointIndex(const std::string& name) const {
+  for (std::size_t j = 0; j < joints.size(); ++j) {
+    if (joints[j].name == name) return static_cast<int>(j);
+  }
+  return -1;
+}
+
+int PlantLayout::legOfContactFrame(const std::string& frame) const {
+  for (std::size_t l = 0; l < legs.size(); ++l) {
+    if (legs[l].contact_frame == frame) return static_cast<int>(l);
+  }
+  return -1;
+}
+
+void SensorReadings::resize(const PlantLayout& layout) {
+  joint_position.setZero(layout.numJoints());
+  joint_velocity.setZero(layout.numJoints());
+  wheel_position.setZero(layout.numDriveWheels());
+  wheel_velocity.setZero(layout.numDriveWheels());
+  foot_normal_force.assign(static_cast<std::size_t>(layout.numLegs()), 0.0);
+  foot_contact.assign(static_cast<std::size_t>(layout.numLegs()), false);
+}
+
+void GroundTruth::resize(const PlantLayout& layout) {
+  joint_position.setZero(layout.numJoints());
+  joint_velocity.setZero(layout.numJoints());
+  wheel_position.setZero(layout.numDriveWheels());
+  wheel_velocity.setZero(layout.numDriveWheels());
+  wheel_center.assign(static_cast<std::size_t>(layout.numLegs()), Eigen::Vector3d::Zero());
+  foot_contact.assign(static_cast<std::size_t>(layout.numLegs()), false);
+  foot_force.assign(static_cast<std::size_t>(layout.numLegs()), Eigen::Vector3d::Zero());
 }
 
 Plant::Plant(const SceneConfig& scene, const PlantOptions& options)
     : scene_(scene),
       robot_file_(options.robot_file.empty() ? defaultRobotFile() : options.robot_file),
       control_period_(options.control_period),
-      contact_threshold_(options.contact_threshold) {
+      contact_threshold_(options.contact_threshold),
+      contact_frames_(options.contact_frames),
+      drive_wheels_(options.drive_wheels) {
   const std::string scene_name = sceneName();
+  if (contact_frames_.empty()) {
+    const std::string description = defaultRobotDescriptionFile();
+    try {
+      const centroidal::RobotOcpDescription d = centroidal::loadRobotOcpDescription(description);
+      contact_frames_ = d.contact_frames;
+      drive_wheels_ = d.drive_wheels;
+    } catch (const std::exception& e) {
+      throw SimError(e.what());
+    }
+  }
   try {
     scene_.validate();
   } catch (const std::invalid_argument& e) {
@@ -120,9 +181,6 @@ Plant::Plant(const SceneConfig& scene, const PlantOptions& options)
   if (!std::isfinite(contact_threshold_) || contact_threshold_ < 0.0) {
     throw SimError("PlantOptions::contact_threshold = " + num(contact_threshold_) +
                    " N: must be finite and >= 0");
-  }
-  if (options.sensor_noise) {
-    sensor_model_ = std::make_unique<SensorModel>(*options.sensor_noise, control_period_);
   }
   const std::string what = "robot model '" + robot_file_ + "'";
   std::string robot_xml = options.robot_xml;
@@ -171,6 +229,10 @@ Plant::Plant(const SceneConfig& scene, const PlantOptions& options)
   // Everything below may throw: free MuJoCo memory on the way out.
   try {
     checkStructure();
+    if (options.sensor_noise) {
+      sensor_model_ =
+          std::make_unique<SensorModel>(*options.sensor_noise, control_period_, layout_);
+    }
     // mjData holds the stack of nstack numbers; MuJoCo aborts the process when an
     // allocation fails, so a model asking for absurd sizes is refused here.
     constexpr double kMaxDataBytes = 2e9;
@@ -182,6 +244,27 @@ Plant::Plant(const SceneConfig& scene, const PlantOptions& options)
     data_ = mj_makeData(model_);
     if (data_ == nullptr) throw SimError(what + ": MuJoCo could not allocate its data");
     reset();
+    // Each leg's first joint in the base frame at the nominal posture.
+    const Eigen::Map<const Eigen::Vector3d> base_x(data_->xpos + 3 * base_body_);
+    const Eigen::Quaterniond base_q(data_->xquat[4 * base_body_], data_->xquat[4 * base_body_ + 1],
+                                    data_->xquat[4 * base_body_ + 2],
+                                    data_->xquat[4 * base_body_ + 3]);
+    for (const PlantLayout::Leg& leg : layout_.legs) {
+      const int body =
+          leg.joints.empty()
+              ? wheel_body_[static_cast<std::size_t>(layout_.legOfContactFrame(leg.contact_frame))]
+              : model_->jnt_bodyid[mj_name2id(
+                    model_, mjOBJ_JOINT,
+                    layout_.joints[static_cast<std::size_t>(leg.joints.front())].name.c_str())];
+      const bool child_of_base = model_->body_parentid[body] == base_body_;
+      hip_position_.push_back(
+          child_of_base
+              ? Eigen::Vector3d(model_->body_pos[3 * body], model_->body_pos[3 * body + 1],
+                                model_->body_pos[3 * body + 2])
+              : Eigen::Vector3d(
+                    base_q.conjugate() *
+                    (Eigen::Map<const Eigen::Vector3d>(data_->xpos + 3 * body) - base_x)));
+    }
     checkStartPosition();
   } catch (...) {
     mj_deleteData(data_);
@@ -198,28 +281,43 @@ void Plant::checkStructure() {
     if (i < 0) fail(std::string("no ") + kind + " named '" + name + "'");
     return i;
   };
-  const auto joint = [&](const std::string& name, int type, const char* type_name) {
-    const int j = id(mjOBJ_JOINT, name, "joint");
-    if (model_->jnt_type[j] != type) fail("joint '" + name + "' must be a " + type_name);
-    return j;
+  const auto nameOf = [&](int type, int i) {
+    const char* name = mj_id2name(model_, type, i);
+    return name != nullptr ? "'" + std::string(name) + "'" : "#" + std::to_string(i);
   };
-  // An actuator of the joint, and a scalar joint sensor of it.
-  const auto actuator = [&](const std::string& name, int joint_id) {
-    const int a = id(mjOBJ_ACTUATOR, name, "actuator");
-    if (model_->actuator_trntype[a] != mjTRN_JOINT || model_->actuator_trnid[2 * a] != joint_id) {
-      fail("actuator '" + name + "' must drive joint '" +
-           std::string(mj_id2name(model_, mjOBJ_JOINT, joint_id)) + "'");
+  // The one actuator driving joint j.
+  const auto actuatorOf = [&](int j) {
+    int found = -1;
+    for (int a = 0; a < model_->nu; ++a) {
+      if (model_->actuator_trntype[a] != mjTRN_JOINT || model_->actuator_trnid[2 * a] != j) {
+        continue;
+      }
+      if (found >= 0) {
+        fail("joint " + nameOf(mjOBJ_JOINT, j) + " has two actuators, " +
+             nameOf(mjOBJ_ACTUATOR, found) + " and " + nameOf(mjOBJ_ACTUATOR, a));
+      }
+      found = a;
     }
-    return a;
+    if (found < 0) fail("joint " + nameOf(mjOBJ_JOINT, j) + " has no actuator");
+    return found;
   };
-  const auto sensor = [&](const std::string& name, int type, int dim, int object,
-                          const char* description) {
-    const int s = id(mjOBJ_SENSOR, name, "sensor");
-    if (model_->sensor_type[s] != type || model_->sensor_dim[s] != dim ||
-        (object >= 0 && model_->sensor_objid[s] != object)) {
-      fail("sensor '" + name + "' must be " + description);
+  // The address of the one sensor of `type` (dimension `dim`) on object `object` (any
+  // object when -1; for touch sensors, a site of body `body`).
+  const auto sensorOf = [&](int type, int dim, int object, int body, const std::string& of) {
+    int found = -1;
+    for (int s = 0; s < model_->nsensor; ++s) {
+      if (model_->sensor_type[s] != type) continue;
+      if (object >= 0 && model_->sensor_objid[s] != object) continue;
+      if (body >= 0 && model_->site_bodyid[model_->sensor_objid[s]] != body) continue;
+      if (model_->sensor_dim[s] != dim) fail("sensor " + nameOf(mjOBJ_SENSOR, s) + " of " + of);
+      if (found >= 0) {
+        fail("two sensors of the same kind for " + of + ": " + nameOf(mjOBJ_SENSOR, found) +
+             " and " + nameOf(mjOBJ_SENSOR, s));
+      }
+      found = s;
     }
-    return model_->sensor_adr[s];
+    if (found < 0) fail("no sensor for " + of);
+    return model_->sensor_adr[found];
   };
 
   const double ts = model_->opt.timestep;
@@ -238,63 +336,111 @@ void Plant::checkStructure() {
       model_->jnt_type[model_->body_jntadr[base_body]] != mjJNT_FREE) {
     fail("body 'base' needs one free joint");
   }
+  base_body_ = base_body;
   base_qpos_ = model_->jnt_qposadr[model_->body_jntadr[base_body]];
   base_qvel_ = model_->jnt_dofadr[model_->body_jntadr[base_body]];
   geom_leg_.assign(static_cast<std::size_t>(model_->ngeom), -1);
 
-  wheel_speed_limit_ = std::numeric_limits<double>::infinity();
-  int wheel = 0;
-  for (int leg = 0; leg < kNumLegs; ++leg) {
-    const auto l = static_cast<std::size_t>(leg);
-    const std::string name = kLegNames[l];
-    for (int k = 0; k < 2; ++k) {
-      const auto j = static_cast<std::size_t>(2 * leg + k);
-      const std::string joint_name = name + (k == 0 ? "_hip" : "_knee");
-      const int jid = k == 0 ? joint(joint_name, mjJNT_HINGE, "hinge")
-                             : joint(joint_name, mjJNT_SLIDE, "slide joint");
-      joint_qpos_[j] = model_->jnt_qposadr[jid];
-      joint_qvel_[j] = model_->jnt_dofadr[jid];
-      joint_ctrl_[j] = actuator(joint_name + "_servo", jid);
-      sensor_jpos_[j] = sensor(joint_name + "_pos", mjSENS_JOINTPOS, 1, jid,
-                               ("a jointpos sensor of joint '" + joint_name + "'").c_str());
-      sensor_jvel_[j] = sensor(joint_name + "_vel", mjSENS_JOINTVEL, 1, jid,
-                               ("a jointvel sensor of joint '" + joint_name + "'").c_str());
+  // The layout: legs in contact-frame order, each leg's joints from the base down.
+  layout_ = PlantLayout{};
+  if (contact_frames_.empty()) fail("the robot description lists no contact frames");
+  std::vector<int> joint_ids;
+  for (const std::string& frame : contact_frames_) {
+    const int leg = layout_.numLegs();
+    PlantLayout::Leg l;
+    l.name = legNameOfContactFrame(frame);
+    l.contact_frame = frame;
+    const int wheel_body = mj_name2id(model_, mjOBJ_BODY, frame.c_str());
+    if (wheel_body < 0) fail("no body named '" + frame + "' (a contact frame of the robot)");
+    std::vector<int> chain;  // bodies from the wheel's parent up to the base's child
+    for (int b = model_->body_parentid[wheel_body]; b != base_body; b = model_->body_parentid[b]) {
+      if (b == 0) fail("body '" + frame + "' (a contact frame) is not below body 'base'");
+      chain.push_back(b);
     }
-    const int hip_body = id(mjOBJ_BODY, name + "_hip_link", "body");
-    hip_position_[l] =
-        Eigen::Vector3d(model_->body_pos[3 * hip_body], model_->body_pos[3 * hip_body + 1],
-                        model_->body_pos[3 * hip_body + 2]);
-    wheel_body_[l] = id(mjOBJ_BODY, name + "_wheel", "body");
-    wheel_geom_[l] = id(mjOBJ_GEOM, name + "_wheel_geom", "geom");
-    if (model_->geom_type[wheel_geom_[l]] != mjGEOM_SPHERE ||
-        model_->geom_bodyid[wheel_geom_[l]] != wheel_body_[l]) {
-      fail("geom '" + name + "_wheel_geom' must be a sphere of body '" + name + "_wheel'");
-    }
-    wheel_radius_[l] = model_->geom_size[3 * wheel_geom_[l]];
-    geom_leg_[static_cast<std::size_t>(wheel_geom_[l])] = leg;
-    sensor_touch_[l] = sensor(name + "_touch", mjSENS_TOUCH, 1, -1, "a touch sensor");
-    if (wheel < kNumDriveWheels && kDriveWheelLegs[static_cast<std::size_t>(wheel)] == leg) {
-      const auto w = static_cast<std::size_t>(wheel);
-      const std::string joint_name = name + "_wheel";
-      const int jid = joint(joint_name, mjJNT_HINGE, "hinge");
-      wheel_qpos_[w] = model_->jnt_qposadr[jid];
-      wheel_qvel_[w] = model_->jnt_dofadr[jid];
-      wheel_ctrl_[w] = actuator(joint_name + "_servo", jid);
-      if (model_->actuator_ctrllimited[wheel_ctrl_[w]]) {
-        const mjtNum* range = model_->actuator_ctrlrange + 2 * wheel_ctrl_[w];
-        wheel_speed_limit_ =
-            std::min(wheel_speed_limit_, std::min(std::abs(range[0]), std::abs(range[1])));
+    for (auto b = chain.rbegin(); b != chain.rend(); ++b) {
+      for (int k = 0; k < model_->body_jntnum[*b]; ++k) {
+        const int j = model_->body_jntadr[*b] + k;
+        if (model_->jnt_type[j] != mjJNT_HINGE && model_->jnt_type[j] != mjJNT_SLIDE) {
+          fail("joint " + nameOf(mjOBJ_JOINT, j) + " of leg '" + frame +
+               "' must be a hinge or a slide joint");
+        }
+        const char* name = mj_id2name(model_, mjOBJ_JOINT, j);
+        if (name == nullptr)
+          fail("joint #" + std::to_string(j) + " of leg '" + frame + "' has no name");
+        l.joints.push_back(layout_.numJoints());
+        layout_.joints.push_back({name, model_->jnt_type[j] == mjJNT_SLIDE, leg});
+        joint_ids.push_back(j);
       }
-      sensor_wpos_[w] = sensor(joint_name + "_pos", mjSENS_JOINTPOS, 1, jid,
-                               ("a jointpos sensor of joint '" + joint_name + "'").c_str());
-      sensor_wvel_[w] = sensor(joint_name + "_vel", mjSENS_JOINTVEL, 1, jid,
-                               ("a jointvel sensor of joint '" + joint_name + "'").c_str());
-      ++wheel;
+    }
+    if (std::find(drive_wheels_.begin(), drive_wheels_.end(), frame) != drive_wheels_.end()) {
+      l.drive_wheel = layout_.numDriveWheels();
+      layout_.drive_wheel_legs.push_back(leg);
+    }
+    layout_.legs.push_back(std::move(l));
+    wheel_body_.push_back(wheel_body);
+  }
+  for (const std::string& wheel : drive_wheels_) {
+    if (layout_.legOfContactFrame(wheel) < 0) {
+      fail("drive wheel '" + wheel + "' is not a contact frame of the robot description");
     }
   }
-  sensor_acc_ = sensor("imu_acc", mjSENS_ACCELEROMETER, 3, -1, "an accelerometer");
-  sensor_gyro_ = sensor("imu_gyro", mjSENS_GYRO, 3, -1, "a gyro");
-  sensor_quat_ = sensor("imu_quat", mjSENS_FRAMEQUAT, 4, -1, "a framequat sensor");
+
+  const std::size_t nj = joint_ids.size();
+  joint_qpos_.resize(nj);
+  joint_qvel_.resize(nj);
+  joint_ctrl_.resize(nj);
+  sensor_jpos_.resize(nj);
+  sensor_jvel_.resize(nj);
+  for (std::size_t j = 0; j < nj; ++j) {
+    const int jid = joint_ids[j];
+    const std::string of = "joint '" + layout_.joints[j].name + "'";
+    joint_qpos_[j] = model_->jnt_qposadr[jid];
+    joint_qvel_[j] = model_->jnt_dofadr[jid];
+    joint_ctrl_[j] = actuatorOf(jid);
+    sensor_jpos_[j] = sensorOf(mjSENS_JOINTPOS, 1, jid, -1, "jointpos of " + of);
+    sensor_jvel_[j] = sensorOf(mjSENS_JOINTVEL, 1, jid, -1, "jointvel of " + of);
+  }
+
+  wheel_speed_limit_ = std::numeric_limits<double>::infinity();
+  for (int leg = 0; leg < layout_.numLegs(); ++leg) {
+    const auto l = static_cast<std::size_t>(leg);
+    const std::string& frame = layout_.legs[l].contact_frame;
+    const int body = wheel_body_[l];
+    int geom = -1;
+    for (int g = model_->body_geomadr[body];
+         g < model_->body_geomadr[body] + model_->body_geomnum[body]; ++g) {
+      if (model_->geom_type[g] != mjGEOM_SPHERE) continue;
+      if (geom >= 0) fail("body '" + frame + "' (a wheel) has two sphere geoms");
+      geom = g;
+    }
+    if (geom < 0) fail("body '" + frame + "' (a wheel) needs a sphere geom, the wheel");
+    wheel_geom_.push_back(geom);
+    wheel_radius_.push_back(model_->geom_size[3 * geom]);
+    geom_leg_[static_cast<std::size_t>(geom)] = leg;
+    sensor_touch_.push_back(
+        sensorOf(mjSENS_TOUCH, 1, -1, body, "touch on a site of body '" + frame + "'"));
+    if (layout_.legs[l].drive_wheel < 0) continue;
+    if (model_->body_jntnum[body] != 1 ||
+        model_->jnt_type[model_->body_jntadr[body]] != mjJNT_HINGE) {
+      fail("body '" + frame + "' (a drive wheel) needs one hinge joint, its axle");
+    }
+    const int jid = model_->body_jntadr[body];
+    const std::string of = "drive wheel joint " + nameOf(mjOBJ_JOINT, jid);
+    wheel_qpos_.push_back(model_->jnt_qposadr[jid]);
+    wheel_qvel_.push_back(model_->jnt_dofadr[jid]);
+    const int ctrl = actuatorOf(jid);
+    wheel_ctrl_.push_back(ctrl);
+    if (model_->actuator_ctrllimited[ctrl]) {
+      const mjtNum* range = model_->actuator_ctrlrange + 2 * ctrl;
+      wheel_speed_limit_ =
+          std::min(wheel_speed_limit_, std::min(std::abs(range[0]), std::abs(range[1])));
+    }
+    sensor_wpos_.push_back(sensorOf(mjSENS_JOINTPOS, 1, jid, -1, "jointpos of " + of));
+    sensor_wvel_.push_back(sensorOf(mjSENS_JOINTVEL, 1, jid, -1, "jointvel of " + of));
+  }
+  sensor_acc_ = sensorOf(mjSENS_ACCELEROMETER, 3, -1, -1, "the IMU's accelerometer");
+  sensor_gyro_ = sensorOf(mjSENS_GYRO, 3, -1, -1, "the IMU's gyro");
+  sensor_quat_ = sensorOf(mjSENS_FRAMEQUAT, 4, -1, -1, "the IMU's orientation (framequat)");
   key_nominal_ = id(mjOBJ_KEY, "nominal", "keyframe");
   total_mass_ = mj_getTotalmass(model_);
 
@@ -320,10 +466,14 @@ void Plant::checkStructure() {
     }
   }
   const mjtNum* key_ctrl = model_->key_ctrl + key_nominal_ * model_->nu;
-  for (std::size_t j = 0; j < kNumJoints; ++j) {
+  nominal_command_.joint_position.resize(layout_.numJoints());
+  for (std::size_t j = 0; j < nj; ++j) {
     nominal_command_.joint_position[static_cast<Eigen::Index>(j)] = key_ctrl[joint_ctrl_[j]];
   }
-  nominal_command_.wheel_velocity.setZero();
+  nominal_command_.wheel_velocity.setZero(layout_.numDriveWheels());
+  command_ = nominal_command_;
+  sensors_.resize(layout_);
+  truth_.resize(layout_);
 }
 
 void Plant::checkStartPosition() {
@@ -402,13 +552,21 @@ void Plant::setCommand(const PlantCommand& command) {
       }
     }
   };
+  if (command.joint_position.size() != layout_.numJoints() ||
+      command.wheel_velocity.size() != layout_.numDriveWheels()) {
+    throw std::invalid_argument(
+        "Plant::setCommand: " + std::to_string(command.joint_position.size()) + " joint and " +
+        std::to_string(command.wheel_velocity.size()) + " wheel targets; the robot has " +
+        std::to_string(layout_.numJoints()) + " joints and " +
+        std::to_string(layout_.numDriveWheels()) + " drive wheels (the command is unchanged)");
+  }
   requireFinite(command.joint_position, "joint position");
   requireFinite(command.wheel_velocity, "wheel velocity");
   command_ = command;
-  for (std::size_t j = 0; j < kNumJoints; ++j) {
+  for (std::size_t j = 0; j < joint_ctrl_.size(); ++j) {
     data_->ctrl[joint_ctrl_[j]] = command.joint_position[static_cast<Eigen::Index>(j)];
   }
-  for (std::size_t w = 0; w < kNumDriveWheels; ++w) {
+  for (std::size_t w = 0; w < wheel_ctrl_.size(); ++w) {
     data_->ctrl[wheel_ctrl_[w]] = command.wheel_velocity[static_cast<Eigen::Index>(w)];
   }
 }
@@ -460,14 +618,14 @@ void Plant::updateReadings() {
   const mjtNum* s = data_->sensordata;
   const mjtNum* qpos = data_->qpos;
   const mjtNum* qvel = data_->qvel;
-  for (std::size_t j = 0; j < kNumJoints; ++j) {
+  for (std::size_t j = 0; j < joint_qpos_.size(); ++j) {
     const auto e = static_cast<Eigen::Index>(j);
     sensors_.joint_position[e] = s[sensor_jpos_[j]];
     sensors_.joint_velocity[e] = s[sensor_jvel_[j]];
     truth_.joint_position[e] = qpos[joint_qpos_[j]];
     truth_.joint_velocity[e] = qvel[joint_qvel_[j]];
   }
-  for (std::size_t w = 0; w < kNumDriveWheels; ++w) {
+  for (std::size_t w = 0; w < wheel_qpos_.size(); ++w) {
     const auto e = static_cast<Eigen::Index>(w);
     sensors_.wheel_position[e] = s[sensor_wpos_[w]];
     sensors_.wheel_velocity[e] = s[sensor_wvel_[w]];
@@ -480,7 +638,7 @@ void Plant::updateReadings() {
       Eigen::Vector3d(s[sensor_gyro_], s[sensor_gyro_ + 1], s[sensor_gyro_ + 2]);
   sensors_.imu_orientation = Eigen::Quaterniond(s[sensor_quat_], s[sensor_quat_ + 1],
                                                 s[sensor_quat_ + 2], s[sensor_quat_ + 3]);
-  for (std::size_t l = 0; l < kNumLegs; ++l) {
+  for (std::size_t l = 0; l < wheel_body_.size(); ++l) {
     sensors_.foot_normal_force[l] = s[sensor_touch_[l]];
     sensors_.foot_contact[l] = s[sensor_touch_[l]] > contact_threshold_;
     const mjtNum* c = data_->xpos + 3 * wheel_body_[l];
@@ -517,11 +675,11 @@ void Plant::updateReadings() {
     const bool active = f[0] > 0.0;
     if (leg2 >= 0) {
       truth_.foot_force[static_cast<std::size_t>(leg2)] += world;
-      truth_.foot_contact[static_cast<std::size_t>(leg2)] |= active;
+      if (active) truth_.foot_contact[static_cast<std::size_t>(leg2)] = true;
     }
     if (leg1 >= 0) {
       truth_.foot_force[static_cast<std::size_t>(leg1)] -= world;
-      truth_.foot_contact[static_cast<std::size_t>(leg1)] |= active;
+      if (active) truth_.foot_contact[static_cast<std::size_t>(leg1)] = true;
     }
   }
   if (sensor_model_) sensor_model_->apply(sensors_);

@@ -11,29 +11,31 @@
 
 namespace rollstep::sim {
 
-std::string csvHeader() {
+std::string csvHeader(const PlantLayout& layout) {
   std::string h =
       "time[s],base_x[m],base_y[m],base_z[m],base_qw[-],base_qx[-],base_qy[-],base_qz[-],"
       "base_vx[m/s],base_vy[m/s],base_vz[m/s],base_wx[rad/s],base_wy[rad/s],base_wz[rad/s]";
   for (const char* prefix : {"q_", "cmd_"}) {
-    for (const char* leg : kLegNames) {
-      h += std::string(",") + prefix + leg + "_hip[rad]," + prefix + leg + "_knee[m]";
+    for (int j = 0; j < layout.numJoints(); ++j) {
+      h += std::string(",") + prefix + layout.joints[static_cast<std::size_t>(j)].name + "[" +
+           layout.jointUnit(j) + "]";
     }
   }
   for (const char* prefix : {"wheel_vel_", "cmd_wheel_"}) {
-    for (int leg : kDriveWheelLegs) {
-      h += std::string(",") + prefix + kLegNames[static_cast<std::size_t>(leg)] + "[rad/s]";
+    for (int leg : layout.drive_wheel_legs) {
+      h += std::string(",") + prefix + layout.legs[static_cast<std::size_t>(leg)].name + "[rad/s]";
     }
   }
-  for (const char* leg : kLegNames) h += std::string(",contact_") + leg + "[0/1]";
-  for (const char* leg : kLegNames) h += std::string(",fz_") + leg + "[N]";
-  for (const char* leg : kLegNames) h += std::string(",foot_z_") + leg + "[m]";
+  for (const PlantLayout::Leg& leg : layout.legs) h += ",contact_" + leg.name + "[0/1]";
+  for (const PlantLayout::Leg& leg : layout.legs) h += ",fz_" + leg.name + "[N]";
+  for (const PlantLayout::Leg& leg : layout.legs) h += ",foot_z_" + leg.name + "[m]";
   h += ",body_contact_periods[-]";
   return h;
 }
 
-CsvLog::CsvLog(const std::string& path, const std::string& extra_columns) : file_(path) {
-  file_.write(csvHeader());
+CsvLog::CsvLog(const std::string& path, const PlantLayout& layout, const std::string& extra_columns)
+    : file_(path) {
+  file_.write(csvHeader(layout));
   file_.write(extra_columns);
   file_.write("\n");
 }
@@ -45,10 +47,18 @@ void CsvLog::write(const GroundTruth& t, const PlantCommand& c, const std::strin
                t.base_orientation.z(), t.base_linear_velocity.x(), t.base_linear_velocity.y(),
                t.base_linear_velocity.z(), t.base_angular_velocity.x(), t.base_angular_velocity.y(),
                t.base_angular_velocity.z());
-  for (int j = 0; j < kNumJoints; ++j) file_.printf(",%.6f", t.joint_position[j]);
-  for (int j = 0; j < kNumJoints; ++j) file_.printf(",%.6f", c.joint_position[j]);
-  for (int w = 0; w < kNumDriveWheels; ++w) file_.printf(",%.4f", t.wheel_velocity[w]);
-  for (int w = 0; w < kNumDriveWheels; ++w) file_.printf(",%.4f", c.wheel_velocity[w]);
+  for (Eigen::Index j = 0; j < t.joint_position.size(); ++j) {
+    file_.printf(",%.6f", t.joint_position[j]);
+  }
+  for (Eigen::Index j = 0; j < c.joint_position.size(); ++j) {
+    file_.printf(",%.6f", c.joint_position[j]);
+  }
+  for (Eigen::Index w = 0; w < t.wheel_velocity.size(); ++w) {
+    file_.printf(",%.4f", t.wheel_velocity[w]);
+  }
+  for (Eigen::Index w = 0; w < c.wheel_velocity.size(); ++w) {
+    file_.printf(",%.4f", c.wheel_velocity[w]);
+  }
   for (bool contact : t.foot_contact) file_.write(contact ? ",1" : ",0");
   for (const Eigen::Vector3d& f : t.foot_force) file_.printf(",%.3f", f.z());
   for (const Eigen::Vector3d& w : t.wheel_center) file_.printf(",%.5f", w.z());

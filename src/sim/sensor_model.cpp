@@ -72,7 +72,12 @@ SensorNoiseConfig loadSensorNoiseConfig(const std::string& yaml_file) {
                                 yaml_file);
 }
 
-SensorModel::SensorModel(const SensorNoiseConfig& config, double dt) : config_(config), dt_(dt) {
+SensorModel::SensorModel(const SensorNoiseConfig& config, double dt, const PlantLayout& layout)
+    : config_(config), dt_(dt), num_wheels_(layout.numDriveWheels()) {
+  for (const PlantLayout::Leg& leg : layout.legs) leg_joints_.push_back(leg.joints);
+  for (const PlantLayout::Joint& joint : layout.joints) {
+    joint_resolution_.push_back(joint.prismatic ? config.knee_resolution : config.hip_resolution);
+  }
   if (!std::isfinite(dt) || !(dt > 0.0)) {
     throw std::invalid_argument("SensorModel: dt = " + shortestNumberText(dt) +
                                 " s must be positive and finite");
@@ -97,19 +102,17 @@ void SensorModel::apply(SensorReadings& r) noexcept {
     r.imu_angular_velocity[i] += gyro_bias_[i] + c.gyro_noise_density * white * gauss();
     r.imu_acceleration[i] += accel_bias_[i] + c.accel_noise_density * white * gauss();
   }
-  for (int leg = 0; leg < kNumLegs; ++leg) {
-    const int h = hipIndex(leg), k = kneeIndex(leg);
-    r.joint_position[h] =
-        quantise(r.joint_position[h] + c.joint_position_noise * gauss(), c.hip_resolution);
-    r.joint_position[k] =
-        quantise(r.joint_position[k] + c.joint_position_noise * gauss(), c.knee_resolution);
-    r.joint_velocity[h] += c.joint_velocity_noise * gauss();
-    r.joint_velocity[k] += c.joint_velocity_noise * gauss();
-    const double force =
-        r.foot_normal_force[static_cast<std::size_t>(leg)] + c.force_noise * gauss();
-    r.foot_contact[static_cast<std::size_t>(leg)] = force > c.force_threshold;
+  // Per leg: its joints' positions, then their velocities, then its contact flag.
+  for (std::size_t leg = 0; leg < leg_joints_.size(); ++leg) {
+    for (const int j : leg_joints_[leg]) {
+      r.joint_position[j] = quantise(r.joint_position[j] + c.joint_position_noise * gauss(),
+                                     joint_resolution_[static_cast<std::size_t>(j)]);
+    }
+    for (const int j : leg_joints_[leg]) r.joint_velocity[j] += c.joint_velocity_noise * gauss();
+    const double force = r.foot_normal_force[leg] + c.force_noise * gauss();
+    r.foot_contact[leg] = force > c.force_threshold;
   }
-  for (int w = 0; w < kNumDriveWheels; ++w) {
+  for (int w = 0; w < num_wheels_; ++w) {
     r.wheel_position[w] = quantise(r.wheel_position[w], c.wheel_resolution);
     r.wheel_velocity[w] += c.wheel_velocity_noise * gauss();
   }

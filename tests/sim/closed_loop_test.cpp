@@ -33,7 +33,7 @@ TEST(ClosedLoop, StandTenSeconds) {
   const GroundTruth& t = plant.groundTruth();
   // Penetration: the lowest wheel centre is below its radius.
   double penetration = 0.0;
-  for (int leg = 0; leg < kNumLegs; ++leg) {
+  for (int leg = 0; leg < plant.layout().numLegs(); ++leg) {
     penetration = std::max(
         penetration, plant.wheelRadius(leg) - t.wheel_center[static_cast<std::size_t>(leg)].z());
   }
@@ -45,9 +45,9 @@ TEST(ClosedLoop, StandTenSeconds) {
       normalForceSum(t), weight(plant));
   EXPECT_NEAR(t.base_position.z(), 0.375 - penetration, 0.01);
   EXPECT_LT((t.base_position - s.start_position).head<2>().norm(), 0.01);
-  for (int leg = 0; leg < kNumLegs; ++leg) {
+  for (int leg = 0; leg < plant.layout().numLegs(); ++leg) {
     EXPECT_TRUE(t.foot_contact[static_cast<std::size_t>(leg)])
-        << kLegNames[static_cast<std::size_t>(leg)];
+        << plant.layout().legs[static_cast<std::size_t>(leg)].name;
     EXPECT_TRUE(plant.sensors().foot_contact[static_cast<std::size_t>(leg)]);
   }
   EXPECT_NEAR(normalForceSum(t), weight(plant), 0.02 * weight(plant));
@@ -60,7 +60,7 @@ TEST(ClosedLoop, DriveStraightTwoMetres) {
   Plant plant(SceneConfig{});
   DriveController::Params p;
   p.speed = 0.5;
-  DriveController drive(plant.nominalCommand(), plant.wheelRadius(0), p);
+  DriveController drive(plant, p);
   const GroundTruth& t = plant.groundTruth();
   double worst_speed_error = 0.0;
   int steps = 0;
@@ -101,7 +101,7 @@ TEST(ClosedLoop, TurnInPlace) {
   DriveController::Params p;
   p.speed = 0.0;
   p.turn_speed = 0.2;
-  DriveController drive(plant.nominalCommand(), plant.wheelRadius(0), p);
+  DriveController drive(plant, p);
   const double a = std::abs(plant.hipPosition(0).x());
   const double b = std::abs(plant.hipPosition(0).y());
   const double r = plant.wheelRadius(0);
@@ -156,7 +156,7 @@ TEST(ClosedLoop, RaiseAndLowerKnees) {
   runScenario(plant, stand, 1.0);
   const GroundTruth& t = plant.groundTruth();
   const double z0 = t.base_position.z();
-  const double knee0 = t.joint_position[kneeIndex(0)];
+  const double knee0 = t.joint_position[plant.layout().legs[0].joints[1]];
 
   // Smooth 1.5 s ramp up, 1 s hold, 1.5 s ramp down, 1 s hold.
   const auto knee_offset = [](double s) {
@@ -171,7 +171,8 @@ TEST(ClosedLoop, RaiseAndLowerKnees) {
   while (plant.time() < t0 + 5.0) {
     PlantCommand command = plant.nominalCommand();
     const double off = knee_offset(plant.time() - t0);
-    for (int leg = 0; leg < kNumLegs; ++leg) command.joint_position[kneeIndex(leg)] += off;
+    for (int leg = 0; leg < plant.layout().numLegs(); ++leg)
+      command.joint_position[plant.layout().legs[leg].joints[1]] += off;
     plant.setCommand(command);
     plant.step();
     if (std::abs(plant.time() - t0 - 2.5) < 1e-9) z_top = t.base_position.z();
@@ -183,7 +184,7 @@ TEST(ClosedLoop, RaiseAndLowerKnees) {
               z0, z_top, z_top - z0, t.base_position.z(), max_tilt / kDeg, max_xy);
   EXPECT_NEAR(z_top - z0, 0.15, 0.005);
   EXPECT_NEAR(t.base_position.z(), z0, 0.002);
-  EXPECT_NEAR(t.joint_position[kneeIndex(0)], knee0, 0.001);
+  EXPECT_NEAR(t.joint_position[plant.layout().legs[0].joints[1]], knee0, 0.001);
   EXPECT_LT(max_tilt, 1.0 * kDeg);
   EXPECT_LT(max_xy, 0.01);
   for (bool c : t.foot_contact) EXPECT_TRUE(c);

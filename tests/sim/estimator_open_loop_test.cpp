@@ -28,7 +28,7 @@ struct Robot {
   std::vector<int> joint_map;
 };
 
-Robot tachyon3() {
+Robot tachyon3(const Plant& plant) {
   const centroidal::RobotOcpDescription d = centroidal::loadRobotOcpDescription(
       std::string(ROLLSTEP_ROBOTS_DIR) + "/tachyon3/centroidal.yaml");
   auto model = std::make_shared<const model::Model>(model::buildModelFromUrdfFile(d.urdf));
@@ -42,11 +42,7 @@ Robot tachyon3() {
   r.robot = std::make_shared<const centroidal::CentroidalRobot>(
       model, contacts, std::vector<std::array<int, 2>>{}, d.contact_offset);
   for (const std::string& name : model->jointNames) {
-    for (int leg = 0; leg < kNumLegs; ++leg) {
-      const std::string prefix = kLegNames[static_cast<size_t>(leg)];
-      if (name == prefix + "_hip") r.joint_map.push_back(hipIndex(leg));
-      if (name == prefix + "_knee") r.joint_map.push_back(kneeIndex(leg));
-    }
+    r.joint_map.push_back(plant.layout().jointIndex(name));
   }
   return r;
 }
@@ -65,18 +61,18 @@ struct OpenLoopRun {
 };
 
 OpenLoopRun runOpenLoop(double duration, double speed, double turn_speed, int seed, bool rolling) {
-  static const Robot robot = tachyon3();
   PlantOptions options;
   SensorNoiseConfig noise;
   noise.seed = seed;
   options.sensor_noise = noise;
   Plant plant(SceneConfig{}, options);
+  static const Robot robot = tachyon3(plant);
   DriveController::Params params;
   params.speed = speed;
   params.turn_speed = turn_speed;
   params.acceleration = 0.5;
   params.start_time = 0.5;
-  DriveController drive(plant.nominalCommand(), plant.wheelRadius(0), params);
+  DriveController drive(plant, params);
   estimation::InekfSettings settings =
       estimation::loadInekfSettings(std::string(ROLLSTEP_ROBOTS_DIR) + "/tachyon3/estimation.yaml");
   settings.rolling = rolling;

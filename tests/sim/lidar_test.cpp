@@ -111,7 +111,7 @@ Approach approach(const std::string& kind, double start_x, double duration) {
   Lidar lidar(loadLidarSettings(ROLLSTEP_CONFIG_DIR "/lidar.yaml"));
   perception::TerrainPerception perception(
       perception::loadPerceptionSettings(ROLLSTEP_CONFIG_DIR "/perception.yaml"));
-  DriveController drive(plant.nominalCommand(), plant.wheelRadius(0), {0.3, 0.0, 1.0, 0.3});
+  DriveController drive(plant, {0.3, 0.0, 1.0, 0.3});
   PlantCommand command = plant.nominalCommand();
   const int per_scan = static_cast<int>(std::lround(0.1 / plant.controlPeriod()));
   const int steps = static_cast<int>(std::lround(duration / plant.controlPeriod()));

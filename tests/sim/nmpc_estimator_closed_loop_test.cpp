@@ -1,5 +1,5 @@
 // The NMPC pipeline in closed loop on the state estimator (issue 13): the plant's sensors
-// with their noise model (config/sensors.yaml defaults), the invariant EKF
+// with their noise model (robots/tachyon3/sensors.yaml defaults), the invariant EKF
 // (robots/tachyon3/estimation.yaml, with the scene's terrain heights as its map) as the
 // state source. The trot and roll scenarios of the
 // pipeline's proof pass, and the estimate's drift against ground truth stays small:
@@ -23,8 +23,8 @@ NmpcScenario withEstimator(planning::GaitKind gait, double v_x, double duration)
   sc.gait = gait;
   sc.command.v_x = v_x;
   sc.duration = duration;
-  sc.sensor_noise =
-      loadSensorNoiseConfig(std::string(ROLLSTEP_TEST_DATA_DIR) + "/../../config/sensors.yaml");
+  sc.sensor_noise = loadSensorNoiseConfig(std::string(ROLLSTEP_TEST_DATA_DIR) +
+                                          "/../../robots/tachyon3/sensors.yaml");
   sc.source.kind = StateSourceKind::Inekf;
   sc.source.estimator =
       estimation::loadInekfSettings(std::string(ROLLSTEP_ROBOTS_DIR) + "/tachyon3/estimation.yaml");

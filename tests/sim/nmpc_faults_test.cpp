@@ -5,6 +5,7 @@
 // Labels `closedloop` and `faults` (Release only).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -104,7 +105,7 @@ TEST(NmpcFaults, BadSensorSamplesAreRejected) {
     const auto at = [t](double when) { return std::abs(t - when) < 0.5e-3; };
     if (at(1.5)) r.imu_angular_velocity.y() = nan;
     if (at(2.0)) r.imu_acceleration.x() = 1e6;
-    if (at(2.5)) r.joint_position[kneeIndex(2)] = 1e9;
+    if (at(2.5)) r.joint_position[5] = 1e9;  // RF_knee
     if (at(3.0)) r.wheel_velocity[1] = nan;
   };
   const NmpcOutcome o = runNmpc(sc);
@@ -125,7 +126,7 @@ TEST(NmpcFaults, ContactFlagsStuckForTwoHundredMilliseconds) {
   NmpcScenario sc = trot(4.0);
   const NmpcOutcome clean = runNmpc(sc);
   sc.corrupt = [](double t, SensorReadings& r) {
-    if (t >= 2.0 && t < 2.2) r.foot_contact.fill(true);
+    if (t >= 2.0 && t < 2.2) std::fill(r.foot_contact.begin(), r.foot_contact.end(), true);
     if (t >= 3.0 && t < 3.2) r.foot_contact[0] = r.foot_contact[2] = r.foot_contact[4] = false;
   };
   const NmpcOutcome o = runNmpc(sc);

@@ -138,8 +138,12 @@ inline NmpcOutcome runNmpc(const NmpcScenario& sc) {
     out.log.push_back(plant.time());
     for (int i = 0; i < 3; ++i) out.log.push_back(g.base_position[i]);
     for (int i = 0; i < 4; ++i) out.log.push_back(g.base_orientation.coeffs()[i]);
-    for (int j = 0; j < kNumJoints; ++j) out.log.push_back(command.joint_position[j]);
-    for (int w = 0; w < kNumDriveWheels; ++w) out.log.push_back(command.wheel_velocity[w]);
+    for (Eigen::Index j = 0; j < command.joint_position.size(); ++j) {
+      out.log.push_back(command.joint_position[j]);
+    }
+    for (Eigen::Index w = 0; w < command.wheel_velocity.size(); ++w) {
+      out.log.push_back(command.wheel_velocity[w]);
+    }
     const Eigen::Matrix3d R = g.base_orientation.toRotationMatrix();
     const double roll = std::atan2(R(2, 1), R(2, 2));
     const double pitch = std::asin(std::clamp(-R(2, 0), -1.0, 1.0));
@@ -186,7 +190,7 @@ inline NmpcOutcome runNmpc(const NmpcScenario& sc) {
   long n = 0;
   for (size_t k = 2; k < cmds.size(); ++k) {
     sum += (cmds[k] - 2.0 * cmds[k - 1] + cmds[k - 2]).squaredNorm();
-    n += kNumJoints;
+    n += cmds[k].size();
   }
   out.command_rms_second_difference = n > 0 ? std::sqrt(sum / n) : 0.0;
   return out;

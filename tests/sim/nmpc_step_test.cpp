@@ -108,13 +108,13 @@ TEST(NmpcStep20, TrotsOntoTheBlock) {
 
 TEST(NmpcStep20, ClimbsOverTheBlockOnTheEstimatorsState) {
   // The same climb with the state from the invariant EKF on noisy sensors
-  // (config/sensors.yaml) instead of the ground truth, for 22 s: up the block, along it
+  // (robots/tachyon3/sensors.yaml) instead of the ground truth, for 22 s: up the block, along it
   // and down its far edge (x = 2.2) with every wheel, the body back at its floor height.
   // With the 1.6 s trot this run fell after the descent: the estimate ran 6 cm ahead of
   // the robot after the climb and a rear wheel stepped down onto the edge (issue 14).
   NmpcScenario sc = climbStep20(22.0);
   sc.sensor_noise =
-      loadSensorNoiseConfig(std::string(ROLLSTEP_SOURCE_DIR) + "/config/sensors.yaml");
+      loadSensorNoiseConfig(std::string(ROLLSTEP_SOURCE_DIR) + "/robots/tachyon3/sensors.yaml");
   sc.source.kind = StateSourceKind::Inekf;
   sc.source.estimator =
       estimation::loadInekfSettings(std::string(ROLLSTEP_ROBOTS_DIR) + "/tachyon3/estimation.yaml");

@@ -16,6 +16,8 @@
 #include <vector>
 
 #include "common/alloc_counter.hpp"
+#include "rollstep/sim/scenario.hpp"
+#include "rollstep/sim/simple_controllers.hpp"
 
 namespace rollstep::sim {
 namespace {
@@ -38,10 +40,17 @@ TEST(Plant, NominalPostureAndConventions) {
   Plant plant(scene("flat"));
   const GroundTruth& t = plant.groundTruth();
   EXPECT_NEAR(t.base_position.z(), 0.375, 1e-12);
-  for (int leg = 0; leg < kNumLegs; ++leg) {
-    EXPECT_NEAR(plant.nominalCommand().joint_position[hipIndex(leg)], 0.0, 1e-12);
-    EXPECT_NEAR(plant.nominalCommand().joint_position[kneeIndex(leg)], 0.05, 1e-12);
-    EXPECT_NEAR(t.joint_position[kneeIndex(leg)], 0.05, 1e-12);
+  const PlantLayout& layout = plant.layout();
+  ASSERT_EQ(layout.numLegs(), 6);
+  ASSERT_EQ(layout.numJoints(), 12);
+  for (int leg = 0; leg < layout.numLegs(); ++leg) {
+    const std::vector<int>& joints = layout.legs[static_cast<std::size_t>(leg)].joints;
+    ASSERT_EQ(joints.size(), 2u);
+    EXPECT_FALSE(layout.joints[static_cast<std::size_t>(joints[0])].prismatic);
+    EXPECT_TRUE(layout.joints[static_cast<std::size_t>(joints[1])].prismatic);
+    EXPECT_NEAR(plant.nominalCommand().joint_position[joints[0]], 0.0, 1e-12);
+    EXPECT_NEAR(plant.nominalCommand().joint_position[joints[1]], 0.05, 1e-12);
+    EXPECT_NEAR(t.joint_position[joints[1]], 0.05, 1e-12);
     EXPECT_NEAR(plant.wheelRadius(leg), 0.075, 1e-12);
     // wheel centre = hip + 0.25 m down; wheel bottom touches the floor
     const Eigen::Vector3d expected =
@@ -54,8 +63,19 @@ TEST(Plant, NominalPostureAndConventions) {
   EXPECT_EQ(plant.hipPosition(1).y(), 0.0);
   EXPECT_LT(plant.hipPosition(2).y(), 0.0);
   EXPECT_LT(plant.hipPosition(3).x(), 0.0);
-  // Drive wheels are LF, RF, LR, RR.
-  EXPECT_STREQ(kLegNames[static_cast<std::size_t>(kDriveWheelLegs[1])], "RF");
+  // Legs in the description's contact-frame order, named from the frames; the joints per
+  // leg from the base down; drive wheels LF, RF, LR, RR.
+  std::string names;
+  for (const PlantLayout::Leg& leg : layout.legs) names += leg.name + " ";
+  EXPECT_EQ(names, "LF MF RF LR MR RR ");
+  std::string joints;
+  for (const PlantLayout::Joint& joint : layout.joints) joints += joint.name + " ";
+  EXPECT_EQ(joints,
+            "LF_hip LF_knee MF_hip MF_knee RF_hip RF_knee LR_hip LR_knee MR_hip MR_knee RR_hip "
+            "RR_knee ");
+  EXPECT_EQ(layout.drive_wheel_legs, (std::vector<int>{0, 2, 3, 5}));
+  EXPECT_EQ(layout.legs[1].drive_wheel, -1);
+  EXPECT_EQ(layout.legs[2].drive_wheel, 1);
 }
 
 TEST(Plant, ResetPlacesTheBase) {
@@ -125,9 +145,9 @@ TEST(Plant, SensorsMatchGroundTruthAtRest) {
   EXPECT_NEAR(s.imu_acceleration.z(), 9.81, 0.05);  // specific force: +g at rest
   EXPECT_NEAR(s.imu_angular_velocity.norm(), 0.0, 1e-3);
   EXPECT_NEAR(s.imu_orientation.angularDistance(t.base_orientation), 0.0, 1e-3);
-  for (int leg = 0; leg < kNumLegs; ++leg) {
+  for (int leg = 0; leg < plant.layout().numLegs(); ++leg) {
     EXPECT_TRUE(s.foot_contact[static_cast<std::size_t>(leg)])
-        << kLegNames[static_cast<std::size_t>(leg)];
+        << plant.layout().legs[static_cast<std::size_t>(leg)].name;
     EXPECT_NEAR(s.foot_normal_force[static_cast<std::size_t>(leg)],
                 t.foot_force[static_cast<std::size_t>(leg)].z(), 1.0);
   }
@@ -375,30 +395,40 @@ TEST(PlantComposition, TerrainNameClashNamesSceneAndRobot) {
 TEST(PlantErrors, WrongStructureNamesTheElement) {
   const std::string text = robotText();
   const std::vector<std::pair<std::string, std::string>> cases = {
-      {replaced(text, "<joint name=\"LF_knee\" class=\"knee\"/>",
-                "<joint name=\"LF_knee\" class=\"knee\" type=\"hinge\"/>"),
-       "joint 'LF_knee' must be a slide joint"},
+      {replaced(replaced(text, "<joint name=\"LF_knee\" class=\"knee\"/>",
+                         "<joint name=\"LF_knee\" class=\"knee\"/><joint name=\"LF_extra\" "
+                         "type=\"ball\"/>"),
+                "qpos=\"0 0 0.375 1 0 0 0  0 0.05 0 ",
+                "qpos=\"0 0 0.375 1 0 0 0  0 0.05 1 0 0 0 0 "),
+       "joint 'LF_extra' of leg 'LF_wheel' must be a hinge or a slide joint"},
       {replaced(text, "<joint name=\"RR_wheel\" class=\"drive\"/>",
                 "<joint name=\"RR_wheel\" class=\"drive\" type=\"slide\"/>"),
-       "joint 'RR_wheel' must be a hinge"},
+       "body 'RR_wheel' (a drive wheel) needs one hinge joint, its axle"},
       {replaced(text, "name=\"LF_hip_servo\" joint=\"LF_hip\"",
                 "name=\"LF_hip_servo\" joint=\"MF_hip\""),
-       "actuator 'LF_hip_servo' must drive joint 'LF_hip'"},
+       "joint 'LF_hip' has no actuator"},
+      {replaced(
+           replaced(text, "</actuator>", "<position name=\"extra\" joint=\"LF_hip\"/></actuator>"),
+           "0 0.05 0 0 0 0\"/>", "0 0.05 0 0 0 0 0\"/>"),
+       "joint 'LF_hip' has two actuators, 'LF_hip_servo' and 'extra'"},
       {replaced(text, "<jointpos name=\"LF_hip_pos\" joint=\"LF_hip\"/>",
                 "<jointvel name=\"LF_hip_pos\" joint=\"LF_hip\"/>"),
-       "sensor 'LF_hip_pos' must be a jointpos sensor of joint 'LF_hip'"},
+       "no sensor for jointpos of joint 'LF_hip'"},
       {replaced(text, "<jointvel name=\"RR_wheel_vel\" joint=\"RR_wheel\"/>",
                 "<jointvel name=\"RR_wheel_vel\" joint=\"LR_wheel\"/>"),
-       "sensor 'RR_wheel_vel' must be a jointvel sensor of joint 'RR_wheel'"},
+       "two sensors of the same kind for jointvel of drive wheel joint 'LR_wheel': "
+       "'LR_wheel_vel' and 'RR_wheel_vel'"},
       {replaced(text, "<touch name=\"MF_touch\" site=\"MF_touch\"/>",
                 "<accelerometer name=\"MF_touch\" site=\"MF_touch\"/>"),
-       "sensor 'MF_touch' must be a touch sensor"},
+       "no sensor for touch on a site of body 'MF_wheel'"},
       {replaced(text, "<gyro name=\"imu_gyro\" site=\"imu\"/>",
                 "<velocimeter name=\"imu_gyro\" site=\"imu\"/>"),
-       "sensor 'imu_gyro' must be a gyro"},
+       "no sensor for the IMU's gyro"},
       {replaced(text, "<geom name=\"LF_wheel_geom\" type=\"sphere\" size=\"0.075\"",
                 "<geom name=\"LF_wheel_geom\" type=\"box\" size=\"0.075 0.075 0.075\""),
-       "geom 'LF_wheel_geom' must be a sphere of body 'LF_wheel'"},
+       "body 'LF_wheel' (a wheel) needs a sphere geom, the wheel"},
+      {replaced(text, "<body name=\"LF_wheel\"", "<body name=\"LF_wheel_x\""),
+       "no body named 'LF_wheel' (a contact frame of the robot)"},
       {replaced(text, "<key name=\"nominal\"", "<key name=\"other\""),
        "no keyframe named 'nominal'"},
       {replaced(text, "timestep=\"0.001\"", "timestep=\"0.0000001\""),
@@ -485,7 +515,98 @@ TEST(PlantErrors, NotTheRobot) {
                 "<mujoco><option timestep=\"0.001\"/><worldbody><body "
                 "name=\"base\"><freejoint/><geom type=\"sphere\" size=\"0.1\"/>"
                 "</body></worldbody></mujoco>\n");
-  expectLoadError(path, "no joint named 'LF_hip'");
+  expectLoadError(path, "no body named 'LF_wheel'");
+}
+
+/// A wheeled quadruped of our own: four legs of three hinges (hip abduction about x, hip and
+/// knee flexion about y) and a driven wheel each, legs FL FR HL HR.
+std::string quadrupedMjcf() {
+  std::string legs, actuators, sensors, qpos, ctrl;
+  const char* names[4] = {"FL", "FR", "HL", "HR"};
+  const double xs[4] = {0.3, 0.3, -0.3, -0.3}, ys[4] = {0.15, -0.15, 0.15, -0.15};
+  for (int l = 0; l < 4; ++l) {
+    const std::string n = names[l];
+    char pos[64];
+    std::snprintf(pos, sizeof pos, "%g %g 0", xs[l], ys[l]);
+    legs += "<body name=\"" + n + "_hip\" pos=\"" + pos + "\"><joint name=\"" + n +
+            "_haa\" axis=\"1 0 0\" range=\"-0.5 0.5\" damping=\"20\"/>"
+            "<inertial pos=\"0 0 0\" mass=\"1\" diaginertia=\"0.002 0.002 0.002\"/>"
+            "<body name=\"" +
+            n + "_thigh\"><joint name=\"" + n +
+            "_hfe\" axis=\"0 1 0\" "
+            "range=\"-1.5 1.5\" damping=\"20\"/><inertial pos=\"0 0 -0.15\" mass=\"1.5\" "
+            "diaginertia=\"0.01 0.01 0.001\"/><geom type=\"capsule\" fromto=\"0 0 0 0 0 -0.3\" "
+            "size=\"0.03\"/><body name=\"" +
+            n + "_shank\" pos=\"0 0 -0.3\"><joint name=\"" + n +
+            "_kfe\" axis=\"0 1 0\" range=\"-2.5 0\" damping=\"20\"/><inertial pos=\"0 0 -0.15\" "
+            "mass=\"1\" diaginertia=\"0.008 0.008 0.001\"/><body name=\"" +
+            n + "_wheel\" pos=\"0 0 -0.3\"><joint name=\"" + n +
+            "_wheel\" axis=\"0 1 0\" "
+            "damping=\"0\" armature=\"0.01\"/><inertial pos=\"0 0 0\" mass=\"0.5\" "
+            "diaginertia=\"0.001 0.002 0.001\"/><geom type=\"sphere\" size=\"0.08\"/><site "
+            "name=\"" +
+            n + "_touch\" size=\"0.09\"/></body></body></body></body>";
+    for (const char* j : {"_haa", "_hfe", "_kfe"}) {
+      actuators += "<position joint=\"" + n + j + "\" kp=\"500\"/>";
+      sensors += "<jointpos joint=\"" + n + j + "\"/><jointvel joint=\"" + n + j + "\"/>";
+    }
+    actuators += "<velocity joint=\"" + n + "_wheel\" kv=\"5\" ctrlrange=\"-30 30\"/>";
+    sensors += "<jointpos joint=\"" + n + "_wheel\"/><jointvel joint=\"" + n +
+               "_wheel\"/><touch site=\"" + n + "_touch\"/>";
+    qpos += " 0 0 0 0";
+    ctrl += " 0 0 0 0";
+  }
+  return "<mujoco><compiler autolimits=\"true\"/><option timestep=\"0.001\"/><default><geom "
+         "contype=\"1\" conaffinity=\"0\" "
+         "group=\"1\"/></default><worldbody><body name=\"base\" pos=\"0 0 0.68\"><freejoint/>"
+         "<inertial pos=\"0 0 0\" mass=\"30\" diaginertia=\"0.3 0.8 1\"/><geom type=\"box\" "
+         "size=\"0.35 0.12 0.08\"/><site name=\"imu\"/>" +
+         legs + "</body></worldbody><actuator>" + actuators + "</actuator><sensor>" + sensors +
+         "<accelerometer site=\"imu\"/><gyro site=\"imu\"/><framequat objtype=\"site\" "
+         "objname=\"imu\"/></sensor><keyframe><key name=\"nominal\" qpos=\"0 0 0.68 1 0 0 0" +
+         qpos + "\" ctrl=\"" + ctrl + "\"/></keyframe></mujoco>";
+}
+
+// Any number of legs and joints per leg, wheels driven or not: the layout comes from the
+// MJCF and the contact frames, the logs' columns from the names.
+TEST(PlantLayout, AnyRobotFromItsMjcfAndContactFrames) {
+  PlantOptions options;
+  options.robot_file = "/not/read/quadruped.xml";
+  options.robot_xml = quadrupedMjcf();
+  options.contact_frames = {"FL_wheel", "FR_wheel", "HL_wheel", "HR_wheel"};
+  options.drive_wheels = {"FR_wheel", "FL_wheel", "HL_wheel", "HR_wheel"};
+  Plant plant(SceneConfig{}, options);
+  const PlantLayout& layout = plant.layout();
+  ASSERT_EQ(layout.numLegs(), 4);
+  ASSERT_EQ(layout.numJoints(), 12);
+  ASSERT_EQ(layout.numDriveWheels(), 4);
+  EXPECT_EQ(layout.legs[1].name, "FR");
+  EXPECT_EQ(layout.joints[3].name, "FR_haa");
+  EXPECT_EQ(layout.legs[3].joints, (std::vector<int>{9, 10, 11}));
+  EXPECT_EQ(plant.nominalCommand().joint_position.size(), 12);
+  EXPECT_EQ(plant.sensors().foot_contact.size(), 4u);
+  EXPECT_NEAR(plant.wheelRadius(2), 0.08, 1e-12);
+  EXPECT_NEAR(plant.hipPosition(3).x(), -0.3, 1e-12);
+  const std::string header = csvHeader(layout);
+  for (const char* column : {"q_HR_kfe[rad]", "cmd_FL_haa[rad]", "wheel_vel_HL[rad/s]",
+                             "contact_FR[0/1]", "foot_z_HR[m]"}) {
+    EXPECT_NE(header.find(column), std::string::npos) << column;
+  }
+  // It stands on its wheels, and rolls forward on them.
+  DriveController::Params p;
+  p.speed = 0.3;
+  p.start_time = 0.5;
+  DriveController drive(plant, p);
+  runScenario(plant, drive, 2.0);
+  const GroundTruth& t = plant.groundTruth();
+  EXPECT_GT(t.base_position.x(), 0.2);
+  EXPECT_NEAR(t.base_position.y(), 0.0, 0.02);
+  EXPECT_GT(t.base_position.z(), 0.5);
+  for (const bool contact : t.foot_contact) EXPECT_TRUE(contact);
+  // A command of another robot's size is refused, the previous one kept.
+  PlantCommand wrong = plant.nominalCommand();
+  wrong.wheel_velocity.resize(2);
+  EXPECT_THROW(plant.setCommand(wrong), std::invalid_argument);
 }
 
 TEST(PlantErrors, BadSceneParameter) {

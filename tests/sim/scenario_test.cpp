@@ -53,7 +53,8 @@ std::vector<std::string> filesIn(const std::string& dir) {
 
 // Every column name ends in its unit in brackets; the units are the right ones.
 TEST(CsvLog, EveryColumnHasItsUnit) {
-  const std::vector<std::string> columns = split(csvHeader());
+  const Plant plant{SceneConfig{}};
+  const std::vector<std::string> columns = split(csvHeader(plant.layout()));
   ASSERT_EQ(columns.size(), 1u + 3 + 4 + 3 + 3 + 12 + 12 + 4 + 4 + 6 + 6 + 6 + 1);
   // name[unit]: letters and '_', then one of the known units in brackets. (No <regex>: GCC 12
   // warns falsely inside libstdc++'s regex in the sanitizer builds, which are -Werror.)
@@ -90,13 +91,13 @@ TEST(CsvLog, AppearsOnlyWhenCommittedWithAsManyValuesAsColumns) {
   const std::string path = dir + "/log.csv";
   Plant plant(SceneConfig{});
   {
-    CsvLog log(path);
+    CsvLog log(path, plant.layout());
     log.write(plant.groundTruth(), plant.command());
     EXPECT_FALSE(fs::exists(path));  // only the temporary exists while writing
   }                                  // not committed: nothing is left, not even the temporary
   EXPECT_TRUE(filesIn(dir).empty());
   {
-    CsvLog log(path);
+    CsvLog log(path, plant.layout());
     StandController stand(plant.nominalCommand());
     runScenario(plant, stand, 0.05, &log, 10);
     log.commit();
@@ -105,10 +106,10 @@ TEST(CsvLog, AppearsOnlyWhenCommittedWithAsManyValuesAsColumns) {
   std::stringstream text(readAll(path));
   std::string line;
   std::getline(text, line);
-  EXPECT_EQ(line, csvHeader());
+  EXPECT_EQ(line, csvHeader(plant.layout()));
   int rows = 0;
   while (std::getline(text, line)) {
-    EXPECT_EQ(split(line).size(), split(csvHeader()).size()) << line;
+    EXPECT_EQ(split(line).size(), split(csvHeader(plant.layout())).size()) << line;
     ++rows;
   }
   EXPECT_EQ(rows, 6);  // t = 0 and every 10 ms up to 50 ms
@@ -146,7 +147,7 @@ TEST(CsvLog, FullDiskIsAnErrorAndLeavesNothing) {
   StandController stand(plant.nominalCommand());
   std::string error;
   try {
-    CsvLog log(path);
+    CsvLog log(path, plant.layout());
     runScenario(plant, stand, 2.0, &log, 1);  // ~1 MB of rows into 64 kB
     log.commit();
   } catch (const OutputError& e) {

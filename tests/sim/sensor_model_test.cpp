@@ -13,7 +13,8 @@
 namespace rollstep::sim {
 namespace {
 
-const std::string kConfig = std::string(ROLLSTEP_TEST_DATA_DIR) + "/../../config/sensors.yaml";
+const std::string kConfig =
+    std::string(ROLLSTEP_TEST_DATA_DIR) + "/../../robots/tachyon3/sensors.yaml";
 
 void expectError(const std::string& text, const std::string& fragment) {
   try {
@@ -55,10 +56,17 @@ TEST(SensorNoiseConfig, ErrorsNameFileLineAndKey) {
   EXPECT_THROW(loadSensorNoiseConfig("/nonexistent/sensors.yaml"), std::runtime_error);
 }
 
+/// The default robot's layout (Tachyon 3: six legs of a hinge and a slide, four drive wheels).
+const PlantLayout& defaultLayout() {
+  static const Plant plant{SceneConfig{}};
+  return plant.layout();
+}
+
 SensorReadings idealAtRest() {
   SensorReadings r;
+  r.resize(defaultLayout());
   r.imu_acceleration = Eigen::Vector3d(0, 0, 9.81);
-  for (int l = 0; l < kNumLegs; ++l) r.foot_normal_force[static_cast<std::size_t>(l)] = 100.0;
+  for (double& f : r.foot_normal_force) f = 100.0;
   r.joint_position.setConstant(0.123456789);
   r.wheel_velocity.setConstant(3.0);
   return r;
@@ -70,7 +78,7 @@ TEST(SensorModel, ImuNoiseHasTheConfiguredStatistics) {
   c.gyro_bias_random_walk = 0.0;
   c.accel_bias_random_walk = 0.0;
   const double dt = 1e-3;
-  SensorModel model(c, dt);
+  SensorModel model(c, dt, defaultLayout());
   const Eigen::Vector3d bg = model.gyroBias(), ba = model.accelBias();
   EXPECT_GT(bg.norm(), 0.0);
   const int n = 20000;
@@ -98,7 +106,7 @@ TEST(SensorModel, BiasRandomWalkGrowsLikeTheSquareRootOfTime) {
   double var = 0.0;
   for (int s = 0; s < runs; ++s) {
     c.seed = s;
-    SensorModel model(c, 1e-3);
+    SensorModel model(c, 1e-3, defaultLayout());
     for (int k = 0; k < steps; ++k) {
       SensorReadings r = idealAtRest();
       model.apply(r);
@@ -111,11 +119,11 @@ TEST(SensorModel, BiasRandomWalkGrowsLikeTheSquareRootOfTime) {
 
 TEST(SensorModel, EncodersAreQuantised) {
   SensorNoiseConfig c;
-  SensorModel model(c, 1e-3);
+  SensorModel model(c, 1e-3, defaultLayout());
   SensorReadings r = idealAtRest();
   model.apply(r);
-  for (int leg = 0; leg < kNumLegs; ++leg) {
-    const double hip = r.joint_position[hipIndex(leg)], knee = r.joint_position[kneeIndex(leg)];
+  for (const PlantLayout::Leg& leg : defaultLayout().legs) {
+    const double hip = r.joint_position[leg.joints[0]], knee = r.joint_position[leg.joints[1]];
     EXPECT_NEAR(std::remainder(hip, c.hip_resolution), 0.0, 1e-12);
     EXPECT_NEAR(std::remainder(knee, c.knee_resolution), 0.0, 1e-15);
     EXPECT_LE(std::abs(hip - 0.123456789), 0.5 * c.hip_resolution + 1e-15);
@@ -126,7 +134,7 @@ TEST(SensorModel, EncodersAreQuantised) {
 // Far from the threshold the flag is certain; at the threshold it chatters (about half on).
 TEST(SensorModel, ContactFlagsChatterNearTheThreshold) {
   SensorNoiseConfig c;
-  SensorModel model(c, 1e-3);
+  SensorModel model(c, 1e-3, defaultLayout());
   int on_far = 0, on_near = 0, flips = 0;
   bool last = false;
   const int n = 4000;
@@ -148,9 +156,9 @@ TEST(SensorModel, ContactFlagsChatterNearTheThreshold) {
 TEST(SensorModel, SeedReproducesAndApplyDoesNotAllocate) {
   SensorNoiseConfig c;
   c.seed = 7;
-  SensorModel a(c, 1e-3), b(c, 1e-3);
+  SensorModel a(c, 1e-3, defaultLayout()), b(c, 1e-3, defaultLayout());
   c.seed = 8;
-  SensorModel other(c, 1e-3);
+  SensorModel other(c, 1e-3, defaultLayout());
   SensorReadings ra = idealAtRest(), rb = idealAtRest(), ro = idealAtRest();
   {
     test::AllocationGuard guard;
@@ -166,11 +174,11 @@ TEST(SensorModel, SeedReproducesAndApplyDoesNotAllocate) {
   EXPECT_NE(ra.imu_angular_velocity, ro.imu_angular_velocity);
   a.reset();
   SensorReadings r1 = idealAtRest(), r2 = idealAtRest();
-  SensorModel fresh(a.config(), 1e-3);
+  SensorModel fresh(a.config(), 1e-3, defaultLayout());
   a.apply(r1);
   fresh.apply(r2);
   EXPECT_EQ(r1.imu_acceleration, r2.imu_acceleration);
-  EXPECT_THROW(SensorModel(c, 0.0), std::invalid_argument);
+  EXPECT_THROW(SensorModel(c, 0.0, defaultLayout()), std::invalid_argument);
 }
 
 // In the plant: the readings are the ideal ones corrupted (ground truth untouched), and the
@@ -195,8 +203,7 @@ TEST(SensorModel, PlantReadingsAreNoisyAndReproducible) {
       (n.imu_angular_velocity - i.imu_angular_velocity - noisy.sensorModel()->gyroBias()).norm(),
       0.0, 6.0 * std::sqrt(3.0) * 2.4e-4 / std::sqrt(1e-3));
   EXPECT_EQ(noisy.groundTruth().joint_position, ideal.groundTruth().joint_position);
-  for (int leg = 0; leg < kNumLegs; ++leg)
-    EXPECT_TRUE(n.foot_contact[static_cast<std::size_t>(leg)]);
+  for (const bool contact : n.foot_contact) EXPECT_TRUE(contact);
 }
 
 }  // namespace

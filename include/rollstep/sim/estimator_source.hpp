@@ -6,8 +6,8 @@
 //
 // Contacts of the robot description: a drive wheel is a DriveWheel, any other contact an
 // OmniWheel (Tachyon 3's middle legs carry passive omni wheels), both of the description's
-// contact_offset as radius. Contacts are matched to the plant's legs by the frame's name
-// prefix ("LF" -> "LF_wheel"), as the controller matches its wheels.
+// contact_offset as radius. Contacts are matched to the plant's legs by their contact frame
+// (PlantLayout::Leg::contact_frame), as the controller matches its wheels.
 // The map: with `ground_heights`, each contact's ground height is the scene's terrain height
 // under the contact's last estimated ground point (the scene stands in for the perception
 // layer's elevation map, which the robot would use).

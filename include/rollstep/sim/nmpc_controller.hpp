@@ -3,7 +3,7 @@
 // The state comes from a StateSource: the simulator's ground truth for now; the state
 // estimator plugs in through the same interface. Joints are matched between the
 // plant (its leg order) and the model (the URDF's order) by name, drive wheels by their
-// leg's name prefix of the contact frame ("LF" -> "LF_wheel").
+// contact frame.
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -41,15 +41,16 @@ class GroundTruthSource final : public StateSource {
   std::vector<int> joint_map_;
 };
 
-/// The plant joint index (hipIndex / kneeIndex) of each model joint, matched by name
-/// ("LF_hip", "LF_knee"); throws std::invalid_argument naming a model joint the plant lacks,
-/// `who` ("nmpc") first.
-std::vector<int> plantJointMap(const centroidal::CentroidalRobot& robot, const char* who);
-/// For each plant drive wheel (kDriveWheelLegs order), the index into `drive_wheels` (contact
-/// indices) of the contact whose frame starts with the leg's name and "_"; throws
+/// The plant joint index of each model joint, matched by name; throws std::invalid_argument
+/// naming a model joint the plant lacks, `who` ("nmpc") first.
+std::vector<int> plantJointMap(const centroidal::CentroidalRobot& robot, const PlantLayout& layout,
+                               const char* who);
+/// For each plant drive wheel (PlantLayout::drive_wheel_legs order), the index into
+/// `drive_wheels` (contact indices) of the contact with the wheel's contact frame; throws
 /// std::invalid_argument when a plant wheel has none.
 std::vector<int> plantWheelMap(const centroidal::CentroidalRobot& robot,
-                               const std::vector<int>& drive_wheels, const char* who);
+                               const std::vector<int>& drive_wheels, const PlantLayout& layout,
+                               const char* who);
 
 /// Which state the pipeline runs on: the simulator's ground truth, or the state estimator
 /// (estimator_source.hpp) on the plant's sensors (give the plant a sensor noise model,
@@ -131,7 +132,7 @@ class NmpcController final : public Controller {
 
   control::ControlPipeline& pipeline() { return *pipeline_; }
   const control::ControlPipeline& pipeline() const { return *pipeline_; }
-  /// Plant joint index (hipIndex / kneeIndex) of each model joint, in the model's order.
+  /// Plant joint index of each model joint, in the model's order.
   const std::vector<int>& jointMap() const { return joint_map_; }
   /// The state estimator when the state source is Inekf, else null.
   const EstimatorSource* estimator() const { return estimator_; }

@@ -1,16 +1,21 @@
 #pragma once
-// The MuJoCo plant: the Tachyon 3 MJCF (robots/tachyon3/tachyon3.xml) in a scene,
-// stepped at the control rate (1 kHz), driven by hip/knee position targets and
-// drive-wheel velocity targets, read through its sensors and through ground truth.
+// The MuJoCo plant: a robot's MJCF (robots/<name>/<name>.xml) in a scene, stepped at the
+// control rate (1 kHz), driven by joint position targets and drive-wheel velocity targets,
+// read through its sensors and through ground truth.
 //
-// Conventions used by the whole project:
-//  - Legs in the URDF order: LF, MF, RF, LR, MR, RR (kLegNames, leg index 0..5).
-//  - Joint vectors (12) in URDF depth-first order, per leg:
-//      LF_hip, LF_knee, MF_hip, MF_knee, RF_hip, RF_knee, LR_hip, LR_knee,
-//      MR_hip, MR_knee, RR_hip, RR_knee.
-//    Hips in rad (positive about base +y), knees in m (positive = leg extends down).
-//  - Drive wheels (4) in the order LF, RF, LR, RR (kDriveWheelLegs); wheel angles in
-//    rad about the axle (+y of the shank), positive = rolls the robot forward (+x).
+// The robot's layout (PlantLayout) comes from the MJCF and the robot description's contact
+// frames, never from names in the code:
+//  - Legs in the order of the description's contact_frames; each contact frame is the MJCF
+//    body of the leg's wheel. A leg's name is its contact frame's without a trailing
+//    "_wheel" (LF_wheel -> LF).
+//  - Joint vectors: per leg, the hinge and slide joints from the base down to the wheel
+//    body (not the wheel's own joint), in the tree's order; hinges in rad, slides in m.
+//  - Drive wheels: the legs whose contact frame is in the description's drive_wheels, in
+//    leg order; each wheel body has one hinge (the axle), angles in rad, positive = rolls
+//    the robot forward (+x).
+//  - Actuators and sensors are found by what they act on: one actuator per joint and drive
+//    wheel, a jointpos and a jointvel sensor of each, a touch sensor on a site of each wheel
+//    body, one accelerometer, one gyro and one framequat sensor (the IMU).
 //  - Quaternions are Eigen::Quaterniond, rotating body-frame vectors into the world.
 //
 // Threading: a Plant is not thread-safe; one thread steps it.
@@ -18,7 +23,6 @@
 // groundTruth() and raycast() do not allocate.
 #include <Eigen/Core>
 #include <Eigen/Geometry>
-#include <array>
 #include <cstddef>
 #include <memory>
 #include <optional>
@@ -34,19 +38,42 @@ struct mjData_;
 
 namespace rollstep::sim {
 
-inline constexpr int kNumLegs = 6;
-inline constexpr int kNumJoints = 12;
-inline constexpr int kNumDriveWheels = 4;
-inline constexpr std::array<const char*, kNumLegs> kLegNames{"LF", "MF", "RF", "LR", "MR", "RR"};
-/// Leg index of each drive wheel (LF, RF, LR, RR).
-inline constexpr std::array<int, kNumDriveWheels> kDriveWheelLegs{0, 2, 3, 5};
-/// Index of a leg's hip / knee in a joint vector.
-constexpr int hipIndex(int leg) { return 2 * leg; }
-constexpr int kneeIndex(int leg) { return 2 * leg + 1; }
+using JointVector = Eigen::VectorXd;  ///< one entry per plant joint (PlantLayout::joints)
+using WheelVector = Eigen::VectorXd;  ///< one entry per drive wheel
+using FootFlags = std::vector<bool>;  ///< one entry per leg
 
-using JointVector = Eigen::Matrix<double, kNumJoints, 1>;
-using WheelVector = Eigen::Matrix<double, kNumDriveWheels, 1>;
-using FootFlags = std::array<bool, kNumLegs>;
+/// The legs, joints and drive wheels of the plant's robot, in the plant's order.
+struct PlantLayout {
+  struct Joint {
+    std::string name;        ///< the MJCF (and URDF) joint name
+    bool prismatic = false;  ///< slide joint [m]; else hinge [rad]
+    int leg = -1;
+  };
+  struct Leg {
+    std::string name;           ///< for logs: the contact frame without "_wheel"
+    std::string contact_frame;  ///< the wheel body
+    std::vector<int> joints;    ///< plant joint indices, base to wheel
+    int drive_wheel = -1;       ///< index among the drive wheels, -1: not driven
+  };
+  std::vector<Joint> joints;
+  std::vector<Leg> legs;
+  std::vector<int> drive_wheel_legs;  ///< leg of each drive wheel
+
+  int numJoints() const { return static_cast<int>(joints.size()); }
+  int numLegs() const { return static_cast<int>(legs.size()); }
+  int numDriveWheels() const { return static_cast<int>(drive_wheel_legs.size()); }
+  /// Plant index of the joint named `name`, -1 if none.
+  int jointIndex(const std::string& name) const;
+  /// Leg whose contact frame is `frame`, -1 if none.
+  int legOfContactFrame(const std::string& frame) const;
+  /// "m" for a prismatic joint, "rad" for a revolute one.
+  const char* jointUnit(int joint) const {
+    return joints[static_cast<std::size_t>(joint)].prismatic ? "m" : "rad";
+  }
+};
+
+/// Leg name of a contact frame: the frame without a trailing "_wheel".
+std::string legNameOfContactFrame(const std::string& frame);
 
 /// Error loading or running the plant; the message names the file and the problem.
 class SimError : public std::runtime_error {
@@ -54,20 +81,20 @@ class SimError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-/// Targets of the actuators. Values outside the actuator ranges are clamped by MuJoCo
-/// (hips/knees to the joint range, wheels to +-25 rad/s).
+/// Targets of the actuators (sized by the plant: copy Plant::nominalCommand()). Values
+/// outside the actuator ranges are clamped by MuJoCo.
 struct PlantCommand {
-  JointVector joint_position = JointVector::Zero();  ///< hip [rad] / knee [m] targets
-  WheelVector wheel_velocity = WheelVector::Zero();  ///< drive wheels [rad/s]
+  JointVector joint_position;  ///< joint targets [rad or m]
+  WheelVector wheel_velocity;  ///< drive wheels [rad/s]
 };
 
 /// What the robot's own sensors report. Sampled at the start of the last physics step
 /// (one physics step, 1 ms, old), like a sampled sensor.
 struct SensorReadings {
-  JointVector joint_position = JointVector::Zero();  ///< encoders
-  JointVector joint_velocity = JointVector::Zero();
-  WheelVector wheel_position = WheelVector::Zero();
-  WheelVector wheel_velocity = WheelVector::Zero();
+  JointVector joint_position;  ///< encoders
+  JointVector joint_velocity;
+  WheelVector wheel_position;
+  WheelVector wheel_velocity;
   /// IMU at the base centre, IMU (= base) frame: specific force [m/s^2] (reads +g up
   /// when at rest) and angular velocity [rad/s]; orientation as a fused IMU would give.
   Eigen::Vector3d imu_acceleration = Eigen::Vector3d::Zero();
@@ -75,8 +102,11 @@ struct SensorReadings {
   Eigen::Quaterniond imu_orientation = Eigen::Quaterniond::Identity();
   /// Foot contact sensors: summed normal force [N] at each wheel and the flag
   /// force > PlantOptions::contact_threshold.
-  std::array<double, kNumLegs> foot_normal_force{};
-  FootFlags foot_contact{};
+  std::vector<double> foot_normal_force;
+  FootFlags foot_contact;
+
+  /// Sized for `layout`, all zero.
+  void resize(const PlantLayout& layout);
 };
 
 /// The simulator's exact state, for tests, logs and estimator-free controllers.
@@ -86,26 +116,34 @@ struct GroundTruth {
   Eigen::Quaterniond base_orientation = Eigen::Quaterniond::Identity();  ///< base->world
   Eigen::Vector3d base_linear_velocity = Eigen::Vector3d::Zero();        ///< WORLD frame
   Eigen::Vector3d base_angular_velocity = Eigen::Vector3d::Zero();       ///< LOCAL (base)
-  JointVector joint_position = JointVector::Zero();
-  JointVector joint_velocity = JointVector::Zero();
-  WheelVector wheel_position = WheelVector::Zero();
-  WheelVector wheel_velocity = WheelVector::Zero();
-  std::array<Eigen::Vector3d, kNumLegs> wheel_center{};  ///< world [m]
+  JointVector joint_position;
+  JointVector joint_velocity;
+  WheelVector wheel_position;
+  WheelVector wheel_velocity;
+  std::vector<Eigen::Vector3d> wheel_center;  ///< per leg, world [m]
   /// Per wheel: in contact with anything, and the total contact force the
   /// environment exerts on the wheel, world frame [N] (sum over its contacts).
-  FootFlags foot_contact{};
-  std::array<Eigen::Vector3d, kNumLegs> foot_force{};
+  FootFlags foot_contact;
+  std::vector<Eigen::Vector3d> foot_force;
   /// A robot geom other than a wheel (base, hip, shank) touches the terrain now.
   bool body_contact = false;
   /// Control periods since reset() that ended with body_contact (the experiments' pass
   /// criterion "the body never touched the terrain" reads it from the log: a touch between
   /// two log rows still shows as an increase).
   long body_contact_periods = 0;
+
+  /// Sized for `layout`, all zero.
+  void resize(const PlantLayout& layout);
 };
 
 struct PlantOptions {
   /// Robot MJCF; empty = defaultRobotFile().
   std::string robot_file;
+  /// The robot description's contact_frames (the wheel bodies of the MJCF, one per leg) and
+  /// drive_wheels (centroidal.yaml); empty contact_frames = those of the default robot's
+  /// description (defaultRobotDescriptionFile()).
+  std::vector<std::string> contact_frames;
+  std::vector<std::string> drive_wheels;
   /// The text of the robot MJCF, if not empty: used instead of reading robot_file, which
   /// then only names it in messages and gives the directory of its relative paths.
   std::string robot_xml;
@@ -119,9 +157,12 @@ struct PlantOptions {
   std::optional<SensorNoiseConfig> sensor_noise;
 };
 
-/// The Tachyon 3 MJCF shipped with the project: $ROLLSTEP_ROBOTS_DIR/tachyon3/tachyon3.xml
-/// if that environment variable is set, else the source tree's robots/ folder.
+/// The robots folder: $ROLLSTEP_ROBOTS_DIR if that environment variable is set, else the
+/// source tree's robots/ folder.
+std::string robotsDirectory();
+/// The default robot's MJCF and description (robotsDirectory()/tachyon3/).
 std::string defaultRobotFile();
+std::string defaultRobotDescriptionFile();
 
 class Plant {
  public:
@@ -173,18 +214,20 @@ class Plant {
 
   /// Nominal posture (hips/knees) and zero wheel speeds, from the MJCF keyframe.
   const PlantCommand& nominalCommand() const { return nominal_command_; }
+  /// The robot's legs, joints and drive wheels.
+  const PlantLayout& layout() const { return layout_; }
   /// Radius [m] of a leg's wheel geom.
   double wheelRadius(int leg) const { return wheel_radius_[static_cast<std::size_t>(leg)]; }
   /// Largest wheel speed [rad/s] every drive wheel servo can be commanded (the smallest
   /// bound of their ctrlrange; infinity if unlimited). Faster commands are clamped.
   double wheelSpeedLimit() const { return wheel_speed_limit_; }
-  /// Hip joint origin of a leg in the base frame [m].
+  /// Origin of a leg's first joint in the base frame at the nominal posture [m].
   const Eigen::Vector3d& hipPosition(int leg) const {
     return hip_position_[static_cast<std::size_t>(leg)];
   }
   double totalMass() const { return total_mass_; }
   /// Largest world x [m] of the robot's geoms at the nominal posture with the base at
-  /// x = 0 (the front of its wheels for Tachyon 3).
+  /// x = 0.
   double frontExtent() const { return front_extent_; }
   /// Clearance [m] between the robot's front and the first block, at the least.
   static constexpr double kStartClearance = 0.05;
@@ -227,14 +270,17 @@ class Plant {
   double wheel_speed_limit_ = 0.0;
   int key_nominal_ = -1;
 
+  PlantLayout layout_;
+  std::vector<std::string> contact_frames_, drive_wheels_;
   // Indices resolved once at load.
-  std::array<int, kNumJoints> joint_qpos_{}, joint_qvel_{}, joint_ctrl_{};
-  std::array<int, kNumJoints> sensor_jpos_{}, sensor_jvel_{};
-  std::array<int, kNumDriveWheels> wheel_qpos_{}, wheel_qvel_{}, wheel_ctrl_{};
-  std::array<int, kNumDriveWheels> sensor_wpos_{}, sensor_wvel_{};
-  std::array<int, kNumLegs> wheel_body_{}, wheel_geom_{}, sensor_touch_{};
-  std::array<double, kNumLegs> wheel_radius_{};
-  std::array<Eigen::Vector3d, kNumLegs> hip_position_{};
+  std::vector<int> joint_qpos_, joint_qvel_, joint_ctrl_;
+  std::vector<int> sensor_jpos_, sensor_jvel_;
+  std::vector<int> wheel_qpos_, wheel_qvel_, wheel_ctrl_;
+  std::vector<int> sensor_wpos_, sensor_wvel_;
+  std::vector<int> wheel_body_, wheel_geom_, sensor_touch_;
+  std::vector<double> wheel_radius_;
+  std::vector<Eigen::Vector3d> hip_position_;
+  int base_body_ = -1;
   int sensor_acc_ = -1, sensor_gyro_ = -1, sensor_quat_ = -1;
   int base_qpos_ = 0, base_qvel_ = 0;
   std::vector<int> geom_leg_;  // geom id -> leg index whose wheel it is, or -1

@@ -12,20 +12,21 @@ namespace rollstep::sim {
 /// CSV log of a run, one row per logged control period. Every column name carries its
 /// unit in brackets (csvHeader()):
 ///   time[s], base_x/y/z[m] (world), base_qw/qx/qy/qz[-] (base->world), base_vx/vy/vz[m/s]
-///   (world), base_wx/wy/wz[rad/s] (base frame), q_<joint> (12, URDF order: hips [rad],
-///   knees [m]), cmd_<joint> (12, same units), wheel_vel_<leg>[rad/s] and
-///   cmd_wheel_<leg>[rad/s] (4 drive wheels), contact_<leg>[0/1] (ground truth) and
-///   fz_<leg>[N] (world vertical force) for the 6 legs, foot_z_<leg>[m] (wheel centre height,
-///   world) for the 6 legs, body_contact_periods[-] (GroundTruth::body_contact_periods).
+///   (world), base_wx/wy/wz[rad/s] (base frame), q_<joint> (every plant joint, plant order:
+///   revolute [rad], prismatic [m]), cmd_<joint> (same), wheel_vel_<leg>[rad/s] and
+///   cmd_wheel_<leg>[rad/s] (the drive wheels), contact_<leg>[0/1] (ground truth) and
+///   fz_<leg>[N] (world vertical force) for every leg, foot_z_<leg>[m] (wheel centre height,
+///   world) for every leg, body_contact_periods[-] (GroundTruth::body_contact_periods).
+///   Joint and leg names are the plant layout's (PlantLayout).
 /// The file appears complete or not at all: rows go to a temporary file beside it
 /// (AtomicFileWriter), every write is checked, and commit() renames it to `path`.
 /// Without commit() (an exception left the run) the temporary is removed.
 class CsvLog {
  public:
-  /// Creates the temporary file and writes the header (csvHeader() then `extra_columns`, a
-  /// controller's Controller::logColumns()); throws OutputError naming the path and the
-  /// reason on failure.
-  explicit CsvLog(const std::string& path, const std::string& extra_columns = "");
+  /// Creates the temporary file and writes the header (csvHeader(layout) then
+  /// `extra_columns`, a controller's Controller::logColumns()); throws OutputError naming the
+  /// path and the reason on failure.
+  CsvLog(const std::string& path, const PlantLayout& layout, const std::string& extra_columns = "");
   CsvLog(const CsvLog&) = delete;
   CsvLog& operator=(const CsvLog&) = delete;
   /// Appends a row (`extra`: the controller's Controller::logValues()); throws OutputError
@@ -40,7 +41,7 @@ class CsvLog {
 };
 
 /// The header line of CsvLog (column names with units, comma-separated, no newline).
-std::string csvHeader();
+std::string csvHeader(const PlantLayout& layout);
 
 struct RunSummary {
   double sim_time = 0.0;   ///< [s]
@@ -54,7 +55,7 @@ struct RunSummary {
   double min_base_height = 0.0;  ///< [m] world z of the base centre
   double max_base_height = 0.0;
   double mean_forward_speed = 0.0;         ///< [m/s] mean base-frame x velocity
-  double all_feet_contact_fraction = 0.0;  ///< share of steps with six wheels in contact
+  double all_feet_contact_fraction = 0.0;  ///< share of steps with every wheel in contact
   int warnings = 0;                        ///< MuJoCo warnings during the run
 };
 

@@ -6,22 +6,25 @@
 //    (per-sample standard deviation density / sqrt(dt)) plus a bias that starts at a
 //    random value (initial_bias standard deviation per axis) and walks (random walk
 //    density [unit/s/sqrt(Hz)], per-sample increment rw * sqrt(dt)).
-//  - Joint encoders: quantised to a resolution (hips [rad], knees [m]) after white noise;
+//  - Joint encoders: quantised to a resolution (revolute joints: hip_resolution [rad],
+//    prismatic joints: knee_resolution [m]) after white noise;
 //    joint velocities (the drives' own estimate) with white noise.
 //  - Drive-wheel encoders: angle quantised to a resolution, speed with white noise.
 //  - Contact flags: the summed normal force plus white noise compared with a threshold:
 //    near the threshold the flag chatters, as a force sensor's does.
 //  - The AHRS orientation of SensorReadings is left as the plant gives it (the state
 //    estimator does not read it).
-// Every number lives in a YAML file (config/sensors.yaml documents each with its
+// Every number lives in a YAML file (robots/tachyon3/sensors.yaml documents each with its
 // default); the seed makes runs reproducible. Allocation-free after construction.
 #include <Eigen/Core>
 #include <random>
 #include <string>
+#include <vector>
 
 namespace rollstep::sim {
 
 struct SensorReadings;  // plant.hpp
+struct PlantLayout;     // plant.hpp
 
 struct SensorNoiseConfig {
   double seed = 1.0;  ///< integer seed of the noise generator (YAML `seed`)
@@ -33,8 +36,9 @@ struct SensorNoiseConfig {
   double accel_bias_random_walk = 3.0e-4;  ///< [m/s^3/sqrt(Hz)]
   double accel_initial_bias = 0.05;        ///< [m/s^2] std dev per axis
   // encoders:
-  double hip_resolution = 2.0 * 3.14159265358979323846 / 65536.0;  ///< [rad] 16-bit turn
-  double knee_resolution = 1.0e-5;                                 ///< [m]
+  /// [rad] revolute joints (16-bit turn)
+  double hip_resolution = 2.0 * 3.14159265358979323846 / 65536.0;
+  double knee_resolution = 1.0e-5;     ///< [m] prismatic joints
   double joint_position_noise = 0.0;   ///< [rad or m] std dev before quantisation
   double joint_velocity_noise = 0.01;  ///< [rad/s or m/s] std dev
   double wheel_resolution = 2.0 * 3.14159265358979323846 / 4096.0;  ///< [rad]
@@ -56,8 +60,9 @@ SensorNoiseConfig parseSensorNoiseConfig(const std::string& yaml_text, const std
 
 class SensorModel {
  public:
-  /// Throws std::invalid_argument if dt is not positive and finite.
-  SensorModel(const SensorNoiseConfig& config, double dt);
+  /// For the plant's `layout` (its joints' kinds, legs and drive wheels). Throws
+  /// std::invalid_argument if dt is not positive and finite.
+  SensorModel(const SensorNoiseConfig& config, double dt, const PlantLayout& layout);
   /// Back to the seed's first draw (new initial biases drawn from it).
   void reset();
   /// Corrupts ideal readings in place (one sample). Never allocates or throws.
@@ -72,6 +77,9 @@ class SensorModel {
   double gauss() noexcept { return normal_(rng_); }
   SensorNoiseConfig config_;
   double dt_;
+  std::vector<std::vector<int>> leg_joints_;  // plant joint indices of each leg
+  std::vector<double> joint_resolution_;      // per plant joint
+  int num_wheels_ = 0;
   std::mt19937_64 rng_;
   std::normal_distribution<double> normal_;
   Eigen::Vector3d gyro_bias_ = Eigen::Vector3d::Zero();

@@ -1,10 +1,11 @@
 #pragma once
 // Joint-hold and driving controllers for the plant demo, the plant tests and the CLI.
-// They use no model and no estimator: hips and knees hold a posture, the drive wheels
-// get velocity targets. Real controllers (MPC, CBF-QP) live in the control layer.
+// They use no model and no estimator: the joints hold a posture, the drive wheels get
+// velocity targets. Real controllers (MPC, CBF-QP) live in the control layer.
 #include <algorithm>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "rollstep/sim/plant.hpp"
 
@@ -43,9 +44,10 @@ class StandController final : public Controller {
   PlantCommand posture_;
 };
 
-/// Holds a joint posture and rolls on the drive wheels: left wheels (LF, LR) at surface
-/// speed v - turn_speed, right wheels (RF, RR) at v + turn_speed [m/s], where v ramps
-/// from 0 to `speed` at `acceleration` from `start_time`.
+/// Holds the plant's nominal posture and rolls on the drive wheels: left wheels (first joint
+/// at base y > 0) at surface speed v - turn_speed, right wheels (y < 0) at v + turn_speed,
+/// wheels on the centre line at v [m/s], where v ramps from 0 to `speed` at `acceleration`
+/// from `start_time`.
 class DriveController final : public Controller {
  public:
   struct Params {
@@ -54,8 +56,14 @@ class DriveController final : public Controller {
     double acceleration = 1.0;  ///< [m/s^2] ramp of both speeds
     double start_time = 0.0;    ///< [s] wheels at rest before this time
   };
-  DriveController(const PlantCommand& posture, double wheel_radius, const Params& params)
-      : posture_(posture), radius_(wheel_radius), params_(params) {}
+  DriveController(const Plant& plant, const Params& params)
+      : posture_(plant.nominalCommand()), params_(params) {
+    for (const int leg : plant.layout().drive_wheel_legs) {
+      radius_.push_back(plant.wheelRadius(leg));
+      const double y = plant.hipPosition(leg).y();
+      side_.push_back(y > 0.0 ? -1.0 : (y < 0.0 ? 1.0 : 0.0));
+    }
+  }
 
   void compute(double t, const SensorReadings&, PlantCommand& command) override {
     command = posture_;
@@ -70,15 +78,17 @@ class DriveController final : public Controller {
     };
     const double v = ramp(params_.speed);
     const double turn = ramp(params_.turn_speed);
-    const double left = (v - turn) / radius_;
-    const double right = (v + turn) / radius_;
-    command.wheel_velocity << left, right, left, right;  // LF, RF, LR, RR
+    for (std::size_t w = 0; w < radius_.size(); ++w) {
+      const double surface = side_[w] < 0.0 ? v - turn : (side_[w] > 0.0 ? v + turn : v);
+      command.wheel_velocity[static_cast<Eigen::Index>(w)] = surface / radius_[w];
+    }
   }
   std::string_view name() const override { return "drive"; }
 
  private:
   PlantCommand posture_;
-  double radius_;
+  std::vector<double> radius_;  // per drive wheel [m]
+  std::vector<double> side_;    // per drive wheel: -1 left, +1 right, 0 centre
   Params params_;
 };
 
