@@ -22,13 +22,13 @@ struct EnumName {
   const char* name;
 };
 
-/// The name of `value`, "unknown" for a value outside the table.
+/// The name of `value`, `fallback` for a value outside the table.
 template <typename E>
-constexpr const char* enumName(E value) {
+constexpr const char* enumName(E value, const char* fallback = "unknown") {
   for (const EnumName<E>& entry : enumNames(E{})) {
     if (entry.value == value) return entry.name;
   }
-  return "unknown";
+  return fallback;
 }
 
 /// The value named `name` (exact spelling), none for another text.
