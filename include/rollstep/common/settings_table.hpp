@@ -300,7 +300,8 @@ class Table {
   }
 
   /// A key read and written by functions of its own: `read(value, s, reader, path)`
-  /// (null values included), `write(s, indent)` as Field::write.
+  /// (null values included when is_section), `write(s, indent)` as Field::write ("": the
+  /// key is not written).
   Table& custom(const char* key, decltype(Field<S>::read) read, decltype(Field<S>::write) write,
                 bool is_section = false) {
     Field<S> f = base(key, "", Range{});
@@ -355,7 +356,7 @@ class Table {
     }
     const std::string path = prefix + key;
     reader.note(path, key_node, value);
-    if (value.isNull() && !f->is_section && !isCustomNullable(*f)) {
+    if (value.isNull() && !f->is_section) {
       reader.fail(value, path + ": no value");
     }
     f->read(value, s, reader, path);
@@ -365,7 +366,9 @@ class Table {
   std::string write(const S& s, const std::string& indent = "") const {
     std::string out;
     for (const Field<S>& f : fields_) {
-      out += indent + f.key + ":" + f.write(s, indent);
+      const std::string value = f.write(s, indent);
+      if (value.empty()) continue;  // a custom key that is only read
+      out += indent + f.key + ":" + value;
       if (out.back() != '\n') out += '\n';
     }
     return out;
@@ -389,7 +392,9 @@ class Table {
         out += indent + f.key + ":\n" + f.document(indent);
         continue;
       }
-      std::string line = indent + f.key + ":" + f.write(defaults, indent);
+      const std::string value = f.write(defaults, indent);
+      if (value.empty()) continue;
+      std::string line = indent + f.key + ":" + value;
       if (f.is_section) {
         out += line;
         if (out.back() != '\n') out += '\n';
@@ -422,8 +427,6 @@ class Table {
   static std::string knownIn(const std::string& prefix) {
     return prefix.empty() ? "" : " in " + sectionName(prefix);
   }
-  // Custom fields read null values themselves (a section another layer owns).
-  static bool isCustomNullable(const Field<S>& f) { return f.is_section; }
 
   std::vector<Field<S>> fields_;
 };
