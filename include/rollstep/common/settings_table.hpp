@@ -299,6 +299,22 @@ class Table {
     return add(std::move(f));
   }
 
+  /// A nested mapping `key:` of members of S itself, read and written by `table` (a file
+  /// that groups the keys of a flat struct).
+  Table& group(const char* key, Table<S> table) {
+    Field<S> f = base(key, "", Range{});
+    f.is_section = true;
+    f.read = [table](const yaml::Node& v, S& s, Reader& r, const std::string& path) {
+      table.read(v, s, r, path + ".");
+    };
+    f.write = [table](const S& s, const std::string& indent) {
+      return "\n" + table.write(s, indent + "  ");
+    };
+    f.check = [table](const S& s, const std::string& path) { return table.check(s, path + "."); };
+    f.document = [table](const std::string& indent) { return table.documented(indent + "  "); };
+    return add(std::move(f));
+  }
+
   /// A key read and written by functions of its own: `read(value, s, reader, path)`
   /// (null values included when is_section), `write(s, indent)` as Field::write ("": the
   /// key is not written).
