@@ -13,33 +13,9 @@
 
 namespace rollstep::estimation {
 
-const char* toString(ContactKind kind) {
-  switch (kind) {
-    case ContactKind::Point:
-      return "point";
-    case ContactKind::DriveWheel:
-      return "drive_wheel";
-    case ContactKind::OmniWheel:
-      return "omni_wheel";
-  }
-  return "unknown";
-}
+const char* toString(ContactKind kind) { return enumName(kind); }
 
-const char* toString(EstimatorEvent event) {
-  switch (event) {
-    case EstimatorEvent::ImuRejected:
-      return "imu_rejected";
-    case EstimatorEvent::EncoderRejected:
-      return "encoder_rejected";
-    case EstimatorEvent::TimeRejected:
-      return "time_rejected";
-    case EstimatorEvent::ContactRejected:
-      return "contact_rejected";
-    case EstimatorEvent::GateRecovered:
-      return "gate_recovered";
-  }
-  return "unknown";
-}
+const char* toString(EstimatorEvent event) { return enumName(event); }
 
 namespace {
 
