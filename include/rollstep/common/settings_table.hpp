@@ -166,10 +166,9 @@ class Table {
     return add(std::move(f));
   }
 
-  /// An integer in `range` (a count: unit "" unless it has one).
+  /// An integer in `range` (any int by default; a count: unit "" unless it has one).
   Table& field(const char* key, int S::*member, const char* unit = "",
-               Range range = Range::closed(std::numeric_limits<int>::min(),
-                                           std::numeric_limits<int>::max())) {
+               Range range = Range::anyFinite()) {
     Field<S> f = base(key, unit, range);
     f.read = [member, range](const yaml::Node& v, S& s, Reader& r, const std::string& path) {
       s.*member = detail::readInt(v, range, r, path);
