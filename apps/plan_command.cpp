@@ -44,30 +44,6 @@ struct PlanOptions {
   std::string out = "out/plan";
 };
 
-const char* statusName(solver::SolverStatus s) {
-  switch (s) {
-    case solver::SolverStatus::Converged:
-      return "converged";
-    case solver::SolverStatus::Acceptable:
-      return "acceptable";
-    case solver::SolverStatus::IterationDone:
-      return "iteration done";
-    case solver::SolverStatus::MaxIterations:
-      return "iteration limit";
-    case solver::SolverStatus::LineSearchFailed:
-      return "line search failed";
-    case solver::SolverStatus::RankDeficientEqualities:
-      return "rank-deficient equalities";
-    case solver::SolverStatus::Diverged:
-      return "diverged";
-    case solver::SolverStatus::InvalidInput:
-      return "invalid input";
-    case solver::SolverStatus::Infeasible:
-      return "infeasible";
-  }
-  return "?";
-}
-
 std::string trajectoryCsv(const centroidal::CentroidalOcp& ocp, const solver::Solver& s) {
   const centroidal::CentroidalRobot& robot = ocp.robot();
   const model::Model& model = robot.model();
@@ -170,7 +146,7 @@ int runPlan(const PlanOptions& o) {
       "  largest violation per constraint group (at node):\n",
       scene.name.c_str(), o.gait.c_str(), numberText(o.vx).c_str(), numberText(o.vy).c_str(),
       numberText(o.yaw_rate).c_str(), numberText(o.duration).c_str(), settings.horizon,
-      numberText(settings.dt).c_str(), robot_file.c_str(), robot.urdf.c_str(), statusName(status),
+      numberText(settings.dt).c_str(), robot_file.c_str(), robot.urdf.c_str(), solver::toString(status),
       solver.iterations(), solve_s, solver.stats().empty() ? 0.0 : solver.stats().back().kkt_error,
       settings.solver.kkt_tolerance, solver.cost(),
       *solver.message() != '\0' ? format("  message    %s\n", solver.message()).c_str() : "");

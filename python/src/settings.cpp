@@ -98,8 +98,12 @@ void bindSettings(py::module_& m) {
       .def("to_dict",
            [](const solver::SolverSettings& s) { return yamlToPython(solver::toYaml(s)); })
       .def("update", [](solver::SolverSettings& s, const std::string& text) {
-        const yaml::Document doc = yaml::Document::parse(text);
-        s = solver::parseSolverSettings(doc.root(), kSolverSource, s);
+        const std::string head = std::string("solver settings ") + kSolverSource + ": ";
+        const yaml::Document doc = yaml::parseDocument(text, head + "YAML error: ");
+        solver::SolverSettings updated = s;  // s unchanged when the text is refused
+        settings::Reader reader(head);
+        solver::readSolverSettings(doc.root(), updated, reader, "");
+        s = updated;
       });
 
   py::class_<control::ControlSettings>(m, "_ControlSettings",

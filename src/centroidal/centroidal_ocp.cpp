@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 
 #include "rollstep/centroidal/contact_equalities.hpp"
@@ -15,29 +16,16 @@
 namespace rollstep::centroidal {
 
 planning::GaitKind gaitKindFromString(const std::string& name) {
-  if (name == "standing") return planning::GaitKind::Standing;
-  if (name == "rolling") return planning::GaitKind::Rolling;
-  if (name == "trot") return planning::GaitKind::Trot;
-  if (name == "static_walk") return planning::GaitKind::StaticWalk;
-  throw std::invalid_argument("unknown gait '" + name +
-                              "' (expected standing, rolling, trot or static_walk)");
+  // Every named gait but Custom (a table, not a name).
+  const std::optional<planning::GaitKind> kind = enumFromName<planning::GaitKind>(name);
+  if (!kind || *kind == planning::GaitKind::Custom) {
+    throw std::invalid_argument("unknown gait '" + name +
+                                "' (expected standing, rolling, trot or static_walk)");
+  }
+  return *kind;
 }
 
-const char* toString(planning::GaitKind kind) {
-  switch (kind) {
-    case planning::GaitKind::Standing:
-      return "standing";
-    case planning::GaitKind::Rolling:
-      return "rolling";
-    case planning::GaitKind::Trot:
-      return "trot";
-    case planning::GaitKind::StaticWalk:
-      return "static_walk";
-    case planning::GaitKind::Custom:
-      return "custom";
-  }
-  return "?";
-}
+const char* toString(planning::GaitKind kind) { return enumName(kind, "?"); }
 
 namespace {
 

@@ -10,6 +10,7 @@
 #include <variant>
 
 #include "rollstep/common/number_text.hpp"
+#include "rollstep/common/settings_table.hpp"
 #include "rollstep/common/text_file.hpp"
 #include "rollstep/solver/settings_yaml.hpp"
 
@@ -18,94 +19,75 @@ namespace {
 
 constexpr std::size_t kMaxConfigBytes = std::size_t{1} << 20;
 
-using Vector6 = Eigen::Matrix<double, 6, 1>;
-using Member = std::variant<int OcpSettings::*, double OcpSettings::*, bool OcpSettings::*,
-                            Eigen::Vector3d OcpSettings::*, Vector6 OcpSettings::*>;
-
-/// One key of the file: its member, the valid range of each number (lower/upper, and
-/// whether the bound itself is allowed).
-struct Field {
-  const char* key;
-  Member member;
-  double lower, upper;
-  bool lower_open, upper_open;
-};
+using settings::Range;
 
 // The one table of keys (config/ocp.yaml documents each, in this order).
-const std::array<Field, 53> kFields{{
-    {"horizon", &OcpSettings::horizon, 1, 10000, false, false},
-    {"dt", &OcpSettings::dt, 0, 10, true, false},
-    {"base_velocity_weight", &OcpSettings::base_velocity_weight, 0, 1e12, false, false},
-    {"base_position_weight", &OcpSettings::base_position_weight, 0, 1e12, false, false},
-    {"base_orientation_weight", &OcpSettings::base_orientation_weight, 0, 1e12, false, false},
-    {"joint_position_weight", &OcpSettings::joint_position_weight, 0, 1e12, false, false},
-    {"momentum_weight", &OcpSettings::momentum_weight, 0, 1e12, false, false},
-    {"joint_velocity_weight", &OcpSettings::joint_velocity_weight, 0, 1e12, false, false},
-    {"force_weight", &OcpSettings::force_weight, 0, 1e12, false, false},
-    {"freed_stance_velocity_weight", &OcpSettings::freed_stance_velocity_weight, 0, 1e12, false,
-     false},
-    {"lateral_slip_weight", &OcpSettings::lateral_slip_weight, 0, 1e12, false, false},
-    {"terminal_weight_scale", &OcpSettings::terminal_weight_scale, 0, 1e12, false, false},
-    {"swing_height_gain", &OcpSettings::swing_height_gain, 0, 1e6, false, false},
-    {"swing_height_max_correction", &OcpSettings::swing_height_max_correction, 0, 100, false,
-     false},
-    {"friction_coefficient", &OcpSettings::friction_coefficient, 0, 10, true, false},
-    {"min_normal_force", &OcpSettings::min_normal_force, 0, 1e6, false, false},
-    {"torque_limit_scale", &OcpSettings::torque_limit_scale, 0, 1, true, false},
-    {"joint_limit_margin", &OcpSettings::joint_limit_margin, 0, 10, false, false},
-    {"velocity_limit_scale", &OcpSettings::velocity_limit_scale, 0, 1, true, false},
-    {"soft_state_constraints", &OcpSettings::soft_state_constraints, 0, 0, false, false},
-    {"soft_region_constraints", &OcpSettings::soft_region_constraints, 0, 0, false, false},
-    {"soft_velocity_limits", &OcpSettings::soft_velocity_limits, 0, 0, false, false},
-    {"soft_relaxation", &OcpSettings::soft_relaxation, 0, 1e3, true, false},
-    {"soft_weight", &OcpSettings::soft_weight, 0, 1e12, true, false},
-    {"swing_clearance", &OcpSettings::swing_clearance, 0, 2, false, false},
-    {"swing_apex_margin", &OcpSettings::swing_apex_margin, 0, 0.5, true, false},
-    {"base_height_reach", &OcpSettings::base_height_reach, 0, 10, false, false},
-    {"base_height_slope", &OcpSettings::base_height_slope, 0, 100, false, false},
-    {"base_height_rate", &OcpSettings::base_height_rate, 0, 0, false, false},
-    {"foothold_gap_reach", &OcpSettings::foothold_gap_reach, 0, 10, false, false},
-    {"step_down_max_hold", &OcpSettings::step_down_max_hold, 0, 10, false, false},
-    {"edge_hold_lead", &OcpSettings::edge_hold_lead, 0, 10, false, false},
-    {"step_down_reach", &OcpSettings::step_down_reach, 0, 1, false, false},
-    {"step_up_max_hold", &OcpSettings::step_up_max_hold, 0, 10, false, false},
-    {"step_up_setback", &OcpSettings::step_up_setback, 0, 1, false, false},
-    {"step_up_reach", &OcpSettings::step_up_reach, 0, 1, false, false},
-    {"foothold_edge_clearance", &OcpSettings::foothold_edge_clearance, 0, 1, false, false},
-    {"anchor_stance_feet", &OcpSettings::anchor_stance_feet, 0, 0, false, false},
-    {"latch_touchdowns", &OcpSettings::latch_touchdowns, 0, 0, false, false},
-    {"late_touchdown_tolerance", &OcpSettings::late_touchdown_tolerance, 0, 1, false, false},
-    {"late_touchdown_speed", &OcpSettings::late_touchdown_speed, 0, 100, true, false},
-    {"late_touchdown_max_delay", &OcpSettings::late_touchdown_max_delay, 0, 10, false, false},
-    {"gait_period", &OcpSettings::gait_period, 0, 100, true, false},
-    {"trot_duty", &OcpSettings::trot_duty, 0, 1, true, true},
-    {"walk_duty", &OcpSettings::walk_duty, 0, 1, true, true},
-    {"walk_period", &OcpSettings::walk_period, 0, 100, true, false},
-    {"speed_adaptation", &OcpSettings::speed_adaptation, 0, 0, false, false},
-    {"max_step_height", &OcpSettings::max_step_height, 0, 2, true, false},
-    {"swing_knee_speed_share", &OcpSettings::swing_knee_speed_share, 0, 1, true, false},
-    {"stance_stroke_share", &OcpSettings::stance_stroke_share, 0, 10, true, false},
-    {"step_speed_reach", &OcpSettings::step_speed_reach, 0, 10, false, false},
-    {"command_acceleration", &OcpSettings::command_acceleration, 0, 100, false, false},
-    {"solver", Member{}, 0, 0, false, false},  // nested mapping, read by the solver layer
-}};
-
-std::string knownKeys() {
-  std::string keys;
-  for (const Field& f : kFields) keys += (keys.empty() ? "" : ", ") + std::string(f.key);
-  return keys;
-}
-
-std::string rangeText(const Field& f) {
-  return std::string(f.lower_open ? "(" : "[") + shortestNumberText(f.lower) + ", " +
-         shortestNumberText(f.upper) + (f.upper_open ? ")" : "]");
-}
-
-bool inRange(const Field& f, double v) {
-  if (!std::isfinite(v)) return false;
-  if (f.lower_open ? v <= f.lower : v < f.lower) return false;
-  if (f.upper_open ? v >= f.upper : v > f.upper) return false;
-  return true;
+settings::Table<OcpSettings> makeTable() {
+  using S = OcpSettings;
+  return settings::Table<S>()
+      .field("horizon", &S::horizon, "", Range::closed(1, 10000))
+      .field("dt", &S::dt, "s", Range::leftOpen(0, 10))
+      .field("base_velocity_weight", &S::base_velocity_weight, "", Range::closed(0, 1e12))
+      .field("base_position_weight", &S::base_position_weight, "", Range::closed(0, 1e12))
+      .field("base_orientation_weight", &S::base_orientation_weight, "", Range::closed(0, 1e12))
+      .field("joint_position_weight", &S::joint_position_weight, "", Range::closed(0, 1e12))
+      .field("momentum_weight", &S::momentum_weight, "", Range::closed(0, 1e12))
+      .field("joint_velocity_weight", &S::joint_velocity_weight, "", Range::closed(0, 1e12))
+      .field("force_weight", &S::force_weight, "", Range::closed(0, 1e12))
+      .field("freed_stance_velocity_weight", &S::freed_stance_velocity_weight, "",
+             Range::closed(0, 1e12))
+      .field("lateral_slip_weight", &S::lateral_slip_weight, "", Range::closed(0, 1e12))
+      .field("terminal_weight_scale", &S::terminal_weight_scale, "", Range::closed(0, 1e12))
+      .field("swing_height_gain", &S::swing_height_gain, "", Range::closed(0, 1e6))
+      .field("swing_height_max_correction", &S::swing_height_max_correction, "m/s",
+             Range::closed(0, 100))
+      .field("friction_coefficient", &S::friction_coefficient, "", Range::leftOpen(0, 10))
+      .field("min_normal_force", &S::min_normal_force, "N", Range::closed(0, 1e6))
+      .field("torque_limit_scale", &S::torque_limit_scale, "", Range::leftOpen(0, 1))
+      .field("joint_limit_margin", &S::joint_limit_margin, "rad or m", Range::closed(0, 10))
+      .field("velocity_limit_scale", &S::velocity_limit_scale, "", Range::leftOpen(0, 1))
+      .field("soft_state_constraints", &S::soft_state_constraints)
+      .field("soft_region_constraints", &S::soft_region_constraints)
+      .field("soft_velocity_limits", &S::soft_velocity_limits)
+      .field("soft_relaxation", &S::soft_relaxation, "", Range::leftOpen(0, 1e3))
+      .field("soft_weight", &S::soft_weight, "", Range::leftOpen(0, 1e12))
+      .field("swing_clearance", &S::swing_clearance, "m", Range::closed(0, 2))
+      .field("swing_apex_margin", &S::swing_apex_margin, "", Range::leftOpen(0, 0.5))
+      .field("base_height_reach", &S::base_height_reach, "m", Range::closed(0, 10))
+      .field("base_height_slope", &S::base_height_slope, "", Range::closed(0, 100))
+      .field("base_height_rate", &S::base_height_rate)
+      .field("foothold_gap_reach", &S::foothold_gap_reach, "m", Range::closed(0, 10))
+      .field("step_down_max_hold", &S::step_down_max_hold, "s", Range::closed(0, 10))
+      .field("edge_hold_lead", &S::edge_hold_lead, "s", Range::closed(0, 10))
+      .field("step_down_reach", &S::step_down_reach, "m", Range::closed(0, 1))
+      .field("step_up_max_hold", &S::step_up_max_hold, "s", Range::closed(0, 10))
+      .field("step_up_setback", &S::step_up_setback, "m", Range::closed(0, 1))
+      .field("step_up_reach", &S::step_up_reach, "m", Range::closed(0, 1))
+      .field("foothold_edge_clearance", &S::foothold_edge_clearance, "m", Range::closed(0, 1))
+      .field("anchor_stance_feet", &S::anchor_stance_feet)
+      .field("latch_touchdowns", &S::latch_touchdowns)
+      .field("late_touchdown_tolerance", &S::late_touchdown_tolerance, "m", Range::closed(0, 1))
+      .field("late_touchdown_speed", &S::late_touchdown_speed, "m/s", Range::leftOpen(0, 100))
+      .field("late_touchdown_max_delay", &S::late_touchdown_max_delay, "s", Range::closed(0, 10))
+      .field("gait_period", &S::gait_period, "s", Range::leftOpen(0, 100))
+      .field("trot_duty", &S::trot_duty, "", Range::open(0, 1))
+      .field("walk_duty", &S::walk_duty, "", Range::open(0, 1))
+      .field("walk_period", &S::walk_period, "s", Range::leftOpen(0, 100))
+      .field("speed_adaptation", &S::speed_adaptation)
+      .field("max_step_height", &S::max_step_height, "m", Range::leftOpen(0, 2))
+      .field("swing_knee_speed_share", &S::swing_knee_speed_share, "", Range::leftOpen(0, 1))
+      .field("stance_stroke_share", &S::stance_stroke_share, "", Range::leftOpen(0, 10))
+      .field("step_speed_reach", &S::step_speed_reach, "m", Range::closed(0, 10))
+      .field("command_acceleration", &S::command_acceleration, "m/s^2", Range::closed(0, 100))
+      .custom(
+          "solver",
+          [](const yaml::Node& value, S& s, settings::Reader& reader, const std::string& path) {
+            solver::readSolverSettings(value, s.solver, reader, path + ".");
+          },
+          [](const S& s, const std::string& indent) {
+            return "\n" + solver::solverSettingsTable().write(s.solver, indent + "  ");
+          },
+          /*is_section=*/true);
 }
 
 std::string lineOf(const yaml::Node& node) { return "line " + std::to_string(node.line()) + ": "; }
@@ -123,11 +105,19 @@ void parseDocument(const std::string& text, const std::string& prefix, Read read
 
 }  // namespace
 
+const settings::Table<OcpSettings>& ocpSettingsTable() {
+  static const settings::Table<OcpSettings> table = makeTable();
+  return table;
+}
+
+void readOcpSettings(const yaml::Node& node, OcpSettings& settings, settings::Reader& reader,
+                     const std::string& prefix) {
+  ocpSettingsTable().read(node, settings, reader, prefix);
+}
+
 OcpSettings parseOcpSettings(const std::string& yaml_text, const std::string& source_name) {
-  OcpSettings settings;
-  parseDocument(yaml_text, "OCP settings " + source_name + ": ",
-                [&](const yaml::Node& root) { settings = parseOcpSettings(root, source_name); });
-  return settings;
+  return settings::readDocument(yaml_text, ocpSettingsTable(),
+                                "OCP settings " + source_name + ": ");
 }
 
 OcpSettings parseOcpSettings(const yaml::Node& root, const std::string& source_name,
@@ -138,92 +128,9 @@ OcpSettings parseOcpSettings(const yaml::Node& root, const std::string& source_n
 OcpSettings parseOcpSettings(const yaml::Node& root, const OcpSettings& base,
                              const std::string& source_name, const std::string& key_path,
                              const std::string& description) {
-  const std::string prefix = description + " " + source_name + ": ";
   OcpSettings settings = base;
-  const auto fail = [&](const yaml::Node& at, const std::string& what) {
-    throw std::runtime_error(prefix + lineOf(at) + what);
-  };
-  if (root.isNull()) return settings;
-  if (!root.isMapping()) fail(root, "expected a mapping of key: value");
-  std::map<std::string, int> seen;
-  for (std::size_t item = 0; item < root.size(); ++item) {
-    const yaml::Node key_node = root.key(item);
-    const yaml::Node value = root.value(item);
-    if (!key_node.isScalar()) fail(key_node, "a key must be a plain name");
-    const std::string key = key_node.scalar();
-    const Field* field = nullptr;
-    for (const Field& f : kFields) {
-      if (key == f.key) field = &f;
-    }
-    if (field == nullptr)
-      fail(key_node, "unknown key '" + key_path + key + "' (known: " + knownKeys() + ")");
-    if (const auto it = seen.find(key); it != seen.end()) {
-      fail(key_node,
-           key_path + key + ": given twice (first on line " + std::to_string(it->second) + ")");
-    }
-    seen.emplace(key, key_node.line());
-    const std::string at = key_path + key + ": ";
-    if (key == "solver") {
-      if (!value.isMapping() && !value.isNull()) {
-        fail(value, at + "expected a mapping of solver settings, got " + value.kindName());
-      }
-      settings.solver =
-          solver::parseSolverSettings(value,
-                                      source_name + " (key '" + key_path + "solver', line " +
-                                          std::to_string(value.line()) + ")",
-                                      base.solver);
-      continue;
-    }
-    if (value.isNull()) fail(value, at + "no value");
-    // A number within the field's range, or an error naming the key, value and range.
-    const auto number = [&](const yaml::Node& node) {
-      double v = 0.0;
-      if (!node.isScalar() || !node.toDouble(v)) {
-        fail(node, at + "'" + node.scalar() + "' is not a number" +
-                       (node.isScalar() && !node.plain() ? " (it is quoted or tagged)" : ""));
-      }
-      if (!inRange(*field, v)) {
-        fail(node, at + node.scalar() + " is outside " + rangeText(*field));
-      }
-      return v;
-    };
-    std::visit(
-        [&](auto member) {
-          using T = std::decay_t<decltype(settings.*member)>;
-          if constexpr (std::is_same_v<T, bool>) {
-            if (!value.isScalar() || !value.toBool(settings.*member)) {
-              fail(value, at + "expected true or false, got " +
-                              (value.isScalar() ? "'" + value.scalar() + "'" : value.kindName()));
-            }
-          } else if constexpr (std::is_same_v<T, int>) {
-            int v = 0;
-            if (!value.isScalar() || !value.toInt(v)) {
-              fail(value, at + "expected an integer, got " +
-                              (value.isScalar() ? "'" + value.scalar() + "'" : value.kindName()));
-            }
-            if (!inRange(*field, v)) {
-              fail(value, at + std::to_string(v) + " is outside " + rangeText(*field));
-            }
-            settings.*member = v;
-          } else if constexpr (std::is_same_v<T, double>) {
-            if (!value.isScalar()) {
-              fail(value, at + "expected a single number, got " + value.kindName());
-            }
-            settings.*member = number(value);
-          } else {
-            constexpr int n = T::RowsAtCompileTime;
-            if (!value.isSequence() || value.size() != static_cast<std::size_t>(n)) {
-              fail(value, at + "expected a list of " + std::to_string(n) + " numbers, got " +
-                              (value.isSequence() ? "a list of " + std::to_string(value.size())
-                                                  : std::string(value.kindName())));
-            }
-            T v;
-            for (int i = 0; i < n; ++i) v[i] = number(value.item(static_cast<std::size_t>(i)));
-            settings.*member = v;
-          }
-        },
-        field->member);
-  }
+  settings::Reader reader(description + " " + source_name + ": ");
+  readOcpSettings(root, settings, reader, key_path);
   return settings;
 }
 
@@ -231,41 +138,7 @@ OcpSettings loadOcpSettings(const std::string& yaml_file) {
   return parseOcpSettings(readTextFile(yaml_file, "OCP settings", kMaxConfigBytes), yaml_file);
 }
 
-std::string toYaml(const OcpSettings& settings) {
-  std::string out;
-  for (const Field& f : kFields) {
-    if (std::string(f.key) == "solver") continue;
-    out += std::string(f.key) + ": ";
-    std::visit(
-        [&](auto member) {
-          using T = std::decay_t<decltype(settings.*member)>;
-          if constexpr (std::is_same_v<T, bool>) {
-            out += settings.*member ? "true" : "false";
-          } else if constexpr (std::is_same_v<T, int>) {
-            out += std::to_string(settings.*member);
-          } else if constexpr (std::is_same_v<T, double>) {
-            out += shortestNumberText(settings.*member);
-          } else {
-            const T& v = settings.*member;
-            out += "[";
-            for (int i = 0; i < v.size(); ++i) out += (i ? ", " : "") + shortestNumberText(v[i]);
-            out += "]";
-          }
-        },
-        f.member);
-    out += "\n";
-  }
-  out += "solver:\n";
-  const std::string solver_text = solver::toYaml(settings.solver);
-  std::size_t start = 0;
-  while (start < solver_text.size()) {
-    const std::size_t end = solver_text.find('\n', start);
-    out += "  " + solver_text.substr(start, end - start) + "\n";
-    if (end == std::string::npos) break;
-    start = end + 1;
-  }
-  return out;
-}
+std::string toYaml(const OcpSettings& settings) { return ocpSettingsTable().write(settings); }
 
 // --- the robot description ------------------------------------------------------------------
 

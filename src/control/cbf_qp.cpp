@@ -105,19 +105,7 @@ int maxEqualities(const centroidal::CentroidalRobot& robot) {
 
 }  // namespace
 
-const char* toString(CbfQpStatus status) {
-  switch (status) {
-    case CbfQpStatus::Optimal:
-      return "Optimal";
-    case CbfQpStatus::Relaxed:
-      return "Relaxed";
-    case CbfQpStatus::Fallback:
-      return "Fallback";
-    case CbfQpStatus::InvalidInput:
-      return "InvalidInput";
-  }
-  return "Unknown";
-}
+const char* toString(CbfQpStatus status) { return enumName(status, "Unknown"); }
 
 // ---- workspace ------------------------------------------------------------------------
 

@@ -40,21 +40,7 @@ void checkDims(const DenseQpDims& d, const char* who) {
 
 }  // namespace
 
-const char* toString(DenseQpStatus status) {
-  switch (status) {
-    case DenseQpStatus::Optimal:
-      return "Optimal";
-    case DenseQpStatus::Infeasible:
-      return "Infeasible";
-    case DenseQpStatus::MaxIterations:
-      return "MaxIterations";
-    case DenseQpStatus::NotConvex:
-      return "NotConvex";
-    case DenseQpStatus::InvalidInput:
-      return "InvalidInput";
-  }
-  return "Unknown";
-}
+const char* toString(DenseQpStatus status) { return enumName(status, "Unknown"); }
 
 double DenseQpKkt::max() const {
   return std::max(std::max(stationarity, primal), std::max(complementarity, dual_sign));

@@ -5,41 +5,17 @@
 #include <stdexcept>
 
 #include "rollstep/common/number_text.hpp"
+#include "rollstep/common/settings_table.hpp"
 #include "rollstep/common/text_file.hpp"
-#include "rollstep/common/yaml_sections.hpp"
 #include "rollstep/lie/so3.hpp"
 #include "rollstep/model/data.hpp"
 #include "rollstep/model/kinematics.hpp"
 
 namespace rollstep::estimation {
 
-const char* toString(ContactKind kind) {
-  switch (kind) {
-    case ContactKind::Point:
-      return "point";
-    case ContactKind::DriveWheel:
-      return "drive_wheel";
-    case ContactKind::OmniWheel:
-      return "omni_wheel";
-  }
-  return "unknown";
-}
+const char* toString(ContactKind kind) { return enumName(kind); }
 
-const char* toString(EstimatorEvent event) {
-  switch (event) {
-    case EstimatorEvent::ImuRejected:
-      return "imu_rejected";
-    case EstimatorEvent::EncoderRejected:
-      return "encoder_rejected";
-    case EstimatorEvent::TimeRejected:
-      return "time_rejected";
-    case EstimatorEvent::ContactRejected:
-      return "contact_rejected";
-    case EstimatorEvent::GateRecovered:
-      return "gate_recovered";
-  }
-  return "unknown";
-}
+const char* toString(EstimatorEvent event) { return enumName(event); }
 
 namespace {
 
@@ -53,43 +29,66 @@ using VectorMax = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxRows, 1>;
 using GainMatrix = Eigen::Matrix<double, kErrorDim, Eigen::Dynamic, 0, kErrorDim, kMaxRows>;
 
 // The settings' sections; `rolling` and gate_recovery_ticks are read as numbers.
-struct SettingsProxy {
-  double rolling = 1.0, recovery = 50.0;
-};
-
-std::vector<yaml::NumberSection> sectionsOf(InekfSettings& s, SettingsProxy& x) {
+// The keys, in robots/<robot>/estimation.yaml's order, with their ranges. `rolling` is
+// written 1 or 0 (the file's spelling).
+const settings::Table<InekfSettings>& inekfTable() {
+  using S = InekfSettings;
+  using settings::Range;
+  using T = settings::Table<S>;
   constexpr double kBig = 1e6;
-  return {
-      {"", {{"gravity", &s.gravity, 0.0, 100.0}}},
-      {"imu",
-       {{"gyro_noise", &s.gyro_noise, 1e-9, 1.0},
-        {"accel_noise", &s.accel_noise, 1e-9, 10.0},
-        {"gyro_bias_walk", &s.gyro_bias_walk, 0.0, 1.0},
-        {"accel_bias_walk", &s.accel_bias_walk, 0.0, 10.0}}},
-      {"contacts",
-       {{"rolling", &x.rolling, 0.0, 1.0},
-        {"velocity_noise", &s.contact_velocity_noise, 1e-6, 10.0},
-        {"joint_velocity_noise", &s.joint_velocity_noise, 0.0, 10.0},
-        {"wheel_velocity_noise", &s.wheel_velocity_noise, 0.0, 10.0},
-        {"rolling_radius_offset", &s.rolling_radius_offset, -1.0, 1.0},
-        {"height_noise", &s.height_noise, 1e-6, 10.0},
-        {"gate_3dof", &s.gate_3dof, 0.0, kBig},
-        {"gate_1dof", &s.gate_1dof, 0.0, kBig},
-        {"gate_recovery_ticks", &x.recovery, 1.0, 1e9}}},
-      {"initial",
-       {{"orientation", &s.initial_orientation, 1e-9, 10.0},
-        {"velocity", &s.initial_velocity, 1e-9, 100.0},
-        {"position", &s.initial_position, 1e-9, 1e6},
-        {"gyro_bias", &s.initial_gyro_bias, 1e-9, 10.0},
-        {"accel_bias", &s.initial_accel_bias, 1e-9, 100.0}}},
-      {"limits",
-       {{"max_angular_rate", &s.max_angular_rate, 0.0, kBig},
-        {"max_acceleration", &s.max_acceleration, 0.0, kBig},
-        {"max_joint_velocity", &s.max_joint_velocity, 0.0, kBig},
-        {"joint_limit_margin", &s.joint_limit_margin, 0.0, kBig},
-        {"max_wheel_speed", &s.max_wheel_speed, 0.0, kBig},
-        {"max_dt", &s.max_dt, 1e-6, 10.0}}},
+  const auto rolling = [](const yaml::Node& v, S& s, settings::Reader& r, const std::string& path) {
+    if (v.isNull()) r.fail(v, path + ": no value");
+    const double x = settings::detail::readNumber(v, Range::closed(0.0, 1.0), r, path);
+    if (x != 0.0 && x != 1.0) r.fail(v, path + ": must be 0 or 1");
+    s.rolling = x == 1.0;
   };
+  static const T table =
+      T().field("gravity", &S::gravity, "m/s^2", Range::closed(0.0, 100.0))
+          .group("imu",
+                 T().field("gyro_noise", &S::gyro_noise, "rad/s/sqrt(Hz)", Range::closed(1e-9, 1.0))
+                     .field("accel_noise", &S::accel_noise, "m/s^2/sqrt(Hz)",
+                            Range::closed(1e-9, 10.0))
+                     .field("gyro_bias_walk", &S::gyro_bias_walk, "rad/s^2/sqrt(Hz)",
+                            Range::closed(0.0, 1.0))
+                     .field("accel_bias_walk", &S::accel_bias_walk, "m/s^3/sqrt(Hz)",
+                            Range::closed(0.0, 10.0)))
+          .group(
+              "contacts",
+              T().custom("rolling", rolling,
+                         [](const S& s, const std::string&) {
+                           return std::string(s.rolling ? " 1" : " 0");
+                         })
+                  .field("velocity_noise", &S::contact_velocity_noise, "m/s",
+                         Range::closed(1e-6, 10.0))
+                  .field("joint_velocity_noise", &S::joint_velocity_noise, "rad/s or m/s",
+                         Range::closed(0.0, 10.0))
+                  .field("wheel_velocity_noise", &S::wheel_velocity_noise, "rad/s",
+                         Range::closed(0.0, 10.0))
+                  .field("rolling_radius_offset", &S::rolling_radius_offset, "m",
+                         Range::closed(-1.0, 1.0))
+                  .field("height_noise", &S::height_noise, "m", Range::closed(1e-6, 10.0))
+                  .field("gate_3dof", &S::gate_3dof, "", Range::closed(0.0, kBig))
+                  .field("gate_1dof", &S::gate_1dof, "", Range::closed(0.0, kBig))
+                  .field("gate_recovery_ticks", &S::gate_recovery_ticks, "", Range::closed(1, 1e9)))
+          .group(
+              "initial",
+              T().field("orientation", &S::initial_orientation, "rad", Range::closed(1e-9, 10.0))
+                  .field("velocity", &S::initial_velocity, "m/s", Range::closed(1e-9, 100.0))
+                  .field("position", &S::initial_position, "m", Range::closed(1e-9, 1e6))
+                  .field("gyro_bias", &S::initial_gyro_bias, "rad/s", Range::closed(1e-9, 10.0))
+                  .field("accel_bias", &S::initial_accel_bias, "m/s^2", Range::closed(1e-9, 100.0)))
+          .group(
+              "limits",
+              T().field("max_angular_rate", &S::max_angular_rate, "rad/s", Range::closed(0.0, kBig))
+                  .field("max_acceleration", &S::max_acceleration, "m/s^2",
+                         Range::closed(0.0, kBig))
+                  .field("max_joint_velocity", &S::max_joint_velocity, "rad/s or m/s",
+                         Range::closed(0.0, kBig))
+                  .field("joint_limit_margin", &S::joint_limit_margin, "rad or m",
+                         Range::closed(0.0, kBig))
+                  .field("max_wheel_speed", &S::max_wheel_speed, "rad/s", Range::closed(0.0, kBig))
+                  .field("max_dt", &S::max_dt, "s", Range::closed(1e-6, 10.0)));
+  return table;
 }
 
 // exp of SE_2(3) applied on the left: X <- exp(xi) X.
@@ -108,21 +107,7 @@ void leftCompose(const Eigen::Matrix<double, 9, 1>& xi, Matrix3& R, Vector3& v, 
 }  // namespace
 
 InekfSettings parseInekfSettings(const std::string& yaml_text, const std::string& source) {
-  InekfSettings s;
-  SettingsProxy x;
-  x.rolling = s.rolling ? 1.0 : 0.0;
-  x.recovery = s.gate_recovery_ticks;
-  const std::string name = "estimator settings '" + source + "'";
-  yaml::readNumberSections(yaml_text, name, sectionsOf(s, x));
-  if (x.rolling != 0.0 && x.rolling != 1.0) {
-    throw std::runtime_error(name + ": contacts.rolling: must be 0 or 1");
-  }
-  if (x.recovery != std::floor(x.recovery)) {
-    throw std::runtime_error(name + ": contacts.gate_recovery_ticks: must be an integer");
-  }
-  s.rolling = x.rolling == 1.0;
-  s.gate_recovery_ticks = static_cast<int>(x.recovery);
-  return s;
+  return settings::readDocument(yaml_text, inekfTable(), "estimator settings '" + source + "': ");
 }
 
 InekfSettings loadInekfSettings(const std::string& yaml_file) {
@@ -130,21 +115,7 @@ InekfSettings loadInekfSettings(const std::string& yaml_file) {
                             yaml_file);
 }
 
-std::string toYaml(const InekfSettings& settings) {
-  InekfSettings s = settings;
-  SettingsProxy x;
-  x.rolling = s.rolling ? 1.0 : 0.0;
-  x.recovery = s.gate_recovery_ticks;
-  std::string out;
-  for (const yaml::NumberSection& sec : sectionsOf(s, x)) {
-    const bool top = sec.key[0] == '\0';
-    if (!top) out += std::string(sec.key) + ":\n";
-    for (const yaml::NumberField& f : sec.fields) {
-      out += (top ? "" : "  ") + std::string(f.key) + ": " + shortestNumberText(*f.value) + "\n";
-    }
-  }
-  return out;
-}
+std::string toYaml(const InekfSettings& settings) { return inekfTable().write(settings); }
 
 InvariantEkf::InvariantEkf(const model::Model& model, std::vector<ContactSpec> contacts,
                            const InekfSettings& settings)
@@ -156,14 +127,9 @@ InvariantEkf::InvariantEkf(const model::Model& model, std::vector<ContactSpec> c
     throw std::invalid_argument("InvariantEkf: " + std::to_string(contacts_.size()) +
                                 " contacts, at most " + std::to_string(kMaxContacts));
   }
-  // The settings through their own parser's checks (ranges), then the integers.
-  try {
-    parseInekfSettings(toYaml(settings_), "InvariantEkf");
-  } catch (const std::runtime_error& e) {
-    throw std::invalid_argument(e.what());
-  }
-  if (settings_.gate_recovery_ticks < 1) {
-    throw std::invalid_argument("InvariantEkf: gate_recovery_ticks must be >= 1");
+  // The settings through their table's ranges.
+  if (const std::optional<settings::Problem> p = inekfTable().check(settings_)) {
+    throw std::invalid_argument("InvariantEkf: " + p->path + ": " + p->what);
   }
   for (const ContactSpec& c : contacts_) {
     frames_.push_back(model_.getFrameId(c.frame));  // throws for an unknown frame

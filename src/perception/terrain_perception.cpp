@@ -8,6 +8,7 @@
 #include <variant>
 
 #include "rollstep/common/number_text.hpp"
+#include "rollstep/common/settings_table.hpp"
 #include "rollstep/common/text_file.hpp"
 #include "rollstep/common/yaml_tree.hpp"
 
@@ -15,143 +16,85 @@ namespace rollstep::perception {
 
 namespace {
 
-template <typename S>
-using Member = std::variant<int S::*, double S::*, bool S::*>;
-template <typename S>
-struct Field {
-  const char* key;
-  Member<S> member;
-};
-
 // The keys of each section, in config/perception.yaml's order (ranges: the settings'
-// validate(), which names the key).
-const std::array<Field<ElevationMapSettings>, 13> kMapFields{{
-    {"length", &ElevationMapSettings::length},
-    {"resolution", &ElevationMapSettings::resolution},
-    {"sensor_noise", &ElevationMapSettings::sensor_noise},
-    {"range_noise_slope", &ElevationMapSettings::range_noise_slope},
-    {"gate", &ElevationMapSettings::gate},
-    {"process_noise", &ElevationMapSettings::process_noise},
-    {"max_variance", &ElevationMapSettings::max_variance},
-    {"min_variance", &ElevationMapSettings::min_variance},
-    {"visibility_cleanup", &ElevationMapSettings::visibility_cleanup},
-    {"visibility_stride", &ElevationMapSettings::visibility_stride},
-    {"visibility_margin", &ElevationMapSettings::visibility_margin},
-    {"max_range", &ElevationMapSettings::max_range},
-    {"min_range", &ElevationMapSettings::min_range},
-}};
-const std::array<Field<SegmentationSettings>, 13> kSegmentationFields{{
-    {"window_half", &SegmentationSettings::window_half},
-    {"min_window_fill", &SegmentationSettings::min_window_fill},
-    {"max_residual", &SegmentationSettings::max_residual},
-    {"max_slope_deg", &SegmentationSettings::max_slope_deg},
-    {"max_normal_angle_deg", &SegmentationSettings::max_normal_angle_deg},
-    {"max_height_step", &SegmentationSettings::max_height_step},
-    {"step_height", &SegmentationSettings::step_height},
-    {"grow_tolerance", &SegmentationSettings::grow_tolerance},
-    {"min_region_area", &SegmentationSettings::min_region_area},
-    {"max_hole_area", &SegmentationSettings::max_hole_area},
-    {"max_level_hole_area", &SegmentationSettings::max_level_hole_area},
-    {"fill_gap", &SegmentationSettings::fill_gap},
-    {"fill_shadow", &SegmentationSettings::fill_shadow},
-}};
-const std::array<Field<ConvexRegionSettings>, 10> kRegionFields{{
-    {"directions", &ConvexRegionSettings::directions},
-    {"margin", &ConvexRegionSettings::margin},
-    {"min_clearance", &ConvexRegionSettings::min_clearance},
-    {"search_radius", &ConvexRegionSettings::search_radius},
-    {"height_weight", &ConvexRegionSettings::height_weight},
-    {"max_pieces_per_region", &ConvexRegionSettings::max_pieces_per_region},
-    {"cover_fraction", &ConvexRegionSettings::cover_fraction},
-    {"cover_gap", &ConvexRegionSettings::cover_gap},
-    {"min_piece_area", &ConvexRegionSettings::min_piece_area},
-    {"max_notch_depth", &ConvexRegionSettings::max_notch_depth},
-}};
-
-const std::array<Field<ClosedLoopSettings>, 9> kClosedLoopFields{{
-    {"warmup_scans", &ClosedLoopSettings::warmup_scans},
-    {"footprint_margin", &ClosedLoopSettings::footprint_margin},
-    {"footprint_variance", &ClosedLoopSettings::footprint_variance},
-    {"blind_zone_radius", &ClosedLoopSettings::blind_zone_radius},
-    {"level_max_tilt_deg", &ClosedLoopSettings::level_max_tilt_deg},
-    {"level_height_tolerance", &ClosedLoopSettings::level_height_tolerance},
-    {"seam_probe_cells", &ClosedLoopSettings::seam_probe_cells},
-    {"seam_height_tolerance", &ClosedLoopSettings::seam_height_tolerance},
-    {"collision_capacity", &ClosedLoopSettings::collision_capacity},
-}};
-
-template <typename S, std::size_t N>
-std::string knownKeys(const std::array<Field<S>, N>& fields) {
-  std::string keys;
-  for (const Field<S>& f : fields) keys += (keys.empty() ? "" : ", ") + std::string(f.key);
-  return keys;
+// validate(), which names the key; the table refuses what is not a finite number).
+settings::Table<ElevationMapSettings> makeMapFields() {
+  using S = ElevationMapSettings;
+  return settings::Table<S>()
+      .field("length", &S::length)
+      .field("resolution", &S::resolution)
+      .field("sensor_noise", &S::sensor_noise)
+      .field("range_noise_slope", &S::range_noise_slope)
+      .field("gate", &S::gate)
+      .field("process_noise", &S::process_noise)
+      .field("max_variance", &S::max_variance)
+      .field("min_variance", &S::min_variance)
+      .field("visibility_cleanup", &S::visibility_cleanup)
+      .field("visibility_stride", &S::visibility_stride)
+      .field("visibility_margin", &S::visibility_margin)
+      .field("max_range", &S::max_range)
+      .field("min_range", &S::min_range);
 }
 
-template <typename S, std::size_t N, typename Fail>
-void readSection(const yaml::Node& node, const std::string& name, S& section,
-                 const std::array<Field<S>, N>& fields, std::map<std::string, int>& lines,
-                 Fail fail) {
-  if (node.isNull()) return;
-  if (!node.isMapping()) fail(node, name + ": expected a mapping, got " + node.kindName());
-  for (std::size_t item = 0; item < node.size(); ++item) {
-    const yaml::Node key = node.key(item), value = node.value(item);
-    const std::string k = key.isScalar() ? key.scalar() : std::string("<key>");
-    const std::string path = name + "." + k;
-    const Field<S>* field = nullptr;
-    for (const Field<S>& f : fields) {
-      if (k == f.key) field = &f;
-    }
-    if (field == nullptr) {
-      fail(key, "unknown key '" + path + "' (known in " + name + ": " + knownKeys(fields) + ")");
-    }
-    if (const auto it = lines.find(path); it != lines.end()) {
-      fail(key, path + ": given twice (first on line " + std::to_string(it->second) + ")");
-    }
-    lines.emplace(path, key.line());
-    const std::string got = value.isScalar() ? "'" + value.scalar() + "'" : value.kindName();
-    std::visit(
-        [&](auto member) {
-          using T = std::decay_t<decltype(section.*member)>;
-          if constexpr (std::is_same_v<T, int>) {
-            int v = 0;
-            if (!value.isScalar() || !value.toInt(v))
-              fail(value, path + ": expected an integer, got " + got);
-            section.*member = v;
-          } else if constexpr (std::is_same_v<T, double>) {
-            double v = 0;
-            if (!value.isScalar() || !value.toDouble(v) || !std::isfinite(v)) {
-              fail(value, path + ": expected a finite number, got " + got);
-            }
-            section.*member = v;
-          } else {
-            bool v = false;
-            if (!value.isScalar() || !value.toBool(v))
-              fail(value, path + ": expected true or false, got " + got);
-            section.*member = v;
-          }
-        },
-        field->member);
-  }
+settings::Table<SegmentationSettings> makeSegmentationFields() {
+  using S = SegmentationSettings;
+  return settings::Table<S>()
+      .field("window_half", &S::window_half)
+      .field("min_window_fill", &S::min_window_fill)
+      .field("max_residual", &S::max_residual)
+      .field("max_slope_deg", &S::max_slope_deg)
+      .field("max_normal_angle_deg", &S::max_normal_angle_deg)
+      .field("max_height_step", &S::max_height_step)
+      .field("step_height", &S::step_height)
+      .field("grow_tolerance", &S::grow_tolerance)
+      .field("min_region_area", &S::min_region_area)
+      .field("max_hole_area", &S::max_hole_area)
+      .field("max_level_hole_area", &S::max_level_hole_area)
+      .field("fill_gap", &S::fill_gap)
+      .field("fill_shadow", &S::fill_shadow);
 }
 
-template <typename S, std::size_t N>
-void writeSection(const S& section, const std::array<Field<S>, N>& fields, std::string& out) {
-  for (const Field<S>& f : fields) {
-    out += "  " + std::string(f.key) + ": ";
-    std::visit(
-        [&](auto member) {
-          using T = std::decay_t<decltype(section.*member)>;
-          if constexpr (std::is_same_v<T, int>) {
-            out += std::to_string(section.*member);
-          } else if constexpr (std::is_same_v<T, double>) {
-            out += shortestNumberText(section.*member);
-          } else {
-            out += section.*member ? "true" : "false";
-          }
-        },
-        f.member);
-    out += "\n";
-  }
+settings::Table<ConvexRegionSettings> makeRegionFields() {
+  using S = ConvexRegionSettings;
+  return settings::Table<S>()
+      .field("directions", &S::directions)
+      .field("margin", &S::margin)
+      .field("min_clearance", &S::min_clearance)
+      .field("search_radius", &S::search_radius)
+      .field("height_weight", &S::height_weight)
+      .field("max_pieces_per_region", &S::max_pieces_per_region)
+      .field("cover_fraction", &S::cover_fraction)
+      .field("cover_gap", &S::cover_gap)
+      .field("min_piece_area", &S::min_piece_area)
+      .field("max_notch_depth", &S::max_notch_depth);
+}
+
+settings::Table<ClosedLoopSettings> makeClosedLoopFields() {
+  using S = ClosedLoopSettings;
+  return settings::Table<S>()
+      .field("warmup_scans", &S::warmup_scans)
+      .field("footprint_margin", &S::footprint_margin)
+      .field("footprint_variance", &S::footprint_variance)
+      .field("blind_zone_radius", &S::blind_zone_radius)
+      .field("level_max_tilt_deg", &S::level_max_tilt_deg)
+      .field("level_height_tolerance", &S::level_height_tolerance)
+      .field("seam_probe_cells", &S::seam_probe_cells)
+      .field("seam_height_tolerance", &S::seam_height_tolerance)
+      .field("collision_capacity", &S::collision_capacity);
+}
+
+settings::Table<PerceptionSettings> makeTable() {
+  using S = PerceptionSettings;
+  return settings::Table<S>()
+      .section("map", &S::map, makeMapFields())
+      .section("segmentation", &S::segmentation, makeSegmentationFields())
+      .section("regions", &S::regions, makeRegionFields())
+      .section("closed_loop", &S::closed_loop, makeClosedLoopFields());
+}
+
+const settings::Table<PerceptionSettings>& table() {
+  static const settings::Table<PerceptionSettings> t = makeTable();
+  return t;
 }
 
 void require(bool ok, const char* name, double value, const char* what) {
@@ -195,48 +138,22 @@ void PerceptionSettings::validate() const {
 
 PerceptionSettings parsePerceptionSettings(std::string_view text, const std::string& source) {
   const std::string head = "perception settings '" + source + "': ";
-  const auto fail = [&](const yaml::Node& node, const std::string& what) {
-    throw std::runtime_error(head + "line " + std::to_string(node.line()) + ": " + what);
-  };
-  yaml::Document doc = yaml::parseDocument(text, head);
+  const yaml::Document doc = yaml::parseDocument(text, head);
   PerceptionSettings s;
-  const yaml::Node root = doc.root();
-  if (root.isNull()) return s;
-  if (!root.isMapping()) fail(root, std::string("expected a mapping, got ") + root.kindName());
-  std::map<std::string, int> lines;
-  for (std::size_t item = 0; item < root.size(); ++item) {
-    const yaml::Node key = root.key(item), value = root.value(item);
-    const std::string k = key.isScalar() ? key.scalar() : std::string("<key>");
-    if (lines.count(k))
-      fail(key, k + ": given twice (first on line " + std::to_string(lines[k]) + ")");
-    lines.emplace(k, key.line());
-    if (k == "map") {
-      readSection(value, k, s.map, kMapFields, lines, fail);
-    } else if (k == "segmentation") {
-      readSection(value, k, s.segmentation, kSegmentationFields, lines, fail);
-    } else if (k == "regions") {
-      readSection(value, k, s.regions, kRegionFields, lines, fail);
-    } else if (k == "closed_loop") {
-      readSection(value, k, s.closed_loop, kClosedLoopFields, lines, fail);
-    } else {
-      fail(key, "unknown key '" + k + "' (known: map, segmentation, regions, closed_loop)");
-    }
-  }
+  settings::Reader reader(head);
+  table().read(doc.root(), s, reader);
   // Ranges: each section's validate() names the parameter; report it at its line.
   const auto check = [&](const char* section, auto&& validate) {
     try {
       validate();
     } catch (const std::invalid_argument& e) {
       const std::string what = e.what();
-      int line = 0;
-      for (const auto& [path, l] : lines) {
-        const std::string prefix = std::string(section) + ".";
-        if (path.rfind(prefix, 0) != 0) continue;
-        const std::string key = path.substr(prefix.size());
-        if (what.find(": " + key + " = ") != std::string::npos) line = l;
-      }
-      throw std::runtime_error(head + (line > 0 ? "line " + std::to_string(line) + ": " : "") +
-                               section + "." + what.substr(what.find(": ") + 2));
+      // what: "<section>: <key> = <value>: <problem>".
+      const std::string named = what.substr(what.find(": ") + 2);
+      const settings::Reader::Seen* seen =
+          reader.seen(std::string(section) + "." + named.substr(0, named.find(" = ")));
+      if (seen != nullptr) reader.failAtLine(seen->line, section + ("." + named));
+      throw std::runtime_error(head + section + "." + named);
     }
   };
   check("map", [&] { s.map.validate(); });
@@ -251,33 +168,9 @@ PerceptionSettings loadPerceptionSettings(const std::string& path) {
                                  path);
 }
 
-std::string toYaml(const PerceptionSettings& s) {
-  std::string out = "map:\n";
-  writeSection(s.map, kMapFields, out);
-  out += "segmentation:\n";
-  writeSection(s.segmentation, kSegmentationFields, out);
-  out += "regions:\n";
-  writeSection(s.regions, kRegionFields, out);
-  out += "closed_loop:\n";
-  writeSection(s.closed_loop, kClosedLoopFields, out);
-  return out;
-}
+std::string toYaml(const PerceptionSettings& s) { return table().write(s); }
 
-const char* toString(PerceptionStatus status) {
-  switch (status) {
-    case PerceptionStatus::Ok:
-      return "ok";
-    case PerceptionStatus::NoPoints:
-      return "no points (every ray missed)";
-    case PerceptionStatus::NonFinite:
-      return "no finite point";
-    case PerceptionStatus::InvalidPose:
-      return "sensor pose not finite";
-    case PerceptionStatus::NoPlanarRegion:
-      return "no planar region";
-  }
-  return "unknown";
-}
+const char* toString(PerceptionStatus status) { return enumName(status); }
 
 TerrainPerception::TerrainPerception(const PerceptionSettings& settings)
     : settings_((settings.validate(), settings)),

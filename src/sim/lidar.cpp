@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "rollstep/common/number_text.hpp"
+#include "rollstep/common/settings_table.hpp"
 #include "rollstep/common/text_file.hpp"
 #include "rollstep/common/yaml_tree.hpp"
 
@@ -58,83 +59,50 @@ int LidarSettings::columns() const {
   return std::max(1, static_cast<int>(std::lround(horizontal_fov_deg / horizontal_resolution_deg)));
 }
 
+namespace {
+
+// The keys, in config/lidar.yaml's order (ranges: validate(), which names the key; the
+// table refuses what is not a finite number).
+const settings::Table<LidarSettings>& lidarTable() {
+  using S = LidarSettings;
+  static const settings::Table<S> table =
+      settings::Table<S>()
+          .field("mount_position", &S::mount_position, "m")
+          .field("mount_pitch_deg", &S::mount_pitch_deg, "deg")
+          .field("beams", &S::beams)
+          .field("min_elevation_deg", &S::min_elevation_deg, "deg")
+          .field("max_elevation_deg", &S::max_elevation_deg, "deg")
+          .field("horizontal_fov_deg", &S::horizontal_fov_deg, "deg")
+          .field("horizontal_resolution_deg", &S::horizontal_resolution_deg, "deg")
+          .field("rate", &S::rate, "Hz")
+          .field("max_range", &S::max_range, "m")
+          .field("range_noise", &S::range_noise, "m")
+          .field("dropout", &S::dropout)
+          .field("seed", &S::seed);
+  return table;
+}
+
+}  // namespace
+
 LidarSettings parseLidarSettings(std::string_view text, const std::string& source) {
   const std::string head = "lidar settings '" + source + "': ";
-  const auto fail = [&](const yaml::Node& node, const std::string& what) {
-    throw std::runtime_error(head + "line " + std::to_string(node.line()) + ": " + what);
-  };
-  yaml::Document doc = yaml::parseDocument(text, head);
+  const yaml::Document doc = yaml::parseDocument(text, head);
   LidarSettings s;
-  const yaml::Node root = doc.root();
-  if (root.isNull()) return s;
-  if (!root.isMapping()) fail(root, std::string("expected a mapping, got ") + root.kindName());
-  struct Key {
-    const char* name;
-    double* number;
-    int* integer;
-  };
-  const Key keys[] = {
-      {"mount_pitch_deg", &s.mount_pitch_deg, nullptr},
-      {"beams", nullptr, &s.beams},
-      {"min_elevation_deg", &s.min_elevation_deg, nullptr},
-      {"max_elevation_deg", &s.max_elevation_deg, nullptr},
-      {"horizontal_fov_deg", &s.horizontal_fov_deg, nullptr},
-      {"horizontal_resolution_deg", &s.horizontal_resolution_deg, nullptr},
-      {"rate", &s.rate, nullptr},
-      {"max_range", &s.max_range, nullptr},
-      {"range_noise", &s.range_noise, nullptr},
-      {"dropout", &s.dropout, nullptr},
-      {"seed", nullptr, &s.seed},
-  };
-  const std::string known =
-      "mount_position, mount_pitch_deg, beams, min_elevation_deg, max_elevation_deg, "
-      "horizontal_fov_deg, horizontal_resolution_deg, rate, max_range, range_noise, dropout, seed";
-  std::map<std::string, int> lines;
-  for (std::size_t item = 0; item < root.size(); ++item) {
-    const yaml::Node key = root.key(item), value = root.value(item);
-    const std::string k = key.isScalar() ? key.scalar() : std::string("<key>");
-    if (const auto it = lines.find(k); it != lines.end()) {
-      fail(key, k + ": given twice (first on line " + std::to_string(it->second) + ")");
-    }
-    lines.emplace(k, key.line());
-    const std::string got = value.isScalar() ? "'" + value.scalar() + "'" : value.kindName();
-    if (k == "mount_position") {
-      if (!value.isSequence() || value.size() != 3) {
-        fail(value, k + ": expected a list of 3 numbers [x, y, z], got " + got);
-      }
-      for (std::size_t i = 0; i < 3; ++i) {
-        double v = 0;
-        if (!value.item(i).toDouble(v)) fail(value.item(i), k + ": expected a number");
-        s.mount_position[static_cast<Eigen::Index>(i)] = v;
-      }
-      continue;
-    }
-    const Key* found = nullptr;
-    for (const Key& c : keys) {
-      if (k == c.name) found = &c;
-    }
-    if (found == nullptr) fail(key, "unknown key '" + k + "' (known: " + known + ")");
-    if (found->number != nullptr) {
-      if (!value.isScalar() || !value.toDouble(*found->number) || !std::isfinite(*found->number)) {
-        fail(value, k + ": expected a finite number, got " + got);
-      }
-    } else if (!value.isScalar() || !value.toInt(*found->integer)) {
-      fail(value, k + ": expected an integer, got " + got);
-    }
-  }
+  settings::Reader reader(head);
+  lidarTable().read(doc.root(), s, reader);
   try {
     s.validate();
   } catch (const std::invalid_argument& e) {
-    const std::string what = e.what();
-    int line = 0;
-    for (const auto& [k, l] : lines) {
-      if (what.find(": " + k + " = ") != std::string::npos) line = l;
-    }
-    throw std::runtime_error(head + (line > 0 ? "line " + std::to_string(line) + ": " : "") +
-                             what.substr(what.find(": ") + 2));
+    // what: "lidar: <key> = <value>: <problem>", reported at the key's line.
+    const std::string named = std::string(e.what()).substr(std::string(e.what()).find(": ") + 2);
+    const settings::Reader::Seen* seen = reader.seen(named.substr(0, named.find(" = ")));
+    if (seen != nullptr) reader.failAtLine(seen->line, named);
+    throw std::runtime_error(head + named);
   }
   return s;
 }
+
+std::string toYaml(const LidarSettings& settings) { return lidarTable().write(settings); }
 
 LidarSettings loadLidarSettings(const std::string& path) {
   return parseLidarSettings(readTextFile(path, "lidar settings", std::size_t{1} << 20), path);

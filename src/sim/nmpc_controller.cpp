@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -67,14 +68,12 @@ std::vector<int> plantWheelMap(const centroidal::CentroidalRobot& r, const std::
   return map;
 }
 
-const char* toString(StateSourceKind kind) {
-  return kind == StateSourceKind::Inekf ? "inekf" : "ground_truth";
-}
+const char* toString(StateSourceKind kind) { return enumName(kind); }
 
 StateSourceKind stateSourceFromString(const std::string& name) {
-  if (name == "ground_truth") return StateSourceKind::GroundTruth;
-  if (name == "inekf") return StateSourceKind::Inekf;
-  throw std::invalid_argument("state source '" + name + "': expected ground_truth or inekf");
+  if (const std::optional<StateSourceKind> kind = enumFromName<StateSourceKind>(name)) return *kind;
+  throw std::invalid_argument("state source '" + name + "': expected " +
+                              enumChoices<StateSourceKind>());
 }
 
 NmpcController::NmpcController(const Plant& plant, const centroidal::RobotOcpDescription& robot,

@@ -5,36 +5,49 @@
 #include <stdexcept>
 
 #include "rollstep/common/number_text.hpp"
+#include "rollstep/common/settings_table.hpp"
 #include "rollstep/common/text_file.hpp"
-#include "rollstep/common/yaml_sections.hpp"
 #include "rollstep/sim/plant.hpp"
 
 namespace rollstep::sim {
 
 namespace {
 
-std::vector<yaml::NumberSection> sectionsOf(SensorNoiseConfig& c) {
+// The keys, in config/sensors.yaml's order, with their ranges.
+const settings::Table<SensorNoiseConfig>& sensorTable() {
+  using S = SensorNoiseConfig;
+  using settings::Range;
   constexpr double kBig = 1e6;
-  return {
-      {"", {{"seed", &c.seed, 0.0, 9007199254740992.0}}},
-      {"imu",
-       {{"gyro_noise_density", &c.gyro_noise_density, 0.0, 1.0},
-        {"gyro_bias_random_walk", &c.gyro_bias_random_walk, 0.0, 1.0},
-        {"gyro_initial_bias", &c.gyro_initial_bias, 0.0, 1.0},
-        {"accel_noise_density", &c.accel_noise_density, 0.0, 10.0},
-        {"accel_bias_random_walk", &c.accel_bias_random_walk, 0.0, 10.0},
-        {"accel_initial_bias", &c.accel_initial_bias, 0.0, 10.0}}},
-      {"encoders",
-       {{"hip_resolution", &c.hip_resolution, 0.0, 0.1},
-        {"knee_resolution", &c.knee_resolution, 0.0, 0.01},
-        {"joint_position_noise", &c.joint_position_noise, 0.0, 0.1},
-        {"joint_velocity_noise", &c.joint_velocity_noise, 0.0, 10.0},
-        {"wheel_resolution", &c.wheel_resolution, 0.0, 1.0},
-        {"wheel_velocity_noise", &c.wheel_velocity_noise, 0.0, 10.0}}},
-      {"contact_flags",
-       {{"force_threshold", &c.force_threshold, 0.0, kBig},
-        {"force_noise", &c.force_noise, 0.0, kBig}}},
-  };
+  using T = settings::Table<S>;
+  static const T table =
+      T().field("seed", &S::seed, "", Range::closed(0.0, 9007199254740992.0))
+          .group("imu", T().field("gyro_noise_density", &S::gyro_noise_density, "rad/s/sqrt(Hz)",
+                                  Range::closed(0.0, 1.0))
+                            .field("gyro_bias_random_walk", &S::gyro_bias_random_walk,
+                                   "rad/s^2/sqrt(Hz)", Range::closed(0.0, 1.0))
+                            .field("gyro_initial_bias", &S::gyro_initial_bias, "rad/s",
+                                   Range::closed(0.0, 1.0))
+                            .field("accel_noise_density", &S::accel_noise_density, "m/s^2/sqrt(Hz)",
+                                   Range::closed(0.0, 10.0))
+                            .field("accel_bias_random_walk", &S::accel_bias_random_walk,
+                                   "m/s^3/sqrt(Hz)", Range::closed(0.0, 10.0))
+                            .field("accel_initial_bias", &S::accel_initial_bias, "m/s^2",
+                                   Range::closed(0.0, 10.0)))
+          .group(
+              "encoders",
+              T().field("hip_resolution", &S::hip_resolution, "rad", Range::closed(0.0, 0.1))
+                  .field("knee_resolution", &S::knee_resolution, "m", Range::closed(0.0, 0.01))
+                  .field("joint_position_noise", &S::joint_position_noise, "rad or m",
+                         Range::closed(0.0, 0.1))
+                  .field("joint_velocity_noise", &S::joint_velocity_noise, "rad/s or m/s",
+                         Range::closed(0.0, 10.0))
+                  .field("wheel_resolution", &S::wheel_resolution, "rad", Range::closed(0.0, 1.0))
+                  .field("wheel_velocity_noise", &S::wheel_velocity_noise, "rad/s",
+                         Range::closed(0.0, 10.0)))
+          .group("contact_flags",
+                 T().field("force_threshold", &S::force_threshold, "N", Range::closed(0.0, kBig))
+                     .field("force_noise", &S::force_noise, "N", Range::closed(0.0, kBig)));
+  return table;
 }
 
 double quantise(double x, double resolution) {
@@ -43,22 +56,11 @@ double quantise(double x, double resolution) {
 
 }  // namespace
 
-std::string SensorNoiseConfig::toYaml() const {
-  SensorNoiseConfig copy = *this;
-  std::string out;
-  for (const yaml::NumberSection& s : sectionsOf(copy)) {
-    const bool top = s.key[0] == '\0';
-    if (!top) out += std::string(s.key) + ":\n";
-    for (const yaml::NumberField& f : s.fields) {
-      out += (top ? "" : "  ") + std::string(f.key) + ": " + shortestNumberText(*f.value) + "\n";
-    }
-  }
-  return out;
-}
+std::string SensorNoiseConfig::toYaml() const { return sensorTable().write(*this); }
 
 SensorNoiseConfig parseSensorNoiseConfig(const std::string& yaml_text, const std::string& source) {
-  SensorNoiseConfig c;
-  yaml::readNumberSections(yaml_text, "sensor config '" + source + "'", sectionsOf(c));
+  const SensorNoiseConfig c =
+      settings::readDocument(yaml_text, sensorTable(), "sensor config '" + source + "': ");
   if (c.seed != std::floor(c.seed)) {
     throw std::runtime_error("sensor config '" + source +
                              "': seed: must be a non-negative integer, found " +

@@ -1,193 +1,76 @@
 #include "rollstep/solver/settings_yaml.hpp"
 
-#include <array>
-#include <cmath>
-#include <cstdio>
 #include <cstdlib>
-#include <optional>
 #include <stdexcept>
-#include <type_traits>
-#include <variant>
-#include <vector>
 
 #include "rollstep/common/text_file.hpp"
-#include "rollstep/common/yaml_tree.hpp"
 
 namespace rollstep::solver {
 namespace {
 
-// One table drives both directions, so the reader and the writer cannot drift apart.
-using Field = std::variant<double SolverSettings::*, int SolverSettings::*, bool SolverSettings::*,
-                           SolverMode SolverSettings::*>;
-struct Entry {
-  const char* key;
-  Field field;
-};
-// A new SolverSettings field goes here and into config/solver.yaml.
-const std::array<Entry, 26> kFields{{
-    {"mode", &SolverSettings::mode},
-    {"max_iterations", &SolverSettings::max_iterations},
-    {"kkt_tolerance", &SolverSettings::kkt_tolerance},
-    {"barrier_initial", &SolverSettings::barrier_initial},
-    {"barrier_min", &SolverSettings::barrier_min},
-    {"barrier_decrease", &SolverSettings::barrier_decrease},
-    {"barrier_realtime", &SolverSettings::barrier_realtime},
-    {"realtime_iterations", &SolverSettings::realtime_iterations},
-    {"fraction_to_boundary", &SolverSettings::fraction_to_boundary},
-    {"bound_push", &SolverSettings::bound_push},
-    {"slack_reset", &SolverSettings::slack_reset},
-    {"line_search", &SolverSettings::line_search},
-    {"exact_hessian", &SolverSettings::exact_hessian},
-    {"max_line_search_steps", &SolverSettings::max_line_search_steps},
-    {"rank_tolerance", &SolverSettings::rank_tolerance},
-    {"num_threads", &SolverSettings::num_threads},
-    {"thread_spin_us", &SolverSettings::thread_spin_us},
-    {"divergence_threshold", &SolverSettings::divergence_threshold},
-    {"infeasibility_tolerance", &SolverSettings::infeasibility_tolerance},
-    {"filter_reset_trigger", &SolverSettings::filter_reset_trigger},
-    {"max_filter_resets", &SolverSettings::max_filter_resets},
-    {"max_second_order_corrections", &SolverSettings::max_second_order_corrections},
-    {"acceptable_tolerance", &SolverSettings::acceptable_tolerance},
-    {"acceptable_iterations", &SolverSettings::acceptable_iterations},
-    {"predictor_corrector", &SolverSettings::predictor_corrector},
-    {"huge_pages", &SolverSettings::huge_pages},
-}};
-constexpr std::size_t kNumFields = kFields.size();
+using settings::Range;
 
-SolverMode modeFromString(const std::string& name) {
-  if (name == "converging") return SolverMode::Converging;
-  if (name == "realtime") return SolverMode::RealTime;
-  throw std::invalid_argument("expected converging or realtime, got '" + name + "'");
-}
+Range intRange(IntSettingRange r) { return Range::closed(r.min, r.max); }
 
-const char* modeName(SolverMode mode) {
-  return mode == SolverMode::RealTime ? "realtime" : "converging";
-}
-
-/// The shortest decimal text that reads back as exactly v (YAML's .inf for infinities).
-std::string numberText(double v) {
-  if (std::isinf(v)) return v > 0 ? ".inf" : "-.inf";
-  char buf[32];
-  for (int digits = 1; digits <= 17; ++digits) {
-    std::snprintf(buf, sizeof buf, "%.*g", digits, v);
-    if (std::strtod(buf, nullptr) == v) break;
-  }
-  return buf;
-}
-
-/// The ranges checkSettings enforces on the integer fields (solver.hpp), by key, so that a
-/// refusal names the value the file gave and the range.
-struct IntRange {
-  const char* key;
-  IntSettingRange range;
-};
-constexpr std::array<IntRange, 9> kIntRanges{{
-    {"max_iterations", kIterationCountRange},
-    {"realtime_iterations", kRealtimeIterationRange},
-    {"acceptable_iterations", kIterationCountRange},
-    {"max_line_search_steps", kLineSearchStepsRange},
-    {"num_threads", kThreadCountRange},
-    {"thread_spin_us", kThreadSpinRange},
-    {"filter_reset_trigger", kFilterResetRange},
-    {"max_filter_resets", kFilterResetRange},
-    {"max_second_order_corrections", kSecondOrderCorrectionRange},
-}};
-
-std::optional<IntSettingRange> intRange(const std::string& key) {
-  for (const IntRange& r : kIntRanges) {
-    if (key == r.key) return r.range;
-  }
-  return std::nullopt;
+// A new SolverSettings field goes here and into config/solver.yaml. The doubles' ranges
+// are checkSettings' (solver.hpp), which names the values the file gave (below).
+settings::Table<SolverSettings> makeTable() {
+  using S = SolverSettings;
+  const Range any = Range::unchecked();
+  return settings::Table<S>()
+      .field("mode", &S::mode)
+      .field("max_iterations", &S::max_iterations, "", intRange(kIterationCountRange))
+      .field("kkt_tolerance", &S::kkt_tolerance, "", any)
+      .field("barrier_initial", &S::barrier_initial, "", any)
+      .field("barrier_min", &S::barrier_min, "", any)
+      .field("barrier_decrease", &S::barrier_decrease, "", any)
+      .field("barrier_realtime", &S::barrier_realtime, "", any)
+      .field("realtime_iterations", &S::realtime_iterations, "", intRange(kRealtimeIterationRange))
+      .field("fraction_to_boundary", &S::fraction_to_boundary, "", any)
+      .field("bound_push", &S::bound_push, "", any)
+      .field("slack_reset", &S::slack_reset)
+      .field("line_search", &S::line_search)
+      .field("exact_hessian", &S::exact_hessian)
+      .field("max_line_search_steps", &S::max_line_search_steps, "",
+             intRange(kLineSearchStepsRange))
+      .field("rank_tolerance", &S::rank_tolerance, "", any)
+      .field("num_threads", &S::num_threads, "", intRange(kThreadCountRange))
+      .field("thread_spin_us", &S::thread_spin_us, "us", intRange(kThreadSpinRange))
+      .field("divergence_threshold", &S::divergence_threshold, "", any)
+      .field("infeasibility_tolerance", &S::infeasibility_tolerance, "", any)
+      .field("filter_reset_trigger", &S::filter_reset_trigger, "", intRange(kFilterResetRange))
+      .field("max_filter_resets", &S::max_filter_resets, "", intRange(kFilterResetRange))
+      .field("max_second_order_corrections", &S::max_second_order_corrections, "",
+             intRange(kSecondOrderCorrectionRange))
+      .field("acceptable_tolerance", &S::acceptable_tolerance, "", any)
+      .field("acceptable_iterations", &S::acceptable_iterations, "", intRange(kIterationCountRange))
+      .field("predictor_corrector", &S::predictor_corrector)
+      .field("huge_pages", &S::huge_pages);
 }
 
 bool isKeyChar(char c) { return (c >= 'a' && c <= 'z') || c == '_'; }
 
-std::string knownKeys() {
-  std::string keys;
-  for (std::size_t i = 0; i < kNumFields; ++i)
-    keys += (i ? ", " : "") + std::string(kFields[i].key);
-  return keys;
-}
-
 }  // namespace
 
-SolverSettings parseSolverSettings(const std::string& yaml_text, const std::string& source_name) {
-  try {
-    const yaml::Document document = yaml::Document::parse(yaml_text);
-    return parseSolverSettings(document.root(), source_name);
-  } catch (const yaml::YamlError& e) {
-    throw std::runtime_error("solver settings " + source_name + ": YAML error: " + e.what());
-  }
+const settings::Table<SolverSettings>& solverSettingsTable() {
+  static const settings::Table<SolverSettings> table = makeTable();
+  return table;
 }
 
-SolverSettings parseSolverSettings(const yaml::Node& root, const std::string& source_name,
-                                   const SolverSettings& defaults) {
-  const auto fail = [&](const std::string& what) {
-    throw std::runtime_error("solver settings " + source_name + ": " + what);
-  };
-  SolverSettings settings = defaults;
-  if (root.isNull()) return settings;
-  if (!root.isMapping()) fail("expected a mapping of key: value");
-  std::array<bool, kNumFields> seen{};
-  std::array<std::string, kNumFields> given;  // the text of each value read, for messages
-  for (std::size_t item = 0; item < root.size(); ++item) {
-    const yaml::Node key_node = root.key(item);
-    if (!key_node.isScalar()) fail("a key is not a plain name (known: " + knownKeys() + ")");
-    const std::string key = key_node.scalar();
-    const yaml::Node value = root.value(item);
-    const Entry* entry = nullptr;
-    for (std::size_t i = 0; i < kNumFields && !entry; ++i) {
-      if (key == kFields[i].key) entry = &kFields[i];
-    }
-    if (!entry) fail("unknown key '" + key + "' (known: " + knownKeys() + ")");
-    const std::size_t index = static_cast<std::size_t>(entry - kFields.data());
-    // YAML forbids a repeated key; the last would otherwise win silently.
-    if (seen[index]) fail("key '" + key + "' given twice");
-    seen[index] = true;
-    if (value.isNull()) fail("bad value for '" + key + "': no value given");
-    if (!value.isScalar()) fail("bad value for '" + key + "': expected a single value");
-    given[index] = value.scalar();
-    try {
-      const bool read = std::visit(
-          [&](auto member) {
-            using T = std::decay_t<decltype(settings.*member)>;
-            if constexpr (std::is_same_v<T, SolverMode>) {
-              settings.*member = modeFromString(value.scalar());
-              return true;
-            } else if constexpr (std::is_same_v<T, double>) {
-              return value.toDouble(settings.*member);
-            } else if constexpr (std::is_same_v<T, int>) {
-              return value.toInt(settings.*member);
-            } else {
-              return value.toBool(settings.*member);
-            }
-          },
-          entry->field);
-      if (!read) {
-        fail("bad value for '" + key + "': '" + value.scalar() + "' is not " +
-             (std::holds_alternative<int SolverSettings::*>(entry->field)    ? "an integer"
-              : std::holds_alternative<bool SolverSettings::*>(entry->field) ? "true or false"
-                                                                             : "a number"));
-      }
-    } catch (const std::invalid_argument& e) {
-      fail("bad value for '" + key + "': " + e.what());
-    }
-    if (const auto range = intRange(key)) {
-      const int v = settings.*std::get<int SolverSettings::*>(entry->field);
-      if (v < range->min || v > range->max) {
-        fail("bad value for '" + key + "': " + std::to_string(v) + " is outside [" +
-             std::to_string(range->min) + ", " + std::to_string(range->max) + "]");
-      }
-    }
-  }
+void readSolverSettings(const yaml::Node& node, SolverSettings& s, settings::Reader& reader,
+                        const std::string& prefix) {
+  solverSettingsTable().read(node, s, reader, prefix);
   try {
-    checkSettings(settings);
+    checkSettings(s);
   } catch (const std::invalid_argument& e) {
-    // checkSettings names the keys and the valid range; add the values the file gave them.
+    // checkSettings names the keys and the valid range; add the values the file gave them,
+    // and point at the first of them the file gave.
     const std::string message = e.what();
     std::string values;
-    for (std::size_t i = 0; i < kNumFields; ++i) {
-      const std::string key = kFields[i].key;
+    int line = node.line();
+    bool line_found = false;
+    for (const settings::Field<SolverSettings>& f : solverSettingsTable().fields()) {
+      const std::string& key = f.key;
       for (std::size_t at = message.find(key); at != std::string::npos;
            at = message.find(key, at + 1)) {
         const std::size_t end = at + key.size();
@@ -195,13 +78,27 @@ SolverSettings parseSolverSettings(const yaml::Node& root, const std::string& so
             (end < message.size() && isKeyChar(message[end]))) {
           continue;  // part of a longer word
         }
+        const settings::Reader::Seen* seen = reader.seen(prefix + key);
+        if (seen != nullptr && !line_found) {
+          line = seen->line;
+          line_found = true;
+        }
         values += (values.empty() ? " (" : ", ") + key + ": " +
-                  (seen[i] ? "'" + given[i] + "' in the file" : "default");
+                  (seen != nullptr ? "'" + seen->text + "' in the file" : "default");
         break;
       }
     }
-    fail(message + (values.empty() ? "" : values + ")"));
+    reader.failAtLine(line, (prefix.empty() ? "" : prefix.substr(0, prefix.size() - 1) + ": ") +
+                                message + (values.empty() ? "" : values + ")"));
   }
+}
+
+SolverSettings parseSolverSettings(const std::string& yaml_text, const std::string& source_name) {
+  const std::string head = "solver settings " + source_name + ": ";
+  const yaml::Document document = yaml::parseDocument(yaml_text, head + "YAML error: ");
+  SolverSettings settings;
+  settings::Reader reader(head);
+  readSolverSettings(document.root(), settings, reader, "");
   return settings;
 }
 
@@ -211,29 +108,6 @@ SolverSettings loadSolverSettings(const std::string& yaml_file) {
   return parseSolverSettings(text, yaml_file);
 }
 
-std::string toYaml(const SolverSettings& settings) {
-  std::string out;
-  for (std::size_t i = 0; i < kNumFields; ++i) {
-    out += kFields[i].key;
-    out += ": ";
-    std::visit(
-        [&](auto member) {
-          using T = std::decay_t<decltype(settings.*member)>;
-          const T& v = settings.*member;
-          if constexpr (std::is_same_v<T, SolverMode>) {
-            out += modeName(v);
-          } else if constexpr (std::is_same_v<T, bool>) {
-            out += v ? "true" : "false";
-          } else if constexpr (std::is_same_v<T, int>) {
-            out += std::to_string(v);
-          } else {
-            out += numberText(v);
-          }
-        },
-        kFields[i].field);
-    out += '\n';
-  }
-  return out;
-}
+std::string toYaml(const SolverSettings& settings) { return solverSettingsTable().write(settings); }
 
 }  // namespace rollstep::solver

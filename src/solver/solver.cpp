@@ -14,29 +14,7 @@ namespace rollstep::solver {
 
 using detail::msSince;
 
-const char* toString(SolverStatus s) {
-  switch (s) {
-    case SolverStatus::Converged:
-      return "Converged";
-    case SolverStatus::Acceptable:
-      return "Acceptable";
-    case SolverStatus::IterationDone:
-      return "IterationDone";
-    case SolverStatus::MaxIterations:
-      return "MaxIterations";
-    case SolverStatus::LineSearchFailed:
-      return "LineSearchFailed";
-    case SolverStatus::RankDeficientEqualities:
-      return "RankDeficientEqualities";
-    case SolverStatus::Diverged:
-      return "Diverged";
-    case SolverStatus::InvalidInput:
-      return "InvalidInput";
-    case SolverStatus::Infeasible:
-      return "Infeasible";
-  }
-  return "Unknown";
-}
+const char* toString(SolverStatus s) { return enumName(s, "Unknown"); }
 
 /// Starts a run: clears the outputs of the last one, sets x0, the barrier and (converging
 /// mode) fresh slacks, duals and filter. Returns false on an invalid x_init (status set).

@@ -200,14 +200,15 @@ TEST(ControlSettings, ErrorsNameTheSourceLineAndFullKey) {
       {"ocp:\n  step_down_max_hold: 0.5\n  edge_hold_lead: 0.1\n",
        "ocp.edge_hold_lead: 0.1 is below mpc.max_solution_age (0.2)"},
       // the nested OCP and solver
-      {"ocp: 3\n", "line 1: ocp: expected a mapping of OCP settings"},
+      {"ocp: 3\n", "line 1: ocp: expected a mapping, got a value"},
       {"ocp:\n  horizon: 0\n", "line 2: ocp.horizon: 0 is outside [1, 10000]"},
       {"ocp:\n  horizon: 10\n  bogus: 1\n", "line 3: unknown key 'ocp.bogus'"},
       {"ocp:\n  dt: 0.01\n  dt: 0.02\n", "line 3: ocp.dt: given twice (first on line 2)"},
       {"ocp:\n  base_velocity_weight: [1, 2]\n", "ocp.base_velocity_weight: expected a list of 6"},
-      {"ocp:\n  solver: 3\n", "line 2: ocp.solver: expected a mapping of solver settings"},
-      {"ocp:\n  solver:\n    bogus: 1\n", "(key 'ocp.solver', line 3): unknown key 'bogus'"},
-      {"ocp:\n  solver:\n    num_threads: 0\n", "'num_threads': 0 is outside"},
+      {"ocp:\n  solver: 3\n", "line 2: ocp.solver: expected a mapping, got a value"},
+      {"ocp:\n  solver:\n    bogus: 1\n", "line 3: unknown key 'ocp.solver.bogus'"},
+      {"ocp:\n  solver:\n    num_threads: 0\n",
+       "line 3: ocp.solver.num_threads: 0 is outside [1, 256]"},
       // the document
       {"- 1\n", "line 1: expected a mapping"},
       {"a: [1\n", "YAML error: line 2"},
@@ -248,7 +249,7 @@ TEST(ControlSettings, CheckSettingsNamesTheFirstBadField) {
   EXPECT_EQ(error(s), "");
   s = ControlSettings{};
   s.ocp.horizon = 0;
-  EXPECT_TRUE(has(error(s), "ocp: ") && has(error(s), "horizon: 0 is outside")) << error(s);
+  EXPECT_TRUE(has(error(s), "control settings: ocp.horizon: 0 is outside [1, 10000]")) << error(s);
   s = ControlSettings{};
   s.ocp.solver.barrier_realtime = -1;
   EXPECT_TRUE(has(error(s), "ocp.solver: ") && has(error(s), "barrier_realtime")) << error(s);

@@ -58,12 +58,13 @@ TEST(InekfSettings, ShippedFileAndRoundTrip) {
 
 TEST(InekfSettings, ErrorsNameFileLineAndKey) {
   expectError("contacts:\n  velocty_noise: 1\n",
-              "est.yaml': line 2: contacts.velocty_noise: unknown key");
+              "est.yaml': line 2: unknown key 'contacts.velocty_noise' (known in contacts: ");
   expectError("imu:\n  gyro_noise: 0\n", "line 2: imu.gyro_noise: 0 is outside");
   expectError("contacts:\n  rolling: 0.5\n", "contacts.rolling: must be 0 or 1");
-  expectError("contacts:\n  gate_recovery_ticks: 2.5\n", "gate_recovery_ticks: must be an integer");
+  expectError("contacts:\n  gate_recovery_ticks: 2.5\n",
+              "line 2: contacts.gate_recovery_ticks: expected an integer, got '2.5'");
   expectError("limits: [1]\n", "line 1: limits: expected a mapping");
-  expectError("gravity: 9.81\ngravity: 9.8\n", "line 2: gravity: repeated");
+  expectError("gravity: 9.81\ngravity: 9.8\n", "line 2: gravity: given twice (first on line 1)");
   EXPECT_THROW(loadInekfSettings("/nonexistent.yaml"), std::runtime_error);
 }
 

@@ -427,9 +427,8 @@ TEST(PerceptionSettings, FileRoundTripsAndErrorsNameLineAndKey) {
   EXPECT_EQ(error("regions:\n  cover_fraction: 1.0000000000000002\n"),
             "perception settings 'p.yaml': line 2: regions.cover_fraction = 1.0000000000000002: "
             "must be in (0, 1]");
-  EXPECT_EQ(
-      error("regions:\n  margin: .nan\n"),
-      "perception settings 'p.yaml': line 2: regions.margin: expected a finite number, got '.nan'");
+  EXPECT_EQ(error("regions:\n  margin: .nan\n"),
+            "perception settings 'p.yaml': line 2: regions.margin: .nan is not finite");
   EXPECT_EQ(error("lidar: {}\n"),
             "perception settings 'p.yaml': line 1: unknown key 'lidar' (known: map, segmentation, "
             "regions, closed_loop)");

@@ -102,6 +102,33 @@ TEST(LidarSettings, RangeErrorsShowTheValueGiven) {
             "of the base");
 }
 
+TEST(LidarSettings, WrittenSettingsReadBackExactlyAndUnknownKeysAreErrors) {
+  LidarSettings s;
+  s.mount_position = Eigen::Vector3d(0.1 + 0.2, -0.05, 0.25);
+  s.mount_pitch_deg = 12.5;
+  s.beams = 16;
+  s.dropout = 1.0 / 3.0;
+  s.seed = 7;
+  const LidarSettings r = parseLidarSettings(toYaml(s), "round trip");
+  EXPECT_EQ(r.mount_position, s.mount_position);
+  EXPECT_EQ(r.mount_pitch_deg, s.mount_pitch_deg);
+  EXPECT_EQ(r.beams, 16);
+  EXPECT_EQ(r.dropout, s.dropout);
+  EXPECT_EQ(r.seed, 7);
+  EXPECT_EQ(toYaml(r), toYaml(s));
+  try {
+    parseLidarSettings("beams: 8\nbeam: 8\n", "x.yaml");
+    ADD_FAILURE() << "an unknown key was accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_EQ(
+        std::string(e.what()).rfind("lidar settings 'x.yaml': line 2: unknown key 'beam' (known: "
+                                    "mount_position, ",
+                                    0),
+        0u)
+        << e.what();
+  }
+}
+
 /// Drives at 0.3 m/s towards the blocks for `duration`, a scan every 100 ms, then checks
 /// every ground-truth surface the map observed on the path ahead against its region.
 Approach approach(const std::string& kind, double start_x, double duration) {

@@ -44,13 +44,16 @@ TEST(SensorNoiseConfig, RoundTripAndPartialFiles) {
 
 TEST(SensorNoiseConfig, ErrorsNameFileLineAndKey) {
   expectError("imu:\n  gyro_nois_density: 1\n",
-              "test.yaml': line 2: imu.gyro_nois_density: unknown key");
-  expectError("seed: 1\nbogus: 2\n", "line 2: bogus: unknown key");
+              "test.yaml': line 2: unknown key 'imu.gyro_nois_density' (known in imu: ");
+  expectError("seed: 1\nbogus: 2\n", "line 2: unknown key 'bogus'");
   expectError("imu:\n  gyro_noise_density: -1\n", "line 2: imu.gyro_noise_density: -1 is outside");
-  expectError("imu:\n  gyro_noise_density: .nan\n", "imu.gyro_noise_density: not finite");
-  expectError("encoders:\n  wheel_velocity_noise: \"0.1\"\n", "expected a number");
+  expectError("imu:\n  gyro_noise_density: .nan\n",
+              "line 2: imu.gyro_noise_density: .nan is outside [0, 1]");
+  expectError(
+      "encoders:\n  wheel_velocity_noise: \"0.1\"\n",
+      "line 2: encoders.wheel_velocity_noise: '0.1' is not a number (it is quoted or tagged)");
   expectError("contact_flags: 3\n", "line 1: contact_flags: expected a mapping");
-  expectError("seed: 1\nseed: 2\n", "line 2: seed: repeated (first on line 1)");
+  expectError("seed: 1\nseed: 2\n", "line 2: seed: given twice (first on line 1)");
   expectError("seed: 1.5\n", "seed: must be a non-negative integer");
   expectError("imu: [1, 2\n", "test.yaml'");
   EXPECT_THROW(loadSensorNoiseConfig("/nonexistent/sensors.yaml"), std::runtime_error);

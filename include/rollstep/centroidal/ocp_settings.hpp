@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "rollstep/common/settings_table.hpp"
 #include "rollstep/common/yaml_tree.hpp"
 #include "rollstep/solver/solver.hpp"
 
@@ -219,18 +220,19 @@ struct OcpSettings {
 /// "OCP settings <source>: line L: <key>: <what>".
 OcpSettings parseOcpSettings(const std::string& yaml_text, const std::string& source_name);
 OcpSettings loadOcpSettings(const std::string& yaml_file);
-/// The same from a node of a parsed document: an `ocp:` mapping nested in another
-/// configuration file (a null node gives the defaults). Keys are named with `key_path` in
-/// front ("ocp." names ocp.horizon); errors: std::runtime_error
-/// "<description> <source_name>: line L: <key_path><key>: <what>", except those of the
-/// nested `solver:` mapping, which are the solver layer's naming
-/// "<source_name> (key '<key_path>solver', line L)". The defaults of the last two
-/// arguments give the messages of parseOcpSettings(text, source_name).
+/// The table of OcpSettings' keys (common/settings_table.hpp), `solver` a nested section.
+const settings::Table<OcpSettings>& ocpSettingsTable();
+/// Reads an `ocp:` mapping nested in another configuration file into `settings` (keys not
+/// given keep their values; `prefix` names the keys: "ocp." names ocp.horizon); errors go
+/// through `reader`: "<head>line L: <prefix><key>: <what>".
+void readOcpSettings(const yaml::Node& node, OcpSettings& settings, settings::Reader& reader,
+                     const std::string& prefix);
+/// The same from a node of a parsed document, over the defaults or over `base`; errors:
+/// std::runtime_error "<description> <source_name>: line L: <key_path><key>: <what>" (the
+/// nested solver keys too: <key_path>solver.<key>).
 OcpSettings parseOcpSettings(const yaml::Node& node, const std::string& source_name,
                              const std::string& key_path = "",
                              const std::string& description = "OCP settings");
-/// The same over `base` instead of the defaults: keys not given keep base's values (the
-/// nested `solver:` mapping too, key by key).
 OcpSettings parseOcpSettings(const yaml::Node& node, const OcpSettings& base,
                              const std::string& source_name, const std::string& key_path,
                              const std::string& description);

@@ -99,10 +99,12 @@
 //
 // Memory: sized at construction; filter() never allocates, locks or throws.
 #include <Eigen/Core>
+#include <array>
 #include <memory>
 #include <vector>
 
 #include "rollstep/centroidal/robot.hpp"
+#include "rollstep/common/enum_names.hpp"
 #include "rollstep/control/control_settings.hpp"
 #include "rollstep/control/dense_qp.hpp"
 #include "rollstep/model/data.hpp"
@@ -136,6 +138,12 @@ enum class CbfQpStatus {
   InvalidInput,  ///< non-finite state or targets; the fallback acceleration (with v = 0 where
                  ///< v is not finite)
 };
+constexpr std::array<EnumName<CbfQpStatus>, 4> enumNames(CbfQpStatus) {
+  return {{{CbfQpStatus::Optimal, "Optimal"},
+           {CbfQpStatus::Relaxed, "Relaxed"},
+           {CbfQpStatus::Fallback, "Fallback"},
+           {CbfQpStatus::InvalidInput, "InvalidInput"}}};
+}
 const char* toString(CbfQpStatus status);
 
 class CbfQpFilter {

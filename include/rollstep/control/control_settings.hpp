@@ -9,9 +9,11 @@
 // Robot-specific numbers (limits, posture, contacts) are not here: they come from the
 // URDF and the robot description (robots/<robot>/centroidal.yaml).
 #include <Eigen/Core>
+#include <array>
 #include <string>
 
 #include "rollstep/centroidal/ocp_settings.hpp"
+#include "rollstep/common/enum_names.hpp"
 
 namespace rollstep::control {
 
@@ -27,6 +29,9 @@ enum class MpcTiming {
   /// robot; results are not reproducible.
   Asynchronous,
 };
+constexpr std::array<EnumName<MpcTiming>, 2> enumNames(MpcTiming) {
+  return {{{MpcTiming::Deterministic, "deterministic"}, {MpcTiming::Asynchronous, "asynchronous"}}};
+}
 const char* toString(MpcTiming timing);
 
 /// How the joint commands are made from the filtered accelerations.
@@ -41,6 +46,9 @@ enum class IntegratorMode {
   /// open-loop in between; the time constants are not used.
   Naive,
 };
+constexpr std::array<EnumName<IntegratorMode>, 2> enumNames(IntegratorMode) {
+  return {{{IntegratorMode::Internal, "internal"}, {IntegratorMode::Naive, "naive"}}};
+}
 const char* toString(IntegratorMode mode);
 
 struct MpcSettings {

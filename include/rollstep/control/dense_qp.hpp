@@ -41,8 +41,11 @@
 // i.e. the gradient of the cost is a combination of the constraint normals written as
 // "c_i^T x >= l_i", "-c_i^T x >= -u_i", "x_j >= lb_j", "-x_j >= -ub_j".
 #include <Eigen/Core>
+#include <array>
 #include <cstdint>
 #include <vector>
+
+#include "rollstep/common/enum_names.hpp"
 
 namespace rollstep::control {
 
@@ -112,6 +115,13 @@ enum class DenseQpStatus {
   NotConvex,      ///< H (+ regularisation) is not numerically positive definite
   InvalidInput,   ///< NaN/Inf data, l > u, a side at the wrong infinity, sizes, settings
 };
+constexpr std::array<EnumName<DenseQpStatus>, 5> enumNames(DenseQpStatus) {
+  return {{{DenseQpStatus::Optimal, "Optimal"},
+           {DenseQpStatus::Infeasible, "Infeasible"},
+           {DenseQpStatus::MaxIterations, "MaxIterations"},
+           {DenseQpStatus::NotConvex, "NotConvex"},
+           {DenseQpStatus::InvalidInput, "InvalidInput"}}};
+}
 const char* toString(DenseQpStatus status);
 
 /// Which side of a row / bound is in the final active set.

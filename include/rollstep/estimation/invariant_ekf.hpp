@@ -62,6 +62,7 @@
 #include <string>
 #include <vector>
 
+#include "rollstep/common/enum_names.hpp"
 #include "rollstep/model/model.hpp"
 
 namespace rollstep::model {
@@ -74,6 +75,11 @@ inline constexpr int kMaxContacts = 8;
 inline constexpr int kErrorDim = 15;
 
 enum class ContactKind { Point, DriveWheel, OmniWheel };
+constexpr std::array<EnumName<ContactKind>, 3> enumNames(ContactKind) {
+  return {{{ContactKind::Point, "point"},
+           {ContactKind::DriveWheel, "drive_wheel"},
+           {ContactKind::OmniWheel, "omni_wheel"}}};
+}
 const char* toString(ContactKind kind);
 
 struct ContactSpec {
@@ -151,6 +157,13 @@ enum class EstimatorEvent : std::uint8_t {
   ContactRejected,  ///< a stance contact's innovation failed the gate
   GateRecovered,    ///< every stance contact rejected too long: measurements accepted
 };
+constexpr std::array<EnumName<EstimatorEvent>, 5> enumNames(EstimatorEvent) {
+  return {{{EstimatorEvent::ImuRejected, "imu_rejected"},
+           {EstimatorEvent::EncoderRejected, "encoder_rejected"},
+           {EstimatorEvent::TimeRejected, "time_rejected"},
+           {EstimatorEvent::ContactRejected, "contact_rejected"},
+           {EstimatorEvent::GateRecovered, "gate_recovered"}}};
+}
 const char* toString(EstimatorEvent event);
 
 struct EstimatorCounters {

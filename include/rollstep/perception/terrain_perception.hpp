@@ -5,10 +5,12 @@
 //
 // Bad data never replaces the terrain: update() reports a status, and terrain() keeps the
 // last terrain built from good data (empty until the first).
+#include <array>
 #include <string>
 #include <string_view>
 #include <vector>
 
+#include "rollstep/common/enum_names.hpp"
 #include "rollstep/perception/convex_regions.hpp"
 #include "rollstep/perception/elevation_map.hpp"
 #include "rollstep/perception/plane_segmentation.hpp"
@@ -77,6 +79,13 @@ enum class PerceptionStatus {
   InvalidPose,     ///< the sensor pose is not finite: nothing fused
   NoPlanarRegion,  ///< the map holds no planar region large enough
 };
+constexpr std::array<EnumName<PerceptionStatus>, 5> enumNames(PerceptionStatus) {
+  return {{{PerceptionStatus::Ok, "ok"},
+           {PerceptionStatus::NoPoints, "no points (every ray missed)"},
+           {PerceptionStatus::NonFinite, "no finite point"},
+           {PerceptionStatus::InvalidPose, "sensor pose not finite"},
+           {PerceptionStatus::NoPlanarRegion, "no planar region"}}};
+}
 const char* toString(PerceptionStatus status);
 
 class TerrainPerception {

@@ -12,8 +12,11 @@
 // once by a factory (these may allocate and throw std::invalid_argument naming the bad
 // parameter and its value). The gait cycle starts at t = 0 and repeats for every real t;
 // queries allocate nothing.
+#include <array>
 #include <string>
 #include <vector>
+
+#include "rollstep/common/enum_names.hpp"
 
 namespace rollstep::planning {
 
@@ -32,6 +35,13 @@ int contactMask(const std::vector<std::string>& foot_names,
                 const std::vector<std::string>& in_stance);
 
 enum class GaitKind { Standing, Rolling, Trot, StaticWalk, Custom };
+constexpr std::array<EnumName<GaitKind>, 5> enumNames(GaitKind) {
+  return {{{GaitKind::Standing, "standing"},
+           {GaitKind::Rolling, "rolling"},
+           {GaitKind::Trot, "trot"},
+           {GaitKind::StaticWalk, "static_walk"},
+           {GaitKind::Custom, "custom"}}};
+}
 
 /// One row of a custom gait table: `duration` [s] of a phase with contact mask `mode`.
 struct GaitPhase {

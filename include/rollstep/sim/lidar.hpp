@@ -42,6 +42,8 @@ struct LidarSettings {
 /// for YAML errors, unknown or repeated keys, non-numbers and out-of-range values.
 LidarSettings parseLidarSettings(std::string_view text, const std::string& source);
 LidarSettings loadLidarSettings(const std::string& path);
+/// Every key, one "key: value" line each; parseLidarSettings reads it back exactly.
+std::string toYaml(const LidarSettings& settings);
 
 class Lidar {
  public:

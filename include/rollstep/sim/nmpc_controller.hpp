@@ -4,12 +4,14 @@
 // estimator plugs in through the same interface. Joints are matched between the
 // plant (its leg order) and the model (the URDF's order) by name, drive wheels by their
 // contact frame.
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <string>
 #include <string_view>
 #include <vector>
 
+#include "rollstep/common/enum_names.hpp"
 #include "rollstep/control/pipeline.hpp"
 #include "rollstep/estimation/invariant_ekf.hpp"
 #include "rollstep/planning/speed_adaptation.hpp"
@@ -56,6 +58,9 @@ std::vector<int> plantWheelMap(const centroidal::CentroidalRobot& robot,
 /// (estimator_source.hpp) on the plant's sensors (give the plant a sensor noise model,
 /// PlantOptions::sensor_noise, for realistic readings).
 enum class StateSourceKind { GroundTruth, Inekf };
+constexpr std::array<EnumName<StateSourceKind>, 2> enumNames(StateSourceKind) {
+  return {{{StateSourceKind::GroundTruth, "ground_truth"}, {StateSourceKind::Inekf, "inekf"}}};
+}
 /// "ground_truth" or "inekf".
 const char* toString(StateSourceKind kind);
 /// Inverse of toString; throws std::invalid_argument naming the accepted values.

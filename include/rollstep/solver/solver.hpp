@@ -67,10 +67,12 @@
 // contradicting rows blow up). An iteration limit with a violation left is MaxIterations
 // (the residuals are in stats()), not Infeasible. LineSearchFailed: the line search fails
 // with a violation below infeasibility_tolerance at a point that is not acceptable.
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <vector>
 
+#include "rollstep/common/enum_names.hpp"
 #include "rollstep/ocp/problem.hpp"
 #include "rollstep/solver/riccati.hpp"
 
@@ -84,6 +86,9 @@ enum class SolverMode {
   Converging,  ///< decreasing barrier, several iterations, stops on the KKT tolerance
   RealTime,    ///< fixed barrier, one Newton iteration per update() (real-time iteration)
 };
+constexpr std::array<EnumName<SolverMode>, 2> enumNames(SolverMode) {
+  return {{{SolverMode::Converging, "converging"}, {SolverMode::RealTime, "realtime"}}};
+}
 
 /// Every field has its default here; config/solver.yaml lists them all, and
 /// loadSolverSettings (settings_yaml.hpp) reads them from YAML.
@@ -221,6 +226,18 @@ enum class SolverStatus {
                             ///< violation, or the duals of contradicting rows blew up); the
                             ///< iterate is kept
 };
+constexpr std::array<EnumName<SolverStatus>, 9> enumNames(SolverStatus) {
+  return {{{SolverStatus::Converged, "Converged"},
+           {SolverStatus::Acceptable, "Acceptable"},
+           {SolverStatus::IterationDone, "IterationDone"},
+           {SolverStatus::MaxIterations, "MaxIterations"},
+           {SolverStatus::LineSearchFailed, "LineSearchFailed"},
+           {SolverStatus::RankDeficientEqualities, "RankDeficientEqualities"},
+           {SolverStatus::Diverged, "Diverged"},
+           {SolverStatus::InvalidInput, "InvalidInput"},
+           {SolverStatus::Infeasible, "Infeasible"}}};
+}
+/// The status's name ("Converged"; "Unknown" for a value outside the enum).
 const char* toString(SolverStatus s);
 
 /// One Newton iteration. Residuals are those of the linearisation point, BEFORE the step
