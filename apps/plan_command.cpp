@@ -146,9 +146,10 @@ int runPlan(const PlanOptions& o) {
       "  largest violation per constraint group (at node):\n",
       scene.name.c_str(), o.gait.c_str(), numberText(o.vx).c_str(), numberText(o.vy).c_str(),
       numberText(o.yaw_rate).c_str(), numberText(o.duration).c_str(), settings.horizon,
-      numberText(settings.dt).c_str(), robot_file.c_str(), robot.urdf.c_str(), solver::toString(status),
-      solver.iterations(), solve_s, solver.stats().empty() ? 0.0 : solver.stats().back().kkt_error,
-      settings.solver.kkt_tolerance, solver.cost(),
+      numberText(settings.dt).c_str(), robot_file.c_str(), robot.urdf.c_str(),
+      solver::toString(status), solver.iterations(), solve_s,
+      solver.stats().empty() ? 0.0 : solver.stats().back().kkt_error, settings.solver.kkt_tolerance,
+      solver.cost(),
       *solver.message() != '\0' ? format("  message    %s\n", solver.message()).c_str() : "");
   for (const centroidal::ConstraintViolation& v :
        centroidal::constraintViolations(*ocp.problem(), solver.states(), solver.inputs())) {

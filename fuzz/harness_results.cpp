@@ -45,8 +45,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         failure("accepted a scene number outside its range or with a bad name: " + v.name);
       }
     }
-    if (p.seed > 999999999 || !(p.sensor_noise >= 0 && p.sensor_noise <= 100) || !within(r.traverse_time, 1e-300, 1e6) ||
-        !within(r.mean_abs_vz, 0, 1000) || !within(r.mean_abs_wy, 0, 1000)) {
+    if (p.seed > 999999999 || !(p.sensor_noise >= 0 && p.sensor_noise <= 100) ||
+        !within(r.traverse_time, 1e-300, 1e6) || !within(r.mean_abs_vz, 0, 1000) ||
+        !within(r.mean_abs_wy, 0, 1000)) {
       failure("accepted a field outside its range");
     }
     if (r.passed && !r.failure.empty()) failure("accepted a passed trial with a failure");

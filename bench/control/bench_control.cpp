@@ -30,7 +30,6 @@
 
 #include "rollstep/control/pipeline.hpp"
 #include "rollstep/control/speed_rule.hpp"
-#include "rollstep/model/model.hpp"
 #include "rollstep/planning/terrain.hpp"
 
 namespace {
@@ -108,19 +107,8 @@ void BM_MpcUpdateFastTrot(benchmark::State& state) {
   settings.mpc.timing =
       state.range(0) == 0 ? control::MpcTiming::Deterministic : control::MpcTiming::Asynchronous;
   const std::vector<planning::TimedBaseCommand> schedule{{0.0, {0.5, 0.0, 0.0}}};
-  if (settings.ocp.speed_adaptation) {
-    // The trot timed for the command, as rollstep sim times it.
-    const model::Model model = model::buildModelFromUrdfFile(robot.urdf);
-    const planning::TrotTiming timing = control::trotTimingFor(
-        control::speedRuleLimits(model, robot.contact_frames, robot.nominal_joint_positions,
-                                 settings.ocp),
-        schedule, control::turnRadius(model, robot.contact_frames, robot.nominal_joint_positions));
-    settings.ocp.gait_period = timing.period;
-    settings.ocp.trot_duty = timing.duty;
-    settings.ocp.step_up_max_hold = std::min(settings.ocp.step_up_max_hold, timing.max_edge_hold);
-    settings.ocp.step_down_max_hold =
-        std::min(settings.ocp.step_down_max_hold, timing.max_edge_hold);
-  }
+  // The trot timed for the command, as rollstep sim times it.
+  control::timeTrotForSchedule(settings.ocp, robot, planning::GaitKind::Trot, schedule);
   const planning::TerrainBox floor{-50.0, 50.0, -50.0, 50.0, 0.0};
   const planning::TerrainBox step{1.5, 2.5, -1.0, 1.0, 0.2};
   const planning::TerrainModel terrain =

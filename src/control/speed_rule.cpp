@@ -104,4 +104,19 @@ planning::TrotTiming trotTimingFor(const planning::SpeedAdaptationLimits& limits
   return planning::adaptTrotToSpeed(planning::maxCommandSpeed(schedule, turn_radius), limits);
 }
 
+std::optional<planning::TrotTiming> timeTrotForSchedule(
+    centroidal::OcpSettings& settings, const centroidal::RobotOcpDescription& robot,
+    planning::GaitKind gait, const std::vector<planning::TimedBaseCommand>& schedule) {
+  if (!settings.speed_adaptation || gait != planning::GaitKind::Trot) return std::nullopt;
+  const model::Model model = model::buildModelFromUrdfFile(robot.urdf);
+  const planning::TrotTiming timing = trotTimingFor(
+      speedRuleLimits(model, robot.contact_frames, robot.nominal_joint_positions, settings),
+      schedule, turnRadius(model, robot.contact_frames, robot.nominal_joint_positions));
+  settings.gait_period = timing.period;
+  settings.trot_duty = timing.duty;
+  settings.step_up_max_hold = std::min(settings.step_up_max_hold, timing.max_edge_hold);
+  settings.step_down_max_hold = std::min(settings.step_down_max_hold, timing.max_edge_hold);
+  return timing;
+}
+
 }  // namespace rollstep::control

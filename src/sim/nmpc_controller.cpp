@@ -98,18 +98,8 @@ NmpcController::NmpcController(const Plant& plant, const centroidal::RobotOcpDes
   // The speed rule times the trot for the schedule's fastest command (the schedule itself is
   // adapted by the pipeline).
   control::ControlSettings adapted = settings;
-  if (settings.ocp.speed_adaptation && gait == planning::GaitKind::Trot) {
-    const model::Model model = model::buildModelFromUrdfFile(robot.urdf);
-    const planning::TrotTiming timing = control::trotTimingFor(
-        control::speedRuleLimits(model, robot.contact_frames, robot.nominal_joint_positions,
-                                 settings.ocp),
-        schedule, control::turnRadius(model, robot.contact_frames, robot.nominal_joint_positions));
-    adapted.ocp.gait_period = timing.period;
-    adapted.ocp.trot_duty = timing.duty;
-    adapted.ocp.step_up_max_hold = std::min(settings.ocp.step_up_max_hold, timing.max_edge_hold);
-    adapted.ocp.step_down_max_hold =
-        std::min(settings.ocp.step_down_max_hold, timing.max_edge_hold);
-    trot_timing_ = timing;
+  if (const auto timing = control::timeTrotForSchedule(adapted.ocp, robot, gait, schedule)) {
+    trot_timing_ = *timing;
   }
   pipeline_ = std::make_unique<control::ControlPipeline>(robot, adapted, terrain, gait,
                                                          region_edge_capacity);

@@ -3,11 +3,13 @@
 // limits it needs, from the robot's model (the legs' vertical speed, the hips' sweep), and
 // the trot timed for a command schedule. Used where the controller is configured
 // (sim::NmpcController: the gait; ControlPipeline: the schedule slowed down near steps).
+#include <optional>
 #include <vector>
 
 #include "rollstep/centroidal/ocp_settings.hpp"
 #include "rollstep/model/model.hpp"
 #include "rollstep/planning/base_reference.hpp"
+#include "rollstep/planning/gait.hpp"
 #include "rollstep/planning/speed_adaptation.hpp"
 
 namespace rollstep::control {
@@ -37,5 +39,14 @@ double turnRadius(const model::Model& model, const std::vector<std::string>& con
 planning::TrotTiming trotTimingFor(const planning::SpeedAdaptationLimits& limits,
                                    const std::vector<planning::TimedBaseCommand>& schedule,
                                    double turn_radius);
+
+/// The OCP settings timed for `schedule` by the speed rule: with ocp.speed_adaptation and a
+/// trot, gait_period and trot_duty from trotTimingFor (the schedule's fastest command), the
+/// edge waits capped at the timing's max_edge_hold; returns that timing. Otherwise the
+/// settings are left as they are and nothing is returned. Loads the robot's URDF
+/// (not real-time).
+std::optional<planning::TrotTiming> timeTrotForSchedule(
+    centroidal::OcpSettings& settings, const centroidal::RobotOcpDescription& robot,
+    planning::GaitKind gait, const std::vector<planning::TimedBaseCommand>& schedule);
 
 }  // namespace rollstep::control
