@@ -360,24 +360,27 @@ int runTrials(const TrialsOptions& o, const CLI::App& cmd) {
         const std::string dir = trialDir(fs::absolute(o.out).string(), scenario, seed);
         throwIfInterrupted();  // this trial's process too was interrupted: not a result
         TrialResult r;
-        if (exitStatusOf(status) == kOutputErrorExitStatus) {
-          // The trial could not write its outputs: no verdict on the controller.
+        // The first line of the trial's own account of its failure, "" if it left none.
+        const auto failedReason = [&dir] {
           std::error_code ec;
           const std::string failed =
               fs::exists(dir + "/FAILED", ec) ? readTextFile(dir + "/FAILED", "FAILED") : "";
+          return failed.substr(0, failed.find('\n'));
+        };
+        if (exitStatusOf(status) == kOutputErrorExitStatus) {
+          // The trial could not write its outputs: no verdict on the controller.
+          const std::string failed = failedReason();
           throw OutputError("trial seed " + std::to_string(seed) + " could not write its outputs" +
-                            (failed.empty() ? "" : ": " + failed.substr(0, failed.find('\n'))));
+                            (failed.empty() ? "" : ": " + failed));
         }
         if (exitStatusOf(status) == 0 && fs::exists(dir + "/result.yaml")) {
           r = parseTrialResult(readTextFile(dir + "/result.yaml", "trial result"), dir);
         } else {
           // A trial whose process died still counts: as failed, with the reason.
-          std::error_code ec;
-          const std::string failed =
-              fs::exists(dir + "/FAILED", ec) ? readTextFile(dir + "/FAILED", "FAILED") : "";
+          const std::string failed = failedReason();
           std::string why = "the trial process exited with status " +
                             std::to_string(exitStatusOf(status)) + " (see " + dir + "/trial.err)";
-          if (!failed.empty()) why += ": " + failed.substr(0, failed.find('\n'));
+          if (!failed.empty()) why += ": " + failed;
           std::fprintf(stderr, "rollstep trials: warning: seed %llu: %s\n",
                        static_cast<unsigned long long>(seed), why.c_str());
           r.scenario = scenario.name;
@@ -388,6 +391,7 @@ int runTrials(const TrialsOptions& o, const CLI::App& cmd) {
           command[0] = "rollstep";
           r.command = shellCommand(command);
           writeFileAtomically(dir + "/result.yaml", toYaml(r));
+          std::error_code ec;
           fs::remove(dir + "/FAILED", ec);
         }
         results.push_back(r);
