@@ -22,7 +22,12 @@
 #include <sstream>
 #include <string>
 
+#include "urdf_mjcf_fixture.hpp"
+
 namespace {
+
+using rollstep::testing::toIsometry;
+using rollstep::testing::toVector;
 
 const std::string kDir = std::string(ROLLSTEP_ROBOTS_DIR) + "/wheelquad/";
 const std::string kUrdf = kDir + "wheelquad.urdf";
@@ -36,17 +41,6 @@ constexpr double kWheelRadius = 0.085;
 constexpr double kServoKp = 1500.0, kServoKd = 30.0;
 constexpr double kWheelEffort = 20.0, kWheelSpeed = 30.0;
 
-Eigen::Isometry3d toIsometry(const urdf::Pose& p) {
-  double x, y, z, w;
-  p.rotation.getQuaternion(x, y, z, w);
-  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
-  t.linear() = Eigen::Quaterniond(w, x, y, z).normalized().toRotationMatrix();
-  t.translation() = Eigen::Vector3d(p.position.x, p.position.y, p.position.z);
-  return t;
-}
-
-Eigen::Vector3d toVector(const urdf::Vector3& v) { return {v.x, v.y, v.z}; }
-
 std::string readFile(const std::string& path) {
   std::ifstream in(path);
   std::stringstream s;
@@ -54,51 +48,9 @@ std::string readFile(const std::string& path) {
   return s.str();
 }
 
-class Wheelquad : public ::testing::Test {
+class Wheelquad : public rollstep::testing::UrdfMjcfFixture {
  protected:
-  void SetUp() override {
-    urdf_ = urdf::parseURDFFile(kUrdf);
-    ASSERT_TRUE(urdf_) << "cannot parse " << kUrdf;
-    char err[1000] = "";
-    model_ = mj_loadXML(kMjcf.c_str(), nullptr, err, sizeof err);
-    ASSERT_NE(model_, nullptr) << kMjcf << ": " << err;
-    data_ = mj_makeData(model_);
-  }
-  void TearDown() override {
-    if (data_ != nullptr) mj_deleteData(data_);
-    if (model_ != nullptr) mj_deleteModel(model_);
-  }
-
-  /// World placement of every URDF link at joint positions q (by joint name), base at
-  /// the identity.
-  void urdfForwardKinematics(const urdf::LinkConstSharedPtr& link, const Eigen::Isometry3d& pose,
-                             const std::map<std::string, double>& q,
-                             std::map<std::string, Eigen::Isometry3d>& out) const {
-    out[link->name] = pose;
-    for (const urdf::JointSharedPtr& joint : link->child_joints) {
-      Eigen::Isometry3d motion = Eigen::Isometry3d::Identity();
-      const auto it = q.find(joint->name);
-      const double value = it == q.end() ? 0.0 : it->second;
-      if (joint->type == urdf::Joint::REVOLUTE || joint->type == urdf::Joint::CONTINUOUS) {
-        motion.linear() = Eigen::AngleAxisd(value, toVector(joint->axis)).toRotationMatrix();
-      } else if (joint->type == urdf::Joint::PRISMATIC) {
-        motion.translation() = value * toVector(joint->axis);
-      }
-      const Eigen::Isometry3d child =
-          pose * toIsometry(joint->parent_to_joint_origin_transform) * motion;
-      urdfForwardKinematics(urdf_->getLink(joint->child_link_name), child, q, out);
-    }
-  }
-
-  int mjId(int type, const std::string& name) const {
-    const int id = mj_name2id(model_, type, name.c_str());
-    EXPECT_GE(id, 0) << "MJCF has no element named " << name;
-    return id;
-  }
-
-  urdf::ModelInterfaceSharedPtr urdf_;
-  mjModel* model_ = nullptr;
-  mjData* data_ = nullptr;
+  Wheelquad() : UrdfMjcfFixture(kUrdf, kMjcf) {}
 };
 
 TEST_F(Wheelquad, TotalMass) {
@@ -201,22 +153,7 @@ TEST_F(Wheelquad, JointsLimitsEffortsAndServos) {
   for (const char* sensor : {"imu_acc", "imu_gyro", "imu_quat"}) mjId(mjOBJ_SENSOR, sensor);
 }
 
-TEST_F(Wheelquad, BodyFramesAtZero) {
-  for (const auto& [name, joint] : urdf_->joints_) {
-    const int body = mj_name2id(model_, mjOBJ_BODY, joint->child_link_name.c_str());
-    if (body < 0) continue;  // contact frames exist in the URDF only
-    SCOPED_TRACE(name);
-    const Eigen::Isometry3d origin = toIsometry(joint->parent_to_joint_origin_transform);
-    EXPECT_NEAR((Eigen::Vector3d(model_->body_pos + 3 * body) - origin.translation()).norm(), 0.0,
-                kTol);
-    const mjtNum* bq = model_->body_quat + 4 * body;
-    EXPECT_NEAR(Eigen::Quaterniond(bq[0], bq[1], bq[2], bq[3])
-                    .angularDistance(Eigen::Quaterniond(origin.linear())),
-                0.0, kTol);
-    EXPECT_EQ(std::string(mj_id2name(model_, mjOBJ_BODY, model_->body_parentid[body])),
-              joint->parent_link_name);
-  }
-}
+TEST_F(Wheelquad, BodyFramesAtZero) { expectBodyFramesAtZero(kTol); }
 
 TEST_F(Wheelquad, WheelCentresAtTwentyRandomConfigurations) {
   std::mt19937 rng(20261207);
