@@ -75,7 +75,12 @@ void Solver::Impl::linearizeNode(int k) {
   const VectorXd& u = uOf(k);
   // With one thread the derivatives go to one shared set too (linearizeAndFactor).
   const bool share_jacobians = condense_in_linearize && pool.size() == 1;
-  if (condense_in_linearize) swapStageHessian(k, d);
+  // The thread of k's chunk (forNodes, linearizeProjectAndFactor).
+  const int thread = condense_in_linearize ? chunkOf(k) : 0;
+  if (condense_in_linearize) {
+    swapStageHessian(k, d);
+    swapSharedInequalityJacobians(d, thread);
+  }
   if (share_jacobians) swapSharedJacobians(d);
   prob->linearize(k, x, u, d);
   n.mode_prev = d.context.mode;
@@ -114,8 +119,10 @@ void Solver::Impl::linearizeNode(int k) {
   n.delta = 0.0;
   if (use_curvature && n.finite) addCurvature(k, n);
   if (condense_in_linearize) {
-    swapStageHessian(k, d);       // the stage's Q, R, S hold the cost Hessian: condensed in place
-    condenseRows(k, chunkOf(k));  // forNodes: the thread of k's chunk
+    swapStageHessian(k, d);  // the stage's Q, R, S hold the cost Hessian: condensed in place
+    condenseRows(k, thread);
+    swapSharedInequalityJacobians(d, thread);
+    packJacobianBlocks(k, thread);
   }
   if (share_jacobians) swapSharedJacobians(d);
 }

@@ -101,6 +101,10 @@ struct Solver::Impl {
     // block its first row, rows, first column and columns; Gx's from 0, Gu's from 4 ni_max.
     Eigen::VectorXi gblocks;
     int gblocks_x = 0, gblocks_u = 0;
+    // The blocks' entries are packed (packJacobianBlocks): block after block, each
+    // column-major with its own rows as stride, Gx's blocks from d->Gx.data() and Gu's from
+    // d->Gu.data(), whose dense contents are then not the node's. Else they are read in place.
+    bool gblocks_packed = false;
     // Constraint curvature (converging mode with exact_hessian): central differences of the
     // constraint part of the Lagrangian gradient, evaluated into dp. Allocated by
     // reserveCurvature() only for settings that use it (empty otherwise).
@@ -178,6 +182,18 @@ struct Solver::Impl {
   // Per thread: the condensing's scratch, the weighted general-row Jacobians (transposed,
   // ndx x ni_max and nu x ni_max); condenseRows(k, t) on thread t.
   std::vector<MatrixXd> weighted_gx, weighted_gu;
+  // Per thread: the inequality Jacobians (ni_max x ndx, ni_max x nu) a real-time pass
+  // evaluates node after node into, in cache, where the nodes' own are 44 kB of cold stores
+  // per node for the Tachyon 3 OCP, mostly zeros; only their non-zero blocks are kept, packed
+  // into the node's own storage (packJacobianBlocks), for the step recovery.
+  std::vector<MatrixXd> shared_gx, shared_gu;
+  void swapSharedInequalityJacobians(NodeData& d, int thread) {
+    d.Gx.swap(shared_gx[static_cast<std::size_t>(thread)]);
+    d.Gu.swap(shared_gu[static_cast<std::size_t>(thread)]);
+  }
+  /// Copies the non-zero blocks condenseRows found in the thread's shared Jacobians into
+  /// node k's own Gx and Gu storage, packed (Node::gblocks_packed).
+  void packJacobianBlocks(int k, int thread);
   std::vector<detail::BoundRow> bound_rows;  // decoded layout of rows ni_max.. (fixed)
   std::vector<VectorXd> xs, us, xs_bak, us_bak, xs_trial, us_trial;
   std::vector<VectorXd> scaled;  // per-node scaled tangent steps (manifold states)

@@ -130,6 +130,8 @@ Solver::Impl::Impl(std::shared_ptr<ocp::OptimalControlProblem> p, SolverSettings
   }
   weighted_gx.assign(static_cast<std::size_t>(pool.size()), MatrixXd::Zero(ndx, ni_max));
   weighted_gu.assign(static_cast<std::size_t>(pool.size()), MatrixXd::Zero(nu, ni_max));
+  shared_gx.assign(static_cast<std::size_t>(pool.size()), MatrixXd::Zero(ni_max, ndx));
+  shared_gu.assign(static_cast<std::size_t>(pool.size()), MatrixXd::Zero(ni_max, nu));
   if (pool.size() == 1) {  // linearizeAndFactor's shared derivatives (same shapes)
     const NodeData& d = *node(0).d;
     shared_Fx = d.Fx;
