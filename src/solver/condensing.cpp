@@ -251,9 +251,9 @@ void Solver::Impl::packJacobianBlocks(int k, int thread) {
       }
     }
   };
-  pack(shared_gx[static_cast<std::size_t>(thread)], n.gblocks.data(), n.gblocks_x, n.d->Gx.data());
-  pack(shared_gu[static_cast<std::size_t>(thread)], n.gblocks.data() + 4 * ni_max, n.gblocks_u,
-       n.d->Gu.data());
+  const SharedDerivatives& sh = shared[static_cast<std::size_t>(thread)];
+  pack(sh.Gx, n.gblocks.data(), n.gblocks_x, n.d->Gx.data());
+  pack(sh.Gu, n.gblocks.data() + 4 * ni_max, n.gblocks_u, n.d->Gu.data());
   n.gblocks_packed = true;
 }
 

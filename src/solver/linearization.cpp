@@ -73,15 +73,13 @@ void Solver::Impl::linearizeNode(int k) {
   NodeData& d = *n.d;
   const VectorXd& x = xs[static_cast<std::size_t>(k)];
   const VectorXd& u = uOf(k);
-  // With one thread the derivatives go to one shared set too (linearizeAndFactor).
-  const bool share_jacobians = condense_in_linearize && pool.size() == 1;
-  // The thread of k's chunk (forNodes, linearizeProjectAndFactor).
+  // The fused pass: the Jacobians go to the set of the thread of k's chunk (forNodes,
+  // linearizeProjectAndFactor).
   const int thread = condense_in_linearize ? chunkOf(k) : 0;
   if (condense_in_linearize) {
     swapStageHessian(k, d);
-    swapSharedInequalityJacobians(d, thread);
+    swapSharedJacobians(d, thread);
   }
-  if (share_jacobians) swapSharedJacobians(d);
   prob->linearize(k, x, u, d);
   n.mode_prev = d.context.mode;
   LqStage& st = lq.stage(k);
@@ -121,10 +119,9 @@ void Solver::Impl::linearizeNode(int k) {
   if (condense_in_linearize) {
     swapStageHessian(k, d);  // the stage's Q, R, S hold the cost Hessian: condensed in place
     condenseRows(k, thread);
-    swapSharedInequalityJacobians(d, thread);
+    swapSharedJacobians(d, thread);
     packJacobianBlocks(k, thread);
   }
-  if (share_jacobians) swapSharedJacobians(d);
 }
 
 /// Sets kind and value c of every row of node k from d (general rows) and (x, u).
