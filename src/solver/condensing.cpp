@@ -107,6 +107,7 @@ void Solver::Impl::condenseRows(int k, int thread) {
     }
   }
   n.gblocks_x = n.gblocks_u = 0;
+  n.gblocks_packed = false;
   if (d.ni > 0) {
     const int m = d.ni;
     // A row whose Gx (Gu) is zero adds nothing to Q (R, S): the products run over the
@@ -236,6 +237,24 @@ void Solver::Impl::condenseRows(int k, int thread) {
       st.q(idx) += lower ? gam : -gam;
     }
   }
+}
+
+void Solver::Impl::packJacobianBlocks(int k, int thread) {
+  Node& n = node(k);
+  const auto pack = [](const MatrixXd& G, const int* blocks, int count, double* out) {
+    for (int b = 0; b < count; ++b, blocks += 4) {
+      const int i = blocks[0], r = blocks[1], a = blocks[2], s = blocks[3];
+      for (int c = a; c < a + s; ++c) {
+        const double* g = G.data() + i + c * G.outerStride();
+        for (int j = 0; j < r; ++j) out[j] = g[j];
+        out += r;
+      }
+    }
+  };
+  const SharedDerivatives& sh = shared[static_cast<std::size_t>(thread)];
+  pack(sh.Gx, n.gblocks.data(), n.gblocks_x, n.d->Gx.data());
+  pack(sh.Gu, n.gblocks.data() + 4 * ni_max, n.gblocks_u, n.d->Gu.data());
+  n.gblocks_packed = true;
 }
 
 /// The gradient part of condenseNode alone, for a new complementarity target (Mehrotra's

@@ -187,13 +187,13 @@ namespace {
 /// then added to t[i], as Eigen's column-major matrix-vector product of all the rows
 /// [0, fused_rows + 1) does: with multiply-adds (packets of rows), except for the last row of
 /// an odd count (rows >= fused_rows), which it sums with separate products and sums.
-void blockTimes(const double* G, Eigen::Index ld, const int* block, const double* v, double* t,
+/// g: the block's first entry, ld: its column stride (the matrix's, or its rows when packed).
+void blockTimes(const double* g, Eigen::Index ld, const int* block, const double* v, double* t,
                 int fused_rows) {
   namespace ei = Eigen::internal;
   using Packet = ei::packet_traits<double>::type;
   constexpr int P = ei::packet_traits<double>::size;
   const int i0 = block[0], r = block[1], c0 = block[2], s = block[3];
-  const double* g = G + i0 + c0 * ld;
   const double* x = v + c0;
   double* out = t + i0;
   const int rf = std::min(r, std::max(fused_rows - i0, 0));  // rows [0, rf) fused
@@ -242,14 +242,23 @@ void Solver::Impl::recoverNode(int k) {
     double* t = n.tmp.data();
     for (int i = 0; i < d.ni; ++i) t[i] = 0.0;
     const int fused_rows = d.ni - d.ni % 2;
-    const int* bx = n.gblocks.data();
-    for (int b = 0; b < n.gblocks_x; ++b, bx += 4) {
-      blockTimes(d.Gx.data(), d.Gx.outerStride(), bx, dx.data(), t, fused_rows);
-    }
-    const int* bu = n.gblocks.data() + 4 * ni_max;
-    for (int b = 0; running && b < n.gblocks_u; ++b, bu += 4) {
-      blockTimes(d.Gu.data(), d.Gu.outerStride(), bu, du.data(), t, fused_rows);
-    }
+    // The blocks in place, or packed one after the other (Node::gblocks_packed).
+    const auto times = [&n, t, fused_rows](const MatrixXd& G, const int* blocks, int count,
+                                           const VectorXd& v) {
+      const double* packed = G.data();
+      for (int b = 0; b < count; ++b, blocks += 4) {
+        const int r = blocks[1];
+        if (n.gblocks_packed) {
+          blockTimes(packed, r, blocks, v.data(), t, fused_rows);
+          packed += r * blocks[3];
+        } else {
+          blockTimes(G.data() + blocks[0] + blocks[2] * G.outerStride(), G.outerStride(), blocks,
+                     v.data(), t, fused_rows);
+        }
+      }
+    };
+    times(d.Gx, n.gblocks.data(), n.gblocks_x, dx);
+    if (running) times(d.Gu, n.gblocks.data() + 4 * ni_max, n.gblocks_u, du);
   }
   const double tau = set.fraction_to_boundary;
   double ap = 1.0, ad = 1.0, zmax = 0.0;

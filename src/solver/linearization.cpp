@@ -73,10 +73,13 @@ void Solver::Impl::linearizeNode(int k) {
   NodeData& d = *n.d;
   const VectorXd& x = xs[static_cast<std::size_t>(k)];
   const VectorXd& u = uOf(k);
-  // With one thread the derivatives go to one shared set too (linearizeAndFactor).
-  const bool share_jacobians = condense_in_linearize && pool.size() == 1;
-  if (condense_in_linearize) swapStageHessian(k, d);
-  if (share_jacobians) swapSharedJacobians(d);
+  // The fused pass: the Jacobians go to the set of the thread of k's chunk (forNodes,
+  // linearizeProjectAndFactor).
+  const int thread = condense_in_linearize ? chunkOf(k) : 0;
+  if (condense_in_linearize) {
+    swapStageHessian(k, d);
+    swapSharedJacobians(d, thread);
+  }
   prob->linearize(k, x, u, d);
   n.mode_prev = d.context.mode;
   LqStage& st = lq.stage(k);
@@ -114,10 +117,11 @@ void Solver::Impl::linearizeNode(int k) {
   n.delta = 0.0;
   if (use_curvature && n.finite) addCurvature(k, n);
   if (condense_in_linearize) {
-    swapStageHessian(k, d);       // the stage's Q, R, S hold the cost Hessian: condensed in place
-    condenseRows(k, chunkOf(k));  // forNodes: the thread of k's chunk
+    swapStageHessian(k, d);  // the stage's Q, R, S hold the cost Hessian: condensed in place
+    condenseRows(k, thread);
+    swapSharedJacobians(d, thread);
+    packJacobianBlocks(k, thread);
   }
-  if (share_jacobians) swapSharedJacobians(d);
 }
 
 /// Sets kind and value c of every row of node k from d (general rows) and (x, u).

@@ -130,12 +130,12 @@ Solver::Impl::Impl(std::shared_ptr<ocp::OptimalControlProblem> p, SolverSettings
   }
   weighted_gx.assign(static_cast<std::size_t>(pool.size()), MatrixXd::Zero(ndx, ni_max));
   weighted_gu.assign(static_cast<std::size_t>(pool.size()), MatrixXd::Zero(nu, ni_max));
-  if (pool.size() == 1) {  // linearizeAndFactor's shared derivatives (same shapes)
+  {  // the real-time pass's derivatives, per thread (same shapes)
     const NodeData& d = *node(0).d;
-    shared_Fx = d.Fx;
-    shared_Fu = d.Fu;
-    shared_Ex = d.Ex;
-    shared_Eu = d.Eu;
+    shared.assign(static_cast<std::size_t>(pool.size()),
+                  SharedDerivatives{d.Fx, d.Fu, d.Ex, d.Eu, d.Gx, d.Gu});
+  }
+  if (pool.size() == 1) {  // linearizeAndFactor's shared stage Jacobians (same shapes)
     shared_A = lq.stage(0).A;
     shared_B = lq.stage(0).B;
     shared_stage_Ex = lq.stage(0).Ex;

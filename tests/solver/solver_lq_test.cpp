@@ -836,6 +836,73 @@ class FragileIntegrator final : public ocp::ContinuousDynamics {
   }
 };
 
+// A real-time iteration recovers each hard row's slack step from the row's Jacobian blocks
+// (kept packed after the linearising pass): for linear rows the step moves s - g by
+// (1 - alpha), s_new - g(x_new, u_new) = (1 - alpha) (s_old - g(x_old, u_old)). Rows with
+// zero columns at both ends, x-only and u-only rows and mirrored pairs give several blocks
+// per node; with one and two threads.
+TEST(SolverRealTime, SlackStepsFollowTheRowsLinearisation) {
+  auto d = lqtest::randomLq(21, 6, 5, 20, 0, 0);
+  std::mt19937 rng(9);
+  const int m = 2;
+  MatrixXd Hx = lqtest::randn(m, d.nx, rng, 0.4), Hu = lqtest::randn(m, d.nu, rng, 0.4);
+  Hx.col(0).setZero();
+  Hx.col(1).setZero();
+  Hx.col(5).setZero();
+  Hu.col(0).setZero();
+  MatrixXd Gx(2 * m, d.nx), Gu(2 * m, d.nu);
+  Gx << Hx, -Hx;
+  Gu << Hu, -Hu;
+  const VectorXd g = (VectorXd(2 * m) << 0.3, 0.3, 0.2, 0.2).finished();
+  // An x-only row (columns 2..3), a u-only row (columns 1..3), a row on x(4) and u(4).
+  MatrixXd Px = MatrixXd::Zero(3, d.nx), Pu = MatrixXd::Zero(3, d.nu);
+  Px.block(0, 2, 1, 2) = lqtest::randn(1, 2, rng, 0.5);
+  Pu.block(1, 1, 1, 3) = lqtest::randn(1, 3, rng, 0.5);
+  Px(2, 4) = 0.7;
+  Pu(2, 4) = -0.4;
+  const VectorXd pc = VectorXd::Constant(3, 0.4);
+  for (const int threads : {1, 2}) {
+    auto p = lqtest::buildProblem(d);
+    const auto& space = p->dynamics().spacePtr();
+    p->addInequality("limits", std::make_shared<test::MirroredAffine>(space, Gx, Gu, g, m));
+    p->addInequality(
+        "parts", std::make_shared<ocp::AffineResidual>(space, VectorXd::Zero(d.nx), Px, Pu, pc));
+    auto set = tight();
+    set.mode = solver::SolverMode::RealTime;
+    set.num_threads = threads;
+    Solver s(p, set);
+    // From near the solution to a moved initial state: a long step, rows that move.
+    for (int it = 0; it < 30; ++it) ASSERT_EQ(s.update(0.0, d.x0), SolverStatus::IterationDone);
+    const VectorXd x0 = d.x0 + lqtest::randn(d.nx, 1, rng, 0.3);
+    std::vector<VectorXd> s_old, g_old;
+    auto nd = p->createNodeData();
+    for (int k = 0; k < d.N; ++k) {
+      s_old.push_back(s.slacks(k));
+      p->evaluate(k, s.states()[static_cast<std::size_t>(k)],
+                  s.inputs()[static_cast<std::size_t>(k)], *nd);
+      g_old.push_back(nd->g.head(nd->ni));
+    }
+    ASSERT_EQ(s.update(0.0, x0), SolverStatus::IterationDone) << s.message();
+    const double alpha = s.stats().back().primal_step;
+    ASSERT_GT(alpha, 0.1) << threads << " threads";
+    double moved = 0.0;
+    for (int k = 0; k < d.N; ++k) {
+      const auto kk = static_cast<std::size_t>(k);
+      p->evaluate(k, s.states()[kk], s.inputs()[kk], *nd);
+      ASSERT_EQ(nd->ni, 2 * m + 3);
+      for (int i = 0; i < nd->ni; ++i) {
+        const double before = s_old[kk](i) - g_old[kk](i);
+        const double after = s.slacks(k)(i) - nd->g(i);
+        EXPECT_NEAR(after, (1.0 - alpha) * before,
+                    1e-10 * (1.0 + std::abs(s_old[kk](i)) + std::abs(g_old[kk](i))))
+            << threads << " threads, node " << k << ", row " << i;
+        moved = std::max(moved, std::abs(s.slacks(k)(i) - s_old[kk](i)));
+      }
+    }
+    EXPECT_GT(moved, 1e-3) << "the slacks should move";
+  }
+}
+
 TEST(SolverRealTime, DivergingIterateIsRestored) {
   auto dyn = std::make_shared<ocp::ExplicitEuler>(std::make_shared<FragileIntegrator>());
   auto p = std::make_shared<ocp::OptimalControlProblem>(dyn, 20, 0.05);

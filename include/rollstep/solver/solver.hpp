@@ -320,9 +320,9 @@ class Solver {
   /// The problem's evaluation of node k at the last linearisation or trial point
   /// (ne, ni: rows in use; g, e values). After a real-time iteration its cost Hessian
   /// (Lxx, Luu, Lux) is not the node's: it was evaluated into the Riccati stage's Q, R, S
-  /// (with one thread one shared set); with one thread neither are its dynamics and
-  /// equality Jacobians (Fx, Fu, Ex, Eu: one shared set). Gx, Gu and the gradients are the
-  /// node's.
+  /// (with one thread one shared set); neither are its dynamics, equality and inequality
+  /// Jacobians (Fx, Fu, Ex, Eu, Gx, Gu: one set per thread; the node's Gx and Gu storage
+  /// holds their non-zero blocks, packed). The gradients are the node's.
   const ocp::NodeData& nodeData(int k) const;
   const std::vector<IterationStats>& stats() const;  ///< of the last solve/update
   int iterations() const;
