@@ -80,6 +80,12 @@ Json runJson(const Scenario& s, const RunOutcome& o, const std::vector<JointLimi
   } else {
     j["window"] = nullptr;
   }
+  // The legs the window is defined on (figure 2 plots their wheel heights).
+  if (!o.traverse_legs.climb.empty()) {
+    j["traverse_legs"] = {o.traverse_legs.climb, o.traverse_legs.descent};
+  } else {
+    j["traverse_legs"] = nullptr;
+  }
   Json l = Json::object();
   for (const JointLimit& limit : limits) {
     l[limit.name] = {rounded(limit.lower, 6), rounded(limit.upper, 6)};
