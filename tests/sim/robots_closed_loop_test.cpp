@@ -68,11 +68,11 @@ class EveryRobot : public ::testing::TestWithParam<std::string> {
 /// inside the joint limits, no invalid state, no simulator warning. (Not the first solve's
 /// status: a cold trot towards a step may stop at its iteration limit and the real-time
 /// iterations take over; what counts is what the robot did.)
-void expectStandsUp(const NmpcOutcome& o, double max_tilt_deg) {
+void expectStandsUp(const NmpcOutcome& o, double max_tilt_deg, double joint_tolerance = 1e-3) {
   EXPECT_LT(o.max_roll_deg, max_tilt_deg) << describe(o);
   EXPECT_LT(o.max_pitch_deg, max_tilt_deg) << describe(o);
   EXPECT_GT(o.min_base_height, 0.5 * o.start.z()) << describe(o);
-  EXPECT_LT(o.max_joint_limit_violation, 1e-3) << describe(o);
+  EXPECT_LT(o.max_joint_limit_violation, joint_tolerance) << describe(o);
   EXPECT_EQ(o.counters.invalid_states, 0u);
   EXPECT_EQ(o.warnings, 0) << describe(o);
 }
@@ -140,7 +140,9 @@ TEST_P(EveryRobot, TrotsOntoAndOffItsStep) {
   const NmpcOutcome o = runNmpc(sc);
   std::printf("%s over %s at %.2f m/s: %s\n", GetParam().c_str(), sc.scene.c_str(), checks.step.vx,
               describe(o).c_str());
-  expectStandsUp(o, 15.0);
+  // The report's pass criteria on a step: a joint may overshoot its limit by 0.01 rad or m
+  // (config/experiments.yaml, criteria.joint_limit_tolerance).
+  expectStandsUp(o, 15.0, 0.01);
   // Up: the body rose by at least half the step; off: past the far edge and back at its
   // start height on the floor.
   EXPECT_GT(o.max_base_height, o.start.z() + 0.5 * height) << describe(o);
