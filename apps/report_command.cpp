@@ -73,6 +73,7 @@ Json runJson(const Scenario& s, const RunOutcome& o, const std::vector<JointLimi
   const std::string maps = o.dir + "/map/maps.csv";
   j["map"] = s.feeds("map") && fs::exists(maps) ? Json(o.dir + "/map") : Json(nullptr);
   j["terrain"] = s.terrainText();
+  j["scene"] = s.scene;
   j["passed"] = o.passed();
   j["failure"] = o.failureText();
   if (o.log && o.assessment.window.found) {
