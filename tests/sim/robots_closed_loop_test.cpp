@@ -1,7 +1,8 @@
-// Every robot folder under robots/ through the same closed-loop NMPC runs in MuJoCo, with
-// the robot's own controller defaults (its nmpc.yaml, else the library's), deterministic
-// MPC timing, ground truth: it stands, rolls, trots on flat ground, and climbs onto and off
-// the step its folder declares (closed_loop.yaml, docs/ROBOTS.md). Short runs: label
+// Every robot folder under robots/ through the same closed-loop runs in MuJoCo, with the
+// robot's own controller defaults (its nmpc.yaml / baseline.yaml, else the library's),
+// deterministic MPC timing, ground truth: with the NMPC it stands, rolls, trots on flat
+// ground, and climbs onto and off the step its folder declares (closed_loop.yaml,
+// docs/ROBOTS.md); the CBF-QP baseline stands, rolls and trots on flat ground. Short runs: label
 // `closedloop`. The commands are the same for every robot; what a robot must show is
 // physical (upright, inside its joint limits, the distance covered, over the step).
 #include <gtest/gtest.h>
@@ -15,6 +16,7 @@
 
 #include "rollstep/common/settings_table.hpp"
 #include "rollstep/common/text_file.hpp"
+#include "rollstep/sim/cbfqp_controller.hpp"
 #include "sim/nmpc_run.hpp"
 
 namespace rollstep::sim::test {
@@ -149,6 +151,98 @@ TEST_P(EveryRobot, TrotsOntoAndOffItsStep) {
   EXPECT_GT(o.end.x(), far_edge) << describe(o);
   EXPECT_NEAR(o.end.z(), o.start.z(), 0.03) << describe(o);
   EXPECT_LT(std::abs(o.end.y() - o.start.y()), 0.15) << describe(o);
+}
+
+/// What a CBF-QP baseline run did (ground truth).
+struct BaselineOutcome {
+  double max_tilt_deg = 0.0;
+  double min_base_height = 1e9;
+  double max_joint_limit_violation = 0.0;
+  Eigen::Vector3d start = Eigen::Vector3d::Zero(), end = Eigen::Vector3d::Zero();
+  int warnings = 0;
+  std::string text() const {
+    char buffer[300];
+    std::snprintf(buffer, sizeof buffer,
+                  "tilt %.2f deg, base z >= %.3f m, joint limit violation %.4f, moved (%.3f, "
+                  "%.3f) m, %d warnings",
+                  max_tilt_deg, min_base_height, max_joint_limit_violation, end.x() - start.x(),
+                  end.y() - start.y(), warnings);
+    return buffer;
+  }
+};
+
+/// The robot's CBF-QP baseline (its baseline.yaml, else config/baseline.yaml) on flat ground.
+BaselineOutcome runBaseline(const std::string& robot_name, planning::GaitKind gait, double v_x,
+                            double duration) {
+  const RobotFolder folder = findRobotFolder(robot_name);
+  const std::string own = folder.optionalFile("baseline.yaml");
+  const control::ControlSettings settings = control::loadControlSettings(
+      own.empty() ? std::string(ROLLSTEP_SOURCE_DIR) + "/config/baseline.yaml" : own);
+  const SceneConfig scene = loadScene("flat");
+  Plant plant(scene, plantOptionsFor(folder));
+  const centroidal::RobotOcpDescription robot =
+      centroidal::loadRobotOcpDescription(folder.description);
+  planning::BaseVelocityCommand command;
+  command.v_x = v_x;
+  CbfQpController controller(plant, robot, settings,
+                             terrainFromScene(scene, settings.baseline.foothold_margin),
+                             terrainFromScene(scene, 0.0), gait, command);
+  const model::Model& m = controller.pipeline().robot().model();
+  const GroundTruth& g = plant.groundTruth();
+  BaselineOutcome out;
+  out.start = g.base_position;
+  PlantCommand plant_command = plant.command();
+  const int warnings0 = plant.warningCount();
+  const long steps = std::lround(duration / plant.controlPeriod());
+  for (long k = 0; k < steps; ++k) {
+    controller.compute(plant.time(), plant.sensors(), plant_command);
+    plant.setCommand(plant_command);
+    plant.step();
+    const Eigen::Vector3d up = g.base_orientation * Eigen::Vector3d::UnitZ();
+    out.max_tilt_deg =
+        std::max(out.max_tilt_deg, std::acos(std::clamp(up.z(), -1.0, 1.0)) * 180.0 / M_PI);
+    out.min_base_height = std::min(out.min_base_height, g.base_position.z());
+    for (int j = 0; j < m.nj; ++j) {
+      const double qj = g.joint_position[controller.jointMap()[static_cast<size_t>(j)]];
+      out.max_joint_limit_violation =
+          std::max({out.max_joint_limit_violation, m.lowerPositionLimit[j] - qj,
+                    qj - m.upperPositionLimit[j]});
+    }
+  }
+  out.end = g.base_position;
+  out.warnings = plant.warningCount() - warnings0;
+  return out;
+}
+
+/// No fall: the baseline, tuned on Tachyon 3's statically stable tripods, rocks more on a
+/// quadruped's diagonal pairs (wheelquad's trot: 7 deg), so 10 deg rather than the NMPC's 5.
+void expectBaselineUpright(const BaselineOutcome& o) {
+  EXPECT_LT(o.max_tilt_deg, 10.0) << o.text();
+  EXPECT_GT(o.min_base_height, o.start.z() - 0.05) << o.text();
+  EXPECT_LT(o.max_joint_limit_violation, 1e-3) << o.text();
+  EXPECT_EQ(o.warnings, 0) << o.text();
+}
+
+TEST_P(EveryRobot, BaselineStands) {
+  const BaselineOutcome o = runBaseline(GetParam(), planning::GaitKind::Standing, 0.0, 3.0);
+  std::printf("%s, baseline, stands: %s\n", GetParam().c_str(), o.text().c_str());
+  expectBaselineUpright(o);
+  EXPECT_LT((o.end - o.start).head<2>().norm(), 0.05) << o.text();
+}
+
+TEST_P(EveryRobot, BaselineRollsAndTrots) {
+  // Half a metre per second rolling for 4 s, then 0.3 m/s trotting for 6 s: at least half the
+  // commanded distance after a second of ramp, straight.
+  const BaselineOutcome roll = runBaseline(GetParam(), planning::GaitKind::Rolling, 0.5, 4.0);
+  std::printf("%s, baseline, rolls 0.5 m/s: %s\n", GetParam().c_str(), roll.text().c_str());
+  expectBaselineUpright(roll);
+  EXPECT_GT(roll.end.x() - roll.start.x(), 0.5 * 0.5 * 3.0) << roll.text();
+  EXPECT_LT(std::abs(roll.end.y() - roll.start.y()), 0.05) << roll.text();
+  const BaselineOutcome trot = runBaseline(GetParam(), planning::GaitKind::Trot, 0.3, 6.0);
+  std::printf("%s, baseline, trots 0.3 m/s: %s\n", GetParam().c_str(), trot.text().c_str());
+  expectBaselineUpright(trot);
+  EXPECT_GT(trot.end.x() - trot.start.x(), 0.5 * 0.3 * 5.0) << trot.text();
+  EXPECT_LT(std::abs(trot.end.y() - trot.start.y()), 0.1) << trot.text();
 }
 
 /// The test name of a robot: its folder name.
