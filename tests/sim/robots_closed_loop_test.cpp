@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -245,9 +246,13 @@ TEST_P(EveryRobot, BaselineRollsAndTrots) {
   EXPECT_LT(std::abs(trot.end.y() - trot.start.y()), 0.1) << trot.text();
 }
 
-/// The test name of a robot: its folder name.
+/// The test name of a robot: its folder name, each character gtest does not take as '_'.
 std::string robotTestName(const ::testing::TestParamInfo<std::string>& robot) {
-  return robot.param;
+  std::string name = robot.param;
+  for (char& c : name) {
+    if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+  }
+  return name;
 }
 
 INSTANTIATE_TEST_SUITE_P(Robots, EveryRobot, ::testing::ValuesIn(robotNames()), robotTestName);
