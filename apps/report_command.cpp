@@ -73,12 +73,19 @@ Json runJson(const Scenario& s, const RunOutcome& o, const std::vector<JointLimi
   const std::string maps = o.dir + "/map/maps.csv";
   j["map"] = s.feeds("map") && fs::exists(maps) ? Json(o.dir + "/map") : Json(nullptr);
   j["terrain"] = s.terrainText();
+  j["scene"] = s.scene;
   j["passed"] = o.passed();
   j["failure"] = o.failureText();
   if (o.log && o.assessment.window.found) {
     j["window"] = {rounded(o.assessment.window.start, 4), rounded(o.assessment.window.end, 4)};
   } else {
     j["window"] = nullptr;
+  }
+  // The legs the window is defined on (figure 2 plots their wheel heights).
+  if (!o.traverse_legs.climb.empty()) {
+    j["traverse_legs"] = {o.traverse_legs.climb, o.traverse_legs.descent};
+  } else {
+    j["traverse_legs"] = nullptr;
   }
   Json l = Json::object();
   for (const JointLimit& limit : limits) {

@@ -24,60 +24,84 @@ std::string text(const char* fmt, ...) {
 
 }  // namespace
 
-TraverseWindow findTraverseWindow(const std::vector<double>& t, const std::vector<double>& mf_z,
-                                  const std::vector<double>& mf_contact,
-                                  const std::vector<double>& mr_z,
-                                  const std::vector<double>& mr_contact, double up_height) {
+TraverseLegs traverseLegs(const std::vector<std::string>& names, const std::vector<double>& hip_x,
+                          const std::vector<double>& hip_y) {
+  if (names.empty() || hip_x.size() != names.size() || hip_y.size() != names.size()) {
+    throw std::invalid_argument("traverseLegs: no legs, or names and hip positions differ in size");
+  }
+  constexpr double kTie = 1e-3;  // [m] hips this close along x are side by side
+  // Whether leg i is ahead of leg k in the direction `sign` (+1 front, -1 hind).
+  const auto better = [&](std::size_t i, std::size_t k, double sign) {
+    const double dx = sign * (hip_x[i] - hip_x[k]);
+    if (std::abs(dx) > kTie) return dx > 0.0;
+    return std::abs(hip_y[i]) < std::abs(hip_y[k]) - kTie;
+  };
+  std::size_t climb = 0, descent = 0;
+  for (std::size_t i = 1; i < names.size(); ++i) {
+    if (better(i, climb, 1.0)) climb = i;
+    if (better(i, descent, -1.0)) descent = i;
+  }
+  return {names[climb], names[descent]};
+}
+
+TraverseWindow findTraverseWindow(const std::vector<double>& t, const std::vector<double>& climb_z,
+                                  const std::vector<double>& climb_contact,
+                                  const std::vector<double>& descent_z,
+                                  const std::vector<double>& descent_contact,
+                                  const TraverseLegs& legs, double up_height) {
   const std::size_t n = t.size();
-  if (mf_z.size() != n || mf_contact.size() != n || mr_z.size() != n || mr_contact.size() != n) {
+  if (climb_z.size() != n || climb_contact.size() != n || descent_z.size() != n ||
+      descent_contact.size() != n) {
     throw std::invalid_argument("findTraverseWindow: the series differ in length");
   }
   TraverseWindow w;
-  // The climb: MF lands on the step, having lifted off for it.
+  // The climb: the climbing leg lands on the step, having lifted off for it.
   std::size_t landed = n;
   for (std::size_t i = 0; i < n; ++i) {
-    if (on(mf_contact[i]) && mf_z[i] > up_height) {
+    if (on(climb_contact[i]) && climb_z[i] > up_height) {
       landed = i;
       break;
     }
   }
   if (landed == n) {
-    w.reason = "the MF wheel never landed on the step";
+    w.reason = "the " + legs.climb + " wheel never landed on the step";
     return w;
   }
   std::size_t lift = n;
   for (std::size_t i = landed; i-- > 1;) {
-    if (on(mf_contact[i - 1]) && !on(mf_contact[i])) {
+    if (on(climb_contact[i - 1]) && !on(climb_contact[i])) {
       lift = i;
       break;
     }
   }
   if (lift == n) {
-    w.reason = "no MF lift-off before it reached the step";
+    w.reason = "no " + legs.climb + " lift-off before it reached the step";
     return w;
   }
-  // The descent: the touch-down that brings MR back to the floor after its last stance up.
+  // The descent: the touch-down that brings the descending leg back to the floor after its
+  // last stance up.
   std::size_t last_up = n;
   for (std::size_t i = n; i-- > 0;) {
-    if (on(mr_contact[i]) && mr_z[i] > up_height) {
+    if (on(descent_contact[i]) && descent_z[i] > up_height) {
       last_up = i;
       break;
     }
   }
   if (last_up == n || last_up < landed) {
-    w.reason = "the MR wheel never stood on the step";
+    w.reason = "the " + legs.descent + " wheel never stood on the step";
     return w;
   }
   std::size_t down = n;
   for (std::size_t i = last_up + 1; i < n; ++i) {
-    if (on(mr_contact[i]) && !on(mr_contact[i - 1]) && mr_z[i] <= up_height) {
+    if (on(descent_contact[i]) && !on(descent_contact[i - 1]) && descent_z[i] <= up_height) {
       down = i;
       break;
     }
   }
   if (down == n) {
     w.reason =
-        text("the MR wheel did not come down from the step (last on it at t = %.2f s)", t[last_up]);
+        "the " + legs.descent +
+        text(" wheel did not come down from the step (last on it at t = %.2f s)", t[last_up]);
     return w;
   }
   w.found = true;
@@ -86,10 +110,11 @@ TraverseWindow findTraverseWindow(const std::vector<double>& t, const std::vecto
   return w;
 }
 
-TraverseWindow findTraverseWindow(const LogTable& log, double up_height) {
-  return findTraverseWindow(log.column("time[s]"), log.column("foot_z_MF[m]"),
-                            log.column("contact_MF[0/1]"), log.column("foot_z_MR[m]"),
-                            log.column("contact_MR[0/1]"), up_height);
+TraverseWindow findTraverseWindow(const LogTable& log, const TraverseLegs& legs, double up_height) {
+  return findTraverseWindow(log.column("time[s]"), log.column("foot_z_" + legs.climb + "[m]"),
+                            log.column("contact_" + legs.climb + "[0/1]"),
+                            log.column("foot_z_" + legs.descent + "[m]"),
+                            log.column("contact_" + legs.descent + "[0/1]"), legs, up_height);
 }
 
 std::vector<double> localVz(const LogTable& log) {
@@ -140,7 +165,8 @@ Table1Metrics table1Metrics(const LogTable& log, const TraverseWindow& window) {
 }
 
 RunAssessment assessRun(const LogTable& log, const std::vector<JointLimit>& limits,
-                        const RunCriteria& criteria, bool traverse_required, double up_height) {
+                        const RunCriteria& criteria, bool traverse_required,
+                        const TraverseLegs& legs, double up_height) {
   RunAssessment a;
   const auto& t = log.column("time[s]");
   if (t.empty()) {
@@ -209,7 +235,7 @@ RunAssessment assessRun(const LogTable& log, const std::vector<JointLimit>& limi
                                 worst_value, worst_time, limit.lower, limit.upper));
     }
   }
-  a.window = findTraverseWindow(log, up_height);
+  a.window = findTraverseWindow(log, legs, up_height);
   if (a.window.found) {
     a.metrics = table1Metrics(log, a.window);
   } else if (traverse_required) {

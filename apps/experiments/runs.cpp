@@ -139,8 +139,16 @@ RunOutcome judgeRun(const Scenario& scenario, const sim::SceneConfig& scene, con
   try {
     const sim::Plant plant(scene, plantOptionsOfRobot(robotOf(scenario)));
     o.up_height = plant.wheelRadius(1) + 0.5 * sim::firstRise(sim::resolveScene(scene));
+    std::vector<std::string> legs;
+    std::vector<double> hip_x, hip_y;
+    for (int i = 0; i < plant.layout().numLegs(); ++i) {
+      legs.push_back(plant.layout().legs[static_cast<std::size_t>(i)].name);
+      hip_x.push_back(plant.hipPosition(i).x());
+      hip_y.push_back(plant.hipPosition(i).y());
+    }
+    o.traverse_legs = traverseLegs(legs, hip_x, hip_y);
     o.assessment = assessRun(*o.log, jointLimits(scene, robotOf(scenario)), criteria,
-                             scenario.traverse, o.up_height);
+                             scenario.traverse, o.traverse_legs, o.up_height);
   } catch (const std::exception& e) {
     o.error = std::string("cannot judge the run: ") + e.what();
   }

@@ -24,7 +24,8 @@ struct RunOutcome {
   std::optional<LogTable> mpc;
   std::string summary;  ///< summary.txt
   RunAssessment assessment;
-  double up_height = 0.0;  ///< [m] traverse window threshold used
+  double up_height = 0.0;      ///< [m] traverse window threshold used
+  TraverseLegs traverse_legs;  ///< the legs that open and close the traverse window
   bool passed() const { return error.empty() && log.has_value() && assessment.passed(); }
   /// The reasons it failed, joined ("" when it passed).
   std::string failureText() const;

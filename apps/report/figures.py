@@ -27,6 +27,26 @@ def legs_of(columns):
             if k.startswith("contact_") and k.endswith("[0/1]")]
 
 
+def joints_of(columns, leg):
+    """A leg's joints in the log's order, with their units: (name, unit) of its q_<joint>[unit]
+    columns (a joint is named <leg>_<something>)."""
+    out = []
+    for k in columns:
+        if k.startswith("q_%s_" % leg) and k.endswith("]") and "[" in k:
+            name, unit = k[2:-1].split("[", 1)
+            out.append((name, unit))
+    return out
+
+
+def traverse_legs(run, columns):
+    """The legs the traverse window is defined on (the report names them), else the log's
+    first and last legs."""
+    if run.get("traverse_legs"):
+        return run["traverse_legs"][0], run["traverse_legs"][1]
+    legs = legs_of(columns)
+    return legs[0], legs[-1]
+
+
 def read_csv(path):
     """Columns by name; cells that are not numbers become NaN."""
     with open(path, newline="") as f:
@@ -84,25 +104,28 @@ def fig2(spec, runs, out):
     if not runs:
         return False
     fig, axes = plt.subplots(4, 1, figsize=(9, 9), sharex=True)
+    climb = descent = None
     for k, run in enumerate(runs):
         c = read_csv(run["log"])
         t = c["time[s]"]
         color = "C%d" % k
+        climb, descent = traverse_legs(run, c)
         axes[0].plot(t, local_vz(c), color=color, lw=0.9, label=label(run))
         axes[1].plot(t, c["base_wy[rad/s]"], color=color, lw=0.9)
-        axes[2].plot(t, c["foot_z_MF[m]"], color=color, lw=0.9)
-        axes[3].plot(t, c["foot_z_MR[m]"], color=color, lw=0.9)
+        axes[2].plot(t, c["foot_z_%s[m]" % climb], color=color, lw=0.9)
+        axes[3].plot(t, c["foot_z_%s[m]" % descent], color=color, lw=0.9)
         for ax in axes:
             shade(ax, run, color)
     axes[0].set_ylabel("base local v_z [m/s]")
     axes[1].set_ylabel("base local w_y [rad/s]")
-    axes[2].set_ylabel("MF wheel height [m]")
-    axes[3].set_ylabel("MR wheel height [m]")
+    axes[2].set_ylabel("%s wheel height [m]" % climb)
+    axes[3].set_ylabel("%s wheel height [m]" % descent)
     axes[3].set_xlabel("time [s]")
     axes[0].legend(loc="upper right", fontsize=8)
     for ax in axes:
         ax.grid(alpha=0.3)
-    fig.suptitle("step20: base motion and MF/MR wheel heights (shaded: traverse window)")
+    fig.suptitle("%s: base motion and %s/%s wheel heights (shaded: traverse window)"
+                 % (runs[0].get("scene") or "step", climb, descent))
     fig.tight_layout()
     fig.savefig(os.path.join(out, "fig2.png"), dpi=90)
     plt.close(fig)
@@ -121,21 +144,21 @@ def fig4(spec, runs, out):
     axes[0].plot(t, local_vz(c), lw=0.9, label="v_z (local)")
     axes[0].set_ylabel("base velocity [m/s]")
     axes[0].legend(loc="upper right", fontsize=8)
+    # Each leg's first joint (the hip) and last joint (the knee), named from the log.
+    units = [set(), set()]
     for k, leg in enumerate(legs_of(c)):
         color = "C%d" % k
-        for ax, joint, unit in ((axes[1], "hip", "rad"), (axes[2], "knee", "m")):
-            name = "%s_%s" % (leg, joint)
-            col = "q_%s[%s]" % (name, unit)
-            if col not in c:
-                continue
-            ax.plot(t, c[col], color=color, lw=0.9, label=leg)
+        joints = joints_of(c, leg)
+        for row, (name, unit) in ((1, joints[0]), (2, joints[-1])) if joints else ():
+            units[row - 1].add(unit)
+            axes[row].plot(t, c["q_%s[%s]" % (name, unit)], color=color, lw=0.9, label=leg)
             if name in run["limits"]:
                 lo, hi = run["limits"][name]
-                ax.axhline(lo, color=color, ls="--", lw=0.7)
-                ax.axhline(hi, color=color, ls="--", lw=0.7)
+                axes[row].axhline(lo, color=color, ls="--", lw=0.7)
+                axes[row].axhline(hi, color=color, ls="--", lw=0.7)
         axes[3].plot(t, c["foot_z_%s[m]" % leg], color=color, lw=0.9, label=leg)
-    axes[1].set_ylabel("hip positions [rad]")
-    axes[2].set_ylabel("knee positions [m]")
+    axes[1].set_ylabel("hip positions [%s]" % " or ".join(sorted(units[0])))
+    axes[2].set_ylabel("knee positions [%s]" % " or ".join(sorted(units[1])))
     axes[3].set_ylabel("wheel heights [m]")
     axes[3].set_xlabel("time [s]")
     axes[1].legend(loc="upper right", fontsize=7, ncol=6)
@@ -174,17 +197,30 @@ def fig6(spec, runs, machine, out):
     return True
 
 
+def fig8_joints(run, columns):
+    """The joints figure 8 shows for a run: the climbing leg's last joint (the knee) and the
+    first leg's first joint (the hip), from its log (Tachyon 3: MF_knee and LF_hip, the
+    paper's figure)."""
+    climb, _ = traverse_legs(run, columns)
+    return joints_of(columns, climb)[-1:] + joints_of(columns, legs_of(columns)[0])[:1]
+
+
 def fig8(spec, runs, out):
     runs = [r for r in runs if r["log"]]
     if not runs:
         return False
-    joints = [("MF_knee", "m"), ("LF_hip", "rad")]
-    fig, axes = plt.subplots(len(joints), len(runs), figsize=(5 * len(runs), 6), squeeze=False,
-                             sharey="row")
-    for col, run in enumerate(runs):
-        c = read_csv(run["log"])
+    logs = [read_csv(run["log"]) for run in runs]
+    joints = [fig8_joints(run, c) for run, c in zip(runs, logs)]
+    rows = max(len(j) for j in joints)
+    if rows == 0:
+        return False
+    # Rows share their axis only when every run shows the same joints (one robot).
+    same = all(j == joints[0] for j in joints)
+    fig, axes = plt.subplots(rows, len(runs), figsize=(5 * len(runs), 6), squeeze=False,
+                             sharey="row" if same else False)
+    for col, (run, c) in enumerate(zip(runs, logs)):
         t = c["time[s]"]
-        for row, (joint, unit) in enumerate(joints):
+        for row, (joint, unit) in enumerate(joints[col]):
             ax = axes[row][col]
             ax.plot(t, c["cmd_%s[%s]" % (joint, unit)], lw=0.9, label="target (command)")
             ax.plot(t, c["q_%s[%s]" % (joint, unit)], lw=0.9, label="actual")

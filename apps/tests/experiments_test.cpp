@@ -19,8 +19,9 @@
 namespace rollstep::experiments {
 namespace {
 
-constexpr double kR = 0.075;       // wheel radius
-constexpr double kUp = kR + 0.10;  // up_height for a 0.20 m step
+constexpr double kR = 0.075;                 // wheel radius
+constexpr double kUp = kR + 0.10;            // up_height for a 0.20 m step
+const TraverseLegs kMiddleLegs{"MF", "MR"};  // the synthetic log's legs
 constexpr double kDt = 0.01;
 
 /// A synthetic step traverse: MF lifts at 2.00 s, lands up at 2.40 s; MR stands up from
@@ -49,33 +50,67 @@ struct Synthetic {
 
 TEST(TraverseWindow, FromTheClimbLiftOffToTheDescentTouchDown) {
   const Synthetic s;
-  const TraverseWindow w = findTraverseWindow(s.t, s.mf_z, s.mf_c, s.mr_z, s.mr_c, kUp);
+  const TraverseWindow w =
+      findTraverseWindow(s.t, s.mf_z, s.mf_c, s.mr_z, s.mr_c, kMiddleLegs, kUp);
   ASSERT_TRUE(w.found) << w.reason;
   EXPECT_NEAR(w.start, 2.0, 1e-9);  // not the floor lift-offs at 0.5 or 1.2 s
   EXPECT_NEAR(w.end, 9.5, 1e-9);    // not the floor touch-down at 10.7 s
+}
+
+TEST(TraverseWindow, LegsFromTheHips) {
+  // Tachyon 3: three legs a side, the middle ones on the centre line.
+  TraverseLegs legs =
+      traverseLegs({"LF", "MF", "RF", "LR", "MR", "RR"}, {0.33, 0.33, 0.33, -0.33, -0.33, -0.33},
+                   {0.22, 0.0, -0.22, 0.22, 0.0, -0.22});
+  EXPECT_EQ(legs.climb, "MF");
+  EXPECT_EQ(legs.descent, "MR");
+  // A quadruped: the front pair side by side, the first of them; hind legs given first.
+  legs = traverseLegs({"LH", "RH", "LF", "RF"}, {-0.3, -0.3, 0.3, 0.3}, {0.08, -0.08, 0.08, -0.08});
+  EXPECT_EQ(legs.climb, "LF");
+  EXPECT_EQ(legs.descent, "LH");
+  // A leg further ahead wins over one nearer the middle.
+  legs = traverseLegs({"A", "B"}, {0.2, 0.25}, {0.0, 0.3});
+  EXPECT_EQ(legs.climb, "B");
+  EXPECT_EQ(legs.descent, "A");
+  EXPECT_THROW(traverseLegs({}, {}, {}), std::invalid_argument);
+  EXPECT_THROW(traverseLegs({"A"}, {0.0, 1.0}, {0.0}), std::invalid_argument);
+}
+
+TEST(TraverseWindow, NamesItsLegs) {
+  // The same traverse logged for legs named otherwise: the window comes from their columns.
+  const Synthetic s;
+  const TraverseWindow w =
+      findTraverseWindow(s.t, s.mf_z, s.mf_c, s.mr_z, s.mr_c, TraverseLegs{"LF", "LH"}, kUp);
+  ASSERT_TRUE(w.found) << w.reason;
+  EXPECT_NEAR(w.start, 2.0, 1e-9);
+  const std::vector<double> low(s.t.size(), kR);
+  EXPECT_EQ(
+      findTraverseWindow(s.t, s.mf_z, s.mf_c, low, s.mr_c, TraverseLegs{"LF", "LH"}, kUp).reason,
+      "the LH wheel never stood on the step");
 }
 
 TEST(TraverseWindow, SaysWhyWhenThereIsNone) {
   Synthetic s;
   // MF never lands up (bumps into the step).
   std::vector<double> low(s.t.size(), kR);
-  TraverseWindow w = findTraverseWindow(s.t, low, s.mf_c, s.mr_z, s.mr_c, kUp);
+  TraverseWindow w = findTraverseWindow(s.t, low, s.mf_c, s.mr_z, s.mr_c, kMiddleLegs, kUp);
   EXPECT_FALSE(w.found);
   EXPECT_EQ(w.reason, "the MF wheel never landed on the step");
   // MR stays up to the end.
   std::vector<double> mr_up = s.mr_z;
   for (std::size_t i = 480; i < mr_up.size(); ++i) mr_up[i] = kR + 0.20;
-  w = findTraverseWindow(s.t, s.mf_z, s.mf_c, mr_up, s.mr_c, kUp);
+  w = findTraverseWindow(s.t, s.mf_z, s.mf_c, mr_up, s.mr_c, kMiddleLegs, kUp);
   EXPECT_FALSE(w.found);
   EXPECT_NE(w.reason.find("the MR wheel did not come down"), std::string::npos) << w.reason;
   // MR never gets up.
-  w = findTraverseWindow(s.t, s.mf_z, s.mf_c, low, s.mr_c, kUp);
+  w = findTraverseWindow(s.t, s.mf_z, s.mf_c, low, s.mr_c, kMiddleLegs, kUp);
   EXPECT_EQ(w.reason, "the MR wheel never stood on the step");
   // MF rolled onto the step without lifting off.
   std::vector<double> always(s.t.size(), 1.0);
-  w = findTraverseWindow(s.t, s.mf_z, always, s.mr_z, s.mr_c, kUp);
+  w = findTraverseWindow(s.t, s.mf_z, always, s.mr_z, s.mr_c, kMiddleLegs, kUp);
   EXPECT_EQ(w.reason, "no MF lift-off before it reached the step");
-  EXPECT_THROW(findTraverseWindow(s.t, low, s.mf_c, s.mr_z, {1.0}, kUp), std::invalid_argument);
+  EXPECT_THROW(findTraverseWindow(s.t, low, s.mf_c, s.mr_z, {1.0}, kMiddleLegs, kUp),
+               std::invalid_argument);
 }
 
 /// A log.csv text of the synthetic traverse with the base pitched by `pitch` (constant) and
@@ -110,7 +145,7 @@ std::string syntheticLog(double pitch, bool body_touch, double knee_peak) {
 
 TEST(Table1, MeansInTheBaseFrameOverTheWindow) {
   const LogTable log = LogTable::parse(syntheticLog(0.3, false, 0.2), "synthetic");
-  const TraverseWindow w = findTraverseWindow(log, kUp);
+  const TraverseWindow w = findTraverseWindow(log, kMiddleLegs, kUp);
   ASSERT_TRUE(w.found);
   const Table1Metrics m = table1Metrics(log, w);
   EXPECT_NEAR(m.traverse_time, 7.5, 1e-9);
@@ -127,44 +162,45 @@ TEST(PassCriteria, EachFailureIsNamed) {
   std::vector<JointLimit> limits{{"MF_knee", 0.0, 0.36}};
   RunCriteria criteria;
   // A clean run passes.
-  RunAssessment a =
-      assessRun(LogTable::parse(syntheticLog(0.1, false, 0.2), "ok"), limits, criteria, true, kUp);
+  RunAssessment a = assessRun(LogTable::parse(syntheticLog(0.1, false, 0.2), "ok"), limits,
+                              criteria, true, kMiddleLegs, kUp);
   EXPECT_TRUE(a.passed()) << (a.failures.empty() ? "" : a.failures[0]);
   EXPECT_EQ(a.body_contact_periods, 0);
   ASSERT_TRUE(a.metrics.has_value());
   // Body contact.
-  a = assessRun(LogTable::parse(syntheticLog(0.1, true, 0.2), "body"), limits, criteria, true, kUp);
+  a = assessRun(LogTable::parse(syntheticLog(0.1, true, 0.2), "body"), limits, criteria, true,
+                kMiddleLegs, kUp);
   ASSERT_EQ(a.failures.size(), 1u);
   EXPECT_NE(a.failures[0].find("the body touched the terrain (first logged at t = 5.01 s"),
             std::string::npos)
       << a.failures[0];
   // A joint beyond its limit by more than the tolerance (within it: passes).
   a = assessRun(LogTable::parse(syntheticLog(0.1, false, 0.365), "joint"), limits, criteria, true,
-                kUp);
+                kMiddleLegs, kUp);
   EXPECT_TRUE(a.passed());
   a = assessRun(LogTable::parse(syntheticLog(0.1, false, 0.40), "joint"), limits, criteria, true,
-                kUp);
+                kMiddleLegs, kUp);
   ASSERT_EQ(a.failures.size(), 1u);
   EXPECT_NE(a.failures[0].find("MF_knee left its limits: 0.4000 at t = 7.00 s"), std::string::npos)
       << a.failures[0];
   // A fall: tilted 60 deg.
   a = assessRun(LogTable::parse(syntheticLog(M_PI / 3, false, 0.2), "fall"), limits, criteria, true,
-                kUp);
+                kMiddleLegs, kUp);
   ASSERT_EQ(a.failures.size(), 1u);
   EXPECT_NE(a.failures[0].find("fell: the base tilted 60 deg"), std::string::npos) << a.failures[0];
   // No traverse: required or not.
   const LogTable flat = LogTable::parse(syntheticLog(0.1, false, 0.2), "flat");
-  a = assessRun(flat, limits, criteria, true, 10.0);
+  a = assessRun(flat, limits, criteria, true, kMiddleLegs, 10.0);
   ASSERT_EQ(a.failures.size(), 1u);
   EXPECT_EQ(a.failures[0], "did not traverse the step: the MF wheel never landed on the step");
-  EXPECT_TRUE(assessRun(flat, limits, criteria, false, 10.0).passed());
+  EXPECT_TRUE(assessRun(flat, limits, criteria, false, kMiddleLegs, 10.0).passed());
   // A log without the body contact column cannot pass.
   const LogTable old = LogTable::parse(
       "time[s],base_qw[-],base_qx[-],base_qy[-],base_qz[-],"
       "foot_z_MF[m],contact_MF[0/1],foot_z_MR[m],contact_MR[0/1]\n"
       "0,1,0,0,0,0.075,1,0.075,1\n",
       "old");
-  a = assessRun(old, {}, criteria, false, kUp);
+  a = assessRun(old, {}, criteria, false, kMiddleLegs, kUp);
   ASSERT_EQ(a.failures.size(), 1u);
   EXPECT_NE(a.failures[0].find("body contact not checked"), std::string::npos);
 }
@@ -249,7 +285,8 @@ TEST(ExperimentSet, LoadsTheProjectsFileAndRefusesMistakes) {
     return std::string("no error");
   };
   EXPECT_EQ(error("scenarios:\n  - {name: a, scene: moon, controller: nmpc}\n"),
-            "f: line 2: scenarios[0].scene: 'moon' is not flat, stairs2, step20 or step20_custom");
+            "f: line 2: scenarios[0].scene: 'moon' is not flat, stairs2, step12, step20 or "
+            "step20_custom");
   EXPECT_EQ(error("scenarios:\n  - {name: a, scene: flat, controler: nmpc}\n").substr(0, 48),
             "f: line 2: unknown key 'scenarios[0].controler' ");
   EXPECT_EQ(error("scenarios:\n  - {name: a, scene: flat}\n"),

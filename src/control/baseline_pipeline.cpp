@@ -4,6 +4,7 @@
 #include <stdexcept>
 
 #include "rollstep/control/wheel_speed.hpp"
+#include "rollstep/model/gravity.hpp"
 #include "rollstep/model/kinematics.hpp"
 
 namespace rollstep::control {
@@ -47,6 +48,13 @@ BaselinePipeline::BaselinePipeline(const centroidal::RobotOcpDescription& robot,
   plan_ = planner_->makePlan();
   q_meas_ = Eigen::VectorXd::Zero(r.nq());
   v_meas_ = Eigen::VectorXd::Zero(r.nv());
+  stance_forces_ = Eigen::VectorXd::Zero(3 * r.nc());
+  if (settings_.integrator.deflection_compensation > 0.0 &&
+      robot_.description.servo_stiffness.size() != r.nj()) {
+    throw std::invalid_argument(
+        "BaselinePipeline: integrator.deflection_compensation needs the robot description's "
+        "servo_stiffness (one per joint)");
+  }
 }
 
 BaselinePipeline::~BaselinePipeline() = default;
@@ -145,6 +153,27 @@ void BaselinePipeline::tick(const RobotState& state, JointCommand& command) noex
   // Commands.
   computeDriveWheelSpeeds(r, *data_, tracking_->q(), tracking_->v(), drive_wheels_, 0.0,
                           command.wheel_velocity);
+  const double compensation = settings_.integrator.deflection_compensation;
+  if (compensation > 0.0) {
+    // As the NMPC pipeline's, with no planned forces: the weight spread evenly over the
+    // stance feet. Each servo sits tau / K short of its command under the static torque tau:
+    // command that much further (compliant servos otherwise sag, and the blend of the
+    // measured state into the internal one carries the sag into the next command).
+    int stance = 0;
+    for (int i = 0; i < r.nc(); ++i) {
+      if (centroidal::CentroidalRobot::inStance(plan_.mode, i)) ++stance;
+    }
+    stance_forces_.setZero();
+    for (int i = 0; i < r.nc() && stance > 0; ++i) {
+      if (centroidal::CentroidalRobot::inStance(plan_.mode, i)) {
+        stance_forces_[3 * i + 2] = -r.mass() * r.model().gravity.z() / stance;
+      }
+    }
+    const Eigen::VectorXd& tau =
+        model::computeStaticTorque(r.model(), *data_, tracking_->q(), r.frameIds(), stance_forces_);
+    command.joint_position.array() +=
+        compensation * tau.tail(r.nj()).array() / robot_.description.servo_stiffness.array();
+  }
 }
 
 }  // namespace rollstep::control

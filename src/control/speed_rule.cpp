@@ -30,6 +30,45 @@ Eigen::VectorXd nominalConfiguration(const model::Model& model,
   return q;
 }
 
+/// The longest distance from body `hip`'s joint to the contact frame `f` the joints between
+/// them reach inside their limits (the hip itself at its nominal angle): each joint with
+/// finite limits tried at evenly spaced positions over its range (a grid over the joints,
+/// coarser for longer chains), the others at nominal.
+double longestReach(const model::Model& model, const Eigen::VectorXd& nominal_joints, int hip,
+                    model::FrameIndex f) {
+  std::vector<int> joints;  // joint indices strictly below the hip
+  for (int b = model.frames[static_cast<std::size_t>(f)].body; b != hip;
+       b = model.bodies[static_cast<std::size_t>(b)].parent) {
+    const int j = model.bodies[static_cast<std::size_t>(b)].idxV - model.nvBase;
+    if (std::isfinite(model.lowerPositionLimit[j]) && std::isfinite(model.upperPositionLimit[j])) {
+      joints.push_back(j);
+    }
+  }
+  // 33 positions per joint for up to two joints, fewer for more (at most ~10^4 poses a leg).
+  const int per_joint = joints.size() <= 2 ? 33 : (joints.size() <= 4 ? 9 : 3);
+  model::Data data(model);
+  Eigen::VectorXd q = nominalConfiguration(model, nominal_joints);
+  std::vector<int> index(joints.size(), 0);
+  double longest = 0.0;
+  for (;;) {
+    for (std::size_t k = 0; k < joints.size(); ++k) {
+      const int j = joints[k];
+      const double share = static_cast<double>(index[k]) / (per_joint - 1);
+      q[7 + j] = model.lowerPositionLimit[j] +
+                 share * (model.upperPositionLimit[j] - model.lowerPositionLimit[j]);
+    }
+    model::forwardKinematics(model, data, q);
+    model::updateFramePlacements(model, data);
+    longest = std::max(
+        longest,
+        (data.opf[static_cast<std::size_t>(f)] - data.opb[static_cast<std::size_t>(hip)]).norm());
+    std::size_t k = 0;
+    while (k < index.size() && ++index[k] == per_joint) index[k++] = 0;
+    if (k == index.size()) break;
+  }
+  return longest;
+}
+
 }  // namespace
 
 planning::SpeedAdaptationLimits speedRuleLimits(const model::Model& model,
@@ -73,9 +112,18 @@ planning::SpeedAdaptationLimits speedRuleLimits(const model::Model& model,
     vertical_speed = std::min(vertical_speed, leg_vertical_speed);
     const model::Body& h = model.bodies[static_cast<std::size_t>(hip)];
     const int j = h.idxV - model.nvBase;
-    const double length = (foot - data.opb[static_cast<std::size_t>(hip)]).norm();
-    const double half_range = 0.5 * (model.upperPositionLimit[j] - model.lowerPositionLimit[j]);
-    sweep = std::min(sweep, 2.0 * length * std::sin(std::min(half_range, M_PI / 2)));
+    const Eigen::Vector3d hip_to_foot = foot - data.opb[static_cast<std::size_t>(hip)];
+    const double length = hip_to_foot.norm();
+    // The hip turns from its nominal angle towards either limit, as far as the rest of the
+    // leg, stretched to its longest, still reaches the ground at the nominal foot height.
+    const double reach = longestReach(model, nominal_joints, hip, f);
+    const double ground_angle =
+        reach > std::abs(hip_to_foot.z()) ? std::acos(std::abs(hip_to_foot.z()) / reach) : 0.0;
+    const double q0 = nominal_joints[j];
+    const double forward = std::min({model.upperPositionLimit[j] - q0, ground_angle, M_PI / 2});
+    const double backward = std::min({q0 - model.lowerPositionLimit[j], ground_angle, M_PI / 2});
+    sweep = std::min(
+        sweep, length * (std::sin(std::max(forward, 0.0)) + std::sin(std::max(backward, 0.0))));
   }
   planning::SpeedAdaptationLimits limits;
   limits.knee_speed = settings.swing_knee_speed_share * vertical_speed;

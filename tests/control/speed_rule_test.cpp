@@ -69,9 +69,16 @@ TEST(SpeedRule, RevoluteLegsCountTheirFlexionJoints) {
   const planning::SpeedAdaptationLimits l =
       control::speedRuleLimits(model, robot.contact_frames, robot.nominal_joint_positions, s);
   EXPECT_NEAR(l.knee_speed, 0.75 * 12.0 * 0.3 * std::sin(0.8), 1e-9);
-  // Flexion range [-1, 2.5] rad: half of it is more than 90 deg, so the sweep is 2 L, L the
-  // flexion axis to wheel centre distance 0.6 cos(0.8).
-  EXPECT_NEAR(l.stance_stroke, 2.0 * 0.6 * std::cos(0.8), 1e-9);
+  // Flexion range [-1, 2.5] rad, 1.7 and 1.8 rad from the nominal 0.8: the joint limits do
+  // not bound the sweep, the leg's length does. Its wheel 0.6 cos(0.8) below the flexion
+  // axis, the leg stretched to its longest (knee at its -0.5 rad limit: 0.6 cos(0.25)) still
+  // reaches that depth with the hip turned acos(cos(0.8) / cos(0.25)) either way; at the
+  // nominal length L = 0.6 cos(0.8) that is a sweep of 2 L sin of it (not 2 L, where the
+  // wheel would be at the hip's height).
+  const double depth = 0.6 * std::cos(0.8);
+  const double turn = std::acos(std::cos(0.8) / std::cos(0.25));
+  EXPECT_NEAR(l.stance_stroke, 2.0 * depth * std::sin(turn), 1e-9);
+  EXPECT_LT(l.stance_stroke, 0.6);
   EXPECT_NEAR(control::turnRadius(model, robot.contact_frames, robot.nominal_joint_positions),
               std::hypot(0.3, 0.2), 1e-9);
 }

@@ -145,49 +145,15 @@ TEST_F(RobotDescription, BodyFramesAtZero) {
 }
 
 TEST_F(RobotDescription, WheelCentresAtTwentyRandomConfigurations) {
-  std::mt19937 rng(20261122);
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
-  for (int trial = 0; trial < 20; ++trial) {
-    SCOPED_TRACE("configuration " + std::to_string(trial));
-    std::map<std::string, double> q;
-    mj_resetData(model_, data_);
-    for (const auto& [name, joint] : urdf_->joints_) {
-      if (joint->type == urdf::Joint::FIXED) continue;
-      const double value =
-          joint->limits->lower + unit(rng) * (joint->limits->upper - joint->limits->lower);
-      q[name] = value;
-      const int j = mjId(mjOBJ_JOINT, name);
-      data_->qpos[model_->jnt_qposadr[j]] = value;
-    }
-    // Spin the wheels too: it must not move their centres.
-    for (const std::string& leg : kLegs) {
-      const int j = mjId(mjOBJ_JOINT, leg + "_wheel");
-      if (model_->jnt_type[j] == mjJNT_HINGE) {
-        data_->qpos[model_->jnt_qposadr[j]] = 10.0 * unit(rng);
-      } else {
-        Eigen::Quaterniond r = Eigen::Quaterniond::UnitRandom();
-        mjtNum* p = data_->qpos + model_->jnt_qposadr[j];
-        p[0] = r.w(), p[1] = r.x(), p[2] = r.y(), p[3] = r.z();
-      }
-    }
-    // Base at the identity: free joint position 0, quaternion (1, 0, 0, 0).
-    const int base_joint = model_->body_jntadr[mjId(mjOBJ_BODY, "base")];
-    mjtNum* b = data_->qpos + model_->jnt_qposadr[base_joint];
-    b[0] = b[1] = b[2] = 0.0;
-    b[3] = 1.0, b[4] = b[5] = b[6] = 0.0;
-    mj_kinematics(model_, data_);
-
-    std::map<std::string, Eigen::Isometry3d> poses;
-    urdfForwardKinematics(urdf_->getRoot(), Eigen::Isometry3d::Identity(), q, poses);
-    for (const std::string& leg : kLegs) {
-      const Eigen::Vector3d urdf_centre = poses.at(leg + "_wheel").translation();
-      const Eigen::Vector3d mj_centre(data_->xpos + 3 * mjId(mjOBJ_BODY, leg + "_wheel"));
-      EXPECT_NEAR((urdf_centre - mj_centre).norm(), 0.0, kTol) << leg;
-      // Sanity: hip to wheel centre distance = 0.20 m + knee.
-      const Eigen::Vector3d hip = poses.at(leg + "_hip_link").translation();
-      EXPECT_NEAR((urdf_centre - hip).norm(), 0.20 + q.at(leg + "_knee"), kTol) << leg;
-    }
-  }
+  expectWheelCentresAgree(20261122, {kLegs.begin(), kLegs.end()}, kTol,
+                          [](const std::string& leg, const std::map<std::string, double>& q,
+                             const std::map<std::string, Eigen::Isometry3d>& poses) {
+                            // Sanity: hip to wheel centre distance = 0.20 m + knee.
+                            const Eigen::Vector3d hip = poses.at(leg + "_hip_link").translation();
+                            EXPECT_NEAR((poses.at(leg + "_wheel").translation() - hip).norm(),
+                                        0.20 + q.at(leg + "_knee"), kTol)
+                                << leg;
+                          });
 }
 
 }  // namespace

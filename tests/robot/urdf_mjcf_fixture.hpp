@@ -7,9 +7,12 @@
 #include <urdf_parser/urdf_parser.h>
 
 #include <Eigen/Geometry>
+#include <functional>
 #include <map>
+#include <random>
 #include <string>
 #include <utility>
+#include <vector>
 
 namespace rollstep::testing {
 
@@ -80,6 +83,60 @@ class UrdfMjcfFixture : public ::testing::Test {
                   0.0, tolerance);
       EXPECT_EQ(std::string(mj_id2name(model_, mjOBJ_BODY, model_->body_parentid[body])),
                 joint->parent_link_name);
+    }
+  }
+
+  /// Joint positions (by joint name) and the URDF links' world placements of one
+  /// configuration, for a robot's own check of a leg.
+  using LegCheck =
+      std::function<void(const std::string& leg, const std::map<std::string, double>& q,
+                         const std::map<std::string, Eigen::Isometry3d>& poses)>;
+
+  /// At 20 random configurations (every moving URDF joint uniform inside its limits, drawn
+  /// from std::mt19937(seed) in the URDF's joint order; the wheels spun: a hinge by up to
+  /// 10 rad, a ball joint to a random orientation; the base at the identity) each leg's
+  /// wheel centre (the body and URDF link <leg>_wheel) is where the URDF puts it, within
+  /// `tolerance`; `check` adds the robot's own sanity check of each leg.
+  void expectWheelCentresAgree(unsigned seed, const std::vector<std::string>& legs,
+                               double tolerance, const LegCheck& check) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    for (int trial = 0; trial < 20; ++trial) {
+      SCOPED_TRACE("configuration " + std::to_string(trial));
+      std::map<std::string, double> q;
+      mj_resetData(model_, data_);
+      for (const auto& [name, joint] : urdf_->joints_) {
+        if (joint->type == urdf::Joint::FIXED) continue;
+        const double value =
+            joint->limits->lower + unit(rng) * (joint->limits->upper - joint->limits->lower);
+        q[name] = value;
+        data_->qpos[model_->jnt_qposadr[mjId(mjOBJ_JOINT, name)]] = value;
+      }
+      // Spin the wheels too: it must not move their centres.
+      for (const std::string& leg : legs) {
+        const int j = mjId(mjOBJ_JOINT, leg + "_wheel");
+        if (model_->jnt_type[j] == mjJNT_HINGE) {
+          data_->qpos[model_->jnt_qposadr[j]] = 10.0 * unit(rng);
+        } else {
+          const Eigen::Quaterniond r = Eigen::Quaterniond::UnitRandom();
+          mjtNum* p = data_->qpos + model_->jnt_qposadr[j];
+          p[0] = r.w(), p[1] = r.x(), p[2] = r.y(), p[3] = r.z();
+        }
+      }
+      // Base at the identity: free joint position 0, quaternion (1, 0, 0, 0).
+      mjtNum* b = data_->qpos + model_->jnt_qposadr[model_->body_jntadr[mjId(mjOBJ_BODY, "base")]];
+      b[0] = b[1] = b[2] = 0.0;
+      b[3] = 1.0, b[4] = b[5] = b[6] = 0.0;
+      mj_kinematics(model_, data_);
+
+      std::map<std::string, Eigen::Isometry3d> poses;
+      urdfForwardKinematics(urdf_->getRoot(), Eigen::Isometry3d::Identity(), q, poses);
+      for (const std::string& leg : legs) {
+        const Eigen::Vector3d urdf_centre = poses.at(leg + "_wheel").translation();
+        const Eigen::Vector3d mj_centre(data_->xpos + 3 * mjId(mjOBJ_BODY, leg + "_wheel"));
+        EXPECT_NEAR((urdf_centre - mj_centre).norm(), 0.0, tolerance) << leg;
+        check(leg, q, poses);
+      }
     }
   }
 

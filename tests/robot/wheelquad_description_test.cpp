@@ -156,39 +156,15 @@ TEST_F(Wheelquad, JointsLimitsEffortsAndServos) {
 TEST_F(Wheelquad, BodyFramesAtZero) { expectBodyFramesAtZero(kTol); }
 
 TEST_F(Wheelquad, WheelCentresAtTwentyRandomConfigurations) {
-  std::mt19937 rng(20261207);
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
-  for (int trial = 0; trial < 20; ++trial) {
-    SCOPED_TRACE("configuration " + std::to_string(trial));
-    std::map<std::string, double> q;
-    mj_resetData(model_, data_);
-    for (const auto& [name, joint] : urdf_->joints_) {
-      if (joint->type == urdf::Joint::FIXED) continue;
-      const double value =
-          joint->limits->lower + unit(rng) * (joint->limits->upper - joint->limits->lower);
-      q[name] = value;
-      data_->qpos[model_->jnt_qposadr[mjId(mjOBJ_JOINT, name)]] = value;
-    }
-    for (const std::string& leg : kLegs) {  // spinning a wheel does not move its centre
-      data_->qpos[model_->jnt_qposadr[mjId(mjOBJ_JOINT, leg + "_wheel")]] = 10.0 * unit(rng);
-    }
-    mjtNum* b = data_->qpos + model_->jnt_qposadr[model_->body_jntadr[mjId(mjOBJ_BODY, "base")]];
-    b[0] = b[1] = b[2] = 0.0;
-    b[3] = 1.0, b[4] = b[5] = b[6] = 0.0;
-    mj_kinematics(model_, data_);
-
-    std::map<std::string, Eigen::Isometry3d> poses;
-    urdfForwardKinematics(urdf_->getRoot(), Eigen::Isometry3d::Identity(), q, poses);
-    for (const std::string& leg : kLegs) {
-      const Eigen::Vector3d urdf_centre = poses.at(leg + "_wheel").translation();
-      const Eigen::Vector3d mj_centre(data_->xpos + 3 * mjId(mjOBJ_BODY, leg + "_wheel"));
-      EXPECT_NEAR((urdf_centre - mj_centre).norm(), 0.0, kTol) << leg;
-      // Sanity: thigh and shank 0.30 m each, the knee angle between them.
-      const Eigen::Vector3d hfe = poses.at(leg + "_thigh").translation();
-      const double knee = q.at(leg + "_KFE");
-      EXPECT_NEAR((urdf_centre - hfe).norm(), 2.0 * 0.3 * std::cos(0.5 * knee), kTol) << leg;
-    }
-  }
+  expectWheelCentresAgree(20261207, {kLegs.begin(), kLegs.end()}, kTol,
+                          [](const std::string& leg, const std::map<std::string, double>& q,
+                             const std::map<std::string, Eigen::Isometry3d>& poses) {
+                            // Sanity: thigh and shank 0.30 m each, the knee angle between them.
+                            const Eigen::Vector3d hfe = poses.at(leg + "_thigh").translation();
+                            EXPECT_NEAR((poses.at(leg + "_wheel").translation() - hfe).norm(),
+                                        2.0 * 0.3 * std::cos(0.5 * q.at(leg + "_KFE")), kTol)
+                                << leg;
+                          });
 }
 
 TEST_F(Wheelquad, NominalKeyframeHasTheWheelsOnTheGround) {

@@ -16,6 +16,7 @@
 #include "rollstep/sim/estimator_source.hpp"
 #include "rollstep/sim/nmpc_controller.hpp"
 #include "rollstep/sim/plant.hpp"
+#include "rollstep/sim/robot_folder.hpp"
 #include "rollstep/sim/scenario.hpp"
 #include "rollstep/sim/scene.hpp"
 #include "rollstep/sim/scene_terrain.hpp"
@@ -27,6 +28,9 @@ inline std::string tachyon3Description() {
 }
 
 struct NmpcScenario {
+  /// A robot folder (name under robots/ or path); empty: Tachyon 3 with the plant's default
+  /// options (the tests written for it).
+  std::string robot;
   std::string scene = "flat";
   planning::GaitKind gait = planning::GaitKind::Standing;
   planning::BaseVelocityCommand command;
@@ -86,11 +90,13 @@ inline void estimateErrors(const NmpcController& c, const GroundTruth& g, double
 
 inline NmpcOutcome runNmpc(const NmpcScenario& sc) {
   SceneConfig scene = loadScene(sc.scene);
-  PlantOptions plant_options;
+  const std::optional<RobotFolder> folder =
+      sc.robot.empty() ? std::nullopt : std::optional<RobotFolder>(findRobotFolder(sc.robot));
+  PlantOptions plant_options = folder ? plantOptionsFor(*folder) : PlantOptions{};
   plant_options.sensor_noise = sc.sensor_noise;
   Plant plant(scene, plant_options);
   const centroidal::RobotOcpDescription robot =
-      centroidal::loadRobotOcpDescription(tachyon3Description());
+      centroidal::loadRobotOcpDescription(folder ? folder->description : tachyon3Description());
   const std::vector<planning::TimedBaseCommand> schedule =
       sc.schedule.empty() ? std::vector<planning::TimedBaseCommand>{{0.0, sc.command}}
                           : sc.schedule;

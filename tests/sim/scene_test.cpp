@@ -26,7 +26,7 @@ std::string writeTemp(const std::string& name, const std::string& text) {
 
 TEST(SceneFiles, ShippedScenesAreFoundByName) {
   const std::vector<std::string> names = sceneNames();
-  for (const char* name : {"flat", "step20", "stairs2", "step20_custom"}) {
+  for (const char* name : {"flat", "step20", "stairs2", "step20_custom", "step12"}) {
     EXPECT_TRUE(isSceneName(name)) << name;
     EXPECT_NE(std::find(names.begin(), names.end(), name), names.end()) << name;
     EXPECT_EQ(loadScene(name).name, name);
@@ -96,7 +96,7 @@ TEST(SceneFiles, ABaseSceneIsChangedAndExtended) {
 }
 
 TEST(SceneFiles, ToYamlRoundTrips) {
-  for (const char* name : {"flat", "step20", "stairs2", "step20_custom"}) {
+  for (const char* name : {"flat", "step20", "stairs2", "step20_custom", "step12"}) {
     SceneConfig c = loadScene(name);
     if (name != std::string("flat")) setSceneNumber(c, "start_x", 1.2345678901234567);
     setSceneNumber(c, "friction", 0.123456789);

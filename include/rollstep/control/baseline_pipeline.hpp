@@ -108,6 +108,7 @@ class BaselinePipeline {
   TickRecord record_;
   PipelineCounters counters_;
   Eigen::VectorXd q_meas_, v_meas_;
+  Eigen::VectorXd stance_forces_;  ///< 3 nc: the weight spread over the stance feet (world)
   bool initialized_ = false;
 
   /// Foothold and collision terrains handed over together.

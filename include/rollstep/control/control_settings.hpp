@@ -177,7 +177,8 @@ struct IntegratorSettings {
   /// the command becomes q + gain tau / K with tau the static joint torque of the planned
   /// contact forces (model::computeStaticTorque) and K the robot description's
   /// servo_stiffness. Without it the body sags under the servos' compliance, more on three
-  /// legs than on six, i.e. at every lift-off of a trot. 0: off.
+  /// legs than on six, i.e. at every lift-off of a trot. The CBF-QP baseline, which plans no
+  /// forces, takes the weight spread evenly over its stance feet. 0: off.
   double deflection_compensation = 1.0;
 };
 

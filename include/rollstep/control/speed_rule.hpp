@@ -21,8 +21,11 @@ namespace rollstep::control {
 /// ones about an axis within 45 deg of the base's y |(axis x r)_z| v_max, r from the joint
 /// to the contact frame; abduction joints do not count); rise = max_step_height +
 /// swing_clearance; stance_stroke = stance_stroke_share x the smallest sweep of a leg,
-/// 2 L sin(half the range of its hip: the sagittal revolute joint nearest the base), L the
-/// hip-to-contact distance; apex_margin, max_duty from the settings (swing_apex_margin,
+/// L (sin a+ + sin a-), L the distance from its hip (the sagittal revolute joint nearest the
+/// base) to the contact frame, a+ and a- the hip's turns from its nominal angle to its
+/// limits, each at most 90 deg and at most acos(h / L_max), the angle at which the leg
+/// stretched to its longest inside the joint limits (L_max) still reaches the ground at the
+/// nominal foot depth h below the hip; apex_margin, max_duty from the settings (swing_apex_margin,
 /// trot_duty). Throws std::invalid_argument naming the frame when a contact has no
 /// sagittal revolute joint with finite limits between it and the base.
 planning::SpeedAdaptationLimits speedRuleLimits(const model::Model& model,

@@ -1,0 +1,261 @@
+// Every robot folder under robots/ through the same closed-loop runs in MuJoCo, with the
+// robot's own controller defaults (its nmpc.yaml / baseline.yaml, else the library's),
+// deterministic MPC timing, ground truth: with the NMPC it stands, rolls, trots on flat
+// ground, and climbs onto and off the step its folder declares (closed_loop.yaml,
+// docs/ROBOTS.md); the CBF-QP baseline stands, rolls and trots on flat ground. Short runs: label
+// `closedloop`. The commands are the same for every robot; what a robot must show is
+// physical (upright, inside its joint limits, the distance covered, over the step).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "rollstep/common/settings_table.hpp"
+#include "rollstep/common/text_file.hpp"
+#include "rollstep/sim/cbfqp_controller.hpp"
+#include "sim/nmpc_run.hpp"
+
+namespace rollstep::sim::test {
+namespace {
+
+/// A robot folder's closed_loop.yaml: the step it is expected to climb.
+struct StepCheck {
+  std::vector<std::string> scene;  ///< one scene name or file
+  double vx = 0.3;                 ///< [m/s] trot command
+  double duration = 12.0;          ///< [s]
+};
+struct ClosedLoopChecks {
+  StepCheck step;
+};
+
+const settings::Table<ClosedLoopChecks>& checksTable() {
+  static const settings::Table<ClosedLoopChecks> table =
+      settings::Table<ClosedLoopChecks>().section(
+          "step", &ClosedLoopChecks::step,
+          settings::Table<StepCheck>()
+              .field("scene", &StepCheck::scene)
+              .field("vx", &StepCheck::vx, "m/s", settings::Range::leftOpen(0.0, 1.0))
+              .field("duration", &StepCheck::duration, "s", settings::Range::leftOpen(0.0, 60.0)));
+  return table;
+}
+
+std::vector<std::string> robotNames() {
+  std::vector<std::string> names;
+  for (const auto& entry : std::filesystem::directory_iterator(ROLLSTEP_ROBOTS_DIR)) {
+    if (std::filesystem::is_regular_file(entry.path() / "centroidal.yaml")) {
+      names.push_back(entry.path().filename().string());
+    }
+  }
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+class EveryRobot : public ::testing::TestWithParam<std::string> {
+ protected:
+  /// The scenario with the robot's own NMPC defaults, as `rollstep sim --robot NAME`.
+  NmpcScenario scenario() const {
+    NmpcScenario sc;
+    sc.robot = GetParam();
+    const std::string own = findRobotFolder(sc.robot).optionalFile("nmpc.yaml");
+    sc.settings = own.empty() ? control::ControlSettings{} : control::loadControlSettings(own);
+    return sc;
+  }
+};
+
+/// Upright (roll and pitch below max_tilt_deg), never lower than half the start height,
+/// inside the joint limits, no invalid state, no simulator warning. (Not the first solve's
+/// status: a cold trot towards a step may stop at its iteration limit and the real-time
+/// iterations take over; what counts is what the robot did.)
+void expectStandsUp(const NmpcOutcome& o, double max_tilt_deg, double joint_tolerance = 1e-3) {
+  EXPECT_LT(o.max_roll_deg, max_tilt_deg) << describe(o);
+  EXPECT_LT(o.max_pitch_deg, max_tilt_deg) << describe(o);
+  EXPECT_GT(o.min_base_height, 0.5 * o.start.z()) << describe(o);
+  EXPECT_LT(o.max_joint_limit_violation, joint_tolerance) << describe(o);
+  EXPECT_EQ(o.counters.invalid_states, 0u);
+  EXPECT_EQ(o.warnings, 0) << describe(o);
+}
+
+TEST_P(EveryRobot, Stands) {
+  NmpcScenario sc = scenario();
+  sc.gait = planning::GaitKind::Standing;
+  sc.duration = 2.0;
+  const NmpcOutcome o = runNmpc(sc);
+  std::printf("%s stands: %s\n", GetParam().c_str(), describe(o).c_str());
+  expectStandsUp(o, 2.0);
+  EXPECT_LT((o.end - o.start).head<2>().norm(), 0.02) << describe(o);
+  EXPECT_GT(o.min_base_height, o.start.z() - 0.03) << describe(o);
+}
+
+TEST_P(EveryRobot, RollsAtHalfAMetrePerSecond) {
+  NmpcScenario sc = scenario();
+  sc.gait = planning::GaitKind::Rolling;
+  sc.command.v_x = 0.5;
+  sc.duration = 4.0;  // the command ramps from rest in the first second
+  const NmpcOutcome o = runNmpc(sc);
+  std::printf("%s rolls 0.5 m/s: %s\n", GetParam().c_str(), describe(o).c_str());
+  expectStandsUp(o, 5.0);
+  EXPECT_NEAR(o.mean_forward_speed, 0.5, 0.05) << describe(o);
+  EXPECT_LT(std::abs(o.mean_lateral_speed), 0.02) << describe(o);
+  EXPECT_GT(o.end.x() - o.start.x(), 0.8 * 0.5 * 3.0) << describe(o);
+}
+
+TEST_P(EveryRobot, TrotsAtThreeTenthsOfAMetrePerSecond) {
+  NmpcScenario sc = scenario();
+  sc.gait = planning::GaitKind::Trot;
+  sc.command.v_x = 0.3;
+  sc.duration = 4.0;
+  const NmpcOutcome o = runNmpc(sc);
+  std::printf("%s trots 0.3 m/s: %s\n", GetParam().c_str(), describe(o).c_str());
+  expectStandsUp(o, 5.0);
+  EXPECT_GT(o.end.x() - o.start.x(), 0.8 * 0.3 * 3.0) << describe(o);
+  EXPECT_LT(std::abs(o.end.y() - o.start.y()), 0.1) << describe(o);
+  // Trotting, the body keeps its height (a sagging trot is a failing one).
+  EXPECT_GT(o.min_base_height, o.start.z() - 0.05) << describe(o);
+}
+
+TEST_P(EveryRobot, TrotsOntoAndOffItsStep) {
+  const RobotFolder folder = findRobotFolder(GetParam());
+  const std::string file = folder.directory + "/closed_loop.yaml";
+  if (!std::filesystem::is_regular_file(file)) {
+    GTEST_SKIP() << GetParam() << " declares no step (" << file << ")";
+  }
+  const ClosedLoopChecks checks = settings::readDocument(
+      readTextFile(file, "closed-loop checks"), checksTable(), "closed-loop checks " + file + ": ");
+  ASSERT_EQ(checks.step.scene.size(), 1u) << file << ": step.scene names one scene";
+  NmpcScenario sc = scenario();
+  sc.scene = checks.step.scene.front();
+  sc.gait = planning::GaitKind::Trot;
+  sc.command.v_x = checks.step.vx;
+  sc.duration = checks.step.duration;
+  // The block: the scene's solids, the farthest edge along x and the highest top.
+  const SceneGeometry scene = resolveScene(loadScene(sc.scene));
+  ASSERT_FALSE(scene.solids.empty()) << sc.scene << " has no step";
+  double far_edge = -1e9, height = 0.0;
+  for (const SceneSolid& s : scene.solids) {
+    far_edge = std::max(far_edge, s.center.x() + s.half_size.x());
+    height = std::max(height, s.center.z() + s.half_size.z());
+  }
+  const NmpcOutcome o = runNmpc(sc);
+  std::printf("%s over %s at %.2f m/s: %s\n", GetParam().c_str(), sc.scene.c_str(), checks.step.vx,
+              describe(o).c_str());
+  // The report's pass criteria on a step: a joint may overshoot its limit by 0.01 rad or m
+  // (config/experiments.yaml, criteria.joint_limit_tolerance).
+  expectStandsUp(o, 15.0, 0.01);
+  // Up: the body rose by at least half the step; off: past the far edge and back at its
+  // start height on the floor.
+  EXPECT_GT(o.max_base_height, o.start.z() + 0.5 * height) << describe(o);
+  EXPECT_GT(o.end.x(), far_edge) << describe(o);
+  EXPECT_NEAR(o.end.z(), o.start.z(), 0.03) << describe(o);
+  EXPECT_LT(std::abs(o.end.y() - o.start.y()), 0.15) << describe(o);
+}
+
+/// What a CBF-QP baseline run did (ground truth).
+struct BaselineOutcome {
+  double max_tilt_deg = 0.0;
+  double min_base_height = 1e9;
+  double max_joint_limit_violation = 0.0;
+  Eigen::Vector3d start = Eigen::Vector3d::Zero(), end = Eigen::Vector3d::Zero();
+  int warnings = 0;
+  std::string text() const {
+    char buffer[300];
+    std::snprintf(buffer, sizeof buffer,
+                  "tilt %.2f deg, base z >= %.3f m, joint limit violation %.4f, moved (%.3f, "
+                  "%.3f) m, %d warnings",
+                  max_tilt_deg, min_base_height, max_joint_limit_violation, end.x() - start.x(),
+                  end.y() - start.y(), warnings);
+    return buffer;
+  }
+};
+
+/// The robot's CBF-QP baseline (its baseline.yaml, else config/baseline.yaml) on flat ground.
+BaselineOutcome runBaseline(const std::string& robot_name, planning::GaitKind gait, double v_x,
+                            double duration) {
+  const RobotFolder folder = findRobotFolder(robot_name);
+  const std::string own = folder.optionalFile("baseline.yaml");
+  const control::ControlSettings settings = control::loadControlSettings(
+      own.empty() ? std::string(ROLLSTEP_SOURCE_DIR) + "/config/baseline.yaml" : own);
+  const SceneConfig scene = loadScene("flat");
+  Plant plant(scene, plantOptionsFor(folder));
+  const centroidal::RobotOcpDescription robot =
+      centroidal::loadRobotOcpDescription(folder.description);
+  planning::BaseVelocityCommand command;
+  command.v_x = v_x;
+  CbfQpController controller(plant, robot, settings,
+                             terrainFromScene(scene, settings.baseline.foothold_margin),
+                             terrainFromScene(scene, 0.0), gait, command);
+  const model::Model& m = controller.pipeline().robot().model();
+  const GroundTruth& g = plant.groundTruth();
+  BaselineOutcome out;
+  out.start = g.base_position;
+  PlantCommand plant_command = plant.command();
+  const int warnings0 = plant.warningCount();
+  const long steps = std::lround(duration / plant.controlPeriod());
+  for (long k = 0; k < steps; ++k) {
+    controller.compute(plant.time(), plant.sensors(), plant_command);
+    plant.setCommand(plant_command);
+    plant.step();
+    const Eigen::Vector3d up = g.base_orientation * Eigen::Vector3d::UnitZ();
+    out.max_tilt_deg =
+        std::max(out.max_tilt_deg, std::acos(std::clamp(up.z(), -1.0, 1.0)) * 180.0 / M_PI);
+    out.min_base_height = std::min(out.min_base_height, g.base_position.z());
+    for (int j = 0; j < m.nj; ++j) {
+      const double qj = g.joint_position[controller.jointMap()[static_cast<size_t>(j)]];
+      out.max_joint_limit_violation =
+          std::max({out.max_joint_limit_violation, m.lowerPositionLimit[j] - qj,
+                    qj - m.upperPositionLimit[j]});
+    }
+  }
+  out.end = g.base_position;
+  out.warnings = plant.warningCount() - warnings0;
+  return out;
+}
+
+/// No fall: the baseline, tuned on Tachyon 3's statically stable tripods, rocks more on a
+/// quadruped's diagonal pairs (wheelquad's trot: 7 deg), so 10 deg rather than the NMPC's 5.
+void expectBaselineUpright(const BaselineOutcome& o) {
+  EXPECT_LT(o.max_tilt_deg, 10.0) << o.text();
+  EXPECT_GT(o.min_base_height, o.start.z() - 0.05) << o.text();
+  EXPECT_LT(o.max_joint_limit_violation, 1e-3) << o.text();
+  EXPECT_EQ(o.warnings, 0) << o.text();
+}
+
+TEST_P(EveryRobot, BaselineStands) {
+  const BaselineOutcome o = runBaseline(GetParam(), planning::GaitKind::Standing, 0.0, 3.0);
+  std::printf("%s, baseline, stands: %s\n", GetParam().c_str(), o.text().c_str());
+  expectBaselineUpright(o);
+  EXPECT_LT((o.end - o.start).head<2>().norm(), 0.05) << o.text();
+}
+
+TEST_P(EveryRobot, BaselineRollsAndTrots) {
+  // Half a metre per second rolling for 4 s, then 0.3 m/s trotting for 6 s: at least half the
+  // commanded distance after a second of ramp, straight.
+  const BaselineOutcome roll = runBaseline(GetParam(), planning::GaitKind::Rolling, 0.5, 4.0);
+  std::printf("%s, baseline, rolls 0.5 m/s: %s\n", GetParam().c_str(), roll.text().c_str());
+  expectBaselineUpright(roll);
+  EXPECT_GT(roll.end.x() - roll.start.x(), 0.5 * 0.5 * 3.0) << roll.text();
+  EXPECT_LT(std::abs(roll.end.y() - roll.start.y()), 0.05) << roll.text();
+  const BaselineOutcome trot = runBaseline(GetParam(), planning::GaitKind::Trot, 0.3, 6.0);
+  std::printf("%s, baseline, trots 0.3 m/s: %s\n", GetParam().c_str(), trot.text().c_str());
+  expectBaselineUpright(trot);
+  EXPECT_GT(trot.end.x() - trot.start.x(), 0.5 * 0.3 * 5.0) << trot.text();
+  EXPECT_LT(std::abs(trot.end.y() - trot.start.y()), 0.1) << trot.text();
+}
+
+/// The test name of a robot: its folder name, each character gtest does not take as '_'.
+std::string robotTestName(const ::testing::TestParamInfo<std::string>& robot) {
+  std::string name = robot.param;
+  for (char& c : name) {
+    if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+  }
+  return name;
+}
+
+INSTANTIATE_TEST_SUITE_P(Robots, EveryRobot, ::testing::ValuesIn(robotNames()), robotTestName);
+
+}  // namespace
+}  // namespace rollstep::sim::test
