@@ -37,7 +37,8 @@ CbfQpController::CbfQpController(const Plant& plant, const centroidal::RobotOcpD
 
 std::string CbfQpController::logColumns() const {
   return ",mode[-],support[-],qp_status,qp_iterations[-],qp_active[-],qp_correction[m/s^2],"
-         "ref_base_z[m],int_base_z[m],terrain_high[m]";
+         "ref_base_z[m],int_base_z[m],terrain_high[m]" +
+         barrierLogColumns(pipeline_->robot(), plant_->layout());
 }
 
 void CbfQpController::logValues(std::string& out) const {
@@ -49,6 +50,8 @@ void CbfQpController::logValues(std::string& out) const {
                 r.active_barriers, r.correction, p.q[2], pipeline_->integrator().q()[2],
                 p.terrain_high);
   out.assign(text);
+  writeBarrierLogValues(r, pipeline_->robot().nc(), text, sizeof text);
+  out.append(text);
 }
 
 CbfQpController::~CbfQpController() {

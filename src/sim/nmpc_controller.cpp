@@ -68,6 +68,33 @@ std::vector<int> plantWheelMap(const centroidal::CentroidalRobot& r, const std::
   return map;
 }
 
+std::string barrierLogColumns(const centroidal::CentroidalRobot& robot, const PlantLayout& layout) {
+  std::string out;
+  for (int c = 0; c < robot.nc(); ++c) {
+    std::string name = robot.contact(c).frame;
+    for (const PlantLayout::Leg& leg : layout.legs) {
+      if (leg.contact_frame == name) name = leg.name;
+    }
+    out += ",qp_active_" + name + "[-]";
+  }
+  return out + ",qp_active_joints[-],qp_active_support[-]";
+}
+
+int writeBarrierLogValues(const control::TickRecord& record, int nc, char* out, std::size_t size) {
+  std::size_t n = 0;
+  const auto put = [&](int value) {
+    if (n >= size) return;
+    const int w = std::snprintf(out + n, size - n, ",%d", value);
+    if (w > 0) n = std::min(size - 1, n + static_cast<std::size_t>(w));
+  };
+  for (int c = 0; c < nc; ++c) {
+    put(control::CbfQpFilter::footBarriers(record.active_foot_barriers, c));
+  }
+  put(record.active_joint_limits);
+  put(record.active_support_edges);
+  return static_cast<int>(n);
+}
+
 const char* toString(StateSourceKind kind) { return enumName(kind); }
 
 StateSourceKind stateSourceFromString(const std::string& name) {
@@ -150,6 +177,7 @@ std::string NmpcController::logColumns() const {
   return ",mode[-],mpc_sequence[-],qp_status,qp_iterations[-],qp_active[-],qp_correction[m/s^2],"
          "ref_base_x[m],ref_base_y[m],ref_base_z[m],ref_base_yaw[rad],ref_base_vx[m/s],"
          "ref_base_wz[rad/s],int_base_z[m],int_base_wz[rad/s]" +
+         barrierLogColumns(pipeline_->robot(), plant_->layout()) +
          std::string(estimator_ != nullptr
                          ? ",est_base_x[m],est_base_y[m],est_base_z[m],est_base_yaw[rad],"
                            "est_base_vx[m/s],est_base_vy[m/s],est_base_vz[m/s],"
@@ -171,6 +199,8 @@ void NmpcController::logValues(std::string& out) const {
                 r.active_barriers, r.correction, ref.q[0], ref.q[1], ref.q[2], yawOf(q_ref),
                 ref.v[0], ref.v[5], q_int[2], v_int[5]);
   out.assign(text);
+  writeBarrierLogValues(r, pipeline_->robot().nc(), text, sizeof text);
+  out.append(text);
   if (estimator_ != nullptr) {
     // The estimate beside the ground truth of the log's base columns.
     const estimation::InvariantEkf& f = estimator_->filter();

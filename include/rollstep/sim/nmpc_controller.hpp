@@ -54,6 +54,16 @@ std::vector<int> plantWheelMap(const centroidal::CentroidalRobot& robot,
                                const std::vector<int>& drive_wheels, const PlantLayout& layout,
                                const char* who);
 
+/// The log columns of the CBF-QP's active barriers (docs/REPLAY.md), after qp_active[-]:
+/// qp_active_<leg>[-] per contact of `robot` (its leg's name in `layout`, else the contact
+/// frame): the BarrierKind bits active of that foot (1 foothold region, 2 clearance, 4
+/// collision); qp_active_joints[-], qp_active_support[-]: active joint bounds and support
+/// polygon edges. Starts with a comma.
+std::string barrierLogColumns(const centroidal::CentroidalRobot& robot, const PlantLayout& layout);
+/// Their values for `record` (nc feet) appended at `out` (at most `size` bytes with the
+/// terminating zero); returns the characters written. Never allocates.
+int writeBarrierLogValues(const control::TickRecord& record, int nc, char* out, std::size_t size);
+
 /// Which state the pipeline runs on: the simulator's ground truth, or the state estimator
 /// (estimator_source.hpp) on the plant's sensors (give the plant a sensor noise model,
 /// PlantOptions::sensor_noise, for realistic readings).
