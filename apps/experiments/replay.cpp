@@ -159,6 +159,33 @@ json mapSnapshots(const std::string& dir) {
   return out;
 }
 
+/// The terrains of a perception run (terrains.csv: every vertex of every region of each
+/// version): [{version, regions: [[[x, y, z], ...], ...]}, ...] in the file's order, vertices
+/// to the millimetre. null without the file.
+json terrainVersions(const std::string& path) {
+  if (!fs::exists(path)) return nullptr;
+  const LogTable t = LogTable::read(path, "terrains");
+  for (const char* c : {"version[-]", "region[-]", "vertex[-]", "x[m]", "y[m]", "z[m]"}) {
+    if (!t.has(c)) throw std::runtime_error("terrains '" + path + "': no column " + c);
+  }
+  const auto& version = t.column("version[-]");
+  const auto& region = t.column("region[-]");
+  const auto mm = [](double v) { return std::round(v * 1000.0) / 1000.0; };
+  json out = json::array();
+  for (std::size_t k = 0; k < t.rows(); ++k) {
+    if (out.empty() || out.back()["version"].get<double>() != version[k]) {
+      out.push_back({{"version", version[k]}, {"regions", json::array()}});
+    }
+    json& regions = out.back()["regions"];
+    if (regions.empty() || k == 0 || region[k] != region[k - 1] || t.column("vertex[-]")[k] == 0) {
+      regions.push_back(json::array());
+    }
+    regions.back().push_back(
+        {mm(t.column("x[m]")[k]), mm(t.column("y[m]")[k]), mm(t.column("z[m]")[k])});
+  }
+  return out;
+}
+
 }  // namespace
 
 std::string replayModelJson(const sim::Plant& plant, const planning::TerrainModel& regions,
@@ -285,6 +312,7 @@ void writeReplayPage(const std::string& run_dir, const std::string& page, const 
                              "': no maps.csv (a folder written by rollstep sim --log-map)");
   }
   data["maps"] = mapSnapshots(map_dir.empty() ? run_dir + "/map" : map_dir);
+  data["terrains"] = terrainVersions(run_dir + "/terrains.csv");
   const std::string script = replayScriptPath();
   const std::string code = readAll(script, "replay page script (build the target replay_script)");
   std::string text = data.dump();

@@ -54,6 +54,10 @@ std::vector<int> plantWheelMap(const centroidal::CentroidalRobot& robot,
                                const std::vector<int>& drive_wheels, const PlantLayout& layout,
                                const char* who);
 
+/// Rows of terrains.csv (docs/REPLAY.md) for `terrain` as `version`: every vertex of every
+/// region, z on the region's plane.
+void appendTerrainRows(std::string& out, std::uint64_t version,
+                       const planning::TerrainModel& terrain);
 /// The log columns of the CBF-QP's active barriers (docs/REPLAY.md), after qp_active[-]:
 /// qp_active_<leg>[-] per contact of `robot` (its leg's name in `layout`, else the contact
 /// frame): the BarrierKind bits active of that foot (1 foothold region, 2 clearance, 4
@@ -175,10 +179,18 @@ class NmpcController final : public Controller {
 
   /// Records, from now on, every adopted MPC solution's plan for the replay page: every
   /// `node_stride`-th node (and the last) with its contact mask, base position and contact
-  /// positions (planCsv). Storage for about a minute of updates is reserved here.
-  void enablePlanLog(int node_stride);
+  /// positions (planCsv). Storage for `duration` [s] of updates (at most 10 minutes) is
+  /// reserved here: recording allocates nothing until then.
+  void enablePlanLog(int node_stride, double duration = 60.0);
   /// The recorded plans as CSV (docs/REPLAY.md: plan.csv), header included; "" if not enabled.
   std::string planCsv() const;
+  /// Records the foothold terrain in use now (version 0) and, from now on, every terrain
+  /// perception hands to the pipeline (setPerception) with the version setTerrain gave it:
+  /// the log's terrain_version[-] says which one the real-time side used at each row.
+  void enableTerrainLog();
+  /// The recorded terrains as CSV (docs/REPLAY.md: terrains.csv), header included; "" if not
+  /// enabled. With asynchronous perception, complete after perception()->stop().
+  std::string terrainsCsv() const;
 
  private:
   void recordPlan();
@@ -205,6 +217,9 @@ class NmpcController final : public Controller {
   std::vector<double> plan_;
   std::unique_ptr<model::Data> plan_data_;
   Eigen::Matrix3Xd plan_feet_;
+  // Terrain log (enableTerrainLog): rows of terrains.csv, written by the terrain's producer.
+  bool terrain_log_ = false;
+  std::string terrains_csv_;
 };
 
 }  // namespace rollstep::sim

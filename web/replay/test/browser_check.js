@@ -55,6 +55,8 @@ async function checkReplay(browser, file) {
   }));
   const first = await shot();
   const s0 = await state();
+  // ROLLSTEP_SHOTS=DIR: the two screenshots kept, to look at.
+  if (process.env.ROLLSTEP_SHOTS) fs.writeFileSync(path.join(process.env.ROLLSTEP_SHOTS, `${path.basename(file)}.first.png`), first);
   // The slider to the end, as a user drags it.
   await page.evaluate(() => {
     const s = document.getElementById('slider');
@@ -63,6 +65,15 @@ async function checkReplay(browser, file) {
   });
   const last = await shot();
   const s1 = await state();
+  if (process.env.ROLLSTEP_SHOTS) fs.writeFileSync(path.join(process.env.ROLLSTEP_SHOTS, `${path.basename(file)}.last.png`), last);
+  // A perception run's terrain in use changes with the slider too.
+  if (await page.evaluate('window.replay.terrains') > 1) {
+    const version = (t) => (t.match(/terrain version (\d+)/) || [])[1];
+    if (version(s0.status) === undefined || version(s0.status) === version(s1.status)) {
+      fail(`${file}: the foothold terrain in use did not change with the slider ('${s0.status}' then '${s1.status}')`);
+    }
+  }
+  if (!/CBF-QP active barriers: \d+/.test(s1.status)) fail(`${file}: no CBF-QP active barriers shown ('${s1.status}')`);
   if (s1.frame !== frames - 1) fail(`${file}: the slider did not move the replay to its end (frame ${s1.frame} of ${frames})`);
   if (first.equals(last)) fail(`${file}: the 3D view is the same at the start and the end of the run`);
   if (await page.evaluate('window.replay.solutions') > 0 && s0.status === s1.status) {
@@ -80,7 +91,7 @@ async function checkReplay(browser, file) {
   await page.keyboard.press(' ');
   if (!played) fail(`${file}: space did not play the replay (frame ${(await state()).frame})`);
   const legend = await page.$eval('#legend', (e) => e.innerText);
-  for (const word of ['contact normal force', 'base path', 'foot paths', 'footholds', 'foothold regions']) {
+  for (const word of ['contact force', 'base path', 'foot paths', 'footholds', 'foothold regions', 'active CBF-QP barrier']) {
     if (!legend.includes(word)) fail(`${file}: the legend does not say what '${word}' looks like`);
   }
   const plots = await page.$$eval('.uplot', (e) => e.length);
