@@ -384,8 +384,8 @@ std::string NmpcController::planCsv() const {
     std::snprintf(cell, sizeof cell, "%.4f,%.4f,%.0f,%.0f", plan_[r], plan_[r + 1], plan_[r + 2],
                   plan_[r + 3]);
     out += cell;
-    for (std::size_t i = 4; i < columns; ++i) {
-      std::snprintf(cell, sizeof cell, ",%.4f", plan_[r + i]);
+    for (std::size_t i = 4; i < columns; ++i) {  // positions to the millimetre: a drawing's
+      std::snprintf(cell, sizeof cell, ",%.3f", plan_[r + i]);
       out += cell;
     }
     out += '\n';

@@ -22,8 +22,31 @@ function columns(table) {
   table.names.forEach((n, i) => { out[n] = table.columns[i]; });
   return out;
 }
+// The plans come compact (docs/REPLAY.md): integers, each the difference from the same node
+// of the previous solution (or the previous row), with a scale per column.
+function planColumns(table) {
+  const out = {};
+  if (!table) return out;
+  const reference = [];
+  let start = 0, previous = 0;
+  table.rows_per_solution.forEach((n, s) => {
+    for (let k = 0; k < n; ++k) {
+      if (s > 0 && k < previous) reference.push(start - previous + k);
+      else reference.push(k > 0 ? start + k - 1 : -1);
+    }
+    start += n;
+    previous = n;
+  });
+  table.names.forEach((name, i) => {
+    const d = table.columns[i], scale = table.scales[i];
+    const q = new Float64Array(d.length);
+    for (let r = 0; r < d.length; ++r) q[r] = (reference[r] >= 0 ? q[reference[r]] : 0) + d[r];
+    out[name] = Array.from(q, (v) => v / scale);
+  });
+  return out;
+}
 const log = columns(data.log);
-const plan = columns(data.plan);
+const plan = planColumns(data.plan);
 const maps = data.maps || [];  // elevation map snapshots (perception runs with a map log)
 // Perception runs: every foothold terrain the controller used, by version; the log's
 // terrain_version[-] says which one was in use at each frame.
@@ -488,6 +511,8 @@ requestAnimationFrame(tick);
 window.replay = {
   frames, get frame() { return frame; }, show, solutions: solutions.length,
   terrains: terrains.length, get status() { return status.textContent; },
+  /** The plans' columns as the page decoded them (by name). */
+  planColumn(name) { return plan[name] || null; },
   /** Distinct colours and non-background pixels of the 3D view, sampled. */
   canvasStats() {
     render();

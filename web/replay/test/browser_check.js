@@ -90,6 +90,25 @@ async function checkReplay(browser, file) {
     .then(() => true, () => false);
   await page.keyboard.press(' ');
   if (!played) fail(`${file}: space did not play the replay (frame ${(await state()).frame})`);
+  // The plans as decoded by the page are plan.csv's (beside the page of `rollstep view`).
+  const planCsv = path.join(path.dirname(file), 'plan.csv');
+  if (fs.existsSync(planCsv)) {
+    const lines = fs.readFileSync(planCsv, 'utf8').trim().split('\n');
+    const names = lines[0].split(',');
+    let worst = 0, worstAt = '';
+    for (const [i, name] of names.entries()) {
+      const decoded = await page.evaluate((n) => window.replay.planColumn(n), name);
+      if (!decoded || decoded.length !== lines.length - 1) {
+        fail(`${file}: plan column ${name}: ${decoded ? decoded.length : 'no'} rows, plan.csv has ${lines.length - 1}`);
+        continue;
+      }
+      for (let r = 1; r < lines.length; ++r) {
+        const e = Math.abs(Number(lines[r].split(',')[i]) - decoded[r - 1]);
+        if (e > worst) { worst = e; worstAt = `${name} row ${r}`; }
+      }
+    }
+    if (worst > 5e-4 + 1e-9) fail(`${file}: the page's plans differ from plan.csv by ${worst} (${worstAt})`);
+  }
   const legend = await page.$eval('#legend', (e) => e.innerText);
   for (const word of ['contact force', 'base path', 'foot paths', 'footholds', 'foothold regions', 'active CBF-QP barrier']) {
     if (!legend.includes(word)) fail(`${file}: the legend does not say what '${word}' looks like`);
