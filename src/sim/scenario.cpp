@@ -108,6 +108,7 @@ RunSummary runScenario(Plant& plant, Controller& controller, double duration, Cs
   double speed_sum = 0.0;
   long all_contact = 0;
   std::string extra;
+  extra.reserve(2048);  // a controller's columns: no growth inside the loop
   if (log != nullptr) {
     controller.logValues(extra);
     log->write(truth, command, extra);

@@ -93,7 +93,7 @@ TEST(NmpcController, TrotTickMakesNoAllocationAndRefusesBadStates) {
 }
 
 // The replay's plan log (plan.csv): every adopted solution, every 5th node and the last,
-// its base and contact positions as solved; recording allocates nothing in the loop.
+// its base and contact positions as solved; recording and the log row allocate nothing.
 TEST(NmpcController, PlanLogRecordsTheAdoptedSolutions) {
   SceneConfig scene;
   Plant plant(scene);
@@ -105,14 +105,23 @@ TEST(NmpcController, PlanLogRecordsTheAdoptedSolutions) {
   controller.enablePlanLog(5);
   PlantCommand command = plant.command();
   std::size_t allocations = 0;
-  for (int k = 0; k < 60; ++k) {  // three deterministic solves, adopted
+  std::string extra;
+  extra.reserve(2048);            // as runScenario does
+  for (int k = 0; k < 60; ++k) {  // three deterministic solves, adopted; each tick logged
     rollstep::test::AllocationGuard guard;
     controller.compute(plant.time(), plant.sensors(), command);
+    controller.logValues(extra);
     allocations += guard.count();
     plant.setCommand(command);
     plant.step();
   }
-  EXPECT_EQ(allocations, 0u) << "recording the plans allocated in the loop";
+  EXPECT_EQ(allocations, 0u) << "recording the plans or the log row allocated in the loop";
+  // The log row has a value for every column (the barrier columns named from the robot).
+  const auto count = [](const std::string& text, char c) {
+    return std::count(text.begin(), text.end(), c);
+  };
+  EXPECT_EQ(count(extra, ','), count(controller.logColumns(), ','));
+  EXPECT_NE(controller.logColumns().find(",qp_active_LF[-],qp_active_MF[-]"), std::string::npos);
   const std::string csv = controller.planCsv();
   const std::size_t header_end = csv.find('\n');
   ASSERT_NE(header_end, std::string::npos);
