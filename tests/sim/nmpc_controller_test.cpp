@@ -498,6 +498,7 @@ TEST(NmpcController, AsynchronousPerceptionFeedsAnAsynchronousMpc) {
                             planning::GaitKind::Standing, planning::BaseVelocityCommand{},
                             StateSourceOptions{}, options.perception.regions.directions);
   controller.setPerception(std::move(perception), margin);
+  controller.enableTerrainLog();  // written by the perception thread, read after stop()
   OnlinePerception& p = *controller.perception();
   ASSERT_TRUE(p.asynchronous());
   PlantCommand command = plant.command();
@@ -535,6 +536,18 @@ TEST(NmpcController, AsynchronousPerceptionFeedsAnAsynchronousMpc) {
   controller.pipeline().stop();
   EXPECT_EQ(controller.pipeline().runner().terrainVersion(), c.handed_over);
   EXPECT_EQ(controller.pipeline().terrainVersion(), c.handed_over);
+  // terrains.csv: version 0 (the constructor's) and every version handed over, in order,
+  // each with its regions' vertices.
+  const std::string csv = controller.terrainsCsv();
+  ASSERT_EQ(csv.rfind("version[-],region[-],vertex[-],x[m],y[m],z[m]\n", 0), 0u);
+  std::vector<unsigned long> versions;
+  for (std::size_t at = csv.find('\n') + 1; at < csv.size(); at = csv.find('\n', at) + 1) {
+    const unsigned long v = std::stoul(csv.substr(at, csv.find(',', at) - at));
+    if (versions.empty() || versions.back() != v) versions.push_back(v);
+  }
+  std::vector<unsigned long> expected;
+  for (unsigned long v = 0; v <= c.handed_over; ++v) expected.push_back(v);
+  EXPECT_EQ(versions, expected);
   EXPECT_LT(plant.groundTruth().base_orientation.angularDistance(Eigen::Quaterniond::Identity()),
             0.05);
 }
