@@ -146,9 +146,11 @@ function geometryOf(g) {
 // One group per body; geoms attached in the body frame.
 const bodies = data.model.bodies.map(() => new THREE.Group());
 bodies.forEach((b) => { b.matrixAutoUpdate = false; scene.add(b); });
+let drawnGeoms = 0;
 for (const g of data.model.geoms) {
   const geometry = geometryOf(g);
   if (!geometry) continue;
+  ++drawnGeoms;
   const [r, gr, b, a] = g.rgba;
   const material = new THREE.MeshStandardMaterial({
     color: new THREE.Color(r, gr, b), transparent: a < 1, opacity: a, roughness: 0.8,
@@ -511,6 +513,8 @@ requestAnimationFrame(tick);
 window.replay = {
   frames, get frame() { return frame; }, show, solutions: solutions.length,
   terrains: terrains.length, get status() { return status.textContent; },
+  /** The model's geoms (replay.json) and how many of them the page drew. */
+  geoms: data.model.geoms.length, drawnGeoms, robotFile: data.model.robot_file,
   /** The plans' columns as the page decoded them (by name). */
   planColumn(name) { return plan[name] || null; },
   /** Distinct colours and non-background pixels of the 3D view, sampled. */

@@ -43,6 +43,8 @@ async function checkReplay(browser, file) {
   const page = await open(browser, file);
   await page.waitForFunction('window.replay !== undefined', { timeout: 10000 });
   const frames = await page.evaluate('window.replay.frames');
+  const geoms = await page.evaluate('[window.replay.geoms, window.replay.drawnGeoms]');
+  if (geoms[0] === 0 || geoms[1] !== geoms[0]) fail(`${file}: ${geoms[1]} of the model's ${geoms[0]} geoms drawn`);
   const stats = await page.evaluate('window.replay.canvasStats()');
   const pixels = (stats.width * stats.height) / 7;
   if (stats.nonBackground < 0.02 * pixels || stats.colours < 20) {
@@ -115,7 +117,7 @@ async function checkReplay(browser, file) {
   }
   const plots = await page.$$eval('.uplot', (e) => e.length);
   if (plots < 2) fail(`${file}: ${plots} plots, expected the linked plots`);
-  console.log(`${path.basename(file)}: ${frames} frames, ${stats.colours} colours, plan solutions ${await page.evaluate('window.replay.solutions')}`);
+  console.log(`${path.basename(file)}: ${await page.evaluate('window.replay.robotFile')}, ${geoms[1]} geoms drawn, ${frames} frames, ${stats.colours} colours, plan solutions ${await page.evaluate('window.replay.solutions')}`);
   await page.close();
 }
 
