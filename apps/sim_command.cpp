@@ -516,6 +516,7 @@ void runSim(const SimOptions& o) {
           "terrain per scan)",
           online->terrain().size());
       cbfqp->setPerception(std::move(online));
+      cbfqp->enableTerrainLog();
     } else {
       cbfqp = std::make_unique<sim::CbfQpController>(
           plant, robot, settings, sim::terrainFromScene(scene, settings.baseline.foothold_margin),
@@ -526,7 +527,8 @@ void runSim(const SimOptions& o) {
       replay_regions = sim::terrainFromScene(scene, settings.baseline.foothold_margin);
       replay_regions_source = "scene";
     } else {
-      replay_regions_source = "none (perception: see the map log, --log-map)";
+      replay_regions = cbfqp->pipeline().terrain();
+      replay_regions_source = "perception at the start";
     }
     controller = std::move(cbfqp);
     controller_text = format(
@@ -604,13 +606,16 @@ void runSim(const SimOptions& o) {
     log.commit();
     writeFileAtomically(files.replay.string(),
                         experiments::replayModelJson(plant, replay_regions, replay_regions_source));
+    if (nmpc_controller != nullptr && !nmpc_controller->terrainsCsv().empty()) {
+      writeFileAtomically(files.terrains.string(), nmpc_controller->terrainsCsv());
+    }
+    if (cbfqp_controller != nullptr && !cbfqp_controller->terrainsCsv().empty()) {
+      writeFileAtomically(files.terrains.string(), cbfqp_controller->terrainsCsv());
+    }
     std::string mpc_text;
     if (nmpc_controller != nullptr) {
       writeFileAtomically(files.mpc.string(), nmpc_controller->mpcUpdatesCsv());
       writeFileAtomically(files.plan.string(), nmpc_controller->planCsv());
-      if (o.terrain == "perception") {
-        writeFileAtomically(files.terrains.string(), nmpc_controller->terrainsCsv());
-      }
       if (o.log_violations) {
         writeFileAtomically(files.violations.string(), nmpc_controller->violationsCsv());
       }

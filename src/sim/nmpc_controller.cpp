@@ -68,8 +68,17 @@ std::vector<int> plantWheelMap(const centroidal::CentroidalRobot& r, const std::
   return map;
 }
 
-void appendTerrainRows(std::string& out, std::uint64_t version,
-                       const planning::TerrainModel& terrain) {
+void TerrainLog::enable(const planning::TerrainModel& initial) {
+  enabled_ = true;
+  csv_ = "version[-],region[-],vertex[-],x[m],y[m],z[m]\n";
+  append(0, initial);
+}
+
+void TerrainLog::add(std::uint64_t version, const planning::TerrainModel& terrain) {
+  if (enabled_ && version != 0) append(version, terrain);
+}
+
+void TerrainLog::append(std::uint64_t version, const planning::TerrainModel& terrain) {
   char row[160];
   for (int r = 0; r < terrain.size(); ++r) {
     const planning::ConvexRegion& region = terrain.region(r);
@@ -78,7 +87,7 @@ void appendTerrainRows(std::string& out, std::uint64_t version,
       std::snprintf(row, sizeof row, "%llu,%d,%zu,%.4f,%.4f,%.4f\n",
                     static_cast<unsigned long long>(version), r, v, p.x(), p.y(),
                     region.heightAt(p));
-      out += row;
+      csv_ += row;
     }
   }
 }
@@ -286,18 +295,16 @@ void NmpcController::setPerception(std::unique_ptr<OnlinePerception> perception,
   perception_->connect([this](const OnlinePerception& p) {
     const planning::TerrainModel terrain = p.footholdTerrain(perception_margin_);
     const std::uint64_t version = pipeline_->setTerrain(terrain);
-    if (version != 0 && terrain_log_) appendTerrainRows(terrains_csv_, version, terrain);
+    terrain_log_.add(version, terrain);
     return version != 0;
   });
 }
 
 void NmpcController::enableTerrainLog() {
-  terrain_log_ = true;
-  terrains_csv_ = "version[-],region[-],vertex[-],x[m],y[m],z[m]\n";
-  appendTerrainRows(terrains_csv_, 0, pipeline_->contactPlanner().terrain());
+  terrain_log_.enable(pipeline_->contactPlanner().terrain());
 }
 
-std::string NmpcController::terrainsCsv() const { return terrain_log_ ? terrains_csv_ : ""; }
+std::string NmpcController::terrainsCsv() const { return terrain_log_.csv(); }
 
 void NmpcController::updatePerception(double t) {
   perception_->step(t, *plant_, state_.base_position, state_.base_orientation);

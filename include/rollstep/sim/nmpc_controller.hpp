@@ -54,10 +54,25 @@ std::vector<int> plantWheelMap(const centroidal::CentroidalRobot& robot,
                                const std::vector<int>& drive_wheels, const PlantLayout& layout,
                                const char* who);
 
-/// Rows of terrains.csv (docs/REPLAY.md) for `terrain` as `version`: every vertex of every
-/// region, z on the region's plane.
-void appendTerrainRows(std::string& out, std::uint64_t version,
-                       const planning::TerrainModel& terrain);
+/// terrains.csv (docs/REPLAY.md) of a perception run: the foothold terrain in use at the
+/// start (version 0) and each one handed to a pipeline since, with its version; every vertex
+/// of every region, z on the region's plane. Written by the terrains' producer thread, read
+/// after it stopped.
+class TerrainLog {
+ public:
+  /// Starts the log with `initial` as version 0.
+  void enable(const planning::TerrainModel& initial);
+  /// Appends `terrain` as `version` if enabled and the version is not 0 (refused).
+  void add(std::uint64_t version, const planning::TerrainModel& terrain);
+  /// The CSV with its header; "" if not enabled.
+  const std::string& csv() const { return csv_; }
+
+ private:
+  void append(std::uint64_t version, const planning::TerrainModel& terrain);
+  bool enabled_ = false;
+  std::string csv_;
+};
+
 /// The log columns of the CBF-QP's active barriers (docs/REPLAY.md), after qp_active[-]:
 /// qp_active_<leg>[-] per contact of `robot` (its leg's name in `layout`, else the contact
 /// frame): the BarrierKind bits active of that foot (1 foothold region, 2 clearance, 4
@@ -217,9 +232,7 @@ class NmpcController final : public Controller {
   std::vector<double> plan_;
   std::unique_ptr<model::Data> plan_data_;
   Eigen::Matrix3Xd plan_feet_;
-  // Terrain log (enableTerrainLog): rows of terrains.csv, written by the terrain's producer.
-  bool terrain_log_ = false;
-  std::string terrains_csv_;
+  TerrainLog terrain_log_;  // enableTerrainLog
 };
 
 }  // namespace rollstep::sim
