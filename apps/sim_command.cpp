@@ -57,7 +57,7 @@ namespace {
 namespace fs = std::filesystem;
 
 // plan.csv keeps every 5th node of each plan (and the last): 20 of the 100 nodes, enough to
-// draw the planned paths; about 180 kB per simulated second at the default 50 Hz MPC.
+// draw the planned paths; about 160 kB per simulated second at the default 50 Hz MPC.
 constexpr int kPlanNodeStride = 5;
 
 struct SimOptions {
