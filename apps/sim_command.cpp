@@ -57,7 +57,7 @@ namespace {
 namespace fs = std::filesystem;
 
 // plan.csv keeps every 5th node of each plan (and the last): 20 of the 100 nodes, enough to
-// draw the planned paths; about 180 kB per simulated second at the default 50 Hz MPC.
+// draw the planned paths; about 160 kB per simulated second at the default 50 Hz MPC.
 constexpr int kPlanNodeStride = 5;
 
 struct SimOptions {
@@ -92,7 +92,7 @@ struct SimOptions {
 
 /// Result files of a run in the output directory.
 struct OutputFiles {
-  fs::path log, summary, failed, mpc, violations, replay, plan;
+  fs::path log, summary, failed, mpc, violations, replay, plan, terrains;
   explicit OutputFiles(const fs::path& dir)
       : log(dir / "log.csv"),
         summary(dir / "summary.txt"),
@@ -100,7 +100,8 @@ struct OutputFiles {
         mpc(dir / "mpc.csv"),
         violations(dir / "mpc_violations.csv"),
         replay(dir / "replay.json"),
-        plan(dir / "plan.csv") {}
+        plan(dir / "plan.csv"),
+        terrains(dir / "terrains.csv") {}
 };
 
 /// Creates the output directory if needed and removes the previous run's result files.
@@ -112,14 +113,14 @@ void prepareOutputDir(const std::string& dir, const OutputFiles& files) {
   fs::create_directories(dir, ec);
   if (ec) throw OutputError("--out '" + dir + "': cannot create the directory: " + ec.message());
   for (const fs::path& p : {files.log, files.summary, files.failed, files.mpc, files.violations,
-                            files.replay, files.plan}) {
+                            files.replay, files.plan, files.terrains}) {
     fs::remove(p, ec);
     if (ec) {
       throw OutputError("cannot remove the previous run's '" + p.string() + "': " + ec.message());
     }
   }
-  removeStaleTemporaries(dir,
-                         {"log.csv", "summary.txt", "FAILED", "mpc.csv", "mpc_violations.csv"});
+  removeStaleTemporaries(dir, {"log.csv", "summary.txt", "FAILED", "mpc.csv", "mpc_violations.csv",
+                               "replay.json", "plan.csv", "terrains.csv"});
 }
 
 /// After a failure: no result files, and DIR/FAILED with the error (best effort: returns
@@ -132,6 +133,7 @@ bool markFailed(const OutputFiles& files, const std::string& error) {
   fs::remove(files.violations, ec);
   fs::remove(files.replay, ec);
   fs::remove(files.plan, ec);
+  fs::remove(files.terrains, ec);
   try {
     writeFileAtomically(files.failed.string(), "rollstep sim failed: " + error + "\n");
     return true;
@@ -451,7 +453,8 @@ void runSim(const SimOptions& o) {
                                                       schedule, source, edge_capacity);
     if (online) nmpc->setPerception(std::move(online), margin);
     nmpc_controller = nmpc.get();
-    nmpc->enablePlanLog(kPlanNodeStride);
+    nmpc->enablePlanLog(kPlanNodeStride, o.duration);
+    if (o.terrain == "perception") nmpc->enableTerrainLog();
     replay_regions = terrain;
     replay_regions_source = o.terrain == "perception" ? "perception at the start" : "scene";
     if (o.log_violations) {
@@ -513,6 +516,7 @@ void runSim(const SimOptions& o) {
           "terrain per scan)",
           online->terrain().size());
       cbfqp->setPerception(std::move(online));
+      cbfqp->enableTerrainLog();
     } else {
       cbfqp = std::make_unique<sim::CbfQpController>(
           plant, robot, settings, sim::terrainFromScene(scene, settings.baseline.foothold_margin),
@@ -523,7 +527,8 @@ void runSim(const SimOptions& o) {
       replay_regions = sim::terrainFromScene(scene, settings.baseline.foothold_margin);
       replay_regions_source = "scene";
     } else {
-      replay_regions_source = "none (perception: see the map log, --log-map)";
+      replay_regions = cbfqp->pipeline().terrain();
+      replay_regions_source = "perception at the start";
     }
     controller = std::move(cbfqp);
     controller_text = format(
@@ -601,6 +606,12 @@ void runSim(const SimOptions& o) {
     log.commit();
     writeFileAtomically(files.replay.string(),
                         experiments::replayModelJson(plant, replay_regions, replay_regions_source));
+    if (nmpc_controller != nullptr && !nmpc_controller->terrainsCsv().empty()) {
+      writeFileAtomically(files.terrains.string(), nmpc_controller->terrainsCsv());
+    }
+    if (cbfqp_controller != nullptr && !cbfqp_controller->terrainsCsv().empty()) {
+      writeFileAtomically(files.terrains.string(), cbfqp_controller->terrainsCsv());
+    }
     std::string mpc_text;
     if (nmpc_controller != nullptr) {
       writeFileAtomically(files.mpc.string(), nmpc_controller->mpcUpdatesCsv());

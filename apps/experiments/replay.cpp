@@ -85,6 +85,65 @@ json columnsOf(const LogTable& table, std::size_t stride, double scale) {
   return json{{"names", names}, {"columns", columns}};
 }
 
+/// plan.csv for the page, compact (docs/REPLAY.md): every column as integers (times in
+/// 0.1 ms, positions in mm, the rest as they are), each value given as its difference from
+/// the same node of the previous solution (the previous row for a node the previous
+/// solution lacks; the first solution from zero): consecutive plans differ by millimetres,
+/// so most numbers are one or two digits. `rows_per_solution` lets the page undo it.
+json compactPlan(const LogTable& plan, const std::string& path) {
+  for (const char* c : {"solution_time[s]", "sequence[-]"}) {
+    if (!plan.has(c)) throw std::runtime_error("plan '" + path + "': no column " + c);
+  }
+  const auto& t0 = plan.column("solution_time[s]");
+  const auto& seq = plan.column("sequence[-]");
+  std::vector<std::size_t> starts;  // first row of each solution
+  for (std::size_t r = 0; r < plan.rows(); ++r) {
+    if (r == 0 || t0[r] != t0[r - 1] || seq[r] != seq[r - 1]) starts.push_back(r);
+  }
+  starts.push_back(plan.rows());
+  // Reference row of each row (-1: none).
+  std::vector<long> reference(plan.rows(), -1);
+  json rows_per_solution = json::array();
+  for (std::size_t s = 0; s + 1 < starts.size(); ++s) {
+    const std::size_t n = starts[s + 1] - starts[s];
+    rows_per_solution.push_back(n);
+    for (std::size_t k = 0; k < n; ++k) {
+      const std::size_t r = starts[s] + k;
+      if (s > 0 && k < starts[s] - starts[s - 1]) {
+        reference[r] = static_cast<long>(starts[s - 1] + k);
+      } else if (k > 0) {
+        reference[r] = static_cast<long>(r - 1);
+      }
+    }
+  }
+  json names = json::array(), scales = json::array(), columns = json::array();
+  for (const std::string& name : plan.names()) {
+    const std::vector<double>& c = plan.column(name);
+    const double scale = name.find("[s]") != std::string::npos   ? 1e4
+                         : name.find("[m]") != std::string::npos ? 1e3
+                                                                 : 1.0;
+    std::vector<long long> q(c.size());
+    for (std::size_t r = 0; r < c.size(); ++r) {
+      if (!std::isfinite(c[r])) {
+        throw std::runtime_error("plan '" + path + "': " + name + " is not a number in row " +
+                                 std::to_string(r + 2));
+      }
+      q[r] = std::llround(c[r] * scale);
+    }
+    json values = json::array();
+    for (std::size_t r = 0; r < c.size(); ++r) {
+      values.push_back(reference[r] < 0 ? q[r] : q[r] - q[static_cast<std::size_t>(reference[r])]);
+    }
+    names.push_back(name);
+    scales.push_back(scale);
+    columns.push_back(std::move(values));
+  }
+  return json{{"names", names},
+              {"scales", scales},
+              {"rows_per_solution", rows_per_solution},
+              {"columns", columns}};
+}
+
 /// A float32 n x n map of `rollstep sim --log-map` (NumPy .npy 1.0, little-endian, C
 /// order; docs/PERCEPTION.md). Throws std::runtime_error naming the file.
 std::vector<float> readHeights(const std::string& path, int n) {
@@ -155,6 +214,33 @@ json mapSnapshots(const std::string& dir) {
                    {"size", (size + step - 1) / step},
                    {"heights", cells},
                    {"regions", polygons}});
+  }
+  return out;
+}
+
+/// The terrains of a perception run (terrains.csv: every vertex of every region of each
+/// version): [{version, regions: [[[x, y, z], ...], ...]}, ...] in the file's order, vertices
+/// to the millimetre. null without the file.
+json terrainVersions(const std::string& path) {
+  if (!fs::exists(path)) return nullptr;
+  const LogTable t = LogTable::read(path, "terrains");
+  for (const char* c : {"version[-]", "region[-]", "vertex[-]", "x[m]", "y[m]", "z[m]"}) {
+    if (!t.has(c)) throw std::runtime_error("terrains '" + path + "': no column " + c);
+  }
+  const auto& version = t.column("version[-]");
+  const auto& region = t.column("region[-]");
+  const auto mm = [](double v) { return std::round(v * 1000.0) / 1000.0; };
+  json out = json::array();
+  for (std::size_t k = 0; k < t.rows(); ++k) {
+    if (out.empty() || out.back()["version"].get<double>() != version[k]) {
+      out.push_back({{"version", version[k]}, {"regions", json::array()}});
+    }
+    json& regions = out.back()["regions"];
+    if (regions.empty() || k == 0 || region[k] != region[k - 1] || t.column("vertex[-]")[k] == 0) {
+      regions.push_back(json::array());
+    }
+    regions.back().push_back(
+        {mm(t.column("x[m]")[k]), mm(t.column("y[m]")[k]), mm(t.column("z[m]")[k])});
   }
   return out;
 }
@@ -277,14 +363,15 @@ void writeReplayPage(const std::string& run_dir, const std::string& page, const 
   json data{{"title", title}, {"model", model}, {"log", columnsOf(log, stride, 1e5)}};
   data["plan"] = nullptr;
   if (fs::exists(run_dir + "/plan.csv")) {
-    // Plans to the millimetre: what a drawing shows, a third smaller than plan.csv.
-    data["plan"] = columnsOf(LogTable::read(run_dir + "/plan.csv", "plan"), 1, 1e3);
+    const std::string path = run_dir + "/plan.csv";
+    data["plan"] = compactPlan(LogTable::read(path, "plan"), path);
   }
   if (!map_dir.empty() && !fs::exists(map_dir + "/maps.csv")) {
     throw std::runtime_error("map log '" + map_dir +
                              "': no maps.csv (a folder written by rollstep sim --log-map)");
   }
   data["maps"] = mapSnapshots(map_dir.empty() ? run_dir + "/map" : map_dir);
+  data["terrains"] = terrainVersions(run_dir + "/terrains.csv");
   const std::string script = replayScriptPath();
   const std::string code = readAll(script, "replay page script (build the target replay_script)");
   std::string text = data.dump();

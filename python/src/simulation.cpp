@@ -135,6 +135,12 @@ struct Simulation {
     for (bool contact : t.foot_contact) put(contact ? 1.0 : 0.0);
     for (const Eigen::Vector3d& f : t.foot_force) put(f.z());
     for (const Eigen::Vector3d& w : t.wheel_center) put(w.z());
+    for (int axis = 0; axis < 2; ++axis) {
+      for (const Eigen::Vector3d& f : t.foot_force) put(f[axis]);
+    }
+    for (int axis = 0; axis < 3; ++axis) {
+      for (const Eigen::Vector3d& p : t.contact_point) put(p[axis]);
+    }
     put(static_cast<double>(t.body_contact_periods));
     controller->logValues(extra);
     for (const std::string& v : splitColumns(extra)) {

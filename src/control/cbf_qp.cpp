@@ -123,7 +123,8 @@ struct CbfQpFilter::Work {
         free_qp({dims.n, dims.n_eq, 0}),
         free_solver({dims.n, dims.n_eq, 0}),
         relaxed_qp({dims.n + dims.n_ineq, dims.n_eq, dims.n_ineq}),
-        relaxed_solver({dims.n + dims.n_ineq, dims.n_eq, dims.n_ineq}) {}
+        relaxed_solver({dims.n + dims.n_ineq, dims.n_eq, dims.n_ineq}),
+        row_owner(static_cast<std::size_t>(dims.n_ineq), kSupportRow) {}
 
   model::Data data;
   ContactKinematics kin;
@@ -139,6 +140,10 @@ struct CbfQpFilter::Work {
   /// The barriers relaxed by one slack per row (CbfQpSettings::relaxation_weight).
   DenseQpProblem relaxed_qp;
   DenseQpSolver relaxed_solver;
+  /// Whose each inequality row is: 8 foot + its barrier kind's bit index (BarrierKind), or
+  /// kSupportRow for the support polygon's edges.
+  static constexpr int kSupportRow = -1;
+  std::vector<int> row_owner;
 };
 
 CbfQpFilter::CbfQpFilter(std::shared_ptr<const centroidal::CentroidalRobot> robot,
@@ -158,6 +163,7 @@ CbfQpFilter::CbfQpFilter(std::shared_ptr<const centroidal::CentroidalRobot> robo
   checkCbfSettings(settings_, model);
   max_region_edges_ = terrainMaxEdges(terrain);
   require(robot_->nc() <= kMaxContactsForHull, "too many contacts for the support polygon");
+  require(robot_->nc() * kBarrierBitsPerFoot <= 64, "too many contacts for the barrier log");
   const int support_rows = settings_.support_gamma > 0.0 ? robot_->nc() : 0;
   require(collision_prism_capacity >= 0, "negative collision_prism_capacity");
   max_collision_prisms_ = std::max(collision_prism_capacity, collision_terrain_->size());
@@ -256,18 +262,27 @@ int CbfQpFilter::writeFootBarriers(int mode, const FootRegionPlan* regions, int 
   const ContactKinematics& kin = work_->kin;
   const double offset = robot_->contactOffset();
   const int first = row;
+  std::vector<int>& owner = work_->row_owner;
+  const auto tag = [&](int from, int kind_bit) {
+    for (int k = from; k < row; ++k) owner[static_cast<std::size_t>(k)] = 8 * i + kind_bit;
+  };
   const int r = barrierRegion(mode, regions, i);
   if (r >= 0) row += writeRegionRows(terrain_->region(r), kin, i, s.region_gamma, qp_, row);
+  tag(first, kRegionBarrier);
   if (s.clearance_gamma > 0.0 && !centroidal::CentroidalRobot::inStance(mode, i)) {
+    const int at = row;
     row += writeClearanceRow(*terrain_, offset, s.clearance, kin, i, s.clearance_gamma, qp_, row);
+    tag(at, kClearanceBarrier);
   }
   if (s.collision_gamma > 0.0) {
+    const int at = row;
     const planning::TerrainModel& solids = *collision_terrain_;
     for (int j = 0; j < solids.size(); ++j) {
       if (!collisionObstacle(regions, i, j)) continue;
       row += writeCollisionRow(solids.region(j), offset, s.collision_clearance,
                                s.collision_sharpness, kin, i, s.collision_gamma, qp_, row);
     }
+    tag(at, kCollisionBarrier);
   }
   return row - first;
 }
@@ -294,6 +309,8 @@ CbfQpStatus CbfQpFilter::solve(int n_eq, int n_ineq, Eigen::Ref<Eigen::VectorXd>
   qp_status_ = st;
   qp_iterations_ = qp_solver_.iterations();
   active_barriers_ = st == DenseQpStatus::Optimal ? qp_solver_.numActiveInequalities() : 0;
+  clearActiveBarriers();
+  if (st == DenseQpStatus::Optimal) tallyActiveBarriers(qp_solver_, n_ineq);
   auto brake = [&]() {
     correction_ = kInf;
     writeFallback(v, a);
@@ -356,7 +373,31 @@ bool CbfQpFilter::solveRelaxed(int n_eq, int n_ineq, Eigen::Ref<Eigen::VectorXd>
   for (int j = 0; j < nv; ++j) {
     active_barriers_ += w.relaxed_solver.boundSide(j) != ActiveSide::Inactive ? 1 : 0;
   }
+  clearActiveBarriers();
+  tallyActiveBarriers(w.relaxed_solver, n_ineq);
   return true;
+}
+
+void CbfQpFilter::clearActiveBarriers() noexcept {
+  active_foot_barriers_ = 0;
+  active_joint_limits_ = 0;
+  active_support_edges_ = 0;
+}
+
+void CbfQpFilter::tallyActiveBarriers(const DenseQpSolver& solver, int n_ineq) noexcept {
+  const std::vector<int>& owner = work_->row_owner;
+  for (int r = 0; r < n_ineq; ++r) {
+    if (solver.rowSide(r) == ActiveSide::Inactive) continue;
+    const int o = owner[static_cast<std::size_t>(r)];
+    if (o == Work::kSupportRow) {
+      ++active_support_edges_;
+    } else {
+      active_foot_barriers_ |= std::uint64_t{1} << (kBarrierBitsPerFoot * (o / 8) + o % 8);
+    }
+  }
+  for (int j = 6; j < robot_->nv(); ++j) {
+    active_joint_limits_ += solver.boundSide(j) != ActiveSide::Inactive ? 1 : 0;
+  }
 }
 
 CbfQpStatus CbfQpFilter::filter(const Eigen::Ref<const Eigen::VectorXd>& q,
@@ -372,6 +413,7 @@ CbfQpStatus CbfQpFilter::filter(const Eigen::Ref<const Eigen::VectorXd>& q,
     qp_status_ = DenseQpStatus::InvalidInput;
     qp_iterations_ = 0;
     active_barriers_ = 0;
+    clearActiveBarriers();
     correction_ = kInf;
     if (a.size() == nv) writeFallback(v, a);
     return CbfQpStatus::InvalidInput;
@@ -401,6 +443,7 @@ CbfQpStatus CbfQpFilter::filter(const Eigen::Ref<const Eigen::VectorXd>& q,
                    s.joint_velocity_gamma, qp_);
   int row = 0;
   for (int i = 0; i < nc; ++i) row += writeFootBarriers(mode, regions, i, row);
+  for (int k = row; k < n_ineq; ++k) w.row_owner[static_cast<std::size_t>(k)] = Work::kSupportRow;
   if (w.hull_size >= 3) {
     writeSupportRows(robot.model(), w.data, q, w.kin, w.support_feet, w.hull, w.hull_size,
                      s.support_margin, s.support_gamma, qp_, row);

@@ -53,6 +53,9 @@ bool TrackingStage::filter(int mode, const FootRegionPlan* regions, TickRecord& 
   record.qp_status = filter_.qpStatus();
   record.qp_iterations = filter_.qpIterations();
   record.active_barriers = filter_.activeBarriers();
+  record.active_foot_barriers = filter_.activeFootBarriers();
+  record.active_joint_limits = filter_.activeJointLimits();
+  record.active_support_edges = filter_.activeSupportEdges();
   record.correction = filter_.correction();
   if (status == CbfQpStatus::Relaxed) ++counters.qp_relaxations;
   const bool fallback = status != CbfQpStatus::Optimal && status != CbfQpStatus::Relaxed;

@@ -37,18 +37,22 @@ CbfQpController::CbfQpController(const Plant& plant, const centroidal::RobotOcpD
 
 std::string CbfQpController::logColumns() const {
   return ",mode[-],support[-],qp_status,qp_iterations[-],qp_active[-],qp_correction[m/s^2],"
-         "ref_base_z[m],int_base_z[m],terrain_high[m]";
+         "ref_base_z[m],int_base_z[m],terrain_high[m],terrain_version[-]" +
+         barrierLogColumns(pipeline_->robot(), plant_->layout());
 }
 
 void CbfQpController::logValues(std::string& out) const {
   const control::TickRecord& r = pipeline_->lastTick();
   const control::ReactivePlan& p = pipeline_->plan();
   char text[300];
-  std::snprintf(text, sizeof text, ",%d,%d,%s,%d,%d,%.6g,%.6f,%.6f,%.4f", r.mode, p.support_mask,
-                r.state_valid ? control::toString(r.cbf_status) : "invalid_state", r.qp_iterations,
-                r.active_barriers, r.correction, p.q[2], pipeline_->integrator().q()[2],
-                p.terrain_high);
+  std::snprintf(text, sizeof text, ",%d,%d,%s,%d,%d,%.6g,%.6f,%.6f,%.4f,%llu", r.mode,
+                p.support_mask, r.state_valid ? control::toString(r.cbf_status) : "invalid_state",
+                r.qp_iterations, r.active_barriers, r.correction, p.q[2],
+                pipeline_->integrator().q()[2], p.terrain_high,
+                static_cast<unsigned long long>(r.terrain_version));
   out.assign(text);
+  writeBarrierLogValues(r, pipeline_->robot().nc(), text, sizeof text);
+  out.append(text);
 }
 
 CbfQpController::~CbfQpController() {
@@ -59,8 +63,11 @@ CbfQpController::~CbfQpController() {
 void CbfQpController::setPerception(std::unique_ptr<OnlinePerception> perception) {
   perception_ = std::move(perception);
   perception_->connect([this](const OnlinePerception& p) {
-    return pipeline_->setTerrain(p.footholdTerrain(pipeline_->settings().baseline.foothold_margin),
-                                 p.terrain()) != 0;
+    const planning::TerrainModel regions =
+        p.footholdTerrain(pipeline_->settings().baseline.foothold_margin);
+    const std::uint64_t version = pipeline_->setTerrain(regions, p.terrain());
+    terrain_log_.add(version, regions);
+    return version != 0;
   });
 }
 

@@ -68,6 +68,57 @@ std::vector<int> plantWheelMap(const centroidal::CentroidalRobot& r, const std::
   return map;
 }
 
+void TerrainLog::enable(const planning::TerrainModel& initial) {
+  enabled_ = true;
+  csv_ = "version[-],region[-],vertex[-],x[m],y[m],z[m]\n";
+  append(0, initial);
+}
+
+void TerrainLog::add(std::uint64_t version, const planning::TerrainModel& terrain) {
+  if (enabled_ && version != 0) append(version, terrain);
+}
+
+void TerrainLog::append(std::uint64_t version, const planning::TerrainModel& terrain) {
+  char row[160];
+  for (int r = 0; r < terrain.size(); ++r) {
+    const planning::ConvexRegion& region = terrain.region(r);
+    for (std::size_t v = 0; v < region.vertices.size(); ++v) {
+      const Eigen::Vector2d& p = region.vertices[v];
+      std::snprintf(row, sizeof row, "%llu,%d,%zu,%.4f,%.4f,%.4f\n",
+                    static_cast<unsigned long long>(version), r, v, p.x(), p.y(),
+                    region.heightAt(p));
+      csv_ += row;
+    }
+  }
+}
+
+std::string barrierLogColumns(const centroidal::CentroidalRobot& robot, const PlantLayout& layout) {
+  std::string out;
+  for (int c = 0; c < robot.nc(); ++c) {
+    std::string name = robot.contact(c).frame;
+    for (const PlantLayout::Leg& leg : layout.legs) {
+      if (leg.contact_frame == name) name = leg.name;
+    }
+    out += ",qp_active_" + name + "[-]";
+  }
+  return out + ",qp_active_joints[-],qp_active_support[-]";
+}
+
+int writeBarrierLogValues(const control::TickRecord& record, int nc, char* out, std::size_t size) {
+  std::size_t n = 0;
+  const auto put = [&](int value) {
+    if (n >= size) return;
+    const int w = std::snprintf(out + n, size - n, ",%d", value);
+    if (w > 0) n = std::min(size - 1, n + static_cast<std::size_t>(w));
+  };
+  for (int c = 0; c < nc; ++c) {
+    put(control::CbfQpFilter::footBarriers(record.active_foot_barriers, c));
+  }
+  put(record.active_joint_limits);
+  put(record.active_support_edges);
+  return static_cast<int>(n);
+}
+
 const char* toString(StateSourceKind kind) { return enumName(kind); }
 
 StateSourceKind stateSourceFromString(const std::string& name) {
@@ -149,7 +200,8 @@ void NmpcController::record(double t, bool adopted) {
 std::string NmpcController::logColumns() const {
   return ",mode[-],mpc_sequence[-],qp_status,qp_iterations[-],qp_active[-],qp_correction[m/s^2],"
          "ref_base_x[m],ref_base_y[m],ref_base_z[m],ref_base_yaw[rad],ref_base_vx[m/s],"
-         "ref_base_wz[rad/s],int_base_z[m],int_base_wz[rad/s]" +
+         "ref_base_wz[rad/s],int_base_z[m],int_base_wz[rad/s],terrain_version[-]" +
+         barrierLogColumns(pipeline_->robot(), plant_->layout()) +
          std::string(estimator_ != nullptr
                          ? ",est_base_x[m],est_base_y[m],est_base_z[m],est_base_yaw[rad],"
                            "est_base_vx[m/s],est_base_vy[m/s],est_base_vz[m/s],"
@@ -171,6 +223,10 @@ void NmpcController::logValues(std::string& out) const {
                 r.active_barriers, r.correction, ref.q[0], ref.q[1], ref.q[2], yawOf(q_ref),
                 ref.v[0], ref.v[5], q_int[2], v_int[5]);
   out.assign(text);
+  std::snprintf(text, sizeof text, ",%llu", static_cast<unsigned long long>(r.terrain_version));
+  out.append(text);
+  writeBarrierLogValues(r, pipeline_->robot().nc(), text, sizeof text);
+  out.append(text);
   if (estimator_ != nullptr) {
     // The estimate beside the ground truth of the log's base columns.
     const estimation::InvariantEkf& f = estimator_->filter();
@@ -237,9 +293,18 @@ void NmpcController::setPerception(std::unique_ptr<OnlinePerception> perception,
   perception_ = std::move(perception);
   perception_margin_ = margin;
   perception_->connect([this](const OnlinePerception& p) {
-    return pipeline_->setTerrain(p.footholdTerrain(perception_margin_)) != 0;
+    const planning::TerrainModel terrain = p.footholdTerrain(perception_margin_);
+    const std::uint64_t version = pipeline_->setTerrain(terrain);
+    terrain_log_.add(version, terrain);
+    return version != 0;
   });
 }
+
+void NmpcController::enableTerrainLog() {
+  terrain_log_.enable(pipeline_->contactPlanner().terrain());
+}
+
+std::string NmpcController::terrainsCsv() const { return terrain_log_.csv(); }
 
 void NmpcController::updatePerception(double t) {
   perception_->step(t, *plant_, state_.base_position, state_.base_orientation);
@@ -277,7 +342,7 @@ Eigen::Matrix3Xd NmpcController::plannedFootholds() const {
   return out;
 }
 
-void NmpcController::enablePlanLog(int node_stride) {
+void NmpcController::enablePlanLog(int node_stride, double duration) {
   if (node_stride < 1) throw std::invalid_argument("nmpc: plan log node stride must be >= 1");
   const centroidal::CentroidalRobot& robot = pipeline_->robot();
   plan_stride_ = node_stride;
@@ -287,7 +352,8 @@ void NmpcController::enablePlanLog(int node_stride) {
   const control::MpcSolution& s = pipeline_->lastSolution();
   const double period = pipeline_->settings().mpc.period;
   const std::size_t nodes = s.xs.size() / static_cast<std::size_t>(node_stride) + 2;
-  const std::size_t updates = period > 0 ? static_cast<std::size_t>(60.0 / period) + 2 : 4096;
+  const double span = std::isfinite(duration) ? std::clamp(duration, 1.0, 600.0) : 600.0;
+  const std::size_t updates = period > 0 ? static_cast<std::size_t>(span / period) + 2 : 4096;
   plan_.reserve(updates * nodes * static_cast<std::size_t>(plan_columns_));
   recordPlan();  // the solution in use now
 }
@@ -325,8 +391,8 @@ std::string NmpcController::planCsv() const {
     std::snprintf(cell, sizeof cell, "%.4f,%.4f,%.0f,%.0f", plan_[r], plan_[r + 1], plan_[r + 2],
                   plan_[r + 3]);
     out += cell;
-    for (std::size_t i = 4; i < columns; ++i) {
-      std::snprintf(cell, sizeof cell, ",%.4f", plan_[r + i]);
+    for (std::size_t i = 4; i < columns; ++i) {  // positions to the millimetre: a drawing's
+      std::snprintf(cell, sizeof cell, ",%.3f", plan_[r + i]);
       out += cell;
     }
     out += '\n';

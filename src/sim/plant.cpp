@@ -149,6 +149,7 @@ void GroundTruth::resize(const PlantLayout& layout) {
   wheel_center.assign(static_cast<std::size_t>(layout.numLegs()), Eigen::Vector3d::Zero());
   foot_contact.assign(static_cast<std::size_t>(layout.numLegs()), false);
   foot_force.assign(static_cast<std::size_t>(layout.numLegs()), Eigen::Vector3d::Zero());
+  contact_point.assign(static_cast<std::size_t>(layout.numLegs()), Eigen::Vector3d::Zero());
 }
 
 Plant::Plant(const SceneConfig& scene, const PlantOptions& options)
@@ -474,6 +475,7 @@ void Plant::checkStructure() {
   command_ = nominal_command_;
   sensors_.resize(layout_);
   truth_.resize(layout_);
+  contact_weight_.assign(static_cast<std::size_t>(layout_.numLegs()), 0.0);
 }
 
 void Plant::checkStartPosition() {
@@ -645,6 +647,8 @@ void Plant::updateReadings() {
     truth_.wheel_center[l] = Eigen::Vector3d(c[0], c[1], c[2]);
     truth_.foot_contact[l] = false;
     truth_.foot_force[l].setZero();
+    truth_.contact_point[l].setZero();
+    contact_weight_[l] = 0.0;
   }
   truth_.body_contact = false;
 
@@ -673,13 +677,23 @@ void Plant::updateReadings() {
                                   f[1] * Eigen::Vector3d(con.frame[3], con.frame[4], con.frame[5]) +
                                   f[2] * Eigen::Vector3d(con.frame[6], con.frame[7], con.frame[8]);
     const bool active = f[0] > 0.0;
-    if (leg2 >= 0) {
-      truth_.foot_force[static_cast<std::size_t>(leg2)] += world;
-      if (active) truth_.foot_contact[static_cast<std::size_t>(leg2)] = true;
-    }
-    if (leg1 >= 0) {
-      truth_.foot_force[static_cast<std::size_t>(leg1)] -= world;
-      if (active) truth_.foot_contact[static_cast<std::size_t>(leg1)] = true;
+    const Eigen::Vector3d point(con.pos[0], con.pos[1], con.pos[2]);
+    const auto push = [&](int leg, const Eigen::Vector3d& force) {
+      const auto l = static_cast<std::size_t>(leg);
+      truth_.foot_force[l] += force;
+      if (!active) return;
+      truth_.foot_contact[l] = true;
+      truth_.contact_point[l] += f[0] * point;
+      contact_weight_[l] += f[0];
+    };
+    if (leg2 >= 0) push(leg2, world);
+    if (leg1 >= 0) push(leg1, -world);
+  }
+  for (std::size_t l = 0; l < wheel_body_.size(); ++l) {
+    if (contact_weight_[l] > 0.0) {
+      truth_.contact_point[l] /= contact_weight_[l];
+    } else {
+      truth_.contact_point[l] = truth_.wheel_center[l];
     }
   }
   if (sensor_model_) sensor_model_->apply(sensors_);

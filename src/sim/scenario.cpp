@@ -29,6 +29,14 @@ std::string csvHeader(const PlantLayout& layout) {
   for (const PlantLayout::Leg& leg : layout.legs) h += ",contact_" + leg.name + "[0/1]";
   for (const PlantLayout::Leg& leg : layout.legs) h += ",fz_" + leg.name + "[N]";
   for (const PlantLayout::Leg& leg : layout.legs) h += ",foot_z_" + leg.name + "[m]";
+  for (const char* prefix : {"fx_", "fy_"}) {
+    for (const PlantLayout::Leg& leg : layout.legs) h += "," + (prefix + leg.name) + "[N]";
+  }
+  for (const char* axis : {"x_", "y_", "z_"}) {
+    for (const PlantLayout::Leg& leg : layout.legs) {
+      h += ",contact_point_" + (axis + leg.name) + "[m]";
+    }
+  }
   h += ",body_contact_periods[-]";
   return h;
 }
@@ -62,6 +70,12 @@ void CsvLog::write(const GroundTruth& t, const PlantCommand& c, const std::strin
   for (bool contact : t.foot_contact) file_.write(contact ? ",1" : ",0");
   for (const Eigen::Vector3d& f : t.foot_force) file_.printf(",%.3f", f.z());
   for (const Eigen::Vector3d& w : t.wheel_center) file_.printf(",%.5f", w.z());
+  for (int axis = 0; axis < 2; ++axis) {
+    for (const Eigen::Vector3d& f : t.foot_force) file_.printf(",%.3f", f[axis]);
+  }
+  for (int axis = 0; axis < 3; ++axis) {
+    for (const Eigen::Vector3d& p : t.contact_point) file_.printf(",%.5f", p[axis]);
+  }
   file_.printf(",%ld", t.body_contact_periods);
   file_.write(extra);
   file_.write("\n");
@@ -94,6 +108,7 @@ RunSummary runScenario(Plant& plant, Controller& controller, double duration, Cs
   double speed_sum = 0.0;
   long all_contact = 0;
   std::string extra;
+  extra.reserve(2048);  // a controller's columns: no growth inside the loop
   if (log != nullptr) {
     controller.logValues(extra);
     log->write(truth, command, extra);

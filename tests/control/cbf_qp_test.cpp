@@ -381,6 +381,8 @@ VectorXd desiredAcceleration(const VectorXd& q0, const VectorXd& q, const Vector
 struct JointExtremes {
   double max_q = -kInf, min_q = kInf, max_v = -kInf, min_v = kInf;
   int not_optimal = 0;
+  int last_joint_limits = 0;  ///< activeJointLimits() of the last step (filtered)
+  std::uint64_t last_active_feet = 0;
 };
 
 /// All feet in swing, terrain far below: pushes one joint, filtered and unfiltered.
@@ -412,6 +414,8 @@ std::pair<JointExtremes, JointExtremes> pushJoint(
         if (filter.filter(qk, vk, 0, nullptr, t, a) != CbfQpStatus::Optimal) {
           ++filtered.not_optimal;
         }
+        filtered.last_joint_limits = filter.activeJointLimits();
+        filtered.last_active_feet = filter.activeFootBarriers();
       },
       record(filtered));
   q = q0;
@@ -438,6 +442,9 @@ TEST(CbfQp, ClosedLoopJointPositionLimit) {
     EXPECT_LE(f.max_q, limit + 1e-3);
     EXPECT_GT(f.max_q, limit - 0.02);  // it does get there
     EXPECT_GT(u.max_q, limit + 0.3);
+    // Held there by its bound (the barrier log's qp_active_joints), no foot barrier.
+    EXPECT_GE(f.last_joint_limits, 1);
+    EXPECT_EQ(f.last_active_feet, 0u);
   }
   {  // Knee (prismatic) driven below its lower limit 0.
     const int j = m.getJointId("MR_knee");
@@ -502,6 +509,7 @@ TEST(CbfQp, QuadrupedClosedLoopJointPositionLimit) {
 struct RegionRun {
   double max_front_x = -kInf;  ///< largest x of a front wheel minus the front edge
   int not_optimal = 0;
+  std::uint64_t last_active_feet = 0;  ///< activeFootBarriers() of the last step
 };
 
 RegionRun driveIntoEdge(const std::shared_ptr<const CentroidalRobot>& robot, const VectorXd& q0,
@@ -538,6 +546,7 @@ RegionRun driveIntoEdge(const std::shared_ptr<const CentroidalRobot>& robot, con
               std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
         }
         if (st != CbfQpStatus::Optimal) ++run.not_optimal;
+        run.last_active_feet = filter.activeFootBarriers();
       },
       [&](const VectorXd& qk, const VectorXd&) {
         model::forwardKinematics(m, d, qk);
@@ -562,6 +571,15 @@ TEST(CbfQp, ClosedLoopStanceFootStaysInItsRegion) {
   EXPECT_LE(filtered.max_front_x, 1e-3);
   EXPECT_GT(filtered.max_front_x, -0.02);  // it gets to the edge
   EXPECT_GT(unfiltered.max_front_x, 0.2);
+  // Held at the edge by the front wheels' region rows (the barrier log's qp_active_<leg>),
+  // the rear wheels' far from their edges; without regions none.
+  for (int i = 0; i < 6; ++i) {
+    const bool front_wheel = i == ct::LF || i == ct::MF || i == ct::RF;
+    EXPECT_EQ(CbfQpFilter::footBarriers(filtered.last_active_feet, i),
+              front_wheel ? 1 << control::kRegionBarrier : 0)
+        << "foot " << i;
+  }
+  EXPECT_EQ(unfiltered.last_active_feet, 0u);
 }
 
 TEST(CbfQp, QuadrupedClosedLoopStanceFootStaysInItsRegion) {
@@ -581,7 +599,7 @@ TEST(CbfQp, QuadrupedClosedLoopStanceFootStaysInItsRegion) {
 
 /// LF in swing, pushed down at 3 m/s^2 from 3 cm above the floor (z = 0); the others hold.
 double swingWheelLowest(const std::shared_ptr<const CentroidalRobot>& robot, double floor,
-                        int* not_optimal) {
+                        int* not_optimal, std::uint64_t* active_feet = nullptr) {
   const planning::TerrainModel terrain = flatTerrain(floor);
   CbfQpFilter filter(robot, terrain, CbfQpSettings{});
   const model::Model& m = robot->model();
@@ -602,6 +620,7 @@ double swingWheelLowest(const std::shared_ptr<const CentroidalRobot>& robot, dou
           t.joints[j] = 100.0 * (q0[7 + j] - qk[7 + j]) - 20.0 * vk[6 + j];
         }
         if (filter.filter(qk, vk, mode, nullptr, t, a) != CbfQpStatus::Optimal) ++*not_optimal;
+        if (active_feet != nullptr) *active_feet = filter.activeFootBarriers();
       },
       [&](const VectorXd& qk, const VectorXd&) {
         model::forwardKinematics(m, d, qk);
@@ -614,8 +633,12 @@ double swingWheelLowest(const std::shared_ptr<const CentroidalRobot>& robot, dou
 TEST(CbfQp, ClosedLoopSwingWheelStaysAboveTheGround) {
   const auto robot = ct::tachyon3Robot();
   int not_optimal = 0;
-  const double filtered = swingWheelLowest(robot, 0.0, &not_optimal);
+  std::uint64_t active = 0;
+  const double filtered = swingWheelLowest(robot, 0.0, &not_optimal, &active);
   EXPECT_EQ(not_optimal, 0);
+  // Resting on its clearance barrier at the end: LF's clearance row, nothing else.
+  EXPECT_EQ(active, std::uint64_t{1}
+                        << (control::kBarrierBitsPerFoot * ct::LF + control::kClearanceBarrier));
   EXPECT_GE(filtered, -1e-3);
   EXPECT_LT(filtered, 0.01);                                               // it does come down
   const double unfiltered = swingWheelLowest(robot, -10.0, &not_optimal);  // floor far below

@@ -93,7 +93,7 @@ TEST(NmpcController, TrotTickMakesNoAllocationAndRefusesBadStates) {
 }
 
 // The replay's plan log (plan.csv): every adopted solution, every 5th node and the last,
-// its base and contact positions as solved; recording allocates nothing in the loop.
+// its base and contact positions as solved; recording and the log row allocate nothing.
 TEST(NmpcController, PlanLogRecordsTheAdoptedSolutions) {
   SceneConfig scene;
   Plant plant(scene);
@@ -105,14 +105,23 @@ TEST(NmpcController, PlanLogRecordsTheAdoptedSolutions) {
   controller.enablePlanLog(5);
   PlantCommand command = plant.command();
   std::size_t allocations = 0;
-  for (int k = 0; k < 60; ++k) {  // three deterministic solves, adopted
+  std::string extra;
+  extra.reserve(2048);            // as runScenario does
+  for (int k = 0; k < 60; ++k) {  // three deterministic solves, adopted; each tick logged
     rollstep::test::AllocationGuard guard;
     controller.compute(plant.time(), plant.sensors(), command);
+    controller.logValues(extra);
     allocations += guard.count();
     plant.setCommand(command);
     plant.step();
   }
-  EXPECT_EQ(allocations, 0u) << "recording the plans allocated in the loop";
+  EXPECT_EQ(allocations, 0u) << "recording the plans or the log row allocated in the loop";
+  // The log row has a value for every column (the barrier columns named from the robot).
+  const auto count = [](const std::string& text, char c) {
+    return std::count(text.begin(), text.end(), c);
+  };
+  EXPECT_EQ(count(extra, ','), count(controller.logColumns(), ','));
+  EXPECT_NE(controller.logColumns().find(",qp_active_LF[-],qp_active_MF[-]"), std::string::npos);
   const std::string csv = controller.planCsv();
   const std::size_t header_end = csv.find('\n');
   ASSERT_NE(header_end, std::string::npos);
@@ -144,7 +153,7 @@ TEST(NmpcController, PlanLogRecordsTheAdoptedSolutions) {
   EXPECT_EQ((*first_of_last)[2], static_cast<double>(s.sequence));
   EXPECT_NEAR((*first_of_last)[0], s.t0, 1e-4);
   EXPECT_NEAR(rows.back()[1], s.t0 + 40 * s.dt, 1e-4);
-  for (int i = 0; i < 3; ++i) EXPECT_NEAR((*first_of_last)[4 + i], s.xs[0][i], 1e-4);
+  for (int i = 0; i < 3; ++i) EXPECT_NEAR((*first_of_last)[4 + i], s.xs[0][i], 5e-4);  // mm
   // Stance wheels at node 0 stand on the floor: their centres a wheel radius up.
   const int mode = static_cast<int>((*first_of_last)[3]);
   int stance = 0;
@@ -489,6 +498,7 @@ TEST(NmpcController, AsynchronousPerceptionFeedsAnAsynchronousMpc) {
                             planning::GaitKind::Standing, planning::BaseVelocityCommand{},
                             StateSourceOptions{}, options.perception.regions.directions);
   controller.setPerception(std::move(perception), margin);
+  controller.enableTerrainLog();  // written by the perception thread, read after stop()
   OnlinePerception& p = *controller.perception();
   ASSERT_TRUE(p.asynchronous());
   PlantCommand command = plant.command();
@@ -526,6 +536,18 @@ TEST(NmpcController, AsynchronousPerceptionFeedsAnAsynchronousMpc) {
   controller.pipeline().stop();
   EXPECT_EQ(controller.pipeline().runner().terrainVersion(), c.handed_over);
   EXPECT_EQ(controller.pipeline().terrainVersion(), c.handed_over);
+  // terrains.csv: version 0 (the constructor's) and every version handed over, in order,
+  // each with its regions' vertices.
+  const std::string csv = controller.terrainsCsv();
+  ASSERT_EQ(csv.rfind("version[-],region[-],vertex[-],x[m],y[m],z[m]\n", 0), 0u);
+  std::vector<unsigned long> versions;
+  for (std::size_t at = csv.find('\n') + 1; at < csv.size(); at = csv.find('\n', at) + 1) {
+    const unsigned long v = std::stoul(csv.substr(at, csv.find(',', at) - at));
+    if (versions.empty() || versions.back() != v) versions.push_back(v);
+  }
+  std::vector<unsigned long> expected;
+  for (unsigned long v = 0; v <= c.handed_over; ++v) expected.push_back(v);
+  EXPECT_EQ(versions, expected);
   EXPECT_LT(plant.groundTruth().base_orientation.angularDistance(Eigen::Quaterniond::Identity()),
             0.05);
 }

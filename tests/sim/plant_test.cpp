@@ -153,6 +153,42 @@ TEST(Plant, SensorsMatchGroundTruthAtRest) {
   }
 }
 
+// Standing on flat ground: each wheel is pushed at its lowest point (the ground, under its
+// centre), straight up with the share of the weight it carries; a wheel in the air is
+// pushed nowhere (its contact point is its centre, its force zero).
+TEST(Plant, ContactPointIsUnderTheWheelOnFlatGround) {
+  Plant plant(scene("flat"));
+  for (int k = 0; k < 500; ++k) plant.step();
+  const GroundTruth& t = plant.groundTruth();
+  double weight = 0.0;
+  for (int leg = 0; leg < plant.layout().numLegs(); ++leg) {
+    const auto l = static_cast<std::size_t>(leg);
+    const std::string& name = plant.layout().legs[l].name;
+    ASSERT_TRUE(t.foot_contact[l]) << name;
+    EXPECT_NEAR(t.contact_point[l].z(), 0.0, 2e-3) << name;  // MuJoCo's soft contact
+    EXPECT_NEAR(t.contact_point[l].x(), t.wheel_center[l].x(), 2e-3) << name;
+    EXPECT_NEAR(t.contact_point[l].y(), t.wheel_center[l].y(), 2e-3) << name;
+    EXPECT_NEAR(t.wheel_center[l].z() - t.contact_point[l].z(), plant.wheelRadius(leg), 3e-3)
+        << name;
+    EXPECT_GT(t.foot_force[l].z(), 1.0) << name;
+    EXPECT_LT(t.foot_force[l].head<2>().norm(), 0.05 * t.foot_force[l].z()) << name;
+    weight += t.foot_force[l].z();
+  }
+  EXPECT_NEAR(weight, plant.totalMass() * 9.81, 0.02 * plant.totalMass() * 9.81);
+  // Lifted: no contact, the point is the wheel centre.
+  mjData* d = plant.mujocoData();
+  d->qpos[2] += 1.0;
+  d->qvel[2] = 0.0;
+  mj_forward(plant.mujocoModel(), d);
+  plant.step();
+  for (int leg = 0; leg < plant.layout().numLegs(); ++leg) {
+    const auto l = static_cast<std::size_t>(leg);
+    EXPECT_FALSE(t.foot_contact[l]);
+    EXPECT_EQ(t.contact_point[l], t.wheel_center[l]);
+    EXPECT_EQ(t.foot_force[l].norm(), 0.0);
+  }
+}
+
 TEST(Plant, StepDoesNotAllocate) {
   Plant plant(scene("step20"));
   PlantCommand command = plant.nominalCommand();

@@ -55,7 +55,7 @@ std::vector<std::string> filesIn(const std::string& dir) {
 TEST(CsvLog, EveryColumnHasItsUnit) {
   const Plant plant{SceneConfig{}};
   const std::vector<std::string> columns = split(csvHeader(plant.layout()));
-  ASSERT_EQ(columns.size(), 1u + 3 + 4 + 3 + 3 + 12 + 12 + 4 + 4 + 6 + 6 + 6 + 1);
+  ASSERT_EQ(columns.size(), 1u + 3 + 4 + 3 + 3 + 12 + 12 + 4 + 4 + 6 + 6 + 6 + 2 * 6 + 3 * 6 + 1);
   // name[unit]: letters and '_', then one of the known units in brackets. (No <regex>: GCC 12
   // warns falsely inside libstdc++'s regex in the sanitizer builds, which are -Werror.)
   const auto withUnit = [](const std::string& c) {
@@ -76,10 +76,11 @@ TEST(CsvLog, EveryColumnHasItsUnit) {
   const auto has = [&](const std::string& name) {
     return std::find(columns.begin(), columns.end(), name) != columns.end();
   };
-  for (const char* name : {"time[s]", "base_x[m]", "base_qw[-]", "base_vx[m/s]", "base_wz[rad/s]",
-                           "q_LF_hip[rad]", "q_LF_knee[m]", "cmd_RR_hip[rad]", "cmd_RR_knee[m]",
-                           "wheel_vel_LF[rad/s]", "cmd_wheel_RR[rad/s]", "contact_MF[0/1]",
-                           "fz_MR[N]", "foot_z_MF[m]", "body_contact_periods[-]"}) {
+  for (const char* name :
+       {"time[s]", "base_x[m]", "base_qw[-]", "base_vx[m/s]", "base_wz[rad/s]", "q_LF_hip[rad]",
+        "q_LF_knee[m]", "cmd_RR_hip[rad]", "cmd_RR_knee[m]", "wheel_vel_LF[rad/s]",
+        "cmd_wheel_RR[rad/s]", "contact_MF[0/1]", "fz_MR[N]", "foot_z_MF[m]", "fx_MF[N]",
+        "fy_MR[N]", "contact_point_z_MF[m]", "body_contact_periods[-]"}) {
     EXPECT_TRUE(has(name)) << name;
   }
 }

@@ -100,6 +100,7 @@
 // Memory: sized at construction; filter() never allocates, locks or throws.
 #include <Eigen/Core>
 #include <array>
+#include <cstdint>
 #include <memory>
 #include <vector>
 
@@ -146,6 +147,15 @@ constexpr std::array<EnumName<CbfQpStatus>, 4> enumNames(CbfQpStatus) {
 }
 const char* toString(CbfQpStatus status);
 
+/// The kinds of a foot's barrier rows, as bit indices in CbfQpFilter::activeFootBarriers()
+/// (and in the logs' qp_active_<leg>[-]: 1 region, 2 clearance, 4 collision).
+enum BarrierKind : int {
+  kRegionBarrier = 0,     ///< its foothold region's (stance) or swing region's edges
+  kClearanceBarrier = 1,  ///< a swing wheel's clearance above the terrain
+  kCollisionBarrier = 2,  ///< leg/terrain collision with the solids
+};
+constexpr int kBarrierBitsPerFoot = 3;
+
 class CbfQpFilter {
  public:
   /// `terrain` must outlive the filter. Throws std::invalid_argument for bad settings.
@@ -189,6 +199,18 @@ class CbfQpFilter {
   /// Inequality sides active at the solution (barriers that changed the command; the joint
   /// bounds count once per active side).
   int activeBarriers() const { return active_barriers_; }
+  /// Which barriers those are, per foot i: bits kBarrierBitsPerFoot * i + BarrierKind set
+  /// when any row of that kind of foot i is active (its foothold or swing region's edges,
+  /// its clearance, its collision rows). Zero unless the status was Optimal or Relaxed.
+  std::uint64_t activeFootBarriers() const { return active_foot_barriers_; }
+  /// Active joint bounds (position or velocity barrier, either side) and active support
+  /// polygon edges, of the last filter().
+  int activeJointLimits() const { return active_joint_limits_; }
+  int activeSupportEdges() const { return active_support_edges_; }
+  /// Foot i's BarrierKind bits of activeFootBarriers() (0 to 7).
+  static int footBarriers(std::uint64_t active, int i) {
+    return static_cast<int>((active >> (kBarrierBitsPerFoot * i)) & 7u);
+  }
   /// |a - a_free|_inf: how far the barriers moved the acceleration from the minimiser of
   /// the same cost and equalities without them (0 when no barrier is active; +infinity
   /// when the result is not Optimal: a is then the fallback, not a filtered command).
@@ -228,6 +250,10 @@ class CbfQpFilter {
   bool solveRelaxed(int n_eq, int n_ineq, Eigen::Ref<Eigen::VectorXd> a) noexcept;
   void writeFallback(const Eigen::Ref<const Eigen::VectorXd>& v,
                      Eigen::Ref<Eigen::VectorXd> a) const noexcept;
+  void clearActiveBarriers() noexcept;
+  /// activeFootBarriers(), activeJointLimits() and activeSupportEdges() from `solver`'s
+  /// active set (rows tagged by writeFootBarriers and filter()).
+  void tallyActiveBarriers(const DenseQpSolver& solver, int n_ineq) noexcept;
 
   std::shared_ptr<const centroidal::CentroidalRobot> robot_;
   const planning::TerrainModel* terrain_;
@@ -243,6 +269,9 @@ class CbfQpFilter {
   DenseQpStatus qp_status_ = DenseQpStatus::InvalidInput;
   int qp_iterations_ = 0;
   int active_barriers_ = 0;
+  std::uint64_t active_foot_barriers_ = 0;
+  int active_joint_limits_ = 0;
+  int active_support_edges_ = 0;
   double correction_ = 0.0;
   // Workspaces (kinematics, Jacobians, drifts), sized at construction.
   struct Work;

@@ -40,9 +40,12 @@ struct TickRecord {
   DenseQpStatus qp_status = DenseQpStatus::Optimal;
   int qp_iterations = 0;
   int active_barriers = 0;
-  double correction = 0.0;            ///< CbfQpFilter::correction()
-  bool holding = false;               ///< stale-solution watchdog: holding the safe posture
-  std::uint64_t terrain_version = 0;  ///< of the real-time side's terrain (0: the initial)
+  std::uint64_t active_foot_barriers = 0;  ///< CbfQpFilter::activeFootBarriers()
+  int active_joint_limits = 0;             ///< CbfQpFilter::activeJointLimits()
+  int active_support_edges = 0;            ///< CbfQpFilter::activeSupportEdges()
+  double correction = 0.0;                 ///< CbfQpFilter::correction()
+  bool holding = false;                    ///< stale-solution watchdog: holding the safe posture
+  std::uint64_t terrain_version = 0;       ///< of the real-time side's terrain (0: the initial)
 };
 
 /// Counters over the run.

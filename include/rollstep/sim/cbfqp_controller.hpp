@@ -29,7 +29,8 @@ class CbfQpController final : public Controller {
   void compute(double t, const SensorReadings& sensors, PlantCommand& command) override;
   std::string_view name() const override { return "cbfqp"; }
   /// mode[-], support[-] (support feet mask), qp_status, qp_iterations[-], qp_active[-],
-  /// qp_correction[m/s^2], ref_base_z[m] (planned height), int_base_z[m], terrain_high[m]
+  /// qp_correction[m/s^2], ref_base_z[m] (planned height), int_base_z[m], terrain_high[m],
+  /// terrain_version[-] (BaselinePipeline's, 0: the initial), then barrierLogColumns()
   /// (the wheel centre heights are the scenario log's foot_z_<leg>[m]).
   std::string logColumns() const override;
   void logValues(std::string& out) const override;
@@ -55,9 +56,15 @@ class CbfQpController final : public Controller {
   /// The reactive plan's foot ground points (stance: the foothold; swing: where the swing
   /// is planned to be now), 3 x nc, world.
   Eigen::Matrix3Xd plannedFootholds() const;
+  /// terrains.csv (TerrainLog): the foothold terrain in use now and every one perception
+  /// hands over from now on; the log's terrain_version[-] says which one each row used.
+  void enableTerrainLog() { terrain_log_.enable(pipeline_->terrain()); }
+  /// "" if not enabled; with asynchronous perception complete after perception()->stop().
+  std::string terrainsCsv() const { return terrain_log_.csv(); }
 
  private:
   std::unique_ptr<control::BaselinePipeline> pipeline_;
+  TerrainLog terrain_log_;
   std::unique_ptr<StateSource> source_;
   std::vector<int> joint_map_;
   std::vector<int> wheel_map_;

@@ -54,6 +54,35 @@ std::vector<int> plantWheelMap(const centroidal::CentroidalRobot& robot,
                                const std::vector<int>& drive_wheels, const PlantLayout& layout,
                                const char* who);
 
+/// terrains.csv (docs/REPLAY.md) of a perception run: the foothold terrain in use at the
+/// start (version 0) and each one handed to a pipeline since, with its version; every vertex
+/// of every region, z on the region's plane. Written by the terrains' producer thread, read
+/// after it stopped.
+class TerrainLog {
+ public:
+  /// Starts the log with `initial` as version 0.
+  void enable(const planning::TerrainModel& initial);
+  /// Appends `terrain` as `version` if enabled and the version is not 0 (refused).
+  void add(std::uint64_t version, const planning::TerrainModel& terrain);
+  /// The CSV with its header; "" if not enabled.
+  const std::string& csv() const { return csv_; }
+
+ private:
+  void append(std::uint64_t version, const planning::TerrainModel& terrain);
+  bool enabled_ = false;
+  std::string csv_;
+};
+
+/// The log columns of the CBF-QP's active barriers (docs/REPLAY.md), after qp_active[-]:
+/// qp_active_<leg>[-] per contact of `robot` (its leg's name in `layout`, else the contact
+/// frame): the BarrierKind bits active of that foot (1 foothold region, 2 clearance, 4
+/// collision); qp_active_joints[-], qp_active_support[-]: active joint bounds and support
+/// polygon edges. Starts with a comma.
+std::string barrierLogColumns(const centroidal::CentroidalRobot& robot, const PlantLayout& layout);
+/// Their values for `record` (nc feet) appended at `out` (at most `size` bytes with the
+/// terminating zero); returns the characters written. Never allocates.
+int writeBarrierLogValues(const control::TickRecord& record, int nc, char* out, std::size_t size);
+
 /// Which state the pipeline runs on: the simulator's ground truth, or the state estimator
 /// (estimator_source.hpp) on the plant's sensors (give the plant a sensor noise model,
 /// PlantOptions::sensor_noise, for realistic readings).
@@ -165,10 +194,18 @@ class NmpcController final : public Controller {
 
   /// Records, from now on, every adopted MPC solution's plan for the replay page: every
   /// `node_stride`-th node (and the last) with its contact mask, base position and contact
-  /// positions (planCsv). Storage for about a minute of updates is reserved here.
-  void enablePlanLog(int node_stride);
+  /// positions (planCsv). Storage for `duration` [s] of updates (at most 10 minutes) is
+  /// reserved here: recording allocates nothing until then.
+  void enablePlanLog(int node_stride, double duration = 60.0);
   /// The recorded plans as CSV (docs/REPLAY.md: plan.csv), header included; "" if not enabled.
   std::string planCsv() const;
+  /// Records the foothold terrain in use now (version 0) and, from now on, every terrain
+  /// perception hands to the pipeline (setPerception) with the version setTerrain gave it:
+  /// the log's terrain_version[-] says which one the real-time side used at each row.
+  void enableTerrainLog();
+  /// The recorded terrains as CSV (docs/REPLAY.md: terrains.csv), header included; "" if not
+  /// enabled. With asynchronous perception, complete after perception()->stop().
+  std::string terrainsCsv() const;
 
  private:
   void recordPlan();
@@ -195,6 +232,7 @@ class NmpcController final : public Controller {
   std::vector<double> plan_;
   std::unique_ptr<model::Data> plan_data_;
   Eigen::Matrix3Xd plan_feet_;
+  TerrainLog terrain_log_;  // enableTerrainLog
 };
 
 }  // namespace rollstep::sim

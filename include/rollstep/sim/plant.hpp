@@ -125,6 +125,10 @@ struct GroundTruth {
   /// environment exerts on the wheel, world frame [N] (sum over its contacts).
   FootFlags foot_contact;
   std::vector<Eigen::Vector3d> foot_force;
+  /// Per wheel: where the environment pushes it, world [m]: the mean of its contact points
+  /// weighted by their normal forces (an edge strike shows at the edge); the wheel centre
+  /// when it touches nothing.
+  std::vector<Eigen::Vector3d> contact_point;
   /// A robot geom other than a wheel (base, hip, shank) touches the terrain now.
   bool body_contact = false;
   /// Control periods since reset() that ended with body_contact (the experiments' pass
@@ -283,7 +287,8 @@ class Plant {
   int base_body_ = -1;
   int sensor_acc_ = -1, sensor_gyro_ = -1, sensor_quat_ = -1;
   int base_qpos_ = 0, base_qvel_ = 0;
-  std::vector<int> geom_leg_;  // geom id -> leg index whose wheel it is, or -1
+  std::vector<int> geom_leg_;           // geom id -> leg index whose wheel it is, or -1
+  std::vector<double> contact_weight_;  // per leg: summed normal force of its contact points
 };
 
 }  // namespace rollstep::sim

@@ -16,7 +16,10 @@ namespace rollstep::sim {
 ///   revolute [rad], prismatic [m]), cmd_<joint> (same), wheel_vel_<leg>[rad/s] and
 ///   cmd_wheel_<leg>[rad/s] (the drive wheels), contact_<leg>[0/1] (ground truth) and
 ///   fz_<leg>[N] (world vertical force) for every leg, foot_z_<leg>[m] (wheel centre height,
-///   world) for every leg, body_contact_periods[-] (GroundTruth::body_contact_periods).
+///   world) for every leg, fx_<leg>[N] then fy_<leg>[N] (the horizontal components of the
+///   wheel's contact force, world frame) for every leg, contact_point_x_<leg>[m],
+///   contact_point_y_<leg>[m], contact_point_z_<leg>[m] (GroundTruth::contact_point, world) for
+///   every leg, body_contact_periods[-] (GroundTruth::body_contact_periods).
 ///   Joint and leg names are the plant layout's (PlantLayout).
 /// The file appears complete or not at all: rows go to a temporary file beside it
 /// (AtomicFileWriter), every write is checked, and commit() renames it to `path`.

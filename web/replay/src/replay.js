@@ -10,8 +10,10 @@ import uPlotCss from 'uplot/dist/uPlot.min.css';
 const data = window.ROLLSTEP_REPLAY;
 const COLOURS = {
   force: 0xd62728, basePlan: 0xff7f0e, footPlan: 0x17becf, foothold: 0xe377c2,
-  region: 0x2ca02c, cursor: '#d62728',
+  region: 0x2ca02c, barrier: 0xffbf00, cursor: '#d62728',
 };
+// Bits of the log's qp_active_<leg>[-] (the CBF-QP's barrier kinds of that foot).
+const BARRIER_KINDS = ['foothold region', 'clearance', 'collision'];
 const FORCE_SCALE = 0.002;  // [m/N]: arrow length per newton
 
 function columns(table) {
@@ -20,9 +22,36 @@ function columns(table) {
   table.names.forEach((n, i) => { out[n] = table.columns[i]; });
   return out;
 }
+// The plans come compact (docs/REPLAY.md): integers, each the difference from the same node
+// of the previous solution (or the previous row), with a scale per column.
+function planColumns(table) {
+  const out = {};
+  if (!table) return out;
+  const reference = [];
+  let start = 0, previous = 0;
+  table.rows_per_solution.forEach((n, s) => {
+    for (let k = 0; k < n; ++k) {
+      if (s > 0 && k < previous) reference.push(start - previous + k);
+      else reference.push(k > 0 ? start + k - 1 : -1);
+    }
+    start += n;
+    previous = n;
+  });
+  table.names.forEach((name, i) => {
+    const d = table.columns[i], scale = table.scales[i];
+    const q = new Float64Array(d.length);
+    for (let r = 0; r < d.length; ++r) q[r] = (reference[r] >= 0 ? q[reference[r]] : 0) + d[r];
+    out[name] = Array.from(q, (v) => v / scale);
+  });
+  return out;
+}
 const log = columns(data.log);
-const plan = columns(data.plan);
+const plan = planColumns(data.plan);
 const maps = data.maps || [];  // elevation map snapshots (perception runs with a map log)
+// Perception runs: every foothold terrain the controller used, by version; the log's
+// terrain_version[-] says which one was in use at each frame.
+const terrains = data.terrains || [];
+const terrainVersion = log['terrain_version[-]'];
 const times = log['time[s]'];
 const frames = times.length;
 
@@ -49,16 +78,23 @@ document.body.insertAdjacentHTML('beforeend', `
   <span id="clock"></span>
 </div>
 <div id="legend">Keys: space play/pause, &larr; &rarr; one frame (shift: 10 frames).
-  <span class="swatch" style="background:#d62728"></span>contact normal force (${1 / FORCE_SCALE} N per m)
+  <span class="swatch" style="background:#d62728"></span>contact force on each wheel, from its contact point (${1 / FORCE_SCALE} N per m)
   <span class="swatch" style="background:#ff7f0e"></span>MPC plan: base path
   <span class="swatch" style="background:#17becf"></span>MPC plan: foot paths
   <span class="swatch" style="background:#e377c2"></span>MPC plan: footholds
-  <span class="swatch" style="background:#2ca02c"></span>foothold regions (${maps.length ? 'perception: the map log\'s snapshot at that time' : escapeHtml(data.model.regions_source)})
+  <span class="swatch" style="background:#2ca02c"></span>foothold regions in use (${regionsSource()})
+  <span class="swatch" style="background:#ffbf00"></span>wheel with an active CBF-QP barrier (listed below)
   ${maps.length ? '<span class="swatch" style="background:linear-gradient(90deg,#3350cc,#ffe633)"></span>elevation map (perception; colour: height, low to high)' : ''}
   <span class="swatch" style="background:#d62728;height:2px"></span>plot cursor: the slider's time
   <div id="status"></div>
 </div>
 <div id="plots"></div>`);
+
+function regionsSource() {
+  if (terrains.length && terrainVersion) return 'perception: the terrain version in use at that time';
+  if (maps.length) return 'perception: the map log\'s snapshot at that time';
+  return escapeHtml(data.model.regions_source);
+}
 
 function escapeHtml(s) {
   return String(s).replace(/&/g, '&amp;').replace(/</g, '&lt;').replace(/>/g, '&gt;');
@@ -110,9 +146,11 @@ function geometryOf(g) {
 // One group per body; geoms attached in the body frame.
 const bodies = data.model.bodies.map(() => new THREE.Group());
 bodies.forEach((b) => { b.matrixAutoUpdate = false; scene.add(b); });
+let drawnGeoms = 0;
 for (const g of data.model.geoms) {
   const geometry = geometryOf(g);
   if (!geometry) continue;
+  ++drawnGeoms;
   const [r, gr, b, a] = g.rgba;
   const material = new THREE.MeshStandardMaterial({
     color: new THREE.Color(r, gr, b), transparent: a < 1, opacity: a, roughness: 0.8,
@@ -185,7 +223,7 @@ function drawMap(t) {
   shownMap = k;
   if (k < 0) {
     mapPoints.visible = false;
-    drawRegions(data.model.regions);
+    if (!terrains.length) drawRegions(data.model.regions);
     return;
   }
   const m = maps[k];
@@ -204,14 +242,25 @@ function drawMap(t) {
   mapPoints.geometry.setAttribute('position', new THREE.Float32BufferAttribute(positions, 3));
   mapPoints.geometry.setAttribute('color', new THREE.Float32BufferAttribute(colours, 3));
   mapPoints.visible = true;
-  drawRegions(m.regions);
+  if (!terrains.length) drawRegions(m.regions);
 }
 
-// Contact forces.
+// The foothold terrain in use at a frame (perception runs with terrains.csv).
+let shownTerrain = null;
+function drawTerrain(f) {
+  if (!terrains.length || !terrainVersion) return null;
+  const v = terrainVersion[f];
+  let t = terrains[0];
+  for (const candidate of terrains) if (candidate.version === v) t = candidate;
+  if (t !== shownTerrain) { shownTerrain = t; drawRegions(t.regions); }
+  return t.version;
+}
+
+// Contact forces: 3D, from each wheel's contact point (older logs: vertical, from its centre).
 const arrows = data.model.contacts.map(() => {
   const a = new THREE.ArrowHelper(new THREE.Vector3(0, 0, 1), new THREE.Vector3(), 0.1,
     COLOURS.force, 0.04, 0.025);
-  // Drawn over the robot: the arrows start at the wheel centres, inside the wheels.
+  // Drawn over the robot: an arrow may run inside its wheel.
   a.line.material.depthTest = false;
   a.cone.material.depthTest = false;
   a.renderOrder = 10;
@@ -249,6 +298,29 @@ const footholds = new THREE.Points(new THREE.BufferGeometry(),
   new THREE.PointsMaterial({ color: COLOURS.foothold, size: 0.05 }));
 footholds.frustumCulled = false;
 scene.add(footholds);
+
+// Wheels with an active CBF-QP barrier: a ring around the wheel.
+const barrierRings = data.model.contacts.map(() => {
+  const ring = new THREE.Mesh(new THREE.TorusGeometry(0.11, 0.012, 8, 32),
+    new THREE.MeshBasicMaterial({ color: COLOURS.barrier, depthTest: false }));
+  ring.renderOrder = 11;
+  ring.visible = false;
+  scene.add(ring);
+  return ring;
+});
+function columnAt(name, f) { return log[name] ? log[name][f] : null; }
+function activeBarrierText(f) {
+  const parts = [];
+  data.model.contacts.forEach((c) => {
+    const bits = columnAt(`qp_active_${c.name}[-]`, f);
+    if (!bits) return;
+    parts.push(`${c.name}: ${BARRIER_KINDS.filter((k, b) => (bits >> b) & 1).join(', ')}`);
+  });
+  const joints = columnAt('qp_active_joints[-]', f), support = columnAt('qp_active_support[-]', f);
+  if (joints) parts.push(`joint limits: ${joints}`);
+  if (support) parts.push(`support polygon edges: ${support}`);
+  return parts.join('; ');
+}
 
 function solutionAt(t) {
   let lo = -1;
@@ -304,22 +376,40 @@ function show(f) {
   camera.position.copy(base).add(offset);
   controls.update();
   data.model.contacts.forEach((c, i) => {
-    const fz = log[`fz_${c.name}[N]`] ? log[`fz_${c.name}[N]`][frame] : 0;
-    const p = new THREE.Vector3().setFromMatrixPosition(world[c.body]);
-    arrows[i].visible = fz > 1;
-    if (fz > 1) {
-      arrows[i].position.copy(p);
-      arrows[i].setLength(Math.max(0.05, fz * FORCE_SCALE), 0.04, 0.025);
+    const force = new THREE.Vector3(columnAt(`fx_${c.name}[N]`, frame) || 0,
+      columnAt(`fy_${c.name}[N]`, frame) || 0, columnAt(`fz_${c.name}[N]`, frame) || 0);
+    const centre = new THREE.Vector3().setFromMatrixPosition(world[c.body]);
+    const point = log[`contact_point_x_${c.name}[m]`]
+      ? new THREE.Vector3(log[`contact_point_x_${c.name}[m]`][frame],
+        log[`contact_point_y_${c.name}[m]`][frame], log[`contact_point_z_${c.name}[m]`][frame])
+      : centre;
+    const magnitude = force.length();
+    arrows[i].visible = magnitude > 1;
+    if (magnitude > 1) {
+      arrows[i].position.copy(point);
+      arrows[i].setDirection(force.clone().divideScalar(magnitude));
+      arrows[i].setLength(Math.max(0.05, magnitude * FORCE_SCALE), 0.04, 0.025);
+    }
+    const bits = columnAt(`qp_active_${c.name}[-]`, frame);
+    barrierRings[i].visible = !!bits;
+    if (bits) {
+      // Around the wheel, in the plane of its spin (the wheel body's x-z plane).
+      barrierRings[i].position.copy(centre);
+      barrierRings[i].quaternion.setFromRotationMatrix(world[c.body])
+        .multiply(new THREE.Quaternion().setFromAxisAngle(new THREE.Vector3(1, 0, 0), Math.PI / 2));
     }
   });
   const t = times[frame];
   drawMap(t);
+  const version = drawTerrain(frame);
   const s = drawPlan(t);
   clock.textContent = `t = ${t.toFixed(2)} s`;
-  const active = log['qp_active[-]'] ? log['qp_active[-]'][frame] : null;
+  const active = columnAt('qp_active[-]', frame);
+  const which = activeBarrierText(frame);
   status.textContent = (s ? `MPC plan in use: solved at t = ${s.time.toFixed(2)} s. `
     : (solutions.length ? 'No MPC plan yet. ' : 'No MPC plan in this run. ')) +
-    (active !== null ? `CBF-QP active barriers: ${active}.` : '');
+    (version !== null ? `Foothold terrain version ${version}. ` : '') +
+    (active !== null ? `CBF-QP active barriers: ${active}${which ? ` (${which})` : ''}.` : '');
   plots.forEach((u) => u.redraw(false));
   render();
 }
@@ -411,6 +501,7 @@ function plot(title, names) {
 }
 plot('Base', ['base_z[m]', 'base_vx[m/s]', 'base_wy[rad/s]']);
 plot('Contact normal forces [N]', data.model.contacts.map((c) => `fz_${c.name}[N]`));
+plot('Contact forces, horizontal [N]', data.model.contacts.flatMap((c) => [`fx_${c.name}[N]`, `fy_${c.name}[N]`]));
 plot('Joints', Object.keys(log).filter((n) => n.startsWith('q_')));
 plot('CBF-QP', ['qp_active[-]', 'qp_correction[m/s^2]']);
 
@@ -421,6 +512,11 @@ requestAnimationFrame(tick);
 // For the browser tests (and the console): the page's state.
 window.replay = {
   frames, get frame() { return frame; }, show, solutions: solutions.length,
+  terrains: terrains.length, get status() { return status.textContent; },
+  /** The model's geoms (replay.json) and how many of them the page drew. */
+  geoms: data.model.geoms.length, drawnGeoms, robotFile: data.model.robot_file,
+  /** The plans' columns as the page decoded them (by name). */
+  planColumn(name) { return plan[name] || null; },
   /** Distinct colours and non-background pixels of the 3D view, sampled. */
   canvasStats() {
     render();

@@ -43,6 +43,8 @@ async function checkReplay(browser, file) {
   const page = await open(browser, file);
   await page.waitForFunction('window.replay !== undefined', { timeout: 10000 });
   const frames = await page.evaluate('window.replay.frames');
+  const geoms = await page.evaluate('[window.replay.geoms, window.replay.drawnGeoms]');
+  if (geoms[0] === 0 || geoms[1] !== geoms[0]) fail(`${file}: ${geoms[1]} of the model's ${geoms[0]} geoms drawn`);
   const stats = await page.evaluate('window.replay.canvasStats()');
   const pixels = (stats.width * stats.height) / 7;
   if (stats.nonBackground < 0.02 * pixels || stats.colours < 20) {
@@ -55,6 +57,8 @@ async function checkReplay(browser, file) {
   }));
   const first = await shot();
   const s0 = await state();
+  // ROLLSTEP_SHOTS=DIR: the two screenshots kept, to look at.
+  if (process.env.ROLLSTEP_SHOTS) fs.writeFileSync(path.join(process.env.ROLLSTEP_SHOTS, `${path.basename(file)}.first.png`), first);
   // The slider to the end, as a user drags it.
   await page.evaluate(() => {
     const s = document.getElementById('slider');
@@ -63,6 +67,15 @@ async function checkReplay(browser, file) {
   });
   const last = await shot();
   const s1 = await state();
+  if (process.env.ROLLSTEP_SHOTS) fs.writeFileSync(path.join(process.env.ROLLSTEP_SHOTS, `${path.basename(file)}.last.png`), last);
+  // A perception run's terrain in use changes with the slider too.
+  if (await page.evaluate('window.replay.terrains') > 1) {
+    const version = (t) => (t.match(/terrain version (\d+)/) || [])[1];
+    if (version(s0.status) === undefined || version(s0.status) === version(s1.status)) {
+      fail(`${file}: the foothold terrain in use did not change with the slider ('${s0.status}' then '${s1.status}')`);
+    }
+  }
+  if (!/CBF-QP active barriers: \d+/.test(s1.status)) fail(`${file}: no CBF-QP active barriers shown ('${s1.status}')`);
   if (s1.frame !== frames - 1) fail(`${file}: the slider did not move the replay to its end (frame ${s1.frame} of ${frames})`);
   if (first.equals(last)) fail(`${file}: the 3D view is the same at the start and the end of the run`);
   if (await page.evaluate('window.replay.solutions') > 0 && s0.status === s1.status) {
@@ -79,13 +92,32 @@ async function checkReplay(browser, file) {
     .then(() => true, () => false);
   await page.keyboard.press(' ');
   if (!played) fail(`${file}: space did not play the replay (frame ${(await state()).frame})`);
+  // The plans as decoded by the page are plan.csv's (beside the page of `rollstep view`).
+  const planCsv = path.join(path.dirname(file), 'plan.csv');
+  if (fs.existsSync(planCsv)) {
+    const lines = fs.readFileSync(planCsv, 'utf8').trim().split('\n');
+    const names = lines[0].split(',');
+    let worst = 0, worstAt = '';
+    for (const [i, name] of names.entries()) {
+      const decoded = await page.evaluate((n) => window.replay.planColumn(n), name);
+      if (!decoded || decoded.length !== lines.length - 1) {
+        fail(`${file}: plan column ${name}: ${decoded ? decoded.length : 'no'} rows, plan.csv has ${lines.length - 1}`);
+        continue;
+      }
+      for (let r = 1; r < lines.length; ++r) {
+        const e = Math.abs(Number(lines[r].split(',')[i]) - decoded[r - 1]);
+        if (e > worst) { worst = e; worstAt = `${name} row ${r}`; }
+      }
+    }
+    if (worst > 5e-4 + 1e-9) fail(`${file}: the page's plans differ from plan.csv by ${worst} (${worstAt})`);
+  }
   const legend = await page.$eval('#legend', (e) => e.innerText);
-  for (const word of ['contact normal force', 'base path', 'foot paths', 'footholds', 'foothold regions']) {
+  for (const word of ['contact force', 'base path', 'foot paths', 'footholds', 'foothold regions', 'active CBF-QP barrier']) {
     if (!legend.includes(word)) fail(`${file}: the legend does not say what '${word}' looks like`);
   }
   const plots = await page.$$eval('.uplot', (e) => e.length);
   if (plots < 2) fail(`${file}: ${plots} plots, expected the linked plots`);
-  console.log(`${path.basename(file)}: ${frames} frames, ${stats.colours} colours, plan solutions ${await page.evaluate('window.replay.solutions')}`);
+  console.log(`${path.basename(file)}: ${await page.evaluate('window.replay.robotFile')}, ${geoms[1]} geoms drawn, ${frames} frames, ${stats.colours} colours, plan solutions ${await page.evaluate('window.replay.solutions')}`);
   await page.close();
 }
 
