@@ -255,7 +255,7 @@ TEST(ExperimentSet, LoadsTheProjectsFileAndRefusesMistakes) {
   EXPECT_EQ(error("scenarios:\n  - {name: a, scene: flat, controler: nmpc}\n").substr(0, 48),
             "f: line 2: unknown key 'scenarios[0].controler' ");
   EXPECT_EQ(error("scenarios:\n  - {name: a, scene: flat}\n"),
-            "f: line 2: scenarios[0].controller: missing (required)");
+            "f: line 2: missing key 'scenarios[0].controller'");
   EXPECT_EQ(error(ok + "  - {name: a, scene: flat, controller: x}\n"),
             "f: line 3: scenarios[1].name: 'a' is used by another scenario");
   EXPECT_EQ(error(ok + "criteria:\n  max_tilt: 9\n"),
