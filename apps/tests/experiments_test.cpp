@@ -609,7 +609,13 @@ TEST(Trials, ResultFieldsAreCheckedLikeInputs) {
             "r.yaml: line 3: seed: '-1' is not a seed (an integer 0 to 999999999)");
   EXPECT_EQ(error("seed: 1\nfriction: 1e7"),
             "r.yaml: line 4: friction: 10000000 is outside [-1000000, 1000000]");
-  EXPECT_EQ(error("seed: 1\nfriction: [1]"), "r.yaml: line 4: unknown key 'friction'");
+  EXPECT_EQ(error("seed: 1\nfriction: [1]"),
+            "r.yaml: line 4: unknown key 'friction' (known: scenario, controller, seed, "
+            "sensor_noise, speed, sensor_noise_applied, passed, failure, traverse_time, "
+            "mean_abs_vz, mean_abs_wy, command, or a drawn scene number's name with its number)");
+  EXPECT_EQ(error("seed: 1\nseed: 2"), "r.yaml: line 4: seed: given twice (first on line 3)");
+  EXPECT_EQ(error("seed: 1\nfriction: 1\nfriction: 2"),
+            "r.yaml: line 5: friction: given twice (first on line 4)");
   EXPECT_EQ(error("seed: 1\nmean_abs_vz: -0.1"),
             "r.yaml: line 4: mean_abs_vz: -0.1 is outside [0, 1000]");
   EXPECT_EQ(error("seed: 1\ncontroller: [a, b]"),
