@@ -6,9 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <functional>
 #include <iterator>
-#include <map>
 #include <stdexcept>
 
 #include "rollstep/common/number_text.hpp"

@@ -4,9 +4,10 @@
 // A field is a key, the struct member it reads and writes, a unit, a valid range and (for
 // enums) the enum's names (enum_names.hpp). The documented default of every key is the
 // member's value in a default-constructed struct: the struct's member initializers are the
-// only place a default is written. A section is a nested mapping read by its own table;
+// only place a default is written. A section is a nested mapping read by its own table, a
+// list of sections (`sections`) a list of such mappings, item i's keys named "key[i].name";
 // a custom field reads and writes a key by functions of its own (a section another layer
-// owns, with its own checks).
+// owns, a number written as an expression). A field marked required() must be given.
 //
 //   const settings::Table<MpcSettings> kMpc = settings::Table<MpcSettings>()
 //       .field("timing", &MpcSettings::timing)
