@@ -1,16 +1,16 @@
 #include "scenarios.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <functional>
 #include <iterator>
-#include <map>
 #include <stdexcept>
 
 #include "rollstep/common/number_text.hpp"
+#include "rollstep/common/settings_table.hpp"
 #include "rollstep/common/text_file.hpp"
 #include "rollstep/common/yaml_tree.hpp"
 #include "rollstep/sim/scene.hpp"
@@ -87,47 +87,233 @@ const Scenario* ExperimentSet::find(const std::string& name) const {
 
 namespace {
 
-/// Reads one mapping: each key once, only known keys, errors naming file, line and key.
-class MappingReader {
- public:
-  MappingReader(const yaml::Node& node, std::string source, std::string prefix)
-      : node_(node), source_(std::move(source)), prefix_(std::move(prefix)) {
-    if (!node.isMapping())
-      fail(node, prefix_.empty() ? "" : prefix_.substr(0, prefix_.size() - 1),
-           std::string("expected a mapping, got ") + node.kindName());
-  }
-  /// Calls `read(value, full_key)` for each entry whose key is in `known`.
-  void each(const std::map<std::string, std::function<void(const yaml::Node&, const std::string&)>>&
-                known) {
-    std::map<std::string, int> seen;
-    for (std::size_t i = 0; i < node_.size(); ++i) {
-      const yaml::Node key = node_.key(i);
-      const std::string name = key.isScalar() ? key.scalar() : "<key>";
-      const auto it = known.find(name);
-      if (it == known.end()) {
-        std::string list;
-        for (const auto& k : known) list += (list.empty() ? "" : ", ") + k.first;
-        fail(key, "", "unknown key '" + prefix_ + name + "' (known: " + list + ")");
-      }
-      if (const auto s = seen.find(name); s != seen.end()) {
-        fail(key, prefix_ + name, "given twice (first on line " + std::to_string(s->second) + ")");
-      }
-      seen.emplace(name, key.line());
-      if (node_.value(i).isNull()) fail(node_.value(i), prefix_ + name, "no value");
-      it->second(node_.value(i), prefix_ + name);
+using settings::Range;
+
+/// [min, max], each in `range`, min <= max.
+std::array<double, 2> readPair(const yaml::Node& v, settings::Reader& r, const std::string& path,
+                               const Range& range) {
+  if (!v.isSequence() || v.size() != 2) r.fail(v, path + ": expected [min, max]");
+  const std::vector<double> x = settings::detail::readNumbers(v, 2, range, r, path);
+  if (x[0] > x[1]) r.fail(v, path + ": min is above max");
+  return {x[0], x[1]};
+}
+
+std::string pairYaml(double min, double max) {
+  return " [" + settings::numberYaml(min) + ", " + settings::numberYaml(max) + "]";
+}
+
+/// [min, max] into two members; `given` (when not null) set when read, and the key is
+/// written only when it is set.
+template <typename S>
+settings::Table<S>& pairField(settings::Table<S>& table, const char* key, double S::*min,
+                              double S::*max, Range range, bool S::*given = nullptr) {
+  return table.custom(
+      key,
+      [=](const yaml::Node& v, S& s, settings::Reader& r, const std::string& path) {
+        const std::array<double, 2> x = readPair(v, r, path, range);
+        s.*min = x[0];
+        s.*max = x[1];
+        if (given != nullptr) s.*given = true;
+      },
+      [=](const S& s, const std::string&) -> std::string {
+        if (given != nullptr && !(s.*given)) return "";
+        return pairYaml(s.*min, s.*max);
+      });
+}
+
+/// Fails at `key`'s line when the numbers given there do not increase.
+void requireIncreasing(const std::vector<double>& values, const settings::Reader& r,
+                       const std::string& key) {
+  for (std::size_t i = 1; i < values.size(); ++i) {
+    if (values[i] <= values[i - 1]) {
+      r.failAtLine(r.lineOf({key}, 0), key + ": the values must increase");
     }
   }
-  [[noreturn]] void fail(const yaml::Node& n, const std::string& key,
-                         const std::string& what) const {
-    throw std::runtime_error(source_ + ": line " + std::to_string(n.line()) + ": " +
-                             (key.empty() ? "" : key + ": ") + what);
-  }
+}
 
- private:
-  yaml::Node node_;
-  std::string source_;
-  std::string prefix_;
-};
+settings::Table<SpeedSweep> sweepTable() {
+  using W = SpeedSweep;
+  return settings::Table<W>()
+      .field("baseline", &W::baseline)
+      .field("candidate", &W::candidate)
+      .field("compared_speeds", &W::compared_speeds, "m/s", Range::closed(0.01, 1.0), 1)
+      .field("max_ratio", &W::max_ratio, "", Range::closed(0, 100))
+      .field("scenarios", &W::scenarios)
+      .field("speeds", &W::speeds, "m/s", Range::closed(0.01, 1.0), 1);
+}
+
+settings::Table<RunCriteria> criteriaTable() {
+  return settings::Table<RunCriteria>()
+      .field("joint_limit_tolerance", &RunCriteria::joint_limit_tolerance, "rad or m",
+             Range::closed(0, 1))
+      .field("max_tilt", &RunCriteria::max_tilt, "rad", Range::closed(0.01, M_PI));
+}
+
+settings::Table<Acceptance> acceptanceTable() {
+  using A = Acceptance;
+  return settings::Table<A>()
+      .field("baseline", &A::baseline)
+      .field("candidate", &A::candidate)
+      .field("mean_abs_vz", &A::mean_abs_vz, "", Range::closed(-1, 1))
+      .field("mean_abs_wy", &A::mean_abs_wy, "", Range::closed(-1, 1))
+      .field("traverse_time", &A::traverse_time, "", Range::closed(-1, 1))
+      .field("trial_success_rate", &A::trial_success_rate, "", Range::closed(0, 1));
+}
+
+settings::Table<TrialRanges> trialsTable() {
+  settings::Table<SceneDraw> draw;
+  draw.field("key", &SceneDraw::key).required().field("name", &SceneDraw::name);
+  pairField(draw, "offset", &SceneDraw::min, &SceneDraw::max, Range::closed(-1e6, 1e6),
+            &SceneDraw::offset);
+  draw.custom(
+      "range",  // the value drawn (offset: added to the file's value)
+      [](const yaml::Node& v, SceneDraw& d, settings::Reader& r, const std::string& path) {
+        const std::array<double, 2> x = readPair(v, r, path, Range::closed(-1e6, 1e6));
+        d.min = x[0];
+        d.max = x[1];
+      },
+      [](const SceneDraw& d, const std::string&) -> std::string {
+        return d.offset ? std::string() : pairYaml(d.min, d.max);
+      });
+  settings::ListOptions<SceneDraw> draws;  // the list replaces the default draws
+  draws.finish = [](const yaml::Node& item, SceneDraw& d, settings::Reader& r,
+                    const std::string& path) {
+    if ((r.seen(path + ".range") != nullptr) == (r.seen(path + ".offset") != nullptr)) {
+      r.fail(item, path +
+                       ": needs one of range: [min, max] (the value) or offset: [min, max] "
+                       "(added to the file's value)");
+    }
+    if (r.seen(path + ".name") != nullptr && !isDrawName(d.name)) {
+      r.failAtLine(r.lineOf({path + ".name"}, item.line()),
+                   path + ".name: '" + d.name +
+                       "' is not a name for result.yaml (a letter, then letters, digits, _; not "
+                       "a key of result.yaml)");
+    }
+    if (d.name.empty()) {
+      if (!isDrawName(d.key)) {
+        r.fail(item,
+               path + ": name is missing (the key '" + d.key + "' cannot name it in result.yaml)");
+      }
+      d.name = d.key;
+    }
+  };
+  settings::Table<TrialRanges> table;
+  table.sections("scene", &TrialRanges::scene, draw, draws);
+  pairField(table, "sensor_noise", &TrialRanges::sensor_noise_min, &TrialRanges::sensor_noise_max,
+            Range::closed(0, 100));
+  pairField(table, "speed", &TrialRanges::speed_min, &TrialRanges::speed_max,
+            Range::closed(0.001, 1.8), &TrialRanges::has_speed);
+  return table;
+}
+
+// Options a scenario's keys or the command set: given twice in args, every run would fail
+// ("At Most 1 required but received 2").
+void checkArgs(const Scenario& s, const settings::Reader& r, const yaml::Node& item,
+               const std::string& path) {
+  const std::string key = path + ".args";
+  const auto fail = [&](const std::string& what) {
+    r.failAtLine(r.lineOf({key}, item.line()), key + ": " + what);
+  };
+  for (const std::string& arg : s.args) {
+    for (const auto& [option, by] :
+         {std::pair<const char*, const char*>{"--out", "the command (runs/<name>)"},
+          {"--duration", "the scenario's duration key"},
+          {"--scene", "the scenario's scene key"},
+          {"--scene-config", "the scenario's scene_config key"},
+          {"--controller", "the scenario's controller key"}}) {
+      const std::string with_value = std::string(option) + "=";
+      if (arg == option || arg.rfind(with_value, 0) == 0) {
+        fail("'" + std::string(option) + "' is set by " + by + ", not in args");
+      }
+    }
+    if (arg == "--control-config") {
+      fail(
+          "'--control-config' is set by the scenario's control_config key (a path relative to "
+          "this file)");
+    }
+    if (arg == "--terrain" || arg.rfind("--terrain=", 0) == 0 || arg == "--log-map") {
+      fail("'" + arg +
+           "' is set by the scenario's terrain key (terrain: perception | scene; its map log by "
+           "figures: [map])");
+    }
+  }
+}
+
+settings::Table<Scenario> scenarioTable() {
+  using P = PaperFigures;
+  const settings::Table<P> paper =
+      settings::Table<P>()
+          .field("mean_abs_vz", &P::mean_abs_vz, "m/s", Range::closed(0, 1e6))
+          .field("mean_abs_wy", &P::mean_abs_wy, "rad/s", Range::closed(0, 1e6))
+          .field("traverse_time", &P::traverse_time, "s", Range::closed(0, 1e6));
+  using S = Scenario;
+  return settings::Table<S>()
+      .field("args", &S::args, settings::Repeats::Allowed)
+      .field("control_config", &S::control_config)
+      .field("controller", &S::controller)
+      .required()
+      .field("duration", &S::duration, "s", Range::closed(0.001, 3600))
+      .field("figures", &S::figures)
+      .field("name", &S::name)
+      .required()
+      .section("paper", &S::paper, paper)
+      .field("scene", &S::scene)
+      .required()
+      .field("scene_config", &S::scene_config)
+      .field("terrain", &S::terrain)
+      .field("title", &S::title)
+      .field("traverse", &S::traverse)
+      .field("video", &S::video);
+}
+
+settings::ListOptions<Scenario> scenarioChecks() {
+  settings::ListOptions<Scenario> options;
+  options.finish = [](const yaml::Node& item, Scenario& s, settings::Reader& r,
+                      const std::string& path) {
+    const auto failAt = [&](const char* key, const std::string& what) {
+      r.failAtLine(r.lineOf({path + "." + key}, item.line()), path + "." + key + ": " + what);
+    };
+    if (!sim::isSceneName(s.scene))
+      failAt("scene", "'" + s.scene + "' is not " + sim::sceneNamesText());
+    checkArgs(s, r, item, path);
+    if (s.terrain != "scene" && s.terrain != "perception") {
+      failAt("terrain", "'" + s.terrain + "' is not scene or perception");
+    }
+    for (const std::string& name : s.figures) {
+      if (name != "table1" && name != "fig4" && name != "fig6" && name != "fig8" &&
+          name != "snapshots" && name != "map") {
+        failAt("figures", "'" + name + "' is not table1, fig4, fig6, fig8, snapshots or map");
+      }
+    }
+    if (const settings::Reader::Seen* paper = r.seen(path + ".paper")) {
+      if (paper->text == "null") failAt("paper", "no value");
+      s.paper.given = true;
+    }
+    for (char c : s.name) {
+      if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-')) {
+        r.fail(item, path + ".name: '" + s.name +
+                         "': only letters, digits, '_' and '-' (it names a folder)");
+      }
+    }
+    if (s.feeds("map") && s.terrain != "perception") {
+      r.fail(item, path + ".figures: map (the perceived map's top view) needs terrain: perception");
+    }
+  };
+  return options;
+}
+
+/// The experiments file's keys.
+const settings::Table<ExperimentSet>& experimentsTable() {
+  using E = ExperimentSet;
+  static const settings::Table<E> table =
+      settings::Table<E>()
+          .section("acceptance", &E::acceptance, acceptanceTable())
+          .section("criteria", &E::criteria, criteriaTable())
+          .sections("scenarios", &E::scenarios, scenarioTable(), scenarioChecks())
+          .section("speed_sweep", &E::sweep, sweepTable())
+          .section("trials", &E::trials, trialsTable());
+  return table;
+}
 
 }  // namespace
 
@@ -136,368 +322,76 @@ ExperimentSet parseExperimentSet(const std::string& text, const std::string& sou
   ExperimentSet set;
   set.source = source;
   set.text = text;
-  yaml::Document doc = yaml::parseDocument(text, source + ": ");
-  MappingReader top(doc.root(), source, "");
-  const auto number = [&](const MappingReader& r, double min, double max) {
-    return [&r, min, max](const yaml::Node& n, const std::string& key, double& out) {
-      double v = 0.0;
-      if (!n.isScalar() || !n.toDouble(v)) {
-        r.fail(n, key,
-               (n.isScalar() ? "'" + n.scalar() + "'" : std::string(n.kindName())) +
-                   " is not a number");
+  const yaml::Document doc = yaml::parseDocument(text, source + ": ");
+  settings::Reader reader(source + ": ");
+  experimentsTable().read(doc.root(), set, reader);
+  // The cross-field checks, at the line of the key they name.
+  const auto lineOf = [&](const std::string& key) { return reader.lineOf({key}, 0); };
+  for (std::size_t i = 0; i < set.scenarios.size(); ++i) {
+    Scenario& s = set.scenarios[i];
+    const std::string path = "scenarios[" + std::to_string(i) + "]";
+    for (std::size_t j = 0; j < i; ++j) {
+      if (set.scenarios[j].name == s.name) {
+        reader.failAtLine(lineOf(path + ".name"),
+                          path + ".name: '" + s.name + "' is used by another scenario");
       }
-      if (!std::isfinite(v) || v < min || v > max) {
-        r.fail(n, key,
-               n.scalar() + " is outside [" + shortestNumberText(min) + ", " +
-                   shortestNumberText(max) + "]");
+    }
+    for (std::string* file : {&s.scene_config, &s.control_config}) {
+      if (!file->empty() && (*file)[0] != '/') *file = base_dir + "/" + *file;
+    }
+    if (s.title.empty()) s.title = s.name;
+  }
+  const std::vector<SceneDraw>& draws = set.trials.scene;
+  for (std::size_t i = 0; i < draws.size(); ++i) {
+    for (std::size_t j = 0; j < i; ++j) {
+      if (draws[j].name == draws[i].name) {
+        const std::string path = "trials.scene[" + std::to_string(i) + "]";
+        reader.failAtLine(lineOf(path + ".key"),
+                          path + ": name '" + draws[i].name + "' is drawn twice");
       }
-      out = v;
+    }
+  }
+  const int sweep_line = lineOf("speed_sweep");
+  if (reader.seen("speed_sweep") != nullptr) {
+    SpeedSweep& w = set.sweep;
+    w.given = true;
+    const auto fail = [&](const std::string& what) {
+      reader.failAtLine(sweep_line, "speed_sweep: " + what);
     };
-  };
-  const auto word = [](const MappingReader& r) {
-    return [&r](const yaml::Node& n, const std::string& key, std::string& out) {
-      if (!n.isScalar()) r.fail(n, key, std::string("expected text, got ") + n.kindName());
-      out = n.scalar();
-    };
-  };
-  const auto flag = [](const MappingReader& r) {
-    return [&r](const yaml::Node& n, const std::string& key, bool& out) {
-      if (!n.isScalar() || !n.toBool(out)) r.fail(n, key, "expected true or false");
-    };
-  };
-  const auto words = [](const MappingReader& r) {
-    return [&r](const yaml::Node& n, const std::string& key, std::vector<std::string>& out) {
-      if (!n.isSequence()) r.fail(n, key, std::string("expected a list, got ") + n.kindName());
-      for (std::size_t i = 0; i < n.size(); ++i) {
-        if (!n.item(i).isScalar()) r.fail(n.item(i), key, "every item must be a single value");
-        out.push_back(n.item(i).scalar());
+    requireIncreasing(w.speeds, reader, "speed_sweep.speeds");
+    requireIncreasing(w.compared_speeds, reader, "speed_sweep.compared_speeds");
+    if (w.scenarios.empty() || w.speeds.empty()) fail("needs scenarios and speeds");
+    for (const std::string* name : {&w.candidate, &w.baseline}) {
+      if (!name->empty() &&
+          std::find(w.scenarios.begin(), w.scenarios.end(), *name) == w.scenarios.end()) {
+        fail("'" + *name + "' (candidate or baseline) is not one of its scenarios");
       }
-    };
-  };
-  // A [min, max] pair.
-  const auto range = [&](const MappingReader& r, double lo, double hi) {
-    return [&r, lo, hi, number](const yaml::Node& n, const std::string& key, double& min,
-                                double& max) {
-      if (!n.isSequence() || n.size() != 2) r.fail(n, key, "expected [min, max]");
-      const auto num = number(r, lo, hi);
-      num(n.item(0), key, min);
-      num(n.item(1), key, max);
-      if (min > max) r.fail(n, key, "min is above max");
-    };
-  };
-
-  // A list of numbers in [lo, hi], increasing.
-  const auto increasing = [&](const MappingReader& r, double lo, double hi) {
-    return [&r, lo, hi, number](const yaml::Node& n, const std::string& key,
-                                std::vector<double>& out) {
-      if (!n.isSequence() || n.size() == 0) r.fail(n, key, "expected a list of numbers");
-      const auto num = number(r, lo, hi);
-      for (std::size_t i = 0; i < n.size(); ++i) {
-        double v = 0.0;
-        num(n.item(i), key, v);
-        if (!out.empty() && v <= out.back()) r.fail(n.item(i), key, "the values must increase");
-        out.push_back(v);
+    }
+    if (w.candidate.empty() != w.baseline.empty() ||
+        (!w.candidate.empty() && w.candidate == w.baseline)) {
+      fail("candidate and baseline: two different scenarios, or neither");
+    }
+    for (double v : w.compared_speeds) {
+      if (std::none_of(w.speeds.begin(), w.speeds.end(),
+                       [v](double s) { return std::abs(s - v) < 1e-9; })) {
+        fail("compared speed " + shortestNumberText(v) + " is not one of speeds");
       }
-    };
-  };
-
-  int acceptance_line = 0;
-  int sweep_line = 0;
-  top.each({
-      {"speed_sweep",
-       [&](const yaml::Node& n, const std::string& key) {
-         MappingReader r(n, source, key + ".");
-         sweep_line = n.line();
-         SpeedSweep& w = set.sweep;
-         w.given = true;
-         r.each(
-             {{"scenarios",
-               [&](const yaml::Node& v, const std::string& k) { words(r)(v, k, w.scenarios); }},
-              {"speeds", [&](const yaml::Node& v,
-                             const std::string& k) { increasing(r, 0.01, 1.0)(v, k, w.speeds); }},
-              {"candidate",
-               [&](const yaml::Node& v, const std::string& k) { word(r)(v, k, w.candidate); }},
-              {"baseline",
-               [&](const yaml::Node& v, const std::string& k) { word(r)(v, k, w.baseline); }},
-              {"compared_speeds",
-               [&](const yaml::Node& v, const std::string& k) {
-                 increasing(r, 0.01, 1.0)(v, k, w.compared_speeds);
-               }},
-              {"max_ratio", [&](const yaml::Node& v, const std::string& k) {
-                 number(r, 0.0, 100.0)(v, k, w.max_ratio);
-               }}});
-         if (w.scenarios.empty() || w.speeds.empty()) r.fail(n, key, "needs scenarios and speeds");
-         for (const std::string* name : {&w.candidate, &w.baseline}) {
-           if (!name->empty() &&
-               std::find(w.scenarios.begin(), w.scenarios.end(), *name) == w.scenarios.end()) {
-             r.fail(n, key, "'" + *name + "' (candidate or baseline) is not one of its scenarios");
-           }
-         }
-         if (w.candidate.empty() != w.baseline.empty() ||
-             (!w.candidate.empty() && w.candidate == w.baseline)) {
-           r.fail(n, key, "candidate and baseline: two different scenarios, or neither");
-         }
-         for (double v : w.compared_speeds) {
-           if (std::none_of(w.speeds.begin(), w.speeds.end(),
-                            [v](double s) { return std::abs(s - v) < 1e-9; })) {
-             r.fail(n, key, "compared speed " + shortestNumberText(v) + " is not one of speeds");
-           }
-         }
-       }},
-      {"criteria",
-       [&](const yaml::Node& n, const std::string& key) {
-         MappingReader r(n, source, key + ".");
-         r.each({{"max_tilt",
-                  [&](const yaml::Node& v, const std::string& k) {
-                    number(r, 0.01, M_PI)(v, k, set.criteria.max_tilt);
-                  }},
-                 {"joint_limit_tolerance", [&](const yaml::Node& v, const std::string& k) {
-                    number(r, 0.0, 1.0)(v, k, set.criteria.joint_limit_tolerance);
-                  }}});
-       }},
-      {"acceptance",
-       [&](const yaml::Node& n, const std::string& key) {
-         MappingReader r(n, source, key + ".");
-         acceptance_line = n.line();
-         set.acceptance.given = true;
-         Acceptance& a = set.acceptance;
-         r.each({{"candidate",
-                  [&](const yaml::Node& v, const std::string& k) { word(r)(v, k, a.candidate); }},
-                 {"baseline",
-                  [&](const yaml::Node& v, const std::string& k) { word(r)(v, k, a.baseline); }},
-                 {"traverse_time",
-                  [&](const yaml::Node& v, const std::string& k) {
-                    number(r, -1.0, 1.0)(v, k, a.traverse_time);
-                  }},
-                 {"mean_abs_vz",
-                  [&](const yaml::Node& v, const std::string& k) {
-                    number(r, -1.0, 1.0)(v, k, a.mean_abs_vz);
-                  }},
-                 {"mean_abs_wy",
-                  [&](const yaml::Node& v, const std::string& k) {
-                    number(r, -1.0, 1.0)(v, k, a.mean_abs_wy);
-                  }},
-                 {"trial_success_rate", [&](const yaml::Node& v, const std::string& k) {
-                    number(r, 0.0, 1.0)(v, k, a.trial_success_rate);
-                  }}});
-         if (a.candidate.empty() || a.baseline.empty()) {
-           r.fail(n, key, "needs candidate and baseline");
-         }
-         if (a.candidate == a.baseline) {
-           r.fail(n, key,
-                  "candidate and baseline are both '" + a.candidate +
-                      "' (a scenario compared with itself)");
-         }
-       }},
-      {"trials",
-       [&](const yaml::Node& n, const std::string& key) {
-         MappingReader r(n, source, key + ".");
-         TrialRanges& t = set.trials;
-         r.each({{"scene",
-                  [&](const yaml::Node& v, const std::string& k) {
-                    // The list replaces the default draws (an empty list: none).
-                    if (!v.isSequence())
-                      r.fail(v, k, std::string("expected a list, got ") + v.kindName());
-                    t.scene.clear();
-                    for (std::size_t i = 0; i < v.size(); ++i) {
-                      const std::string ik = k + "[" + std::to_string(i) + "]";
-                      MappingReader d(v.item(i), source, ik + ".");
-                      SceneDraw draw;
-                      bool has_range = false, has_offset = false;
-                      d.each({{"name",
-                               [&](const yaml::Node& x, const std::string& xk) {
-                                 word(d)(x, xk, draw.name);
-                                 if (!isDrawName(draw.name)) {
-                                   d.fail(x, xk,
-                                          "'" + draw.name +
-                                              "' is not a name for result.yaml (a letter, "
-                                              "then letters, digits, _; not a key of "
-                                              "result.yaml)");
-                                 }
-                               }},
-                              {"key", [&](const yaml::Node& x,
-                                          const std::string& xk) { word(d)(x, xk, draw.key); }},
-                              {"range",
-                               [&](const yaml::Node& x, const std::string& xk) {
-                                 range(d, -1e6, 1e6)(x, xk, draw.min, draw.max);
-                                 has_range = true;
-                               }},
-                              {"offset", [&](const yaml::Node& x, const std::string& xk) {
-                                 range(d, -1e6, 1e6)(x, xk, draw.min, draw.max);
-                                 has_offset = true;
-                                 draw.offset = true;
-                               }}});
-                      if (draw.key.empty())
-                        r.fail(v.item(i), ik, "key (a scene number) is missing");
-                      if (has_range == has_offset) {
-                        r.fail(v.item(i), ik,
-                               "needs one of range: [min, max] (the value) or "
-                               "offset: [min, max] (added to the file's value)");
-                      }
-                      if (draw.name.empty()) {
-                        if (!isDrawName(draw.key)) {
-                          r.fail(v.item(i), ik,
-                                 "name is missing (the key '" + draw.key +
-                                     "' cannot name it in result.yaml)");
-                        }
-                        draw.name = draw.key;
-                      }
-                      for (const SceneDraw& other : t.scene) {
-                        if (other.name == draw.name)
-                          r.fail(v.item(i), ik, "name '" + draw.name + "' is drawn twice");
-                      }
-                      t.scene.push_back(draw);
-                    }
-                  }},
-                 {"sensor_noise",
-                  [&](const yaml::Node& v, const std::string& k) {
-                    range(r, 0.0, 100.0)(v, k, t.sensor_noise_min, t.sensor_noise_max);
-                  }},
-                 {"speed", [&](const yaml::Node& v, const std::string& k) {
-                    range(r, 0.001, 1.8)(v, k, t.speed_min, t.speed_max);
-                    t.has_speed = true;
-                  }}});
-       }},
-      {"scenarios",
-       [&](const yaml::Node& n, const std::string& key) {
-         if (!n.isSequence()) top.fail(n, key, std::string("expected a list, got ") + n.kindName());
-         for (std::size_t i = 0; i < n.size(); ++i) {
-           const yaml::Node item = n.item(i);
-           const std::string prefix = key + "[" + std::to_string(i) + "].";
-           MappingReader r(item, source, prefix);
-           Scenario s;
-           r.each({
-               {"name", [&](const yaml::Node& v, const std::string& k) { word(r)(v, k, s.name); }},
-               {"title",
-                [&](const yaml::Node& v, const std::string& k) { word(r)(v, k, s.title); }},
-               {"scene",
-                [&](const yaml::Node& v, const std::string& k) {
-                  word(r)(v, k, s.scene);
-                  if (!sim::isSceneName(s.scene)) {
-                    r.fail(v, k, "'" + s.scene + "' is not " + sim::sceneNamesText());
-                  }
-                }},
-               {"scene_config",
-                [&](const yaml::Node& v, const std::string& k) {
-                  word(r)(v, k, s.scene_config);
-                  if (!s.scene_config.empty() && s.scene_config[0] != '/') {
-                    s.scene_config = base_dir + "/" + s.scene_config;
-                  }
-                }},
-               {"controller",
-                [&](const yaml::Node& v, const std::string& k) { word(r)(v, k, s.controller); }},
-               {"control_config",
-                [&](const yaml::Node& v, const std::string& k) {
-                  word(r)(v, k, s.control_config);
-                  if (!s.control_config.empty() && s.control_config[0] != '/') {
-                    s.control_config = base_dir + "/" + s.control_config;
-                  }
-                }},
-               {"duration",
-                [&](const yaml::Node& v, const std::string& k) {
-                  number(r, 0.001, 3600.0)(v, k, s.duration);
-                }},
-               {"args",
-                [&](const yaml::Node& v, const std::string& k) {
-                  words(r)(v, k, s.args);
-                  for (std::size_t a = 0; a < s.args.size(); ++a) {
-                    // Options the scenario's keys or the command set: given twice, every
-                    // run would fail ("At Most 1 required but received 2").
-                    for (const auto& [option, by] :
-                         {std::pair<const char*, const char*>{"--out", "the command (runs/<name>)"},
-                          {"--duration", "the scenario's duration key"},
-                          {"--scene", "the scenario's scene key"},
-                          {"--scene-config", "the scenario's scene_config key"},
-                          {"--controller", "the scenario's controller key"}}) {
-                      const std::string with_value = std::string(option) + "=";
-                      if (s.args[a] == option || s.args[a].rfind(with_value, 0) == 0) {
-                        r.fail(v.item(a), k,
-                               "'" + std::string(option) + "' is set by " + by + ", not in args");
-                      }
-                    }
-                    if (s.args[a] == "--control-config") {
-                      r.fail(v.item(a), k,
-                             "'--control-config' is set by the scenario's control_config key "
-                             "(a path relative to this file)");
-                    }
-                    if (s.args[a] == "--terrain" || s.args[a].rfind("--terrain=", 0) == 0 ||
-                        s.args[a] == "--log-map") {
-                      r.fail(v.item(a), k,
-                             "'" + s.args[a] +
-                                 "' is set by the scenario's terrain key (terrain: "
-                                 "perception | scene; its map log by figures: [map])");
-                    }
-                  }
-                }},
-               {"terrain",
-                [&](const yaml::Node& v, const std::string& k) {
-                  word(r)(v, k, s.terrain);
-                  if (s.terrain != "scene" && s.terrain != "perception") {
-                    r.fail(v, k, "'" + s.terrain + "' is not scene or perception");
-                  }
-                }},
-               {"traverse",
-                [&](const yaml::Node& v, const std::string& k) { flag(r)(v, k, s.traverse); }},
-               {"video",
-                [&](const yaml::Node& v, const std::string& k) { flag(r)(v, k, s.video); }},
-               {"figures",
-                [&](const yaml::Node& v, const std::string& k) {
-                  words(r)(v, k, s.figures);
-                  for (std::size_t f = 0; f < s.figures.size(); ++f) {
-                    const std::string& name = s.figures[f];
-                    if (name != "table1" && name != "fig4" && name != "fig6" && name != "fig8" &&
-                        name != "snapshots" && name != "map") {
-                      r.fail(v.item(f), k,
-                             "'" + name + "' is not table1, fig4, fig6, fig8, snapshots or map");
-                    }
-                  }
-                }},
-               {"paper",
-                [&](const yaml::Node& v, const std::string& k) {
-                  MappingReader p(v, source, k + ".");
-                  s.paper.given = true;
-                  p.each({{"traverse_time",
-                           [&](const yaml::Node& x, const std::string& kk) {
-                             number(p, 0.0, 1e6)(x, kk, s.paper.traverse_time);
-                           }},
-                          {"mean_abs_vz",
-                           [&](const yaml::Node& x, const std::string& kk) {
-                             number(p, 0.0, 1e6)(x, kk, s.paper.mean_abs_vz);
-                           }},
-                          {"mean_abs_wy", [&](const yaml::Node& x, const std::string& kk) {
-                             number(p, 0.0, 1e6)(x, kk, s.paper.mean_abs_wy);
-                           }}});
-                }},
-           });
-           for (const auto& [field, value] :
-                {std::pair<const char*, const std::string*>{"name", &s.name},
-                 {"scene", &s.scene},
-                 {"controller", &s.controller}}) {
-             if (value->empty()) r.fail(item, prefix + field, "missing (required)");
-           }
-           for (char c : s.name) {
-             if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-')) {
-               r.fail(item, prefix + "name",
-                      "'" + s.name + "': only letters, digits, '_' and '-' (it names a folder)");
-             }
-           }
-           if (set.find(s.name) != nullptr) {
-             r.fail(item, prefix + "name", "'" + s.name + "' is used by another scenario");
-           }
-           if (s.feeds("map") && s.terrain != "perception") {
-             r.fail(item, prefix + "figures",
-                    "map (the perceived map's top view) needs terrain: perception");
-           }
-           if (s.title.empty()) s.title = s.name;
-           set.scenarios.push_back(std::move(s));
-         }
-       }},
-  });
-  if (set.acceptance.given) {
-    for (const std::string* name : {&set.acceptance.candidate, &set.acceptance.baseline}) {
+    }
+  }
+  if (reader.seen("acceptance") != nullptr) {
+    Acceptance& a = set.acceptance;
+    a.given = true;
+    const int line = lineOf("acceptance");
+    if (a.candidate.empty() || a.baseline.empty()) {
+      reader.failAtLine(line, "acceptance: needs candidate and baseline");
+    }
+    if (a.candidate == a.baseline) {
+      reader.failAtLine(line, "acceptance: candidate and baseline are both '" + a.candidate +
+                                  "' (a scenario compared with itself)");
+    }
+    for (const std::string* name : {&a.candidate, &a.baseline}) {
       if (set.find(*name) == nullptr) {
-        throw std::runtime_error(source + ": line " + std::to_string(acceptance_line) +
-                                 ": acceptance: no scenario named '" + *name + "'");
+        reader.failAtLine(line, "acceptance: no scenario named '" + *name + "'");
       }
     }
   }

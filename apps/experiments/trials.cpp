@@ -6,12 +6,14 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <set>
 #include <stdexcept>
 
 #include "document.hpp"
 #include "rollstep/common/number_text.hpp"
+#include "rollstep/common/settings_table.hpp"
 #include "rollstep/common/text_file.hpp"
 #include "rollstep/common/yaml_tree.hpp"
 
@@ -266,98 +268,154 @@ std::string toYaml(const TrialResult& r) {
   return out;
 }
 
+namespace {
+
+using settings::Range;
+
+// Every field of a result file is checked as an input would be: its type and its range (a
+// result file may come from anywhere: --collect, report --trials).
+
+/// A number in `range`; "<path>: 1e+308 is outside [0, 1000000]".
+double resultNumber(const yaml::Node& v, const Range& range, settings::Reader& reader,
+                    const std::string& path) {
+  const double x = settings::detail::readNumber(v, Range::anyFinite(), reader, path);
+  if (auto problem = settings::detail::rangeProblem(x, range))
+    reader.fail(v, path + ": " + *problem);
+  return x;
+}
+
+std::string resultText(const yaml::Node& v, settings::Reader& reader, const std::string& path) {
+  if (!v.isScalar()) reader.fail(v, path + ": expected text, not a list or mapping");
+  if (v.scalar().size() > 10000) reader.fail(v, path + ": text of more than 10000 characters");
+  return v.scalar();
+}
+
+/// Scenario and controller names appear in tables: names as the experiments file allows.
+std::string resultName(const yaml::Node& v, settings::Reader& reader, const std::string& path) {
+  const std::string n = resultText(v, reader, path);
+  const bool ok = !n.empty() && n.size() <= 100 && std::all_of(n.begin(), n.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.';
+  });
+  if (!ok)
+    reader.fail(v, path + ": '" + n.substr(0, 100) + "' is not a name (letters, digits, _ - .)");
+  return n;
+}
+
+using ResultRead =
+    std::function<void(const yaml::Node&, TrialResult&, settings::Reader&, const std::string&)>;
+
+/// A key only read (toYaml writes the file: its order and the drawn numbers' keys); a
+/// `nullable` one reads null too.
+settings::Table<TrialResult>& readOnly(settings::Table<TrialResult>& table, const char* key,
+                                       ResultRead read, bool nullable = false) {
+  return table.custom(
+      key, std::move(read), [](const TrialResult&, const std::string&) { return std::string(); },
+      nullable);
+}
+
+/// An optional number (null: not measured) in `range`.
+ResultRead optionalNumber(std::optional<double> TrialResult::*member, Range range) {
+  return [member, range](const yaml::Node& v, TrialResult& r, settings::Reader& reader,
+                         const std::string& path) {
+    r.*member = std::nullopt;
+    if (!v.isNull()) r.*member = resultNumber(v, range, reader, path);
+  };
+}
+
+const settings::Table<TrialResult>& resultTable() {
+  static const settings::Table<TrialResult> table = [] {
+    settings::Table<TrialResult> t;
+    readOnly(t, "scenario",
+             [](const yaml::Node& v, TrialResult& r, settings::Reader& reader,
+                const std::string& path) { r.scenario = resultName(v, reader, path); })
+        .required();
+    readOnly(t, "controller",
+             [](const yaml::Node& v, TrialResult& r, settings::Reader& reader,
+                const std::string& path) { r.controller = resultName(v, reader, path); })
+        .required();
+    readOnly(
+        t, "seed",
+        [](const yaml::Node& v, TrialResult& r, settings::Reader& reader, const std::string& path) {
+          // As --seeds takes them: digits only (no 1e30, no sign, no 2^64 wrapping around).
+          const std::string s = v.isScalar() ? v.scalar() : std::string();
+          if (s.empty() || s.size() > 9 ||
+              !std::all_of(s.begin(), s.end(), [](char c) { return c >= '0' && c <= '9'; })) {
+            reader.fail(
+                v, path + ": '" + s.substr(0, 40) + "' is not a seed (an integer 0 to 999999999)");
+          }
+          r.parameters.seed = std::stoull(s);
+        })
+        .required();
+    readOnly(
+        t, "sensor_noise",
+        [](const yaml::Node& v, TrialResult& r, settings::Reader& reader, const std::string& path) {
+          r.parameters.sensor_noise = resultNumber(v, Range::closed(0, 100), reader, path);
+        })
+        .required();
+    readOnly(
+        t, "speed",
+        [](const yaml::Node& v, TrialResult& r, settings::Reader& reader, const std::string& path) {
+          r.parameters.speed = resultNumber(v, Range::closed(0, 100), reader, path);
+        });
+    t.field("sensor_noise_applied", &TrialResult::sensor_noise_applied);
+    t.field("passed", &TrialResult::passed).required();
+    readOnly(t, "failure",
+             [](const yaml::Node& v, TrialResult& r, settings::Reader& reader,
+                const std::string& path) { r.failure = resultText(v, reader, path); });
+    readOnly(
+        t, "traverse_time",
+        [](const yaml::Node& v, TrialResult& r, settings::Reader& reader, const std::string& path) {
+          // A run lasts at most 1e6 s.
+          optionalNumber(&TrialResult::traverse_time, Range::closed(0, 1e6))(v, r, reader, path);
+          if (r.traverse_time && !(*r.traverse_time > 0.0)) {
+            reader.fail(v, path + ": 0 is not a traverse time");
+          }
+        },
+        /*nullable=*/true);  // null: not measured
+    readOnly(t, "mean_abs_vz", optionalNumber(&TrialResult::mean_abs_vz, Range::closed(0, 1000)),
+             true);
+    readOnly(t, "mean_abs_wy", optionalNumber(&TrialResult::mean_abs_wy, Range::closed(0, 1000)),
+             true);
+    readOnly(t, "command",
+             [](const yaml::Node& v, TrialResult& r, settings::Reader& reader,
+                const std::string& path) { r.command = resultText(v, reader, path); });
+    return t;
+  }();
+  return table;
+}
+
+}  // namespace
+
 TrialResult parseTrialResult(const std::string& text, const std::string& source) {
   TrialResult r;
   r.source = source;
   const yaml::Document doc = yaml::parseDocument(text, source + ": ");
   const yaml::Node root = doc.root();
   if (!root.isMapping()) throw std::runtime_error(source + ": not a trial result (no mapping)");
-  std::map<std::string, bool> seen;
+  settings::Reader reader(source + ": ");
+  const settings::Table<TrialResult>& table = resultTable();
   for (std::size_t i = 0; i < root.size(); ++i) {
-    const std::string key = root.key(i).scalar();
-    const yaml::Node v = root.value(i);
-    const auto fail = [&](const std::string& what) {
-      return std::runtime_error(source + ": line " + std::to_string(v.line()) + ": " + key + ": " +
-                                what);
-    };
-    if (seen[key]) throw fail("given twice");
-    seen[key] = true;
-    // Every field is checked as an input would be: its type and its range (a result file
-    // may come from anywhere: --collect, report --trials).
-    const auto num = [&](double lo, double hi) {
-      double x = 0.0;
-      if (!v.isScalar() || !v.toDouble(x) || !std::isfinite(x)) throw fail("not a finite number");
-      if (x < lo || x > hi) {
-        throw fail(shortestNumberText(x) + " is outside [" + shortestNumberText(lo) + ", " +
-                   shortestNumberText(hi) + "]");
-      }
-      return x;
-    };
-    const auto optional_num = [&](double lo, double hi) -> std::optional<double> {
-      if (v.isNull()) return std::nullopt;
-      return num(lo, hi);
-    };
-    const auto scalar_text = [&]() {
-      if (!v.isScalar()) throw fail("expected text, not a list or mapping");
-      if (v.scalar().size() > 10000) throw fail("text of more than 10000 characters");
-      return v.scalar();
-    };
-    // Scenario and controller names appear in tables: names as the experiments file allows.
-    const auto name = [&]() {
-      const std::string n = scalar_text();
-      const bool ok = !n.empty() && n.size() <= 100 && std::all_of(n.begin(), n.end(), [](char c) {
-        return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.';
-      });
-      if (!ok) throw fail("'" + n.substr(0, 100) + "' is not a name (letters, digits, _ - .)");
-      return n;
-    };
-    const auto flag = [&]() {
-      bool b = false;
-      if (!v.isScalar() || !v.toBool(b)) throw fail("expected true or false");
-      return b;
-    };
-    if (key == "scenario") {
-      r.scenario = name();
-    } else if (key == "controller") {
-      r.controller = name();
-    } else if (key == "seed") {
-      // As --seeds takes them: digits only (no 1e30, no sign, no 2^64 wrapping around).
-      const std::string s = v.isScalar() ? v.scalar() : std::string();
-      if (s.empty() || s.size() > 9 ||
-          !std::all_of(s.begin(), s.end(), [](char c) { return c >= '0' && c <= '9'; })) {
-        throw fail("'" + s.substr(0, 40) + "' is not a seed (an integer 0 to 999999999)");
-      }
-      r.parameters.seed = std::stoull(s);
-    } else if (key == "sensor_noise") {
-      r.parameters.sensor_noise = num(0.0, 100.0);
-    } else if (key == "speed") {
-      r.parameters.speed = num(0.0, 100.0);
-    } else if (key == "sensor_noise_applied") {
-      r.sensor_noise_applied = flag();
-    } else if (key == "passed") {
-      r.passed = flag();
-    } else if (key == "failure") {
-      r.failure = scalar_text();
-    } else if (key == "traverse_time") {
-      r.traverse_time = optional_num(0.0, 1e6);  // a run lasts at most 1e6 s
-      if (r.traverse_time && !(*r.traverse_time > 0.0)) throw fail("0 is not a traverse time");
-    } else if (key == "mean_abs_vz") {
-      r.mean_abs_vz = optional_num(0.0, 1000.0);
-    } else if (key == "mean_abs_wy") {
-      r.mean_abs_wy = optional_num(0.0, 1000.0);
-    } else if (key == "command") {
-      r.command = scalar_text();
-    } else if (isDrawName(key) && v.isScalar() && v.plain()) {
+    const yaml::Node key = root.key(i), v = root.value(i);
+    if (key.isScalar() && table.find(key.scalar()) == nullptr && isDrawName(key.scalar()) &&
+        v.isScalar() && v.plain()) {
       // Any other name with a number: a scene number the trial drew (TrialRanges::scene).
-      r.parameters.scene.push_back({key, "", false, num(-1e6, 1e6)});
-    } else {
-      throw std::runtime_error(source + ": line " + std::to_string(root.key(i).line()) +
-                               ": unknown key '" + key + "'");
+      reader.note(key.scalar(), key, v);
+      r.parameters.scene.push_back(
+          {key.scalar(), "", false,
+           resultNumber(v, Range::closed(-1e6, 1e6), reader, key.scalar())});
+      continue;
     }
+    if (key.isScalar() && table.find(key.scalar()) == nullptr) {
+      reader.fail(key, "unknown key '" + key.scalar() + "' (known: " + table.keys() +
+                           ", or a drawn scene number's name with its number)");
+    }
+    table.readEntry(key, v, r, reader);
   }
   // The trial's parameters too: a result without them does not say what was run.
-  for (const char* required : {"scenario", "controller", "seed", "sensor_noise", "passed"}) {
-    if (!seen[required]) throw std::runtime_error(source + ": missing key '" + required + "'");
+  for (const settings::Field<TrialResult>& f : table.fields()) {
+    if (f.required && reader.seen(f.key) == nullptr) {
+      throw std::runtime_error(source + ": missing key '" + f.key + "'");
+    }
   }
   if (r.passed && !r.failure.empty()) {
     throw std::runtime_error(source + ": passed: true with a failure ('" +

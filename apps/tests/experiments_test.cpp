@@ -3,11 +3,13 @@
 // trials' seeded draws, result files and aggregate, the report document.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <set>
 #include <string>
 #include <vector>
 
+#include "experiments/acceptance.hpp"
 #include "experiments/document.hpp"
 #include "experiments/log_table.hpp"
 #include "experiments/metrics.hpp"
@@ -290,7 +292,7 @@ TEST(ExperimentSet, LoadsTheProjectsFileAndRefusesMistakes) {
   EXPECT_EQ(error("scenarios:\n  - {name: a, scene: flat, controler: nmpc}\n").substr(0, 48),
             "f: line 2: unknown key 'scenarios[0].controler' ");
   EXPECT_EQ(error("scenarios:\n  - {name: a, scene: flat}\n"),
-            "f: line 2: scenarios[0].controller: missing (required)");
+            "f: line 2: missing key 'scenarios[0].controller'");
   EXPECT_EQ(error(ok + "  - {name: a, scene: flat, controller: x}\n"),
             "f: line 3: scenarios[1].name: 'a' is used by another scenario");
   EXPECT_EQ(error(ok + "criteria:\n  max_tilt: 9\n"),
@@ -644,7 +646,13 @@ TEST(Trials, ResultFieldsAreCheckedLikeInputs) {
             "r.yaml: line 3: seed: '-1' is not a seed (an integer 0 to 999999999)");
   EXPECT_EQ(error("seed: 1\nfriction: 1e7"),
             "r.yaml: line 4: friction: 10000000 is outside [-1000000, 1000000]");
-  EXPECT_EQ(error("seed: 1\nfriction: [1]"), "r.yaml: line 4: unknown key 'friction'");
+  EXPECT_EQ(error("seed: 1\nfriction: [1]"),
+            "r.yaml: line 4: unknown key 'friction' (known: scenario, controller, seed, "
+            "sensor_noise, speed, sensor_noise_applied, passed, failure, traverse_time, "
+            "mean_abs_vz, mean_abs_wy, command, or a drawn scene number's name with its number)");
+  EXPECT_EQ(error("seed: 1\nseed: 2"), "r.yaml: line 4: seed: given twice (first on line 3)");
+  EXPECT_EQ(error("seed: 1\nfriction: 1\nfriction: 2"),
+            "r.yaml: line 5: friction: given twice (first on line 4)");
   EXPECT_EQ(error("seed: 1\nmean_abs_vz: -0.1"),
             "r.yaml: line 4: mean_abs_vz: -0.1 is outside [0, 1000]");
   EXPECT_EQ(error("seed: 1\ncontroller: [a, b]"),
@@ -774,6 +782,141 @@ TEST(Document, MarkdownAndHtmlCarryTheSameContent) {
 TEST(Process, ShellQuoting) {
   EXPECT_EQ(shellCommand({"rollstep", "sim", "--out", "a b", "it's"}),
             "rollstep sim --out 'a b' 'it'\\''s'");
+}
+
+// The report's verdict: Table 1 margins of the candidate's run against the baseline's, only
+// when both passed with metrics; the candidate's trial success rate, only when trials were
+// given.
+RunOutcome judgedRun(const std::string& name, double time, double vz, double wy) {
+  RunOutcome o;
+  o.name = name;
+  o.log = LogTable::parse("t\n0\n", name);
+  if (time > 0) o.assessment.metrics = Table1Metrics{time, vz, wy, 100, 2.0};
+  return o;
+}
+
+ReportInputs acceptanceInputs() {
+  ReportInputs in;
+  for (const char* name : {"other", "b", "n"}) {
+    Scenario s;
+    s.name = name;
+    in.set.scenarios.push_back(s);
+  }
+  Acceptance& a = in.set.acceptance;
+  a.candidate = "n";
+  a.baseline = "b";
+  a.traverse_time = -0.2;
+  a.mean_abs_vz = -0.5;
+  a.mean_abs_wy = -0.1;
+  a.trial_success_rate = 0.9;
+  a.given = true;
+  in.file_acceptance = a;
+  return in;
+}
+
+TEST(JudgeAcceptance, MarginsOfTheCandidatesRunAgainstTheBaselines) {
+  const ReportInputs in = acceptanceInputs();
+  std::vector<RunOutcome> runs = {judgedRun("other", 0, 0, 0), judgedRun("b", 10, 0.05, 0.1),
+                                  judgedRun("n", 7, 0.02, 0.08)};
+  ReportVerdict v = judgeAcceptance(in, runs);
+  EXPECT_TRUE(v.runs_given);
+  EXPECT_EQ(v.candidate, 2u);
+  EXPECT_EQ(v.baseline, 1u);
+  ASSERT_TRUE(v.runs_compared);
+  ASSERT_EQ(v.margins.size(), 3u);
+  EXPECT_EQ(v.margins[0].metric, "traverse time");
+  EXPECT_NEAR(v.margins[0].change, -0.3, 1e-12);
+  EXPECT_EQ(v.margins[0].margin, -0.2);
+  EXPECT_NEAR(v.margins[1].change, -0.6, 1e-12);
+  EXPECT_NEAR(v.margins[2].change, -0.2, 1e-12);
+  EXPECT_TRUE(v.margins[0].met && v.margins[1].met && v.margins[2].met);
+  EXPECT_TRUE(v.runs_met);
+  EXPECT_FALSE(v.trials_judged);  // no trial folders given
+  EXPECT_TRUE(v.judged());
+  EXPECT_TRUE(v.met());
+
+  // One margin missed: |w_y| only 5 % less than the baseline's.
+  runs[2] = judgedRun("n", 7, 0.02, 0.095);
+  v = judgeAcceptance(in, runs);
+  ASSERT_EQ(v.margins.size(), 3u);
+  EXPECT_TRUE(v.margins[0].met && v.margins[1].met);
+  EXPECT_FALSE(v.margins[2].met);
+  EXPECT_FALSE(v.runs_met);
+  EXPECT_FALSE(v.met());
+
+  // A baseline of 0 gives no finite change: not met.
+  runs[1] = judgedRun("b", 10, 0.0, 0.1);
+  runs[2] = judgedRun("n", 7, 0.02, 0.08);
+  v = judgeAcceptance(in, runs);
+  EXPECT_FALSE(v.margins[1].met);
+  EXPECT_FALSE(v.runs_met);
+
+  // A run that failed, or passed without a traverse window: nothing compared, not met.
+  runs[1] = judgedRun("b", 10, 0.05, 0.1);
+  runs[1].assessment.failures = {"it fell"};
+  v = judgeAcceptance(in, runs);
+  EXPECT_FALSE(v.runs_compared);
+  EXPECT_TRUE(v.margins.empty());
+  EXPECT_FALSE(v.runs_met);
+  runs[1] = judgedRun("b", 0, 0, 0);
+  v = judgeAcceptance(in, runs);
+  EXPECT_FALSE(v.runs_compared);
+  EXPECT_FALSE(v.met());
+
+  // No acceptance in the file: nothing judged, nothing to fail.
+  ReportInputs none = acceptanceInputs();
+  none.set.acceptance = Acceptance{};
+  none.file_acceptance = Acceptance{};
+  v = judgeAcceptance(none, runs);
+  EXPECT_FALSE(v.runs_given);
+  EXPECT_FALSE(v.judged());
+  EXPECT_TRUE(v.met());
+}
+
+TEST(JudgeAcceptance, TheCandidatesTrialSuccessRateWhenTrialsAreGiven) {
+  ReportInputs in = acceptanceInputs();
+  in.set.acceptance = Acceptance{};  // --only left no acceptance runs: the trials still count
+  const std::vector<RunOutcome> runs = {judgedRun("other", 0, 0, 0), judgedRun("b", 0, 0, 0),
+                                        judgedRun("n", 0, 0, 0)};
+  const auto trials = [](int candidate_passed) {
+    std::vector<TrialResult> results;
+    for (int seed = 0; seed < 10; ++seed) {
+      for (const char* name : {"n", "b"}) {
+        TrialResult r;
+        r.scenario = name;
+        r.parameters.seed = static_cast<std::uint64_t>(seed);
+        r.passed = std::string(name) == "b" || seed < candidate_passed;
+        results.push_back(r);
+      }
+    }
+    return results;
+  };
+  in.trials.results = trials(9);
+  // Results without --trials folders (as after --only): not judged.
+  ReportVerdict v = judgeAcceptance(in, runs);
+  EXPECT_FALSE(v.trials_judged);
+  EXPECT_FALSE(v.judged());
+
+  in.trial_dirs = {"trials"};
+  v = judgeAcceptance(in, runs);
+  ASSERT_TRUE(v.trials_judged);
+  EXPECT_EQ(v.trials.candidate_trials, 10);
+  EXPECT_EQ(v.trials.candidate_passed, 9);
+  EXPECT_TRUE(v.trials_met);  // 0.9 >= 0.9
+  EXPECT_TRUE(v.met());
+
+  in.trials.results = trials(8);
+  v = judgeAcceptance(in, runs);
+  EXPECT_FALSE(v.trials_met);  // 0.8 < 0.9
+  EXPECT_FALSE(v.met());
+
+  // No candidate trial among the results: not met (a rate of nothing is no evidence).
+  in.trials.results.erase(std::remove_if(in.trials.results.begin(), in.trials.results.end(),
+                                         [](const TrialResult& r) { return r.scenario == "n"; }),
+                          in.trials.results.end());
+  v = judgeAcceptance(in, runs);
+  EXPECT_EQ(v.trials.candidate_trials, 0);
+  EXPECT_FALSE(v.trials_met);
 }
 
 }  // namespace

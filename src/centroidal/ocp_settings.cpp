@@ -90,19 +90,6 @@ settings::Table<OcpSettings> makeTable() {
           /*is_section=*/true);
 }
 
-std::string lineOf(const yaml::Node& node) { return "line " + std::to_string(node.line()) + ": "; }
-
-/// Parses a whole document with `read(root, fail)`; YAML errors become the loader's error.
-template <typename Read>
-void parseDocument(const std::string& text, const std::string& prefix, Read read) {
-  try {
-    const yaml::Document document = yaml::Document::parse(text);
-    read(document.root());
-  } catch (const yaml::YamlError& e) {
-    throw std::runtime_error(prefix + "YAML error: " + e.what());
-  }
-}
-
 }  // namespace
 
 const settings::Table<OcpSettings>& ocpSettingsTable() {
@@ -142,157 +129,120 @@ std::string toYaml(const OcpSettings& settings) { return ocpSettingsTable().writ
 
 // --- the robot description ------------------------------------------------------------------
 
+namespace {
+
+// The keys of a robot description file as written; RobotOcpDescription is built from it
+// after the cross-field checks (every name a contact frame, the trot groups a partition).
+struct DescriptionFile {
+  std::string urdf;
+  std::vector<std::string> contact_frames;
+  std::vector<std::string> drive_wheels;
+  std::vector<std::vector<std::string>> side_pairs;
+  double contact_offset = 0.0;
+  Eigen::VectorXd nominal_joint_positions;
+  Eigen::VectorXd servo_stiffness;
+  std::vector<std::vector<std::string>> trot_groups;
+  std::vector<std::string> walk_order;
+};
+
+const settings::Table<DescriptionFile>& descriptionTable() {
+  using D = DescriptionFile;
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  static const settings::Table<D> table =
+      settings::Table<D>()
+          .field("urdf", &D::urdf)
+          .required()
+          .field("contact_frames", &D::contact_frames)
+          .required()
+          .field("drive_wheels", &D::drive_wheels)
+          .field("side_pairs", &D::side_pairs, /*lists=*/0, /*names_per_list=*/2)
+          .field("contact_offset", &D::contact_offset, "m", Range::closed(0, 10))
+          .field("nominal_joint_positions", &D::nominal_joint_positions, "rad or m",
+                 Range::anyFinite(), /*min_size=*/1)
+          .required()
+          .field("servo_stiffness", &D::servo_stiffness, "N m/rad or N/m", Range::open(0, kInf),
+                 /*min_size=*/1)
+          .field("trot_groups", &D::trot_groups, /*lists=*/2)
+          .field("walk_order", &D::walk_order);
+  return table;
+}
+
+}  // namespace
+
 RobotOcpDescription parseRobotOcpDescription(const std::string& yaml_text,
                                              const std::string& source_name,
                                              const std::string& base_directory) {
-  const std::string prefix = "robot description " + source_name + ": ";
+  const std::string head = "robot description " + source_name + ": ";
+  const yaml::Document document = yaml::parseDocument(yaml_text, head + "YAML error: ");
+  DescriptionFile file;
+  settings::Reader reader(head);
+  descriptionTable().read(document.root(), file, reader);
+  // The cross-field checks, each at the line of the key it names.
+  const auto fail = [&](const char* key, const std::string& what) {
+    reader.failAtLine(reader.lineOf({key}, document.root().line()), key + (": " + what));
+  };
+  if (file.contact_frames.empty()) fail("contact_frames", "empty");
+  const auto isContact = [&](const std::string& name) {
+    return std::find(file.contact_frames.begin(), file.contact_frames.end(), name) !=
+           file.contact_frames.end();
+  };
+  const auto requireContacts = [&](const char* key, const std::vector<std::string>& names) {
+    for (const std::string& name : names) {
+      if (!isContact(name)) fail(key, "'" + name + "' is not a contact frame");
+    }
+  };
+  requireContacts("drive_wheels", file.drive_wheels);
+  requireContacts("walk_order", file.walk_order);
+  for (const std::vector<std::string>& pair : file.side_pairs) requireContacts("side_pairs", pair);
+  for (const std::vector<std::string>& group : file.trot_groups) {
+    requireContacts("trot_groups", group);
+  }
+  if (!file.trot_groups.empty()) {
+    // A trot alternates two groups that share no foot and together hold all of them.
+    const auto in = [](const std::vector<std::string>& group, const std::string& name) {
+      return std::find(group.begin(), group.end(), name) != group.end();
+    };
+    for (const std::string& frame : file.contact_frames) {
+      const bool a = in(file.trot_groups[0], frame), b = in(file.trot_groups[1], frame);
+      if (a && b) fail("trot_groups", "'" + frame + "' is in both groups");
+      if (!a && !b) {
+        fail("trot_groups",
+             "'" + frame + "' is in neither group (each contact frame in exactly one)");
+      }
+    }
+  }
+  if (!file.walk_order.empty()) {
+    for (const std::string& frame : file.contact_frames) {
+      if (std::find(file.walk_order.begin(), file.walk_order.end(), frame) ==
+          file.walk_order.end()) {
+        fail("walk_order", "'" + frame + "' is missing (the order lists every contact frame once)");
+      }
+    }
+  }
+
   RobotOcpDescription d;
   d.source = source_name;
-  parseDocument(yaml_text, prefix, [&](const yaml::Node& root) {
-    const auto fail = [&](const yaml::Node& at, const std::string& what) {
-      throw std::runtime_error(prefix + lineOf(at) + what);
-    };
-    if (!root.isMapping()) fail(root, "expected a mapping of key: value");
-    const auto text = [&](const yaml::Node& node, const std::string& key) {
-      if (!node.isScalar()) fail(node, key + ": expected a name, got " + node.kindName());
-      return node.scalar();
-    };
-    const auto names = [&](const yaml::Node& node, const std::string& key) {
-      if (!node.isSequence())
-        fail(node, key + ": expected a list of names, got " + node.kindName());
-      std::vector<std::string> out;
-      for (std::size_t i = 0; i < node.size(); ++i) {
-        std::string name = text(node.item(i), key);
-        for (const std::string& other : out) {
-          if (other == name) fail(node.item(i), key + ": '" + name + "' given twice");
-        }
-        out.push_back(std::move(name));
-      }
-      return out;
-    };
-    std::map<std::string, yaml::Node> given;
-    const std::vector<std::string> known = {
-        "urdf",           "contact_frames",          "drive_wheels",    "side_pairs",
-        "contact_offset", "nominal_joint_positions", "servo_stiffness", "trot_groups",
-        "walk_order"};
-    for (std::size_t item = 0; item < root.size(); ++item) {
-      const yaml::Node key_node = root.key(item);
-      const std::string key = text(key_node, "key");
-      bool is_known = false;
-      for (const std::string& k : known) is_known = is_known || k == key;
-      if (!is_known) fail(key_node, "unknown key '" + key + "'");
-      if (given.count(key) != 0) {
-        fail(key_node,
-             key + ": given twice (first on line " + std::to_string(given.at(key).line()) + ")");
-      }
-      if (root.value(item).isNull()) fail(key_node, key + ": no value");
-      given.emplace(key, root.value(item));
-    }
-    for (const char* required : {"urdf", "contact_frames", "nominal_joint_positions"}) {
-      if (given.count(required) == 0) fail(root, std::string("missing key '") + required + "'");
-    }
-    d.urdf = text(given.at("urdf"), "urdf");
-    if (!base_directory.empty() && !std::filesystem::path(d.urdf).is_absolute()) {
-      d.urdf = (std::filesystem::path(base_directory) / d.urdf).lexically_normal().string();
-    }
-    d.contact_frames = names(given.at("contact_frames"), "contact_frames");
-    if (d.contact_frames.empty()) fail(given.at("contact_frames"), "contact_frames: empty");
-    const auto isContact = [&](const std::string& name) {
-      for (const std::string& c : d.contact_frames) {
-        if (c == name) return true;
-      }
-      return false;
-    };
-    const auto contactNames = [&](const char* key) {
-      std::vector<std::string> out;
-      if (given.count(key) == 0) return out;
-      out = names(given.at(key), key);
-      for (std::size_t i = 0; i < out.size(); ++i) {
-        if (!isContact(out[i])) {
-          fail(given.at(key).item(i),
-               std::string(key) + ": '" + out[i] + "' is not a contact frame");
-        }
-      }
-      return out;
-    };
-    d.drive_wheels = contactNames("drive_wheels");
-    d.walk_order = contactNames("walk_order");
-    if (given.count("side_pairs") != 0) {
-      const yaml::Node pairs = given.at("side_pairs");
-      if (!pairs.isSequence()) fail(pairs, "side_pairs: expected a list of [first, second]");
-      for (std::size_t i = 0; i < pairs.size(); ++i) {
-        const std::vector<std::string> pair = names(pairs.item(i), "side_pairs");
-        if (pair.size() != 2) fail(pairs.item(i), "side_pairs: expected two names per pair");
-        for (const std::string& name : pair) {
-          if (!isContact(name))
-            fail(pairs.item(i), "side_pairs: '" + name + "' is not a contact frame");
-        }
-        d.side_pairs.push_back({pair[0], pair[1]});
-      }
-    }
-    if (given.count("trot_groups") != 0) {
-      const yaml::Node groups = given.at("trot_groups");
-      if (!groups.isSequence() || groups.size() != 2) {
-        fail(groups, "trot_groups: expected two lists of contact frames");
-      }
-      d.trot_group_a = names(groups.item(0), "trot_groups");
-      d.trot_group_b = names(groups.item(1), "trot_groups");
-      for (const auto* group : {&d.trot_group_a, &d.trot_group_b}) {
-        for (const std::string& name : *group) {
-          if (!isContact(name)) fail(groups, "trot_groups: '" + name + "' is not a contact frame");
-        }
-      }
-      // A trot alternates two groups that share no foot and together hold all of them.
-      const auto in = [](const std::vector<std::string>& group, const std::string& name) {
-        return std::find(group.begin(), group.end(), name) != group.end();
-      };
-      for (const std::string& frame : d.contact_frames) {
-        const bool a = in(d.trot_group_a, frame), b = in(d.trot_group_b, frame);
-        if (a && b) fail(groups, "trot_groups: '" + frame + "' is in both groups");
-        if (!a && !b) {
-          fail(groups, "trot_groups: '" + frame +
-                           "' is in neither group (each contact frame in exactly one)");
-        }
-      }
-    }
-    if (!d.walk_order.empty()) {
-      for (const std::string& frame : d.contact_frames) {
-        if (std::find(d.walk_order.begin(), d.walk_order.end(), frame) == d.walk_order.end()) {
-          fail(given.at("walk_order"), "walk_order: '" + frame +
-                                           "' is missing (the order lists every contact "
-                                           "frame once)");
-        }
-      }
-    }
-    if (given.count("contact_offset") != 0) {
-      const yaml::Node node = given.at("contact_offset");
-      if (!node.toDouble(d.contact_offset) || !std::isfinite(d.contact_offset) ||
-          d.contact_offset < 0.0 || d.contact_offset > 10.0) {
-        fail(node, "contact_offset: expected a distance in [0, 10] m, got '" + node.scalar() + "'");
-      }
-    }
-    // A per-joint list of finite numbers (> 0 where `positive`).
-    const auto jointNumbers = [&](const std::string& key, bool positive) {
-      const yaml::Node node = given.at(key);
-      if (!node.isSequence() || node.size() == 0) fail(node, key + ": expected a list of numbers");
-      Eigen::VectorXd out(static_cast<Eigen::Index>(node.size()));
-      for (std::size_t i = 0; i < node.size(); ++i) {
-        double v = 0.0;
-        if (!node.item(i).toDouble(v) || !std::isfinite(v) || (positive && v <= 0.0)) {
-          fail(node.item(i), key + ": '" + node.item(i).scalar() + "' is not a finite number" +
-                                 (positive ? " > 0" : ""));
-        }
-        out[static_cast<Eigen::Index>(i)] = v;
-      }
-      return out;
-    };
-    d.nominal_joint_positions = jointNumbers("nominal_joint_positions", false);
-    if (given.count("servo_stiffness") != 0) {
-      d.servo_stiffness = jointNumbers("servo_stiffness", true);
-    }
-  });
+  d.urdf = file.urdf;
+  if (!base_directory.empty() && !std::filesystem::path(d.urdf).is_absolute()) {
+    d.urdf = (std::filesystem::path(base_directory) / d.urdf).lexically_normal().string();
+  }
+  d.contact_frames = std::move(file.contact_frames);
+  d.drive_wheels = std::move(file.drive_wheels);
+  for (const std::vector<std::string>& pair : file.side_pairs) {
+    d.side_pairs.push_back({pair[0], pair[1]});
+  }
+  d.contact_offset = file.contact_offset;
+  d.nominal_joint_positions = std::move(file.nominal_joint_positions);
+  d.servo_stiffness = std::move(file.servo_stiffness);
+  if (!file.trot_groups.empty()) {
+    d.trot_group_a = std::move(file.trot_groups[0]);
+    d.trot_group_b = std::move(file.trot_groups[1]);
+  }
+  d.walk_order = std::move(file.walk_order);
   return d;
 }
+
+std::string documentedRobotDescription() { return descriptionTable().documented(); }
 
 RobotOcpDescription loadRobotOcpDescription(const std::string& yaml_file) {
   const std::string text = readTextFile(yaml_file, "robot description", kMaxConfigBytes);

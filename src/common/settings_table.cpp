@@ -115,8 +115,8 @@ std::vector<double> readNumbers(const yaml::Node& value, int size, const Range& 
   return out;
 }
 
-std::vector<std::string> readNames(const yaml::Node& value, Reader& reader,
-                                   const std::string& path) {
+std::vector<std::string> readNames(const yaml::Node& value, Reader& reader, const std::string& path,
+                                   Repeats repeats) {
   if (!value.isSequence()) {
     reader.fail(value, path + ": expected a list of names, got " + value.kindName());
   }
@@ -125,15 +125,53 @@ std::vector<std::string> readNames(const yaml::Node& value, Reader& reader,
     const yaml::Node item = value.item(i);
     if (!item.isScalar()) reader.fail(item, path + ": expected a name, got " + item.kindName());
     for (const std::string& other : out) {
-      if (other == item.scalar()) reader.fail(item, path + ": '" + other + "' given twice");
+      if (repeats == Repeats::Refused && other == item.scalar()) {
+        reader.fail(item, path + ": '" + other + "' given twice");
+      }
     }
     out.push_back(item.scalar());
   }
   return out;
 }
 
-namespace {
-// A name as plain text when it is only letters, digits and _ . / -, else double-quoted.
+std::string readName(const yaml::Node& value, Reader& reader, const std::string& path) {
+  if (!value.isScalar()) reader.fail(value, path + ": expected a name, got " + value.kindName());
+  return value.scalar();
+}
+
+std::vector<std::vector<std::string>> readNameLists(const yaml::Node& value, std::size_t lists,
+                                                    std::size_t names_per_list, Reader& reader,
+                                                    const std::string& path) {
+  const std::string wanted =
+      (lists > 0 ? std::to_string(lists) + " lists" : std::string("a list of lists")) +
+      " of names" + (names_per_list > 0 ? ", " + std::to_string(names_per_list) + " each" : "");
+  if (!value.isSequence() || (lists > 0 && value.size() != lists)) {
+    reader.fail(value, path + ": expected " + wanted + ", got " +
+                           (value.isSequence() ? "a list of " + std::to_string(value.size())
+                                               : std::string(value.kindName())));
+  }
+  std::vector<std::vector<std::string>> out;
+  for (std::size_t i = 0; i < value.size(); ++i) {
+    const yaml::Node item = value.item(i);
+    const std::string item_path = path + "[" + std::to_string(i) + "]";
+    std::vector<std::string> names = readNames(item, reader, item_path);
+    if (names_per_list > 0 && names.size() != names_per_list) {
+      reader.fail(item, item_path + ": expected " + std::to_string(names_per_list) +
+                            " names, got " + std::to_string(names.size()));
+    }
+    out.push_back(std::move(names));
+  }
+  return out;
+}
+
+void requireSize(std::size_t size, std::size_t min_size, const char* what, const yaml::Node& value,
+                 Reader& reader, const std::string& path) {
+  if (size < min_size) {
+    reader.fail(value, path + ": expected at least " + std::to_string(min_size) + " " + what +
+                           ", got " + std::to_string(size));
+  }
+}
+
 std::string nameYaml(const std::string& name) {
   bool plain = !name.empty();
   for (const char c : name) {
@@ -148,7 +186,6 @@ std::string nameYaml(const std::string& name) {
   }
   return out + "\"";
 }
-}  // namespace
 
 std::string namesYaml(const std::vector<std::string>& names) {
   std::string out = "[";

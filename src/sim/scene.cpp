@@ -7,13 +7,12 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
-#include <functional>
-#include <map>
 #include <stdexcept>
 #include <type_traits>
 #include <utility>
 
 #include "rollstep/common/number_text.hpp"
+#include "rollstep/common/settings_table.hpp"
 #include "rollstep/common/text_file.hpp"
 #include "rollstep/common/yaml_tree.hpp"
 
@@ -373,128 +372,174 @@ SceneConfig loadSceneNamed(const std::string& name_or_file, int depth) {
   return loadSceneFile(scenesDirectory() + "/" + name_or_file + ".yaml", depth);
 }
 
-// ---- The reader: one table of keys per mapping (easy to move onto a settings table). ----
+// ---- The reader: the scene's settings table (numbers are texts: expressions). ----
 
-struct Reader {
-  std::string prefix;  // "scene config 'FILE': "
+/// "scene config 'FILE': line N": where a value was written, for messages of later checks.
+std::string whereOf(const settings::Reader& r, const yaml::Node& node) {
+  const std::string& head = r.head();
+  return head.substr(0, head.size() - 2) + ": line " + std::to_string(node.line());
+}
 
-  [[noreturn]] void fail(const yaml::Node& node, const std::string& path,
-                         const std::string& what) const {
-    throw std::runtime_error(prefix + "line " + std::to_string(node.line()) + ": " +
-                             (path.empty() ? "" : path + ": ") + what);
+/// A number or an expression: a plain scalar (a quoted one is text, not a number).
+SceneValue readValue(const yaml::Node& node, settings::Reader& r, const std::string& path) {
+  if (node.isNull()) r.fail(node, path + ": no value");
+  if (!node.isScalar()) r.fail(node, path + ": expected a number, got " + node.kindName());
+  if (!node.plain()) {
+    r.fail(node, path + ": '" + node.scalar() + "' is not a number (it is " +
+                     (node.tag().empty() ? "quoted" : "tagged " + node.tag()) + ")");
   }
-  std::string where(const yaml::Node& node) const {
-    return prefix.substr(0, prefix.size() - 2) + ": line " + std::to_string(node.line());
-  }
+  return SceneValue{node.scalar(), whereOf(r, node)};
+}
 
-  using Handler = std::function<void(const yaml::Node& value, const std::string& path)>;
-  struct Key {
-    const char* name;
-    Handler read;
+std::array<SceneValue, 3> readTriple(const yaml::Node& node, settings::Reader& r,
+                                     const std::string& path) {
+  if (!node.isSequence() || node.size() != 3) {
+    r.fail(node, path + ": expected a list of 3 numbers [x, y, z], got " +
+                     (node.isSequence() ? std::to_string(node.size()) + " items"
+                                        : std::string(node.kindName())));
+  }
+  std::array<SceneValue, 3> out;
+  for (std::size_t k = 0; k < 3; ++k) {
+    out[k] = readValue(node.item(k), r, path + "[" + std::to_string(k) + "]");
+  }
+  return out;
+}
+
+/// A SceneValue member: read by readValue, written as its text.
+template <typename S>
+settings::Table<S>& valueField(settings::Table<S>& table, const char* key, SceneValue S::*member) {
+  return table.custom(
+      key,
+      [member](const yaml::Node& v, S& s, settings::Reader& r, const std::string& path) {
+        s.*member = readValue(v, r, path);
+      },
+      [member](const S& s, const std::string&) { return " " + (s.*member).text; });
+}
+
+/// A triple [x, y, z] of SceneValues.
+settings::Table<SceneSolidSpec>& tripleField(settings::Table<SceneSolidSpec>& table,
+                                             const char* key,
+                                             std::array<SceneValue, 3> SceneSolidSpec::*member) {
+  return table.custom(
+      key,
+      [member](const yaml::Node& v, SceneSolidSpec& s, settings::Reader& r,
+               const std::string& path) { s.*member = readTriple(v, r, path); },
+      [member](const SceneSolidSpec& s, const std::string&) {
+        const auto& v = s.*member;
+        return " [" + v[0].text + ", " + v[1].text + ", " + v[2].text + "]";
+      });
+}
+
+/// A box, or a ramp (a box with a slope).
+settings::Table<SceneSolidSpec> solidTable(bool ramp) {
+  settings::Table<SceneSolidSpec> table;
+  tripleField(table, "position", &SceneSolidSpec::position).required();
+  tripleField(table, "size", &SceneSolidSpec::size).required();
+  valueField(table, "yaw_deg", &SceneSolidSpec::yaw_deg);
+  if (ramp) valueField(table, "slope_deg", &SceneSolidSpec::slope_deg).required();
+  return table;
+}
+
+settings::ListOptions<SceneSolidSpec> solidList() {
+  settings::ListOptions<SceneSolidSpec> options;
+  options.append = true;  // a file's solids add to its base's
+  options.omit_when_empty = true;
+  // Messages about an item's defaults (yaw 0) name the item.
+  options.finish = [](const yaml::Node& item, SceneSolidSpec& s, settings::Reader& r,
+                      const std::string& path) {
+    s.where = whereOf(r, item);
+    if (r.seen(path + ".yaw_deg") == nullptr) s.yaw_deg.where = s.where;
+    if (r.seen(path + ".slope_deg") == nullptr) s.slope_deg.where = s.where;
   };
-  /// Every entry of `mapping` to its key's handler; unknown and repeated keys are errors.
-  void each(const yaml::Node& mapping, const std::string& path,
-            const std::vector<Key>& keys) const {
-    if (!mapping.isMapping()) {
-      fail(mapping, path, std::string("expected a mapping, got ") + mapping.kindName());
-    }
-    std::map<std::string, int> seen;
-    for (std::size_t i = 0; i < mapping.size(); ++i) {
-      const yaml::Node k = mapping.key(i);
-      if (!k.isScalar()) fail(k, path, "a key must be a plain name");
-      const std::string name = k.scalar();
-      const std::string sub = path.empty() ? name : path + "." + name;
-      if (const auto it = seen.find(name); it != seen.end()) {
-        fail(k, sub,
-             "key '" + name + "' given twice (first on line " + std::to_string(it->second) + ")");
-      }
-      seen.emplace(name, k.line());
-      const Key* key = nullptr;
-      for (const Key& candidate : keys) {
-        if (name == candidate.name) key = &candidate;
-      }
-      if (key == nullptr) {
-        std::string known;
-        for (const Key& candidate : keys)
-          known += (known.empty() ? "" : ", ") + std::string(candidate.name);
-        fail(k, path, "unknown key '" + name + "' (known: " + known + ")");
-      }
-      key->read(mapping.value(i), sub);
-    }
-  }
-  /// A number or an expression: a plain scalar (a quoted one is text, not a number).
-  SceneValue value(const yaml::Node& node, const std::string& path) const {
-    if (node.isNull()) fail(node, path, "no value");
-    if (!node.isScalar()) {
-      fail(node, path, std::string("expected a number, got ") + node.kindName());
-    }
-    if (!node.plain()) {
-      fail(node, path,
-           "'" + node.scalar() + "' is not a number (it is " +
-               (node.tag().empty() ? "quoted" : "tagged " + node.tag()) + ")");
-    }
-    return SceneValue{node.scalar(), where(node)};
-  }
-  std::array<SceneValue, 3> triple(const yaml::Node& node, const std::string& path) const {
-    if (!node.isSequence() || node.size() != 3) {
-      fail(node, path,
-           std::string("expected a list of 3 numbers [x, y, z], got ") +
-               (node.isSequence() ? std::to_string(node.size()) + " items" : node.kindName()));
-    }
-    std::array<SceneValue, 3> out;
-    for (std::size_t k = 0; k < 3; ++k) {
-      out[k] = value(node.item(k), path + "[" + std::to_string(k) + "]");
-    }
-    return out;
-  }
-  std::vector<SceneSolidSpec> solids(const yaml::Node& node, const std::string& path,
-                                     bool ramp) const {
-    if (!node.isSequence()) {
-      fail(node, path, std::string("expected a list, got ") + node.kindName());
-    }
-    std::vector<SceneSolidSpec> out;
-    for (std::size_t i = 0; i < node.size(); ++i) {
-      const yaml::Node item = node.item(i);
-      const std::string sub = path + "[" + std::to_string(i) + "]";
-      SceneSolidSpec s;
-      s.where = where(item);
-      s.yaw_deg.where = s.slope_deg.where = s.where;
-      bool has_position = false, has_size = false, has_slope = false;
-      std::vector<Key> keys{
-          {"position",
-           [&](const yaml::Node& v, const std::string& p) {
-             s.position = triple(v, p);
-             has_position = true;
-           }},
-          {"size",
-           [&](const yaml::Node& v, const std::string& p) {
-             s.size = triple(v, p);
-             has_size = true;
-           }},
-          {"yaw_deg", [&](const yaml::Node& v, const std::string& p) { s.yaw_deg = value(v, p); }},
-      };
-      if (ramp) {
-        keys.push_back({"slope_deg", [&](const yaml::Node& v, const std::string& p) {
-                          s.slope_deg = value(v, p);
-                          has_slope = true;
-                        }});
-      }
-      each(item, sub, keys);
-      if (!has_position) fail(item, sub, "position [x, y, z] is missing");
-      if (!has_size) fail(item, sub, "size [x, y, z] is missing");
-      if (ramp && !has_slope) fail(item, sub, "slope_deg is missing");
-      out.push_back(std::move(s));
-    }
-    return out;
-  }
-};
+  return options;
+}
 
 const char* const kReservedNames[] = {"friction", "boxes", "ramps", "base", "parameters"};
 
+/// `parameters:` a mapping of name: number. Over a base, only the base's parameters may be
+/// given (new values); without one, each name given is a new parameter.
+void readParameters(const yaml::Node& v, SceneConfig& config, settings::Reader& r,
+                    const std::string& path, bool has_base) {
+  if (v.isNull()) return;
+  if (!v.isMapping()) r.fail(v, path + ": expected a mapping, got " + v.kindName());
+  const std::size_t inherited = config.parameters.size();
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    const yaml::Node k = v.key(i);
+    const std::string name = k.isScalar() ? k.scalar() : std::string();
+    const std::string sub = path + "." + name;
+    if (!isName(name)) {
+      r.fail(k, path + ": '" + name + "' is not a parameter name (letters, digits, _)");
+    }
+    for (const char* reserved : kReservedNames) {
+      if (name == reserved) r.fail(k, sub + ": '" + name + "' is a key of the scene file");
+    }
+    const yaml::Node value = v.value(i);
+    r.note(sub, k, value);
+    // A parameter's value is a plain number (expressions are for the geometry).
+    double number = 0.0;
+    if (!value.isScalar() || !value.toDouble(number)) {
+      r.fail(value,
+             sub + ": " +
+                 (value.isScalar() ? "'" + value.scalar() + "' is not a number"
+                                   : std::string("expected a number, got ") + value.kindName()));
+    }
+    if (!std::isfinite(number)) {
+      r.fail(value, sub + ": '" + value.scalar() + "' is not a finite number");
+    }
+    const auto end = config.parameters.begin() + static_cast<std::ptrdiff_t>(inherited);
+    const auto it = std::find_if(config.parameters.begin(), end,
+                                 [&](const SceneParameter& p) { return p.name == name; });
+    if (it != end) {
+      it->value = number;
+      it->where = whereOf(r, value);
+    } else if (has_base) {
+      std::string known;
+      for (std::size_t j = 0; j < inherited; ++j) {
+        known += (known.empty() ? "" : ", ") + config.parameters[j].name;
+      }
+      r.fail(k, sub + ": '" + name + "' is not a parameter of the base scene (it has: " +
+                    (known.empty() ? "none" : known) + ")");
+    } else {
+      config.parameters.push_back({name, number, whereOf(r, value)});
+    }
+  }
+}
+
+/// The scene file's keys; `base:` is read before the others (parseScene), whatever its
+/// place in the file.
+settings::Table<SceneConfig> makeSceneTable(bool has_base) {
+  settings::Table<SceneConfig> table;
+  table.custom(
+      "base", [](const yaml::Node&, SceneConfig&, settings::Reader&, const std::string&) {},
+      [](const SceneConfig&, const std::string&) { return std::string(); });
+  table.custom(
+      "parameters",
+      [has_base](const yaml::Node& v, SceneConfig& c, settings::Reader& r,
+                 const std::string& path) { readParameters(v, c, r, path, has_base); },
+      [](const SceneConfig& c, const std::string& indent) {
+        std::string out;
+        for (const SceneParameter& p : c.parameters) {
+          out += "\n" + indent + "  " + p.name + ": " + numberText(p.value);
+        }
+        return out;
+      },
+      /*is_section=*/true);
+  valueField(table, "friction", &SceneConfig::friction);
+  table.sections("boxes", &SceneConfig::boxes, solidTable(false), solidList());
+  table.sections("ramps", &SceneConfig::ramps, solidTable(true), solidList());
+  return table;
+}
+
+const settings::Table<SceneConfig>& sceneTable(bool has_base) {
+  static const settings::Table<SceneConfig> alone = makeSceneTable(false);
+  static const settings::Table<SceneConfig> over_base = makeSceneTable(true);
+  return has_base ? over_base : alone;
+}
+
 SceneConfig parseScene(const std::string& yaml_text, const std::string& source_name, int depth) {
-  const Reader r{"scene config '" + source_name + "': "};
+  const std::string head = "scene config '" + source_name + "': ";
   if (depth > kMaxBaseDepth) {
-    throw std::runtime_error(r.prefix + "base: scenes based on each other more than " +
+    throw std::runtime_error(head + "base: scenes based on each other more than " +
                              std::to_string(kMaxBaseDepth) +
                              " deep (a file that is its own base?)");
   }
@@ -504,17 +549,17 @@ SceneConfig parseScene(const std::string& yaml_text, const std::string& source_n
     const std::string stem = std::filesystem::path(source_name).stem().string();
     config.name = stem.empty() ? source_name : stem;
   }
-  const yaml::Document document = yaml::parseDocument(yaml_text, r.prefix);
+  settings::Reader r(head);
+  const yaml::Document document = yaml::parseDocument(yaml_text, head);
   const yaml::Node root = document.root();
   if (root.isNull()) return config;  // empty file: the floor alone
-  if (!root.isMapping())
-    r.fail(root, "", "expected a mapping (parameters, friction, boxes, ramps)");
+  if (!root.isMapping()) r.fail(root, "expected a mapping (parameters, friction, boxes, ramps)");
   // The base first, whatever the order of the keys: the rest changes or extends it.
   bool has_base = false;
   for (std::size_t i = 0; i < root.size(); ++i) {
     if (!root.key(i).isScalar() || root.key(i).scalar() != "base") continue;
     const yaml::Node v = root.value(i);
-    if (!v.isScalar() || v.scalar().empty()) r.fail(v, "base", "expected a scene name or file");
+    if (!v.isScalar() || v.scalar().empty()) r.fail(v, "base: expected a scene name or file");
     std::string base = v.scalar();
     if (looksLikeFile(base) && base[0] != '/') {
       const std::filesystem::path dir = std::filesystem::path(source_name).parent_path();
@@ -526,84 +571,17 @@ SceneConfig parseScene(const std::string& yaml_text, const std::string& source_n
       config.name = name;
       config.source = source;
     } catch (const std::exception& e) {  // a bad file, or an unknown name
-      r.fail(v, "base", e.what());
+      r.fail(v, std::string("base: ") + e.what());
     }
     has_base = true;
   }
-  std::vector<Reader::Key> keys{
-      {"base", [](const yaml::Node&, const std::string&) {}},
-      {"parameters",
-       [&](const yaml::Node& v, const std::string& path) {
-         if (v.isNull()) return;
-         if (!v.isMapping())
-           r.fail(v, path, std::string("expected a mapping, got ") + v.kindName());
-         const std::size_t inherited = config.parameters.size();
-         std::map<std::string, int> seen;
-         for (std::size_t i = 0; i < v.size(); ++i) {
-           const yaml::Node k = v.key(i);
-           const std::string name = k.isScalar() ? k.scalar() : std::string();
-           const std::string sub = path + "." + name;
-           if (!isName(name)) {
-             r.fail(k, path, "'" + name + "' is not a parameter name (letters, digits, _)");
-           }
-           for (const char* reserved : kReservedNames) {
-             if (name == reserved) r.fail(k, sub, "'" + name + "' is a key of the scene file");
-           }
-           if (const auto it = seen.find(name); it != seen.end()) {
-             r.fail(k, sub,
-                    "key '" + name + "' given twice (first on line " + std::to_string(it->second) +
-                        ")");
-           }
-           seen.emplace(name, k.line());
-           // A parameter's value is a plain number (expressions are for the geometry).
-           const yaml::Node value = v.value(i);
-           double number = 0.0;
-           if (!value.isScalar() || !value.toDouble(number)) {
-             r.fail(value, sub,
-                    value.isScalar() ? "'" + value.scalar() + "' is not a number"
-                                     : std::string("expected a number, got ") + value.kindName());
-           }
-           if (!std::isfinite(number)) {
-             r.fail(value, sub, "'" + value.scalar() + "' is not a finite number");
-           }
-           auto it =
-               std::find_if(config.parameters.begin(),
-                            config.parameters.begin() + static_cast<std::ptrdiff_t>(inherited),
-                            [&](const SceneParameter& p) { return p.name == name; });
-           if (it != config.parameters.begin() + static_cast<std::ptrdiff_t>(inherited)) {
-             it->value = number;
-             it->where = r.where(value);
-           } else if (has_base) {
-             std::string known;
-             for (std::size_t j = 0; j < inherited; ++j) {
-               known += (known.empty() ? "" : ", ") + config.parameters[j].name;
-             }
-             r.fail(k, sub,
-                    "'" + name + "' is not a parameter of the base scene (it has: " +
-                        (known.empty() ? "none" : known) + ")");
-           } else {
-             config.parameters.push_back({name, number, r.where(value)});
-           }
-         }
-       }},
-      {"friction",
-       [&](const yaml::Node& v, const std::string& path) { config.friction = r.value(v, path); }},
-      {"boxes",
-       [&](const yaml::Node& v, const std::string& path) {
-         for (SceneSolidSpec& s : r.solids(v, path, false)) config.boxes.push_back(std::move(s));
-       }},
-      {"ramps",
-       [&](const yaml::Node& v, const std::string& path) {
-         for (SceneSolidSpec& s : r.solids(v, path, true)) config.ramps.push_back(std::move(s));
-       }},
-  };
-  r.each(root, "", keys);
+  sceneTable(has_base).read(root, config, r);
   try {
     config.validate();
   } catch (const std::invalid_argument& e) {
     // "<this file>: " once: the message names the file of the bad number (a base's).
-    throw std::runtime_error(std::string(e.what()).rfind(r.prefix, 0) == 0 ? e.what()
-                                                                           : r.prefix + e.what());
+    throw std::runtime_error(std::string(e.what()).rfind(head, 0) == 0 ? e.what()
+                                                                       : head + e.what());
   }
   return config;
 }
@@ -619,31 +597,10 @@ SceneConfig parseSceneConfig(const std::string& yaml_text, const std::string& so
 }
 
 std::string toYaml(const SceneConfig& config) {
-  std::string out = "# scene " + config.name + "\n";
-  if (!config.parameters.empty()) {
-    out += "parameters:\n";
-    for (const SceneParameter& p : config.parameters) {
-      out += "  " + p.name + ": " + numberText(p.value) + "\n";
-    }
-  }
-  out += "friction: " + config.friction.text + "\n";
-  const auto triple = [](const std::array<SceneValue, 3>& v) {
-    return "[" + v[0].text + ", " + v[1].text + ", " + v[2].text + "]";
-  };
-  const auto list = [&](const char* key, const std::vector<SceneSolidSpec>& solids, bool ramp) {
-    if (solids.empty()) return;
-    out += std::string(key) + ":\n";
-    for (const SceneSolidSpec& s : solids) {
-      out += "  - position: " + triple(s.position) + "\n";
-      out += "    size: " + triple(s.size) + "\n";
-      out += "    yaw_deg: " + s.yaw_deg.text + "\n";
-      if (ramp) out += "    slope_deg: " + s.slope_deg.text + "\n";
-    }
-  };
-  list("boxes", config.boxes, false);
-  list("ramps", config.ramps, true);
-  return out;
+  return "# scene " + config.name + "\n" + sceneTable(false).write(config);
 }
+
+std::string documentedScene() { return sceneTable(false).documented(); }
 
 // ---- Numbers by key path ----
 

@@ -122,16 +122,18 @@ TEST(RobotOcpDescription, Tachyon3FileReadsAndErrorsAreNamed) {
       has(error("urdf: a.urdf\ncontact_frames: [A]\n"), "missing key 'nominal_joint_positions'"));
   EXPECT_TRUE(
       has(error(base + "drive_wheels: [C]\n"), "line 4: drive_wheels: 'C' is not a contact frame"));
-  EXPECT_TRUE(has(error(base + "side_pairs: [[A]]\n"), "two names per pair"));
-  EXPECT_TRUE(has(error(base + "contact_offset: -1\n"), "contact_offset"));
+  EXPECT_TRUE(
+      has(error(base + "side_pairs: [[A]]\n"), "line 4: side_pairs[0]: expected 2 names, got 1"));
+  EXPECT_TRUE(
+      has(error(base + "contact_offset: -1\n"), "line 4: contact_offset: -1 is outside [0, 10]"));
   EXPECT_TRUE(has(error(base + "colour: red\n"), "unknown key 'colour'"));
   EXPECT_TRUE(has(error("urdf: a\ncontact_frames: [A, A]\nnominal_joint_positions: [0]\n"),
                   "'A' given twice"));
   EXPECT_TRUE(has(error("urdf: a\ncontact_frames: [A]\nnominal_joint_positions: [x]\n"),
-                  "not a finite number"));
+                  "line 3: nominal_joint_positions: 'x' is not a number"));
   EXPECT_EQ(error(base + "servo_stiffness: [100]\n"), "");
   EXPECT_TRUE(has(error(base + "servo_stiffness: [0]\n"),
-                  "line 4: servo_stiffness: '0' is not a finite number > 0"));
+                  "line 4: servo_stiffness: 0 is outside (0, inf)"));
   EXPECT_TRUE(has(error(base + "servo_stiffness: 5\n"), "servo_stiffness: expected a list"));
   // A trot's two groups hold every foot exactly once; a walk order lists every foot.
   EXPECT_EQ(error(base + "trot_groups: [[A], [B]]\nwalk_order: [B, A]\n"), "");
@@ -140,8 +142,28 @@ TEST(RobotOcpDescription, Tachyon3FileReadsAndErrorsAreNamed) {
           "line 4: trot_groups: 'B' is in neither group (each contact frame in exactly one)"));
   EXPECT_TRUE(has(error(base + "trot_groups: [[A, B], [B]]\n"),
                   "line 4: trot_groups: 'B' is in both groups"));
+  EXPECT_TRUE(has(error(base + "trot_groups: [[A, B]]\n"),
+                  "line 4: trot_groups: expected 2 lists of names, got a list of 1"));
+  EXPECT_TRUE(has(error(base + "side_pairs: [[A, C]]\n"),
+                  "line 4: side_pairs: 'C' is not a contact frame"));
+  EXPECT_TRUE(has(error("urdf: a\ncontact_frames: []\nnominal_joint_positions: [0]\n"),
+                  "line 2: contact_frames: empty"));
+  EXPECT_TRUE(has(error("urdf: a\ncontact_frames: [A]\nnominal_joint_positions: []\n"),
+                  "line 3: nominal_joint_positions: expected at least 1 numbers, got 0"));
+  EXPECT_TRUE(has(error(base + "urdf: b\n"), "line 4: urdf: given twice (first on line 1)"));
   EXPECT_TRUE(has(error(base + "walk_order: [B]\n"),
                   "line 4: walk_order: 'A' is missing (the order lists every contact frame once)"));
+}
+
+TEST(RobotOcpDescription, DocumentedListsEveryKeyWithItsDefault) {
+  const std::string doc = documentedRobotDescription();
+  for (const char* line :
+       {"urdf: \"\"\n", "contact_frames: []\n", "drive_wheels: []\n", "side_pairs: []\n",
+        "contact_offset: 0  # [m] [0, 10]\n", "nominal_joint_positions: []  # [rad or m]\n",
+        "servo_stiffness: []  # [N m/rad or N/m] (0, inf)\n", "trot_groups: []\n",
+        "walk_order: []\n"}) {
+    EXPECT_TRUE(has(doc, line)) << line << " not in\n" << doc;
+  }
 }
 
 }  // namespace

@@ -195,4 +195,160 @@ TEST(SettingsTable, ATableRefusesAKeyTwice) {
                std::logic_error);
 }
 
+// The kinds a description file needs: a name, vectors of any size, lists of name lists,
+// lists of sections, required keys.
+struct Item {
+  std::string label = "item";
+  double mass = 1.0;
+};
+
+struct Description {
+  std::string urdf = "robot.urdf";
+  Eigen::VectorXd posture = Eigen::VectorXd::Zero(2);
+  std::vector<std::vector<std::string>> pairs;
+  std::vector<Item> items;
+  std::vector<std::string> words;  // repeats allowed
+};
+
+settings::Table<Item> itemTable() {
+  return settings::Table<Item>()
+      .field("label", &Item::label)
+      .required()
+      .field("mass", &Item::mass, "kg", settings::Range::leftOpen(0, 100));
+}
+
+const settings::Table<Description>& descriptionTable(bool append = false) {
+  static const auto make = [](bool append_items) {
+    settings::ListOptions<Item> options;
+    options.append = append_items;
+    options.finish = [](const yaml::Node& item, Item& it, settings::Reader& r,
+                        const std::string& path) {
+      if (it.label == "heavy" && it.mass < 10) r.fail(item, path + ": a heavy item under 10 kg");
+    };
+    return settings::Table<Description>()
+        .field("urdf", &Description::urdf)
+        .required()
+        .field("posture", &Description::posture, "rad", settings::Range::closed(-4, 4), 1)
+        .field("pairs", &Description::pairs, 0, 2)
+        .sections("items", &Description::items, itemTable(), options)
+        .field("words", &Description::words, settings::Repeats::Allowed);
+  };
+  static const settings::Table<Description> replacing = make(false), appending = make(true);
+  return append ? appending : replacing;
+}
+
+Description readDescription(const std::string& text, const Description& base = Description{},
+                            bool append = false) {
+  return settings::readDocument(text, descriptionTable(append), "description d.yaml: ", base);
+}
+
+std::string descriptionError(const std::string& text) {
+  try {
+    readDescription(text);
+  } catch (const std::runtime_error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+bool same(const Description& a, const Description& b) {
+  if (a.urdf != b.urdf || a.posture.size() != b.posture.size() || a.posture != b.posture ||
+      a.pairs != b.pairs || a.items.size() != b.items.size() || a.words != b.words) {
+    return false;
+  }
+  for (std::size_t i = 0; i < a.items.size(); ++i) {
+    if (a.items[i].label != b.items[i].label || a.items[i].mass != b.items[i].mass) return false;
+  }
+  return true;
+}
+
+TEST(SettingsTable, NamesVectorsNameListsAndListsOfSectionsAreRead) {
+  const Description d = readDescription(
+      "urdf: 'my robot.urdf'\nposture: [0.5, -1, 2]\npairs: [[a, b], [c, d]]\n"
+      "items:\n  - label: wheel\n    mass: 2\n  - label: tyre\n");
+  EXPECT_EQ(d.urdf, "my robot.urdf");
+  ASSERT_EQ(d.posture.size(), 3);
+  EXPECT_EQ(d.posture, Eigen::Vector3d(0.5, -1, 2));
+  EXPECT_EQ(d.pairs, (std::vector<std::vector<std::string>>{{"a", "b"}, {"c", "d"}}));
+  ASSERT_EQ(d.items.size(), 2u);
+  EXPECT_EQ(d.items[0].label, "wheel");
+  EXPECT_EQ(d.items[0].mass, 2.0);
+  EXPECT_EQ(d.items[1].label, "tyre");
+  EXPECT_EQ(d.items[1].mass, 1.0);  // each item starts from the defaults
+  EXPECT_EQ(readDescription("urdf: r\nwords: [--vx, '0.1', --vy, '0.1']\n").words,
+            (std::vector<std::string>{"--vx", "0.1", "--vy", "0.1"}));
+  // A list replaces the base's, or (append) adds to it.
+  Description base;
+  base.items = {Item{"old", 3.0}};
+  EXPECT_EQ(readDescription("urdf: r\nitems: [{label: new}]\n", base).items.size(), 1u);
+  const Description appended = readDescription("urdf: r\nitems: [{label: new}]\n", base, true);
+  ASSERT_EQ(appended.items.size(), 2u);
+  EXPECT_EQ(appended.items[0].label, "old");
+  EXPECT_EQ(appended.items[1].label, "new");
+}
+
+TEST(SettingsTable, ErrorsOfTheDescriptionKindsNameTheLineAndFullKeyPath) {
+  struct Case {
+    const char* text;
+    const char* message;
+  };
+  const Case cases[] = {
+      {"posture: [1]\n", "line 1: missing key 'urdf'"},
+      {"", "line 1: missing key 'urdf'"},
+      {"urdf: [a]\n", "line 1: urdf: expected a name, got a list"},
+      {"urdf: r\nposture: []\n", "line 2: posture: expected at least 1 numbers, got 0"},
+      {"urdf: r\nposture: [0, 5]\n", "line 2: posture: 5 is outside [-4, 4]"},
+      {"urdf: r\npairs: [a, b]\n", "line 2: pairs[0]: expected a list of names, got a value"},
+      {"urdf: r\npairs: [[a, b], [c]]\n", "line 2: pairs[1]: expected 2 names, got 1"},
+      {"urdf: r\npairs: [[a, a]]\n", "line 2: pairs[0]: 'a' given twice"},
+      {"urdf: r\nitems: {label: x}\n", "line 2: items: expected a list, got a mapping"},
+      {"urdf: r\nitems:\n  - 3\n", "line 3: items[0]: expected a mapping, got a value"},
+      {"urdf: r\nitems:\n  - label: a\n  - mass: 2\n", "line 4: missing key 'items[1].label'"},
+      {"urdf: r\nitems:\n  - label: a\n    mas: 2\n",
+       "line 4: unknown key 'items[0].mas' (known in items[0]: label, mass)"},
+      {"urdf: r\nitems:\n  - label: a\n    mass: 0\n",
+       "line 4: items[0].mass: 0 is outside (0, 100]"},
+      {"urdf: r\nitems:\n  - label: a\n    label: b\n",
+       "line 4: items[0].label: given twice (first on line 3)"},
+      {"urdf: r\nitems:\n  - label: heavy\n", "line 3: items[0]: a heavy item under 10 kg"},
+  };
+  for (const Case& c : cases) {
+    const std::string e = descriptionError(c.text);
+    EXPECT_EQ(e.rfind("description d.yaml: ", 0), 0u) << c.text << " -> " << e;
+    EXPECT_NE(e.find(c.message), std::string::npos) << c.text << " -> " << e;
+  }
+}
+
+TEST(SettingsTable, DescriptionKindsWriteReadBackAndAreDocumented) {
+  Description d;
+  d.urdf = "a b/c.urdf";
+  d.posture = Eigen::VectorXd::LinSpaced(5, -0.1, 0.3);
+  d.pairs = {{"x", "y"}, {"left front", "z"}};
+  d.items = {Item{"first", 0.1 + 0.2}, Item{"second", 99.0}};
+  d.words = {"a", "a"};
+  const std::string text = descriptionTable().write(d);
+  EXPECT_TRUE(same(readDescription(text), d)) << text;
+  EXPECT_NE(text.find("items:\n  - label: first\n    mass: 0.30000000000000004\n  - label: "
+                      "second\n"),
+            std::string::npos)
+      << text;
+  d.items.clear();
+  EXPECT_NE(descriptionTable().write(d).find("items: []\n"), std::string::npos);
+  EXPECT_TRUE(same(readDescription(descriptionTable().write(d)), d));
+  // Every key with its default, the items' keys as comments under the list.
+  const std::string doc = descriptionTable().documented();
+  EXPECT_NE(doc.find("urdf: robot.urdf\n"), std::string::npos) << doc;
+  EXPECT_NE(doc.find("posture: [0, 0]  # [rad] [-4, 4]\n"), std::string::npos) << doc;
+  EXPECT_NE(doc.find("items: []  # a list of mappings, each:\n  #   label: item\n"
+                     "  #   mass: 1  # [kg] (0, 100]\n"),
+            std::string::npos)
+      << doc;
+  EXPECT_TRUE(same(readDescription(doc), Description{}));
+  // check() names an item's key in full.
+  d.items = {Item{}, Item{"b", -1.0}};
+  const auto p = descriptionTable().check(d);
+  ASSERT_TRUE(p);
+  EXPECT_EQ(p->path, "items[1].mass");
+}
+
 }  // namespace rollstep::test_settings

@@ -172,18 +172,20 @@ const char* const kBox = "boxes:\n  - position: [2, 0, 0.1]\n    size: [1, 1, 0.
 
 TEST(SceneErrors, NameFileLineAndKey) {
   expectError("step1_height: 0.2\n", {"line 1: unknown key 'step1_height' (known: base, "});
-  expectError(std::string(kBox) + "    colour: red\n",
-              {"line 4: boxes[0]: unknown key 'colour' (known: position, size, yaw_deg)"});
-  expectError(std::string(kBox) + "    slope_deg: 5\n", {"unknown key 'slope_deg'"});
+  expectError(
+      std::string(kBox) + "    colour: red\n",
+      {"line 4: unknown key 'boxes[0].colour' (known in boxes[0]: position, size, yaw_deg)"});
+  expectError(std::string(kBox) + "    slope_deg: 5\n",
+              {"line 4: unknown key 'boxes[0].slope_deg'"});
   expectError("boxes:\n  - position: [2, 0, 0.1]\n    size: [1, -1, 0.2]\n",
               {"line 3: boxes[0].size[1]: -1 m is out of range; a size must be > 0"});
   expectError("boxes:\n  - position: [2, 0, 0.1]\n    size: [1, 1, 0]\n",
               {"line 3: boxes[0].size[2]: 0 m is out of range"});
   expectError("boxes:\n  - position: [2, 0]\n    size: [1, 1, 1]\n",
               {"line 2: boxes[0].position: expected a list of 3 numbers [x, y, z], got 2 items"});
-  expectError("boxes:\n  - size: [1, 1, 1]\n", {"line 2: boxes[0]: position [x, y, z] is missing"});
+  expectError("boxes:\n  - size: [1, 1, 1]\n", {"line 2: missing key 'boxes[0].position'"});
   expectError("ramps:\n  - {position: [2, 0, 0], size: [2, 1, 0.1]}\n",
-              {"line 2: ramps[0]: slope_deg is missing"});
+              {"line 2: missing key 'ramps[0].slope_deg'"});
   expectError("ramps:\n  - position: [2, 0, 0]\n    size: [2, 1, 0.1]\n    slope_deg: 20.5\n",
               {"line 4: ramps[0].slope_deg: 20.5 deg is steeper than the 20 deg a ramp may have"});
   expectError("ramps:\n  - position: [2, 0, 0]\n    size: [2, 1, 0.1]\n    slope_deg: -21\n",
@@ -205,9 +207,9 @@ TEST(SceneErrors, NameFileLineAndKey) {
   expectError("parameters: {h: 1 + 2}\n", {"parameters.h: '1 + 2' is not a number"});
   expectError("parameters: {2h: 1}\n", {"'2h' is not a parameter name"});
   expectError("parameters: {friction: 1}\n", {"parameters.friction: 'friction' is a key"});
-  expectError("parameters:\n  h: 1\n  h: 2\n", {"line 3: parameters.h: key 'h' given twice"});
-  expectError("friction: 1\nfriction: 2\n",
-              {"line 2: friction: key 'friction' given twice (first on line 1)"});
+  expectError("parameters:\n  h: 1\n  h: 2\n",
+              {"line 3: parameters.h: given twice (first on line 2)"});
+  expectError("friction: 1\nfriction: 2\n", {"line 2: friction: given twice (first on line 1)"});
   expectError("boxes:\n  - position: [60, 0, 0.1]\n    size: [1, 1, 0.2]\n",
               {"line 2: boxes[0]: reaches beyond the floor"});
   expectError("boxes:\n  - position: [2, 0, 0.1]\n    size: [1, 1, 0.2]\n    yaw_deg: 400\n",

@@ -268,6 +268,8 @@ RobotOcpDescription parseRobotOcpDescription(const std::string& yaml_text,
                                              const std::string& source_name,
                                              const std::string& base_directory = "");
 RobotOcpDescription loadRobotOcpDescription(const std::string& yaml_file);
+/// The keys of a robot description file, one line each with its default, unit and range.
+std::string documentedRobotDescription();
 
 /// [m] How far the foothold regions made from a terrain keep inside its surfaces: the
 /// robot's contact offset (the regions bound the wheel centres) plus

@@ -4,9 +4,10 @@
 // A field is a key, the struct member it reads and writes, a unit, a valid range and (for
 // enums) the enum's names (enum_names.hpp). The documented default of every key is the
 // member's value in a default-constructed struct: the struct's member initializers are the
-// only place a default is written. A section is a nested mapping read by its own table;
+// only place a default is written. A section is a nested mapping read by its own table, a
+// list of sections (`sections`) a list of such mappings, item i's keys named "key[i].name";
 // a custom field reads and writes a key by functions of its own (a section another layer
-// owns, with its own checks).
+// owns, a number written as an expression). A field marked required() must be given.
 //
 //   const settings::Table<MpcSettings> kMpc = settings::Table<MpcSettings>()
 //       .field("timing", &MpcSettings::timing)
@@ -102,6 +103,9 @@ class Reader {
   std::map<std::string, Seen> seen_;
 };
 
+/// Whether a list of names may give a name twice.
+enum class Repeats { Refused, Allowed };
+
 /// A field's problem found by Table::check: its full key path and what is wrong.
 struct Problem {
   std::string path;
@@ -120,14 +124,38 @@ bool readBool(const yaml::Node& value, Reader& reader, const std::string& path);
 /// A list of `size` numbers (any size when size < 0).
 std::vector<double> readNumbers(const yaml::Node& value, int size, const Range& range,
                                 Reader& reader, const std::string& path);
-std::vector<std::string> readNames(const yaml::Node& value, Reader& reader,
-                                   const std::string& path);
+std::vector<std::string> readNames(const yaml::Node& value, Reader& reader, const std::string& path,
+                                   Repeats repeats = Repeats::Refused);
+/// One name: a scalar (any text).
+std::string readName(const yaml::Node& value, Reader& reader, const std::string& path);
+/// `lists` (any number when 0) lists of names, each of `names_per_list` (any when 0).
+std::vector<std::vector<std::string>> readNameLists(const yaml::Node& value, std::size_t lists,
+                                                    std::size_t names_per_list, Reader& reader,
+                                                    const std::string& path);
+/// Fails at `value` when `size` < `min_size` ("expected at least N <what>, got M").
+void requireSize(std::size_t size, std::size_t min_size, const char* what, const yaml::Node& value,
+                 Reader& reader, const std::string& path);
+/// A name as plain text when it is only letters, digits and _ . / -, else double-quoted.
+std::string nameYaml(const std::string& name);
 std::string namesYaml(const std::vector<std::string>& names);
 std::string numbersYaml(const double* values, std::size_t n);
 std::optional<std::string> rangeProblem(double v, const Range& range);
 /// Indents every line of `text` by `indent`.
 std::string indented(const std::string& text, const std::string& indent);
 }  // namespace detail
+
+/// How a list of sections is read and written.
+template <typename Sub>
+struct ListOptions {
+  /// Items read are appended to the list the struct holds (a file over a base adds to
+  /// the base's list) instead of replacing it.
+  bool append = false;
+  /// An empty list is not written (instead of `key: []`).
+  bool omit_when_empty = false;
+  /// Called after each item is read: its cross-field checks. `path` is "key[i]".
+  std::function<void(const yaml::Node& item, Sub& sub, Reader& reader, const std::string& path)>
+      finish;
+};
 
 /// One key of a table.
 template <typename S>
@@ -136,6 +164,7 @@ struct Field {
   std::string unit;  ///< "m", "s", "rad/s", ... ("" for counts, flags and names)
   Range range;       ///< of each number (unused for flags, names, enums, sections)
   bool is_section = false;
+  bool required = false;  ///< a mapping read must give it (Table::required)
   /// Reads `value` into `s`; `path` is the full key path.
   std::function<void(const yaml::Node& value, S& s, Reader& reader, const std::string& path)> read;
   /// Writes the value: " text" for a scalar, "\n" + nested lines for a section (indent is
@@ -143,7 +172,7 @@ struct Field {
   std::function<std::string(const S& s, const std::string& indent)> write;
   /// The first problem of the value in `s` (ranges, enum values), none when valid.
   std::function<std::optional<Problem>(const S& s, const std::string& path)> check;
-  /// Sections: the nested table's documented defaults (Table::documented).
+  /// Sections and lists of sections: the text after "key:" in Table::documented.
   std::function<std::string(const std::string& indent)> document;
 };
 
@@ -221,6 +250,7 @@ class Table {
   template <int N>
   Table& field(const char* key, Eigen::Matrix<double, N, 1> S::*member, const char* unit = "",
                Range range = Range::anyFinite()) {
+    static_assert(N > 0, "a vector of any size is the Eigen::VectorXd field");
     Field<S> f = base(key, unit, range);
     f.read = [member, range](const yaml::Node& v, S& s, Reader& r, const std::string& path) {
       const std::vector<double> x = detail::readNumbers(v, N, range, r, path);
@@ -267,11 +297,72 @@ class Table {
     return add(std::move(f));
   }
 
-  /// A list of names (text), none given twice.
-  Table& field(const char* key, std::vector<std::string> S::*member) {
+  /// A vector of numbers of any length (at least `min_size`), each in `range`.
+  Table& field(const char* key, Eigen::VectorXd S::*member, const char* unit = "",
+               Range range = Range::anyFinite(), std::size_t min_size = 0) {
+    Field<S> f = base(key, unit, range);
+    f.read = [member, range, min_size](const yaml::Node& v, S& s, Reader& r,
+                                       const std::string& path) {
+      const std::vector<double> x = detail::readNumbers(v, -1, range, r, path);
+      detail::requireSize(x.size(), min_size, "numbers", v, r, path);
+      (s.*member) =
+          Eigen::Map<const Eigen::VectorXd>(x.data(), static_cast<Eigen::Index>(x.size()));
+    };
+    f.write = [member](const S& s, const std::string&) {
+      return " " +
+             detail::numbersYaml((s.*member).data(), static_cast<std::size_t>((s.*member).size()));
+    };
+    f.check = [member, range](const S& s, const std::string& path) -> std::optional<Problem> {
+      for (Eigen::Index i = 0; i < (s.*member).size(); ++i) {
+        if (auto p = detail::rangeProblem((s.*member)[i], range)) {
+          return Problem{path, "entry " + std::to_string(i) + ", " + *p};
+        }
+      }
+      return std::nullopt;
+    };
+    return add(std::move(f));
+  }
+
+  /// One name (text): a scalar, plain or quoted.
+  Table& field(const char* key, std::string S::*member) {
     Field<S> f = base(key, "", Range{});
     f.read = [member](const yaml::Node& v, S& s, Reader& r, const std::string& path) {
-      s.*member = detail::readNames(v, r, path);
+      s.*member = detail::readName(v, r, path);
+    };
+    f.write = [member](const S& s, const std::string&) {
+      return " " + detail::nameYaml(s.*member);
+    };
+    f.check = [](const S&, const std::string&) { return std::optional<Problem>(); };
+    return add(std::move(f));
+  }
+
+  /// A list of lists of names ([[a, b], [c]]), none given twice within a list: exactly
+  /// `lists` lists when lists > 0, each of exactly `names_per_list` names when that is > 0.
+  Table& field(const char* key, std::vector<std::vector<std::string>> S::*member,
+               std::size_t lists = 0, std::size_t names_per_list = 0) {
+    Field<S> f = base(key, "", Range{});
+    f.read = [member, lists, names_per_list](const yaml::Node& v, S& s, Reader& r,
+                                             const std::string& path) {
+      s.*member = detail::readNameLists(v, lists, names_per_list, r, path);
+    };
+    f.write = [member](const S& s, const std::string&) {
+      std::string out = " [";
+      for (std::size_t i = 0; i < (s.*member).size(); ++i) {
+        out += (i ? ", " : "") + detail::namesYaml((s.*member)[i]);
+      }
+      return out + "]";
+    };
+    f.check = [](const S&, const std::string&) { return std::optional<Problem>(); };
+    return add(std::move(f));
+  }
+
+  /// A list of names (text), none given twice unless `repeats` allows it (a command's
+  /// words).
+  Table& field(const char* key, std::vector<std::string> S::*member,
+               Repeats repeats = Repeats::Refused) {
+    Field<S> f = base(key, "", Range{});
+    f.read = [member, repeats](const yaml::Node& v, S& s, Reader& r, const std::string& path) {
+      s.*member = detail::readNames(v, r, path, repeats);
     };
     f.write = [member](const S& s, const std::string&) {
       return " " + detail::namesYaml(s.*member);
@@ -294,8 +385,73 @@ class Table {
     f.check = [member, table](const S& s, const std::string& path) {
       return table.check(s.*member, path + ".");
     };
-    f.document = [table](const std::string& indent) { return table.documented(indent + "  "); };
+    f.document = [table](const std::string& indent) {
+      return "\n" + table.documented(indent + "  ");
+    };
     return add(std::move(f));
+  }
+
+  /// A list of mappings `key: [{...}, {...}]`, each item read and written by `table` from
+  /// a default-constructed Sub; item i's keys are named "key[i].name".
+  template <typename Sub>
+  Table& sections(const char* key, std::vector<Sub> S::*member, Table<Sub> table,
+                  ListOptions<Sub> options = {}) {
+    Field<S> f = base(key, "", Range{});
+    f.read = [member, table, options](const yaml::Node& v, S& s, Reader& r,
+                                      const std::string& path) {
+      if (!v.isSequence()) r.fail(v, path + ": expected a list, got " + v.kindName());
+      std::vector<Sub> items;
+      for (std::size_t i = 0; i < v.size(); ++i) {
+        const yaml::Node item = v.item(i);
+        const std::string item_path = path + "[" + std::to_string(i) + "]";
+        if (!item.isMapping()) {
+          r.fail(item, item_path + ": expected a mapping, got " + item.kindName());
+        }
+        Sub sub{};
+        table.read(item, sub, r, item_path + ".");
+        if (options.finish) options.finish(item, sub, r, item_path);
+        items.push_back(std::move(sub));
+      }
+      if (!options.append) (s.*member).clear();
+      for (Sub& sub : items) (s.*member).push_back(std::move(sub));
+    };
+    f.write = [member, table, options](const S& s, const std::string& indent) -> std::string {
+      const std::vector<Sub>& items = s.*member;
+      if (items.empty()) return options.omit_when_empty ? "" : " []";
+      std::string out = "\n";
+      const std::string inner = indent + "    ";
+      for (const Sub& item : items) {
+        const std::string text = table.write(item, inner);
+        if (text.empty()) {
+          out += indent + "  - {}\n";
+          continue;
+        }
+        out += indent + "  - " + text.substr(inner.size());  // "- " in front of the first key
+      }
+      return out;
+    };
+    f.check = [member, table](const S& s, const std::string& path) -> std::optional<Problem> {
+      for (std::size_t i = 0; i < (s.*member).size(); ++i) {
+        if (auto p = table.check((s.*member)[i], path + "[" + std::to_string(i) + "].")) return p;
+      }
+      return std::nullopt;
+    };
+    // The list's default, then each item's keys with their defaults, as comments.
+    const auto write = f.write;
+    f.document = [write, table](const std::string& indent) {
+      const std::string value = write(S{}, indent);
+      return (value.empty() ? std::string(" []") : value) + "  # a list of mappings, each:\n" +
+             table.documented(indent + "  #   ");
+    };
+    return add(std::move(f));
+  }
+
+  /// Marks the field added last as required: a mapping this table reads must give it
+  /// ("missing key '<full.key.path>'", on the mapping's line).
+  Table& required() {
+    if (fields_.empty()) throw std::logic_error("settings table: required() before a field");
+    fields_.back().required = true;
+    return *this;
   }
 
   /// A nested mapping `key:` of members of S itself, read and written by `table` (a file
@@ -310,7 +466,9 @@ class Table {
       return "\n" + table.write(s, indent + "  ");
     };
     f.check = [table](const S& s, const std::string& path) { return table.check(s, path + "."); };
-    f.document = [table](const std::string& indent) { return table.documented(indent + "  "); };
+    f.document = [table](const std::string& indent) {
+      return "\n" + table.documented(indent + "  ");
+    };
     return add(std::move(f));
   }
 
@@ -345,13 +503,19 @@ class Table {
   /// Reads the mapping `node` into `s` (a null node: nothing). `prefix` is the path of the
   /// mapping ("" at the top level, "mpc." for a section).
   void read(const yaml::Node& node, S& s, Reader& reader, const std::string& prefix = "") const {
-    if (node.isNull()) return;
-    if (!node.isMapping()) {
-      if (prefix.empty()) reader.fail(node, "expected a mapping of key: value");
-      reader.fail(node, sectionName(prefix) + ": expected a mapping, got " + node.kindName());
+    if (!node.isNull()) {
+      if (!node.isMapping()) {
+        if (prefix.empty()) reader.fail(node, "expected a mapping of key: value");
+        reader.fail(node, sectionName(prefix) + ": expected a mapping, got " + node.kindName());
+      }
+      for (std::size_t i = 0; i < node.size(); ++i) {
+        readEntry(node.key(i), node.value(i), s, reader, prefix);
+      }
     }
-    for (std::size_t i = 0; i < node.size(); ++i) {
-      readEntry(node.key(i), node.value(i), s, reader, prefix);
+    for (const Field<S>& f : fields_) {
+      if (f.required && reader.seen(prefix + f.key) == nullptr) {
+        reader.fail(node, "missing key '" + prefix + f.key + "'");
+      }
     }
   }
 
@@ -404,7 +568,7 @@ class Table {
     std::string out;
     for (const Field<S>& f : fields_) {
       if (f.document) {
-        out += indent + f.key + ":\n" + f.document(indent);
+        out += indent + f.key + ":" + f.document(indent);
         continue;
       }
       const std::string value = f.write(defaults, indent);

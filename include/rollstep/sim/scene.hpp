@@ -139,6 +139,8 @@ SceneConfig loadSceneConfig(const std::string& yaml_file);
 SceneConfig parseSceneConfig(const std::string& yaml_text, const std::string& source_name);
 /// A complete scene file (no base) that parseSceneConfig reads back to the same numbers.
 std::string toYaml(const SceneConfig& config);
+/// The keys of a scene file, each with its default (a box's and a ramp's as comments).
+std::string documentedScene();
 
 /// A number of the scene by key path: a parameter's name, "friction", or an item's
 /// number ("boxes[0].size[2]", "ramps[1].slope_deg", "boxes[2].yaw_deg"). sceneNumber
