@@ -390,13 +390,16 @@ TerrainModel terrainFromSurfaces(const TerrainBox& floor, double floor_height,
   for (std::size_t k = 0; k < surfaces.size(); ++k) {
     const std::string name = "surfaces[" + std::to_string(k) + "]";
     const TerrainSurface& s = surfaces[k];
-    if (!s.point.allFinite())
+    if (!s.point.allFinite()) {
       detail::fail(where, (name + ".point").c_str(), "(not finite)", "must be finite");
+    }
+    if (!s.normal.allFinite() || !(s.normal.z() > 1e-9 * s.normal.norm())) {
+      detail::fail(where, (name + ".normal").c_str(), "(not upward)", "must be finite with z > 0");
+    }
     try {
       (void)ConvexRegion::fromPolygon(s.footprint, s.point.z(), s.normal);
     } catch (const std::invalid_argument& e) {
-      detail::fail(where, (name + ".footprint").c_str(), e.what(),
-                   "must be a convex polygon under an upward plane");
+      detail::fail(where, (name + ".footprint").c_str(), e.what(), "must be a convex polygon");
     }
   }
   return regionsOf(where, f, floor_height, surfaces, margin);

@@ -10,6 +10,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "common/alloc_counter.hpp"
@@ -290,7 +291,7 @@ TEST(TerrainModel, FloorBesideABlockHasNoGapAndStepsKeepTheirMargin) {
   // line of its sides, 2 cm either side of it.
   const TerrainModel t = terrainFromBoxes(floor, 0.0, {kStep20}, m);
   for (const Vector2d& p : {Vector2d(1.6, 1.5 + m + 0.02), Vector2d(3.0, 1.48), Vector2d(3.0, 1.52),
-                           Vector2d(0.5, 1.48), Vector2d(0.5, 1.52), Vector2d(3.0, -1.5)}) {
+                            Vector2d(0.5, 1.48), Vector2d(0.5, 1.52), Vector2d(3.0, -1.5)}) {
     const int r = t.regionAt(p);
     ASSERT_GE(r, 0);
     EXPECT_TRUE(t.region(r).contains(p)) << p.transpose();
@@ -304,6 +305,58 @@ TEST(TerrainModel, FloorBesideABlockHasNoGapAndStepsKeepTheirMargin) {
   EXPECT_NEAR(t.region(t.regionAt({0.5, 0.0})).margin({1.0 - m, 0.0}), 0.0, 1e-12);
   EXPECT_FALSE(t.region(t.regionAt({0.95, 0.0})).contains({0.95, 0.0}));
   EXPECT_FALSE(t.region(t.regionAt({1.6, 1.55})).contains({1.6, 1.55}));
+}
+
+// A ramp rising from the floor (slope 0.1 along +x from x = 1): where it meets the floor the
+// height is continuous, a crease and no step, so no band there; its sides and high end are
+// steps. A bad surface is refused naming it.
+TEST(TerrainModel, SurfacesKeepTheirStepsOffButNotTheirCreases) {
+  using rollstep::planning::terrainFromSurfaces;
+  using rollstep::planning::TerrainSurface;
+  const TerrainBox floor{-5.0, 10.0, -5.0, 5.0, 0.0};
+  const TerrainSurface ramp{{{1.0, -1.0}, {3.0, -1.0}, {3.0, 1.0}, {1.0, 1.0}},
+                            Vector3d(1.0, 0.0, 0.0),
+                            Vector3d(-0.1, 0.0, 1.0).normalized()};
+  const double m = 0.05;
+  const TerrainModel t = terrainFromSurfaces(floor, 0.0, {ramp}, m);
+  const auto inside = [&](const Vector2d& p) {
+    const int r = t.regionAt(p);
+    return r >= 0 && t.region(r).contains(p);
+  };
+  for (const Vector2d& p : {Vector2d(0.98, 0.0), Vector2d(1.02, 0.0), Vector2d(1.0 + 1e-3, 0.5)}) {
+    EXPECT_TRUE(inside(p)) << p.transpose();  // either side of the crease
+  }
+  EXPECT_NEAR(t.heightAt({1.02, 0.0}), 0.002, 1e-12);
+  EXPECT_NEAR(t.heightAt({2.5, 0.3}), 0.15, 1e-12);
+  EXPECT_DOUBLE_EQ(t.heightAt({0.98, 0.0}), 0.0);
+  for (const Vector2d& p :
+       {Vector2d(2.0, 0.97), Vector2d(2.0, 1.03), Vector2d(2.97, 0.0), Vector2d(3.03, 0.0)}) {
+    EXPECT_FALSE(inside(p)) << p.transpose();  // a side or the high end: a step
+  }
+  EXPECT_TRUE(inside({2.0, 1.0 + m + 1e-3}));  // the floor beside it
+  EXPECT_TRUE(inside({3.0 + m + 1e-3, 0.0}));  // and after it
+  expectThrowsNaming(
+      [&] {
+        TerrainSurface bent = ramp;
+        std::swap(bent.footprint[1], bent.footprint[2]);  // self-intersecting
+        terrainFromSurfaces(floor, 0.0, {ramp, bent});
+      },
+      "surfaces[1].footprint");
+  expectThrowsNaming(
+      [&] {
+        TerrainSurface down = ramp;
+        down.normal = Vector3d(0.0, 0.0, -1.0);
+        terrainFromSurfaces(floor, 0.0, {down});
+      },
+      "surfaces[0].normal");
+  expectThrowsNaming(
+      [&] {
+        TerrainSurface far = ramp;
+        far.point.x() = std::numeric_limits<double>::infinity();
+        terrainFromSurfaces(floor, 0.0, {far});
+      },
+      "surfaces[0].point");
+  expectThrowsNaming([&] { terrainFromSurfaces(floor, 0.0, {ramp}, -1.0); }, "margin = -1");
 }
 
 TEST(TerrainModel, BadBoxesThrow) {
