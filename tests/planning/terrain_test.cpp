@@ -1,6 +1,7 @@
 // Terrain model: convex regions (half-planes, containment, heights on tilted planes),
 // a flat floor and the step20 / stairs2 geometry built from boxes (region lookup on the
-// floor, on the block, near the edges; ascending / descending swings; normals), bad
+// floor, on the block, near the edges; ascending / descending swings; normals), the margin
+// as a band around steps only (no gap between pieces of one floor, creases kept), bad
 // input, allocation-free queries.
 #include "rollstep/planning/terrain.hpp"
 

@@ -1,7 +1,7 @@
 // The planning terrain built from a scene agrees with the scene: with its own ground-truth
 // height, with what MuJoCo's raycast sees in the world built from the same file (yawed
-// boxes, ramps, overlapping boxes), and for the reference scenes with the rectangles the
-// terrain always had.
+// boxes, ramps, overlapping boxes; with a margin, every point clear of the edges still in a
+// region), and for the reference scenes with the regions of their boxes.
 #include "rollstep/sim/scene_terrain.hpp"
 
 #include <gtest/gtest.h>
