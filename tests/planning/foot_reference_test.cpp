@@ -203,9 +203,10 @@ TEST(FootReference, ALatchedTouchDownKeepsItsRegionWhenTheTerrainMoves) {
       ASSERT_TRUE(stance.timing.stance);
       EXPECT_EQ(stance.region, block);
       EXPECT_NEAR(stance.z_ref, 0.20 + kWheelRadius, 1e-9);
-      // The latch point lies in the region chosen (the nominal foothold moved into it).
-      EXPECT_TRUE(
-          sc.terrain.region(block).contains(planner.stanceFoothold(schedule, f, t_stance), 0.2));
+      // The latch point lies in the region chosen (the nominal foothold moved into it), which
+      // now begins 0.2 m further on (to rounding).
+      EXPECT_TRUE(sc.terrain.region(block).contains(planner.stanceFoothold(schedule, f, t_stance),
+                                                    0.2 + 1e-9));
       // Latching the same touch-down again keeps the first choice.
       planner.latchTouchdown(f, r.timing.touchdown);
       EXPECT_EQ(planner.query(schedule, f, t).region, block);

@@ -1,6 +1,7 @@
 // Terrain model: convex regions (half-planes, containment, heights on tilted planes),
 // a flat floor and the step20 / stairs2 geometry built from boxes (region lookup on the
-// floor, on the block, near the edges; ascending / descending swings; normals), bad
+// floor, on the block, near the edges; ascending / descending swings; normals), the margin
+// as a band around steps only (no gap between pieces of one floor, creases kept), bad
 // input, allocation-free queries.
 #include "rollstep/planning/terrain.hpp"
 
@@ -10,6 +11,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "common/alloc_counter.hpp"
@@ -216,16 +218,146 @@ TEST(TerrainModel, EdgesThatDifferByRoundingAreOneEdge) {
     EXPECT_DOUBLE_EQ(t.heightAt({a + l1 + l2 - 0.3, 0.0}), 0.365);
     EXPECT_DOUBLE_EQ(t.heightAt({a + l1 + l2 + 0.3, 0.0}), 0.0);
   }
-  // Edges 1 mm apart stay two edges: a real 1 mm strip (emptied by any margin above 0.5 mm).
-  const TerrainModel strip =
-      terrainFromBoxes(kFloor, 0.0, {{1.0, 2.0, -1.5, 1.5, 0.2}, {2.001, 3.0, -1.5, 1.5, 0.2}});
+  // Edges 1 mm apart stay two edges: a real 1 mm strip of floor between two blocks, which
+  // any margin above 0.5 mm takes away (no foot fits there) while the floor stays.
+  const std::vector<TerrainBox> slot{{1.0, 2.0, -1.5, 1.5, 0.2}, {2.001, 3.0, -1.5, 1.5, 0.2}};
+  const TerrainModel strip = terrainFromBoxes(kFloor, 0.0, slot);
   EXPECT_EQ(strip.size(), 5);  // floor, block, the 1 mm floor strip, block, floor
+  EXPECT_DOUBLE_EQ(strip.heightAt({2.0005, 0.0}), 0.0);
+  const TerrainModel closed = terrainFromBoxes(kFloor, 0.0, slot, 0.001);
+  EXPECT_EQ(closed.size(), 4);
+  for (const auto& r : closed.regions()) EXPECT_FALSE(r.contains({2.0005, 0.0}));
+}
+
+/// Largest distance along x or y from p to the rectangle of b (0 inside).
+double boxDistance(const TerrainBox& b, const Vector2d& p) {
+  const double dx = std::max({b.x_min - p.x(), 0.0, p.x() - b.x_max});
+  const double dy = std::max({b.y_min - p.y(), 0.0, p.y() - b.y_max});
+  return std::max(dx, dy);
+}
+
+// A block narrower than the floor: the floor around it is cut into convex pieces, and the
+// margin keeps feet off the block's edges only. Pieces of the floor beside the block meet
+// with no gap (once each piece was shrunk along the block's side lines, leaving a strip of
+// level floor 2 margins wide with no foothold, where a robot walking sideways fell), and
+// the step edges are still a margin away on both sides.
+TEST(TerrainModel, FloorBesideABlockHasNoGapAndStepsKeepTheirMargin) {
+  const TerrainBox floor{-5.0, 10.0, -5.0, 5.0, 0.0};
+  const double m = 0.095;  // Tachyon 3's wheel radius + 1 cm
+  for (const std::vector<TerrainBox>& boxes :
+       {std::vector<TerrainBox>{kStep20},
+        // stairs2, and a second block standing off to the side of the first
+        std::vector<TerrainBox>{{1.0, 4.7, -1.5, 1.5, 0.20}, {2.2, 3.7, -1.5, 1.5, 0.365}},
+        std::vector<TerrainBox>{kStep20, {3.0, 4.0, 0.5, 2.5, 0.1}}}) {
+    SCOPED_TRACE(boxes.size() == 1 ? "step20" : boxes[1].top > 0.2 ? "stairs2" : "two blocks");
+    const TerrainModel t = terrainFromBoxes(floor, 0.0, boxes, m);
+    const auto seen = [&](const Vector2d& p) {
+      double h = 0.0;
+      for (const TerrainBox& c : boxes) {
+        if (boxDistance(c, p) == 0.0) h = std::max(h, c.top);
+      }
+      return h;
+    };
+    // Whether the seen height changes within `r` of p along x, y or a diagonal.
+    const auto stepWithin = [&](const Vector2d& p, double r) {
+      for (const double dx : {-r, 0.0, r}) {
+        for (const double dy : {-r, 0.0, r}) {
+          if (std::abs(seen(p + Vector2d(dx, dy)) - seen(p)) > 1e-3) return true;
+        }
+      }
+      return false;
+    };
+    int floor_points = 0, edge_points = 0;
+    for (double x = -4.9; x < 9.9; x += 0.0237) {
+      for (double y = -4.9; y < 4.9; y += 0.0191) {
+        const Vector2d p(x, y);
+        int containing = 0;
+        for (const auto& r : t.regions()) containing += r.margin(p) > 1e-9 ? 1 : 0;
+        if (!stepWithin(p, m)) {
+          // Every point a margin clear of the steps is in one region, at its own height.
+          ASSERT_EQ(containing, 1) << x << " " << y;
+          EXPECT_DOUBLE_EQ(t.heightAt(p), seen(p)) << x << " " << y;
+          floor_points += seen(p) == 0.0 ? 1 : 0;
+        }
+        if (stepWithin(p, 0.9 * m)) {
+          EXPECT_EQ(containing, 0) << x << " " << y;  // nearer a step than the margin
+          ++edge_points;
+        }
+      }
+    }
+    EXPECT_GT(floor_points, 200000);
+    EXPECT_GT(edge_points, 2000);
+  }
+  // The points where the robot fell: the floor beside step20's block and after it, by the
+  // line of its sides, 2 cm either side of it.
+  const TerrainModel t = terrainFromBoxes(floor, 0.0, {kStep20}, m);
+  for (const Vector2d& p : {Vector2d(1.6, 1.5 + m + 0.02), Vector2d(3.0, 1.48), Vector2d(3.0, 1.52),
+                            Vector2d(0.5, 1.48), Vector2d(0.5, 1.52), Vector2d(3.0, -1.5)}) {
+    const int r = t.regionAt(p);
+    ASSERT_GE(r, 0);
+    EXPECT_TRUE(t.region(r).contains(p)) << p.transpose();
+    EXPECT_EQ(t.region(r).height, 0.0) << p.transpose();
+  }
+  // The step edges: the block top and the floor before it each end a margin away.
+  const ConvexRegion& top = t.region(t.regionAt({1.6, 0.0}));
+  EXPECT_EQ(top.height, 0.2);
+  EXPECT_NEAR(top.margin({1.0 + m, 0.0}), 0.0, 1e-12);
+  EXPECT_NEAR(top.margin({1.6, 1.5 - m}), 0.0, 1e-12);
+  EXPECT_NEAR(t.region(t.regionAt({0.5, 0.0})).margin({1.0 - m, 0.0}), 0.0, 1e-12);
+  EXPECT_FALSE(t.region(t.regionAt({0.95, 0.0})).contains({0.95, 0.0}));
+  EXPECT_FALSE(t.region(t.regionAt({1.6, 1.55})).contains({1.6, 1.55}));
+}
+
+// A ramp rising from the floor (slope 0.1 along +x from x = 1): where it meets the floor the
+// height is continuous, a crease and no step, so no band there; its sides and high end are
+// steps. A bad surface is refused naming it.
+TEST(TerrainModel, SurfacesKeepTheirStepsOffButNotTheirCreases) {
+  using rollstep::planning::terrainFromSurfaces;
+  using rollstep::planning::TerrainSurface;
+  const TerrainBox floor{-5.0, 10.0, -5.0, 5.0, 0.0};
+  const TerrainSurface ramp{{{1.0, -1.0}, {3.0, -1.0}, {3.0, 1.0}, {1.0, 1.0}},
+                            Vector3d(1.0, 0.0, 0.0),
+                            Vector3d(-0.1, 0.0, 1.0).normalized()};
+  const double m = 0.05;
+  const TerrainModel t = terrainFromSurfaces(floor, 0.0, {ramp}, m);
+  const auto inside = [&](const Vector2d& p) {
+    const int r = t.regionAt(p);
+    return r >= 0 && t.region(r).contains(p);
+  };
+  for (const Vector2d& p : {Vector2d(0.98, 0.0), Vector2d(1.02, 0.0), Vector2d(1.0 + 1e-3, 0.5)}) {
+    EXPECT_TRUE(inside(p)) << p.transpose();  // either side of the crease
+  }
+  EXPECT_NEAR(t.heightAt({1.02, 0.0}), 0.002, 1e-12);
+  EXPECT_NEAR(t.heightAt({2.5, 0.3}), 0.15, 1e-12);
+  EXPECT_DOUBLE_EQ(t.heightAt({0.98, 0.0}), 0.0);
+  for (const Vector2d& p :
+       {Vector2d(2.0, 0.97), Vector2d(2.0, 1.03), Vector2d(2.97, 0.0), Vector2d(3.03, 0.0)}) {
+    EXPECT_FALSE(inside(p)) << p.transpose();  // a side or the high end: a step
+  }
+  EXPECT_TRUE(inside({2.0, 1.0 + m + 1e-3}));  // the floor beside it
+  EXPECT_TRUE(inside({3.0 + m + 1e-3, 0.0}));  // and after it
   expectThrowsNaming(
-      [] {
-        terrainFromBoxes(kFloor, 0.0, {{1.0, 2.0, -1.5, 1.5, 0.2}, {2.001, 3.0, -1.5, 1.5, 0.2}},
-                         0.001);
+      [&] {
+        TerrainSurface bent = ramp;
+        std::swap(bent.footprint[1], bent.footprint[2]);  // self-intersecting
+        terrainFromSurfaces(floor, 0.0, {ramp, bent});
       },
-      "empties a region");
+      "surfaces[1].footprint");
+  expectThrowsNaming(
+      [&] {
+        TerrainSurface down = ramp;
+        down.normal = Vector3d(0.0, 0.0, -1.0);
+        terrainFromSurfaces(floor, 0.0, {down});
+      },
+      "surfaces[0].normal");
+  expectThrowsNaming(
+      [&] {
+        TerrainSurface far = ramp;
+        far.point.x() = std::numeric_limits<double>::infinity();
+        terrainFromSurfaces(floor, 0.0, {far});
+      },
+      "surfaces[0].point");
+  expectThrowsNaming([&] { terrainFromSurfaces(floor, 0.0, {ramp}, -1.0); }, "margin = -1");
 }
 
 TEST(TerrainModel, BadBoxesThrow) {

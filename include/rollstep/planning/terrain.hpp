@@ -105,14 +105,30 @@ class TerrainModel {
   std::vector<ConvexRegion> regions_;
 };
 
+/// A planar top face seen from above: its convex footprint and its plane.
+struct TerrainSurface {
+  std::vector<Eigen::Vector2d> footprint;             ///< convex, either orientation [m]
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();    ///< a point of the plane [m]
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  ///< the plane's normal, z > 0
+};
+
 /// Terrain from ground-truth geometry: a flat floor at `floor_height` over the rectangle
-/// [x_min, x_max] x [y_min, y_max] of `floor`, with boxes standing on it (a box's top is
-/// its height; where boxes overlap the highest top wins, so stairs are boxes of growing
-/// height). The floor is cut into axis-aligned rectangles of constant height, merged
-/// where possible, each shrunk by `margin` [m] on every side (keeps feet off edges; a
-/// point in the gap gets the nearest region). Boxes are clipped to the floor. Throws
-/// std::invalid_argument naming the bad field (e.g. "boxes[1].x_max = ...") for
-/// non-finite values, empty ranges, a negative margin or one that empties a region.
+/// [x_min, x_max] x [y_min, y_max] of `floor`, under planar top faces (boxes, ramps; where
+/// they overlap the highest wins, so stairs are boxes of growing height). What is seen from
+/// above is cut into convex pieces along every footprint edge and every line where two
+/// surfaces cross; each piece takes the highest surface over it, and pieces of one surface
+/// merge while their union stays convex. The margin [m] keeps feet off steps: a band of
+/// half-width `margin` around every step (a footprint edge where the seen height jumps by
+/// more than 1 mm, the floor's border), square at its ends, is no foothold; nothing else
+/// shrinks, so neighbouring pieces of one surface (the floor beside a block, a ramp meeting
+/// the floor) still meet with no gap. Throws std::invalid_argument naming the bad field for
+/// non-finite values, empty ranges, a non-convex footprint, a plane that is not upward, a
+/// negative margin, or a margin that leaves a surface seen from above no foothold at all.
+TerrainModel terrainFromSurfaces(const TerrainBox& floor, double floor_height,
+                                 const std::vector<TerrainSurface>& surfaces, double margin = 0.0);
+
+/// terrainFromSurfaces of axis-aligned boxes standing on the floor (a box's top is its
+/// height); errors name the box ("boxes[1].x_max = ...").
 TerrainModel terrainFromBoxes(const TerrainBox& floor, double floor_height,
                               const std::vector<TerrainBox>& boxes, double margin = 0.0);
 

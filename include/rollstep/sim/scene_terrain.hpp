@@ -10,15 +10,11 @@ namespace rollstep::sim {
 /// Half extent [m] of the floor plane of every scene (terrainMjcf's floor geom).
 inline constexpr double kSceneFloorHalfExtent = 50.0;
 
-/// Convex regions of `config`'s terrain, each shrunk by `margin` [m]: what is seen from
-/// above, the floor (height 0) where nothing covers it and, elsewhere, the highest top face.
-/// Axis-aligned boxes alone (no yaw, no ramps) give planning::terrainFromBoxes's
-/// rectangles. Otherwise the floor is cut along every edge of every top face and along the
-/// lines where two surfaces cross, each piece gets the highest surface over it, and pieces
-/// of one surface are merged while their union stays convex; the margin then moves every
-/// edge inwards except seams (planning::shrinkTerrain). The strip of a ramp's high end face
-/// seen from above is not a foothold region. Resolves the config first
-/// (std::invalid_argument naming the bad number).
+/// Convex regions of `config`'s terrain with a margin [m] around its steps: what is seen
+/// from above, the floor (height 0) where nothing covers it and, elsewhere, the highest top
+/// face (planning::terrainFromSurfaces, the same rule for every box and ramp). The strip of
+/// a ramp's high end face seen from above is not a foothold region. Resolves the config
+/// first (std::invalid_argument naming the bad number).
 planning::TerrainModel terrainFromScene(const SceneConfig& config, double margin = 0.0);
 planning::TerrainModel terrainFromScene(const SceneGeometry& geometry, double margin = 0.0);
 
