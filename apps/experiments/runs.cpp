@@ -81,7 +81,11 @@ RunOutcome executeRun(const Scenario& scenario, const sim::SceneConfig& scene,
                       const std::string& scene_config_file,
                       const std::function<void(double, double)>& on_progress) {
   fs::create_directories(dir);
-  const std::vector<std::string> args = scenario.simArgs(dir, scene_config_file);
+  // The child gets the run as a spec file (paths absolute: it reads the same from anywhere).
+  const std::string spec_file = dir + "/spec.yaml";
+  writeFileAtomically(
+      spec_file, sim::toYaml(sim::withAbsolutePaths(scenario.runSpec(dir, scene_config_file))));
+  const std::vector<std::string> args{"sim", "--spec", spec_file};
   const std::string program = selfExecutable();
   const int status = runProcess(
       program, args, dir + "/stdout.txt", dir + "/stderr.txt", [&](const std::string& line) {
