@@ -45,7 +45,7 @@ sim::SceneConfig sceneOf(const Scenario& scenario) {
                                        : sim::loadSceneConfig(scenario.scene_config);
 }
 
-std::string robotOf(const Scenario& scenario) { return scenario.option("--robot"); }
+std::string robotOf(const Scenario& scenario) { return scenario.runSpec("out").robot; }
 
 void setRobot(ExperimentSet& set, const std::string& robot) {
   if (robot.empty()) return;
@@ -83,8 +83,9 @@ RunOutcome executeRun(const Scenario& scenario, const sim::SceneConfig& scene,
   fs::create_directories(dir);
   // The child gets the run as a spec file (paths absolute: it reads the same from anywhere).
   const std::string spec_file = dir + "/spec.yaml";
-  writeFileAtomically(
-      spec_file, sim::toYaml(sim::withAbsolutePaths(scenario.runSpec(dir, scene_config_file))));
+  const std::string spec =
+      sim::toYaml(sim::withAbsolutePaths(scenario.runSpec(dir, scene_config_file)));
+  writeFileAtomically(spec_file, spec);
   const std::vector<std::string> args{"sim", "--spec", spec_file};
   const std::string program = selfExecutable();
   const int status = runProcess(
@@ -99,6 +100,7 @@ RunOutcome executeRun(const Scenario& scenario, const sim::SceneConfig& scene,
   argv.insert(argv.end(), args.begin(), args.end());
   RunOutcome outcome = judgeRun(scenario, scene, dir, status, criteria);
   outcome.command = shellCommand(argv);
+  outcome.spec = spec;
   return outcome;
 }
 

@@ -18,6 +18,7 @@ struct RunOutcome {
   std::string name;     ///< the scenario's name
   std::string dir;      ///< its output folder
   std::string command;  ///< the exact command that ran (shell-quoted)
+  std::string spec;     ///< the run spec it was given (its spec.yaml's text)
   int exit_status = -1;
   std::string error;  ///< why the run itself failed (sim's FAILED or stderr), else empty
   std::optional<LogTable> log;

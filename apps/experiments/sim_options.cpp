@@ -60,6 +60,18 @@ std::vector<planning::TimedBaseCommand> parseCommandSchedule(const std::string& 
 }
 
 SimOptionSet::SimOptionSet(CLI::App& cmd, SimOptions& options) : o_(&options), cmd_(&cmd) {
+  addSceneOptions(cmd);
+  addCommandOptions(cmd);
+  addTerrainOptions(cmd);
+  addStateOptions(cmd);
+  addRunOptions(cmd);
+  constant_command_ = {pipeline_only_[1], pipeline_only_[2], pipeline_only_[3]};
+  log_map_ = perception_only_[2];
+  log_map_rate_ = perception_only_[4];
+}
+
+/// The scene and the controller (and the help's footer).
+void SimOptionSet::addSceneOptions(CLI::App& cmd) {
   cmd.footer(
       "Numbers must be finite and within the ranges shown; --speed and --turn-speed only "
       "apply to --controller drive; --gait, --vx, --vy, --yaw-rate and --control-config "
@@ -90,6 +102,10 @@ SimOptionSet::SimOptionSet(CLI::App& cmd, SimOptions& options) : o_(&options), c
                  "planner and the CBF-QP without MPC) with the same options")
       ->check(CLI::IsMember({"stand", "drive", "nmpc", "cbfqp"}))
       ->capture_default_str();
+}
+
+/// What nmpc and cbfqp are given: gait, command, control settings, MPC timing.
+void SimOptionSet::addCommandOptions(CLI::App& cmd) {
   pipeline_only_.push_back(
       cmd.add_option("--gait", o_->gait,
                      "nmpc, cbfqp only: standing, rolling, trot or static_walk (cbfqp: "
@@ -143,6 +159,10 @@ SimOptionSet::SimOptionSet(CLI::App& cmd, SimOptions& options) : o_(&options), c
                                     "solution against the problem it solved and write the "
                                     "largest violation of each constraint group and its node "
                                     "to DIR/mpc_violations.csv (slow; for analysis)"));
+}
+
+/// The terrain source and perception's settings and map log.
+void SimOptionSet::addTerrainOptions(CLI::App& cmd) {
   CLI::Option* terrain_option =
       cmd.add_option("--terrain", o_->terrain,
                      "nmpc, cbfqp only: scene (the scene's ground-truth regions) or perception "
@@ -183,6 +203,10 @@ SimOptionSet::SimOptionSet(CLI::App& cmd, SimOptions& options) : o_(&options), c
                      "--terrain perception only: map log snapshots per second")
           ->check(numberIn(0.01, 100.0, "Hz"))
           ->capture_default_str());
+}
+
+/// The state the NMPC runs on and the plant's sensors.
+void SimOptionSet::addStateOptions(CLI::App& cmd) {
   nmpc_only_.push_back(cmd.add_option("--integrator", o_->integrator,
                                       "nmpc only: internal (the internal state integrator) or "
                                       "naive (naive state feedback); default: the control "
@@ -204,6 +228,10 @@ SimOptionSet::SimOptionSet(CLI::App& cmd, SimOptions& options) : o_(&options), c
                  "and its default); default: ideal sensors, or with --state-source inekf the "
                  "robot folder's sensors.yaml (the defaults if it has none)")
       ->check(kNotEmpty);
+}
+
+/// Duration, outputs, the drive controller's speeds, the robot, --spec.
+void SimOptionSet::addRunOptions(CLI::App& cmd) {
   cmd.add_option("--duration", o_->duration, "Simulated time [s]")
       ->check(numberIn(0.001, 3600.0, "s"))
       ->capture_default_str();
@@ -231,9 +259,6 @@ SimOptionSet::SimOptionSet(CLI::App& cmd, SimOptions& options) : o_(&options), c
                          "docs/USER_GUIDE.md \"Run specs\"; DIR/run.yaml of a run is one) "
                          "instead of the options above; only --out may be given with it")
               ->check(kNotEmpty);
-  constant_command_ = {pipeline_only_[1], pipeline_only_[2], pipeline_only_[3]};
-  log_map_ = perception_only_[2];
-  log_map_rate_ = perception_only_[4];
 }
 
 void SimOptionSet::checkSpecAlone() const {

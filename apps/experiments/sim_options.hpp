@@ -51,6 +51,11 @@ class SimOptionSet {
   sim::RunSpec runSpec() const;
 
  private:
+  void addSceneOptions(CLI::App& cmd);
+  void addCommandOptions(CLI::App& cmd);
+  void addTerrainOptions(CLI::App& cmd);
+  void addStateOptions(CLI::App& cmd);
+  void addRunOptions(CLI::App& cmd);
   void checkCombinations() const;
   void checkSpecAlone() const;
 

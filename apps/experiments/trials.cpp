@@ -204,7 +204,9 @@ std::vector<std::string> trialSimArgs(const std::string& sensor_file) {
   return {"--sensor-config", sensor_file};
 }
 
-bool readsSensors(const Scenario& s) { return s.option("--state-source") == "inekf"; }
+bool readsSensors(const Scenario& s) {
+  return s.runSpec("out").state_source == sim::StateSourceKind::Inekf;
+}
 
 std::vector<std::uint64_t> parseSeeds(const std::string& text) {
   const auto bad = [&](const std::string& why) {

@@ -374,7 +374,10 @@ TEST(Trials, DrawsAreFixedBySeedAndInRange) {
   EXPECT_EQ(back.toYaml(), n.toYaml());
   EXPECT_DOUBLE_EQ(back.wheel_velocity_noise, n.wheel_velocity_noise);
   Scenario nmpc, cbfqp;
+  nmpc.scene = cbfqp.scene = "flat";
+  nmpc.controller = "nmpc";
   nmpc.args = {"--gait", "trot", "--state-source", "inekf"};
+  cbfqp.controller = "cbfqp";
   cbfqp.args = {"--gait", "trot"};
   EXPECT_TRUE(readsSensors(nmpc));
   EXPECT_FALSE(readsSensors(cbfqp));
