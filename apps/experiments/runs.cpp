@@ -76,15 +76,14 @@ std::vector<JointLimit> jointLimits(const sim::SceneConfig& scene, const std::st
   return limits;
 }
 
-RunOutcome executeRun(const Scenario& scenario, const sim::SceneConfig& scene,
-                      const std::string& dir, const RunCriteria& criteria,
-                      const std::string& scene_config_file,
+RunOutcome executeRun(const Scenario& scenario, const sim::RunSpec& run,
+                      const sim::SceneConfig& scene, const RunCriteria& criteria,
                       const std::function<void(double, double)>& on_progress) {
+  const std::string& dir = run.out;
   fs::create_directories(dir);
   // The child gets the run as a spec file (paths absolute: it reads the same from anywhere).
   const std::string spec_file = dir + "/spec.yaml";
-  const std::string spec =
-      sim::toYaml(sim::withAbsolutePaths(scenario.runSpec(dir, scene_config_file)));
+  const std::string spec = sim::toYaml(sim::withAbsolutePaths(run));
   writeFileAtomically(spec_file, spec);
   const std::vector<std::string> args{"sim", "--spec", spec_file};
   const std::string program = selfExecutable();

@@ -9,6 +9,7 @@
 #include "log_table.hpp"
 #include "metrics.hpp"
 #include "rollstep/sim/robot_folder.hpp"
+#include "rollstep/sim/run_spec.hpp"
 #include "rollstep/sim/scene.hpp"
 #include "scenarios.hpp"
 
@@ -48,12 +49,11 @@ sim::PlantOptions plantOptionsOfRobot(const std::string& robot);
 /// plantOptionsOfRobot.
 std::vector<JointLimit> jointLimits(const sim::SceneConfig& scene, const std::string& robot);
 
-/// Runs `rollstep sim` for the scenario into `dir` (created), with `scene_config_file`
-/// replacing the scenario's scene file when not empty; `on_progress(sim_time, duration)` is
-/// called from the run's progress lines. Then judges it (judgeRun).
-RunOutcome executeRun(const Scenario& scenario, const sim::SceneConfig& scene,
-                      const std::string& dir, const RunCriteria& criteria,
-                      const std::string& scene_config_file = "",
+/// Runs `rollstep sim --spec` for the scenario with the run spec `run` (its outputs in
+/// run.out, created; the spec written there as spec.yaml); `on_progress(sim_time,
+/// duration)` is called from the run's progress lines. Then judges it (judgeRun).
+RunOutcome executeRun(const Scenario& scenario, const sim::RunSpec& run,
+                      const sim::SceneConfig& scene, const RunCriteria& criteria,
                       const std::function<void(double, double)>& on_progress = {});
 
 /// Judges the outputs in `dir` of a finished run (exit_status of the process).

@@ -200,10 +200,6 @@ sim::SensorNoiseConfig trialSensorNoise(const TrialParameters& p) {
   return c;
 }
 
-std::vector<std::string> trialSimArgs(const std::string& sensor_file) {
-  return {"--sensor-config", sensor_file};
-}
-
 bool readsSensors(const Scenario& s) {
   return s.runSpec("out").state_source == sim::StateSourceKind::Inekf;
 }

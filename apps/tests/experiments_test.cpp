@@ -381,8 +381,6 @@ TEST(Trials, DrawsAreFixedBySeedAndInRange) {
   cbfqp.args = {"--gait", "trot"};
   EXPECT_TRUE(readsSensors(nmpc));
   EXPECT_FALSE(readsSensors(cbfqp));
-  EXPECT_EQ(trialSimArgs("d/sensors.yaml"),
-            (std::vector<std::string>{"--sensor-config", "d/sensors.yaml"}));
 }
 
 TEST(Trials, DrawASpeedAfterTheOtherDrawsAndScaleTheCommandToIt) {

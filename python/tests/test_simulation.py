@@ -77,7 +77,7 @@ def test_state_and_checks():
         rollstep.Simulation(controller="fly")
     with pytest.raises(ValueError, match="duration"):
         sim.run(-1)
-    with pytest.raises(RuntimeError, match=r"drive_speed: 9 is outside \[-1.8, 1.8\]"):
+    with pytest.raises(RuntimeError, match=r"drive_speed: 9.0 is outside \[-1.8, 1.8\]"):
         rollstep.Simulation(controller="drive", speed=9.0)
 
 
