@@ -38,12 +38,6 @@ std::string format(const char* fmt, ...) {
   return out;
 }
 
-const std::string& text(double v) {
-  static thread_local std::string s;
-  s = shortestNumberText(v);
-  return s;
-}
-
 /// The robot folder of the spec ("" = the default robot), its files checked against each
 /// other.
 RobotFolder robotFolderOf(const RunSpec& spec) {
@@ -167,7 +161,8 @@ StateSourceOptions stateSourceOf(const RunSpec& spec, const RobotFolder& robot) 
     if (spec.estimator_config.empty() && robot.estimation.empty()) {
       throw InputError("robot folder '" + robot.directory +
                        "': no estimation.yaml (the state estimator's tuning) for "
-                       "--state-source inekf; add it or give --estimator-config");
+                       "state_source inekf (--state-source inekf); add it or give "
+                       "estimator_config (--estimator-config)");
     }
     source.estimator = estimation::loadInekfSettings(
         spec.estimator_config.empty() ? robot.estimation : spec.estimator_config);
@@ -232,10 +227,11 @@ void buildNmpc(BuiltRun& run, const RunOverrides& overrides) {
   run.controller_text = format(
       "nmpc (gait %s, command %s, MPC every %s s %s, N = %d, integrator %s, state %s; first "
       "solve %s in %d iterations); terrain %s",
-      enumName(spec.gait), commandText(spec.command).c_str(), text(settings.mpc.period).c_str(),
-      control::toString(settings.mpc.timing), settings.ocp.horizon,
-      control::toString(settings.integrator.mode), enumName(spec.state_source),
-      solver::toString(first), runner.initialIterations(), terrain_text.c_str());
+      enumName(spec.gait), commandText(spec.command).c_str(),
+      shortestNumberText(settings.mpc.period).c_str(), control::toString(settings.mpc.timing),
+      settings.ocp.horizon, control::toString(settings.integrator.mode),
+      enumName(spec.state_source), solver::toString(first), runner.initialIterations(),
+      terrain_text.c_str());
   if (first != solver::SolverStatus::Converged && first != solver::SolverStatus::Acceptable) {
     // Not an error (the real-time iterations go on from its iterate, the CBF-QP falls back
     // until their first usable solution), but the run's start is not what it seems.
@@ -294,7 +290,8 @@ void buildCbfQp(BuiltRun& run, const RunOverrides& overrides) {
       "period %s s; %s); terrain %s",
       enumName(spec.gait), shortestNumberText(command.v_x).c_str(),
       shortestNumberText(command.v_y).c_str(), shortestNumberText(command.yaw_rate).c_str(),
-      text(settings.baseline.gait_period).c_str(), config.c_str(), terrain_text.c_str());
+      shortestNumberText(settings.baseline.gait_period).c_str(), config.c_str(),
+      terrain_text.c_str());
   run.cbfqp = cbfqp.get();
   run.controller = std::move(cbfqp);
 }
