@@ -198,7 +198,7 @@ std::vector<RunOutcome> runScenarios(const ReportInputs& in) {
     bar.update(i / n, s.name + " starting (" + std::to_string(i + 1) + "/" +
                           std::to_string(set.scenarios.size()) + ")");
     outcomes.push_back(
-        executeRun(s, in.scenes[i], dir, set.criteria, "", [&](double done, double total) {
+        executeRun(s, s.runSpec(dir), in.scenes[i], set.criteria, [&](double done, double total) {
           bar.update((i + done / total) / n, s.name + " " + decimalText(done, 1) + " of " +
                                                  decimalText(total, 1) + " s simulated");
         }));

@@ -117,11 +117,10 @@ TrialResult runTrial(const TrialsOptions& o, const ExperimentSet& set, const Sce
     fs::create_directories(dir + "/sim");
     writeFileAtomically(dir + "/scene.yaml", sim::toYaml(scene));
     writeFileAtomically(dir + "/sensors.yaml", trialSensorNoise(p).toYaml());
-    Scenario trial = trialScenario(s, p);
-    const std::vector<std::string> extra = trialSimArgs(dir + "/sensors.yaml");
-    trial.args.insert(trial.args.end(), extra.begin(), extra.end());
-    const RunOutcome run =
-        executeRun(trial, scene, dir + "/sim", set.criteria, dir + "/scene.yaml");
+    const Scenario trial = trialScenario(s, p);
+    sim::RunSpec spec = trial.runSpec(dir + "/sim", dir + "/scene.yaml");
+    spec.sensor_config = dir + "/sensors.yaml";
+    const RunOutcome run = executeRun(trial, spec, scene, set.criteria);
     throwIfInterrupted();  // the sim was interrupted with us: not a result
     TrialResult r;
     r.scenario = s.name;

@@ -446,6 +446,11 @@ void addRunCommands(Document& doc, const ReportInputs& in,
     doc.paragraph("Outputs: `runs/" + in.set.scenarios[i].name + "/`; exit status " +
                   std::to_string(r.exit_status) + ".");
     doc.code(r.command);
+    if (!r.spec.empty()) {
+      doc.paragraph("The run spec it was given (`runs/" + in.set.scenarios[i].name +
+                    "/spec.yaml`; the run's own `run.yaml` is the same):");
+      doc.code(r.spec);
+    }
     if (!r.summary.empty()) doc.code(r.summary);
     if (!r.error.empty()) doc.paragraph("Error: " + r.error);
   }

@@ -45,7 +45,7 @@ sim::SceneConfig sceneOf(const Scenario& scenario) {
                                        : sim::loadSceneConfig(scenario.scene_config);
 }
 
-std::string robotOf(const Scenario& scenario) { return scenario.option("--robot"); }
+std::string robotOf(const Scenario& scenario) { return scenario.runSpec("out").robot; }
 
 void setRobot(ExperimentSet& set, const std::string& robot) {
   if (robot.empty()) return;
@@ -76,12 +76,16 @@ std::vector<JointLimit> jointLimits(const sim::SceneConfig& scene, const std::st
   return limits;
 }
 
-RunOutcome executeRun(const Scenario& scenario, const sim::SceneConfig& scene,
-                      const std::string& dir, const RunCriteria& criteria,
-                      const std::string& scene_config_file,
+RunOutcome executeRun(const Scenario& scenario, const sim::RunSpec& run,
+                      const sim::SceneConfig& scene, const RunCriteria& criteria,
                       const std::function<void(double, double)>& on_progress) {
+  const std::string& dir = run.out;
   fs::create_directories(dir);
-  const std::vector<std::string> args = scenario.simArgs(dir, scene_config_file);
+  // The child gets the run as a spec file (paths absolute: it reads the same from anywhere).
+  const std::string spec_file = dir + "/spec.yaml";
+  const std::string spec = sim::toYaml(sim::withAbsolutePaths(run));
+  writeFileAtomically(spec_file, spec);
+  const std::vector<std::string> args{"sim", "--spec", spec_file};
   const std::string program = selfExecutable();
   const int status = runProcess(
       program, args, dir + "/stdout.txt", dir + "/stderr.txt", [&](const std::string& line) {
@@ -95,6 +99,7 @@ RunOutcome executeRun(const Scenario& scenario, const sim::SceneConfig& scene,
   argv.insert(argv.end(), args.begin(), args.end());
   RunOutcome outcome = judgeRun(scenario, scene, dir, status, criteria);
   outcome.command = shellCommand(argv);
+  outcome.spec = spec;
   return outcome;
 }
 

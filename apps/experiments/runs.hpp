@@ -9,6 +9,7 @@
 #include "log_table.hpp"
 #include "metrics.hpp"
 #include "rollstep/sim/robot_folder.hpp"
+#include "rollstep/sim/run_spec.hpp"
 #include "rollstep/sim/scene.hpp"
 #include "scenarios.hpp"
 
@@ -18,6 +19,7 @@ struct RunOutcome {
   std::string name;     ///< the scenario's name
   std::string dir;      ///< its output folder
   std::string command;  ///< the exact command that ran (shell-quoted)
+  std::string spec;     ///< the run spec it was given (its spec.yaml's text)
   int exit_status = -1;
   std::string error;  ///< why the run itself failed (sim's FAILED or stderr), else empty
   std::optional<LogTable> log;
@@ -48,12 +50,11 @@ sim::PlantOptions plantOptionsOfRobot(const std::string& robot);
 /// plantOptionsOfRobot.
 std::vector<JointLimit> jointLimits(const sim::SceneConfig& scene, const std::string& robot);
 
-/// Runs `rollstep sim` for the scenario into `dir` (created), with `scene_config_file`
-/// replacing the scenario's scene file when not empty; `on_progress(sim_time, duration)` is
-/// called from the run's progress lines. Then judges it (judgeRun).
-RunOutcome executeRun(const Scenario& scenario, const sim::SceneConfig& scene,
-                      const std::string& dir, const RunCriteria& criteria,
-                      const std::string& scene_config_file = "",
+/// Runs `rollstep sim --spec` for the scenario with the run spec `run` (its outputs in
+/// run.out, created; the spec written there as spec.yaml); `on_progress(sim_time,
+/// duration)` is called from the run's progress lines. Then judges it (judgeRun).
+RunOutcome executeRun(const Scenario& scenario, const sim::RunSpec& run,
+                      const sim::SceneConfig& scene, const RunCriteria& criteria,
                       const std::function<void(double, double)>& on_progress = {});
 
 /// Judges the outputs in `dir` of a finished run (exit_status of the process).

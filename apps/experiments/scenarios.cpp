@@ -14,6 +14,7 @@
 #include "rollstep/common/text_file.hpp"
 #include "rollstep/common/yaml_tree.hpp"
 #include "rollstep/sim/scene.hpp"
+#include "sim_options.hpp"
 #include "trials.hpp"
 
 namespace rollstep::experiments {
@@ -44,25 +45,27 @@ bool isDrawName(const std::string& name) {
                       [&](const char* k) { return name == k; });
 }
 
-std::vector<std::string> Scenario::simArgs(const std::string& out_dir,
-                                           const std::string& scene_config_override) const {
+sim::RunSpec Scenario::runSpec(const std::string& out_dir,
+                               const std::string& scene_config_override) const {
+  // The run's own options (args) are read by rollstep sim's parser, with the scenario's
+  // controller, duration and terrain they are checked against.
+  std::vector<std::string> words{"--controller", controller, "--duration",
+                                 shortestNumberText(duration)};
+  if (terrain == "perception") words.insert(words.end(), {"--terrain", "perception"});
+  words.insert(words.end(), args.begin(), args.end());
+  sim::RunSpec spec = apps::runSpecFromSimArgs(words);
   // The scene file when there is one (it names its scene), else the scene by name.
-  const std::string& config = scene_config_override.empty() ? scene_config : scene_config_override;
-  std::vector<std::string> a{"sim"};
-  if (config.empty()) {
-    a.insert(a.end(), {"--scene", scene});
+  const std::string& file = scene_config_override.empty() ? scene_config : scene_config_override;
+  if (file.empty()) {
+    spec.scene = scene;
   } else {
-    a.insert(a.end(), {"--scene-config", config});
+    spec.scene_file = file;
   }
-  a.insert(a.end(), {"--controller", controller, "--duration", shortestNumberText(duration)});
-  if (!control_config.empty()) a.insert(a.end(), {"--control-config", control_config});
-  a.insert(a.end(), args.begin(), args.end());
-  if (terrain == "perception") {
-    a.insert(a.end(), {"--terrain", "perception"});
-    if (feeds("map")) a.insert(a.end(), {"--log-map", out_dir + "/map"});
-  }
-  a.insert(a.end(), {"--out", out_dir});
-  return a;
+  spec.control_config = control_config;
+  if (terrain == "perception" && feeds("map")) spec.map_log = out_dir + "/map";
+  spec.out = out_dir;
+  sim::checkRunSpec(spec);
+  return spec;
 }
 
 std::string Scenario::option(const std::string& flag) const {
@@ -340,6 +343,13 @@ ExperimentSet parseExperimentSet(const std::string& text, const std::string& sou
       if (!file->empty() && (*file)[0] != '/') *file = base_dir + "/" + *file;
     }
     if (s.title.empty()) s.title = s.name;
+    // The run's options checked now, not when the run starts.
+    try {
+      s.runSpec("out");
+    } catch (const std::exception& e) {
+      reader.failAtLine(reader.lineOf({path + ".args", path + ".name"}, 0),
+                        path + ".args: " + e.what());
+    }
   }
   const std::vector<SceneDraw>& draws = set.trials.scene;
   for (std::size_t i = 0; i < draws.size(); ++i) {

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "metrics.hpp"
+#include "rollstep/sim/run_spec.hpp"
 
 namespace rollstep::experiments {
 
@@ -50,9 +51,12 @@ struct Scenario {
   std::string terrainText() const;
   /// The value given to `flag` in args ("--robot" -> its file), "" when absent.
   std::string option(const std::string& flag) const;
-  /// The `rollstep sim` arguments of this run with outputs in `out_dir` (no program name).
-  std::vector<std::string> simArgs(const std::string& out_dir,
-                                   const std::string& scene_config_override = "") const;
+  /// The run of this scenario with outputs in `out_dir` (its map log in out_dir/map when
+  /// it feeds the map figure), `scene_config_override` replacing its scene file when not
+  /// empty: its keys, and its args parsed as `rollstep sim` parses them (same checks).
+  /// Throws std::invalid_argument naming a bad option of args.
+  sim::RunSpec runSpec(const std::string& out_dir,
+                       const std::string& scene_config_override = "") const;
 };
 
 /// The acceptance of the paper's comparison: candidate beats baseline by at least these

@@ -202,11 +202,9 @@ sim::SensorNoiseConfig trialSensorNoise(const TrialParameters& p) {
   return c;
 }
 
-std::vector<std::string> trialSimArgs(const std::string& sensor_file) {
-  return {"--sensor-config", sensor_file};
+bool readsSensors(const Scenario& s) {
+  return s.runSpec("out").state_source == sim::StateSourceKind::Inekf;
 }
-
-bool readsSensors(const Scenario& s) { return s.option("--state-source") == "inekf"; }
 
 std::vector<std::uint64_t> parseSeeds(const std::string& text) {
   const auto bad = [&](const std::string& why) {

@@ -52,9 +52,6 @@ inline constexpr double kTrialSpeedMargin = 6.0;  ///< [s]
 sim::SceneConfig trialScene(const sim::SceneConfig& base, const TrialParameters& p);
 /// The trial's sensor noise: the defaults scaled by p.sensor_noise, seeded with p.seed.
 sim::SensorNoiseConfig trialSensorNoise(const TrialParameters& p);
-/// Extra `rollstep sim` options of a trial: the sensor file (trialSensorNoise written to
-/// `sensor_file`).
-std::vector<std::string> trialSimArgs(const std::string& sensor_file);
 /// Whether a scenario's controller reads the (noisy) sensors: `--state-source inekf`
 /// (the others run on ground truth, so a trial's sensor noise does not reach them).
 bool readsSensors(const Scenario& s);

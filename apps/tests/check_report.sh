@@ -26,8 +26,9 @@ grep -q '| step20, too short to climb | not measured | 14 | not measured | 0.021
   || fail "Table 1 row of the failed run: expected 'not measured' beside the paper's figures"
 grep -q 'Not met' "$md" || fail "acceptance verdict missing"
 grep -q 'Version: ' "$md" || fail "version missing"
-grep -q 'rollstep sim --scene flat --controller nmpc --duration 1 --gait trot' "$md" \
+grep -q 'rollstep sim --spec .*/runs/flat_trot/spec.yaml' "$md" \
   || fail "the run's exact command is missing"
+grep -q '^terrain: perception$' "$md" || fail "the run's spec is missing"
 [ -s "$out/runs/flat_trot/map/maps.csv" ] || fail "the perception run left no map log"
 grep -q '<table>' "$out/report.html" || fail "report.html has no table"
 # Figures: drawn, or stated as not available (never silently missing).

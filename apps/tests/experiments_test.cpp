@@ -251,10 +251,17 @@ TEST(ExperimentSet, LoadsTheProjectsFileAndRefusesMistakes) {
   ASSERT_NE(set.find("step20_nmpc_v045"), nullptr);
   EXPECT_EQ(set.find("step20_cbfqp_v005")->option("--vx"), "0.05");
   EXPECT_EQ(set.sweep.compared_speeds, (std::vector<double>{0.15, 0.3, 0.45}));
-  const std::vector<std::string> args = set.find("step20_nmpc")->simArgs("/o");
-  EXPECT_EQ(shellCommand(args).substr(0, 53),
-            "sim --scene step20 --controller nmpc --duration 28 --");
-  EXPECT_EQ(args.back(), "/o");
+  // The run: the scenario's keys, its args read as rollstep sim reads them.
+  const sim::RunSpec run = set.find("step20_nmpc")->runSpec("/o");
+  EXPECT_EQ(run.scene, "step20");
+  EXPECT_EQ(run.controller, sim::ControllerKind::Nmpc);
+  EXPECT_EQ(run.duration, 28.0);
+  EXPECT_EQ(run.gait, planning::GaitKind::Trot);
+  ASSERT_EQ(run.command.size(), 1u);
+  EXPECT_EQ(run.command[0].command.v_x, 0.15);
+  EXPECT_EQ(run.mpc_timing, sim::TimingChoice::Deterministic);
+  EXPECT_EQ(run.integrator, sim::IntegratorChoice::Internal);
+  EXPECT_EQ(run.out, "/o");
 
   const std::string ok = "scenarios:\n  - {name: a, scene: flat, controller: nmpc}\n";
   EXPECT_EQ(parseExperimentSet(ok, "f", "/d").scenarios.size(), 1u);
@@ -264,10 +271,10 @@ TEST(ExperimentSet, LoadsTheProjectsFileAndRefusesMistakes) {
       "scenarios:\n  - {name: a, scene: flat, controller: nmpc, terrain: perception, figures: "
       "[map]}\n",
       "f", "/d");
-  EXPECT_EQ(
-      shellCommand(perceived.scenarios[0].simArgs("/o")),
-      "sim --scene flat --controller nmpc --duration 10 --terrain perception --log-map /o/map "
-      "--out /o");
+  const sim::RunSpec perceived_run = perceived.scenarios[0].runSpec("/o");
+  EXPECT_EQ(perceived_run.terrain, sim::TerrainSource::Perception);
+  EXPECT_EQ(perceived_run.map_log, "/o/map");
+  EXPECT_EQ(perceived_run.duration, 10.0);
   EXPECT_EQ(perceived.scenarios[0].terrainText(), "perception (LiDAR, closed loop)");
   // Control settings: a path relative to the experiments file's folder, given as
   // --control-config after the controller (not in args).
@@ -275,9 +282,11 @@ TEST(ExperimentSet, LoadsTheProjectsFileAndRefusesMistakes) {
       "scenarios:\n  - {name: a, scene: step20, controller: nmpc, control_config: "
       "behaviours/climb.yaml}\n",
       "f", "/d");
-  EXPECT_EQ(shellCommand(tuned.scenarios[0].simArgs("/o")),
-            "sim --scene step20 --controller nmpc --duration 10 --control-config "
-            "/d/behaviours/climb.yaml --out /o");
+  EXPECT_EQ(tuned.scenarios[0].runSpec("/o").control_config, "/d/behaviours/climb.yaml");
+  // A scene file given instead (a trial's) replaces the scene by name.
+  const sim::RunSpec trial_run = tuned.scenarios[0].runSpec("/o", "/t/scene.yaml");
+  EXPECT_EQ(trial_run.scene_file, "/t/scene.yaml");
+  EXPECT_EQ(trial_run.scene, sim::RunSpec().scene);
   const auto error = [](const std::string& text) {
     try {
       parseExperimentSet(text, "f", "/d");
@@ -404,12 +413,13 @@ TEST(Trials, DrawsAreFixedBySeedAndInRange) {
   EXPECT_EQ(back.toYaml(), n.toYaml());
   EXPECT_DOUBLE_EQ(back.wheel_velocity_noise, n.wheel_velocity_noise);
   Scenario nmpc, cbfqp;
+  nmpc.scene = cbfqp.scene = "flat";
+  nmpc.controller = "nmpc";
   nmpc.args = {"--gait", "trot", "--state-source", "inekf"};
+  cbfqp.controller = "cbfqp";
   cbfqp.args = {"--gait", "trot"};
   EXPECT_TRUE(readsSensors(nmpc));
   EXPECT_FALSE(readsSensors(cbfqp));
-  EXPECT_EQ(trialSimArgs("d/sensors.yaml"),
-            (std::vector<std::string>{"--sensor-config", "d/sensors.yaml"}));
 }
 
 TEST(Trials, DrawASpeedAfterTheOtherDrawsAndScaleTheCommandToIt) {

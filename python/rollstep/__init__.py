@@ -61,7 +61,7 @@ from ._rollstep import (  # noqa: F401  (re-exported)
     update_frame_placements,
 )
 from . import _rollstep
-from ._settings import ControlSettings, OcpSettings, SolverSettings  # noqa: F401
+from ._settings import ControlSettings, OcpSettings, RunSpec, SolverSettings  # noqa: F401
 
 
 
@@ -397,20 +397,26 @@ class LqProblem:
 
 
 class Simulation:
-    """The MuJoCo simulation of `rollstep sim`: a scene, the robot and a controller, stepped
-    at the control rate (1 kHz) with the state readable between steps.
+    """The MuJoCo simulation of `rollstep sim`: the run of a RunSpec, built as `rollstep sim`
+    builds it (the plant, the controller, terrain from the scene or perception in closed
+    loop, ground truth or the state estimator), stepped at the control rate (1 kHz) with
+    the state readable between steps. The same spec gives the same log as `rollstep sim
+    --spec` (its log.csv, value for value).
 
     Arguments:
-      scene        a scene name ('flat', 'step20', 'stairs2', ...), SceneConfig, file or dict
+      spec         a RunSpec, a spec file (e.g. a run's run.yaml) or a dict of its keys; the
+                   arguments below are then not used (but control and a SceneConfig scene)
+      scene        a scene name ('flat', 'step20', 'stairs2', ...), scene file, SceneConfig
+                   or dict
       controller   'stand' (hold the nominal posture), 'drive' (roll on the drive wheels at
                    speed [m/s], turning with turn_speed [m/s]), 'nmpc' (the full pipeline:
-                   NMPC + CBF-QP + state integrator on the ground-truth state) or 'cbfqp'
-                   (the CBF-QP baseline without MPC)
+                   NMPC + CBF-QP + state integrator) or 'cbfqp' (the CBF-QP baseline
+                   without MPC)
       gait, command  for nmpc and cbfqp: gait name and (vx [m/s], vy [m/s], yaw_rate [rad/s])
       control      ControlSettings, a YAML file or a dict (nmpc default: ControlSettings(),
                    the library's defaults, as `rollstep sim`, with deterministic MPC timing;
                    cbfqp default: config/baseline.yaml)
-      robot        robot folder (its centroidal.yaml and MJCF); default: default_robot()
+      robot        robot name or folder (its centroidal.yaml and MJCF); default: tachyon3
       log_every    control periods between log rows
 
     The log keeps a row at the start and every log_every periods: log() gives a dict of
@@ -419,25 +425,49 @@ class Simulation:
     """
 
     def __init__(self, scene="flat", controller="stand", gait="standing", command=(0.0, 0.0, 0.0),
-                 control=None, robot=None, speed=0.5, turn_speed=0.0, log_every=10):
-        robot_dir = str(robot if robot is not None else default_robot())
-        description = _description_file(robot_dir)
-        mjcf = ""
-        if os.path.isdir(robot_dir):
-            # A robot folder's MJCF is named after the folder (docs/ROBOTS.md).
-            name = os.path.basename(os.path.normpath(os.path.abspath(robot_dir)))
-            mjcf = os.path.join(robot_dir, name + ".xml")
-        if control is None and controller == "cbfqp":
-            control = os.path.join(config_dir(), "baseline.yaml")
-        if control is None:
-            # The NMPC's defaults, as `rollstep sim` without --control-config (climbing and
-            # the speed rule), deterministic MPC timing.
-            control = ControlSettings()
-            control.mpc.timing = "deterministic"
-        vx, vy, wz = (float(c) for c in command)
-        self._sim = _rollstep._Simulation(_scene(scene), controller, mjcf, description,
-                                          _settings_cpp(control, ControlSettings), gait, vx, vy, wz,
-                                          float(speed), float(turn_speed), int(log_every))
+                 control=None, robot=None, speed=0.5, turn_speed=0.0, log_every=10, spec=None):
+        scene_cpp = None
+        if spec is None:
+            values = {"controller": controller, "log_every": int(log_every)}
+            if isinstance(scene, (str, os.PathLike)):
+                scene = str(scene)
+                is_path = scene.endswith((".yaml", ".yml")) or os.path.sep in scene
+                values["scene"] = os.path.abspath(scene) if is_path else scene
+            else:
+                scene_cpp = _scene(scene)
+            if controller in ("nmpc", "cbfqp"):
+                vx, vy, wz = (float(c) for c in command)
+                values["gait"] = gait
+                values["command"] = [[0.0, vx, vy, wz]]
+            if controller == "nmpc":
+                values["mpc_timing"] = "deterministic"
+            if controller == "drive":
+                values["drive_speed"] = float(speed)
+                values["drive_turn_speed"] = float(turn_speed)
+            if robot is not None:
+                robot = str(robot)
+                values["robot"] = os.path.abspath(robot) if os.path.isdir(robot) else robot
+            if isinstance(control, (str, os.PathLike)):
+                values["control_config"] = os.path.abspath(str(control))
+                control = None
+            spec = RunSpec(**values)
+        else:
+            if isinstance(scene, (SceneConfig, dict)):
+                scene_cpp = _scene(scene)
+            if isinstance(spec, (str, os.PathLike)):
+                spec = RunSpec.load(spec)
+            elif isinstance(spec, dict):
+                spec = RunSpec(**spec)
+            if not isinstance(spec, RunSpec):
+                raise TypeError("spec: expected a RunSpec, a spec file or a dict")
+        control_cpp = None if control is None else _settings_cpp(control, ControlSettings)
+        self._spec = spec.copy()
+        self._sim = _rollstep._Simulation(spec._cpp, control_cpp, scene_cpp)
+
+    @property
+    def spec(self):
+        """The RunSpec of this run (a copy)."""
+        return self._spec.copy()
 
     @property
     def control_period(self):

@@ -204,3 +204,29 @@ class ControlSettings(Settings):
         _merge(tree, values)
         cpp = self._cpp_class.parse(_to_block(tree) + "\n", "ControlSettings")
         object.__setattr__(self, "_cpp", cpp)
+
+
+class RunSpec(Settings):
+    """A simulation run, the spec `rollstep sim` runs and writes to DIR/run.yaml: robot,
+    scene or scene_file, controller ('stand', 'drive', 'nmpc', 'cbfqp'), duration [s], gait,
+    command (a list of [time s, vx m/s, vy m/s, yaw_rate rad/s] entries, base frame, each from
+    its time on), drive_speed and drive_turn_speed [m/s], control_config (a file),
+    mpc_timing and integrator ('default': the control settings'), terrain ('scene' or
+    'perception'), lidar_config, perception_config, perception_timing, state_source
+    ('ground_truth' or 'inekf': the state estimator on the plant's sensors),
+    estimator_config, sensor_config, out, log_every, map_log, map_log_rate, log_violations.
+    Checked as a spec file is (RuntimeError naming the key; keys that apply to another
+    controller or terrain only must stay at their defaults). RunSpec.defaults() documents
+    every key with its default. Example: RunSpec(scene='step20', controller='nmpc',
+    gait='trot', command=[[0, 0.15, 0, 0]], state_source='inekf')."""
+
+    _cpp_class = _rollstep._RunSpec
+
+    @staticmethod
+    def defaults():
+        """Every key with its default, unit and range (YAML text)."""
+        return _rollstep._RunSpec.defaults()
+
+    def to_dict(self):
+        """Every key with its value."""
+        return _rollstep._yaml_to_python(self.to_yaml())

@@ -1,35 +1,27 @@
-// The MuJoCo simulation of `rollstep sim` (apps/sim_command.cpp): a scene, the robot's
-// plant and one of the existing controllers, stepped at the control rate with the state
-// readable between steps, and its log kept in memory at full precision (the columns and
-// units of sim::csvHeader() and the controller's own columns).
+// The MuJoCo simulation of `rollstep sim`: the run of a run spec built by sim::buildRun (as
+// `rollstep sim` builds it: the plant, the controller, perception and the state estimator),
+// stepped at the control rate with the state readable between steps, and its log kept in
+// memory at full precision (the columns and units of sim::csvHeader() and the controller's
+// own columns).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
-#include <filesystem>
-#include <limits>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "bindings.hpp"
-#include "rollstep/centroidal/centroidal_ocp.hpp"
 #include "rollstep/control/control_settings.hpp"
-#include "rollstep/sim/cbfqp_controller.hpp"
-#include "rollstep/sim/nmpc_controller.hpp"
-#include "rollstep/sim/plant.hpp"
+#include "rollstep/sim/run.hpp"
 #include "rollstep/sim/scenario.hpp"
-#include "rollstep/sim/scene.hpp"
-#include "rollstep/sim/scene_terrain.hpp"
-#include "rollstep/sim/simple_controllers.hpp"
 
 namespace rollstep::python {
 
 namespace {
-
-namespace fs = std::filesystem;
 
 std::vector<std::string> splitColumns(const std::string& text) {
   std::vector<std::string> out;
@@ -45,74 +37,28 @@ std::vector<std::string> splitColumns(const std::string& text) {
   return out;
 }
 
-/// A robot folder's centroidal.yaml, or the file itself.
-std::string descriptionFile(const std::string& robot) {
-  return fs::is_directory(robot) ? (fs::path(robot) / "centroidal.yaml").string() : robot;
-}
-
 struct Simulation {
-  Simulation(const sim::SceneConfig& scene, const std::string& controller_name,
-             const std::string& robot_file, const std::string& robot_description,
-             const control::ControlSettings& settings, const std::string& gait, double vx,
-             double vy, double yaw_rate, double speed, double turn_speed, int log_every_)
-      : plant(scene,
-              [&] {
-                sim::PlantOptions o;
-                o.robot_file = robot_file;
-                const centroidal::RobotOcpDescription d =
-                    centroidal::loadRobotOcpDescription(descriptionFile(robot_description));
-                o.contact_frames = d.contact_frames;
-                o.drive_wheels = d.drive_wheels;
-                return o;
-              }()),
-        log_every(log_every_) {
-    if (log_every < 1) {
-      throw std::invalid_argument("log_every = " + std::to_string(log_every) + ": must be >= 1");
-    }
-    checkFinite(Eigen::Vector3d(vx, vy, yaw_rate), "command");
-    const std::string description = descriptionFile(robot_description);
-    if (controller_name == "stand") {
-      controller = std::make_unique<sim::StandController>(plant.nominalCommand());
-    } else if (controller_name == "drive") {
-      double radius = std::numeric_limits<double>::infinity();
-      for (const int leg : plant.layout().drive_wheel_legs) {
-        radius = std::min(radius, plant.wheelRadius(leg));
-      }
-      const double limit =
-          plant.layout().numDriveWheels() > 0 ? plant.wheelSpeedLimit() * radius : 0.0;
-      if (!std::isfinite(speed) || !std::isfinite(turn_speed) ||
-          std::abs(speed) + std::abs(turn_speed) > limit) {
-        throw std::invalid_argument(
-            "speed " + std::to_string(speed) + " with turn_speed " + std::to_string(turn_speed) +
-            ": valid range |speed| + |turn_speed| <= " + std::to_string(limit) +
-            " m/s (the drive wheels' limit)");
-      }
-      sim::DriveController::Params p;
-      p.speed = speed;
-      p.turn_speed = turn_speed;
-      controller = std::make_unique<sim::DriveController>(plant, p);
-    } else if (controller_name == "nmpc") {
-      const centroidal::RobotOcpDescription robot =
-          centroidal::loadRobotOcpDescription(description);
-      const double margin = centroidal::footholdRegionMargin(robot, settings.ocp);
-      controller = std::make_unique<sim::NmpcController>(
-          plant, robot, settings, sim::terrainFromScene(scene, margin),
-          centroidal::gaitKindFromString(gait), planning::BaseVelocityCommand{vx, vy, yaw_rate});
-    } else if (controller_name == "cbfqp") {
-      const centroidal::RobotOcpDescription robot =
-          centroidal::loadRobotOcpDescription(description);
-      controller = std::make_unique<sim::CbfQpController>(
-          plant, robot, settings, sim::terrainFromScene(scene, settings.baseline.foothold_margin),
-          sim::terrainFromScene(scene, 0.0), centroidal::gaitKindFromString(gait),
-          planning::BaseVelocityCommand{vx, vy, yaw_rate});
-    } else {
-      throw std::invalid_argument("controller '" + controller_name +
-                                  "': valid: stand, drive, nmpc, cbfqp");
-    }
-    names = splitColumns(sim::csvHeader(plant.layout()) + controller->logColumns());
+  /// The run of `spec` as buildRun builds it for `rollstep sim` (perception and the
+  /// estimator included), with `control` and `scene` instead of the spec's files when given.
+  Simulation(const sim::RunSpec& spec, std::optional<control::ControlSettings> control_settings,
+             std::optional<sim::SceneConfig> scene_config)
+      : control(std::move(control_settings)),
+        scene(std::move(scene_config)),
+        run(sim::buildRun(spec, overrides())),
+        plant(*run.plant),
+        log_every(spec.log_every) {
+    if (sim::OnlinePerception* p = run.perception(); p != nullptr) p->openLog();
+    names = splitColumns(sim::csvHeader(plant.layout()) + run.controller->logColumns());
     columns.resize(names.size());
     command = plant.command();
     record();
+  }
+
+  sim::RunOverrides overrides() const {
+    sim::RunOverrides o;
+    o.control = control ? &*control : nullptr;
+    o.scene = scene ? &*scene : nullptr;
+    return o;
   }
 
   /// One log row: the ground truth at full precision, then the controller's columns.
@@ -142,7 +88,7 @@ struct Simulation {
       for (const Eigen::Vector3d& p : t.contact_point) put(p[axis]);
     }
     put(static_cast<double>(t.body_contact_periods));
-    controller->logValues(extra);
+    run.controller->logValues(extra);
     for (const std::string& v : splitColumns(extra)) {
       if (c == columns.size()) break;
       char* end = nullptr;
@@ -154,7 +100,7 @@ struct Simulation {
 
   /// `steps` control periods, as sim::runScenario runs them.
   void advance(long steps) {
-    const bool paced = controller->paceToWallClock();
+    const bool paced = run.controller->paceToWallClock();
     const auto wall0 = std::chrono::steady_clock::now();
     const auto period = std::chrono::duration<double>(plant.controlPeriod());
     for (long k = 1; k <= steps; ++k) {
@@ -163,15 +109,17 @@ struct Simulation {
             wall0 + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                         static_cast<double>(k - 1) * period));
       }
-      controller->compute(plant.time(), plant.sensors(), command);
+      run.controller->compute(plant.time(), plant.sensors(), command);
       plant.setCommand(command);
       plant.step();
       if (++periods % log_every == 0) record();
     }
   }
 
-  sim::Plant plant;
-  std::unique_ptr<sim::Controller> controller;
+  std::optional<control::ControlSettings> control;
+  std::optional<sim::SceneConfig> scene;
+  sim::BuiltRun run;
+  sim::Plant& plant;
   sim::PlantCommand command;
   int log_every;
   long periods = 0;
@@ -189,10 +137,26 @@ Eigen::VectorXd vec(const V& v) {
 }  // namespace
 
 void bindSimulation(py::module_& m) {
+  py::class_<sim::RunSpec>(m, "_RunSpec", "C++ RunSpec; use rollstep.RunSpec.")
+      .def(py::init<>())
+      .def(py::init<const sim::RunSpec&>())
+      .def_static(
+          "parse",
+          [](const std::string& text, const std::string& source) {
+            return sim::parseRunSpec(text, source);
+          },
+          py::arg("text"), py::arg("source"))
+      .def_static("load", &sim::loadRunSpec, py::arg("path"))
+      .def_static("defaults", &sim::runSpecDefaults)
+      .def("to_yaml", [](const sim::RunSpec& s) { return sim::toYaml(s); })
+      .def("check", [](const sim::RunSpec& s) { sim::checkRunSpec(s); })
+      .def("update", [](sim::RunSpec& s, const std::string& text) {
+        s = sim::parseRunSpec(text, "run spec RunSpec", "", s);  // s unchanged when refused
+      });
+
   py::class_<Simulation>(m, "_Simulation", "C++ side of rollstep.Simulation.")
-      .def(py::init<const sim::SceneConfig&, const std::string&, const std::string&,
-                    const std::string&, const control::ControlSettings&, const std::string&, double,
-                    double, double, double, double, int>(),
+      .def(py::init<const sim::RunSpec&, std::optional<control::ControlSettings>,
+                    std::optional<sim::SceneConfig>>(),
            py::call_guard<py::gil_scoped_release>())
       .def("step",
            [](Simulation& s, long steps) {
@@ -208,7 +172,8 @@ void bindSimulation(py::module_& m) {
                              [](Simulation& s) { return s.plant.controlPeriod(); })
       .def_property_readonly("time", [](Simulation& s) { return s.plant.time(); })
       .def_property_readonly("controller_name",
-                             [](Simulation& s) { return std::string(s.controller->name()); })
+                             [](Simulation& s) { return std::string(s.run.controller->name()); })
+      .def_property_readonly("controller_text", [](Simulation& s) { return s.run.controller_text; })
       .def("state",
            [](Simulation& s) {
              const std::lock_guard<std::mutex> lock(s.mutex);

@@ -73,11 +73,11 @@ def test_state_and_checks():
     s = sim.state()
     assert np.all(s["foot_contact"] == 1)
     assert abs(s["foot_force"][:, 2].sum() - 9.81 * rollstep.load_robot_model().total_mass) < 0.1 * 9.81 * rollstep.load_robot_model().total_mass
-    with pytest.raises(ValueError, match="controller 'fly': valid: stand, drive, nmpc, cbfqp"):
+    with pytest.raises(RuntimeError, match="controller: expected stand, drive, nmpc or cbfqp, got 'fly'"):
         rollstep.Simulation(controller="fly")
     with pytest.raises(ValueError, match="duration"):
         sim.run(-1)
-    with pytest.raises(ValueError, match="speed 9"):
+    with pytest.raises(RuntimeError, match=r"drive_speed: 9.0 is outside \[-1.8, 1.8\]"):
         rollstep.Simulation(controller="drive", speed=9.0)
 
 

@@ -1,0 +1,23 @@
+#!/bin/sh
+# Usage: same_spec.sh ROLLSTEP OUT_DIR
+# A run given as options and the same run given as its spec file (the run.yaml the first
+# wrote) write the same log.csv and plan.csv, byte for byte, and the same run.yaml but for
+# the output folder. An NMPC trot on the estimator's state with a command schedule: the
+# estimator, the sensors and the schedule all come through the spec.
+set -u
+rollstep=$1 out=$2
+fail() { echo "FAIL: $*"; exit 1; }
+rm -rf "$out"
+"$rollstep" sim --scene step20 --controller nmpc --gait trot --command 0:0.2,0.3:0.1:0:0.1 \
+  --duration 0.5 --mpc-timing deterministic --state-source inekf --log-every 5 \
+  --out "$out/options" >/dev/null || fail "the run with options failed"
+[ -f "$out/options/run.yaml" ] || fail "no run.yaml"
+"$rollstep" sim --spec "$out/options/run.yaml" --out "$out/spec" >/dev/null ||
+  fail "the run of the spec failed"
+cmp -s "$out/options/log.csv" "$out/spec/log.csv" || fail "the logs differ"
+cmp -s "$out/options/plan.csv" "$out/spec/plan.csv" || fail "the plans differ"
+grep -v '^out:' "$out/options/run.yaml" > "$out/a.yaml"
+grep -v '^out:' "$out/spec/run.yaml" > "$out/b.yaml"
+cmp -s "$out/a.yaml" "$out/b.yaml" || fail "the run.yaml files differ"
+grep -q '^state_source: inekf$' "$out/spec/run.yaml" || fail "run.yaml lacks the state source"
+echo "the spec's run equals the options' run"

@@ -1,0 +1,112 @@
+"""The run spec from Python: the same keys and checks as a spec file, and a Simulation of a
+spec (with the state estimator, with perception in closed loop) that gives `rollstep sim
+--spec`'s log.csv value for value."""
+import csv
+import os
+
+import numpy as np
+import pytest
+
+import rollstep
+
+
+def test_spec_keys_checks_and_round_trip(tmp_path):
+    spec = rollstep.RunSpec(scene="step20", controller="nmpc", gait="trot",
+                            command=[[0, 0.15, 0, 0], [3, 0, 0, 0.2]], duration=5,
+                            state_source="inekf")
+    assert spec.controller == "nmpc" and spec.duration == 5 and spec.state_source == "inekf"
+    np.testing.assert_array_equal(spec.command[1], [3, 0, 0, 0.2])
+    back = rollstep.RunSpec.from_yaml(spec.to_yaml())
+    assert back == spec
+    path = tmp_path / "run.yaml"
+    path.write_text(spec.to_yaml())
+    # A relative path in a file is relative to the file's folder.
+    assert rollstep.RunSpec.load(path).out == str(tmp_path / "out" / "sim")
+    spec.out = str(tmp_path / "o")
+    path.write_text(spec.to_yaml())
+    assert rollstep.RunSpec.load(path) == spec
+    assert "duration: 10  # [s] [0.001, 3600]" in rollstep.RunSpec.defaults()
+    # The file's checks, with the file's messages.
+    with pytest.raises(RuntimeError, match="controller: expected stand, drive, nmpc or cbfqp, got 'fly'"):
+        rollstep.RunSpec(controller="fly")
+    with pytest.raises(RuntimeError, match="gait: is used only by the nmpc and cbfqp controllers"):
+        rollstep.RunSpec(gait="trot")
+    with pytest.raises(RuntimeError, match="unknown key 'speed'"):
+        rollstep.RunSpec(speed=1)
+    with pytest.raises(RuntimeError, match=r"command: entry 1: time 6 s is not before the run's end"):
+        rollstep.RunSpec(controller="nmpc", duration=5, command=[[0, 0.1], [6, 0]])
+    spec.duration = 4  # an assignment is checked, the spec unchanged when refused
+    with pytest.raises(RuntimeError, match="duration: -1 is outside"):
+        spec.duration = -1
+    assert spec.duration == 4
+
+
+def _log_rows(path):
+    with open(path, newline="") as f:
+        return list(csv.reader(f))
+
+
+def _is_number(cell):
+    try:
+        float(cell)
+        return True
+    except ValueError:
+        return False
+
+
+def _printed(value, like):
+    """`value` printed as the cell `like` of log.csv was: %.Nf or %.Ne."""
+    if like in ("nan", "-nan"):
+        return like if np.isnan(value) else repr(value)
+    mantissa = like.lower().split("e")[0]
+    decimals = len(mantissa.split(".", 1)[1]) if "." in mantissa else 0
+    return f"{value:.{decimals}{'e' if 'e' in like.lower() else 'f'}}"
+
+
+def _same_as_command_line(tmp_path, spec):
+    program = os.environ.get("ROLLSTEP_PROGRAM") or rollstep._paths.PROGRAM
+    if not os.path.exists(program):
+        pytest.skip("the rollstep program is not built")
+    spec.out = str(tmp_path / "sim")
+    spec_file = tmp_path / "spec.yaml"
+    spec_file.write_text(spec.to_yaml())
+    rollstep.run_command(["sim", "--spec", str(spec_file)], capture=True)
+    # The run wrote the spec it ran: the same run.
+    assert rollstep.RunSpec.load(tmp_path / "sim" / "run.yaml") == spec
+    rows = _log_rows(tmp_path / "sim" / "log.csv")
+    sim = rollstep.Simulation(spec=spec)
+    sim.run(spec.duration)
+    log = sim.log(with_units=True)
+    assert list(log) == rows[0]
+    assert len(rows) - 1 == len(log["time[s]"])
+    compared = 0
+    for column, name in enumerate(rows[0]):
+        theirs = [row[column] for row in rows[1:]]
+        if not all(_is_number(cell) for cell in theirs):  # text (a QP status): NaN in Python
+            assert np.all(np.isnan(log[name])), name
+            continue
+        assert [_printed(v, cell) for v, cell in zip(log[name], theirs)] == theirs, name
+        compared += 1
+    assert compared > 60
+    return log
+
+
+def test_simulation_with_the_estimator_equals_the_command_line(tmp_path):
+    spec = rollstep.RunSpec(scene="flat", controller="nmpc", gait="trot",
+                            command=[[0, 0.2, 0, 0]], duration=0.3, mpc_timing="deterministic",
+                            state_source="inekf")
+    log = _same_as_command_line(tmp_path, spec)
+    # The estimator runs on noisy sensors: the controller's state is not the ground truth.
+    assert "state inekf" in rollstep.Simulation(spec=spec)._sim.controller_text
+    assert max(np.ptp(log[n]) for n in log if n.startswith("q_")) > 1e-3
+
+
+@pytest.mark.parametrize("controller", ["nmpc", "cbfqp"])
+def test_simulation_with_perception_equals_the_command_line(tmp_path, controller):
+    spec = rollstep.RunSpec(scene="step20", controller=controller, gait="trot",
+                            command=[[0, 0.15, 0, 0]], duration=0.3, terrain="perception")
+    if controller == "nmpc":
+        spec.mpc_timing = "deterministic"  # perception then runs deterministic as well
+    sim = rollstep.Simulation(spec=spec)
+    assert "perception in closed loop" in sim._sim.controller_text
+    _same_as_command_line(tmp_path, spec)

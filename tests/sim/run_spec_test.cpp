@@ -1,0 +1,176 @@
+// The run spec: written and read back equal, strict reading with file, line and key in
+// every error, the checks of keys that only apply together, paths relative to the file.
+#include "rollstep/sim/run_spec.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "rollstep/sim/run.hpp"
+
+namespace rollstep::sim {
+namespace {
+
+std::string errorOf(const std::string& text) {
+  try {
+    parseRunSpec(text, "run spec 'r.yaml'");
+  } catch (const std::runtime_error& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+RunSpec everyKeySet() {
+  RunSpec s;
+  s.robot = "robots/my robot";  // a path with a space: written quoted
+  s.scene_file = "/scenes/step20_custom.yaml";
+  s.controller = ControllerKind::Nmpc;
+  s.duration = 44.125;
+  s.gait = planning::GaitKind::Trot;
+  s.command = {{0.0, {0.15, 0.0, 0.0}}, {19.0, {0.0, 0.1, -0.3}}, {21.5, {-0.15, 0.0, 0.0}}};
+  s.control_config = "behaviours/climb.yaml";
+  s.mpc_timing = TimingChoice::Deterministic;
+  s.integrator = IntegratorChoice::Naive;
+  s.terrain = TerrainSource::Perception;
+  s.lidar_config = "lidar.yaml";
+  s.perception_config = "true";  // a word YAML reads as a flag: written quoted
+  s.perception_timing = TimingChoice::Asynchronous;
+  s.state_source = StateSourceKind::Inekf;
+  s.estimator_config = "estimation.yaml";
+  s.sensor_config = "";
+  s.out = "out/a";
+  s.log_every = 3;
+  s.map_log = "out/a/map";
+  s.map_log_rate = 0.1;
+  s.log_violations = true;
+  return s;
+}
+
+TEST(RunSpec, WrittenAndReadBackEqual) {
+  for (const RunSpec& s : {RunSpec{}, everyKeySet()}) {
+    const std::string text = toYaml(s);
+    const RunSpec back = parseRunSpec(text, "run spec 'r.yaml'");
+    EXPECT_TRUE(back == s) << text;
+    EXPECT_EQ(toYaml(back), text);
+  }
+  // Every key is written, and a default spec's text names each default.
+  const std::string defaults = runSpecDefaults();
+  for (const char* key : {"robot:", "scene: flat", "controller: stand", "duration: 10  # [s]",
+                          "command: [[0, 0, 0, 0]]", "mpc_timing: default",
+                          "state_source: ground_truth", "log_every: 10", "out: out/sim"}) {
+    EXPECT_NE(defaults.find(key), std::string::npos) << key << " in\n" << defaults;
+  }
+  // A file gives only what differs; vy and yaw rate may be left out of a command entry.
+  const RunSpec short_form = parseRunSpec(
+      "scene: step20\ncontroller: cbfqp\ngait: trot\ncommand: [[0, 0.15]]\n", "run spec 'r.yaml'");
+  EXPECT_EQ(short_form.scene, "step20");
+  EXPECT_EQ(short_form.controller, ControllerKind::CbfQp);
+  ASSERT_EQ(short_form.command.size(), 1u);
+  EXPECT_EQ(short_form.command[0].command.v_x, 0.15);
+  EXPECT_EQ(short_form.command[0].command.yaw_rate, 0.0);
+  EXPECT_EQ(short_form.duration, 10.0);
+}
+
+TEST(RunSpec, ErrorsNameFileLineAndKey) {
+  EXPECT_EQ(errorOf("scene: flat\nspeed: 3\n"),
+            "run spec 'r.yaml': line 2: unknown key 'speed' (known: robot, scene, scene_file, "
+            "controller, duration, gait, command, drive_speed, drive_turn_speed, "
+            "control_config, mpc_timing, integrator, terrain, lidar_config, perception_config, "
+            "perception_timing, state_source, estimator_config, sensor_config, out, log_every, "
+            "map_log, map_log_rate, log_violations)");
+  EXPECT_EQ(errorOf("duration: 5\nduration: 6\n"),
+            "run spec 'r.yaml': line 2: duration: given twice (first on line 1)");
+  EXPECT_EQ(errorOf("\nduration: 0\n"),
+            "run spec 'r.yaml': line 2: duration: 0 is outside "
+            "[0.001, 3600]");
+  EXPECT_EQ(errorOf("controller: fly\n"),
+            "run spec 'r.yaml': line 1: controller: expected stand, drive, nmpc or cbfqp, got "
+            "'fly'");
+  EXPECT_EQ(errorOf("controller: nmpc\ncommand: [[0, 0.1], [0.5]]\n"),
+            "run spec 'r.yaml': line 2: command[1]: expected [time, vx, vy, yaw_rate] (2 to 4 "
+            "numbers)");
+  EXPECT_EQ(errorOf("controller: nmpc\nduration: 5\ncommand: [[0, 0.1], [6, 0]]\n"),
+            "run spec 'r.yaml': line 3: command: entry 1: time 6 s is not before the run's end "
+            "(duration 5 s): the entry would never apply");
+  EXPECT_EQ(errorOf("controller: nmpc\ncommand: [[0, 1.5]]\n"),
+            "run spec 'r.yaml': line 2: command: entry 0: vx 1.5 outside [-1, 1] m/s");
+  // Keys that apply to other controllers or terrains only.
+  EXPECT_EQ(errorOf("controller: stand\ngait: trot\n"),
+            "run spec 'r.yaml': line 2: gait: is used only by the nmpc and cbfqp controllers");
+  EXPECT_EQ(errorOf("controller: cbfqp\n\nmpc_timing: deterministic\n"),
+            "run spec 'r.yaml': line 3: mpc_timing: is used only by the nmpc controller");
+  EXPECT_EQ(errorOf("controller: nmpc\nmap_log: m\n"),
+            "run spec 'r.yaml': line 2: map_log: is used only with terrain perception");
+  EXPECT_EQ(errorOf("controller: nmpc\nestimator_config: e.yaml\n"),
+            "run spec 'r.yaml': line 2: estimator_config: is used only with state_source inekf "
+            "(the state here is the simulator's ground truth)");
+  EXPECT_EQ(errorOf("controller: cbfqp\ngait: static_walk\n"),
+            "run spec 'r.yaml': line 2: gait: static_walk is not a gait of the cbfqp baseline "
+            "(standing, rolling or trot)");
+  EXPECT_EQ(errorOf("scene: step20\nscene_file: s.yaml\n"),
+            "run spec 'r.yaml': line 2: scene_file: and scene exclude each other (the file names "
+            "its scene)");
+  EXPECT_EQ(errorOf("out:\n"), "run spec 'r.yaml': line 1: out: no value");
+  EXPECT_EQ(errorOf("[1, 2]\n"), "run spec 'r.yaml': line 1: expected a mapping of key: value");
+  // A spec made in code: the same checks, naming the key.
+  RunSpec s;
+  s.drive_speed = 0.3;
+  s.controller = ControllerKind::Nmpc;
+  try {
+    checkRunSpec(s);
+    ADD_FAILURE() << "no error";
+  } catch (const RunSpecError& e) {
+    EXPECT_EQ(e.key(), "drive_speed");
+    EXPECT_STREQ(e.what(), "drive_speed: is used only by the drive controller");
+  }
+}
+
+TEST(RunSpec, PathsRelativeToTheFileAndNamesKept) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / "rollstep_run_spec_test";
+  fs::create_directories(dir);
+  const fs::path file = dir / "run.yaml";
+  {
+    std::ofstream out(file);
+    out << "robot: tachyon3\nscene: step20\ncontroller: nmpc\ncontrol_config: c/climb.yaml\n"
+           "state_source: inekf\nestimator_config: /abs/e.yaml\nout: o\n";
+  }
+  const RunSpec s = loadRunSpec(file.string());
+  EXPECT_EQ(s.robot, "tachyon3");  // names stay names
+  EXPECT_EQ(s.scene, "step20");
+  EXPECT_EQ(s.control_config, (dir / "c/climb.yaml").string());
+  EXPECT_EQ(s.estimator_config, "/abs/e.yaml");
+  EXPECT_EQ(s.out, (dir / "o").string());
+  // Written with absolute paths, the spec reads back equal from anywhere.
+  const RunSpec absolute = withAbsolutePaths(s);
+  EXPECT_TRUE(parseRunSpec(toYaml(absolute), "x", "/elsewhere") == absolute);
+  fs::remove_all(dir);
+}
+
+TEST(RunSpec, BuildRefusesWhatDoesNotFitTheRobot) {
+  RunSpec s;
+  s.controller = ControllerKind::Drive;
+  s.drive_speed = 1.5;
+  s.drive_turn_speed = 0.9;
+  try {
+    buildRun(s);
+    ADD_FAILURE() << "no error";
+  } catch (const RunSpecError& e) {
+    EXPECT_EQ(e.key(), "drive_speed");
+    EXPECT_NE(std::string(e.what()).find("needs a wheel surface speed of 2.4 m/s"),
+              std::string::npos)
+        << e.what();
+  }
+  // A stand run builds: the plant at the scene's start, the nominal posture.
+  s = RunSpec{};
+  const BuiltRun run = buildRun(s);
+  EXPECT_EQ(run.scene.name, "flat");
+  EXPECT_EQ(run.nmpc, nullptr);
+  EXPECT_EQ(run.perception(), nullptr);
+  EXPECT_NE(run.controller_text.find("stand"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace rollstep::sim
