@@ -54,6 +54,9 @@ struct OutputFiles {
         plan(dir / "plan.csv"),
         terrains(dir / "terrains.csv"),
         spec(dir / "run.yaml") {}
+  /// `rollstep sim --spec DIR/run.yaml --out DIR` reruns a run in place: its run.yaml is the
+  /// input, kept until the run rewrites it (a failed rerun leaves it as it was).
+  bool spec_is_input = false;
 };
 
 /// Creates the output directory if needed and removes the previous run's result files.
@@ -66,6 +69,7 @@ void prepareOutputDir(const std::string& dir, const OutputFiles& files) {
   if (ec) throw OutputError("--out '" + dir + "': cannot create the directory: " + ec.message());
   for (const fs::path& p : {files.log, files.summary, files.failed, files.mpc, files.violations,
                             files.replay, files.plan, files.terrains, files.spec}) {
+    if (p == files.spec && files.spec_is_input) continue;
     fs::remove(p, ec);
     if (ec) {
       throw OutputError("cannot remove the previous run's '" + p.string() + "': " + ec.message());
@@ -86,7 +90,7 @@ bool markFailed(const OutputFiles& files, const std::string& error) {
   fs::remove(files.replay, ec);
   fs::remove(files.plan, ec);
   fs::remove(files.terrains, ec);
-  fs::remove(files.spec, ec);
+  if (!files.spec_is_input) fs::remove(files.spec, ec);
   try {
     writeFileAtomically(files.failed.string(), "rollstep sim failed: " + error + "\n");
     return true;
@@ -353,7 +357,8 @@ std::string simulateAndWrite(sim::BuiltRun& run, const OutputFiles& files) {
   return text;
 }
 
-void runSim(const sim::RunSpec& spec, bool from_options) {
+void runSim(const sim::RunSpec& spec, const std::string& spec_file) {
+  const bool from_options = spec_file.empty();
   mju_user_warning = printMujocoWarning;
   // Inputs: nothing is written before they have all loaded.
   sim::BuiltRun run = buildFromOptions(spec, from_options);
@@ -361,7 +366,9 @@ void runSim(const sim::RunSpec& spec, bool from_options) {
   // Outputs. From here an interrupt (SIGINT, SIGTERM) ends the run through the catch below:
   // temporary files removed, FAILED with the reason.
   checkMapLogDir(spec.map_log);
-  const OutputFiles files(spec.out);
+  OutputFiles files(spec.out);
+  std::error_code ec;
+  files.spec_is_input = !from_options && fs::equivalent(spec_file, files.spec, ec);
   deferInterrupts();
   throwIfInterrupted();
   prepareOutputDir(spec.out, files);
@@ -412,7 +419,7 @@ void registerSimCommand(CLI::App& app) {
                          "' is a file; --robot takes a robot name (robots/NAME) or a robot folder "
                          "holding centroidal.yaml and the MJCF <folder name>.xml (docs/ROBOTS.md)");
     }
-    runSim(spec, from_options);
+    runSim(spec, options->spec);
   });
 }
 

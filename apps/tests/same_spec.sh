@@ -3,7 +3,9 @@
 # A run given as options and the same run given as its spec file (the run.yaml the first
 # wrote) write the same log.csv and plan.csv, byte for byte, and the same run.yaml but for
 # the output folder. An NMPC trot on the estimator's state with a command schedule: the
-# estimator, the sensors and the schedule all come through the spec.
+# estimator, the sensors and the schedule all come through the spec. Then the run again in
+# its own folder (--spec DIR/run.yaml --out DIR): an interrupted rerun leaves its run.yaml
+# (the input) in place beside FAILED, a finished one the same run.yaml.
 set -u
 rollstep=$1 out=$2
 fail() { echo "FAIL: $*"; exit 1; }
@@ -20,4 +22,22 @@ grep -v '^out:' "$out/options/run.yaml" > "$out/a.yaml"
 grep -v '^out:' "$out/spec/run.yaml" > "$out/b.yaml"
 cmp -s "$out/a.yaml" "$out/b.yaml" || fail "the run.yaml files differ"
 grep -q '^state_source: inekf$' "$out/spec/run.yaml" || fail "run.yaml lacks the state source"
+# In place, interrupted (SIGTERM) once the run is under way: the spec it was given stays.
+cp "$out/spec/run.yaml" "$out/given.yaml"
+sed -i 's/^duration: .*/duration: 60/' "$out/spec/run.yaml"
+"$rollstep" sim --spec "$out/spec/run.yaml" --out "$out/spec" >/dev/null 2>&1 &
+pid=$!
+# The previous run's log.csv goes when the run starts writing (interrupts are then caught).
+i=0
+while [ -e "$out/spec/log.csv" ] && [ $i -lt 600 ]; do sleep 0.1; i=$((i + 1)); done
+sleep 0.5
+kill -TERM $pid; wait $pid  # SIGTERM: a background job of sh ignores SIGINT
+[ -f "$out/spec/FAILED" ] || fail "the interrupted rerun left no FAILED"
+[ -f "$out/spec/run.yaml" ] || fail "the interrupted rerun removed its input spec run.yaml"
+# In place, to the end: the same run.yaml.
+cp "$out/given.yaml" "$out/spec/run.yaml"
+"$rollstep" sim --spec "$out/spec/run.yaml" --out "$out/spec" >/dev/null ||
+  fail "the rerun in place failed"
+cmp -s "$out/given.yaml" "$out/spec/run.yaml" || fail "the rerun in place changed run.yaml"
+cmp -s "$out/options/log.csv" "$out/spec/log.csv" || fail "the rerun in place logs differently"
 echo "the spec's run equals the options' run"
