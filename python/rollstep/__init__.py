@@ -498,10 +498,12 @@ class Simulation:
     def state(self):
         """The ground truth now, a dict: time [s], base_position (3, world, m),
         base_orientation (w, x, y, z; base->world), base_linear_velocity (3, world, m/s),
-        base_angular_velocity (3, base frame, rad/s), joint_position (12, hips rad, knees m),
-        joint_velocity (12), wheel_position (4, rad), wheel_velocity (4, rad/s),
-        wheel_center (6, 3) world [m], foot_force (6, 3) world [N], foot_contact (6, 0/1),
-        body_contact (bool), command_joint_position (12), command_wheel_velocity (4)."""
+        base_angular_velocity (3, base frame, rad/s), joint_position (nj: the robot's servoed
+        joints in its MJCF order, rad for revolute, m for prismatic), joint_velocity (nj),
+        wheel_position (nw driven wheels, rad), wheel_velocity (nw, rad/s), wheel_center
+        (legs, 3) world [m], foot_force (legs, 3) world [N], foot_contact (legs, 0/1),
+        body_contact (bool), command_joint_position (nj), command_wheel_velocity (nw).
+        Tachyon 3: nj 12 (hips rad, telescopic knees m), nw 4, 6 legs."""
         return self._sim.state()
 
     def log_units(self):
