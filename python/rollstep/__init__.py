@@ -513,7 +513,8 @@ class Simulation:
     def log(self, with_units=False):
         """The log so far, a dict of numpy columns: names as log.csv's without the units
         (time, base_x, ..., fz_LF, ...; log_units() gives the units), or with them
-        ('time[s]', 'base_x[m]', ...) if with_units."""
+        ('time[s]', 'base_x[m]', ...) if with_units. A column without a unit holds words
+        (qp_status: the CBF-QP's status, e.g. 'Optimal'), an array of str."""
         columns = self._sim.log_columns()
         names = columns if with_units else [_split_unit(c)[0] for c in columns]
         return dict(zip(names, self._sim.log_values()))

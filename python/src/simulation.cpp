@@ -50,6 +50,9 @@ struct Simulation {
     if (sim::OnlinePerception* p = run.perception(); p != nullptr) p->openLog();
     names = splitColumns(sim::csvHeader(plant.layout()) + run.controller->logColumns());
     columns.resize(names.size());
+    texts.resize(names.size());
+    // A column without a unit holds words (the QP status), kept as text.
+    for (const std::string& n : names) is_text.push_back(n.find('[') == std::string::npos);
     command = plant.command();
     record();
   }
@@ -91,11 +94,21 @@ struct Simulation {
     run.controller->logValues(extra);
     for (const std::string& v : splitColumns(extra)) {
       if (c == columns.size()) break;
+      if (is_text[c]) {
+        texts[c++].push_back(v);
+        continue;
+      }
       char* end = nullptr;
       const double d = std::strtod(v.c_str(), &end);
       put(end != v.c_str() && *end == '\0' ? d : std::nan(""));
     }
-    while (c < columns.size()) put(std::nan(""));
+    while (c < columns.size()) {
+      if (is_text[c]) {
+        texts[c++].emplace_back();
+      } else {
+        put(std::nan(""));
+      }
+    }
   }
 
   /// `steps` control periods, as sim::runScenario runs them.
@@ -125,6 +138,8 @@ struct Simulation {
   long periods = 0;
   std::vector<std::string> names;
   std::vector<std::vector<double>> columns;
+  std::vector<std::vector<std::string>> texts;  ///< the text columns' values (is_text)
+  std::vector<bool> is_text;
   std::string extra;
   std::mutex mutex;
 };
@@ -211,8 +226,14 @@ void bindSimulation(py::module_& m) {
       .def("log_values", [](Simulation& s) {
         const std::lock_guard<std::mutex> lock(s.mutex);
         py::list out;
-        for (const std::vector<double>& c : s.columns) {
-          out.append(py::array_t<double>(static_cast<py::ssize_t>(c.size()), c.data()));
+        const py::object array = py::module_::import("numpy").attr("array");
+        for (std::size_t k = 0; k < s.columns.size(); ++k) {
+          const std::vector<double>& c = s.columns[k];
+          if (s.is_text[k]) {
+            out.append(array(py::cast(s.texts[k]), py::arg("dtype") = "str"));
+          } else {
+            out.append(py::array_t<double>(static_cast<py::ssize_t>(c.size()), c.data()));
+          }
         }
         return out;
       });
