@@ -138,14 +138,15 @@ int runCheckRobot(const CheckRobotOptions& o) {
   std::vector<std::string> failures;
   if (r.body_contact_periods > 0) failures.push_back("the body touched the ground");
   if (r.max_tilt * deg > o.max_tilt_deg) {
-    failures.push_back(format("tilted %.3f deg (--max-tilt %g)", r.max_tilt * deg, o.max_tilt_deg));
+    failures.push_back(
+        formatText("tilted %.3f deg (--max-tilt %g)", r.max_tilt * deg, o.max_tilt_deg));
   }
   if (sag > o.max_sag) {
-    failures.push_back(format("sank %.4f m (--max-sag %g)", sag, o.max_sag));
+    failures.push_back(formatText("sank %.4f m (--max-sag %g)", sag, o.max_sag));
   }
   if (r.max_joint_error > o.max_joint_error) {
-    failures.push_back(format("joint %s off its target by %.5f (--max-joint-error %g)",
-                              r.worst_joint.c_str(), r.max_joint_error, o.max_joint_error));
+    failures.push_back(formatText("joint %s off its target by %.5f (--max-joint-error %g)",
+                                  r.worst_joint.c_str(), r.max_joint_error, o.max_joint_error));
   }
   if (r.contact_fraction < 0.5) failures.push_back("not every wheel on the ground");
   if (r.warnings > 0) failures.push_back(std::to_string(r.warnings) + " MuJoCo warnings");

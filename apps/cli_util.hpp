@@ -4,6 +4,7 @@
 #include <CLI/CLI.hpp>
 #include <string>
 
+#include "rollstep/common/number_text.hpp"
 #include "rollstep/sim/robot_folder.hpp"
 
 namespace rollstep::apps {
@@ -16,8 +17,6 @@ bool parseDecimal(const std::string& text, double& value, bool& non_finite);
 CLI::Validator numberIn(double min, double max, const std::string& unit);
 /// An integer option: digits only, in [min, max].
 CLI::Validator integerIn(long min, long max);
-/// printf into a std::string of any length.
-std::string format(const char* fmt, ...) __attribute__((format(printf, 1, 2)));
 /// A file or directory name option: not empty.
 extern const CLI::Validator kNotEmpty;
 

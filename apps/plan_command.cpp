@@ -89,14 +89,14 @@ std::string iterationsCsv(const solver::Solver& s) {
       "iteration,cost,primal_residual,dual_residual,complementarity,kkt_error,barrier,"
       "primal_step,dual_step,inertia_shift,restoration,linearize_ms,riccati_ms,update_ms\n";
   for (const solver::IterationStats& st : s.stats()) {
-    out += format("%d,%s,%s,%s,%s,%s,%s,%s,%s,%s,%d,%s,%s,%s\n", st.iteration,
-                  numberText(st.cost).c_str(), numberText(st.primal_residual).c_str(),
-                  numberText(st.dual_residual).c_str(), numberText(st.complementarity).c_str(),
-                  numberText(st.kkt_error).c_str(), numberText(st.barrier).c_str(),
-                  numberText(st.primal_step).c_str(), numberText(st.dual_step).c_str(),
-                  numberText(st.inertia_shift).c_str(), st.restoration ? 1 : 0,
-                  numberText(st.time_linearize_ms).c_str(), numberText(st.time_riccati_ms).c_str(),
-                  numberText(st.time_update_ms).c_str());
+    out += formatText(
+        "%d,%s,%s,%s,%s,%s,%s,%s,%s,%s,%d,%s,%s,%s\n", st.iteration, numberText(st.cost).c_str(),
+        numberText(st.primal_residual).c_str(), numberText(st.dual_residual).c_str(),
+        numberText(st.complementarity).c_str(), numberText(st.kkt_error).c_str(),
+        numberText(st.barrier).c_str(), numberText(st.primal_step).c_str(),
+        numberText(st.dual_step).c_str(), numberText(st.inertia_shift).c_str(),
+        st.restoration ? 1 : 0, numberText(st.time_linearize_ms).c_str(),
+        numberText(st.time_riccati_ms).c_str(), numberText(st.time_update_ms).c_str());
   }
   return out;
 }
@@ -113,8 +113,8 @@ int runPlan(const PlanOptions& o) {
   if (steps < 1 || steps > 10000) {
     throw CLI::ValidationError(
         "--duration",
-        format("%s s is %ld steps of dt = %s s; valid: 1 to 10000 steps",
-               numberText(o.duration).c_str(), steps, numberText(settings.dt).c_str()));
+        formatText("%s s is %ld steps of dt = %s s; valid: 1 to 10000 steps",
+                   numberText(o.duration).c_str(), steps, numberText(settings.dt).c_str()));
   }
   settings.horizon = static_cast<int>(steps);
   settings.solver.mode = solver::SolverMode::Converging;
@@ -137,7 +137,7 @@ int runPlan(const PlanOptions& o) {
   const double solve_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
-  std::string summary = format(
+  std::string summary = formatText(
       "rollstep plan: scene %s, gait %s, command (%s m/s, %s m/s, %s rad/s), horizon %s s "
       "(N = %d, dt = %s s)\n"
       "  robot      %s (%s)\n"
@@ -150,15 +150,15 @@ int runPlan(const PlanOptions& o) {
       solver::toString(status), solver.iterations(), solve_s,
       solver.stats().empty() ? 0.0 : solver.stats().back().kkt_error, settings.solver.kkt_tolerance,
       solver.cost(),
-      *solver.message() != '\0' ? format("  message    %s\n", solver.message()).c_str() : "");
+      *solver.message() != '\0' ? formatText("  message    %s\n", solver.message()).c_str() : "");
   for (const centroidal::ConstraintViolation& v :
        centroidal::constraintViolations(*ocp.problem(), solver.states(), solver.inputs())) {
-    summary += format("    %-24s %.3g%s\n", v.group.c_str(), v.value,
-                      v.node >= 0 ? format(" (node %d)", v.node).c_str() : "");
+    summary += formatText("    %-24s %.3g%s\n", v.group.c_str(), v.value,
+                          v.node >= 0 ? formatText(" (node %d)", v.node).c_str() : "");
   }
   const Eigen::VectorXd& xN = solver.states().back();
-  summary += format("  base       (%.3f, %.3f, %.3f) m -> (%.3f, %.3f, %.3f) m\n", x0[0], x0[1],
-                    x0[2], xN[0], xN[1], xN[2]);
+  summary += formatText("  base       (%.3f, %.3f, %.3f) m -> (%.3f, %.3f, %.3f) m\n", x0[0], x0[1],
+                        x0[2], xN[0], xN[1], xN[2]);
 
   // Outputs: the three files as a whole. The previous ones are removed only now (the solve
   // above wrote nothing, and an interrupt during it ends the process with nothing touched);

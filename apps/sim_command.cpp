@@ -162,7 +162,7 @@ std::string countText(int n) {
 std::string perceptionText(const sim::OnlinePerception& p, std::uint64_t refused,
                            std::uint64_t in_use) {
   const sim::OnlinePerceptionCounters& c = p.counters();
-  std::string text = format(
+  std::string text = formatText(
       "  perception %llu scans at %s Hz: %llu new terrains (%llu handed over, %llu refused), "
       "%llu kept the last (%llu no points, %llu no finite point, %llu bad pose, %llu no "
       "planar region); map update + segmentation mean %.1f ms, max %.1f ms; %d regions at "
@@ -177,12 +177,12 @@ std::string perceptionText(const sim::OnlinePerception& p, std::uint64_t refused
                              : 0.0,
       c.max_update_ms, p.terrain().size());
   if (p.asynchronous()) {
-    text += format(
+    text += formatText(
         "  perception on its own thread: %llu scans superseded by a newer one before "
         "processing\n",
         static_cast<unsigned long long>(c.superseded));
   }
-  if (p.snapshots() > 0) text += format("  map log    %d snapshots\n", p.snapshots());
+  if (p.snapshots() > 0) text += formatText("  map log    %d snapshots\n", p.snapshots());
   return text;
 }
 
@@ -194,17 +194,17 @@ std::string speedRuleText(const sim::NmpcController& nmpc, double duration) {
   std::string text = "  speed      ";
   const planning::TrotTiming& t = nmpc.trotTiming();
   if (t.period > 0.0) {
-    text += format("trot period %.2f s, duty %.2f (swing %.2f s); step speed limit %.2f m/s",
-                   t.period, t.duty, t.swing, pipeline.stepSpeedLimit());
+    text += formatText("trot period %.2f s, duty %.2f (swing %.2f s); step speed limit %.2f m/s",
+                       t.period, t.duty, t.swing, pipeline.stepSpeedLimit());
   } else {
     text += "no trot: the command ramped only";
   }
   int slowdowns = 0;
   for (const planning::StepSlowdown& d : pipeline.stepSlowdowns()) {
     if (d.start >= duration) continue;
-    text += format("%s slowed down at a step from %.2f to %.2f m/s, %.2f-%.2f s",
-                   slowdowns == 0 ? ";" : ",", d.commanded_speed, d.limited_speed, d.start,
-                   std::min(d.end, duration));
+    text += formatText("%s slowed down at a step from %.2f to %.2f m/s, %.2f-%.2f s",
+                       slowdowns == 0 ? ";" : ",", d.commanded_speed, d.limited_speed, d.start,
+                       std::min(d.end, duration));
     ++slowdowns;
   }
   if (slowdowns == 0 && t.period > 0.0) text += "; not slowed down";
@@ -245,30 +245,30 @@ std::string nmpcResults(const sim::BuiltRun& run, const OutputFiles& files) {
     solve_max = std::max(solve_max, updates[k].solve_time_ms);
   }
   const double updates_n = updates.size() > 1 ? static_cast<double>(updates.size() - 1) : 1.0;
-  std::string text = format(
+  std::string text = formatText(
       "  MPC        %zu solutions (%llu rejected), solve time mean %.2f ms, max %.2f ms; %s\n"
       "  CBF-QP     %llu fallbacks, %llu relaxed in %llu ticks\n",
       updates.size(), static_cast<unsigned long long>(c.solutions_rejected), solve_sum / updates_n,
       solve_max, files.mpc.c_str(), static_cast<unsigned long long>(c.qp_fallbacks),
       static_cast<unsigned long long>(c.qp_relaxations), static_cast<unsigned long long>(c.ticks));
-  text += format("  watchdog   %llu trips, %llu ticks holding, %llu stale solutions\n",
-                 static_cast<unsigned long long>(c.watchdog_trips),
-                 static_cast<unsigned long long>(c.holding_ticks),
-                 static_cast<unsigned long long>(c.stale_solutions));
+  text += formatText("  watchdog   %llu trips, %llu ticks holding, %llu stale solutions\n",
+                     static_cast<unsigned long long>(c.watchdog_trips),
+                     static_cast<unsigned long long>(c.holding_ticks),
+                     static_cast<unsigned long long>(c.stale_solutions));
   text += speedRuleText(nmpc, run.spec.duration);
   if (runner.solveExceptions() > 0) {
-    text += format("  MPC errors %llu solves failed on an exception, the first: %s\n",
-                   static_cast<unsigned long long>(runner.solveExceptions()),
-                   runner.firstSolveException());
+    text += formatText("  MPC errors %llu solves failed on an exception, the first: %s\n",
+                       static_cast<unsigned long long>(runner.solveExceptions()),
+                       runner.firstSolveException());
   }
   if (c.late_touchdown_ticks > 0) {
-    text += format("  landing    %llu ticks with a late touch-down under way\n",
-                   static_cast<unsigned long long>(c.late_touchdown_ticks));
+    text += formatText("  landing    %llu ticks with a late touch-down under way\n",
+                       static_cast<unsigned long long>(c.late_touchdown_ticks));
   }
   if (const sim::EstimatorSource* e = nmpc.estimator(); e != nullptr) {
     const estimation::EstimatorCounters& k = e->filter().counters();
     const GroundTruthErrors err = estimateErrors(*e, run.plant->groundTruth());
-    text += format(
+    text += formatText(
         "  estimator  error at the end %.3f m, %.2f deg (ground truth); rejected samples: "
         "%llu IMU, %llu encoder, %llu time; contacts %llu used, %llu gated out\n",
         err.position, err.yaw_deg, static_cast<unsigned long long>(k.imu_rejected),
@@ -287,10 +287,10 @@ std::string nmpcResults(const sim::BuiltRun& run, const OutputFiles& files) {
 /// The summary's lines on the CBF-QP baseline.
 std::string cbfqpResults(const sim::BuiltRun& run) {
   const control::PipelineCounters& c = run.cbfqp->pipeline().counters();
-  std::string text = format("  CBF-QP     %llu fallbacks, %llu relaxed in %llu ticks\n",
-                            static_cast<unsigned long long>(c.qp_fallbacks),
-                            static_cast<unsigned long long>(c.qp_relaxations),
-                            static_cast<unsigned long long>(c.ticks));
+  std::string text = formatText("  CBF-QP     %llu fallbacks, %llu relaxed in %llu ticks\n",
+                                static_cast<unsigned long long>(c.qp_fallbacks),
+                                static_cast<unsigned long long>(c.qp_relaxations),
+                                static_cast<unsigned long long>(c.ticks));
   if (sim::OnlinePerception* p = run.cbfqp->perception(); p != nullptr) {
     p->closeLog();
     text += perceptionText(*p, run.cbfqp->terrainsRefused(), c.terrain_updates);
@@ -302,7 +302,7 @@ std::string summaryText(const sim::BuiltRun& run, const sim::RunSummary& s,
                         const OutputFiles& files, const std::string& controller_lines) {
   const sim::Plant& plant = *run.plant;
   const double deg = 180.0 / M_PI;
-  return format(
+  return formatText(
       "rollstep sim: scene %s, controller %s\n"
       "  robot      %s\n"
       "  simulated  %.3f s at %.0f Hz in %.3f s wall time (%.1fx real time)\n"

@@ -1,26 +1,17 @@
 #include "metrics.hpp"
 
 #include <cmath>
-#include <cstdarg>
 #include <cstdio>
 #include <limits>
 #include <stdexcept>
+
+#include "rollstep/common/number_text.hpp"
 
 namespace rollstep::experiments {
 
 namespace {
 
 bool on(double contact) { return contact > 0.5; }
-
-std::string text(const char* fmt, ...) __attribute__((format(printf, 1, 2)));
-std::string text(const char* fmt, ...) {
-  char buffer[300];
-  va_list args;
-  va_start(args, fmt);
-  std::vsnprintf(buffer, sizeof buffer, fmt, args);
-  va_end(args);
-  return buffer;
-}
 
 }  // namespace
 
@@ -101,7 +92,7 @@ TraverseWindow findTraverseWindow(const std::vector<double>& t, const std::vecto
   if (down == n) {
     w.reason =
         "the " + legs.descent +
-        text(" wheel did not come down from the step (last on it at t = %.2f s)", t[last_up]);
+        formatText(" wheel did not come down from the step (last on it at t = %.2f s)", t[last_up]);
     return w;
   }
   w.found = true;
@@ -191,9 +182,9 @@ RunAssessment assessRun(const LogTable& log, const std::vector<JointLimit>& limi
     }
   }
   if (a.max_tilt > criteria.max_tilt) {
-    a.failures.push_back(text("fell: the base tilted %.0f deg (at t = %.2f s; limit %.0f deg)",
-                              a.max_tilt * 180.0 / M_PI, tilt_time,
-                              criteria.max_tilt * 180.0 / M_PI));
+    a.failures.push_back(
+        formatText("fell: the base tilted %.0f deg (at t = %.2f s; limit %.0f deg)",
+                   a.max_tilt * 180.0 / M_PI, tilt_time, criteria.max_tilt * 180.0 / M_PI));
   }
   if (log.has("body_contact_periods[-]")) {
     const auto& b = log.column("body_contact_periods[-]");
@@ -201,9 +192,9 @@ RunAssessment assessRun(const LogTable& log, const std::vector<JointLimit>& limi
     for (std::size_t i = 0; i < b.size(); ++i) {
       if (b[i] > 0.5) {
         a.failures.push_back(
-            text("the body touched the terrain (first logged at t = %.2f s, %.0f "
-                 "control periods of contact in all)",
-                 t[i], static_cast<double>(b.back())));
+            formatText("the body touched the terrain (first logged at t = %.2f s, %.0f "
+                       "control periods of contact in all)",
+                       t[i], static_cast<double>(b.back())));
         break;
       }
     }
@@ -231,8 +222,8 @@ RunAssessment assessRun(const LogTable& log, const std::vector<JointLimit>& limi
     }
     if (worst > criteria.joint_limit_tolerance) {
       a.failures.push_back(limit.name +
-                           text(" left its limits: %.4f at t = %.2f s (range [%.4f, %.4f])",
-                                worst_value, worst_time, limit.lower, limit.upper));
+                           formatText(" left its limits: %.4f at t = %.2f s (range [%.4f, %.4f])",
+                                      worst_value, worst_time, limit.lower, limit.upper));
     }
   }
   a.window = findTraverseWindow(log, legs, up_height);

@@ -1,7 +1,6 @@
 #include "rollstep/sim/run.hpp"
 
 #include <cmath>
-#include <cstdarg>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -23,20 +22,6 @@
 namespace rollstep::sim {
 
 namespace {
-
-std::string format(const char* fmt, ...) __attribute__((format(printf, 1, 2)));
-std::string format(const char* fmt, ...) {
-  va_list args;
-  va_start(args, fmt);
-  va_list copy;
-  va_copy(copy, args);
-  const int n = std::vsnprintf(nullptr, 0, fmt, copy);
-  va_end(copy);
-  std::string out(n > 0 ? static_cast<std::size_t>(n) : 0, '\0');
-  if (n > 0) std::vsnprintf(out.data(), out.size() + 1, fmt, args);
-  va_end(args);
-  return out;
-}
 
 /// The robot folder of the spec ("" = the default robot), its files checked against each
 /// other.
@@ -173,11 +158,11 @@ StateSourceOptions stateSourceOf(const RunSpec& spec, const RobotFolder& robot) 
 std::string commandText(const std::vector<planning::TimedBaseCommand>& schedule) {
   std::string out;
   for (const planning::TimedBaseCommand& c : schedule) {
-    out +=
-        format("%s(%s m/s, %s m/s, %s rad/s)%s", out.empty() ? "" : ", ",
-               shortestNumberText(c.command.v_x).c_str(), shortestNumberText(c.command.v_y).c_str(),
-               shortestNumberText(c.command.yaw_rate).c_str(),
-               schedule.size() > 1 ? (" from " + shortestNumberText(c.time) + " s").c_str() : "");
+    out += formatText(
+        "%s(%s m/s, %s m/s, %s rad/s)%s", out.empty() ? "" : ", ",
+        shortestNumberText(c.command.v_x).c_str(), shortestNumberText(c.command.v_y).c_str(),
+        shortestNumberText(c.command.yaw_rate).c_str(),
+        schedule.size() > 1 ? (" from " + shortestNumberText(c.time) + " s").c_str() : "");
   }
   return out;
 }
@@ -202,7 +187,7 @@ void buildNmpc(BuiltRun& run, const RunOverrides& overrides) {
                              settings.mpc.timing == control::MpcTiming::Asynchronous);
     terrain = online->footholdTerrain(margin);
     edge_capacity = online->perception().settings().regions.directions;
-    terrain_text = format(
+    terrain_text = formatText(
         "perception in closed loop (%d convex regions at the start from %d "
         "LiDAR scans, then one terrain per scan)",
         terrain.size(), online->perception().settings().closed_loop.warmup_scans);
@@ -225,7 +210,7 @@ void buildNmpc(BuiltRun& run, const RunOverrides& overrides) {
   }
   const solver::SolverStatus first = nmpc->initialStatus();
   const control::MpcRunner& runner = nmpc->pipeline().runner();
-  run.controller_text = format(
+  run.controller_text = formatText(
       "nmpc (gait %s, command %s, MPC every %s s %s, N = %d, integrator %s, state %s; first "
       "solve %s in %d iterations); terrain %s",
       enumName(spec.gait), commandText(spec.command).c_str(),
@@ -275,8 +260,8 @@ void buildCbfQp(BuiltRun& run, const RunOverrides& overrides) {
         online->terrain(), spec.gait, command, online->perception().settings().regions.directions,
         online->perception().settings().closed_loop.collision_capacity);
     terrain_text =
-        format("perception in closed loop (%d regions at the start, then one terrain per scan)",
-               online->terrain().size());
+        formatText("perception in closed loop (%d regions at the start, then one terrain per scan)",
+                   online->terrain().size());
     cbfqp->setPerception(std::move(online));
     cbfqp->enableTerrainLog();
     run.start_regions = cbfqp->pipeline().terrain();
@@ -288,7 +273,7 @@ void buildCbfQp(BuiltRun& run, const RunOverrides& overrides) {
     run.start_regions = terrainFromScene(run.scene, settings.baseline.foothold_margin);
     run.start_regions_source = "scene";
   }
-  run.controller_text = format(
+  run.controller_text = formatText(
       "cbfqp (CBF-QP baseline, no MPC; gait %s, command (%s m/s, %s m/s, %s rad/s), trot "
       "period %s s; %s); terrain %s",
       enumName(spec.gait), shortestNumberText(command.v_x).c_str(),
@@ -317,11 +302,11 @@ void buildDrive(BuiltRun& run) {
   if (needed > limit) {
     throw RunSpecError(
         "drive_speed",
-        format("%g with turn speed %g needs a wheel surface speed of %g m/s; the drive wheels "
-               "of this robot reach %.3f m/s (%g rad/s x %g m): valid range |speed| + "
-               "|turn speed| <= %.3f m/s",
-               spec.drive_speed, spec.drive_turn_speed, needed, limit, plant.wheelSpeedLimit(),
-               radius, limit));
+        formatText("%g with turn speed %g needs a wheel surface speed of %g m/s; the drive wheels "
+                   "of this robot reach %.3f m/s (%g rad/s x %g m): valid range |speed| + "
+                   "|turn speed| <= %.3f m/s",
+                   spec.drive_speed, spec.drive_turn_speed, needed, limit, plant.wheelSpeedLimit(),
+                   radius, limit));
   }
   DriveController::Params p;
   p.speed = spec.drive_speed;

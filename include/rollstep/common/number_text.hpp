@@ -1,5 +1,6 @@
 #pragma once
-// Numbers in messages and written files: the shortest decimal text that reads back exactly.
+// Numbers in messages and written files: the shortest decimal text that reads back exactly,
+// and printf-style text of any length.
 #include <string>
 
 namespace rollstep {
@@ -8,5 +9,8 @@ namespace rollstep {
 /// fraction ("3", "-0"), others with the fewest significant digits ("0.1", "1e-08");
 /// "nan", "inf" and "-inf" for the non-finite values.
 std::string shortestNumberText(double v);
+
+/// printf into a std::string of any length.
+std::string formatText(const char* fmt, ...) __attribute__((format(printf, 1, 2)));
 
 }  // namespace rollstep
