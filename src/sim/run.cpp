@@ -51,10 +51,13 @@ PlantOptions plantOptionsOf(const RunSpec& spec, const RobotFolder& robot) {
   return options;
 }
 
-/// The OCP's forces act contact_offset below the wheel centres: a description whose offset
-/// is not the simulated wheels' radius plans every contact off the ground.
-void checkContactOffset(const centroidal::RobotOcpDescription& robot,
-                        const std::string& description, const Plant& plant) {
+/// The robot folder's OCP description, checked against the plant: the OCP's forces act
+/// contact_offset below the wheel centres, so an offset that is not the simulated wheels'
+/// radius would plan every contact off the ground.
+centroidal::RobotOcpDescription loadCheckedDescription(const BuiltRun& run) {
+  const std::string& description = run.robot.description;
+  const Plant& plant = *run.plant;
+  centroidal::RobotOcpDescription robot = centroidal::loadRobotOcpDescription(description);
   for (int leg = 0; leg < plant.layout().numLegs(); ++leg) {
     if (std::abs(robot.contact_offset - plant.wheelRadius(leg)) > 1e-4) {
       throw InputError("robot description '" + description +
@@ -64,6 +67,7 @@ void checkContactOffset(const centroidal::RobotOcpDescription& robot,
                        plant.layout().legs[static_cast<std::size_t>(leg)].contact_frame + ")");
     }
   }
+  return robot;
 }
 
 /// The cbfqp controller reads a control file's `baseline:` section: a file without one (an
@@ -170,9 +174,7 @@ std::string commandText(const std::vector<planning::TimedBaseCommand>& schedule)
 void buildNmpc(BuiltRun& run, const RunOverrides& overrides) {
   const RunSpec& spec = run.spec;
   const Plant& plant = *run.plant;
-  const std::string& description = run.robot.description;
-  const centroidal::RobotOcpDescription robot = centroidal::loadRobotOcpDescription(description);
-  checkContactOffset(robot, description, plant);
+  const centroidal::RobotOcpDescription robot = loadCheckedDescription(run);
   const control::ControlSettings settings = nmpcSettings(spec, run.robot, overrides);
   // The terrain source: the scene's ground truth, or perception in closed loop (the LiDAR's
   // view from the start pose first, then every scan), regions shrunk alike.
@@ -233,9 +235,7 @@ void buildNmpc(BuiltRun& run, const RunOverrides& overrides) {
 void buildCbfQp(BuiltRun& run, const RunOverrides& overrides) {
   const RunSpec& spec = run.spec;
   const Plant& plant = *run.plant;
-  const std::string& description = run.robot.description;
-  const centroidal::RobotOcpDescription robot = centroidal::loadRobotOcpDescription(description);
-  checkContactOffset(robot, description, plant);
+  const centroidal::RobotOcpDescription robot = loadCheckedDescription(run);
   std::string config = spec.control_config;
   if (config.empty()) {
     config = run.robot.optionalFile("baseline.yaml");
