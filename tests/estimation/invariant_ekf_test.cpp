@@ -242,15 +242,15 @@ TEST(InvariantEkf, TickDoesNotAllocate) {
 }
 
 TEST(InekfSettings, EveryRobotsTuningLoads) {
-  // Each robot folder's estimation.yaml reads without errors; wheelquad's is Tachyon 3's
-  // tuning (robots/wheelquad/estimation.yaml says why), key for key.
+  // Each robot folder's estimation.yaml reads without errors. wheelquad's wheels carry more
+  // load than Tachyon 3's (127 N against 99 N) and roll on a smaller effective radius: its
+  // own calibration (robots/wheelquad/estimation.yaml), not a copy.
   const InekfSettings tachyon3 =
       loadInekfSettings(std::string(ROLLSTEP_ROBOTS_DIR) + "/tachyon3/estimation.yaml");
   const InekfSettings wheelquad =
       loadInekfSettings(std::string(ROLLSTEP_ROBOTS_DIR) + "/wheelquad/estimation.yaml");
+  EXPECT_GT(wheelquad.rolling_radius_offset, tachyon3.rolling_radius_offset);
   EXPECT_EQ(wheelquad.contact_velocity_noise, tachyon3.contact_velocity_noise);
-  EXPECT_EQ(wheelquad.rolling_radius_offset, tachyon3.rolling_radius_offset);
-  EXPECT_EQ(wheelquad.gyro_noise, tachyon3.gyro_noise);
 }
 
 }  // namespace

@@ -4,11 +4,14 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <stdexcept>
 #include <string>
 
 #include "common/alloc_counter.hpp"
+#include "rollstep/estimation/invariant_ekf.hpp"
 #include "rollstep/sim/plant.hpp"
+#include "rollstep/sim/robot_folder.hpp"
 
 namespace rollstep::sim {
 namespace {
@@ -29,6 +32,30 @@ void expectError(const std::string& text, const std::string& fragment) {
 TEST(SensorNoiseConfig, ShippedFileHoldsTheDefaults) {
   const SensorNoiseConfig file = loadSensorNoiseConfig(kConfig);
   EXPECT_EQ(file.toYaml(), SensorNoiseConfig{}.toYaml());
+}
+
+TEST(SensorNoiseConfig, EveryRobotsEstimatorModelsItsSensors) {
+  // The estimator's noise model of each robot folder (estimation.yaml) is the noise its
+  // simulated sensors have (sensors.yaml, else the defaults): a tuning copied from another
+  // robot with other sensors shows here.
+  int robots = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(ROLLSTEP_ROBOTS_DIR)) {
+    if (!std::filesystem::is_regular_file(entry.path() / "estimation.yaml")) continue;
+    const RobotFolder folder = findRobotFolder(entry.path().string());
+    const SensorNoiseConfig sensors =
+        folder.sensors.empty() ? SensorNoiseConfig{} : loadSensorNoiseConfig(folder.sensors);
+    const estimation::InekfSettings est =
+        estimation::loadInekfSettings((entry.path() / "estimation.yaml").string());
+    SCOPED_TRACE(entry.path().string());
+    EXPECT_EQ(est.gyro_noise, sensors.gyro_noise_density);
+    EXPECT_EQ(est.accel_noise, sensors.accel_noise_density);
+    EXPECT_EQ(est.gyro_bias_walk, sensors.gyro_bias_random_walk);
+    EXPECT_EQ(est.accel_bias_walk, sensors.accel_bias_random_walk);
+    EXPECT_EQ(est.joint_velocity_noise, sensors.joint_velocity_noise);
+    EXPECT_EQ(est.wheel_velocity_noise, sensors.wheel_velocity_noise);
+    ++robots;
+  }
+  EXPECT_GE(robots, 2);
 }
 
 TEST(SensorNoiseConfig, RoundTripAndPartialFiles) {
