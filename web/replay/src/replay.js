@@ -84,7 +84,8 @@ document.body.insertAdjacentHTML('beforeend', `
   <span class="swatch" style="background:#e377c2"></span>MPC plan: footholds
   <span class="swatch" style="background:#2ca02c"></span>foothold regions in use (${regionsSource()})
   <span class="swatch" style="background:#ffbf00"></span>wheel with an active CBF-QP barrier (listed below)
-  ${maps.length ? '<span class="swatch" style="background:linear-gradient(90deg,#3350cc,#ffe633)"></span>elevation map (perception; colour: height, low to high)' : ''}
+  ${maps.length ? '<span class="swatch" style="background:linear-gradient(90deg,#3350cc,#ffe633)"></span>elevation map (perception; colour: height, low to high)'
+    : terrains.length ? '<span id="no-map">elevation map: not logged by this run (rollstep sim --log-map DIR/map logs it; rollstep view DIR then draws it)</span>' : ''}
   <span class="swatch" style="background:#d62728;height:2px"></span>plot cursor: the slider's time
   <div id="status"></div>
 </div>
@@ -512,7 +513,7 @@ requestAnimationFrame(tick);
 // For the browser tests (and the console): the page's state.
 window.replay = {
   frames, get frame() { return frame; }, show, solutions: solutions.length,
-  terrains: terrains.length, get status() { return status.textContent; },
+  terrains: terrains.length, maps: maps.length, get status() { return status.textContent; },
   /** The model's geoms (replay.json) and how many of them the page drew. */
   geoms: data.model.geoms.length, drawnGeoms, robotFile: data.model.robot_file,
   /** The plans' columns as the page decoded them (by name). */

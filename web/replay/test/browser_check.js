@@ -9,6 +9,7 @@
 'use strict';
 const fs = require('fs');
 const path = require('path');
+const zlib = require('zlib');
 const puppeteer = require('puppeteer-core');
 
 const chromium = process.env.CHROMIUM || '/usr/bin/chromium';
@@ -92,16 +93,19 @@ async function checkReplay(browser, file) {
     .then(() => true, () => false);
   await page.keyboard.press(' ');
   if (!played) fail(`${file}: space did not play the replay (frame ${(await state()).frame})`);
-  // The plans as decoded by the page are plan.csv's (beside the page of `rollstep view`).
-  const planCsv = path.join(path.dirname(file), 'plan.csv');
-  if (fs.existsSync(planCsv)) {
-    const lines = fs.readFileSync(planCsv, 'utf8').trim().split('\n');
+  // The plans as decoded by the page are the run's plan.csv.gz (beside the page of `rollstep
+  // view`; a report's replay_NAME.html: runs/NAME/).
+  const planFile = [path.join(path.dirname(file), 'plan.csv.gz'),
+    path.join(path.dirname(file), 'runs', path.basename(file).replace(/^replay_(.*)\.html$/, '$1'), 'plan.csv.gz')]
+    .find((f) => fs.existsSync(f));
+  if (planFile) {
+    const lines = zlib.gunzipSync(fs.readFileSync(planFile)).toString('utf8').trim().split('\n');
     const names = lines[0].split(',');
     let worst = 0, worstAt = '';
     for (const [i, name] of names.entries()) {
       const decoded = await page.evaluate((n) => window.replay.planColumn(n), name);
       if (!decoded || decoded.length !== lines.length - 1) {
-        fail(`${file}: plan column ${name}: ${decoded ? decoded.length : 'no'} rows, plan.csv has ${lines.length - 1}`);
+        fail(`${file}: plan column ${name}: ${decoded ? decoded.length : 'no'} rows, ${planFile} has ${lines.length - 1}`);
         continue;
       }
       for (let r = 1; r < lines.length; ++r) {
@@ -109,11 +113,20 @@ async function checkReplay(browser, file) {
         if (e > worst) { worst = e; worstAt = `${name} row ${r}`; }
       }
     }
-    if (worst > 5e-4 + 1e-9) fail(`${file}: the page's plans differ from plan.csv by ${worst} (${worstAt})`);
+    if (worst > 5e-4 + 1e-9) fail(`${file}: the page's plans differ from ${planFile} by ${worst} (${worstAt})`);
+    console.log(`${path.basename(file)}: the page's plans equal ${path.basename(planFile)}'s ${lines.length - 1} rows (worst difference ${worst.toFixed(6)} m or s)`);
+  } else if (await page.evaluate('window.replay.solutions') > 0) {
+    fail(`${file}: the page has MPC plans but the run's plan.csv.gz was not found to compare them with`);
   }
   const legend = await page.$eval('#legend', (e) => e.innerText);
   for (const word of ['contact force', 'base path', 'foot paths', 'footholds', 'foothold regions', 'active CBF-QP barrier']) {
     if (!legend.includes(word)) fail(`${file}: the legend does not say what '${word}' looks like`);
+  }
+  // A perception run's elevation map: drawn from its map log, or the page says it was not logged.
+  const maps = await page.evaluate('window.replay.maps');
+  if (maps > 0 && !legend.includes('elevation map (perception')) fail(`${file}: the legend does not explain the elevation map`);
+  if (maps === 0 && await page.evaluate('window.replay.terrains') > 0 && !legend.includes('elevation map: not logged')) {
+    fail(`${file}: a perception run without a map log, and the page does not say the map was not logged`);
   }
   const plots = await page.$$eval('.uplot', (e) => e.length);
   if (plots < 2) fail(`${file}: ${plots} plots, expected the linked plots`);
