@@ -240,6 +240,8 @@ function drawMap(t) {
     colour.setRGB(0.2 + 0.8 * u, 0.3 + 0.6 * u, 0.8 - 0.6 * u);
     colours.push(colour.r, colour.g, colour.b);
   });
+  mapPoints.geometry.dispose();  // a new geometry: the number of cells changes
+  mapPoints.geometry = new THREE.BufferGeometry();
   mapPoints.geometry.setAttribute('position', new THREE.Float32BufferAttribute(positions, 3));
   mapPoints.geometry.setAttribute('color', new THREE.Float32BufferAttribute(colours, 3));
   mapPoints.visible = true;
@@ -284,6 +286,13 @@ if (plan['solution_time[s]']) {
 const feetNames = data.model.contacts.map((c) => c.name);
 const planFeet = Object.keys(plan).filter((n) => n.endsWith('_x[m]') && n.startsWith('foot_'))
   .map((n) => n.slice(5, -5));
+// New points for a line or a point cloud. Not setFromPoints on the geometry it has: that
+// rewrites the old buffer in place, keeping its size (stale points stay drawn, extra ones are
+// dropped), and the number of footholds changes from plan to plan.
+function setPoints(object, points) {
+  object.geometry.dispose();
+  object.geometry = new THREE.BufferGeometry().setFromPoints(points);
+}
 function line(colour) {
   // Drawn over the robot: the planned base path runs inside the body.
   const l = new THREE.Line(new THREE.BufferGeometry(),
@@ -339,13 +348,13 @@ function drawPlan(t) {
   const rows = [];
   for (let r = s.first; r < s.end; ++r) rows.push(r);
   basePath.visible = true;
-  basePath.geometry.setFromPoints(rows.map((r) =>
+  setPoints(basePath, rows.map((r) =>
     new THREE.Vector3(plan['base_x[m]'][r], plan['base_y[m]'][r], plan['base_z[m]'][r])));
   const holds = [];
   planFeet.forEach((f, i) => {
     const x = plan[`foot_${f}_x[m]`], y = plan[`foot_${f}_y[m]`], z = plan[`foot_${f}_z[m]`];
     footPaths[i].visible = true;
-    footPaths[i].geometry.setFromPoints(rows.map((r) => new THREE.Vector3(x[r], y[r], z[r])));
+    setPoints(footPaths[i], rows.map((r) => new THREE.Vector3(x[r], y[r], z[r])));
     rows.forEach((r, k) => {
       const stance = (plan['mode[-]'][r] >> i) & 1;
       const before = k > 0 && ((plan['mode[-]'][rows[k - 1]] >> i) & 1);
@@ -353,7 +362,7 @@ function drawPlan(t) {
     });
   });
   footholds.visible = true;
-  footholds.geometry.setFromPoints(holds);
+  setPoints(footholds, holds);
   return s;
 }
 
@@ -512,10 +521,17 @@ requestAnimationFrame(tick);
 
 // For the browser tests (and the console): the page's state.
 window.replay = {
-  frames, get frame() { return frame; }, show, solutions: solutions.length,
+  frames, get frame() { return frame; }, get time() { return times[frame]; }, show, solutions: solutions.length,
   terrains: terrains.length, maps: maps.length, get status() { return status.textContent; },
   /** The model's geoms (replay.json) and how many of them the page drew. */
   geoms: data.model.geoms.length, drawnGeoms, robotFile: data.model.robot_file,
+  /** The planned footholds drawn now, [[x, y, z], ...]. */
+  footholdsDrawn() {
+    const p = footholds.geometry.getAttribute('position');
+    const out = [];
+    for (let i = 0; footholds.visible && p && i < p.count; ++i) out.push([p.getX(i), p.getY(i), p.getZ(i)]);
+    return out;
+  },
   /** The plans' columns as the page decoded them (by name). */
   planColumn(name) { return plan[name] || null; },
   /** Distinct colours and non-background pixels of the 3D view, sampled. */

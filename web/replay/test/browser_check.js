@@ -114,6 +114,37 @@ async function checkReplay(browser, file) {
       }
     }
     if (worst > 5e-4 + 1e-9) fail(`${file}: the page's plans differ from ${planFile} by ${worst} (${worstAt})`);
+    // The footholds drawn are those of the plan in use, at eleven times along the run: where
+    // a contact's plan touches down, or its position at the first node for a stance contact
+    // (their number changes from plan to plan).
+    const rows = lines.slice(1).map((l) => l.split(',').map(Number));
+    const col = (n) => names.indexOf(n);
+    const feet = names.filter((n) => n.startsWith('foot_') && n.endsWith('_x[m]')).map((n) => col(n));
+    const expected = (t) => {
+      let first = -1;
+      for (let r = 0; r < rows.length && rows[r][0] <= t + 1e-9; ++r) {
+        if (r === 0 || rows[r][0] !== rows[r - 1][0] || rows[r][2] !== rows[r - 1][2]) first = r;
+      }
+      const holds = [];
+      if (first < 0) return holds;
+      let end = first;
+      while (end < rows.length && rows[end][0] === rows[first][0] && rows[end][2] === rows[first][2]) ++end;
+      feet.forEach((c, i) => {
+        for (let r = first; r < end; ++r) {
+          const stance = (rows[r][3] >> i) & 1, before = r > first && ((rows[r - 1][3] >> i) & 1);
+          if (stance && (r === first || !before)) holds.push(rows[r].slice(c, c + 3));
+        }
+      });
+      return holds;
+    };
+    for (let k = 0; k <= 10; ++k) {
+      const f = Math.round((k * (frames - 1)) / 10);
+      await page.evaluate((k) => window.replay.show(k), f);
+      const drawn = await page.evaluate(() => window.replay.footholdsDrawn());
+      const want = expected(await page.evaluate('window.replay.time'));
+      const same = drawn.length === want.length && drawn.every((p, k) => p.every((v, a) => Math.abs(v - want[k][a]) < 1e-3));
+      if (!same) fail(`${file}: frame ${f}: footholds drawn ${JSON.stringify(drawn)}, the plan in use has ${JSON.stringify(want)}`);
+    }
     console.log(`${path.basename(file)}: the page's plans equal ${path.basename(planFile)}'s ${lines.length - 1} rows (worst difference ${worst.toFixed(6)} m or s)`);
   } else if (await page.evaluate('window.replay.solutions') > 0) {
     fail(`${file}: the page has MPC plans but the run's plan.csv.gz was not found to compare them with`);
