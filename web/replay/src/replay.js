@@ -304,9 +304,11 @@ function line(colour) {
 }
 const basePath = line(COLOURS.basePlan);
 const footPaths = planFeet.map(() => line(COLOURS.footPlan));
+// Drawn over the robot: a foothold is a wheel centre, inside its wheel.
 const footholds = new THREE.Points(new THREE.BufferGeometry(),
-  new THREE.PointsMaterial({ color: COLOURS.foothold, size: 0.05 }));
+  new THREE.PointsMaterial({ color: COLOURS.foothold, size: 0.05, depthTest: false }));
 footholds.frustumCulled = false;
+footholds.renderOrder = 6;
 scene.add(footholds);
 
 // Wheels with an active CBF-QP barrier: a ring around the wheel.
@@ -420,7 +422,8 @@ function show(f) {
     : (solutions.length ? 'No MPC plan yet. ' : 'No MPC plan in this run. ')) +
     (version !== null ? `Foothold terrain version ${version}. ` : '') +
     (active !== null ? `CBF-QP active barriers: ${active}${which ? ` (${which})` : ''}.` : '');
-  plots.forEach((u) => u.redraw(false));
+  // The plots' legends give the values at the slider's time (a pointer over a plot, its own).
+  plots.forEach((u) => { u.setLegend({ idx: frame }); u.redraw(false); });
   render();
 }
 
@@ -513,7 +516,9 @@ plot('Base', ['base_z[m]', 'base_vx[m/s]', 'base_wy[rad/s]']);
 plot('Contact normal forces [N]', data.model.contacts.map((c) => `fz_${c.name}[N]`));
 plot('Contact forces, horizontal [N]', data.model.contacts.flatMap((c) => [`fx_${c.name}[N]`, `fy_${c.name}[N]`]));
 plot('Joints', Object.keys(log).filter((n) => n.startsWith('q_')));
-plot('CBF-QP', ['qp_active[-]', 'qp_correction[m/s^2]']);
+// Apart: a handful of barriers next to corrections of tens of m/s^2.
+plot('CBF-QP active barriers', ['qp_active[-]']);
+plot('CBF-QP correction', ['qp_correction[m/s^2]']);
 
 resize();
 show(0);

@@ -159,6 +159,11 @@ async function checkReplay(browser, file) {
   if (maps === 0 && await page.evaluate('window.replay.terrains') > 0 && !legend.includes('elevation map: not logged')) {
     fail(`${file}: a perception run without a map log, and the page does not say the map was not logged`);
   }
+  // The plots' legends: the values at the slider's time (the log's time at the last frame).
+  await page.evaluate((k) => window.replay.show(k), frames - 1);
+  const legendTime = await page.$eval('.uplot .u-legend .u-series .u-value', (e) => e.textContent);
+  const lastTime = await page.evaluate('window.replay.time');
+  if (!(Math.abs(Number(legendTime) - lastTime) <= 1e-6)) fail(`${file}: the plot legend gives t = '${legendTime}' at the slider's time ${lastTime}`);
   const plots = await page.$$eval('.uplot', (e) => e.length);
   if (plots < 2) fail(`${file}: ${plots} plots, expected the linked plots`);
   console.log(`${path.basename(file)}: ${await page.evaluate('window.replay.robotFile')}, ${geoms[1]} geoms drawn, ${frames} frames, ${stats.colours} colours, plan solutions ${await page.evaluate('window.replay.solutions')}`);
