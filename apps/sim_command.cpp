@@ -22,6 +22,7 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <system_error>
 #include <vector>
 
@@ -30,6 +31,7 @@
 #include "experiments/replay.hpp"
 #include "experiments/sim_options.hpp"
 #include "output_folder.hpp"
+#include "rollstep/common/gzip_text.hpp"
 #include "rollstep/common/interrupt.hpp"
 #include "rollstep/common/text_file.hpp"
 #include "rollstep/sim/estimator_source.hpp"
@@ -43,7 +45,7 @@ namespace fs = std::filesystem;
 
 /// Result files of a run in the output directory.
 struct OutputFiles {
-  fs::path log, summary, failed, mpc, violations, replay, plan, terrains, spec;
+  fs::path log, summary, failed, mpc, violations, replay, plan, old_plan, terrains, spec;
   explicit OutputFiles(const fs::path& dir)
       : log(dir / "log.csv"),
         summary(dir / "summary.txt"),
@@ -51,7 +53,8 @@ struct OutputFiles {
         mpc(dir / "mpc.csv"),
         violations(dir / "mpc_violations.csv"),
         replay(dir / "replay.json"),
-        plan(dir / "plan.csv"),
+        plan(dir / "plan.csv.gz"),
+        old_plan(dir / "plan.csv"),  // older versions' uncompressed plan log
         terrains(dir / "terrains.csv"),
         spec(dir / "run.yaml") {}
   /// `rollstep sim --spec DIR/run.yaml --out DIR` reruns a run in place: its run.yaml is the
@@ -68,15 +71,16 @@ void prepareOutputDir(const std::string& dir, const OutputFiles& files) {
   fs::create_directories(dir, ec);
   if (ec) throw OutputError("--out '" + dir + "': cannot create the directory: " + ec.message());
   for (const fs::path& p : {files.log, files.summary, files.failed, files.mpc, files.violations,
-                            files.replay, files.plan, files.terrains, files.spec}) {
+                            files.replay, files.plan, files.old_plan, files.terrains, files.spec}) {
     if (p == files.spec && files.spec_is_input) continue;
     fs::remove(p, ec);
     if (ec) {
       throw OutputError("cannot remove the previous run's '" + p.string() + "': " + ec.message());
     }
   }
-  removeStaleTemporaries(dir, {"log.csv", "summary.txt", "FAILED", "mpc.csv", "mpc_violations.csv",
-                               "replay.json", "plan.csv", "terrains.csv", "run.yaml"});
+  removeStaleTemporaries(
+      dir, {"log.csv", "summary.txt", "FAILED", "mpc.csv", "mpc_violations.csv", "replay.json",
+            "plan.csv.gz", "plan.csv", "terrains.csv", "run.yaml"});
 }
 
 /// After a failure: no result files, and DIR/FAILED with the error (best effort: returns
@@ -228,11 +232,19 @@ sim::BuiltRun buildFromOptions(const sim::RunSpec& spec, bool from_options) {
 }
 
 /// The summary's lines on the NMPC (solutions, CBF-QP, watchdog, speed rule, estimator,
-/// perception); writes its mpc.csv, plan.csv and violations.
+/// perception); writes its mpc.csv, plan.csv.gz and violations.
 std::string nmpcResults(const sim::BuiltRun& run, const OutputFiles& files) {
   const sim::NmpcController& nmpc = *run.nmpc;
   writeFileAtomically(files.mpc.string(), nmpc.mpcUpdatesCsv());
-  writeFileAtomically(files.plan.string(), nmpc.planCsv());
+  GzipFileWriter plan(files.plan.string());
+  nmpc.writePlanCsv([&plan](std::string_view piece) { plan.write(piece); });
+  plan.commit();
+  if (nmpc.planLogDropped() > 0) {
+    std::fprintf(stderr,
+                 "rollstep sim: warning: plan.csv.gz lacks the last %zu MPC solutions (its "
+                 "storage, reserved for the run's duration, was full)\n",
+                 nmpc.planLogDropped());
+  }
   if (run.spec.log_violations) {
     writeFileAtomically(files.violations.string(), nmpc.violationsCsv());
   }

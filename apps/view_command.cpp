@@ -22,7 +22,7 @@ void registerViewCommand(CLI::App& app) {
       "The page shows the robot drawn from its own model file, the terrain, the contact "
       "forces, the foothold regions and the MPC's plan in use at the slider's time, with "
       "plots of the main signals (docs/REPLAY.md). It reads DIR/replay.json and DIR/log.csv "
-      "(and DIR/plan.csv for --controller nmpc), written by `rollstep sim`, and the map log in "
+      "(and DIR/plan.csv.gz for --controller nmpc), written by `rollstep sim`, and the map log in "
       "DIR/map/ if there is one (--log-map DIR/map), or the one --map names.");
   cmd->add_option("DIR", *dir, "A `rollstep sim --out` folder")->required()->check(kNotEmpty);
   cmd->add_option("--map", *map_dir,

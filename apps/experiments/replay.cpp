@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "log_table.hpp"
+#include "rollstep/common/gzip_text.hpp"
 #include "rollstep/common/text_file.hpp"
 
 namespace rollstep::experiments {
@@ -85,7 +86,7 @@ json columnsOf(const LogTable& table, std::size_t stride, double scale) {
   return json{{"names", names}, {"columns", columns}};
 }
 
-/// plan.csv for the page, compact (docs/REPLAY.md): every column as integers (times in
+/// plan.csv.gz for the page, compact (docs/REPLAY.md): every column as integers (times in
 /// 0.1 ms, positions in mm, the rest as they are), each value given as its difference from
 /// the same node of the previous solution (the previous row for a node the previous
 /// solution lacks; the first solution from zero): consecutive plans differ by millimetres,
@@ -362,9 +363,11 @@ void writeReplayPage(const std::string& run_dir, const std::string& page, const 
       dt > 0 ? std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil(0.02 / dt - 1e-9))) : 1;
   json data{{"title", title}, {"model", model}, {"log", columnsOf(log, stride, 1e5)}};
   data["plan"] = nullptr;
-  if (fs::exists(run_dir + "/plan.csv")) {
-    const std::string path = run_dir + "/plan.csv";
-    data["plan"] = compactPlan(LogTable::read(path, "plan"), path);
+  if (const std::string path = run_dir + "/plan.csv.gz"; fs::exists(path)) {
+    data["plan"] =
+        compactPlan(LogTable::parse(readGzipTextFile(path, "plan"), "plan '" + path + "'"), path);
+  } else if (const std::string old = run_dir + "/plan.csv"; fs::exists(old)) {
+    data["plan"] = compactPlan(LogTable::read(old, "plan"), old);  // an older run's
   }
   if (!map_dir.empty() && !fs::exists(map_dir + "/maps.csv")) {
     throw std::runtime_error("map log '" + map_dir +

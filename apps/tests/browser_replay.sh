@@ -14,7 +14,7 @@ fi
 rm -rf "$out"
 "$rollstep" sim "$@" --controller nmpc --gait trot --vx 0.15 --duration 2 \
   --mpc-timing deterministic --out "$out" > /dev/null
-for f in replay.json plan.csv; do
+for f in replay.json plan.csv.gz; do
   [ -s "$out/$f" ] || { echo "FAIL: rollstep sim wrote no $out/$f"; exit 1; }
 done
 "$rollstep" view "$out"

@@ -1,7 +1,7 @@
 #!/bin/sh
 # Usage: same_spec.sh ROLLSTEP OUT_DIR
 # A run given as options and the same run given as its spec file (the run.yaml the first
-# wrote) write the same log.csv and plan.csv, byte for byte, and the same run.yaml but for
+# wrote) write the same log.csv and plan.csv.gz, byte for byte, and the same run.yaml but for
 # the output folder. An NMPC trot on the estimator's state with a command schedule: the
 # estimator, the sensors and the schedule all come through the spec. Then the run again in
 # its own folder (--spec DIR/run.yaml --out DIR): an interrupted rerun leaves its run.yaml
@@ -17,7 +17,7 @@ rm -rf "$out"
 "$rollstep" sim --spec "$out/options/run.yaml" --out "$out/spec" >/dev/null ||
   fail "the run of the spec failed"
 cmp -s "$out/options/log.csv" "$out/spec/log.csv" || fail "the logs differ"
-cmp -s "$out/options/plan.csv" "$out/spec/plan.csv" || fail "the plans differ"
+cmp -s "$out/options/plan.csv.gz" "$out/spec/plan.csv.gz" || fail "the plans differ"
 grep -v '^out:' "$out/options/run.yaml" > "$out/a.yaml"
 grep -v '^out:' "$out/spec/run.yaml" > "$out/b.yaml"
 cmp -s "$out/a.yaml" "$out/b.yaml" || fail "the run.yaml files differ"

@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "rollstep/common/number_text.hpp"
 #include "rollstep/control/speed_rule.hpp"
 #include "rollstep/model/model.hpp"
 #include "rollstep/sim/estimator_source.hpp"
@@ -344,40 +345,72 @@ Eigen::Matrix3Xd NmpcController::plannedFootholds() const {
 
 void NmpcController::enablePlanLog(int node_stride, double duration) {
   if (node_stride < 1) throw std::invalid_argument("nmpc: plan log node stride must be >= 1");
+  if (!std::isfinite(duration) || duration < 0.0) {
+    throw std::invalid_argument("nmpc: plan log duration must be finite and >= 0 s");
+  }
   const centroidal::CentroidalRobot& robot = pipeline_->robot();
-  plan_stride_ = node_stride;
-  plan_columns_ = 4 + 3 + 3 * robot.nc();  // t0, node time, sequence, mode, base, feet
-  plan_data_ = std::make_unique<model::Data>(robot.model());
-  plan_feet_.resize(3, robot.nc());
   const control::MpcSolution& s = pipeline_->lastSolution();
   const double period = pipeline_->settings().mpc.period;
-  const std::size_t nodes = s.xs.size() / static_cast<std::size_t>(node_stride) + 2;
-  const double span = std::isfinite(duration) ? std::clamp(duration, 1.0, 600.0) : 600.0;
-  const std::size_t updates = period > 0 ? static_cast<std::size_t>(span / period) + 2 : 4096;
-  plan_.reserve(updates * nodes * static_cast<std::size_t>(plan_columns_));
+  const bool asynchronous = pipeline_->settings().mpc.timing == control::MpcTiming::Asynchronous;
+  // Deterministic timing solves once per period of loop time; asynchronous solutions are
+  // thinned to one per half period (enablePlanLog's contract).
+  plan_min_gap_ = asynchronous ? 0.5 * period : 0.0;
+  const double per_second = period > 0.0 ? (asynchronous ? 2.0 : 1.0) / period : 1000.0;
+  const double solutions = std::floor(duration * per_second) + 3.0;  // + the one in use now
+  const std::size_t n = std::min(s.xs.size(), s.modes.size());
+  const std::size_t nodes = n == 0 ? 0 : (n - 1) / static_cast<std::size_t>(node_stride) + 2;
+  const int columns = 2 + 3 * (1 + robot.nc());  // node, mode, base, contacts
+  const double bytes = solutions * (sizeof(PlanSolution) +
+                                    static_cast<double>(nodes * columns) * sizeof(std::int32_t));
+  if (bytes > 8.0 * (1 << 30)) {
+    throw std::invalid_argument(formatText(
+        "nmpc: the plan log of a %.0f s run needs %.1f GiB (more than 8 GiB): run shorter runs",
+        duration, bytes / (1 << 30)));
+  }
+  plan_stride_ = node_stride;
+  plan_columns_ = columns;
+  plan_solution_capacity_ = static_cast<std::size_t>(solutions);
+  plan_dropped_ = 0;
+  plan_solutions_.clear();
+  plan_nodes_.clear();
+  plan_solutions_.reserve(plan_solution_capacity_);
+  plan_nodes_.reserve(plan_solution_capacity_ * nodes * static_cast<std::size_t>(columns));
+  plan_data_ = std::make_unique<model::Data>(robot.model());
+  plan_feet_.resize(3, robot.nc());
   recordPlan();  // the solution in use now
 }
 
 void NmpcController::recordPlan() {
   const control::MpcSolution& s = pipeline_->lastSolution();
+  if (!plan_solutions_.empty() && s.t0 < plan_solutions_.back().t0 + plan_min_gap_) return;
   const centroidal::CentroidalRobot& robot = pipeline_->robot();
   const std::size_t n = std::min(s.xs.size(), s.modes.size());
+  const std::size_t stride = static_cast<std::size_t>(plan_stride_);
+  const std::size_t nodes = n == 0 ? 0 : (n - 1) / stride + ((n - 1) % stride != 0 ? 2 : 1);
+  if (plan_solutions_.size() == plan_solution_capacity_ ||
+      plan_nodes_.size() + nodes * static_cast<std::size_t>(plan_columns_) >
+          plan_nodes_.capacity()) {
+    ++plan_dropped_;  // past the run's reserve: never grow in the loop
+    return;
+  }
+  const auto mm = [](double v) {
+    return static_cast<std::int32_t>(std::lround(std::clamp(v, -2.0e6, 2.0e6) * 1000.0));
+  };
   for (std::size_t k = 0; k < n; ++k) {
-    if (k % static_cast<std::size_t>(plan_stride_) != 0 && k + 1 != n) continue;
+    if (k % stride != 0 && k + 1 != n) continue;
     centroidal::contactPositionsOfState(robot, *plan_data_, s.xs[k], plan_feet_);
-    plan_.push_back(s.t0);
-    plan_.push_back(s.t0 + s.dt * static_cast<double>(k));
-    plan_.push_back(static_cast<double>(s.sequence));
-    plan_.push_back(static_cast<double>(s.modes[k]));
-    for (int i = 0; i < 3; ++i) plan_.push_back(s.xs[k][i]);
+    plan_nodes_.push_back(static_cast<std::int32_t>(k));
+    plan_nodes_.push_back(static_cast<std::int32_t>(s.modes[k]));
+    for (int i = 0; i < 3; ++i) plan_nodes_.push_back(mm(s.xs[k][i]));
     for (int c = 0; c < robot.nc(); ++c) {
-      for (int i = 0; i < 3; ++i) plan_.push_back(plan_feet_(i, c));
+      for (int i = 0; i < 3; ++i) plan_nodes_.push_back(mm(plan_feet_(i, c)));
     }
   }
+  plan_solutions_.push_back({s.t0, s.dt, s.sequence, static_cast<std::uint32_t>(nodes)});
 }
 
-std::string NmpcController::planCsv() const {
-  if (plan_stride_ == 0) return "";
+void NmpcController::writePlanCsv(const std::function<void(std::string_view)>& sink) const {
+  if (plan_stride_ == 0) return;
   const centroidal::CentroidalRobot& robot = pipeline_->robot();
   std::string out = "solution_time[s],time[s],sequence[-],mode[-],base_x[m],base_y[m],base_z[m]";
   for (int c = 0; c < robot.nc(); ++c) {
@@ -385,18 +418,37 @@ std::string NmpcController::planCsv() const {
     for (const char* axis : {"x", "y", "z"}) out += ",foot_" + name + "_" + axis + "[m]";
   }
   out += "\n";
-  char cell[32];
+  constexpr std::size_t kPiece = 1 << 16;
+  out.reserve(kPiece + 1024);
+  char cell[64];
   const std::size_t columns = static_cast<std::size_t>(plan_columns_);
-  for (std::size_t r = 0; r + columns <= plan_.size(); r += columns) {
-    std::snprintf(cell, sizeof cell, "%.4f,%.4f,%.0f,%.0f", plan_[r], plan_[r + 1], plan_[r + 2],
-                  plan_[r + 3]);
-    out += cell;
-    for (std::size_t i = 4; i < columns; ++i) {  // positions to the millimetre: a drawing's
-      std::snprintf(cell, sizeof cell, ",%.3f", plan_[r + i]);
+  std::size_t r = 0;
+  for (const PlanSolution& s : plan_solutions_) {
+    for (std::uint32_t k = 0; k < s.nodes; ++k, r += columns) {
+      const std::int32_t* node = plan_nodes_.data() + r;
+      std::snprintf(cell, sizeof cell, "%.4f,%.4f,%llu,%ld", s.t0,
+                    s.t0 + s.dt * static_cast<double>(node[0]),
+                    static_cast<unsigned long long>(s.sequence), static_cast<long>(node[1]));
       out += cell;
+      for (std::size_t i = 2; i < columns; ++i) {  // millimetres as metres, exactly
+        const std::int32_t v = node[i];
+        const unsigned long a = static_cast<unsigned long>(v < 0 ? -static_cast<long>(v) : v);
+        std::snprintf(cell, sizeof cell, ",%s%lu.%03lu", v < 0 ? "-" : "", a / 1000, a % 1000);
+        out += cell;
+      }
+      out += '\n';
+      if (out.size() >= kPiece) {
+        sink(out);
+        out.clear();
+      }
     }
-    out += '\n';
   }
+  if (!out.empty()) sink(out);
+}
+
+std::string NmpcController::planCsv() const {
+  std::string out;
+  writePlanCsv([&out](std::string_view piece) { out += piece; });
   return out;
 }
 

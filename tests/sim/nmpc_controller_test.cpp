@@ -92,7 +92,7 @@ TEST(NmpcController, TrotTickMakesNoAllocationAndRefusesBadStates) {
   EXPECT_EQ(out.wheel_velocity, before.wheel_velocity);
 }
 
-// The replay's plan log (plan.csv): every adopted solution, every 5th node and the last,
+// The replay's plan log (plan.csv.gz): every adopted solution, every 5th node and the last,
 // its base and contact positions as solved; recording and the log row allocate nothing.
 TEST(NmpcController, PlanLogRecordsTheAdoptedSolutions) {
   SceneConfig scene;
@@ -102,7 +102,7 @@ TEST(NmpcController, PlanLogRecordsTheAdoptedSolutions) {
   NmpcController controller(plant, robot, shortHorizon(), terrainFromScene(scene, 0.085),
                             planning::GaitKind::Trot, planning::BaseVelocityCommand{0.1, 0, 0});
   EXPECT_EQ(controller.planCsv(), "");
-  controller.enablePlanLog(5);
+  controller.enablePlanLog(5, 0.06);
   PlantCommand command = plant.command();
   std::size_t allocations = 0;
   std::string extra;
@@ -163,6 +163,46 @@ TEST(NmpcController, PlanLogRecordsTheAdoptedSolutions) {
     EXPECT_NEAR((*first_of_last)[7 + 3 * c + 2], 0.075, 5e-3) << "contact " << c;
   }
   EXPECT_GE(stance, 3);
+}
+
+// The plan log's storage is reserved for the run's duration whatever it is (no cap), and a
+// caller running past it (Python stepping on) still allocates nothing: the solutions past
+// the reserve are counted, not recorded.
+TEST(NmpcController, PlanLogNeverAllocatesInTheLoop) {
+  SceneConfig scene;
+  Plant plant(scene);
+  const centroidal::RobotOcpDescription robot =
+      centroidal::loadRobotOcpDescription(tachyon3Description());
+  NmpcController controller(plant, robot, shortHorizon(), terrainFromScene(scene, 0.085),
+                            planning::GaitKind::Trot, planning::BaseVelocityCommand{0.1, 0, 0});
+  const double period = shortHorizon().mpc.period;
+  EXPECT_THROW(controller.enablePlanLog(5, std::nan("")), std::invalid_argument);
+  EXPECT_THROW(controller.enablePlanLog(5, -1.0), std::invalid_argument);
+  EXPECT_THROW(controller.enablePlanLog(5, 1e9), std::invalid_argument);  // petabytes
+  controller.enablePlanLog(5, 1200.0);  // 20 minutes: more than the 10 once reserved
+  EXPECT_GE(controller.planLogCapacity(), static_cast<std::size_t>(1200.0 / period) + 1);
+  // A run of 0.04 s: room for the solution in use and those of two more periods (+ 1).
+  controller.enablePlanLog(5, 0.04);
+  ASSERT_EQ(controller.planLogCapacity(), 5u);
+  PlantCommand command = plant.command();
+  std::size_t allocations = 0;
+  for (int k = 0; k < 200; ++k) {  // 0.2 s: about ten adopted solutions
+    rollstep::test::AllocationGuard guard;
+    controller.compute(plant.time(), plant.sensors(), command);
+    allocations += guard.count();
+    plant.setCommand(command);
+    plant.step();
+  }
+  EXPECT_EQ(allocations, 0u) << "the plan log allocated in the loop";
+  // The MPC log's records (mpc.csv) since the constructor: the initial solve and every
+  // solution received, adopted or not.
+  const auto& updates = controller.mpcUpdates();
+  const std::size_t adopted = static_cast<std::size_t>(std::count_if(
+      updates.begin(), updates.end(), [](const MpcUpdateRecord& u) { return u.adopted; }));
+  EXPECT_GE(adopted, 9u);
+  EXPECT_EQ(controller.planLogDropped() + 5u, adopted);
+  const std::string csv = controller.planCsv();
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 1 + 5 * 9);  // header, 5 solutions
 }
 
 // Late touch-downs (ocp.late_touchdown_tolerance): LF's measured wheel held 4 cm above

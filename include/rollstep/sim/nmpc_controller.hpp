@@ -5,7 +5,9 @@
 // plant (its leg order) and the model (the URDF's order) by name, drive wheels by their
 // contact frame.
 #include <array>
+#include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -194,11 +196,25 @@ class NmpcController final : public Controller {
 
   /// Records, from now on, every adopted MPC solution's plan for the replay page: every
   /// `node_stride`-th node (and the last) with its contact mask, base position and contact
-  /// positions (planCsv). Storage for `duration` [s] of updates (at most 10 minutes) is
-  /// reserved here: recording allocates nothing until then.
-  void enablePlanLog(int node_stride, double duration = 60.0);
-  /// The recorded plans as CSV (docs/REPLAY.md: plan.csv), header included; "" if not enabled.
+  /// positions to the millimetre (planCsv). Storage for a run of `duration` [s] whatever its
+  /// length is reserved here (one solution per MPC period: about 2 kB each for Tachyon 3), so
+  /// that recording never allocates. Asynchronous MPC timing can adopt solutions faster
+  /// than the period (back-to-back solves in a simulation slower than real time): there a
+  /// solution is kept only if its state is at least half a period newer than the last kept
+  /// one (twice the storage). Past the reserve (a caller running longer than `duration`)
+  /// solutions are counted (planLogDropped), not recorded. Throws std::invalid_argument for
+  /// node_stride < 1, a negative or non-finite duration, or a reserve above 8 GiB.
+  void enablePlanLog(int node_stride, double duration);
+  /// The recorded plans as CSV (docs/REPLAY.md: plan.csv.gz), header included, handed to
+  /// `sink` in pieces of at most about 64 kB (the text of a long run is never whole in
+  /// memory); nothing if not enabled.
+  void writePlanCsv(const std::function<void(std::string_view)>& sink) const;
+  /// Same as one string (tests, short runs); "" if not enabled.
   std::string planCsv() const;
+  /// Solutions the plan log has room for (enablePlanLog).
+  std::size_t planLogCapacity() const { return plan_solution_capacity_; }
+  /// Adopted solutions not recorded because the reserve of enablePlanLog was full.
+  std::size_t planLogDropped() const { return plan_dropped_; }
   /// Records the foothold terrain in use now (version 0) and, from now on, every terrain
   /// perception hands to the pipeline (setPerception) with the version setTerrain gave it:
   /// the log's terrain_version[-] says which one the real-time side used at each row.
@@ -226,10 +242,21 @@ class NmpcController final : public Controller {
   const Plant* plant_ = nullptr;
   std::unique_ptr<OnlinePerception> perception_;
   double perception_margin_ = 0.0;
-  // Plan log (enablePlanLog): nodes of adopted solutions, plan_columns_ floats each.
+  // Plan log (enablePlanLog): the kept solutions, and per kept node plan_columns_ integers
+  // (node index, contact mask, base and contact positions in mm), all reserved up front.
+  struct PlanSolution {
+    double t0 = 0.0;  // [s] the state's time
+    double dt = 0.0;  // [s] node spacing
+    std::uint64_t sequence = 0;
+    std::uint32_t nodes = 0;  // kept nodes (rows)
+  };
   int plan_stride_ = 0;
   int plan_columns_ = 0;
-  std::vector<double> plan_;
+  double plan_min_gap_ = 0.0;  // [s] between the states of two kept solutions
+  std::size_t plan_solution_capacity_ = 0;
+  std::size_t plan_dropped_ = 0;
+  std::vector<PlanSolution> plan_solutions_;
+  std::vector<std::int32_t> plan_nodes_;
   std::unique_ptr<model::Data> plan_data_;
   Eigen::Matrix3Xd plan_feet_;
   TerrainLog terrain_log_;  // enableTerrainLog

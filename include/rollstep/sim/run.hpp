@@ -18,7 +18,7 @@
 
 namespace rollstep::sim {
 
-/// plan.csv keeps every 5th node of each plan (and the last): 20 of the 100 nodes, enough
+/// plan.csv.gz keeps every 5th node of each plan (and the last): 20 of the 100 nodes, enough
 /// to draw the planned paths.
 inline constexpr int kPlanNodeStride = 5;
 

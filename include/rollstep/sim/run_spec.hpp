@@ -101,7 +101,7 @@ struct RunSpec {
   /// The plant's sensor noise file; "" = ideal sensors, or with state_source inekf the
   /// robot folder's sensors.yaml (the defaults if it has none).
   std::string sensor_config;
-  /// Outputs: the folder of log.csv, summary.txt, run.yaml (mpc.csv, plan.csv, ... for
+  /// Outputs: the folder of log.csv, summary.txt, run.yaml (mpc.csv, plan.csv.gz, ... for
   /// nmpc); a log row every log_every control periods.
   std::string out = "out/sim";
   int log_every = 10;

@@ -84,7 +84,8 @@ document.body.insertAdjacentHTML('beforeend', `
   <span class="swatch" style="background:#e377c2"></span>MPC plan: footholds
   <span class="swatch" style="background:#2ca02c"></span>foothold regions in use (${regionsSource()})
   <span class="swatch" style="background:#ffbf00"></span>wheel with an active CBF-QP barrier (listed below)
-  ${maps.length ? '<span class="swatch" style="background:linear-gradient(90deg,#3350cc,#ffe633)"></span>elevation map (perception; colour: height, low to high)' : ''}
+  ${maps.length ? '<span class="swatch" style="background:linear-gradient(90deg,#3350cc,#ffe633)"></span>elevation map (perception; colour: height, low to high)'
+    : terrains.length ? '<span id="no-map">elevation map: not logged by this run (rollstep sim --log-map DIR/map logs it; rollstep view DIR then draws it)</span>' : ''}
   <span class="swatch" style="background:#d62728;height:2px"></span>plot cursor: the slider's time
   <div id="status"></div>
 </div>
@@ -239,6 +240,8 @@ function drawMap(t) {
     colour.setRGB(0.2 + 0.8 * u, 0.3 + 0.6 * u, 0.8 - 0.6 * u);
     colours.push(colour.r, colour.g, colour.b);
   });
+  mapPoints.geometry.dispose();  // a new geometry: the number of cells changes
+  mapPoints.geometry = new THREE.BufferGeometry();
   mapPoints.geometry.setAttribute('position', new THREE.Float32BufferAttribute(positions, 3));
   mapPoints.geometry.setAttribute('color', new THREE.Float32BufferAttribute(colours, 3));
   mapPoints.visible = true;
@@ -283,6 +286,13 @@ if (plan['solution_time[s]']) {
 const feetNames = data.model.contacts.map((c) => c.name);
 const planFeet = Object.keys(plan).filter((n) => n.endsWith('_x[m]') && n.startsWith('foot_'))
   .map((n) => n.slice(5, -5));
+// New points for a line or a point cloud. Not setFromPoints on the geometry it has: that
+// rewrites the old buffer in place, keeping its size (stale points stay drawn, extra ones are
+// dropped), and the number of footholds changes from plan to plan.
+function setPoints(object, points) {
+  object.geometry.dispose();
+  object.geometry = new THREE.BufferGeometry().setFromPoints(points);
+}
 function line(colour) {
   // Drawn over the robot: the planned base path runs inside the body.
   const l = new THREE.Line(new THREE.BufferGeometry(),
@@ -294,9 +304,11 @@ function line(colour) {
 }
 const basePath = line(COLOURS.basePlan);
 const footPaths = planFeet.map(() => line(COLOURS.footPlan));
+// Drawn over the robot: a foothold is a wheel centre, inside its wheel.
 const footholds = new THREE.Points(new THREE.BufferGeometry(),
-  new THREE.PointsMaterial({ color: COLOURS.foothold, size: 0.05 }));
+  new THREE.PointsMaterial({ color: COLOURS.foothold, size: 0.05, depthTest: false }));
 footholds.frustumCulled = false;
+footholds.renderOrder = 6;
 scene.add(footholds);
 
 // Wheels with an active CBF-QP barrier: a ring around the wheel.
@@ -338,13 +350,13 @@ function drawPlan(t) {
   const rows = [];
   for (let r = s.first; r < s.end; ++r) rows.push(r);
   basePath.visible = true;
-  basePath.geometry.setFromPoints(rows.map((r) =>
+  setPoints(basePath, rows.map((r) =>
     new THREE.Vector3(plan['base_x[m]'][r], plan['base_y[m]'][r], plan['base_z[m]'][r])));
   const holds = [];
   planFeet.forEach((f, i) => {
     const x = plan[`foot_${f}_x[m]`], y = plan[`foot_${f}_y[m]`], z = plan[`foot_${f}_z[m]`];
     footPaths[i].visible = true;
-    footPaths[i].geometry.setFromPoints(rows.map((r) => new THREE.Vector3(x[r], y[r], z[r])));
+    setPoints(footPaths[i], rows.map((r) => new THREE.Vector3(x[r], y[r], z[r])));
     rows.forEach((r, k) => {
       const stance = (plan['mode[-]'][r] >> i) & 1;
       const before = k > 0 && ((plan['mode[-]'][rows[k - 1]] >> i) & 1);
@@ -352,7 +364,7 @@ function drawPlan(t) {
     });
   });
   footholds.visible = true;
-  footholds.geometry.setFromPoints(holds);
+  setPoints(footholds, holds);
   return s;
 }
 
@@ -410,7 +422,8 @@ function show(f) {
     : (solutions.length ? 'No MPC plan yet. ' : 'No MPC plan in this run. ')) +
     (version !== null ? `Foothold terrain version ${version}. ` : '') +
     (active !== null ? `CBF-QP active barriers: ${active}${which ? ` (${which})` : ''}.` : '');
-  plots.forEach((u) => u.redraw(false));
+  // The plots' legends give the values at the slider's time (a pointer over a plot, its own).
+  plots.forEach((u) => { u.setLegend({ idx: frame }); u.redraw(false); });
   render();
 }
 
@@ -503,7 +516,9 @@ plot('Base', ['base_z[m]', 'base_vx[m/s]', 'base_wy[rad/s]']);
 plot('Contact normal forces [N]', data.model.contacts.map((c) => `fz_${c.name}[N]`));
 plot('Contact forces, horizontal [N]', data.model.contacts.flatMap((c) => [`fx_${c.name}[N]`, `fy_${c.name}[N]`]));
 plot('Joints', Object.keys(log).filter((n) => n.startsWith('q_')));
-plot('CBF-QP', ['qp_active[-]', 'qp_correction[m/s^2]']);
+// Apart: a handful of barriers next to corrections of tens of m/s^2.
+plot('CBF-QP active barriers', ['qp_active[-]']);
+plot('CBF-QP correction', ['qp_correction[m/s^2]']);
 
 resize();
 show(0);
@@ -511,10 +526,17 @@ requestAnimationFrame(tick);
 
 // For the browser tests (and the console): the page's state.
 window.replay = {
-  frames, get frame() { return frame; }, show, solutions: solutions.length,
-  terrains: terrains.length, get status() { return status.textContent; },
+  frames, get frame() { return frame; }, get time() { return times[frame]; }, show, solutions: solutions.length,
+  terrains: terrains.length, maps: maps.length, get status() { return status.textContent; },
   /** The model's geoms (replay.json) and how many of them the page drew. */
   geoms: data.model.geoms.length, drawnGeoms, robotFile: data.model.robot_file,
+  /** The planned footholds drawn now, [[x, y, z], ...]. */
+  footholdsDrawn() {
+    const p = footholds.geometry.getAttribute('position');
+    const out = [];
+    for (let i = 0; footholds.visible && p && i < p.count; ++i) out.push([p.getX(i), p.getY(i), p.getZ(i)]);
+    return out;
+  },
   /** The plans' columns as the page decoded them (by name). */
   planColumn(name) { return plan[name] || null; },
   /** Distinct colours and non-background pixels of the 3D view, sampled. */

@@ -9,6 +9,7 @@
 'use strict';
 const fs = require('fs');
 const path = require('path');
+const zlib = require('zlib');
 const puppeteer = require('puppeteer-core');
 
 const chromium = process.env.CHROMIUM || '/usr/bin/chromium';
@@ -92,16 +93,19 @@ async function checkReplay(browser, file) {
     .then(() => true, () => false);
   await page.keyboard.press(' ');
   if (!played) fail(`${file}: space did not play the replay (frame ${(await state()).frame})`);
-  // The plans as decoded by the page are plan.csv's (beside the page of `rollstep view`).
-  const planCsv = path.join(path.dirname(file), 'plan.csv');
-  if (fs.existsSync(planCsv)) {
-    const lines = fs.readFileSync(planCsv, 'utf8').trim().split('\n');
+  // The plans as decoded by the page are the run's plan.csv.gz (beside the page of `rollstep
+  // view`; a report's replay_NAME.html: runs/NAME/).
+  const planFile = [path.join(path.dirname(file), 'plan.csv.gz'),
+    path.join(path.dirname(file), 'runs', path.basename(file).replace(/^replay_(.*)\.html$/, '$1'), 'plan.csv.gz')]
+    .find((f) => fs.existsSync(f));
+  if (planFile) {
+    const lines = zlib.gunzipSync(fs.readFileSync(planFile)).toString('utf8').trim().split('\n');
     const names = lines[0].split(',');
     let worst = 0, worstAt = '';
     for (const [i, name] of names.entries()) {
       const decoded = await page.evaluate((n) => window.replay.planColumn(n), name);
       if (!decoded || decoded.length !== lines.length - 1) {
-        fail(`${file}: plan column ${name}: ${decoded ? decoded.length : 'no'} rows, plan.csv has ${lines.length - 1}`);
+        fail(`${file}: plan column ${name}: ${decoded ? decoded.length : 'no'} rows, ${planFile} has ${lines.length - 1}`);
         continue;
       }
       for (let r = 1; r < lines.length; ++r) {
@@ -109,12 +113,57 @@ async function checkReplay(browser, file) {
         if (e > worst) { worst = e; worstAt = `${name} row ${r}`; }
       }
     }
-    if (worst > 5e-4 + 1e-9) fail(`${file}: the page's plans differ from plan.csv by ${worst} (${worstAt})`);
+    if (worst > 5e-4 + 1e-9) fail(`${file}: the page's plans differ from ${planFile} by ${worst} (${worstAt})`);
+    // The footholds drawn are those of the plan in use, at eleven times along the run: where
+    // a contact's plan touches down, or its position at the first node for a stance contact
+    // (their number changes from plan to plan).
+    const rows = lines.slice(1).map((l) => l.split(',').map(Number));
+    const col = (n) => names.indexOf(n);
+    const feet = names.filter((n) => n.startsWith('foot_') && n.endsWith('_x[m]')).map((n) => col(n));
+    const expected = (t) => {
+      let first = -1;
+      for (let r = 0; r < rows.length && rows[r][0] <= t + 1e-9; ++r) {
+        if (r === 0 || rows[r][0] !== rows[r - 1][0] || rows[r][2] !== rows[r - 1][2]) first = r;
+      }
+      const holds = [];
+      if (first < 0) return holds;
+      let end = first;
+      while (end < rows.length && rows[end][0] === rows[first][0] && rows[end][2] === rows[first][2]) ++end;
+      feet.forEach((c, i) => {
+        for (let r = first; r < end; ++r) {
+          const stance = (rows[r][3] >> i) & 1, before = r > first && ((rows[r - 1][3] >> i) & 1);
+          if (stance && (r === first || !before)) holds.push(rows[r].slice(c, c + 3));
+        }
+      });
+      return holds;
+    };
+    for (let k = 0; k <= 10; ++k) {
+      const f = Math.round((k * (frames - 1)) / 10);
+      await page.evaluate((k) => window.replay.show(k), f);
+      const drawn = await page.evaluate(() => window.replay.footholdsDrawn());
+      const want = expected(await page.evaluate('window.replay.time'));
+      const same = drawn.length === want.length && drawn.every((p, k) => p.every((v, a) => Math.abs(v - want[k][a]) < 1e-3));
+      if (!same) fail(`${file}: frame ${f}: footholds drawn ${JSON.stringify(drawn)}, the plan in use has ${JSON.stringify(want)}`);
+    }
+    console.log(`${path.basename(file)}: the page's plans equal ${path.basename(planFile)}'s ${lines.length - 1} rows (worst difference ${worst.toFixed(6)} m or s)`);
+  } else if (await page.evaluate('window.replay.solutions') > 0) {
+    fail(`${file}: the page has MPC plans but the run's plan.csv.gz was not found to compare them with`);
   }
   const legend = await page.$eval('#legend', (e) => e.innerText);
   for (const word of ['contact force', 'base path', 'foot paths', 'footholds', 'foothold regions', 'active CBF-QP barrier']) {
     if (!legend.includes(word)) fail(`${file}: the legend does not say what '${word}' looks like`);
   }
+  // A perception run's elevation map: drawn from its map log, or the page says it was not logged.
+  const maps = await page.evaluate('window.replay.maps');
+  if (maps > 0 && !legend.includes('elevation map (perception')) fail(`${file}: the legend does not explain the elevation map`);
+  if (maps === 0 && await page.evaluate('window.replay.terrains') > 0 && !legend.includes('elevation map: not logged')) {
+    fail(`${file}: a perception run without a map log, and the page does not say the map was not logged`);
+  }
+  // The plots' legends: the values at the slider's time (the log's time at the last frame).
+  await page.evaluate((k) => window.replay.show(k), frames - 1);
+  const legendTime = await page.$eval('.uplot .u-legend .u-series .u-value', (e) => e.textContent);
+  const lastTime = await page.evaluate('window.replay.time');
+  if (!(Math.abs(Number(legendTime) - lastTime) <= 1e-6)) fail(`${file}: the plot legend gives t = '${legendTime}' at the slider's time ${lastTime}`);
   const plots = await page.$$eval('.uplot', (e) => e.length);
   if (plots < 2) fail(`${file}: ${plots} plots, expected the linked plots`);
   console.log(`${path.basename(file)}: ${await page.evaluate('window.replay.robotFile')}, ${geoms[1]} geoms drawn, ${frames} frames, ${stats.colours} colours, plan solutions ${await page.evaluate('window.replay.solutions')}`);
