@@ -73,13 +73,31 @@ void Solver::Impl::linearizeNode(int k) {
   NodeData& d = *n.d;
   const VectorXd& x = xs[static_cast<std::size_t>(k)];
   const VectorXd& u = uOf(k);
-  // The fused pass: the Jacobians go to the set of the thread of k's chunk (forNodes,
-  // linearizeProjectAndFactor).
-  const int thread = condense_in_linearize ? chunkOf(k) : 0;
-  if (condense_in_linearize) {
-    swapStageHessian(k, d);
-    swapSharedJacobians(d, thread);
+  // The Jacobians go to the set of the thread of k's chunk (every pass runs node k on that
+  // thread: forNodes, linearizeAndFactor, linearizeProjectAndFactor): the dynamics and
+  // equality Jacobians always (read only here: the node holds none of its own), the
+  // inequality Jacobians in the fused pass.
+  const int thread = chunkOf(k);
+  const bool fused = condense_in_linearize;
+  if (fused) swapStageHessian(k, d);
+  swapSharedJacobians(d, thread, fused);
+  try {
+    linearizeWithSharedJacobians(k, n, x, u);
+  } catch (...) {
+    swapSharedJacobians(d, thread, fused);  // the thread's set back, whole
+    throw;
   }
+  if (fused) {
+    swapStageHessian(k, d);  // the stage's Q, R, S hold the cost Hessian: condensed in place
+    condenseRows(k, thread);
+  }
+  swapSharedJacobians(d, thread, fused);
+  if (fused) packJacobianBlocks(k, thread);
+}
+
+void Solver::Impl::linearizeWithSharedJacobians(int k, Node& n, const VectorXd& x,
+                                                const VectorXd& u) {
+  NodeData& d = *n.d;
   prob->linearize(k, x, u, d);
   n.mode_prev = d.context.mode;
   LqStage& st = lq.stage(k);
@@ -103,6 +121,11 @@ void Solver::Impl::linearizeNode(int k) {
       st.B.bottomRows(m) = d.Fu.bottomRows(m);
     }
     st.b = n.defect;
+    // The stage's own copy: the node's is the thread's set, for this linearisation only.
+    if (d.ne > 0) {
+      st.Ex.topRows(d.ne) = d.Ex.topRows(d.ne);
+      st.Eu.topRows(d.ne) = d.Eu.topRows(d.ne);
+    }
   }
   rowValues(k, x, u, n);
   if (n.fresh || d.ni != n.ni_prev) {
@@ -116,12 +139,6 @@ void Solver::Impl::linearizeNode(int k) {
   n.h2_added = false;
   n.delta = 0.0;
   if (use_curvature && n.finite) addCurvature(k, n);
-  if (condense_in_linearize) {
-    swapStageHessian(k, d);  // the stage's Q, R, S hold the cost Hessian: condensed in place
-    condenseRows(k, thread);
-    swapSharedJacobians(d, thread);
-    packJacobianBlocks(k, thread);
-  }
 }
 
 /// Sets kind and value c of every row of node k from d (general rows) and (x, u).

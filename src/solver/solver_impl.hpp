@@ -217,15 +217,17 @@ struct Solver::Impl {
   // condenseAndFactor returns its result.
   bool condense_in_linearize = false;
   bool condensed_early = false;
-  // The fused pass evaluates each node's cost Hessian straight into the stages' shared
-  // Q, R, S (RiccatiSolver::shareStageHessians: the condensing adds its rows there), and
-  // its dynamics, equality and inequality Jacobians into one set per thread, all swapped in
-  // for the evaluation (O(1)) and in cache: they are read only while the node is linearised
-  // and condensed (but the inequality Jacobians' non-zero blocks, which packJacobianBlocks
-  // keeps for the step recovery), and the nodes' own blocks would be 60-70 kB of cold stores
-  // per node of the Tachyon 3 OCP. The nodes' own blocks then hold stale values
-  // (derivatives_shared): the inertia correction, which condenses again from them,
-  // linearises the nodes again first (the same arithmetic, the same values).
+  // Every linearisation evaluates the node's dynamics and equality Jacobians into one set
+  // per thread (the nodes have none of their own), and the fused pass also its inequality
+  // Jacobians and, straight into the stages' shared Q, R, S (RiccatiSolver::
+  // shareStageHessians: the condensing adds its rows there), its cost Hessian, all swapped
+  // in for the evaluation (O(1)) and in cache: they are read only while the node is
+  // linearised and condensed (but the inequality Jacobians' non-zero blocks, which
+  // packJacobianBlocks keeps for the step recovery), and the nodes' own blocks would be
+  // 60-70 kB of cold stores per node of the Tachyon 3 OCP. The nodes' own Hessian and
+  // inequality blocks then hold stale values (derivatives_shared): the inertia correction,
+  // which condenses again from them, linearises the nodes again first (the same arithmetic,
+  // the same values).
   struct SharedDerivatives {
     MatrixXd Fx, Fu, Ex, Eu, Gx, Gu;
   };
@@ -253,12 +255,15 @@ struct Solver::Impl {
     st.Ex.swap(shared_stage_Ex);
     st.Eu.swap(shared_stage_Eu);
   }
-  void swapSharedJacobians(NodeData& d, int thread) {
+  /// The thread's Fx, Fu, Ex, Eu (the nodes hold none: every linearisation evaluates them
+  /// here, the stage keeps what it needs) and with `inequalities` its Gx, Gu.
+  void swapSharedJacobians(NodeData& d, int thread, bool inequalities) {
     SharedDerivatives& sh = shared[static_cast<std::size_t>(thread)];
     d.Fx.swap(sh.Fx);
     d.Fu.swap(sh.Fu);
     d.Ex.swap(sh.Ex);
     d.Eu.swap(sh.Eu);
+    if (!inequalities) return;
     d.Gx.swap(sh.Gx);
     d.Gu.swap(sh.Gu);
   }
@@ -391,6 +396,9 @@ struct Solver::Impl {
   Kkt linearize(bool realtime, IterationStats& it);
   Kkt residualSummary() const;
   void linearizeNode(int k);
+  /// linearizeNode's evaluation, residuals and curvature, with the thread's Jacobians
+  /// swapped into the node's data.
+  void linearizeWithSharedJacobians(int k, Node& n, const VectorXd& x, const VectorXd& u);
   void rowValues(int k, const VectorXd& x, const VectorXd& u, Node& n) const;
   void initRows(Node& n) const;
   void resetSlacks(Node& n) const;

@@ -135,6 +135,13 @@ Solver::Impl::Impl(std::shared_ptr<ocp::OptimalControlProblem> p, SolverSettings
     shared.assign(static_cast<std::size_t>(pool.size()),
                   SharedDerivatives{d.Fx, d.Fu, d.Ex, d.Eu, d.Gx, d.Gu});
   }
+  // The dynamics and equality Jacobians are read only while the node is linearised (the
+  // stage keeps A, B, Ex and Eu): every linearisation evaluates them into the thread's
+  // set, and the nodes' own (25 kB per node of the Tachyon 3 OCP) are released.
+  for (auto& n : nodes) {
+    NodeData& d = *n.d;
+    for (MatrixXd* m : {&d.Fx, &d.Fu, &d.Ex, &d.Eu}) *m = MatrixXd();
+  }
   if (pool.size() == 1) {  // linearizeAndFactor's shared stage Jacobians (same shapes)
     shared_A = lq.stage(0).A;
     shared_B = lq.stage(0).B;
