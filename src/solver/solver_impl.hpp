@@ -89,7 +89,6 @@ struct Solver::Impl {
     // equality values (the trial points overwrite c, defect and the NodeData's), and the
     // accumulated corrected constraint values (hard rows: of c - s).
     VectorXd c_it, defect_it, e_it, soc_rows, soc_defect, soc_e;
-    MatrixXd J0, J1;       // difference Jacobians
     VectorXd rx, ru, tmp;  // dual residual pieces, scratch
     // Per general row: 1 if Gx != 0, | 2 if it acts on u (condensing scratch).
     Eigen::VectorXi row_parts;
@@ -105,14 +104,10 @@ struct Solver::Impl {
     // column-major with its own rows as stride, Gx's blocks from d->Gx.data() and Gu's from
     // d->Gu.data(), whose dense contents are then not the node's. Else they are read in place.
     bool gblocks_packed = false;
-    // Constraint curvature (converging mode with exact_hessian): central differences of the
-    // constraint part of the Lagrangian gradient, evaluated into dp. Allocated by
-    // reserveCurvature() only for settings that use it (empty otherwise).
-    std::unique_ptr<NodeData> dp;
-    MatrixXd H2;                     // (ndx + nu)^2, symmetric
-    VectorXd hp, hm, xp, up, hcoef;  // gradients +-, perturbed point, row coefficients
-    VectorXd dxv;                    // tangent perturbation (manifolds)
-    MatrixXd Ap, Bp;                 // dynamics Jacobians at the perturbed point (manifolds)
+    // Constraint curvature (converging mode with exact_hessian), added to the Hessian and
+    // taken out again by the inertia correction. Allocated by reserveCurvature() only for
+    // settings that use it (empty otherwise).
+    MatrixXd H2;  // (ndx + nu)^2, symmetric
     bool h2_added = false;
     double delta = 0.0;  // diagonal shift of the Hessian (inertia correction)
     int ni_prev = -1;
@@ -232,6 +227,20 @@ struct Solver::Impl {
     MatrixXd Fx, Fu, Ex, Eu, Gx, Gu;
   };
   std::vector<SharedDerivatives> shared;  // per thread
+  /// The scratch of a node's linearisation, one per thread (the thread of the node's chunk,
+  /// as for `shared`): read and written only while the node is linearised.
+  struct LinearizeScratch {
+    MatrixXd J0, J1;  // difference Jacobians
+    // Constraint curvature (reserveCurvature): central differences of the constraint part
+    // of the Lagrangian gradient, evaluated into dp (a whole NodeData: 95 kB of the
+    // Tachyon 3 OCP, where one per node was half of a converging solver's memory).
+    std::unique_ptr<NodeData> dp;
+    VectorXd hp, hm, xp, up, hcoef;  // gradients +-, perturbed point, row coefficients
+    VectorXd dxv;                    // tangent perturbation (manifolds)
+    MatrixXd Ap, Bp;                 // dynamics Jacobians at the perturbed point (manifolds)
+  };
+  std::vector<LinearizeScratch> lin_scratch;  // per thread
+  LinearizeScratch& scratchOf(int k) { return lin_scratch[static_cast<std::size_t>(chunkOf(k))]; }
   // Likewise the stage's A, B, Ex and Eu (written from Fx, Fu, Ex, Eu, read by the
   // residuals and the projection right after; the Riccati solver keeps the fixed-input
   // columns of B and Eu, BF and EF): one set swapped into the stage for its linearisation
@@ -403,7 +412,8 @@ struct Solver::Impl {
   void initRows(Node& n) const;
   void resetSlacks(Node& n) const;
   void residuals(int k, Node& n);
-  void constraintGradient(int k, const Node& n, const NodeData& dd, VectorXd& out) const;
+  void constraintGradient(int k, const Node& n, const NodeData& dd, const VectorXd& coef,
+                          VectorXd& out) const;
   void addCurvature(int k, Node& n);
   void curvatureGradient(int k, Node& n, VectorXd& g);
 

@@ -1,9 +1,9 @@
 #pragma once
 // Multiple-shooting primal-dual interior-point solver, equality constraints eliminated by
 // projection and a Riccati recursion for the search direction (paper Sec. 3.1-3.2). All
-// memory is sized at construction (the curvature workspace of exact_hessian, a second copy
-// of every node's data, only for settings that use it: at construction or in setSettings);
-// solve() and update() never allocate.
+// memory is sized at construction (the curvature workspace of exact_hessian, a copy of a
+// node's data per thread and the curvature per node, only for settings that use it: at
+// construction or in setSettings); solve() and update() never allocate.
 //
 // Method, per iteration: linearise every node (in parallel), defects on the manifold
 // b_k = F(x_k, u_k) (-) x_{k+1} with A = J Fx, B = J Fu (J: Jacobian of the difference at
