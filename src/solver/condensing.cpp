@@ -80,11 +80,8 @@ void Solver::Impl::condenseRows(int k, int thread) {
     }
     st.r = d.lu;
     st.ne = d.ne;
-    if (d.ne > 0) {
-      st.Ex.topRows(d.ne) = d.Ex.topRows(d.ne);
-      st.Eu.topRows(d.ne) = d.Eu.topRows(d.ne);
-      st.e.head(d.ne) = d.e.head(d.ne);
-    }
+    // Ex and Eu went to the stage in linearizeNode (the node keeps none of its own).
+    if (d.ne > 0) st.e.head(d.ne) = d.e.head(d.ne);
   } else {
     st.ne = 0;
   }

@@ -73,13 +73,31 @@ void Solver::Impl::linearizeNode(int k) {
   NodeData& d = *n.d;
   const VectorXd& x = xs[static_cast<std::size_t>(k)];
   const VectorXd& u = uOf(k);
-  // The fused pass: the Jacobians go to the set of the thread of k's chunk (forNodes,
-  // linearizeProjectAndFactor).
-  const int thread = condense_in_linearize ? chunkOf(k) : 0;
-  if (condense_in_linearize) {
-    swapStageHessian(k, d);
-    swapSharedJacobians(d, thread);
+  // The Jacobians go to the set of the thread of k's chunk (every pass runs node k on that
+  // thread: forNodes, linearizeAndFactor, linearizeProjectAndFactor): the dynamics and
+  // equality Jacobians always (read only here: the node holds none of its own), the
+  // inequality Jacobians in the fused pass.
+  const int thread = chunkOf(k);
+  const bool fused = condense_in_linearize;
+  if (fused) swapStageHessian(k, d);
+  swapSharedJacobians(d, thread, fused);
+  try {
+    linearizeWithSharedJacobians(k, n, x, u);
+  } catch (...) {
+    swapSharedJacobians(d, thread, fused);  // the thread's set back, whole
+    throw;
   }
+  if (fused) {
+    swapStageHessian(k, d);  // the stage's Q, R, S hold the cost Hessian: condensed in place
+    condenseRows(k, thread);
+  }
+  swapSharedJacobians(d, thread, fused);
+  if (fused) packJacobianBlocks(k, thread);
+}
+
+void Solver::Impl::linearizeWithSharedJacobians(int k, Node& n, const VectorXd& x,
+                                                const VectorXd& u) {
+  NodeData& d = *n.d;
   prob->linearize(k, x, u, d);
   n.mode_prev = d.context.mode;
   LqStage& st = lq.stage(k);
@@ -93,16 +111,22 @@ void Solver::Impl::linearizeNode(int k) {
       // J1 = blockdiag(J1_b, I) with b = euclideanTangentOffset() (the Euclidean tail
       // differences by subtraction): only the top b rows of A and B mix.
       const int b = prob->stateSpace().euclideanTangentOffset(), m = ndx - b;
-      prob->stateSpace().differenceJacobiansHead(xn, d.xnext, n.J0.topLeftCorner(b, b),
-                                                 n.J1.topLeftCorner(b, b));
-      ocp::smallDepthProduct(st.A.topRows(b), n.J1.topLeftCorner(b, b), d.Fx.topRows(b), 1.0,
+      LinearizeScratch& sc = scratchOf(k);
+      prob->stateSpace().differenceJacobiansHead(xn, d.xnext, sc.J0.topLeftCorner(b, b),
+                                                 sc.J1.topLeftCorner(b, b));
+      ocp::smallDepthProduct(st.A.topRows(b), sc.J1.topLeftCorner(b, b), d.Fx.topRows(b), 1.0,
                              false);
       st.A.bottomRows(m) = d.Fx.bottomRows(m);
-      ocp::smallDepthProduct(st.B.topRows(b), n.J1.topLeftCorner(b, b), d.Fu.topRows(b), 1.0,
+      ocp::smallDepthProduct(st.B.topRows(b), sc.J1.topLeftCorner(b, b), d.Fu.topRows(b), 1.0,
                              false);
       st.B.bottomRows(m) = d.Fu.bottomRows(m);
     }
     st.b = n.defect;
+    // The stage's own copy: the node's is the thread's set, for this linearisation only.
+    if (d.ne > 0) {
+      st.Ex.topRows(d.ne) = d.Ex.topRows(d.ne);
+      st.Eu.topRows(d.ne) = d.Eu.topRows(d.ne);
+    }
   }
   rowValues(k, x, u, n);
   if (n.fresh || d.ni != n.ni_prev) {
@@ -116,12 +140,6 @@ void Solver::Impl::linearizeNode(int k) {
   n.h2_added = false;
   n.delta = 0.0;
   if (use_curvature && n.finite) addCurvature(k, n);
-  if (condense_in_linearize) {
-    swapStageHessian(k, d);  // the stage's Q, R, S hold the cost Hessian: condensed in place
-    condenseRows(k, thread);
-    swapSharedJacobians(d, thread);
-    packJacobianBlocks(k, thread);
-  }
 }
 
 /// Sets kind and value c of every row of node k from d (general rows) and (x, u).
@@ -278,7 +296,7 @@ void Solver::Impl::residuals(int k, Node& n) {
 /// Constraint part of the Lagrangian gradient at the point evaluated in dd, with the
 /// multipliers of the current iterate: [Fx; Fu]^T lam_{k+1} + E^T nu + G^T hcoef.
 void Solver::Impl::constraintGradient(int k, const Node& n, const NodeData& dd,
-                                      VectorXd& out) const {
+                                      const VectorXd& coef, VectorXd& out) const {
   auto ox = out.head(ndx);
   auto ou = out.segment(ndx, nu);
   out.setZero();
@@ -292,8 +310,8 @@ void Solver::Impl::constraintGradient(int k, const Node& n, const NodeData& dd,
     }
   }
   if (dd.ni > 0) {
-    ox.noalias() += dd.Gx.topRows(dd.ni).transpose() * n.hcoef.head(dd.ni);
-    if (k < N) ou.noalias() += dd.Gu.topRows(dd.ni).transpose() * n.hcoef.head(dd.ni);
+    ox.noalias() += dd.Gx.topRows(dd.ni).transpose() * coef.head(dd.ni);
+    if (k < N) ou.noalias() += dd.Gu.topRows(dd.ni).transpose() * coef.head(dd.ni);
   }
 }
 
@@ -309,10 +327,11 @@ void Solver::Impl::constraintGradient(int k, const Node& n, const NodeData& dd,
 /// difference with x_{k+1} do not fit the stage structure and are left out).
 void Solver::Impl::addCurvature(int k, Node& n) {
   NodeData& d = *n.d;
+  LinearizeScratch& sc = scratchOf(k);
   for (int i = 0; i < d.ni; ++i) {
     double d1 = 0.0, d2 = 0.0;
     if (n.kind(i) == kSoft) relaxedLog(n.c(i), d.relaxation(i), d1, d2);
-    n.hcoef(i) = n.kind(i) == kHard ? -n.z(i) : n.kind(i) == kSoft ? d.soft_weight(i) * d1 : 0.0;
+    sc.hcoef(i) = n.kind(i) == kHard ? -n.z(i) : n.kind(i) == kSoft ? d.soft_weight(i) * d1 : 0.0;
   }
   const int nv = ndx + (k < N ? nu : 0);
   const VectorXd& x = xs[static_cast<std::size_t>(k)];
@@ -322,31 +341,31 @@ void Solver::Impl::addCurvature(int k, Node& n) {
     const double v = in_x ? (euclid ? x(j) : 0.0) : u(j - ndx);
     const double h = 1e-5 * (1.0 + std::abs(v));
     for (int side = 0; side < 2; ++side) {
-      VectorXd& g = side == 0 ? n.hp : n.hm;
+      VectorXd& g = side == 0 ? sc.hp : sc.hm;
       const double hs = side == 0 ? h : -h;
-      n.up = u;
+      sc.up = u;
       if (in_x && !euclid) {
-        n.dxv.setZero();
-        n.dxv(j) = hs;
-        prob->stateSpace().integrate(x, n.dxv, n.xp);
+        sc.dxv.setZero();
+        sc.dxv(j) = hs;
+        prob->stateSpace().integrate(x, sc.dxv, sc.xp);
       } else {
-        n.xp = x;
-        (in_x ? n.xp(j) : n.up(j - ndx)) = v + hs;
+        sc.xp = x;
+        (in_x ? sc.xp(j) : sc.up(j - ndx)) = v + hs;
       }
-      prob->linearizeCurvatureTerms(k, n.xp, n.up, *n.dp);
+      prob->linearizeCurvatureTerms(k, sc.xp, sc.up, *sc.dp);
       curvatureGradient(k, n, g);
       if (in_x && !euclid) {
         // Pulled back to the tangent at x by the Jacobian of the retraction.
-        prob->stateSpace().integrateJacobians(x, n.dxv, n.J0, n.J1);
-        n.dxv.noalias() = n.J1.transpose() * g.head(ndx);
-        g.head(ndx) = n.dxv;
+        prob->stateSpace().integrateJacobians(x, sc.dxv, sc.J0, sc.J1);
+        sc.dxv.noalias() = sc.J1.transpose() * g.head(ndx);
+        g.head(ndx) = sc.dxv;
       }
     }
-    n.H2.col(j).head(nv) = (n.hp.head(nv) - n.hm.head(nv)) / (2.0 * h);
+    n.H2.col(j).head(nv) = (sc.hp.head(nv) - sc.hm.head(nv)) / (2.0 * h);
   }
   // The differenced costs' Gauss-Newton Hessians are already in d: keep the difference.
-  prob->linearizeCurvatureTerms(k, x, u, *n.dp);
-  const NodeData& c = *n.dp;
+  prob->linearizeCurvatureTerms(k, x, u, *sc.dp);
+  const NodeData& c = *sc.dp;
   n.H2.topLeftCorner(ndx, ndx) -= c.Lxx;
   if (k < N) {
     n.H2.bottomRightCorner(nu, nu) -= c.Luu;
@@ -363,19 +382,20 @@ void Solver::Impl::addCurvature(int k, Node& n) {
 }
 
 /// Gradient of the node's Lagrangian (terms with curvature only) at the point evaluated
-/// into n.dp, with the multipliers of the current iterate; on manifolds the dynamics
+/// into sc.dp, with the multipliers of the current iterate; on manifolds the dynamics
 /// through the difference Jacobian at x_{k+1}.
 void Solver::Impl::curvatureGradient(int k, Node& n, VectorXd& g) {
-  NodeData& dp = *n.dp;
+  LinearizeScratch& sc = scratchOf(k);
+  NodeData& dp = *sc.dp;
   if (!euclid && k < N) {
-    prob->stateSpace().differenceJacobians(xs[static_cast<std::size_t>(k) + 1], dp.xnext, n.J0,
-                                           n.J1);
-    n.Ap.noalias() = n.J1 * dp.Fx;
-    dp.Fx = n.Ap;
-    n.Bp.noalias() = n.J1 * dp.Fu;
-    dp.Fu = n.Bp;
+    prob->stateSpace().differenceJacobians(xs[static_cast<std::size_t>(k) + 1], dp.xnext, sc.J0,
+                                           sc.J1);
+    sc.Ap.noalias() = sc.J1 * dp.Fx;
+    dp.Fx = sc.Ap;
+    sc.Bp.noalias() = sc.J1 * dp.Fu;
+    dp.Fu = sc.Bp;
   }
-  constraintGradient(k, n, dp, g);
+  constraintGradient(k, n, dp, sc.hcoef, g);
   g.head(ndx) += dp.lx;
   if (k < N) g.segment(ndx, nu) += dp.lu;
 }

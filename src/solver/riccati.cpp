@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <utility>
 
 #include "riccati_kernels.hpp"
 
@@ -26,6 +27,13 @@ RiccatiSolver::RiccatiSolver(int horizon, int nx, int nu, int ne_max)
   S_shared_ = MatrixXd::Zero(nu, nx);
   work_.resize(static_cast<std::size_t>(N_) + 1);
   const int nz = nu + nx;
+  // V and W hold (nz_k + 1) x ng_k with nz_k = nu - ne_k + nx and ng_k <= ne_k <= nu (a stage
+  // with ne_k > nu is rejected before): at most (nu + nx + 1 - g) g for some g <= ng_max.
+  const int ng_max = std::min(ne_max, nu);
+  Eigen::Index vw_size = 0;
+  for (int g = 0; g <= ng_max; ++g) {
+    vw_size = std::max<Eigen::Index>(vw_size, Eigen::Index{nz + 1 - g} * g);
+  }
   for (auto& s : stages_) {
     s.Q = MatrixXd::Zero(nx, nx);
     s.S = MatrixXd::Zero(nu, nx);
@@ -40,7 +48,7 @@ RiccatiSolver::RiccatiSolver(int horizon, int nx, int nu, int ne_max)
     s.e = VectorXd::Zero(ne_max);
   }
   for (auto& w : work_) {
-    w.lu = MatrixXd::Zero(nu, ne_max);
+    w.lu = VectorXd::Zero(Eigen::Index{nu} * ng_max);
     w.perm = Eigen::VectorXi::LinSpaced(nu, 0, nu - 1);
     w.rows = Eigen::VectorXi::LinSpaced(ne_max, 0, ne_max - 1);
     w.mark = Eigen::VectorXi::Zero(nu);
@@ -54,9 +62,9 @@ RiccatiSolver::RiccatiSolver(int horizon, int nx, int nu, int ne_max)
     w.SF = MatrixXd::Zero(nx, ne_max);
     w.BF = MatrixXd::Zero(nx, ne_max);
     w.EF = MatrixXd::Zero(ne_max, ne_max);
-    w.V = MatrixXd::Zero(nz + 1, ne_max);
-    w.W = MatrixXd::Zero(nz + 1, ne_max);
-    w.HDD = MatrixXd::Zero(ne_max, ne_max);
+    w.V = VectorXd::Zero(vw_size);
+    w.W = VectorXd::Zero(vw_size);
+    w.HDD = VectorXd::Zero(Eigen::Index{ng_max} * ng_max);
     w.BD = MatrixXd::Zero(nx, ne_max);
     w.Hr = MatrixXd::Zero(nz + 1, nz + 1);
     w.gr = VectorXd::Zero(nz);
@@ -221,7 +229,7 @@ bool RiccatiSolver::projectStage(int k, double rank_tolerance, double* pivot_rat
   // pivot that is small against the largest entry of Eu reveals rank deficiency. Raw
   // column loops: the blocks are tiny and every inner loop runs down a contiguous column.
   double* G = w.lu.data();
-  const Eigen::Index ldG = w.lu.outerStride();
+  const Eigen::Index ldG = nv;
   if (ng > 0) {
     const double* E = s.Eu.data();
     const Eigen::Index ldE = s.Eu.outerStride();
@@ -272,7 +280,7 @@ bool RiccatiSolver::projectStage(int k, double rank_tolerance, double* pivot_rat
   // nz + 1): Eu_D = U^T L1^T and Eu_I = U^T L2^T give
   //   T = -L1^-T [L2^T | U^-T [Ex e]],  i.e.  V L1 = -[L2; [Ex e]^T U^-1].
   double* V = w.V.data();
-  const Eigen::Index ldV = w.V.outerStride();
+  const Eigen::Index ldV = nz + 1;
   if (ng > 0) {
     const double* Ex = s.Ex.data();
     const Eigen::Index ldX = s.Ex.outerStride();
@@ -333,12 +341,12 @@ bool RiccatiSolver::projectStage(int k, double rank_tolerance, double* pivot_rat
   BA.middleCols(nw, nx) = s.A;
   BA.col(nz) = Eigen::Map<const VectorXd>(bv, nx);
   if (ng > 0) {
-    const auto Vt = w.V.topLeftCorner(nz + 1, ng);
-    auto W = w.W.topLeftCorner(nz + 1, ng);
-    auto HDD = w.HDD.topLeftCorner(ng, ng);
+    const auto Vt = packed(w.V, nz + 1, ng);
+    auto W = packed(w.W, nz + 1, ng);
+    const auto HDD = packed(w.HDD, ng, ng);
     double* Wp = w.W.data();
     double* Dp = w.HDD.data();
-    const Eigen::Index ldW = w.W.outerStride(), ldD = w.HDD.outerStride();
+    const Eigen::Index ldW = nz + 1, ldD = ng;
     for (int i = 0; i < ng; ++i) {
       double* Wc = Wp + i * ldW;
       const int d = pD[i];
@@ -351,11 +359,11 @@ bool RiccatiSolver::projectStage(int k, double rank_tolerance, double* pivot_rat
     W.noalias() += 0.5 * Vt * HDD;
     // T^T Y + Y^T T = V W^T + W V^T, on the lower triangle only, both products in the
     // same register accumulators.
-    kernels::syr2kLowerAccumulate(nz + 1, ng, w.V.data(), ldV, Wp, ldW, Hp, ldH);
+    kernels::syr2kLowerAccumulate(nz + 1, ng, V, ldV, Wp, ldW, Hp, ldH);
     auto BD = w.BD.leftCols(ng);
     for (int i = 0; i < ng; ++i) BD.col(i) = s.B.col(pD[i]);
-    kernels::gemmAccumulate(nx, nz + 1, ng, w.BD.data(), w.BD.outerStride(), w.V.data(), ldV, 1,
-                            w.BA.data(), w.BA.outerStride());
+    kernels::gemmAccumulate(nx, nz + 1, ng, w.BD.data(), w.BD.outerStride(), V, ldV, 1, w.BA.data(),
+                            w.BA.outerStride());
   }
   w.gr.head(nz) = H.row(nz).head(nz).transpose();
   return true;
@@ -506,7 +514,7 @@ void RiccatiSolver::recoverStage(int k) {
   if (ne == 0) return;
   const auto& lam_next = work_[idx(k + 1)].lam;
   if (ng > 0) {
-    const auto Vt = w.V.topLeftCorner(nz + 1, ng);
+    const auto Vt = packed(std::as_const(w.V), nz + 1, ng);
     auto t = w.t.head(ng);
     t = Vt.row(nz).transpose();
     t.noalias() += Vt.topRows(nw).transpose() * w.w.head(nw);
@@ -517,15 +525,15 @@ void RiccatiSolver::recoverStage(int k) {
     // rho_D = H_DD t + H_vD^T [w; dx; 1] + B_D^T lambda = 0.5 H_DD t + W^T [w; dx; 1] + ...
     // (W = H_vD + 0.5 V H_DD), and Eu_D^T = L1 U gives nu = -U^-1 L1^-1 rho_D.
     // (The last row of W holds the substituted r, so rho includes R_DF du_F.)
-    const auto Wt = w.W.topLeftCorner(nz + 1, ng);
+    const auto Wt = packed(std::as_const(w.W), nz + 1, ng);
     auto y = w.t1.head(ng);
     y = Wt.row(nz).transpose();
     y.noalias() += Wt.topRows(nw).transpose() * w.w.head(nw);
     y.noalias() += Wt.middleRows(nw, nx).transpose() * w.dx;
-    y.noalias() += 0.5 * w.HDD.topLeftCorner(ng, ng) * t;
+    y.noalias() += 0.5 * packed(std::as_const(w.HDD), ng, ng) * t;
     y.noalias() += w.BD.leftCols(ng).transpose() * lam_next;
     y = -y;
-    const auto LU = w.lu.topLeftCorner(ng, ng);
+    const auto LU = luFactor(w, nu, ng);
     LU.triangularView<Eigen::UnitLower>().solveInPlace(y);
     LU.triangularView<Eigen::Upper>().solveInPlace(y);
     for (int i = 0; i < ng; ++i) w.mult(w.rows(i)) = y(i);
@@ -587,18 +595,20 @@ void RiccatiSolver::resolveVectors(const Eigen::Ref<const VectorXd>& dx0) {
       // T_1 = -R11^-1 Q^T e (last column of T), then the terms of T^T Y + Y^T T in it:
       // gr += Y_v^T T_1 + T_v^T Y_1, Y_1 = r_D + 0.5 H_DD T_1.
       // Last row of V: t1 = -L1^-T U^-T e.
-      const auto LU = w.lu.topLeftCorner(ng, ng);
+      const auto LU = luFactor(w, nu_, ng);
       auto t1 = w.t1.head(ng);
       for (int i = 0; i < ng; ++i) t1(i) = -(nf > 0 ? w.eeff(i) : s.e(w.rows(i)));
       LU.triangularView<Eigen::Upper>().transpose().solveInPlace(t1);
       LU.triangularView<Eigen::UnitLower>().transpose().solveInPlace(t1);
-      w.V.row(nz).head(ng) = t1.transpose();
+      auto V = packed(w.V, nz + 1, ng);
+      auto W = packed(w.W, nz + 1, ng);
+      V.row(nz) = t1.transpose();
       auto y1 = w.t.head(ng);
       for (int i = 0; i < ng; ++i) y1(i) = rv(pD[i]);
-      y1.noalias() += 0.5 * w.HDD.topLeftCorner(ng, ng) * t1;
-      w.W.row(nz).head(ng) = y1.transpose();
-      w.gr.head(nz).noalias() += w.W.topLeftCorner(nz, ng) * t1;
-      w.gr.head(nz).noalias() += w.V.topLeftCorner(nz, ng) * y1;
+      y1.noalias() += 0.5 * packed(std::as_const(w.HDD), ng, ng) * t1;
+      W.row(nz) = y1.transpose();
+      w.gr.head(nz).noalias() += W.topRows(nz) * t1;
+      w.gr.head(nz).noalias() += V.topRows(nz) * y1;
       w.BA.col(nz).noalias() += w.BD.leftCols(ng) * t1;
     }
   }
@@ -637,8 +647,9 @@ void RiccatiSolver::feedbackGain(int k, MatrixXd& K) const {
   for (int f = 0; f < nf; ++f) K.row(w.perm(nu - nf + f)).setZero();  // du_F is constant
   if (ne > 0) {
     auto KD = w.KD.topRows(ne);
-    KD = w.V.block(nw, 0, nx, ne).transpose();
-    KD.noalias() += w.V.topLeftCorner(nw, ne).transpose() * Kw;
+    const auto V = packed(w.V, nw + nx + 1, ne);
+    KD = V.middleRows(nw, nx).transpose();
+    KD.noalias() += V.topRows(nw).transpose() * Kw;
     for (int i = 0; i < ne; ++i) K.row(pD[i]) = KD.row(i);
   }
 }

@@ -89,7 +89,6 @@ struct Solver::Impl {
     // equality values (the trial points overwrite c, defect and the NodeData's), and the
     // accumulated corrected constraint values (hard rows: of c - s).
     VectorXd c_it, defect_it, e_it, soc_rows, soc_defect, soc_e;
-    MatrixXd J0, J1;       // difference Jacobians
     VectorXd rx, ru, tmp;  // dual residual pieces, scratch
     // Per general row: 1 if Gx != 0, | 2 if it acts on u (condensing scratch).
     Eigen::VectorXi row_parts;
@@ -105,14 +104,10 @@ struct Solver::Impl {
     // column-major with its own rows as stride, Gx's blocks from d->Gx.data() and Gu's from
     // d->Gu.data(), whose dense contents are then not the node's. Else they are read in place.
     bool gblocks_packed = false;
-    // Constraint curvature (converging mode with exact_hessian): central differences of the
-    // constraint part of the Lagrangian gradient, evaluated into dp. Allocated by
-    // reserveCurvature() only for settings that use it (empty otherwise).
-    std::unique_ptr<NodeData> dp;
-    MatrixXd H2;                     // (ndx + nu)^2, symmetric
-    VectorXd hp, hm, xp, up, hcoef;  // gradients +-, perturbed point, row coefficients
-    VectorXd dxv;                    // tangent perturbation (manifolds)
-    MatrixXd Ap, Bp;                 // dynamics Jacobians at the perturbed point (manifolds)
+    // Constraint curvature (converging mode with exact_hessian), added to the Hessian and
+    // taken out again by the inertia correction. Allocated by reserveCurvature() only for
+    // settings that use it (empty otherwise).
+    MatrixXd H2;  // (ndx + nu)^2, symmetric
     bool h2_added = false;
     double delta = 0.0;  // diagonal shift of the Hessian (inertia correction)
     int ni_prev = -1;
@@ -217,19 +212,35 @@ struct Solver::Impl {
   // condenseAndFactor returns its result.
   bool condense_in_linearize = false;
   bool condensed_early = false;
-  // The fused pass evaluates each node's cost Hessian straight into the stages' shared
-  // Q, R, S (RiccatiSolver::shareStageHessians: the condensing adds its rows there), and
-  // its dynamics, equality and inequality Jacobians into one set per thread, all swapped in
-  // for the evaluation (O(1)) and in cache: they are read only while the node is linearised
-  // and condensed (but the inequality Jacobians' non-zero blocks, which packJacobianBlocks
-  // keeps for the step recovery), and the nodes' own blocks would be 60-70 kB of cold stores
-  // per node of the Tachyon 3 OCP. The nodes' own blocks then hold stale values
-  // (derivatives_shared): the inertia correction, which condenses again from them,
-  // linearises the nodes again first (the same arithmetic, the same values).
+  // Every linearisation evaluates the node's dynamics and equality Jacobians into one set
+  // per thread (the nodes have none of their own), and the fused pass also its inequality
+  // Jacobians and, straight into the stages' shared Q, R, S (RiccatiSolver::
+  // shareStageHessians: the condensing adds its rows there), its cost Hessian, all swapped
+  // in for the evaluation (O(1)) and in cache: they are read only while the node is
+  // linearised and condensed (but the inequality Jacobians' non-zero blocks, which
+  // packJacobianBlocks keeps for the step recovery), and the nodes' own blocks would be
+  // 60-70 kB of cold stores per node of the Tachyon 3 OCP. The nodes' own Hessian and
+  // inequality blocks then hold stale values (derivatives_shared): the inertia correction,
+  // which condenses again from them, linearises the nodes again first (the same arithmetic,
+  // the same values).
   struct SharedDerivatives {
     MatrixXd Fx, Fu, Ex, Eu, Gx, Gu;
   };
   std::vector<SharedDerivatives> shared;  // per thread
+  /// The scratch of a node's linearisation, one per thread (the thread of the node's chunk,
+  /// as for `shared`): read and written only while the node is linearised.
+  struct LinearizeScratch {
+    MatrixXd J0, J1;  // difference Jacobians
+    // Constraint curvature (reserveCurvature): central differences of the constraint part
+    // of the Lagrangian gradient, evaluated into dp (a whole NodeData: 95 kB of the
+    // Tachyon 3 OCP, where one per node was half of a converging solver's memory).
+    std::unique_ptr<NodeData> dp;
+    VectorXd hp, hm, xp, up, hcoef;  // gradients +-, perturbed point, row coefficients
+    VectorXd dxv;                    // tangent perturbation (manifolds)
+    MatrixXd Ap, Bp;                 // dynamics Jacobians at the perturbed point (manifolds)
+  };
+  std::vector<LinearizeScratch> lin_scratch;  // per thread
+  LinearizeScratch& scratchOf(int k) { return lin_scratch[static_cast<std::size_t>(chunkOf(k))]; }
   // Likewise the stage's A, B, Ex and Eu (written from Fx, Fu, Ex, Eu, read by the
   // residuals and the projection right after; the Riccati solver keeps the fixed-input
   // columns of B and Eu, BF and EF): one set swapped into the stage for its linearisation
@@ -253,12 +264,15 @@ struct Solver::Impl {
     st.Ex.swap(shared_stage_Ex);
     st.Eu.swap(shared_stage_Eu);
   }
-  void swapSharedJacobians(NodeData& d, int thread) {
+  /// The thread's Fx, Fu, Ex, Eu (the nodes hold none: every linearisation evaluates them
+  /// here, the stage keeps what it needs) and with `inequalities` its Gx, Gu.
+  void swapSharedJacobians(NodeData& d, int thread, bool inequalities) {
     SharedDerivatives& sh = shared[static_cast<std::size_t>(thread)];
     d.Fx.swap(sh.Fx);
     d.Fu.swap(sh.Fu);
     d.Ex.swap(sh.Ex);
     d.Eu.swap(sh.Eu);
+    if (!inequalities) return;
     d.Gx.swap(sh.Gx);
     d.Gu.swap(sh.Gu);
   }
@@ -391,11 +405,15 @@ struct Solver::Impl {
   Kkt linearize(bool realtime, IterationStats& it);
   Kkt residualSummary() const;
   void linearizeNode(int k);
+  /// linearizeNode's evaluation, residuals and curvature, with the thread's Jacobians
+  /// swapped into the node's data.
+  void linearizeWithSharedJacobians(int k, Node& n, const VectorXd& x, const VectorXd& u);
   void rowValues(int k, const VectorXd& x, const VectorXd& u, Node& n) const;
   void initRows(Node& n) const;
   void resetSlacks(Node& n) const;
   void residuals(int k, Node& n);
-  void constraintGradient(int k, const Node& n, const NodeData& dd, VectorXd& out) const;
+  void constraintGradient(int k, const Node& n, const NodeData& dd, const VectorXd& coef,
+                          VectorXd& out) const;
   void addCurvature(int k, Node& n);
   void curvatureGradient(int k, Node& n, VectorXd& g);
 

@@ -115,8 +115,6 @@ Solver::Impl::Impl(std::shared_ptr<ocp::OptimalControlProblem> p, SolverSettings
     n.soc_defect = VectorXd::Zero(ndx);
     n.e_it = VectorXd::Zero(ne_max);
     n.soc_e = VectorXd::Zero(ne_max);
-    n.J0 = MatrixXd::Zero(ndx, ndx);
-    n.J1 = MatrixXd::Zero(ndx, ndx);
     n.rx = VectorXd::Zero(ndx);
     n.ru = VectorXd::Zero(nu);
     n.tmp = VectorXd::Zero(std::max(ni_max, 1));
@@ -128,12 +126,24 @@ Solver::Impl::Impl(std::shared_ptr<ocp::OptimalControlProblem> p, SolverSettings
     n.soft_dual = VectorXd::Zero(nrows);
     n.gblocks = Eigen::VectorXi::Zero(8 * std::max(ni_max, 1));
   }
+  lin_scratch.resize(static_cast<std::size_t>(pool.size()));
+  for (auto& sc : lin_scratch) {
+    sc.J0 = MatrixXd::Zero(ndx, ndx);
+    sc.J1 = MatrixXd::Zero(ndx, ndx);
+  }
   weighted_gx.assign(static_cast<std::size_t>(pool.size()), MatrixXd::Zero(ndx, ni_max));
   weighted_gu.assign(static_cast<std::size_t>(pool.size()), MatrixXd::Zero(nu, ni_max));
   {  // the real-time pass's derivatives, per thread (same shapes)
     const NodeData& d = *node(0).d;
     shared.assign(static_cast<std::size_t>(pool.size()),
                   SharedDerivatives{d.Fx, d.Fu, d.Ex, d.Eu, d.Gx, d.Gu});
+  }
+  // The dynamics and equality Jacobians are read only while the node is linearised (the
+  // stage keeps A, B, Ex and Eu): every linearisation evaluates them into the thread's
+  // set, and the nodes' own (25 kB per node of the Tachyon 3 OCP) are released.
+  for (auto& n : nodes) {
+    NodeData& d = *n.d;
+    for (MatrixXd* m : {&d.Fx, &d.Fu, &d.Ex, &d.Eu}) *m = MatrixXd();
   }
   if (pool.size() == 1) {  // linearizeAndFactor's shared stage Jacobians (same shapes)
     shared_A = lq.stage(0).A;
@@ -189,17 +199,17 @@ void Solver::Impl::partitionNodes() {
 
 void Solver::Impl::reserveCurvature() {
   if (curvature_reserved) return;
-  for (auto& n : nodes) {
-    n.dp = prob->createNodeData();
-    n.H2 = MatrixXd::Zero(ndx + nu, ndx + nu);
-    n.hp = VectorXd::Zero(ndx + nu);
-    n.hm = VectorXd::Zero(ndx + nu);
-    n.xp = VectorXd::Zero(nx);
-    n.up = VectorXd::Zero(nu);
-    n.hcoef = VectorXd::Zero(std::max(ni_max, 1));
-    n.dxv = VectorXd::Zero(ndx);
-    n.Ap = MatrixXd::Zero(ndx, ndx);
-    n.Bp = MatrixXd::Zero(ndx, nu);
+  for (auto& n : nodes) n.H2 = MatrixXd::Zero(ndx + nu, ndx + nu);
+  for (auto& sc : lin_scratch) {
+    sc.dp = prob->createNodeData();
+    sc.hp = VectorXd::Zero(ndx + nu);
+    sc.hm = VectorXd::Zero(ndx + nu);
+    sc.xp = VectorXd::Zero(nx);
+    sc.up = VectorXd::Zero(nu);
+    sc.hcoef = VectorXd::Zero(std::max(ni_max, 1));
+    sc.dxv = VectorXd::Zero(ndx);
+    sc.Ap = MatrixXd::Zero(ndx, ndx);
+    sc.Bp = MatrixXd::Zero(ndx, nu);
   }
   curvature_reserved = true;
 }

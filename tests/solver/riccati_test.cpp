@@ -67,6 +67,11 @@ void randomVectors(solver::RiccatiSolver& ric, std::mt19937& rng) {
 
 struct Case {
   int nx, nu, N, ne, nfix = 0;  // nfix: rows that fix one input each
+  // The solver's row capacity above ne (as the Tachyon 3 OCP's, above nu), and stages with
+  // every count of rows 0 .. ne in turn (else ne and ne - 1): the projection's blocks are
+  // stored packed to each stage's sizes.
+  int ne_spare = 0;
+  bool every_count = false;
 };
 
 class RiccatiDense : public ::testing::TestWithParam<Case> {};
@@ -75,10 +80,15 @@ TEST_P(RiccatiDense, MatchesDenseKkt) {
   const Case c = GetParam();
   const int nx = c.nx, nu = c.nu, N = c.N;
   std::mt19937 rng(42u + static_cast<unsigned>(c.ne));
-  solver::RiccatiSolver ric(N, nx, nu, c.ne);
+  solver::RiccatiSolver ric(N, nx, nu, c.ne + c.ne_spare);
   // Random time-varying stages; the number of equality rows varies with k.
   fillRandomStages(
-      ric, [&](int k) { return c.ne == 0 ? 0 : (k % 3 == 1 ? c.ne - 1 : c.ne); }, rng, c.nfix);
+      ric,
+      [&](int k) {
+        if (c.every_count) return k % (c.ne + 1);
+        return c.ne == 0 ? 0 : (k % 3 == 1 ? c.ne - 1 : c.ne);
+      },
+      rng, c.nfix);
   randomVectors(ric, rng);
   std::vector<int> nes(static_cast<std::size_t>(N));
   for (int k = 0; k < N; ++k) nes[static_cast<std::size_t>(k)] = ric.stage(k).ne;
@@ -173,7 +183,9 @@ TEST_P(RiccatiDense, MatchesDenseKkt) {
 INSTANTIATE_TEST_SUITE_P(Sizes, RiccatiDense,
                          ::testing::Values(Case{4, 2, 10, 0}, Case{4, 3, 12, 2}, Case{6, 5, 8, 5},
                                            Case{24, 30, 6, 15}, Case{6, 7, 8, 4, 2},
-                                           Case{5, 6, 6, 3, 3}, Case{24, 30, 6, 15, 9}));
+                                           Case{5, 6, 6, 3, 3}, Case{24, 30, 6, 15, 9},
+                                           Case{5, 6, 14, 6, 2, 3, true},
+                                           Case{8, 10, 22, 10, 3, 4, true}));
 
 TEST(RiccatiProjection, RankDeficientEqualitiesAreDetected) {
   const int nx = 3, nu = 4;

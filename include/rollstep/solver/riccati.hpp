@@ -130,7 +130,7 @@ class RiccatiSolver {
   struct Work {
     int nw = 0;          // reduced input size nu - ne
     int nf = 0;          // rows that fix one input each (substituted, not in the LU)
-    Eigen::MatrixXd lu;  // nu x ne_max: [L1\U; L2] of P Eu^T (unit L1 below U)
+    Eigen::VectorXd lu;  // nv x ng (nv = nu - nf), packed: [L1\U; L2] of P Eu^T (unit L1 below U)
     // nu: input permutation [dependent (ne - nf); independent (nw); fixed (nf)]
     Eigen::VectorXi perm;
     Eigen::VectorXi rows;  // ne_max: equality rows [in the LU (ne - nf); fixing (nf)]
@@ -145,9 +145,12 @@ class RiccatiSolver {
     // substituteFixedInputs and recoverStage (after projectStage(k), the stage's Q, R, S,
     // A, B, Ex and Eu are not read again).
     Eigen::MatrixXd RF, SF, BF, EF;
-    Eigen::MatrixXd V;    // (nu + nx + 1) x ne_max: T^T, du_D = T [w; dx; 1]
-    Eigen::MatrixXd W;    // (nu + nx + 1) x ne_max: (H_Dv + 0.5 H_DD T)^T
-    Eigen::MatrixXd HDD;  // ne_max x ne_max
+    // V, W and HDD are stored packed (packed()), each column as long as the stage uses:
+    // with the stride of the largest sizes a stage wrote parts of twice as many cache
+    // lines, cold, and the buffers were 2.5 times as large (Tachyon 3 OCP).
+    Eigen::VectorXd V;    // (nz + 1) x ng: T^T, du_D = T [w; dx; 1]
+    Eigen::VectorXd W;    // (nz + 1) x ng: (H_Dv + 0.5 H_DD T)^T
+    Eigen::VectorXd HDD;  // ng x ng
     Eigen::MatrixXd BD;   // nx x ne_max: dependent columns of B
     Eigen::MatrixXd Hr;   // (nu + nx + 1)^2: reduced augmented Hessian [w; dx; 1] (lower)
     Eigen::VectorXd gr;   // nu + nx: reduced gradient
@@ -163,6 +166,21 @@ class RiccatiSolver {
     mutable Eigen::MatrixXd Kw, KD;  // feedbackGain scratch
   };
   std::size_t idx(int k) const { return static_cast<std::size_t>(k); }
+  using PackedMatrix = Eigen::Map<Eigen::MatrixXd>;
+  using ConstPackedMatrix = Eigen::Map<const Eigen::MatrixXd>;
+  /// A stage's V or W ((nz + 1) x ng, nz = nw + nx) or HDD (ng x ng): column-major without
+  /// gaps.
+  static PackedMatrix packed(Eigen::VectorXd& buf, int rows, int cols) {
+    return PackedMatrix(buf.data(), rows, cols);
+  }
+  static ConstPackedMatrix packed(const Eigen::VectorXd& buf, int rows, int cols) {
+    return ConstPackedMatrix(buf.data(), rows, cols);
+  }
+  /// [L1\U] of the LU (ng x ng, the top of the packed nv x ng factor).
+  static Eigen::Map<const Eigen::MatrixXd, 0, Eigen::OuterStride<>> luFactor(const Work& w, int nu,
+                                                                             int ng) {
+    return {w.lu.data(), ng, ng, Eigen::OuterStride<>(nu - w.nf)};
+  }
   Eigen::MatrixXd& reducedHessian(Work& w) { return share_hr_ ? Hr_shared_ : w.Hr; }
   /// Finds the rows of stage k that fix one input each (w.nf, w.rows, w.perm: free
   /// inputs in order, then the fixed ones). False when a fixing entry is below

@@ -1,9 +1,9 @@
 #pragma once
 // Multiple-shooting primal-dual interior-point solver, equality constraints eliminated by
 // projection and a Riccati recursion for the search direction (paper Sec. 3.1-3.2). All
-// memory is sized at construction (the curvature workspace of exact_hessian, a second copy
-// of every node's data, only for settings that use it: at construction or in setSettings);
-// solve() and update() never allocate.
+// memory is sized at construction (the curvature workspace of exact_hessian, a copy of a
+// node's data per thread and the curvature per node, only for settings that use it: at
+// construction or in setSettings); solve() and update() never allocate.
 //
 // Method, per iteration: linearise every node (in parallel), defects on the manifold
 // b_k = F(x_k, u_k) (-) x_{k+1} with A = J Fx, B = J Fu (J: Jacobian of the difference at
@@ -318,10 +318,11 @@ class Solver {
   /// full input (equality projection included). Computed on first access after a solve.
   const MatrixXd& feedbackGain(int k) const;
   /// The problem's evaluation of node k at the last linearisation or trial point
-  /// (ne, ni: rows in use; g, e values). After a real-time iteration its cost Hessian
-  /// (Lxx, Luu, Lux) is not the node's: it was evaluated into the Riccati stage's Q, R, S
-  /// (with one thread one shared set); neither are its dynamics, equality and inequality
-  /// Jacobians (Fx, Fu, Ex, Eu, Gx, Gu: one set per thread; the node's Gx and Gu storage
+  /// (ne, ni: rows in use; g, e values). Its dynamics and equality Jacobians (Fx, Fu, Ex,
+  /// Eu) are empty: every linearisation evaluates them into one set per thread. After a
+  /// real-time iteration its cost Hessian (Lxx, Luu, Lux) is not the node's either: it was
+  /// evaluated into the Riccati stage's Q, R, S (with one thread one shared set); neither
+  /// are its inequality Jacobians (Gx, Gu: one set per thread; the node's Gx and Gu storage
   /// holds their non-zero blocks, packed). The gradients are the node's.
   const ocp::NodeData& nodeData(int k) const;
   const std::vector<IterationStats>& stats() const;  ///< of the last solve/update
