@@ -310,12 +310,15 @@ std::vector<TimedBaseCommand> dipSchedule(const std::vector<TimedBaseCommand>& s
     const double r = ramp > 0.0 ? std::min({1.0, u / ramp, (length - u) / ramp}) : 1.0;
     return 1.0 - depth * std::max(r, 0.0);
   };
+  // Even steps of at most `resolution` (a short last one would change the speed as much in
+  // less time).
+  const int steps = std::max(1, static_cast<int>(std::ceil(length / resolution - 1e-9)));
+  const double dt = length / steps;
   double t = dip_start, tau = dip_start;
-  while (t < dip_start + length - 1e-12) {
-    const double dt = std::min(resolution, dip_start + length - t);
-    const double s = sigma(t + 0.5 * dt - dip_start);
+  for (int i = 0; i < steps; ++i) {
+    const double s = sigma((i + 0.5) * dt);
     push(t, scaled(old.commandAt(tau + 0.5 * s * dt), s));
-    t += dt;
+    t = dip_start + (i + 1) * dt;
     tau += s * dt;
   }
   *shift = t - tau;
