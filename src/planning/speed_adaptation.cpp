@@ -386,13 +386,12 @@ std::vector<TimedBaseCommand> adaptScheduleToTerrain(const std::vector<TimedBase
   const PlanarPath path(out, pose0);
   const StepTouchdown first = firstStepTouchdown(path, path_end, terrain, samples, config, 0.0);
   if (!first.found || !(first.target > 0.0)) return out;
-  // Near enough: from a quarter short of the target to a twentieth past it (a landing
-  // further past holds the wheel behind it at the riser for longer, and the footholds move
-  // with the tracking error); the least delay that lands there, else the one that lands
-  // nearest the target.
+  // Near enough: at most a twentieth past the target (nearer the riser the wheel behind it
+  // is held for less; the footholds move with the tracking error). The least delay that
+  // lands there, else the one that lands nearest the target.
   const double half = 0.5 * config.gait_period;
   const auto nearEnough = [](const StepTouchdown& td) {
-    return td.found && td.past >= 0.75 * td.target && td.past <= 1.05 * td.target;
+    return td.found && td.past <= 1.05 * td.target;
   };
   constexpr double kDelayStep = 0.005;  // [s]
   double delay = 0.0;

@@ -201,8 +201,8 @@ struct OcpSettings {
   double command_acceleration = 0.5;
   /// The approach to the first step timed to the gait where the gait cannot wait at an edge
   /// (a trot with no phase of every foot in stance, as at the step speed limit): the command
-  /// dips before the step so that the first touch-down onto it lands a quarter period's travel
-  /// past the riser (planning/speed_adaptation.hpp). Needs speed_adaptation.
+  /// dips before the step so that the first touch-down onto it lands at most a quarter
+  /// period's travel past the riser (planning/speed_adaptation.hpp). Needs speed_adaptation.
   bool approach_timing = true;
   // --- the solver ------------------------------------------------------------------------
   /// Nested `solver:` mapping (config/solver.yaml's keys). Defaults: the solver's, but a

@@ -22,16 +22,17 @@
 //   passes: at most stance_stroke / speed.
 // - The approach to the first step is timed to the gait (when the gait cannot wait at an edge:
 //   a trot with no phase of every foot in stance, as at the step speed limit). The feet land
-//   where the gait clock puts them: a stance wheel that comes to a riser mid-stance stands
-//   there while the body passes over it, until its swing. The first touch-down onto the step
-//   (any foot, up or down) should land half the travel between two touch-downs of a trot
-//   (speed x period / 4) past the riser: the wheel of the other group, on the floor behind it,
-//   then reaches the riser no sooner than a quarter period before its lift-off, and each of the
-//   two has the same room, the riser midway between them. The gait clock runs from the
+//   where the gait clock puts them, and a stance wheel that comes to a riser mid-stance stands
+//   there while the body passes over it, until its swing. In a trot the touch-downs of the two
+//   groups come half a period apart: when the first touch-down onto the step (any foot, up or
+//   down) lands a distance d past the riser, a wheel of the other group in the same row, on
+//   the floor, came down half a period's travel behind it and stands at the riser for d (plus
+//   its foothold margin) of the body's travel. The rule: d at most a quarter period's travel
+//   (speed x period / 4), half the spacing of the touch-downs. The gait clock runs from the
 //   schedule's start, so the schedule is delayed instead: the speed dips to approach_dip of
 //   itself (ramped within max_acceleration) and comes back, the dip ending a gait period
-//   before that touch-down, by the least delay (less than half a period) that brings it
-//   there. The path is the same; only the time along it changes.
+//   before that touch-down, by the least delay (less than half a period) that lands it within
+//   1.05 times that distance. The path is the same; only the time along it changes.
 //
 // Everything here runs once, when a command schedule is set (it allocates); nothing is
 // real-time.
