@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <limits>
 #include <string>
 
@@ -292,13 +293,17 @@ StepTouchdown firstStepTouchdown(const PlanarPath& path, double path_end,
   return best;
 }
 
-/// `schedule` with the speed scaled by sigma(t - dip_start) over [dip_start, dip_start +
-/// length]: the same path, later by the time the dip lost. new_times/old_times: the time
-/// warp's samples.
+/// `schedule` with its speed scaled by 1 - depth (reached and left over `ramp`) over
+/// [dip_start, dip_start + length]: the same path, later by the time the dip lost (`shift`).
 std::vector<TimedBaseCommand> dipSchedule(const std::vector<TimedBaseCommand>& schedule,
                                           double dip_start, double length, double depth,
                                           double ramp, double resolution, double* shift) {
-  const PlanarPath old(schedule, lie::SE3::Identity());
+  const auto old = [&schedule](double t) -> const BaseVelocityCommand& {
+    const auto it =
+        std::upper_bound(schedule.begin(), schedule.end(), t,
+                         [](double v, const TimedBaseCommand& c) { return v < c.time; });
+    return it == schedule.begin() ? it->command : std::prev(it)->command;
+  };
   std::vector<TimedBaseCommand> out;
   const auto push = [&out](double t, const BaseVelocityCommand& c) {
     if (out.empty() || !sameCommand(out.back().command, c)) out.push_back({t, c});
@@ -317,12 +322,12 @@ std::vector<TimedBaseCommand> dipSchedule(const std::vector<TimedBaseCommand>& s
   double t = dip_start, tau = dip_start;
   for (int i = 0; i < steps; ++i) {
     const double s = sigma((i + 0.5) * dt);
-    push(t, scaled(old.commandAt(tau + 0.5 * s * dt), s));
+    push(t, scaled(old(tau + 0.5 * s * dt), s));
     t = dip_start + (i + 1) * dt;
     tau += s * dt;
   }
   *shift = t - tau;
-  push(t, old.commandAt(tau));
+  push(t, old(tau));
   for (const TimedBaseCommand& c : schedule) {
     if (c.time > tau) push(c.time + *shift, c.command);
   }
