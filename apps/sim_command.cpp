@@ -212,6 +212,16 @@ std::string speedRuleText(const sim::NmpcController& nmpc, double duration) {
     ++slowdowns;
   }
   if (slowdowns == 0 && t.period > 0.0) text += "; not slowed down";
+  const planning::ApproachTiming& a = pipeline.approachTiming();
+  if (a.timed && a.delay > 0.0) {
+    text += formatText(
+        "; approach delayed %.2f s (%.2f-%.2f s) to land the first touch-down onto a step %.2f m "
+        "past its riser (%.2f m without)",
+        a.delay, a.dip_start, a.dip_end, a.after, a.before);
+  } else if (a.timed) {
+    text += formatText("; approach on time (first touch-down onto a step %.2f m past its riser)",
+                       a.after);
+  }
   return text + "\n";
 }
 

@@ -79,6 +79,7 @@ settings::Table<OcpSettings> makeTable() {
       .field("stance_stroke_share", &S::stance_stroke_share, "", Range::leftOpen(0, 10))
       .field("step_speed_reach", &S::step_speed_reach, "m", Range::closed(0, 10))
       .field("command_acceleration", &S::command_acceleration, "m/s^2", Range::closed(0, 100))
+      .field("approach_timing", &S::approach_timing)
       .custom(
           "solver",
           [](const yaml::Node& value, S& s, settings::Reader& reader, const std::string& path) {

@@ -1,6 +1,7 @@
 #include "rollstep/control/pipeline.hpp"
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -102,7 +103,7 @@ solver::SolverStatus ControlPipeline::initializeSchedule(
   measure(state);
   // The references start at the state's pose (they keep its x, y and yaw).
   const lie::SE3 start(state.base_position, state.base_orientation);
-  adaptSchedule(start, schedule);
+  adaptSchedule(state.time, start, schedule);
   // The clock the MPC's first plan has (its edge holds), until a solution brings its own.
   planner_->resetSchedule(state.time, start, reference_schedule_);
   planner_->planSchedule(state.time, schedule_);
@@ -120,9 +121,10 @@ solver::SolverStatus ControlPipeline::initializeSchedule(
   return status;
 }
 
-void ControlPipeline::adaptSchedule(const lie::SE3& start,
+void ControlPipeline::adaptSchedule(double t0, const lie::SE3& start,
                                     const std::vector<planning::TimedBaseCommand>& schedule) {
   step_slowdowns_.clear();
+  approach_timing_ = planning::ApproachTiming{};
   step_speed_limit_ = 0.0;
   const centroidal::OcpSettings& ocp = settings_.ocp;
   if (!ocp.speed_adaptation) {
@@ -142,8 +144,30 @@ void ControlPipeline::adaptSchedule(const lie::SE3& start,
   }
   config.step_reach = ocp.step_speed_reach;
   config.max_acceleration = ocp.command_acceleration;
-  reference_schedule_ = planning::adaptScheduleToTerrain(
-      schedule, start, planner_->terrain(), planner_->stance().feet, config, &step_slowdowns_);
+  // The approach is timed to the gait where the gait cannot wait at an edge itself (no phase
+  // with every foot in stance for the edge holds; the gait clock starts at t0).
+  const planning::Gait& gait = planner_->gait();
+  const std::vector<int>& modes = gait.phaseModes();
+  const std::vector<double>& starts = gait.phaseStarts();
+  const int all = planning::allFeetMask(gait.numFeet());
+  if (ocp.approach_timing && gait.switchesPerPeriod() > 0 &&
+      std::find(modes.begin(), modes.end(), all) == modes.end()) {
+    config.gait_period = gait.period();
+    config.gait_time_at_start = t0;
+    config.touchdowns.assign(static_cast<std::size_t>(gait.numFeet()), {});
+    const std::size_t n = modes.size();
+    for (std::size_t j = 0; j < n; ++j) {
+      const int landing = modes[j] & ~modes[(j + n - 1) % n];
+      for (int f = 0; f < gait.numFeet(); ++f) {
+        if (planning::inContact(landing, f)) {
+          config.touchdowns[static_cast<std::size_t>(f)].push_back(starts[j]);
+        }
+      }
+    }
+  }
+  reference_schedule_ = planning::adaptScheduleToTerrain(schedule, start, planner_->terrain(),
+                                                         planner_->stance().feet, config,
+                                                         &step_slowdowns_, &approach_timing_);
 }
 
 void ControlPipeline::measure(const RobotState& state) noexcept {

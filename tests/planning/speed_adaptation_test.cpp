@@ -182,4 +182,133 @@ TEST(StepSpeed, RefusesABadSchedule) {
                std::invalid_argument);
 }
 
+/// The approach timing, checked on the schedule it gives: Tachyon 3's feet in its trot groups
+/// (LF, RF, MR at the period's start, MF, LR, RR half a period later), the gait clock from
+/// the schedule's start.
+planning::SpeedScheduleConfig timedConfig() {
+  planning::SpeedScheduleConfig config;
+  config.step_speed_limit = 0.29;
+  config.max_acceleration = 0.5;
+  config.gait_period = 1.44;
+  config.touchdowns = {{0.0}, {0.72}, {0.0}, {0.72}, {0.0}, {0.72}};
+  return config;
+}
+
+/// The first touch-down of any foot onto another level of `terrain`, on the integrated path:
+/// how far past the riser at x = kEdgeUp it lands and the speed there.
+struct Landing {
+  bool found = false;
+  double time = 0.0, past = 0.0, speed = 0.0;
+};
+Landing firstLanding(const std::vector<PathSample>& path, const planning::TerrainModel& terrain,
+                     const planning::SpeedScheduleConfig& config) {
+  const double dt = path[1].t - path[0].t;
+  const auto at = [&](double t) {
+    return path[std::min(static_cast<std::size_t>(std::lround(t / dt)), path.size() - 1)];
+  };
+  std::vector<double> last_height(kNominal.size(), 0.0);
+  for (double base = 0.0; base < path.back().t - config.gait_period; base += config.gait_period) {
+    for (const double offset : {0.0, 0.72}) {
+      const double t = base + offset;
+      for (std::size_t f = 0; f < kNominal.size(); ++f) {
+        if (config.touchdowns[f].front() != offset) continue;
+        const PathSample s = at(t);
+        const double x = s.x + kNominal[f].x();
+        const double h = terrain.heightAt(Vector2d(x, s.y + kNominal[f].y()));
+        if (std::abs(h - last_height[f]) > config.min_step) return {true, t, x - kEdgeUp, s.speed};
+        last_height[f] = h;
+      }
+    }
+  }
+  return {};
+}
+
+TEST(ApproachTiming, LandsTheFirstTouchdownOnTheStepAtMostAQuarterPeriodPastTheRiser) {
+  const planning::TerrainModel terrain = blockTerrain();
+  const planning::SpeedScheduleConfig timed = timedConfig();
+  planning::SpeedScheduleConfig untimed = timed;
+  untimed.gait_period = 0.0;
+  int off_target_untimed = 0, cases = 0;
+  for (const double v : {0.3, 0.5}) {
+    for (double x0 = -0.5; x0 <= 0.3 + 1e-9; x0 += 0.08) {
+      const lie::SE3 start(Eigen::Vector3d(x0, 0.0, 0.0), Eigen::Quaterniond::Identity());
+      planning::ApproachTiming approach;
+      const auto schedule = planning::adaptScheduleToTerrain({{0.0, {v, 0.0, 0.0}}}, start, terrain,
+                                                             kNominal, timed, nullptr, &approach);
+      const auto plain = planning::adaptScheduleToTerrain({{0.0, {v, 0.0, 0.0}}}, start, terrain,
+                                                          kNominal, untimed, nullptr, nullptr);
+      ++cases;
+      ASSERT_TRUE(approach.timed) << v << " " << x0;
+      // At the step the speed is the limit's: the target is its quarter period's travel.
+      const double target = 0.25 * timed.gait_period * timed.step_speed_limit;
+      EXPECT_NEAR(approach.target, target, 1e-9);
+      const Landing landing = firstLanding(integrate(schedule, x0, 12.0), terrain, timed);
+      ASSERT_TRUE(landing.found) << v << " " << x0;
+      EXPECT_GE(landing.past, 0.0) << "v " << v << " x0 " << x0;
+      EXPECT_LE(landing.past, 1.05 * target + 0.005) << "v " << v << " x0 " << x0;
+      EXPECT_NEAR(landing.past, approach.after, 0.005) << "v " << v << " x0 " << x0;
+      // The least delay: under half a period, none when the plain schedule lands near enough.
+      EXPECT_GE(approach.delay, 0.0);
+      EXPECT_LT(approach.delay, 0.5 * timed.gait_period);
+      const Landing before = firstLanding(integrate(plain, x0, 12.0), terrain, timed);
+      ASSERT_TRUE(before.found);
+      EXPECT_NEAR(before.past, approach.before, 0.005) << "v " << v << " x0 " << x0;
+      const bool near_enough = before.past <= 1.05 * target;
+      if (near_enough) {
+        EXPECT_EQ(approach.delay, 0.0) << "v " << v << " x0 " << x0;
+      }
+      off_target_untimed += near_enough ? 0 : 1;
+      // The same path, later: the timed schedule reaches each point of the plain one no
+      // sooner, and by at most the delay.
+      const auto a = integrate(plain, x0, 12.0), b = integrate(schedule, x0, 12.0);
+      for (std::size_t i = 0, j = 0; i < a.size(); i += 20) {
+        while (j < b.size() && b[j].x < a[i].x - 1e-9) ++j;
+        if (j == b.size()) break;
+        EXPECT_GE(b[j].t, a[i].t - 0.01) << i;
+        EXPECT_LE(b[j].t, a[i].t + approach.delay + 0.01) << i;
+      }
+      // The dip never asks for a reverse, nor for much more than twice the acceleration limit:
+      // its ramps keep to the limit, on top of the ramp from rest, resampled on the dip's
+      // steps (an old 0.02 s step can fall into a shorter new one).
+      for (std::size_t k = 1; k < schedule.size(); ++k) {
+        const double dv = std::abs(schedule[k].command.v_x - schedule[k - 1].command.v_x);
+        EXPECT_LE(dv,
+                  2.5 * timed.max_acceleration * (schedule[k].time - schedule[k - 1].time) + 1e-9)
+            << k;
+        EXPECT_GE(schedule[k].command.v_x, 0.0);
+      }
+    }
+  }
+  // Without the timing many start positions land further: the test means something.
+  EXPECT_GT(off_target_untimed, cases / 4);
+}
+
+TEST(ApproachTiming, LeavesLevelGroundAloneAndRefusesBadTouchdowns) {
+  const planning::TerrainModel flat =
+      planning::terrainFromBoxes({-5.0, 50.0, -1.5, 1.5, 0.0}, 0.0, {}, 0.085);
+  planning::SpeedScheduleConfig config = timedConfig();
+  planning::ApproachTiming approach;
+  const auto timed = planning::adaptScheduleToTerrain(
+      {{0.0, {0.45, 0.0, 0.0}}}, lie::SE3::Identity(), flat, kNominal, config, nullptr, &approach);
+  EXPECT_FALSE(approach.timed);
+  config.gait_period = 0.0;
+  const auto plain = planning::adaptScheduleToTerrain(
+      {{0.0, {0.45, 0.0, 0.0}}}, lie::SE3::Identity(), flat, kNominal, config, nullptr);
+  ASSERT_EQ(timed.size(), plain.size());
+  for (std::size_t k = 0; k < plain.size(); ++k) {
+    EXPECT_EQ(timed[k].time, plain[k].time);
+    EXPECT_EQ(timed[k].command.v_x, plain[k].command.v_x);
+  }
+  config = timedConfig();
+  config.touchdowns[2] = {1.5};  // beyond the period
+  EXPECT_THROW(planning::adaptScheduleToTerrain({{0.0, {0.45, 0, 0}}}, lie::SE3::Identity(),
+                                                blockTerrain(), kNominal, config, nullptr),
+               std::invalid_argument);
+  config = timedConfig();
+  config.touchdowns.pop_back();  // one list short
+  EXPECT_THROW(planning::adaptScheduleToTerrain({{0.0, {0.45, 0, 0}}}, lie::SE3::Identity(),
+                                                blockTerrain(), kNominal, config, nullptr),
+               std::invalid_argument);
+}
+
 }  // namespace

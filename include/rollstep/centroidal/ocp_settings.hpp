@@ -199,6 +199,11 @@ struct OcpSettings {
   /// [m/s^2] Largest change of the reference speed (from rest, between commands, into and
   /// out of a slowdown); 0: none. In [0, 100].
   double command_acceleration = 0.5;
+  /// The approach to the first step timed to the gait where the gait cannot wait at an edge
+  /// (a trot with no phase of every foot in stance, as at the step speed limit): the command
+  /// dips before the step so that the first touch-down onto it lands at most a quarter
+  /// period's travel past the riser (planning/speed_adaptation.hpp). Needs speed_adaptation.
+  bool approach_timing = true;
   // --- the solver ------------------------------------------------------------------------
   /// Nested `solver:` mapping (config/solver.yaml's keys). Defaults: the solver's, but a
   /// Gauss-Newton Hessian (exact_hessian false) as in the paper: on Tachyon 3 standing it

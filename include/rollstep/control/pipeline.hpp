@@ -122,6 +122,8 @@ class ControlPipeline {
   }
   /// Where initializeSchedule slowed the command down at a step (times from state.time).
   const std::vector<planning::StepSlowdown>& stepSlowdowns() const { return step_slowdowns_; }
+  /// How initializeSchedule timed the approach to the first step (ocp.approach_timing).
+  const planning::ApproachTiming& approachTiming() const { return approach_timing_; }
   /// [m/s] The speed rule's step speed limit (0: no trot, or no speed adaptation).
   double stepSpeedLimit() const { return step_speed_limit_; }
   /// One real-time tick at state.time. Never allocates, locks or throws.
@@ -161,8 +163,9 @@ class ControlPipeline {
   const std::vector<int>& driveWheelContacts() const { return drive_wheels_; }
 
  private:
-  /// reference_schedule_, step_slowdowns_ and step_speed_limit_ for a schedule from `start`.
-  void adaptSchedule(const lie::SE3& start,
+  /// reference_schedule_, step_slowdowns_, approach_timing_ and step_speed_limit_ for a
+  /// schedule from `start` at time t0 (the gait clock's time then).
+  void adaptSchedule(double t0, const lie::SE3& start,
                      const std::vector<planning::TimedBaseCommand>& schedule);
   /// q_meas_, v_meas_ and the centroidal state x_meas_ (h = A(q) v) of a valid state.
   void measure(const RobotState& state) noexcept;
@@ -198,6 +201,7 @@ class ControlPipeline {
   bool initialized_ = false;
   std::vector<planning::TimedBaseCommand> reference_schedule_;
   std::vector<planning::StepSlowdown> step_slowdowns_;
+  planning::ApproachTiming approach_timing_;
   double step_speed_limit_ = 0.0;
 };
 

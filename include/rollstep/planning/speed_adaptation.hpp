@@ -20,6 +20,19 @@
 //   pitches it and throws the swings.
 // - The gait's waits at a step's edge (edge_holds.hpp) keep a foot at the edge while the body
 //   passes: at most stance_stroke / speed.
+// - The approach to the first step is timed to the gait (when the gait cannot wait at an edge:
+//   a trot with no phase of every foot in stance, as at the step speed limit). The feet land
+//   where the gait clock puts them, and a stance wheel that comes to a riser mid-stance stands
+//   there while the body passes over it, until its swing. In a trot the touch-downs of the two
+//   groups come half a period apart: when the first touch-down onto the step (any foot, up or
+//   down) lands a distance d past the riser, a wheel of the other group in the same row, on
+//   the floor, came down half a period's travel behind it and stands at the riser for d (plus
+//   its foothold margin) of the body's travel. The rule: d at most a quarter period's travel
+//   (speed x period / 4), half the spacing of the touch-downs. The gait clock runs from the
+//   schedule's start, so the schedule is delayed instead: the speed dips to approach_dip of
+//   itself (ramped within max_acceleration) and comes back, the dip ending a gait period
+//   before that touch-down, by the least delay (less than half a period) that lands it within
+//   1.05 times that distance. The path is the same; only the time along it changes.
 //
 // Everything here runs once, when a command schedule is set (it allocates); nothing is
 // real-time.
@@ -93,6 +106,27 @@ struct SpeedScheduleConfig {
   double scan_time = 120.0;
   /// [m] the turn radius of commandSpeed().
   double turn_radius = 0.4;
+  /// The approach timing (see the file comment); off when gait_period <= 0 or touchdowns is
+  /// empty. [s] the gait's period.
+  double gait_period = 0.0;
+  /// [s] Per sample point (foot), the gait times of its touch-downs within a period, each in
+  /// [0, gait_period).
+  std::vector<std::vector<double>> touchdowns;
+  /// [s] The gait time at the schedule's start (the clock runs with the schedule, no waits).
+  double gait_time_at_start = 0.0;
+  /// Share of the speed kept while the approach waits, in [0, 1).
+  double approach_dip = 0.5;
+};
+
+/// What the approach timing did.
+struct ApproachTiming {
+  bool timed = false;                     ///< a touch-down onto a step was found and timed
+  double delay = 0.0;                     ///< [s] the time the approach was delayed by
+  double dip_start = 0.0, dip_end = 0.0;  ///< [s] the dip, schedule times
+  double touchdown = 0.0;                 ///< [s] the timed touch-down onto the step, schedule time
+  double target = 0.0;                    ///< [m] where it should land past the riser
+  double before = 0.0;                    ///< [m] where it landed past the riser without the delay
+  double after = 0.0;                     ///< [m] where it lands with it
 };
 
 /// The schedule the base reference should follow: `schedule` (times from its start; the
@@ -100,13 +134,15 @@ struct SpeedScheduleConfig {
 /// path from `start` brings one of the body-frame `samples` within step_reach of a step of
 /// `terrain` (so that the speed there is at most step_speed_limit), and with speed changes
 /// spread at max_acceleration. The path is the same; only the time along it changes.
-/// Appends every slowdown to `slowdowns` (if given). Throws std::invalid_argument for a bad
-/// schedule or config.
+/// Appends every slowdown to `slowdowns` (if given). With the gait's timing in `config`, the
+/// approach to the first step is timed to it (see the file comment; what it did in `approach`
+/// if given). Throws std::invalid_argument for a bad schedule or config.
 std::vector<TimedBaseCommand> adaptScheduleToTerrain(const std::vector<TimedBaseCommand>& schedule,
                                                      const lie::SE3& start,
                                                      const TerrainModel& terrain,
                                                      const std::vector<Eigen::Vector2d>& samples,
                                                      const SpeedScheduleConfig& config,
-                                                     std::vector<StepSlowdown>* slowdowns);
+                                                     std::vector<StepSlowdown>* slowdowns,
+                                                     ApproachTiming* approach = nullptr);
 
 }  // namespace rollstep::planning
