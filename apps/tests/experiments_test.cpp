@@ -442,6 +442,7 @@ TEST(Trials, DrawASpeedAfterTheOtherDrawsAndScaleTheCommandToIt) {
   p.speed = 0.3;
   Scenario step;
   step.controller = "nmpc";
+  step.scene = "flat";
   step.duration = 28;
   step.args = {"--gait", "trot", "--vx", "0.15", "--mpc-timing", "deterministic"};
   const sim::RunSpec fast = trialScenario(step, p).runSpec("out");
@@ -451,6 +452,7 @@ TEST(Trials, DrawASpeedAfterTheOtherDrawsAndScaleTheCommandToIt) {
   // A schedule: speeds scaled, times scaled back, backwards kept backwards.
   Scenario stairs;
   stairs.controller = "nmpc";
+  stairs.scene = "flat";
   stairs.duration = 44;
   stairs.args = {"--gait", "trot", "--command", "0:0.15,19:0,21:-0.15"};
   const sim::RunSpec there_and_back = trialScenario(stairs, p).runSpec("out");
@@ -465,6 +467,7 @@ TEST(Trials, DrawASpeedAfterTheOtherDrawsAndScaleTheCommandToIt) {
   EXPECT_EQ(trialScenario(step, TrialParameters{}).runSpec("out"), step.runSpec("out"));
   Scenario standing;
   standing.controller = "nmpc";
+  standing.scene = "flat";
   standing.args = {"--gait", "standing"};
   EXPECT_EQ(trialScenario(standing, p).runSpec("out"), standing.runSpec("out"));
 }

@@ -371,22 +371,44 @@ RunSpec parseRunSpec(const std::string& text, const std::string& source,
   }
   // The scene numbers against the scene's own (its file read only when there are some).
   if (!spec.scene_parameters.empty()) {
+    const char* scene_key = spec.scene_file.empty() ? "scene" : "scene_file";
+    SceneConfig scene;
     try {
-      (void)sceneOf(spec);
-    } catch (const RunSpecError& e) {
-      std::vector<std::string> paths;
-      for (const SceneNumberValue& n : spec.scene_parameters) {
-        if (e.problem().rfind(n.name + ":", 0) == 0 ||
-            e.problem().find("'" + n.name + "'") != std::string::npos) {
-          paths.push_back("scene_parameters." + n.name);
+      scene = spec.scene_file.empty() ? loadScene(spec.scene) : loadSceneConfig(spec.scene_file);
+    } catch (const std::exception& e) {  // the scene itself cannot be loaded
+      reader.failAtLine(reader.lineOf({scene_key, "scene_parameters"}, document.root().line()),
+                        std::string(scene_key) + ": " + e.what());
+    }
+    const auto lineOf = [&](std::size_t i) {
+      return reader.lineOf({"scene_parameters." + spec.scene_parameters[i].name},
+                           document.root().line());
+    };
+    for (std::size_t i = 0; i < spec.scene_parameters.size(); ++i) {
+      if (!hasSceneNumber(scene, spec.scene_parameters[i].name)) {
+        try {
+          withSceneNumbers(scene, {spec.scene_parameters[i]});
+        } catch (const RunSpecError& e) {
+          reader.failAtLine(lineOf(i), e.what());
         }
       }
-      paths.push_back("scene_parameters");
-      reader.failAtLine(reader.lineOf(paths, document.root().line()), e.what());
-    } catch (const std::exception& e) {  // the scene itself cannot be loaded
-      const char* key = spec.scene_file.empty() ? "scene" : "scene_file";
-      reader.failAtLine(reader.lineOf({key, "scene_parameters"}, document.root().line()),
-                        std::string(key) + ": " + e.what());
+    }
+    try {
+      (void)withSceneNumbers(scene, spec.scene_parameters);
+    } catch (const RunSpecError& e) {
+      // The first number whose setting makes the scene invalid names the line.
+      std::size_t first = 0;
+      for (std::size_t k = 1; k <= spec.scene_parameters.size(); ++k) {
+        first = k - 1;
+        try {
+          const std::vector<SceneNumberValue> some(
+              spec.scene_parameters.begin(),
+              spec.scene_parameters.begin() + static_cast<std::ptrdiff_t>(k));
+          (void)withSceneNumbers(scene, some);
+        } catch (const RunSpecError&) {
+          break;
+        }
+      }
+      reader.failAtLine(lineOf(first), e.what());
     }
   }
   return spec;
