@@ -227,8 +227,8 @@ ControlSettings readControlSettingsAt(const yaml::Node& root, settings::Reader& 
   if (root.isNull()) return settings;
   if (!root.isMapping()) {
     if (prefix.empty()) reader.fail(root, "expected a mapping of key: value");
-    reader.fail(root, prefix.substr(0, prefix.size() - 1) + ": expected a mapping, got " +
-                          root.kindName());
+    reader.fail(
+        root, prefix.substr(0, prefix.size() - 1) + ": expected a mapping, got " + root.kindName());
   }
   // extends: first, wherever it stands: the keys of this file then override its values.
   std::optional<std::size_t> extends;
@@ -278,8 +278,7 @@ ControlSettings parseControlSettingsAt(const std::string& yaml_text, const std::
   const std::string head = "control settings " + source_name + ": ";
   const yaml::Document document = yaml::parseDocument(yaml_text, head + "YAML error: ");
   settings::Reader reader(head);
-  return readControlSettingsAt(document.root(), reader, "", base_directory, depth,
-                               sections_given);
+  return readControlSettingsAt(document.root(), reader, "", base_directory, depth, sections_given);
 }
 
 ControlSettings loadControlSettingsAt(const std::string& yaml_file, int depth,

@@ -435,10 +435,10 @@ SceneConfig withSceneNumbers(SceneConfig scene, const std::vector<SceneNumberVal
     if (!hasSceneNumber(scene, n.name)) {
       std::string known = "friction";
       for (const SceneParameter& p : scene.parameters) known += ", " + p.name;
-      throw RunSpecError("scene_parameters",
-                         "'" + n.name + "' is not a number of scene " + scene.name +
-                             " (its parameters and friction: " + known +
-                             "; or a key path such as boxes[0].size[2])");
+      throw RunSpecError("scene_parameters", "'" + n.name + "' is not a number of scene " +
+                                                 scene.name +
+                                                 " (its parameters and friction: " + known +
+                                                 "; or a key path such as boxes[0].size[2])");
     }
     setSceneNumber(scene, n.name, n.value);
   }
@@ -446,8 +446,8 @@ SceneConfig withSceneNumbers(SceneConfig scene, const std::vector<SceneNumberVal
     try {
       scene.validate();
     } catch (const std::invalid_argument& e) {
-      throw RunSpecError("scene_parameters", std::string("the scene with these numbers: ") +
-                                                 e.what());
+      throw RunSpecError("scene_parameters",
+                         std::string("the scene with these numbers: ") + e.what());
     }
   }
   return scene;

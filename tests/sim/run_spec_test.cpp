@@ -138,8 +138,7 @@ TEST(RunSpec, ControlSettingsInline) {
   s.control->feedback.foot_kp = 300.0;
   s.control->ocp.horizon = 40;
   const std::string text = toYaml(s);
-  EXPECT_NE(text.find("\ncontrol:\n  control_period: 0.001\n  mpc:\n"), std::string::npos)
-      << text;
+  EXPECT_NE(text.find("\ncontrol:\n  control_period: 0.001\n  mpc:\n"), std::string::npos) << text;
   const RunSpec back = parseRunSpec(text, "run spec 'r.yaml'");
   ASSERT_TRUE(back.control.has_value());
   EXPECT_EQ(back.control->mpc.period, 0.04);
@@ -163,12 +162,13 @@ TEST(RunSpec, ControlSettingsInline) {
   // The control settings' own checks, named inside the spec with their lines.
   EXPECT_EQ(errorOf("controller: nmpc\ncontrol:\n  mpc:\n    period: -1\n"),
             "run spec 'r.yaml': line 4: control.mpc.period: -1 is outside [0, 10]");
-  EXPECT_EQ(errorOf("controller: nmpc\ncontrol:\n  mpcc: {}\n").rfind(
-                "run spec 'r.yaml': line 3: unknown key 'control.mpcc' (known in control: ", 0),
-            0u)
+  EXPECT_EQ(
+      errorOf("controller: nmpc\ncontrol:\n  mpcc: {}\n")
+          .rfind("run spec 'r.yaml': line 3: unknown key 'control.mpcc' (known in control: ", 0),
+      0u)
       << errorOf("controller: nmpc\ncontrol:\n  mpcc: {}\n");
-  EXPECT_EQ(errorOf("controller: nmpc\ncontrol:\n  ocp: {horizon: 0}\n").rfind(
-                "run spec 'r.yaml': line 3: control.ocp.horizon: ", 0),
+  EXPECT_EQ(errorOf("controller: nmpc\ncontrol:\n  ocp: {horizon: 0}\n")
+                .rfind("run spec 'r.yaml': line 3: control.ocp.horizon: ", 0),
             0u)
       << errorOf("controller: nmpc\ncontrol:\n  ocp: {horizon: 0}\n");
   EXPECT_EQ(errorOf("controller: nmpc\ncontrol:\n  mpc: {period: 0.01, latency: 0.02}\n"),
@@ -203,24 +203,25 @@ TEST(RunSpec, SceneParametersCheckedAgainstTheScene) {
       "run spec 'r.yaml': line 4: scene_parameters: 'hight' is not a number of scene step20 (its "
       "parameters and friction: friction, start_x, width, step1_height, step1_length; or a key "
       "path such as boxes[0].size[2])");
-  EXPECT_EQ(errorOf("scene: flat\nscene_parameters: {step1_height: 0.1}\n").rfind(
-                "run spec 'r.yaml': line 2: scene_parameters: 'step1_height' is not a number of "
-                "scene flat",
-                0),
-            0u);
+  EXPECT_EQ(
+      errorOf("scene: flat\nscene_parameters: {step1_height: 0.1}\n")
+          .rfind("run spec 'r.yaml': line 2: scene_parameters: 'step1_height' is not a number of "
+                 "scene flat",
+                 0),
+      0u);
   // A value the scene's checks refuse.
   const std::string bad = errorOf("scene: step20\nscene_parameters:\n  friction: 9\n");
-  EXPECT_EQ(bad.rfind("run spec 'r.yaml': line 3: scene_parameters: the scene with these numbers: ",
-                      0),
-            0u)
+  EXPECT_EQ(
+      bad.rfind("run spec 'r.yaml': line 3: scene_parameters: the scene with these numbers: ", 0),
+      0u)
       << bad;
   EXPECT_NE(bad.find("friction"), std::string::npos) << bad;
   EXPECT_EQ(errorOf("scene_parameters: [1]\n"),
             "run spec 'r.yaml': line 1: scene_parameters: expected a mapping of name: number");
   EXPECT_EQ(errorOf("scene: step20\nscene_parameters: {width: 2, width: 3}\n"),
             "run spec 'r.yaml': line 2: scene_parameters.width: given twice (first on line 2)");
-  EXPECT_EQ(errorOf("scene: step20\nscene_parameters: {width: wide}\n").rfind(
-                "run spec 'r.yaml': line 2: scene_parameters.width: ", 0),
+  EXPECT_EQ(errorOf("scene: step20\nscene_parameters: {width: wide}\n")
+                .rfind("run spec 'r.yaml': line 2: scene_parameters.width: ", 0),
             0u);
 }
 

@@ -25,9 +25,9 @@
 #include <vector>
 
 #include "rollstep/common/enum_names.hpp"
+#include "rollstep/control/control_settings.hpp"
 #include "rollstep/planning/base_reference.hpp"
 #include "rollstep/planning/gait.hpp"
-#include "rollstep/control/control_settings.hpp"
 #include "rollstep/sim/nmpc_controller.hpp"
 #include "rollstep/sim/scene.hpp"
 
