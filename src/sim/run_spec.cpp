@@ -350,6 +350,16 @@ bool RunSpec::operator==(const RunSpec& o) const {
 void checkRunSpec(const RunSpec& spec) {
   if (auto p = table().check(spec)) throw RunSpecError(p->path, p->what);
   if (auto p = crossProblem(spec)) throw RunSpecError(p->path, p->what);
+  if (spec.control) {
+    try {
+      control::checkSettings(*spec.control);
+    } catch (const std::invalid_argument& e) {  // "control settings: <key>: <problem>"
+      const std::string what = e.what();
+      const std::string head = "control settings: ";
+      throw RunSpecError("control",
+                         what.rfind(head, 0) == 0 ? "control." + what.substr(head.size()) : what);
+    }
+  }
 }
 
 RunSpec parseRunSpec(const std::string& text, const std::string& source,

@@ -176,6 +176,17 @@ TEST(RunSpec, ControlSettingsInline) {
             "deterministic timing a solve takes at most a period");
   EXPECT_EQ(errorOf("controller: nmpc\ncontrol_config: c.yaml\ncontrol: {}\n"),
             "run spec 'r.yaml': line 3: control: and control_config exclude each other (give one)");
+  // Made in code: checked as a file is.
+  RunSpec bad = s;
+  bad.control->mpc.latency = 0.05;
+  try {
+    checkRunSpec(bad);
+    ADD_FAILURE() << "no error";
+  } catch (const RunSpecError& e) {
+    EXPECT_EQ(e.key(), "control");
+    EXPECT_EQ(e.problem().rfind("control.mpc.latency: 0.05 is above mpc.period", 0), 0u)
+        << e.what();
+  }
   EXPECT_EQ(errorOf("controller: stand\ncontrol: {}\n"),
             "run spec 'r.yaml': line 2: control: is used only by the nmpc and cbfqp controllers");
 }
