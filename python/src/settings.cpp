@@ -82,8 +82,8 @@ void bindSettings(py::module_& m) {
       .def("to_dict",
            [](const centroidal::OcpSettings& s) { return yamlToPython(centroidal::toYaml(s)); })
       .def("update", [](centroidal::OcpSettings& s, const std::string& text) {
-        const yaml::Document doc = yaml::parseDocument(
-            text, std::string("OCP settings ") + kOcpSource + ": YAML error: ");
+        const yaml::Document doc =
+            yaml::parseDocument(text, std::string("OCP settings ") + kOcpSource + ": YAML error: ");
         s = centroidal::parseOcpSettings(doc.root(), s, kOcpSource, "", "OCP settings");
       });
 
@@ -115,7 +115,9 @@ void bindSettings(py::module_& m) {
       .def(py::init<>())
       .def(py::init<const control::ControlSettings&>())
       .def_static("parse", &control::parseControlSettings, py::arg("text"), py::arg("source"))
-      .def_static("load", &control::loadControlSettings, py::arg("path"))
+      .def_static(
+          "load", [](const std::string& path) { return control::loadControlSettings(path); },
+          py::arg("path"))
       .def("to_yaml", [](const control::ControlSettings& s) { return control::toYaml(s); })
       .def("to_dict",
            [](const control::ControlSettings& s) { return yamlToPython(control::toYaml(s)); });
