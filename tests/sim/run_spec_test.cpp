@@ -272,6 +272,30 @@ TEST(RunSpec, BuildRefusesWhatDoesNotFitTheRobot) {
               std::string::npos)
         << e.what();
   }
+  // The cbfqp controller's control file must give the baseline's tuning, itself or through
+  // a file it extends.
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / "rollstep_run_spec_baseline_test";
+  fs::create_directories(dir);
+  {
+    std::ofstream(dir / "nmpc_only.yaml") << "mpc: {period: 0.02}\n";
+    std::ofstream(dir / "extends.yaml")
+        << "extends: " << projectConfigFile("baseline.yaml") << "\ncbf_qp: {damping: 1e-5}\n";
+  }
+  s = RunSpec{};
+  s.controller = ControllerKind::CbfQp;
+  s.scene = "step20";
+  s.control_config = (dir / "nmpc_only.yaml").string();
+  try {
+    buildRun(s);
+    ADD_FAILURE() << "no error";
+  } catch (const RunSpecError& e) {
+    EXPECT_EQ(e.key(), "control_config");
+    EXPECT_NE(e.problem().find("has no baseline: section"), std::string::npos) << e.what();
+  }
+  s.control_config = (dir / "extends.yaml").string();
+  EXPECT_NE(buildRun(s).cbfqp, nullptr);
+  fs::remove_all(dir);
   // A stand run builds: the plant at the scene's start, the nominal posture.
   s = RunSpec{};
   const BuiltRun run = buildRun(s);
