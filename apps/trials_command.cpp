@@ -99,7 +99,9 @@ const Scenario& selectScenario(const ExperimentSet& set, const std::string& scen
 }
 
 /// A trial's folder: its files replaced as a whole (a run that does not end leaves FAILED
-/// with the reason and no result.yaml; --collect then says it is unfinished).
+/// with the reason and no result.yaml; --collect then says it is unfinished). scene.yaml is
+/// listed so that the scene file an older trial wrote there is removed (the run spec now
+/// carries the drawn scene numbers).
 OutputFolder trialFolder(const std::string& dir) {
   return OutputFolder("trials", dir, {"result.yaml", "scene.yaml", "sensors.yaml"});
 }
@@ -108,18 +110,19 @@ OutputFolder trialFolder(const std::string& dir) {
 TrialResult runTrial(const TrialsOptions& o, const ExperimentSet& set, const Scenario& s,
                      std::uint64_t seed) {
   const TrialParameters p = drawTrial(seed, set.trials);
-  const sim::SceneConfig scene = trialScene(sceneOf(s), p);
   const std::string dir = trialDir(fs::absolute(o.out).string(), s, seed);
   const OutputFolder folder = trialFolder(dir);
   folder.create();
   folder.begin();
   try {
     fs::create_directories(dir + "/sim");
-    writeFileAtomically(dir + "/scene.yaml", sim::toYaml(scene));
     writeFileAtomically(dir + "/sensors.yaml", trialSensorNoise(p).toYaml());
+    // The drawn speed and scene numbers are the run spec's (the child reads them there).
     const Scenario trial = trialScenario(s, p);
-    sim::RunSpec spec = trial.runSpec(dir + "/sim", dir + "/scene.yaml");
+    sim::RunSpec spec = trial.runSpec(dir + "/sim");
+    spec.scene_parameters = trialSceneNumbers(sceneOf(s), p);
     spec.sensor_config = dir + "/sensors.yaml";
+    const sim::SceneConfig scene = sim::sceneOf(spec);
     const RunOutcome run = executeRun(trial, spec, scene, set.criteria);
     throwIfInterrupted();  // the sim was interrupted with us: not a result
     TrialResult r;

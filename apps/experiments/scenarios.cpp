@@ -45,34 +45,25 @@ bool isDrawName(const std::string& name) {
                       [&](const char* k) { return name == k; });
 }
 
-sim::RunSpec Scenario::runSpec(const std::string& out_dir,
-                               const std::string& scene_config_override) const {
+sim::RunSpec Scenario::runSpec(const std::string& out_dir) const {
   // The run's own options (args) are read by rollstep sim's parser, with the scenario's
   // controller, duration and terrain they are checked against.
   std::vector<std::string> words{"--controller", controller, "--duration",
                                  shortestNumberText(duration)};
   if (terrain == "perception") words.insert(words.end(), {"--terrain", "perception"});
   words.insert(words.end(), args.begin(), args.end());
-  sim::RunSpec spec = apps::runSpecFromSimArgs(words);
+  sim::RunSpec spec = specAtSpeed(apps::runSpecFromSimArgs(words), speed);
   // The scene file when there is one (it names its scene), else the scene by name.
-  const std::string& file = scene_config_override.empty() ? scene_config : scene_config_override;
-  if (file.empty()) {
+  if (scene_config.empty()) {
     spec.scene = scene;
   } else {
-    spec.scene_file = file;
+    spec.scene_file = scene_config;
   }
   spec.control_config = control_config;
   if (terrain == "perception" && feeds("map")) spec.map_log = out_dir + "/map";
   spec.out = out_dir;
   sim::checkRunSpec(spec);
   return spec;
-}
-
-std::string Scenario::option(const std::string& flag) const {
-  for (std::size_t i = 0; i + 1 < args.size(); ++i) {
-    if (args[i] == flag) return args[i + 1];
-  }
-  return "";
 }
 
 std::string sweepRunName(const std::string& scenario, double speed) {
@@ -418,14 +409,14 @@ ExperimentSet parseExperimentSet(const std::string& text, const std::string& sou
       for (double speed : set.sweep.speeds) {
         TrialParameters p;
         p.speed = speed;
-        Scenario s;
+        const Scenario s_at_speed = trialScenario(*base, p);
+        Scenario s = s_at_speed;
         try {
-          s = trialScenario(*base, p);
+          if (s.runSpec("out") == base->runSpec("out")) {  // as it was: no speed
+            fail("'" + name + "' has no forward command (--vx or --command) to scale");
+          }
         } catch (const std::invalid_argument& e) {
           fail(std::string(e.what()));
-        }
-        if (s.duration == base->duration && s.args == base->args) {  // as it was: no speed
-          fail("'" + name + "' has no forward command (--vx or --command) to scale");
         }
         s.name = sweepRunName(name, speed);
         if (set.find(s.name) != nullptr ||

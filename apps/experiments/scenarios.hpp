@@ -42,6 +42,9 @@ struct Scenario {
   std::vector<std::string> figures;
   bool video = true;
   PaperFigures paper;
+  /// [m/s] > 0: the run's command at this speed (specAtSpeed, trials.hpp): a trial's drawn
+  /// speed, a sweep run's speed.
+  double speed = 0.0;
   /// A run of the speed sweep: the scenario it repeats at sweep_speed (empty: not one).
   std::string sweep_of;
   double sweep_speed = 0.0;  ///< [m/s]
@@ -49,14 +52,11 @@ struct Scenario {
   bool feeds(const std::string& figure) const;
   /// "scene ground truth" or "perception (closed loop)".
   std::string terrainText() const;
-  /// The value given to `flag` in args ("--robot" -> its file), "" when absent.
-  std::string option(const std::string& flag) const;
   /// The run of this scenario with outputs in `out_dir` (its map log in out_dir/map when
-  /// it feeds the map figure), `scene_config_override` replacing its scene file when not
-  /// empty: its keys, and its args parsed as `rollstep sim` parses them (same checks).
-  /// Throws std::invalid_argument naming a bad option of args.
-  sim::RunSpec runSpec(const std::string& out_dir,
-                       const std::string& scene_config_override = "") const;
+  /// it feeds the map figure): its keys, and its args parsed as `rollstep sim` parses them
+  /// (same checks), its command at `speed` when set. Throws std::invalid_argument naming a
+  /// bad option of args.
+  sim::RunSpec runSpec(const std::string& out_dir) const;
 };
 
 /// The acceptance of the paper's comparison: candidate beats baseline by at least these

@@ -114,77 +114,54 @@ TrialParameters drawTrial(std::uint64_t seed, const TrialRanges& r) {
   return p;
 }
 
-namespace {
-
-/// Splits "a,b,c" at `separator`.
-std::vector<std::string> split(const std::string& text, char separator) {
-  std::vector<std::string> parts;
-  std::size_t start = 0;
-  while (true) {
-    const std::size_t at = text.find(separator, start);
-    parts.push_back(text.substr(start, at == std::string::npos ? std::string::npos : at - start));
-    if (at == std::string::npos) return parts;
-    start = at + 1;
+sim::RunSpec specAtSpeed(const sim::RunSpec& spec, double speed) {
+  if (speed <= 0.0) return spec;
+  sim::RunSpec out = spec;
+  if (spec.command.size() == 1) {
+    // One constant command: its forward speed replaced, the run as long as the same way.
+    const double v = spec.command.front().command.v_x;
+    if (v == 0.0) return spec;
+    out.command.front().command.v_x = std::copysign(speed, v);
+    out.duration = spec.duration * std::abs(v) / speed + kTrialSpeedMargin;
+    return out;
   }
-}
-
-double numberIn(const std::string& text, const std::string& what) {
-  char* end = nullptr;
-  const double v = std::strtod(text.c_str(), &end);
-  if (text.empty() || end != text.c_str() + text.size() || !std::isfinite(v)) {
-    throw std::invalid_argument("trial speed: '" + text + "' in " + what + " is not a number");
+  // A schedule: the speeds scaled by k, the times by 1 / k (the same path).
+  double fastest = 0.0;
+  for (const planning::TimedBaseCommand& c : spec.command) {
+    fastest = std::max(fastest, std::abs(c.command.v_x));
   }
-  return v;
+  if (fastest == 0.0) return spec;
+  const double k = speed / fastest;
+  for (planning::TimedBaseCommand& c : out.command) {
+    c.time = rounded(c.time / k);
+    c.command.v_x = rounded(c.command.v_x * k);
+    c.command.v_y = rounded(c.command.v_y * k);
+    c.command.yaw_rate = rounded(c.command.yaw_rate * k);
+  }
+  out.duration = spec.duration / k + kTrialSpeedMargin;
+  return out;
 }
-
-}  // namespace
 
 Scenario trialScenario(const Scenario& s, const TrialParameters& p) {
-  if (p.speed <= 0.0) return s;
   Scenario out = s;
-  for (std::size_t i = 0; i + 1 < out.args.size(); ++i) {
-    if (out.args[i] == "--vx") {
-      const double v = numberIn(out.args[i + 1], "--vx");
-      if (v == 0.0) return s;
-      out.args[i + 1] = shortestNumberText(std::copysign(p.speed, v));
-      out.duration = s.duration * std::abs(v) / p.speed + kTrialSpeedMargin;
-      return out;
-    }
-    if (out.args[i] == "--command") {
-      // T:VX[:VY[:YAW]] entries: scale the speeds by k, the times by 1 / k.
-      std::vector<std::vector<std::string>> entries;
-      double fastest = 0.0;
-      for (const std::string& entry : split(out.args[i + 1], ',')) {
-        entries.push_back(split(entry, ':'));
-        if (entries.back().size() < 2) {
-          throw std::invalid_argument("trial speed: --command entry '" + entry + "' has no speed");
-        }
-        fastest = std::max(fastest, std::abs(numberIn(entries.back()[1], "--command")));
-      }
-      if (fastest == 0.0) return s;
-      const double k = p.speed / fastest;
-      std::string text;
-      for (const std::vector<std::string>& e : entries) {
-        text += text.empty() ? "" : ",";
-        text += shortestNumberText(rounded(numberIn(e[0], "--command") / k));
-        for (std::size_t j = 1; j < e.size(); ++j) {
-          text += ":" + shortestNumberText(rounded(numberIn(e[j], "--command") * k));
-        }
-      }
-      out.args[i + 1] = text;
-      out.duration = s.duration / k + kTrialSpeedMargin;
-      return out;
-    }
+  out.speed = p.speed;
+  return out;
+}
+
+std::vector<sim::SceneNumberValue> trialSceneNumbers(const sim::SceneConfig& base,
+                                                     const TrialParameters& p) {
+  std::vector<sim::SceneNumberValue> numbers;
+  for (const TrialParameters::SceneValue& v : p.scene) {
+    if (!sim::hasSceneNumber(base, v.key)) continue;  // e.g. the step height on the flat
+    numbers.push_back({v.key, v.offset ? sim::sceneNumber(base, v.key) + v.value : v.value});
   }
-  return s;
+  return numbers;
 }
 
 sim::SceneConfig trialScene(const sim::SceneConfig& base, const TrialParameters& p) {
   sim::SceneConfig s = base;
-  for (const TrialParameters::SceneValue& v : p.scene) {
-    if (!sim::hasSceneNumber(base, v.key)) continue;  // e.g. the step height on the flat
-    const double value = v.offset ? sim::sceneNumber(base, v.key) + v.value : v.value;
-    sim::setSceneNumber(s, v.key, value);
+  for (const sim::SceneNumberValue& n : trialSceneNumbers(base, p)) {
+    sim::setSceneNumber(s, n.name, n.value);
   }
   return s;
 }

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "rollstep/sim/run_spec.hpp"
 #include "rollstep/sim/scene.hpp"
 #include "rollstep/sim/sensor_model.hpp"
 #include "scenarios.hpp"
@@ -37,19 +38,24 @@ struct TrialParameters {
 
 /// The parameters of trial `seed`: each uniform in its range of `ranges`.
 TrialParameters drawTrial(std::uint64_t seed, const TrialRanges& ranges);
-/// The scenario a trial runs: `s` with its command at the trial's speed when one was drawn.
-/// The scenario's own speed is the largest |v_x| of its --vx or --command schedule; every
-/// speed of the command is scaled by p.speed over it (direction and sign kept), and the
-/// schedule's times and the duration by its inverse (the same path), plus
-/// kTrialSpeedMargin seconds (the ramp from rest and slowdowns at steps). A scenario with
-/// no forward command is run as it is. Throws std::invalid_argument naming a malformed
-/// --command of the scenario.
+/// The scenario a trial runs: `s` with its command at the trial's speed when one was drawn
+/// (Scenario::speed; its run spec is then specAtSpeed's).
 Scenario trialScenario(const Scenario& s, const TrialParameters& p);
+/// `spec` with its command at `speed` [m/s] (0: as it is). One constant command: its v_x
+/// set to the speed (sign kept), the duration scaled by |v_x| / speed; a schedule: every
+/// speed scaled by the speed over the schedule's largest |v_x| (direction and sign kept), its
+/// times and the duration by the inverse (the same path; entries rounded to 1e-4). Both plus
+/// kTrialSpeedMargin seconds (the ramp from rest and slowdowns at steps). A spec with no
+/// forward command is returned as it is.
+sim::RunSpec specAtSpeed(const sim::RunSpec& spec, double speed);
 inline constexpr double kTrialSpeedMargin = 6.0;  ///< [s]
 /// `base` with the trial's scene numbers (each replacing the file's number, or added to it);
 /// a number the scene does not have (the step height of the flat floor) is left out
 /// (`rollstep trials` says so before the trials start).
 sim::SceneConfig trialScene(const sim::SceneConfig& base, const TrialParameters& p);
+/// The same as the numbers a run spec sets (RunSpec::scene_parameters): key path and value.
+std::vector<sim::SceneNumberValue> trialSceneNumbers(const sim::SceneConfig& base,
+                                                     const TrialParameters& p);
 /// The trial's sensor noise: the defaults scaled by p.sensor_noise, seeded with p.seed.
 sim::SensorNoiseConfig trialSensorNoise(const TrialParameters& p);
 /// Whether a scenario's controller reads the (noisy) sensors: `--state-source inekf`

@@ -11,15 +11,19 @@ set -- --experiments "$experiments" --scenario step20 --controller nmpc
 "$rollstep" trials "$@" --seeds 0-1 --jobs 2 --out "$out" || fail "trials exited $?"
 for s in 0000 0001; do
   [ -s "$out/step20_short_seed$s/result.yaml" ] || fail "no result file of seed $s"
-  [ -s "$out/step20_short_seed$s/scene.yaml" ] || fail "no scene file of seed $s"
+  [ -s "$out/step20_short_seed$s/sim/run.yaml" ] || fail "no run spec of seed $s"
+  [ ! -e "$out/step20_short_seed$s/scene.yaml" ] || fail "a scene file beside seed $s's spec"
   [ -s "$out/step20_short_seed$s/sensors.yaml" ] || fail "no sensor file of seed $s"
 done
 grep -q '^seed: 1$' "$out/step20_short_seed0001/sensors.yaml" || fail "seed 1's sensor noise seed"
 grep -q '^sensor_noise_applied: false$' "$out/step20_short_seed0001/result.yaml" \
   || fail "a ground-truth run reads no sensors"
 grep -q '^seed: 1$' "$out/step20_short_seed0001/result.yaml" || fail "seed 1's file"
-grep -q '^step_height: 0.1' "$out/step20_short_seed0001/scene.yaml" 2>/dev/null \
-  || grep -q 'step1_height: 0.1' "$out/step20_short_seed0001/scene.yaml" || fail "randomized step height"
+# The drawn step height: in the result file and, as the scene's number, in the run spec.
+height=$(sed -n 's/^step_height: //p' "$out/step20_short_seed0001/result.yaml")
+[ -n "$height" ] || fail "no drawn step height in the result file"
+grep -q "^  step1_height: $height\$" "$out/step20_short_seed0001/sim/run.yaml" \
+  || fail "randomized step height not in the run spec"
 grep -q '| step20_short | nmpc | 2 | 0 | 0.0 %' "$out/aggregate.md" || fail "aggregate"
 grep -q 'seed 0: did not traverse the step' "$out/aggregate.md" || fail "failure reasons"
 # One command per seed, each self-contained; run one of them by hand elsewhere, then collect.

@@ -5,7 +5,8 @@
 # the output folder. An NMPC trot on the estimator's state with a command schedule: the
 # estimator, the sensors and the schedule all come through the spec. Then the run again in
 # its own folder (--spec DIR/run.yaml --out DIR): an interrupted rerun leaves its run.yaml
-# (the input) in place beside FAILED, a finished one the same run.yaml.
+# (the input) in place beside FAILED, a finished one the same run.yaml. Then control settings
+# given inline (control:) instead of a file.
 set -u
 rollstep=$1 out=$2
 fail() { echo "FAIL: $*"; exit 1; }
@@ -40,4 +41,26 @@ cp "$out/given.yaml" "$out/spec/run.yaml"
   fail "the rerun in place failed"
 cmp -s "$out/given.yaml" "$out/spec/run.yaml" || fail "the rerun in place changed run.yaml"
 cmp -s "$out/options/log.csv" "$out/spec/log.csv" || fail "the rerun in place logs differently"
+# Control settings inline: a spec whose control: section holds a control file's keys runs as
+# the file given by --control-config, and the run.yaml it writes (the settings whole, inline)
+# runs the same again.
+printf 'mpc:\n  period: 0.04\n  latency: 0.02\nfeedback:\n  foot_kp: 300\n' > "$out/control.yaml"
+"$rollstep" sim --scene step20 --controller nmpc --gait trot --vx 0.15 --duration 0.3 \
+  --mpc-timing deterministic --control-config "$out/control.yaml" --log-every 5 \
+  --out "$out/file" >/dev/null || fail "the run with a control file failed"
+grep -v '^control_config:' "$out/file/run.yaml" | grep -v '^control: null$' > "$out/inline.yaml"
+printf 'control:\n  mpc: {period: 0.04, latency: 0.02}\n  feedback: {foot_kp: 300}\n' \
+  >> "$out/inline.yaml"
+"$rollstep" sim --spec "$out/inline.yaml" --out "$out/inline" >/dev/null ||
+  fail "the run of the inline spec failed"
+cmp -s "$out/file/log.csv" "$out/inline/log.csv" || fail "the inline settings log differently"
+cmp -s "$out/file/plan.csv" "$out/inline/plan.csv" || fail "the inline settings plan differently"
+grep -q '^  feedback:$' "$out/inline/run.yaml" || fail "run.yaml lacks the inline settings"
+"$rollstep" sim --spec "$out/inline/run.yaml" --out "$out/inline_again" >/dev/null ||
+  fail "the run of the written inline spec failed"
+cmp -s "$out/file/log.csv" "$out/inline_again/log.csv" ||
+  fail "the written inline spec logs differently"
+grep -v '^out:' "$out/inline/run.yaml" > "$out/c.yaml"
+grep -v '^out:' "$out/inline_again/run.yaml" > "$out/d.yaml"
+cmp -s "$out/c.yaml" "$out/d.yaml" || fail "the inline run.yaml files differ"
 echo "the spec's run equals the options' run"

@@ -461,13 +461,21 @@ class Simulation:
             if not isinstance(spec, RunSpec):
                 raise TypeError("spec: expected a RunSpec, a spec file or a dict")
         control_cpp = None if control is None else _settings_cpp(control, ControlSettings)
-        self._spec = spec.copy()
         self._sim = _rollstep._Simulation(spec._cpp, control_cpp, scene_cpp)
+        self._spec = RunSpec._wrap(self._sim.spec)
 
     @property
     def spec(self):
-        """The RunSpec of this run (a copy)."""
+        """The RunSpec of this run (a copy); control settings given as ControlSettings or a
+        dict are its `control` section."""
         return self._spec.copy()
+
+    def save_spec(self, path):
+        """Writes the run's spec to `path` (paths absolute, control settings given in code
+        inline): `rollstep sim --spec PATH` runs the same run again (a scene given as a
+        SceneConfig is not part of the spec)."""
+        with open(path, "w", encoding="utf-8") as f:
+            f.write(self._sim.spec_yaml())
 
     @property
     def control_period(self):

@@ -208,9 +208,11 @@ class ControlSettings(Settings):
 
 class RunSpec(Settings):
     """A simulation run, the spec `rollstep sim` runs and writes to DIR/run.yaml: robot,
-    scene or scene_file, controller ('stand', 'drive', 'nmpc', 'cbfqp'), duration [s], gait,
+    scene or scene_file, scene_parameters (a dict of the scene's numbers for this run: its
+    parameters, friction), controller ('stand', 'drive', 'nmpc', 'cbfqp'), duration [s], gait,
     command (a list of [time s, vx m/s, vy m/s, yaw_rate rad/s] entries, base frame, each from
-    its time on), drive_speed and drive_turn_speed [m/s], control_config (a file),
+    its time on), drive_speed and drive_turn_speed [m/s], control_config (a file)
+    or control (the control settings inline: a dict of a control file's keys, or None),
     mpc_timing and integrator ('default': the control settings'), terrain ('scene' or
     'perception'), lidar_config, perception_config, perception_timing, state_source
     ('ground_truth' or 'inekf': the state estimator on the plant's sensors),

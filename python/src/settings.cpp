@@ -15,6 +15,9 @@ namespace {
 
 /// A YAML node as Python values: mappings as dicts, sequences of numbers as float64 arrays
 /// (other sequences as lists), plain scalars as bool, int or float where they read as one.
+/// Not a settings reader: it only turns the text the settings tables wrote (every value
+/// already read and checked by them) into Python values for to_dict() and attribute access,
+/// whatever the table; so it has no keys, ranges or messages of its own to keep.
 py::object toPython(const yaml::Node& n) {
   switch (n.kind()) {
     case yaml::Kind::Null:
@@ -79,7 +82,8 @@ void bindSettings(py::module_& m) {
       .def("to_dict",
            [](const centroidal::OcpSettings& s) { return yamlToPython(centroidal::toYaml(s)); })
       .def("update", [](centroidal::OcpSettings& s, const std::string& text) {
-        const yaml::Document doc = yaml::Document::parse(text);
+        const yaml::Document doc =
+            yaml::parseDocument(text, std::string("OCP settings ") + kOcpSource + ": YAML error: ");
         s = centroidal::parseOcpSettings(doc.root(), s, kOcpSource, "", "OCP settings");
       });
 
@@ -111,7 +115,9 @@ void bindSettings(py::module_& m) {
       .def(py::init<>())
       .def(py::init<const control::ControlSettings&>())
       .def_static("parse", &control::parseControlSettings, py::arg("text"), py::arg("source"))
-      .def_static("load", &control::loadControlSettings, py::arg("path"))
+      .def_static(
+          "load", [](const std::string& path) { return control::loadControlSettings(path); },
+          py::arg("path"))
       .def("to_yaml", [](const control::ControlSettings& s) { return control::toYaml(s); })
       .def("to_dict",
            [](const control::ControlSettings& s) { return yamlToPython(control::toYaml(s)); });

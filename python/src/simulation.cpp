@@ -39,12 +39,12 @@ std::vector<std::string> splitColumns(const std::string& text) {
 
 struct Simulation {
   /// The run of `spec` as buildRun builds it for `rollstep sim` (perception and the
-  /// estimator included), with `control` and `scene` instead of the spec's files when given.
+  /// estimator included), with `control` (then the spec's own, inline) and `scene` instead
+  /// of the spec's files when given.
   Simulation(const sim::RunSpec& spec, std::optional<control::ControlSettings> control_settings,
              std::optional<sim::SceneConfig> scene_config)
-      : control(std::move(control_settings)),
-        scene(std::move(scene_config)),
-        run(sim::buildRun(spec, overrides())),
+      : scene(std::move(scene_config)),
+        run(sim::buildRun(withControl(spec, std::move(control_settings)), overrides())),
         plant(*run.plant),
         log_every(spec.log_every) {
     if (sim::OnlinePerception* p = run.perception(); p != nullptr) p->openLog();
@@ -57,9 +57,19 @@ struct Simulation {
     record();
   }
 
+  /// Settings given in code go into the spec inline (replacing its control_config), so that
+  /// the spec written out runs the same again.
+  static sim::RunSpec withControl(sim::RunSpec spec,
+                                  std::optional<control::ControlSettings> settings) {
+    if (settings) {
+      spec.control = std::move(settings);
+      spec.control_config.clear();
+    }
+    return spec;
+  }
+
   sim::RunOverrides overrides() const {
     sim::RunOverrides o;
-    o.control = control ? &*control : nullptr;
     o.scene = scene ? &*scene : nullptr;
     return o;
   }
@@ -129,7 +139,6 @@ struct Simulation {
     }
   }
 
-  std::optional<control::ControlSettings> control;
   std::optional<sim::SceneConfig> scene;
   sim::BuiltRun run;
   sim::Plant& plant;
@@ -189,6 +198,9 @@ void bindSimulation(py::module_& m) {
       .def_property_readonly("controller_name",
                              [](Simulation& s) { return std::string(s.run.controller->name()); })
       .def_property_readonly("controller_text", [](Simulation& s) { return s.run.controller_text; })
+      .def_property_readonly("spec", [](Simulation& s) { return s.run.spec; })
+      .def("spec_yaml",
+           [](Simulation& s) { return sim::toYaml(sim::withAbsolutePaths(s.run.spec)); })
       .def("state",
            [](Simulation& s) {
              const std::lock_guard<std::mutex> lock(s.mutex);

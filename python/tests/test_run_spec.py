@@ -110,3 +110,40 @@ def test_simulation_with_perception_equals_the_command_line(tmp_path, controller
     sim = rollstep.Simulation(spec=spec)
     assert "perception in closed loop" in sim._sim.controller_text
     _same_as_command_line(tmp_path, spec)
+
+
+def test_simulation_with_control_settings_given_in_code_writes_a_spec_that_reruns_it(tmp_path):
+    """Settings given in code are the spec's own control: section: the spec the Simulation
+    saves runs the same with `rollstep sim --spec`, and reads back equal."""
+    program = os.environ.get("ROLLSTEP_PROGRAM") or rollstep._paths.PROGRAM
+    if not os.path.exists(program):
+        pytest.skip("the rollstep program is not built")
+    control = rollstep.ControlSettings()
+    control.mpc.period = 0.04
+    control.feedback.foot_kp = 300
+    sim = rollstep.Simulation(scene="step20", controller="nmpc", gait="trot",
+                              command=(0.15, 0, 0), control=control, log_every=5)
+    assert sim.spec.control.mpc.period == 0.04
+    assert sim.spec.control.feedback.foot_kp == 300
+    spec = sim.spec
+    spec.duration = 0.3
+    spec.out = str(tmp_path / "sim")
+    sim = rollstep.Simulation(spec=spec)
+    sim.run(0.3)
+    sim.save_spec(tmp_path / "run.yaml")
+    assert rollstep.RunSpec.load(tmp_path / "run.yaml") == spec
+    rollstep.run_command(["sim", "--spec", str(tmp_path / "run.yaml")], capture=True)
+    rows = _log_rows(tmp_path / "sim" / "log.csv")
+    log = sim.log(with_units=True)
+    assert len(rows) - 1 == len(log["time[s]"])
+    for column, name in enumerate(rows[0]):
+        if "[" in name:
+            theirs = [row[column] for row in rows[1:]]
+            assert [_printed(v, cell) for v, cell in zip(log[name], theirs)] == theirs, name
+    # The run wrote the settings whole, inline: the same spec.
+    assert rollstep.RunSpec.load(tmp_path / "sim" / "run.yaml") == spec
+    # The settings differ from the defaults: a run without them logs differently.
+    default = rollstep.Simulation(scene="step20", controller="nmpc", gait="trot",
+                                  command=(0.15, 0, 0), log_every=5)
+    default.run(0.3)
+    assert not np.array_equal(default.log()["base_x"], sim.log()["base_x"])

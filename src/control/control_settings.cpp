@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <map>
 #include <optional>
+#include <set>
 #include <stdexcept>
 #include <type_traits>
 #include <variant>
@@ -210,79 +211,106 @@ void checkSettings(const ControlSettings& settings) {
 
 namespace {
 
-ControlSettings loadControlSettingsAt(const std::string& yaml_file, int depth);
+ControlSettings loadControlSettingsAt(const std::string& yaml_file, int depth,
+                                      std::set<std::string>* sections_given);
 
-/// The settings of yaml_text over the defaults, or over the file its `extends:` names
-/// (relative to base_directory, the directory of the file being read).
-ControlSettings parseControlSettingsAt(const std::string& yaml_text, const std::string& source_name,
-                                       const std::filesystem::path& base_directory, int depth) {
-  const std::string prefix = "control settings " + source_name + ": ";
-  const auto fail = [&](const yaml::Node& at, const std::string& what) {
-    throw std::runtime_error(prefix + "line " + std::to_string(at.line()) + ": " + what);
-  };
-  ControlSettings settings;
-  try {
-    const yaml::Document document = yaml::Document::parse(yaml_text);
-    const yaml::Node root = document.root();
-    if (root.isNull()) return settings;
-    if (!root.isMapping()) fail(root, "expected a mapping of key: value");
-    // extends: first, wherever it stands: the keys of this file then override its values.
-    std::optional<std::size_t> extends;
-    for (std::size_t item = 0; item < root.size(); ++item) {
-      const yaml::Node key_node = root.key(item);
-      if (!key_node.isScalar() || key_node.scalar() != "extends") continue;
-      if (extends) {
-        fail(key_node, "extends: given twice (first on line " +
-                           std::to_string(root.key(*extends).line()) + ")");
-      }
-      extends = item;
-    }
+/// Reads the mapping `root` (its keys named prefix + key) over the defaults, or over the
+/// file its `extends:` names (relative to base_directory), then checks the settings as a
+/// whole; `sections_given` (when not null) gets the top-level keys given here or by a file
+/// extended.
+ControlSettings readControlSettingsAt(const yaml::Node& root, settings::Reader& reader,
+                                      const std::string& prefix,
+                                      const std::filesystem::path& base_directory, int depth,
+                                      std::set<std::string>* sections_given,
+                                      const ControlSettings& start = ControlSettings{}) {
+  ControlSettings settings = start;
+  if (root.isNull()) return settings;
+  if (!root.isMapping()) {
+    if (prefix.empty()) reader.fail(root, "expected a mapping of key: value");
+    reader.fail(
+        root, prefix.substr(0, prefix.size() - 1) + ": expected a mapping, got " + root.kindName());
+  }
+  // extends: first, wherever it stands: the keys of this file then override its values.
+  std::optional<std::size_t> extends;
+  for (std::size_t item = 0; item < root.size(); ++item) {
+    const yaml::Node key_node = root.key(item);
+    if (!key_node.isScalar() || key_node.scalar() != "extends") continue;
     if (extends) {
-      const yaml::Node value = root.value(*extends);
-      if (!value.isScalar() || value.scalar().empty()) {
-        fail(value, "extends: expected the path of another control settings file");
-      }
-      if (depth >= kMaxExtendsDepth) {
-        fail(value, "extends: more than " + std::to_string(kMaxExtendsDepth) +
-                        " files deep (does a file extend itself?)");
-      }
-      const std::filesystem::path named(value.scalar());
-      const std::filesystem::path file = named.is_absolute() ? named : base_directory / named;
-      try {
-        settings = loadControlSettingsAt(file.string(), depth + 1);
-      } catch (const std::runtime_error& e) {
-        fail(value, std::string("extends: ") + e.what());
-      }
+      reader.fail(key_node, prefix + "extends: given twice (first on line " +
+                                std::to_string(root.key(*extends).line()) + ")");
     }
-    settings::Reader reader(prefix);
-    for (std::size_t item = 0; item < root.size(); ++item) {
-      const yaml::Node key_node = root.key(item);
-      table().readEntry(key_node, root.value(item), settings, reader);  // (extends: a no-op)
+    extends = item;
+  }
+  if (extends) {
+    const yaml::Node value = root.value(*extends);
+    if (!value.isScalar() || value.scalar().empty()) {
+      reader.fail(value, prefix + "extends: expected the path of another control settings file");
     }
-    if (const std::optional<Problem> p = problemOf(settings)) {
-      reader.failAtLine(reader.lineOf(p->keys, root.line()), p->keys.front() + ": " + p->what);
+    if (depth >= kMaxExtendsDepth) {
+      reader.fail(value, prefix + "extends: more than " + std::to_string(kMaxExtendsDepth) +
+                             " files deep (does a file extend itself?)");
     }
-  } catch (const yaml::YamlError& e) {
-    throw std::runtime_error(prefix + "YAML error: " + e.what());
+    const std::filesystem::path named(value.scalar());
+    const std::filesystem::path file = named.is_absolute() ? named : base_directory / named;
+    try {
+      settings = loadControlSettingsAt(file.string(), depth + 1, sections_given);
+    } catch (const std::runtime_error& e) {
+      reader.fail(value, prefix + "extends: " + e.what());
+    }
+  }
+  for (std::size_t item = 0; item < root.size(); ++item) {
+    const yaml::Node key_node = root.key(item);
+    table().readEntry(key_node, root.value(item), settings, reader, prefix);  // (extends: a no-op)
+    if (sections_given != nullptr) sections_given->insert(key_node.scalar());
+  }
+  if (const std::optional<Problem> p = problemOf(settings)) {
+    std::vector<std::string> paths;
+    for (const std::string& key : p->keys) paths.push_back(prefix + key);
+    reader.failAtLine(reader.lineOf(paths, root.line()), prefix + p->keys.front() + ": " + p->what);
   }
   return settings;
 }
 
-ControlSettings loadControlSettingsAt(const std::string& yaml_file, int depth) {
+/// The settings of yaml_text (see readControlSettingsAt).
+ControlSettings parseControlSettingsAt(const std::string& yaml_text, const std::string& source_name,
+                                       const std::filesystem::path& base_directory, int depth,
+                                       std::set<std::string>* sections_given) {
+  const std::string head = "control settings " + source_name + ": ";
+  const yaml::Document document = yaml::parseDocument(yaml_text, head + "YAML error: ");
+  settings::Reader reader(head);
+  return readControlSettingsAt(document.root(), reader, "", base_directory, depth, sections_given);
+}
+
+ControlSettings loadControlSettingsAt(const std::string& yaml_file, int depth,
+                                      std::set<std::string>* sections_given) {
   return parseControlSettingsAt(readTextFile(yaml_file, "control settings", kMaxConfigBytes),
-                                yaml_file, std::filesystem::path(yaml_file).parent_path(), depth);
+                                yaml_file, std::filesystem::path(yaml_file).parent_path(), depth,
+                                sections_given);
 }
 
 }  // namespace
 
 ControlSettings parseControlSettings(const std::string& yaml_text, const std::string& source_name) {
-  return parseControlSettingsAt(yaml_text, source_name, std::filesystem::current_path(), 0);
+  return parseControlSettingsAt(yaml_text, source_name, std::filesystem::current_path(), 0,
+                                nullptr);
 }
 
-ControlSettings loadControlSettings(const std::string& yaml_file) {
-  return loadControlSettingsAt(yaml_file, 0);
+ControlSettings loadControlSettings(const std::string& yaml_file,
+                                    std::set<std::string>* sections_given) {
+  return loadControlSettingsAt(yaml_file, 0, sections_given);
 }
 
-std::string toYaml(const ControlSettings& settings) { return table().write(settings); }
+ControlSettings readControlSettings(const yaml::Node& node, settings::Reader& reader,
+                                    const std::string& prefix, const std::string& base_directory,
+                                    const ControlSettings& start) {
+  return readControlSettingsAt(node, reader, prefix,
+                               base_directory.empty() ? std::filesystem::current_path()
+                                                      : std::filesystem::path(base_directory),
+                               0, nullptr, start);
+}
+
+std::string toYaml(const ControlSettings& settings, const std::string& indent) {
+  return table().write(settings, indent);
+}
 
 }  // namespace rollstep::control

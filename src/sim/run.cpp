@@ -5,13 +5,13 @@
 #include <cstdlib>
 #include <filesystem>
 #include <limits>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 
 #include "rollstep/centroidal/centroidal_ocp.hpp"
 #include "rollstep/common/number_text.hpp"
 #include "rollstep/common/text_file.hpp"
-#include "rollstep/common/yaml_tree.hpp"
 #include "rollstep/perception/terrain_perception.hpp"
 #include "rollstep/sim/estimator_source.hpp"
 #include "rollstep/sim/lidar.hpp"
@@ -72,29 +72,27 @@ centroidal::RobotOcpDescription loadCheckedDescription(const BuiltRun& run) {
 
 /// The cbfqp controller reads a control file's `baseline:` section: a file without one (an
 /// NMPC behaviour file) would silently run the baseline on the defaults, not its tuning.
-void requireBaselineSection(const std::string& path) {
-  const std::string file_text = readTextFile(path, "control settings");
-  const yaml::Document doc = yaml::Document::parse(file_text);
-  const yaml::Node root = doc.root();
-  for (std::size_t i = 0; root.isMapping() && i < root.size(); ++i) {
-    if (root.key(i).scalar() == "baseline") return;
+control::ControlSettings loadBaselineSettings(const std::string& path) {
+  std::set<std::string> sections;
+  control::ControlSettings settings = control::loadControlSettings(path, &sections);
+  if (sections.count("baseline") == 0) {
+    throw RunSpecError(
+        "control_config",
+        "'" + path +
+            "' has no baseline: section, the cbfqp controller's tuning (an NMPC file? the "
+            "baseline's is config/baseline.yaml; write 'baseline: {}' for its defaults)");
   }
-  throw RunSpecError(
-      "control_config",
-      "'" + path +
-          "' has no baseline: section, the cbfqp controller's tuning (an NMPC file? the "
-          "baseline's is config/baseline.yaml; write 'baseline: {}' for its defaults)");
+  return settings;
 }
 
 /// The NMPC's control settings: the spec's file, else the robot folder's own of the name,
 /// else the project's default (the library's on ground truth, config/nmpc_perception.yaml
 /// over them on perception); the spec's timing and integrator over them.
-control::ControlSettings nmpcSettings(const RunSpec& spec, const RobotFolder& robot,
-                                      const RunOverrides& overrides) {
+control::ControlSettings nmpcSettings(const RunSpec& spec, const RobotFolder& robot) {
   const bool perception = spec.terrain == TerrainSource::Perception;
   control::ControlSettings settings;
-  if (overrides.control != nullptr) {
-    settings = *overrides.control;
+  if (spec.control) {
+    settings = *spec.control;
   } else {
     std::string file = spec.control_config;
     if (file.empty()) {
@@ -171,11 +169,11 @@ std::string commandText(const std::vector<planning::TimedBaseCommand>& schedule)
   return out;
 }
 
-void buildNmpc(BuiltRun& run, const RunOverrides& overrides) {
+void buildNmpc(BuiltRun& run) {
   const RunSpec& spec = run.spec;
   const Plant& plant = *run.plant;
   const centroidal::RobotOcpDescription robot = loadCheckedDescription(run);
-  const control::ControlSettings settings = nmpcSettings(spec, run.robot, overrides);
+  const control::ControlSettings settings = nmpcSettings(spec, run.robot);
   // The terrain source: the scene's ground truth, or perception in closed loop (the LiDAR's
   // view from the start pose first, then every scan), regions shrunk alike.
   const double margin = centroidal::footholdRegionMargin(robot, settings.ocp);
@@ -232,7 +230,7 @@ void buildNmpc(BuiltRun& run, const RunOverrides& overrides) {
   run.controller = std::move(nmpc);
 }
 
-void buildCbfQp(BuiltRun& run, const RunOverrides& overrides) {
+void buildCbfQp(BuiltRun& run) {
   const RunSpec& spec = run.spec;
   const Plant& plant = *run.plant;
   const centroidal::RobotOcpDescription robot = loadCheckedDescription(run);
@@ -242,12 +240,13 @@ void buildCbfQp(BuiltRun& run, const RunOverrides& overrides) {
     if (config.empty()) config = projectConfigFile("baseline.yaml");
   }
   control::ControlSettings settings;
-  if (overrides.control != nullptr) {
-    settings = *overrides.control;
+  if (spec.control) {
+    settings = *spec.control;
     config = "control settings given";
+  } else if (!spec.control_config.empty()) {
+    settings = loadBaselineSettings(config);
   } else {
     settings = control::loadControlSettings(config);
-    if (!spec.control_config.empty()) requireBaselineSection(config);
   }
   const planning::BaseVelocityCommand command = spec.command.front().command;
   std::unique_ptr<CbfQpController> cbfqp;
@@ -338,9 +337,9 @@ BuiltRun buildRun(const RunSpec& spec, const RunOverrides& overrides) {
   BuiltRun run;
   run.spec = spec;
   if (overrides.scene != nullptr) {
-    run.scene = *overrides.scene;
+    run.scene = withSceneNumbers(*overrides.scene, spec.scene_parameters);
   } else {
-    run.scene = spec.scene_file.empty() ? loadScene(spec.scene) : loadSceneConfig(spec.scene_file);
+    run.scene = sceneOf(spec);
   }
   // The robot folder, its files checked against each other before anything runs.
   run.robot = robotFolderOf(spec);
@@ -351,10 +350,10 @@ BuiltRun buildRun(const RunSpec& spec, const RunOverrides& overrides) {
       run.controller_text = "stand (nominal posture, wheels at rest)";
       break;
     case ControllerKind::Nmpc:
-      buildNmpc(run, overrides);
+      buildNmpc(run);
       break;
     case ControllerKind::CbfQp:
-      buildCbfQp(run, overrides);
+      buildCbfQp(run);
       break;
     case ControllerKind::Drive:
       buildDrive(run);

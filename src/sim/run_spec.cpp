@@ -88,11 +88,66 @@ std::string writeCommand(const RunSpec& s, const std::string&) {
   return out + "]";
 }
 
-settings::Table<RunSpec> makeTable() {
+/// `control:` a mapping of control settings (the control settings' own reader: its keys,
+/// ranges and checks, named control.<key>), or null for none.
+void readControl(const yaml::Node& v, RunSpec& s, settings::Reader& r, const std::string& path,
+                 const std::string& base_dir) {
+  if (v.isNull()) {
+    s.control.reset();
+    return;
+  }
+  // Over the settings the spec had (a spec read over another: its keys replace values).
+  s.control = control::readControlSettings(v, r, path + ".", base_dir,
+                                           s.control ? *s.control : control::ControlSettings{});
+}
+
+std::string writeControl(const RunSpec& s, const std::string& indent) {
+  if (!s.control) return " null";
+  return "\n" + control::toYaml(*s.control, indent + "  ");
+}
+
+/// `scene_parameters:` a mapping of name: number (the names are checked against the scene
+/// once the spec is read: parseRunSpec).
+void readSceneNumbers(const yaml::Node& v, RunSpec& s, settings::Reader& r,
+                      const std::string& path) {
+  s.scene_parameters.clear();
+  if (v.isNull()) return;
+  if (!v.isMapping()) r.fail(v, path + ": expected a mapping of name: number");
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    const yaml::Node key = v.key(i);
+    if (!key.isScalar() || key.scalar().empty()) {
+      r.fail(key, path + ": a name is not a plain name");
+    }
+    const std::string at = path + "." + key.scalar();
+    r.note(at, key, v.value(i));
+    if (!v.value(i).isScalar()) {
+      r.fail(v.value(i), at + ": expected a single number, got " + v.value(i).kindName());
+    }
+    s.scene_parameters.push_back(
+        {key.scalar(), settings::detail::readNumber(v.value(i), Range::anyFinite(), r, at)});
+  }
+}
+
+std::string writeSceneNumbers(const RunSpec& s, const std::string& indent) {
+  if (s.scene_parameters.empty()) return " {}";
+  std::string out = "\n";
+  for (const SceneNumberValue& n : s.scene_parameters) {
+    out += indent + "  " + textYaml(n.name) + ": " + settings::numberYaml(n.value) + "\n";
+  }
+  return out;
+}
+
+settings::Table<RunSpec> makeTable(const std::string& base_dir) {
   settings::Table<RunSpec> t;
   addText(t, "robot", &RunSpec::robot);
   addText(t, "scene", &RunSpec::scene);
   addText(t, "scene_file", &RunSpec::scene_file);
+  t.custom("scene_parameters", readSceneNumbers, writeSceneNumbers, /*is_section=*/true)
+      .documentedAs([](const std::string&) {
+        return std::string(
+            " {}  # name: number, each a parameter of the scene, friction or a key path "
+            "(boxes[0].size[2])\n");
+      });
   t.field("controller", &RunSpec::controller)
       .field("duration", &RunSpec::duration, "s", Range::closed(0.001, kMaxDuration))
       .field("gait", &RunSpec::gait)
@@ -100,6 +155,17 @@ settings::Table<RunSpec> makeTable() {
       .field("drive_speed", &RunSpec::drive_speed, "m/s", Range::closed(-1.8, 1.8))
       .field("drive_turn_speed", &RunSpec::drive_turn_speed, "m/s", Range::closed(-1.0, 1.0));
   addText(t, "control_config", &RunSpec::control_config);
+  t.custom(
+       "control",
+       [base_dir](const yaml::Node& v, RunSpec& s, settings::Reader& r, const std::string& path) {
+         readControl(v, s, r, path, base_dir);
+       },
+       writeControl, /*is_section=*/true)
+      .documentedAs([](const std::string&) {
+        return std::string(
+            " null  # none: control_config; else a mapping of the control settings file's keys "
+            "(config/control.yaml)\n");
+      });
   t.field("mpc_timing", &RunSpec::mpc_timing)
       .field("integrator", &RunSpec::integrator)
       .field("terrain", &RunSpec::terrain);
@@ -118,7 +184,7 @@ settings::Table<RunSpec> makeTable() {
 }
 
 const settings::Table<RunSpec>& table() {
-  static const settings::Table<RunSpec> kTable = makeTable();
+  static const settings::Table<RunSpec> kTable = makeTable("");
   return kTable;
 }
 
@@ -172,6 +238,21 @@ std::optional<settings::Problem> crossProblem(const RunSpec& s) {
                              "and scene exclude each other (the file names its scene)"};
   }
   if (s.scene.empty()) return settings::Problem{"scene", "empty (a scene name or file)"};
+  if (s.control && !s.control_config.empty()) {
+    return settings::Problem{"control", "and control_config exclude each other (give one)"};
+  }
+  for (std::size_t i = 0; i < s.scene_parameters.size(); ++i) {
+    for (std::size_t j = 0; j < i; ++j) {
+      if (s.scene_parameters[j].name == s.scene_parameters[i].name) {
+        return settings::Problem{"scene_parameters",
+                                 "'" + s.scene_parameters[i].name + "' given twice"};
+      }
+    }
+    if (!std::isfinite(s.scene_parameters[i].value)) {
+      return settings::Problem{"scene_parameters",
+                               s.scene_parameters[i].name + ": not a finite number"};
+    }
+  }
   if (s.out.empty()) return settings::Problem{"out", "empty (the output folder)"};
   if (s.gait == planning::GaitKind::Custom) {
     return settings::Problem{"gait", "custom is not a gait a run can name"};
@@ -202,6 +283,7 @@ std::optional<settings::Problem> crossProblem(const RunSpec& s) {
     if (s.control_config != d.control_config) {
       return only("control_config", "by the nmpc and cbfqp controllers");
     }
+    if (s.control) return only("control", "by the nmpc and cbfqp controllers");
     if (s.terrain != d.terrain) return only("terrain", "by the nmpc and cbfqp controllers");
   }
   if (s.controller == ControllerKind::CbfQp && s.gait == planning::GaitKind::StaticWalk) {
@@ -260,12 +342,24 @@ bool RunSpec::operator==(const RunSpec& o) const {
          perception_timing == o.perception_timing && state_source == o.state_source &&
          estimator_config == o.estimator_config && sensor_config == o.sensor_config &&
          out == o.out && log_every == o.log_every && map_log == o.map_log &&
-         map_log_rate == o.map_log_rate && log_violations == o.log_violations;
+         map_log_rate == o.map_log_rate && log_violations == o.log_violations &&
+         scene_parameters == o.scene_parameters && control.has_value() == o.control.has_value() &&
+         (!control || control::toYaml(*control) == control::toYaml(*o.control));
 }
 
 void checkRunSpec(const RunSpec& spec) {
   if (auto p = table().check(spec)) throw RunSpecError(p->path, p->what);
   if (auto p = crossProblem(spec)) throw RunSpecError(p->path, p->what);
+  if (spec.control) {
+    try {
+      control::checkSettings(*spec.control);
+    } catch (const std::invalid_argument& e) {  // "control settings: <key>: <problem>"
+      const std::string what = e.what();
+      const std::string head = "control settings: ";
+      throw RunSpecError("control",
+                         what.rfind(head, 0) == 0 ? "control." + what.substr(head.size()) : what);
+    }
+  }
 }
 
 RunSpec parseRunSpec(const std::string& text, const std::string& source,
@@ -274,7 +368,9 @@ RunSpec parseRunSpec(const std::string& text, const std::string& source,
   const yaml::Document document = yaml::parseDocument(text, head + "YAML error: ");
   RunSpec spec = base;
   settings::Reader reader(head);
-  table().read(document.root(), spec, reader);
+  // The inline control settings' extends: is relative to the spec's folder.
+  const settings::Table<RunSpec> dir_table = makeTable(base_dir);
+  dir_table.read(document.root(), spec, reader);
   if (auto p = crossProblem(spec)) {
     reader.failAtLine(reader.lineOf({p->path}, document.root().line()), p->path + ": " + p->what);
   }
@@ -282,6 +378,48 @@ RunSpec parseRunSpec(const std::string& text, const std::string& source,
     forEachPath(spec, [&](std::string& path) {
       if (fs::path(path).is_relative()) path = (fs::path(base_dir) / path).lexically_normal();
     });
+  }
+  // The scene numbers against the scene's own (its file read only when there are some).
+  if (!spec.scene_parameters.empty()) {
+    const char* scene_key = spec.scene_file.empty() ? "scene" : "scene_file";
+    SceneConfig scene;
+    try {
+      scene = spec.scene_file.empty() ? loadScene(spec.scene) : loadSceneConfig(spec.scene_file);
+    } catch (const std::exception& e) {  // the scene itself cannot be loaded
+      reader.failAtLine(reader.lineOf({scene_key, "scene_parameters"}, document.root().line()),
+                        std::string(scene_key) + ": " + e.what());
+    }
+    const auto lineOf = [&](std::size_t i) {
+      return reader.lineOf({"scene_parameters." + spec.scene_parameters[i].name},
+                           document.root().line());
+    };
+    for (std::size_t i = 0; i < spec.scene_parameters.size(); ++i) {
+      if (!hasSceneNumber(scene, spec.scene_parameters[i].name)) {
+        try {
+          withSceneNumbers(scene, {spec.scene_parameters[i]});
+        } catch (const RunSpecError& e) {
+          reader.failAtLine(lineOf(i), e.what());
+        }
+      }
+    }
+    try {
+      (void)withSceneNumbers(scene, spec.scene_parameters);
+    } catch (const RunSpecError& e) {
+      // The first number whose setting makes the scene invalid names the line.
+      std::size_t first = 0;
+      for (std::size_t k = 1; k <= spec.scene_parameters.size(); ++k) {
+        first = k - 1;
+        try {
+          const std::vector<SceneNumberValue> some(
+              spec.scene_parameters.begin(),
+              spec.scene_parameters.begin() + static_cast<std::ptrdiff_t>(k));
+          (void)withSceneNumbers(scene, some);
+        } catch (const RunSpecError&) {
+          break;
+        }
+      }
+      reader.failAtLine(lineOf(first), e.what());
+    }
   }
   return spec;
 }
@@ -301,5 +439,34 @@ RunSpec withAbsolutePaths(const RunSpec& spec) {
 }
 
 std::string runSpecDefaults() { return table().documented(); }
+
+SceneConfig withSceneNumbers(SceneConfig scene, const std::vector<SceneNumberValue>& values) {
+  for (const SceneNumberValue& n : values) {
+    if (!hasSceneNumber(scene, n.name)) {
+      std::string known = "friction";
+      for (const SceneParameter& p : scene.parameters) known += ", " + p.name;
+      throw RunSpecError("scene_parameters", "'" + n.name + "' is not a number of scene " +
+                                                 scene.name +
+                                                 " (its parameters and friction: " + known +
+                                                 "; or a key path such as boxes[0].size[2])");
+    }
+    setSceneNumber(scene, n.name, n.value);
+  }
+  if (!values.empty()) {
+    try {
+      scene.validate();
+    } catch (const std::invalid_argument& e) {
+      throw RunSpecError("scene_parameters",
+                         std::string("the scene with these numbers: ") + e.what());
+    }
+  }
+  return scene;
+}
+
+SceneConfig sceneOf(const RunSpec& spec) {
+  SceneConfig scene =
+      spec.scene_file.empty() ? loadScene(spec.scene) : loadSceneConfig(spec.scene_file);
+  return withSceneNumbers(std::move(scene), spec.scene_parameters);
+}
 
 }  // namespace rollstep::sim

@@ -76,8 +76,9 @@ TEST(RunSpec, WrittenAndReadBackEqual) {
 TEST(RunSpec, ErrorsNameFileLineAndKey) {
   EXPECT_EQ(errorOf("scene: flat\nspeed: 3\n"),
             "run spec 'r.yaml': line 2: unknown key 'speed' (known: robot, scene, scene_file, "
-            "controller, duration, gait, command, drive_speed, drive_turn_speed, "
-            "control_config, mpc_timing, integrator, terrain, lidar_config, perception_config, "
+            "scene_parameters, controller, duration, gait, command, drive_speed, "
+            "drive_turn_speed, control_config, control, mpc_timing, integrator, terrain, "
+            "lidar_config, perception_config, "
             "perception_timing, state_source, estimator_config, sensor_config, out, log_every, "
             "map_log, map_log_rate, log_violations)");
   EXPECT_EQ(errorOf("duration: 5\nduration: 6\n"),
@@ -127,6 +128,114 @@ TEST(RunSpec, ErrorsNameFileLineAndKey) {
   }
 }
 
+TEST(RunSpec, ControlSettingsInline) {
+  RunSpec s;
+  s.scene = "step20";
+  s.controller = ControllerKind::Nmpc;
+  s.gait = planning::GaitKind::Trot;
+  s.control = control::ControlSettings{};
+  s.control->mpc.period = 0.04;
+  s.control->feedback.foot_kp = 300.0;
+  s.control->ocp.horizon = 40;
+  const std::string text = toYaml(s);
+  EXPECT_NE(text.find("\ncontrol:\n  control_period: 0.001\n  mpc:\n"), std::string::npos) << text;
+  const RunSpec back = parseRunSpec(text, "run spec 'r.yaml'");
+  ASSERT_TRUE(back.control.has_value());
+  EXPECT_EQ(back.control->mpc.period, 0.04);
+  EXPECT_EQ(back.control->ocp.horizon, 40);
+  EXPECT_TRUE(back == s);
+  EXPECT_EQ(toYaml(back), text);
+  // Without settings inline: null, and the defaults document the key.
+  EXPECT_NE(toYaml(RunSpec{}).find("\ncontrol: null\n"), std::string::npos);
+  EXPECT_NE(runSpecDefaults().find("control: null  # "), std::string::npos);
+  // A file gives only the keys that differ from the library's defaults.
+  const RunSpec given = parseRunSpec(
+      "controller: nmpc\ncontrol:\n  mpc: {period: 0.04, latency: 0.02}\n", "run spec 'r.yaml'");
+  ASSERT_TRUE(given.control.has_value());
+  EXPECT_EQ(given.control->mpc.period, 0.04);
+  EXPECT_EQ(given.control->feedback.foot_kp, control::ControlSettings{}.feedback.foot_kp);
+  // Read over a spec (Python's assignments): the keys given replace values, the others stay.
+  const RunSpec updated =
+      parseRunSpec("control:\n  feedback: {foot_kp: 250}\n", "run spec 'r.yaml'", "", given);
+  EXPECT_EQ(updated.control->mpc.period, 0.04);
+  EXPECT_EQ(updated.control->feedback.foot_kp, 250.0);
+  // The control settings' own checks, named inside the spec with their lines.
+  EXPECT_EQ(errorOf("controller: nmpc\ncontrol:\n  mpc:\n    period: -1\n"),
+            "run spec 'r.yaml': line 4: control.mpc.period: -1 is outside [0, 10]");
+  EXPECT_EQ(
+      errorOf("controller: nmpc\ncontrol:\n  mpcc: {}\n")
+          .rfind("run spec 'r.yaml': line 3: unknown key 'control.mpcc' (known in control: ", 0),
+      0u)
+      << errorOf("controller: nmpc\ncontrol:\n  mpcc: {}\n");
+  EXPECT_EQ(errorOf("controller: nmpc\ncontrol:\n  ocp: {horizon: 0}\n")
+                .rfind("run spec 'r.yaml': line 3: control.ocp.horizon: ", 0),
+            0u)
+      << errorOf("controller: nmpc\ncontrol:\n  ocp: {horizon: 0}\n");
+  EXPECT_EQ(errorOf("controller: nmpc\ncontrol:\n  mpc: {period: 0.01, latency: 0.02}\n"),
+            "run spec 'r.yaml': line 3: control.mpc.latency: 0.02 is above mpc.period (0.01): in "
+            "deterministic timing a solve takes at most a period");
+  EXPECT_EQ(errorOf("controller: nmpc\ncontrol_config: c.yaml\ncontrol: {}\n"),
+            "run spec 'r.yaml': line 3: control: and control_config exclude each other (give one)");
+  // Made in code: checked as a file is.
+  RunSpec bad = s;
+  bad.control->mpc.latency = 0.05;
+  try {
+    checkRunSpec(bad);
+    ADD_FAILURE() << "no error";
+  } catch (const RunSpecError& e) {
+    EXPECT_EQ(e.key(), "control");
+    EXPECT_EQ(e.problem().rfind("control.mpc.latency: 0.05 is above mpc.period", 0), 0u)
+        << e.what();
+  }
+  EXPECT_EQ(errorOf("controller: stand\ncontrol: {}\n"),
+            "run spec 'r.yaml': line 2: control: is used only by the nmpc and cbfqp controllers");
+}
+
+TEST(RunSpec, SceneParametersCheckedAgainstTheScene) {
+  const RunSpec s = parseRunSpec(
+      "scene: step20\nscene_parameters:\n  step1_height: 0.15\n  friction: 0.7\n"
+      "  start_x: 1.1\n",
+      "run spec 'r.yaml'");
+  ASSERT_EQ(s.scene_parameters.size(), 3u);
+  EXPECT_EQ(s.scene_parameters[0].name, "step1_height");
+  const SceneConfig scene = sceneOf(s);
+  EXPECT_EQ(sceneNumber(scene, "step1_height"), 0.15);
+  EXPECT_EQ(sceneNumber(scene, "friction"), 0.7);
+  EXPECT_EQ(resolveScene(scene).solids[0].center.x(), 1.1 + 0.5 * 1.2);
+  // Written and read back equal (a key path is written quoted).
+  RunSpec paths = s;
+  paths.scene_parameters.push_back({"boxes[0].size[1]", 2.5});
+  EXPECT_TRUE(parseRunSpec(toYaml(paths), "run spec 'r.yaml'") == paths) << toYaml(paths);
+  EXPECT_EQ(sceneNumber(sceneOf(paths), "boxes[0].size[1]"), 2.5);
+  EXPECT_NE(toYaml(RunSpec{}).find("\nscene_parameters: {}\n"), std::string::npos);
+  // A number the scene does not have, on its line, with the ones it has.
+  EXPECT_EQ(
+      errorOf("scene: step20\nscene_parameters:\n  step1_height: 0.1\n  hight: 0.2\n"),
+      "run spec 'r.yaml': line 4: scene_parameters: 'hight' is not a number of scene step20 (its "
+      "parameters and friction: friction, start_x, width, step1_height, step1_length; or a key "
+      "path such as boxes[0].size[2])");
+  EXPECT_EQ(
+      errorOf("scene: flat\nscene_parameters: {step1_height: 0.1}\n")
+          .rfind("run spec 'r.yaml': line 2: scene_parameters: 'step1_height' is not a number of "
+                 "scene flat",
+                 0),
+      0u);
+  // A value the scene's checks refuse.
+  const std::string bad = errorOf("scene: step20\nscene_parameters:\n  friction: 9\n");
+  EXPECT_EQ(
+      bad.rfind("run spec 'r.yaml': line 3: scene_parameters: the scene with these numbers: ", 0),
+      0u)
+      << bad;
+  EXPECT_NE(bad.find("friction"), std::string::npos) << bad;
+  EXPECT_EQ(errorOf("scene_parameters: [1]\n"),
+            "run spec 'r.yaml': line 1: scene_parameters: expected a mapping of name: number");
+  EXPECT_EQ(errorOf("scene: step20\nscene_parameters: {width: 2, width: 3}\n"),
+            "run spec 'r.yaml': line 2: scene_parameters.width: given twice (first on line 2)");
+  EXPECT_EQ(errorOf("scene: step20\nscene_parameters: {width: wide}\n")
+                .rfind("run spec 'r.yaml': line 2: scene_parameters.width: ", 0),
+            0u);
+}
+
 TEST(RunSpec, PathsRelativeToTheFileAndNamesKept) {
   namespace fs = std::filesystem;
   const fs::path dir = fs::temp_directory_path() / "rollstep_run_spec_test";
@@ -163,6 +272,30 @@ TEST(RunSpec, BuildRefusesWhatDoesNotFitTheRobot) {
               std::string::npos)
         << e.what();
   }
+  // The cbfqp controller's control file must give the baseline's tuning, itself or through
+  // a file it extends.
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / "rollstep_run_spec_baseline_test";
+  fs::create_directories(dir);
+  {
+    std::ofstream(dir / "nmpc_only.yaml") << "mpc: {period: 0.02}\n";
+    std::ofstream(dir / "extends.yaml")
+        << "extends: " << projectConfigFile("baseline.yaml") << "\ncbf_qp: {damping: 1e-5}\n";
+  }
+  s = RunSpec{};
+  s.controller = ControllerKind::CbfQp;
+  s.scene = "step20";
+  s.control_config = (dir / "nmpc_only.yaml").string();
+  try {
+    buildRun(s);
+    ADD_FAILURE() << "no error";
+  } catch (const RunSpecError& e) {
+    EXPECT_EQ(e.key(), "control_config");
+    EXPECT_NE(e.problem().find("has no baseline: section"), std::string::npos) << e.what();
+  }
+  s.control_config = (dir / "extends.yaml").string();
+  EXPECT_NE(buildRun(s).cbfqp, nullptr);
+  fs::remove_all(dir);
   // A stand run builds: the plant at the scene's start, the nominal posture.
   s = RunSpec{};
   const BuiltRun run = buildRun(s);

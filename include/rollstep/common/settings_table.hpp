@@ -485,6 +485,14 @@ class Table {
     return add(std::move(f));
   }
 
+  /// Documents the field added last by `document(indent)`: the text after "key:" in
+  /// documented() (a custom key whose default is not a written value).
+  Table& documentedAs(std::function<std::string(const std::string& indent)> document) {
+    if (fields_.empty()) throw std::logic_error("settings table: documentedAs() before a field");
+    fields_.back().document = std::move(document);
+    return *this;
+  }
+
   const std::vector<Field<S>>& fields() const { return fields_; }
   const Field<S>* find(const std::string& key) const {
     for (const Field<S>& f : fields_) {

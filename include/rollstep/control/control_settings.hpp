@@ -10,10 +10,13 @@
 // URDF and the robot description (robots/<robot>/centroidal.yaml).
 #include <Eigen/Core>
 #include <array>
+#include <set>
 #include <string>
 
 #include "rollstep/centroidal/ocp_settings.hpp"
 #include "rollstep/common/enum_names.hpp"
+#include "rollstep/common/settings_table.hpp"
+#include "rollstep/common/yaml_tree.hpp"
 
 namespace rollstep::control {
 
@@ -221,8 +224,20 @@ void checkSettings(const ControlSettings& settings);
 /// directory), and the keys given here override them one by one (`ocp:` and its `solver:`
 /// too); chains up to 8 files deep.
 ControlSettings parseControlSettings(const std::string& yaml_text, const std::string& source_name);
-ControlSettings loadControlSettings(const std::string& yaml_file);
-/// Every key with its value, read back by parseControlSettings exactly.
-std::string toYaml(const ControlSettings& settings);
+/// Same, from a file; `sections_given` (when not null) receives the top-level keys the file
+/// or a file it extends gives ("baseline", "mpc", ...).
+ControlSettings loadControlSettings(const std::string& yaml_file,
+                                    std::set<std::string>* sections_given = nullptr);
+/// The settings of a mapping inside another file (a run spec's `control:`), read over
+/// `start` (the defaults; an `extends:` replaces it) through `reader` (its head names the
+/// file); keys are named prefix + key ("control.mpc.period") in errors; `extends:` is
+/// relative to base_directory ("": the working directory). A null node gives `start`.
+ControlSettings readControlSettings(const yaml::Node& node, settings::Reader& reader,
+                                    const std::string& prefix,
+                                    const std::string& base_directory = "",
+                                    const ControlSettings& start = ControlSettings{});
+/// Every key with its value, read back by parseControlSettings exactly; `indent` in front
+/// of every line (a section of another file).
+std::string toYaml(const ControlSettings& settings, const std::string& indent = "");
 
 }  // namespace rollstep::control

@@ -39,12 +39,10 @@ struct BuiltRun {
   OnlinePerception* perception() const;
 };
 
-/// What the spec leaves to files, given in code instead.
+/// What the spec leaves to files, given in code instead (control settings given in code
+/// are the spec's own `control`).
 struct RunOverrides {
-  /// Control settings instead of the spec's control_config (or its default); the spec's
-  /// mpc_timing and integrator still apply over them.
-  const control::ControlSettings* control = nullptr;
-  /// A scene instead of the spec's scene or scene_file.
+  /// A scene instead of the spec's scene or scene_file (its scene_parameters set over it).
   const SceneConfig* scene = nullptr;
 };
 

@@ -14,6 +14,10 @@
 //   gait: trot
 //   command: [[0, 0.15, 0, 0]]     # [time s, vx m/s, vy m/s, yaw rate rad/s] from time on
 //   mpc_timing: deterministic
+//   scene_parameters:              # the scene's numbers for this run
+//     step1_height: 0.15
+//   control:                       # the control settings inline (else control_config)
+//     mpc: {period: 0.02}
 #include <array>
 #include <optional>
 #include <stdexcept>
@@ -21,9 +25,11 @@
 #include <vector>
 
 #include "rollstep/common/enum_names.hpp"
+#include "rollstep/control/control_settings.hpp"
 #include "rollstep/planning/base_reference.hpp"
 #include "rollstep/planning/gait.hpp"
 #include "rollstep/sim/nmpc_controller.hpp"
+#include "rollstep/sim/scene.hpp"
 
 namespace rollstep::sim {
 
@@ -61,6 +67,13 @@ constexpr std::array<EnumName<IntegratorChoice>, 3> enumNames(IntegratorChoice) 
            {IntegratorChoice::Naive, "naive"}}};
 }
 
+/// A number of the scene set by a run (RunSpec::scene_parameters).
+struct SceneNumberValue {
+  std::string name;  ///< a parameter, friction or a key path
+  double value = 0.0;
+  bool operator==(const SceneNumberValue& o) const { return name == o.name && value == o.value; }
+};
+
 /// One run. Paths: "" is the default named beside each; in a spec file a relative path is
 /// relative to the file's folder (a robot or scene given by name is a name).
 struct RunSpec {
@@ -71,6 +84,10 @@ struct RunSpec {
   std::string scene = "flat";
   /// A scene file run instead of `scene` (the two exclude each other); "" = none.
   std::string scene_file;
+  /// Numbers of the scene set for this run, in order: each a parameter the scene declares
+  /// (its `parameters:`), its friction, or a number's key path (boxes[0].size[2]; see
+  /// sim::setSceneNumber). Randomized trials give the numbers they draw here.
+  std::vector<SceneNumberValue> scene_parameters;
   ControllerKind controller = ControllerKind::Stand;
   double duration = 10.0;  ///< [s] simulated time
   /// nmpc, cbfqp: the gait (cbfqp: standing, rolling or trot).
@@ -87,6 +104,12 @@ struct RunSpec {
   /// (nmpc_perception.yaml on perception) or baseline.yaml, else the project's default
   /// (the library's defaults; config/nmpc_perception.yaml; config/baseline.yaml).
   std::string control_config;
+  /// nmpc, cbfqp: the control settings themselves instead of a file (control_config; the
+  /// two exclude each other): a mapping of a control settings file's keys
+  /// (config/control.yaml) over the library's defaults, `extends:` relative to the spec
+  /// file's folder. A run given its settings in code (the Python Simulation) writes them
+  /// here whole, so that its run.yaml runs it again. None (null): control_config.
+  std::optional<control::ControlSettings> control;
   TimingChoice mpc_timing = TimingChoice::Default;          ///< nmpc only
   IntegratorChoice integrator = IntegratorChoice::Default;  ///< nmpc only
   TerrainSource terrain = TerrainSource::Scene;             ///< nmpc, cbfqp
@@ -148,5 +171,13 @@ std::string toYaml(const RunSpec& spec);
 RunSpec withAbsolutePaths(const RunSpec& spec);
 /// Every key with its default, unit and range (for documentation).
 std::string runSpecDefaults();
+
+/// The scene of the run: its scene or scene_file loaded, with its scene_parameters set.
+/// Throws RunSpecError("scene_parameters", ...) naming a number the scene does not have
+/// (and the ones it has) or a value its checks refuse, std::invalid_argument or
+/// std::runtime_error for a scene that cannot be loaded.
+SceneConfig sceneOf(const RunSpec& spec);
+/// `scene` with the numbers of `values` set (the same errors as sceneOf).
+SceneConfig withSceneNumbers(SceneConfig scene, const std::vector<SceneNumberValue>& values);
 
 }  // namespace rollstep::sim
