@@ -72,6 +72,11 @@ struct MpcSettings {
   double reference_leash = 0.0;
   /// [rad] The same for the yaw; 0: off.
   double reference_leash_yaw = 0.0;
+  /// [m] The same for the sideways part of the robot's offset from its reference (across
+  /// the reference's heading) alone: the robot moves sideways only by slip and yaw, and a
+  /// reference that ran on sideways places the footholds beside the legs (they cannot
+  /// reach sideways) and makes the robot yaw to catch up; 0: off.
+  double reference_leash_lateral = 0.05;
 };
 
 struct RefinementSettings {
