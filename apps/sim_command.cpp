@@ -208,6 +208,11 @@ std::string speedRuleText(const sim::NmpcController& nmpc, double duration) {
     ++slowdowns;
   }
   if (slowdowns == 0 && t.period > 0.0) text += "; not slowed down";
+  for (const planning::SidewaysHold& h : pipeline.sidewaysHolds()) {
+    if (h.start >= duration) continue;
+    text += formatText("; sideways motion held at a step %.2f-%.2f s", h.start,
+                       std::min(h.end, duration));
+  }
   return text + "\n";
 }
 

@@ -86,6 +86,7 @@
 #include "rollstep/control/robot_state.hpp"
 #include "rollstep/control/state_integrator.hpp"
 #include "rollstep/control/tracking_stage.hpp"
+#include "rollstep/planning/sideways_at_steps.hpp"
 #include "rollstep/planning/speed_adaptation.hpp"
 
 namespace rollstep::control {
@@ -113,7 +114,8 @@ class ControlPipeline {
   /// state.time). With ocp.speed_adaptation the references follow the schedule adapted to
   /// the terrain known now (planning::adaptScheduleToTerrain: ramped at
   /// ocp.command_acceleration and, for a trot, slowed down near steps to the speed rule's
-  /// step speed limit; referenceSchedule(), stepSlowdowns()).
+  /// step speed limit; referenceSchedule(), stepSlowdowns()), with its sideways part held
+  /// back while a foot crosses a step (planning::holdSidewaysAtSteps; sidewaysHolds()).
   solver::SolverStatus initializeSchedule(const RobotState& state,
                                           const std::vector<planning::TimedBaseCommand>& schedule);
   /// The schedule the references follow (the one given, or its adaptation).
@@ -122,6 +124,9 @@ class ControlPipeline {
   }
   /// Where initializeSchedule slowed the command down at a step (times from state.time).
   const std::vector<planning::StepSlowdown>& stepSlowdowns() const { return step_slowdowns_; }
+  /// Where the sideways part of the command is held back over a step (speed rule on;
+  /// planning::holdSidewaysAtSteps), in seconds from the schedule's start.
+  const std::vector<planning::SidewaysHold>& sidewaysHolds() const { return sideways_holds_; }
   /// [m/s] The speed rule's step speed limit (0: no trot, or no speed adaptation).
   double stepSpeedLimit() const { return step_speed_limit_; }
   /// One real-time tick at state.time. Never allocates, locks or throws.
@@ -198,6 +203,7 @@ class ControlPipeline {
   bool initialized_ = false;
   std::vector<planning::TimedBaseCommand> reference_schedule_;
   std::vector<planning::StepSlowdown> step_slowdowns_;
+  std::vector<planning::SidewaysHold> sideways_holds_;
   double step_speed_limit_ = 0.0;
 };
 
