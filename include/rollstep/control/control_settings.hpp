@@ -73,10 +73,11 @@ struct MpcSettings {
   /// [rad] The same for the yaw; 0: off.
   double reference_leash_yaw = 0.0;
   /// [m] The same for the sideways part of the robot's offset from its reference (across
-  /// the reference's heading) alone: the robot moves sideways only by slip and yaw, and a
-  /// reference that ran on sideways places the footholds beside the legs (they cannot
-  /// reach sideways) and makes the robot yaw to catch up; 0: off.
-  double reference_leash_lateral = 0.05;
+  /// the reference's heading) alone: a robot that moves sideways only by slip and yaw falls
+  /// behind a sideways command, and a reference that ran on sideways places the footholds
+  /// beside legs that cannot reach sideways; 0: off (a sideways command is then tracked
+  /// more closely: the robot catches up).
+  double reference_leash_lateral = 0.0;
 };
 
 struct RefinementSettings {
