@@ -222,6 +222,11 @@ std::string speedRuleText(const sim::NmpcController& nmpc, double duration) {
     text += formatText("; approach on time (first touch-down onto a step %.2f m past its riser)",
                        a.after);
   }
+  for (const planning::SidewaysHold& h : pipeline.sidewaysHolds()) {
+    if (h.start >= duration) continue;
+    text += formatText("; sideways motion held at a step %.2f-%.2f s", h.start,
+                       std::min(h.end, duration));
+  }
   return text + "\n";
 }
 

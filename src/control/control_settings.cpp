@@ -39,7 +39,8 @@ settings::Table<MpcSettings> makeMpcFields() {
       .field("initial_iterations", &S::initial_iterations, "", Range::closed(1, 1000000))
       .field("max_solution_age", &S::max_solution_age, "s", Range::leftOpen(0, 100))
       .field("reference_leash", &S::reference_leash, "m", Range::closed(0, 100))
-      .field("reference_leash_yaw", &S::reference_leash_yaw, "rad", Range::closed(0, 4));
+      .field("reference_leash_yaw", &S::reference_leash_yaw, "rad", Range::closed(0, 4))
+      .field("reference_leash_lateral", &S::reference_leash_lateral, "m", Range::closed(0, 100));
 }
 
 settings::Table<RefinementSettings> makeRefinementFields() {

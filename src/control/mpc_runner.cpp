@@ -160,10 +160,12 @@ class MpcSolveStep {
     if (terrain_in_.take(incoming_terrain_, version) && ocp_.swapTerrain(incoming_terrain_)) {
       terrain_version_.store(version, std::memory_order_relaxed);
     }
-    if (settings_.mpc.reference_leash > 0.0 || settings_.mpc.reference_leash_yaw > 0.0) {
+    if (settings_.mpc.reference_leash > 0.0 || settings_.mpc.reference_leash_yaw > 0.0 ||
+        settings_.mpc.reference_leash_lateral > 0.0) {
       // x = (base position, base quaternion x y z w, ...): the measured base pose.
       const lie::SE3 base(x.head<3>(), Eigen::Quaterniond(x[6], x[3], x[4], x[5]));
-      ocp_.followRobot(t, base, settings_.mpc.reference_leash, settings_.mpc.reference_leash_yaw);
+      ocp_.followRobot(t, base, settings_.mpc.reference_leash, settings_.mpc.reference_leash_yaw,
+                       settings_.mpc.reference_leash_lateral);
     }
     ocp_.advance(t);
     ocp_.anchorStanceFeet(ocp_.problem()->modeSchedule(), t, x);

@@ -125,6 +125,7 @@ void ControlPipeline::adaptSchedule(double t0, const lie::SE3& start,
                                     const std::vector<planning::TimedBaseCommand>& schedule) {
   step_slowdowns_.clear();
   approach_timing_ = planning::ApproachTiming{};
+  sideways_holds_.clear();
   step_speed_limit_ = 0.0;
   const centroidal::OcpSettings& ocp = settings_.ocp;
   if (!ocp.speed_adaptation) {
@@ -168,6 +169,13 @@ void ControlPipeline::adaptSchedule(double t0, const lie::SE3& start,
   reference_schedule_ = planning::adaptScheduleToTerrain(schedule, start, planner_->terrain(),
                                                          planner_->stance().feet, config,
                                                          &step_slowdowns_, &approach_timing_);
+  // The legs cannot reach sideways: no sideways motion while a foot crosses a step.
+  planning::SidewaysHoldConfig sideways;
+  sideways.reach = ocp.step_speed_reach;
+  sideways.max_acceleration = ocp.command_acceleration;
+  reference_schedule_ =
+      planning::holdSidewaysAtSteps(reference_schedule_, start, planner_->terrain(),
+                                    planner_->stance().feet, sideways, &sideways_holds_);
 }
 
 void ControlPipeline::measure(const RobotState& state) noexcept {

@@ -126,12 +126,13 @@ lie::SE3 BaseReference::planarPoseAt(double t) const {
   return correction_ * (s.start * lie::expSE3((t - s.start_time) * twistOf(s.command)));
 }
 
-bool BaseReference::follow(double t, const lie::SE3& measured, double max_distance,
-                           double max_yaw) {
+bool BaseReference::follow(double t, const lie::SE3& measured, double max_distance, double max_yaw,
+                           double max_lateral) {
   const char* where = "BaseReference::follow";
   detail::checkFinite(where, "t", t);
   detail::checkFinite(where, "max_distance", max_distance);
   detail::checkFinite(where, "max_yaw", max_yaw);
+  detail::checkFinite(where, "max_lateral", max_lateral);
   if (!finitePose(measured)) {
     detail::fail(where, "measured", "(non-finite or zero quaternion)", "must be a finite pose");
   }
@@ -142,6 +143,14 @@ bool BaseReference::follow(double t, const lie::SE3& measured, double max_distan
   Eigen::Vector2d target_xy = ref.translation.head<2>();
   double target_yaw = ref_yaw;
   bool moved = false;
+  if (max_lateral > 0.0) {
+    const Eigen::Vector2d across(-std::sin(ref_yaw), std::cos(ref_yaw));
+    const double aside = across.dot(target_xy - robot_xy);
+    if (std::abs(aside) > max_lateral) {
+      target_xy -= (aside - std::copysign(max_lateral, aside)) * across;
+      moved = true;
+    }
+  }
   const Eigen::Vector2d lead = target_xy - robot_xy;
   const double distance = lead.norm();
   if (max_distance > 0.0 && distance > max_distance) {

@@ -170,8 +170,8 @@ int ContactPlanner::landLateFeet(ocp::ModeSchedule& schedule, double t,
 }
 
 bool ContactPlanner::followRobot(double t, const lie::SE3& base_pose, double max_distance,
-                                 double max_yaw) {
-  return base_->follow(t, base_pose, max_distance, max_yaw);
+                                 double max_yaw, double max_lateral) {
+  return base_->follow(t, base_pose, max_distance, max_yaw, max_lateral);
 }
 
 bool ContactPlanner::setReferenceCorrection(const lie::SE3& correction) noexcept {

@@ -305,6 +305,51 @@ TEST(BaseReference, FollowKeepsTheReferenceOnALeashOfTheRobot) {
   EXPECT_EQ(guard.count(), 0u);
 }
 
+TEST(BaseReference, LateralLeashKeepsOnlyTheSidewaysOffset) {
+  const planning::TerrainModel flat = planning::terrainFromBoxes(kFloor, 0.0, {});
+  BaseReference ref(flat, {0.375, {Vector2d::Zero()}});
+  // Heading 30 deg, 0.15 m/s forward and 0.1 m/s to the left.
+  const double heading = M_PI / 6.0;
+  ref.reset(0.0, startPose(0.0, 0.0, heading), {0.15, 0.1, 0.0});
+  const lie::SE3 at4 = ref.planarPoseAt(4.0);
+  const Vector2d ahead(std::cos(heading), std::sin(heading));
+  const Vector2d across(-std::sin(heading), std::cos(heading));
+  // The robot 0.3 m behind and 0.2 m to the right of its reference (it lags sideways).
+  const Vector2d robot_xy = at4.translation.head<2>() - 0.3 * ahead - 0.2 * across;
+  const lie::SE3 robot(Vector3d(robot_xy.x(), robot_xy.y(), 0.4), at4.rotation);
+  // Within the sideways leash: nothing moves.
+  EXPECT_FALSE(ref.follow(4.0, robot, 0.0, 0.0, 0.25));
+  EXPECT_TRUE(ref.correction().translation.isZero(0.0));
+  // Beyond it: the reference comes to 0.05 m aside of the robot, still 0.3 m ahead of it,
+  // its heading unchanged, and at every other time moved by the same translation.
+  EXPECT_TRUE(ref.follow(4.0, robot, 0.0, 0.0, 0.05));
+  const Vector2d lead = ref.planarPoseAt(4.0).translation.head<2>() - robot_xy;
+  EXPECT_NEAR(lead.dot(across), 0.05, 1e-12);
+  EXPECT_NEAR(lead.dot(ahead), 0.3, 1e-12);
+  EXPECT_NEAR(yawOf(ref.planarPoseAt(4.0)), heading, 1e-12);
+  const Vector2d shift = -0.15 * across;
+  for (double t : {0.0, 2.0, 7.0}) {
+    BaseReference open_loop(flat, {0.375, {Vector2d::Zero()}});
+    open_loop.reset(0.0, startPose(0.0, 0.0, heading), {0.15, 0.1, 0.0});
+    EXPECT_TRUE(ref.planarPoseAt(t).translation.head<2>().isApprox(
+        open_loop.planarPoseAt(t).translation.head<2>() + shift, 1e-12));
+  }
+  // The robot to the left of the reference: the leash pulls the other way.
+  ref.reset(0.0, startPose(0.0, 0.0, heading), {0.15, 0.1, 0.0});
+  const Vector2d left_xy = at4.translation.head<2>() + 0.12 * across;
+  EXPECT_TRUE(ref.follow(4.0, lie::SE3(Vector3d(left_xy.x(), left_xy.y(), 0.4), at4.rotation), 0.0,
+                         0.0, 0.05));
+  EXPECT_NEAR((ref.planarPoseAt(4.0).translation.head<2>() - left_xy).dot(across), -0.05, 1e-12);
+  // With the planar leash as well: the sideways one first, then the distance.
+  ref.reset(0.0, startPose(0.0, 0.0, heading), {0.15, 0.1, 0.0});
+  EXPECT_TRUE(ref.follow(4.0, robot, 0.1, 0.0, 0.05));
+  const Vector2d both = ref.planarPoseAt(4.0).translation.head<2>() - robot_xy;
+  EXPECT_NEAR(both.norm(), 0.1, 1e-12);
+  EXPECT_NEAR(both.normalized().dot((0.3 * ahead + 0.05 * across).normalized()), 1.0, 1e-12);
+  EXPECT_THROW(ref.follow(4.0, robot, 0.0, 0.0, std::numeric_limits<double>::infinity()),
+               std::invalid_argument);
+}
+
 TEST(BaseReference, BadInputThrowsNamingTheParameter) {
   const planning::TerrainModel flat = planning::terrainFromBoxes(kFloor, 0.0, {});
   auto expectNaming = [](auto f, const std::string& what) {

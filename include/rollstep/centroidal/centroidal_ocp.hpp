@@ -90,8 +90,9 @@ class CentroidalOcp {
                         const Eigen::VectorXd& x) noexcept;
   int landLateFeet(ocp::ModeSchedule& schedule, double t, const Eigen::VectorXd& x) noexcept;
   /// The contact planner's (shorthands of contactPlanner()'s).
-  bool followRobot(double t, const lie::SE3& base_pose, double max_distance, double max_yaw) {
-    return planner_->followRobot(t, base_pose, max_distance, max_yaw);
+  bool followRobot(double t, const lie::SE3& base_pose, double max_distance, double max_yaw,
+                   double max_lateral = 0.0) {
+    return planner_->followRobot(t, base_pose, max_distance, max_yaw, max_lateral);
   }
   bool acceptsTerrain(const planning::TerrainModel& terrain) const noexcept {
     return planner_->acceptsTerrain(terrain);

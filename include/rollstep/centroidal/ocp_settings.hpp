@@ -182,7 +182,9 @@ struct OcpSettings {
   /// slowed down near steps to what that timing can cross and ramped from rest (the
   /// controller applies it when it is given its command schedule: sim::NmpcController,
   /// control::ControlPipeline). With it, gait_period is ignored for a trot and trot_duty is
-  /// its stance share at low speed. Off: the fixed timing of gait_period (the paper's).
+  /// its stance share at low speed. With it too, the sideways part of a command is held back
+  /// while a foot crosses a step (planning::holdSidewaysAtSteps, within step_speed_reach).
+  /// Off: the fixed timing of gait_period (the paper's), nothing held.
   bool speed_adaptation = true;
   /// [m] The tallest step a trot's swing is timed to climb (with swing_clearance above it).
   /// In (0, 2].

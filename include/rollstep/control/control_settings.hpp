@@ -75,6 +75,12 @@ struct MpcSettings {
   double reference_leash = 0.0;
   /// [rad] The same for the yaw; 0: off.
   double reference_leash_yaw = 0.0;
+  /// [m] The same for the sideways part of the robot's offset from its reference (across
+  /// the reference's heading) alone: a robot that moves sideways only by slip and yaw falls
+  /// behind a sideways command, and a reference that ran on sideways places the footholds
+  /// beside legs that cannot reach sideways; 0: off (a sideways command is then tracked
+  /// more closely: the robot catches up).
+  double reference_leash_lateral = 0.0;
 };
 
 struct RefinementSettings {

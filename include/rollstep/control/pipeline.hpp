@@ -86,6 +86,7 @@
 #include "rollstep/control/robot_state.hpp"
 #include "rollstep/control/state_integrator.hpp"
 #include "rollstep/control/tracking_stage.hpp"
+#include "rollstep/planning/sideways_at_steps.hpp"
 #include "rollstep/planning/speed_adaptation.hpp"
 
 namespace rollstep::control {
@@ -113,7 +114,8 @@ class ControlPipeline {
   /// state.time). With ocp.speed_adaptation the references follow the schedule adapted to
   /// the terrain known now (planning::adaptScheduleToTerrain: ramped at
   /// ocp.command_acceleration and, for a trot, slowed down near steps to the speed rule's
-  /// step speed limit; referenceSchedule(), stepSlowdowns()).
+  /// step speed limit; referenceSchedule(), stepSlowdowns()), with its sideways part held
+  /// back while a foot crosses a step (planning::holdSidewaysAtSteps; sidewaysHolds()).
   solver::SolverStatus initializeSchedule(const RobotState& state,
                                           const std::vector<planning::TimedBaseCommand>& schedule);
   /// The schedule the references follow (the one given, or its adaptation).
@@ -124,6 +126,9 @@ class ControlPipeline {
   const std::vector<planning::StepSlowdown>& stepSlowdowns() const { return step_slowdowns_; }
   /// How initializeSchedule timed the approach to the first step (ocp.approach_timing).
   const planning::ApproachTiming& approachTiming() const { return approach_timing_; }
+  /// Where the sideways part of the command is held back over a step (speed rule on;
+  /// planning::holdSidewaysAtSteps), in seconds from the schedule's start.
+  const std::vector<planning::SidewaysHold>& sidewaysHolds() const { return sideways_holds_; }
   /// [m/s] The speed rule's step speed limit (0: no trot, or no speed adaptation).
   double stepSpeedLimit() const { return step_speed_limit_; }
   /// One real-time tick at state.time. Never allocates, locks or throws.
@@ -163,8 +168,8 @@ class ControlPipeline {
   const std::vector<int>& driveWheelContacts() const { return drive_wheels_; }
 
  private:
-  /// reference_schedule_, step_slowdowns_, approach_timing_ and step_speed_limit_ for a
-  /// schedule from `start` at time t0 (the gait clock's time then).
+  /// reference_schedule_, step_slowdowns_, approach_timing_, sideways_holds_ and
+  /// step_speed_limit_ for a schedule from `start` at time t0 (the gait clock's time then).
   void adaptSchedule(double t0, const lie::SE3& start,
                      const std::vector<planning::TimedBaseCommand>& schedule);
   /// q_meas_, v_meas_ and the centroidal state x_meas_ (h = A(q) v) of a valid state.
@@ -202,6 +207,7 @@ class ControlPipeline {
   std::vector<planning::TimedBaseCommand> reference_schedule_;
   std::vector<planning::StepSlowdown> step_slowdowns_;
   planning::ApproachTiming approach_timing_;
+  std::vector<planning::SidewaysHold> sideways_holds_;
   double step_speed_limit_ = 0.0;
 };
 

@@ -84,8 +84,12 @@ class BaseReference {
   /// than max_yaw [rad] from `measured`'s, the whole reference (every segment, past and
   /// future) is moved rigidly in the plane so that it lies exactly that far, in the same
   /// direction. max_distance or max_yaw 0 (or less) leaves that part free. Returns whether
-  /// the reference moved. Throws std::invalid_argument for non-finite arguments.
-  bool follow(double t, const lie::SE3& measured, double max_distance, double max_yaw);
+  /// the reference moved. max_lateral > 0 keeps, before that, the sideways part of the
+  /// offset (across the reference's heading at t) within max_lateral: a robot that falls
+  /// behind its reference sideways is not asked to catch up across the terrain; 0 (or less)
+  /// leaves it free. Throws std::invalid_argument for non-finite arguments.
+  bool follow(double t, const lie::SE3& measured, double max_distance, double max_yaw,
+              double max_lateral = 0.0);
   /// The planar rigid motion follow() has applied since the last reset (identity after it):
   /// poseAt(t) = correction() * (the pose of the reset's command schedule at t).
   const lie::SE3& correction() const { return correction_; }

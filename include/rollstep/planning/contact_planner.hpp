@@ -160,7 +160,8 @@ class ContactPlanner {
 
   /// Keeps the base reference within a leash of the robot's base pose at t
   /// (BaseReference::follow). Never allocates; returns whether it moved.
-  bool followRobot(double t, const lie::SE3& base_pose, double max_distance, double max_yaw);
+  bool followRobot(double t, const lie::SE3& base_pose, double max_distance, double max_yaw,
+                   double max_lateral = 0.0);
   /// Gives the base reference the planar correction of another copy of it (the MPC's, so
   /// that the real-time side plans footholds on the reference the solution was solved on).
   /// Refuses (false) a non-finite one.
