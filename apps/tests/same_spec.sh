@@ -54,7 +54,7 @@ printf 'control:\n  mpc: {period: 0.04, latency: 0.02}\n  feedback: {foot_kp: 30
 "$rollstep" sim --spec "$out/inline.yaml" --out "$out/inline" >/dev/null ||
   fail "the run of the inline spec failed"
 cmp -s "$out/file/log.csv" "$out/inline/log.csv" || fail "the inline settings log differently"
-cmp -s "$out/file/plan.csv" "$out/inline/plan.csv" || fail "the inline settings plan differently"
+cmp -s "$out/file/plan.csv.gz" "$out/inline/plan.csv.gz" || fail "the inline settings plan differently"
 grep -q '^  feedback:$' "$out/inline/run.yaml" || fail "run.yaml lacks the inline settings"
 "$rollstep" sim --spec "$out/inline/run.yaml" --out "$out/inline_again" >/dev/null ||
   fail "the run of the written inline spec failed"
