@@ -380,6 +380,30 @@ std::string whereOf(const settings::Reader& r, const yaml::Node& node) {
   return head.substr(0, head.size() - 2) + ": line " + std::to_string(node.line());
 }
 
+/// An expression on one line: a plain scalar folded over several lines holds its line breaks
+/// (one per empty line), which would not read back the same once written; each run of
+/// whitespace with a line break becomes one space (the expression means the same).
+std::string onOneLine(const std::string& text) {
+  std::string out;
+  out.reserve(text.size());
+  for (std::size_t i = 0; i < text.size();) {
+    std::size_t j = i;
+    bool line_break = false;
+    while (j < text.size() &&
+           (text[j] == ' ' || text[j] == '\t' || text[j] == '\n' || text[j] == '\r')) {
+      line_break = line_break || text[j] == '\n' || text[j] == '\r';
+      ++j;
+    }
+    if (j == i) {
+      out += text[i++];
+    } else {
+      out.append(line_break ? std::string(" ") : text.substr(i, j - i));
+      i = j;
+    }
+  }
+  return out;
+}
+
 /// A number or an expression: a plain scalar (a quoted one is text, not a number).
 SceneValue readValue(const yaml::Node& node, settings::Reader& r, const std::string& path) {
   if (node.isNull()) r.fail(node, path + ": no value");
@@ -388,7 +412,7 @@ SceneValue readValue(const yaml::Node& node, settings::Reader& r, const std::str
     r.fail(node, path + ": '" + node.scalar() + "' is not a number (it is " +
                      (node.tag().empty() ? "quoted" : "tagged " + node.tag()) + ")");
   }
-  return SceneValue{node.scalar(), whereOf(r, node)};
+  return SceneValue{onOneLine(node.scalar()), whereOf(r, node)};
 }
 
 std::array<SceneValue, 3> readTriple(const yaml::Node& node, settings::Reader& r,

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -166,7 +167,8 @@ TEST(SidewaysAtSteps, BadInputThrowsNamingIt) {
   expectNaming({}, config(), "schedule.size()");
   expectNaming({{0.5, {0.1, 0.1, 0.0}}}, config(), "schedule[0].time");
   expectNaming({{0.0, {0.1, 0.1, 0.0}}, {0.0, {0.1, 0.0, 0.0}}}, config(), "schedule[1].time");
-  expectNaming({{0.0, {0.1, NAN, 0.0}}}, config(), "schedule[0].command.v_y");
+  expectNaming({{0.0, {0.1, std::numeric_limits<double>::quiet_NaN(), 0.0}}}, config(),
+               "schedule[0].command.v_y");
   planning::SidewaysHoldConfig bad = config();
   bad.resolution = 0.0;
   expectNaming({{0.0, {0.1, 0.1, 0.0}}}, bad, "resolution");
