@@ -482,8 +482,8 @@ TEST(SolverNonlinear, SolveAndUpdateDoNotAllocate) {
   }
 }
 
-// The curvature workspace of exact_hessian (a second NodeData per node, half of the
-// solver's memory) exists only for settings that use it: a solver built for real-time
+// The curvature workspace of exact_hessian (H2 per node, a second NodeData and difference
+// vectors per thread) exists only for settings that use it: a solver built for real-time
 // iterations has none; setSettings (not real-time) allocates it the first time it asks for
 // converging mode with the exact Hessian, and only then; the solver then converges exactly
 // as one built in that mode, and its solve() allocates nothing.
@@ -505,7 +505,13 @@ TEST(SolverNonlinear, CurvatureWorkspaceOnlyForSettingsThatUseIt) {
     Solver s(p, rt);
     without = guard.count();
   }
-  EXPECT_GE(with, without + static_cast<std::size_t>(p->horizon()) + 1);
+  // H2 of every node comes from Eigen's malloc, which only the malloc guard sees (it is off
+  // in sanitizer builds, whose allocator owns malloc).
+  if (test::MallocGuard::enabled()) {
+    EXPECT_GE(with, without + static_cast<std::size_t>(p->horizon()) + 1);
+  } else {
+    EXPECT_GT(with, without);
+  }
   Solver ref(p, conv);
   ASSERT_EQ(ref.solve(x0), SolverStatus::Converged) << ref.message();
   Solver s(p, rt);
