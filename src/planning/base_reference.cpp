@@ -7,6 +7,7 @@
 #include <utility>
 
 #include "check.hpp"
+#include "command_math.hpp"
 
 namespace rollstep::planning {
 
@@ -30,19 +31,11 @@ BaseReference::BaseReference(const TerrainModel& terrain, BaseReferenceConfig co
 
 namespace {
 
-lie::Vector6d twistOf(const BaseVelocityCommand& c) {
-  lie::Vector6d v;
-  v << c.v_x, c.v_y, 0.0, 0.0, 0.0, c.yaw_rate;
-  return v;
-}
+using detail::twistOf;
+using detail::yawOf;
 
 bool finitePose(const lie::SE3& x) {
   return x.translation.allFinite() && x.rotation.coeffs().allFinite() && x.rotation.norm() >= 1e-9;
-}
-
-double yawOf(const Eigen::Quaterniond& q) {
-  const Eigen::Matrix3d r = q.toRotationMatrix();
-  return std::atan2(r(1, 0), r(0, 0));
 }
 
 /// The planar pose (x, y, yaw), z = 0.

@@ -6,25 +6,15 @@
 #include <string>
 
 #include "check.hpp"
+#include "command_math.hpp"
 
 namespace rollstep::planning {
 
 namespace {
 
-lie::Vector6d twistOf(const BaseVelocityCommand& c) {
-  lie::Vector6d v;
-  v << c.v_x, c.v_y, 0.0, 0.0, 0.0, c.yaw_rate;
-  return v;
-}
-
-bool sameCommand(const BaseVelocityCommand& a, const BaseVelocityCommand& b) {
-  return a.v_x == b.v_x && a.v_y == b.v_y && a.yaw_rate == b.yaw_rate;
-}
-
-double yawOf(const Eigen::Quaterniond& q) {
-  const Eigen::Matrix3d r = q.toRotationMatrix();
-  return std::atan2(r(1, 0), r(0, 0));
-}
+using detail::sameCommand;
+using detail::twistOf;
+using detail::yawOf;
 
 /// True when a sample point moved from where it is up to `reach` along the unit world
 /// direction e crosses surfaces whose heights differ by more than min_step.

@@ -7,10 +7,15 @@
 #include <string>
 
 #include "check.hpp"
+#include "command_math.hpp"
 
 namespace rollstep::planning {
 
 namespace {
+
+using detail::sameCommand;
+using detail::twistOf;
+using detail::yawOf;
 
 void checkLimits(const SpeedAdaptationLimits& l) {
   const char* where = "adaptTrotToSpeed";
@@ -26,23 +31,8 @@ void checkLimits(const SpeedAdaptationLimits& l) {
   }
 }
 
-lie::Vector6d twistOf(const BaseVelocityCommand& c) {
-  lie::Vector6d v;
-  v << c.v_x, c.v_y, 0.0, 0.0, 0.0, c.yaw_rate;
-  return v;
-}
-
-bool sameCommand(const BaseVelocityCommand& a, const BaseVelocityCommand& b) {
-  return a.v_x == b.v_x && a.v_y == b.v_y && a.yaw_rate == b.yaw_rate;
-}
-
 BaseVelocityCommand scaled(const BaseVelocityCommand& c, double s) {
   return {c.v_x * s, c.v_y * s, c.yaw_rate * s};
-}
-
-double yawOf(const Eigen::Quaterniond& q) {
-  const Eigen::Matrix3d r = q.toRotationMatrix();
-  return std::atan2(r(1, 0), r(0, 0));
 }
 
 /// True when a sample point, moved along the unit travel direction e from `behind` back to
