@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
 #include <stdexcept>
 #include <utility>
 
@@ -24,7 +23,6 @@ RiccatiSolver::RiccatiSolver(int horizon, int nx, int nu, int ne_max)
   PBAt_ = MatrixXd::Zero(nu + nx + 1, nx);
   Dt_ = MatrixXd::Zero(nu + nx + 1, nx);
   tx_ = VectorXd::Zero(nx);
-  yz_ = VectorXd::Zero(nu + nx);
   M_ = MatrixXd::Zero(nu + nx, nu + nx);
   Q_shared_ = MatrixXd::Zero(nx, nx);
   R_shared_ = MatrixXd::Zero(nu, nu);
@@ -86,37 +84,12 @@ RiccatiSolver::RiccatiSolver(int horizon, int nx, int nu, int ne_max)
     w.t = VectorXd::Zero(nu);
     w.t1 = VectorXd::Zero(ne_max);
     w.Kw = MatrixXd::Zero(nu, nx);
-    w.dinv = VectorXd::Zero(nu);
     w.KD = MatrixXd::Zero(ne_max, nx);
     w.nw = nu;
   }
 }
 
 namespace {
-
-int expMode() {
-  static const int m = std::getenv("RICCATI_MODE") ? std::atoi(std::getenv("RICCATI_MODE")) : 3;
-  return m;
-}
-
-/// Asks for the cache lines of [p, p + n) in the L2 cache ahead of use (for writing
-/// with `write`): a no-op where the compiler has no prefetch built-in.
-void prefetch(const double* p, Eigen::Index n, bool write = false) {
-#if defined(__GNUC__)
-  constexpr Eigen::Index kLine = 64 / sizeof(double);
-  for (Eigen::Index i = 0; i < n; i += kLine) {
-    if (write) {
-      __builtin_prefetch(p + i, 1, 2);
-    } else {
-      __builtin_prefetch(p + i, 0, 2);
-    }
-  }
-#else
-  (void)p;
-  (void)n;
-  (void)write;
-#endif
-}
 
 /// P = the symmetric matrix whose lower triangle is that of L (both triangles stored:
 /// the backward step's product reads P whole).
@@ -406,7 +379,7 @@ void RiccatiSolver::storeCostToGo(Work& w, const double* Pk, Eigen::Index ldp) {
   // a pivot column). A pivot that is not positive (P singular or indefinite, such as an
   // unweighted state at the end of the horizon) keeps P itself: the previous stage then
   // takes the full product.
-  w.chol = (expMode() & 1) && kernels::factorSchur(nx, nx, 0, Pk, ldp, Pk, ldp, Pk, ldp, L, ldl);
+  w.chol = kernels::factorSchur(nx, nx, 0, Pk, ldp, Pk, ldp, Pk, ldp, L, ldl);
   if (w.chol) {
     // The triangular product reads the diagonal blocks whole: clear the junk above the
     // diagonal.
@@ -430,12 +403,19 @@ void RiccatiSolver::addCostToGoTimes(const Work& w, const double* x, double* out
     }
     return;
   }
-  // out += P_L (P_L^T x), as dense products (the strict upper triangle is zero): at these
-  // sizes faster than triangular loops.
-  const Eigen::Map<const VectorXd> xv(x, nx);
-  Eigen::Map<VectorXd> ov(out, nx);
-  tx_.noalias() = w.P.transpose() * xv;
-  ov.noalias() += w.P * tx_;
+  // out += P_L (P_L^T x): column dot products, then column updates (lower part only).
+  double* t = tx_.data();
+  for (int j = 0; j < nx; ++j) {
+    const double* lj = L + j * ldl;
+    double s = 0.0;
+    for (int i = j; i < nx; ++i) s += lj[i] * x[i];
+    t[j] = s;
+  }
+  for (int j = 0; j < nx; ++j) {
+    const double tj = t[j];
+    const double* lj = L + j * ldl;
+    for (int i = j; i < nx; ++i) out[i] += lj[i] * tj;
+  }
 }
 
 void RiccatiSolver::beginBackward() {
@@ -452,21 +432,6 @@ bool RiccatiSolver::backwardStage(int k) {
   Work& w = work_[idx(k)];
   const Work& n = work_[idx(k + 1)];
   const int nw = w.nw, nz = nw + nx;
-  if (k > 0 && (expMode() & 2)) {
-    // The blocks of stage k - 1 that the next step reads or writes, cold in a sweep over
-    // stages that do not fit in the cache (the Tachyon 3 OCP's: 45 kB each): asked for
-    // now, they arrive while this stage computes.
-    const Work& v = work_[idx(k - 1)];
-    const int nzv = v.nw + nx;
-    prefetch(v.BA.data(), v.BA.rows() * (nzv + 1));
-    if (!share_hr_) {
-      const Eigen::Index ldh = v.Hr.outerStride();
-      for (int j = 0; j <= nzv; ++j) prefetch(v.Hr.data() + j + j * ldh, nzv + 1 - j);
-    }
-    prefetch(v.gr.data(), nzv);
-    prefetch(v.L.data(), v.L.outerStride() * v.nw, true);
-    prefetch(v.P.data(), v.P.size(), true);
-  }
   // [B A b]^T, so that both products read their left operand down contiguous columns.
   BAt_.topRows(nz + 1) = w.BA.leftCols(nz + 1).transpose();
   const Eigen::Index ldt = BAt_.outerStride(), ldy = PBAt_.outerStride();
@@ -499,12 +464,12 @@ bool RiccatiSolver::backwardStage(int k) {
                   ldy, true);
     w.pb = n.p - PBAt_.row(nz).transpose();
   }
-  // h = gr + [B A]^T pb.
-  kernels::gemmAdd(nz, 1, nx, BAt_.data(), ldt, w.pb.data(), 1, 0, w.gr.data(), nz, w.hm.data(),
-                   nz);
+  auto h = w.hm.head(nz);
+  h = w.gr.head(nz);
+  h.noalias() += BAt_.topRows(nz) * w.pb;
 
   MatrixXd& Hr = reducedHessian(w);
-  bool ok = false, chol = (expMode() & 1) != 0;
+  bool ok = false;
   double reg = 0.0;
   for (int attempt = 0; attempt < 6 && !ok; ++attempt) {
     if (attempt > 0) {
@@ -512,18 +477,8 @@ bool RiccatiSolver::backwardStage(int k) {
       const double scale = 1.0 + Hr.topLeftCorner(nw, nw).diagonal().cwiseAbs().maxCoeff();
       reg = (attempt == 1) ? 1e-12 * scale : reg * 100.0;
     }
-    // The factorisation goes on into the Schur complement P (its Cholesky factor for the
-    // square-root form), unless P is not positive definite: then P itself.
-    int failed = kernels::factorSchurColumns(nz, nw, chol ? nz : nw, nx, Aop, lda, PBAt_.data(),
-                                             ldy, Hr.data(), Hr.outerStride(), M_.data(),
-                                             M_.outerStride(), reg, w.dinv.data());
-    if (failed >= nw) {
-      chol = false;
-      failed = kernels::factorSchurColumns(nz, nw, nw, nx, Aop, lda, PBAt_.data(), ldy, Hr.data(),
-                                           Hr.outerStride(), M_.data(), M_.outerStride(), reg,
-                                           w.dinv.data());
-    }
-    ok = failed < 0;
+    ok = kernels::factorSchur(nz, nw, nx, Aop, lda, PBAt_.data(), ldy, Hr.data(), Hr.outerStride(),
+                              M_.data(), M_.outerStride(), reg);
     if (nw == 0) break;
   }
   if (!ok) {
@@ -531,36 +486,15 @@ bool RiccatiSolver::backwardStage(int k) {
     return false;
   }
   regularization_ = std::max(regularization_, reg);
-  w.chol = chol;
-  if (chol) {
-    // Lower triangle of the factor; the strict upper triangle zero (the triangular
-    // product reads the diagonal blocks whole).
-    const Eigen::Index ldm = M_.outerStride(), ldp = w.P.outerStride();
-    const double* Lx = M_.data() + nw + nw * ldm;
-    double* P = w.P.data();
-    for (int c = 0; c < nx; ++c) {
-      for (int r = 0; r < c; ++r) P[r + c * ldp] = 0.0;
-      for (int r = c; r < nx; ++r) P[r + c * ldp] = Lx[r + c * ldm];
-    }
-  } else {
-    storeWhole(w.P, M_.block(nw, nw, nx, nx));
-  }
+  storeCostToGo(w, M_.data() + nw + nw * M_.outerStride(), M_.outerStride());
+  w.p = w.hm.segment(nw, nx);
   if (nw > 0) {
-    // v = L^-1 h_w (into hm's head) and p = h_x - Lxw v (into its tail): one forward
-    // substitution down M's first nw columns, carried on into h_x.
-    double* hp = w.hm.data();
-    const double* Mp = M_.data();
-    const Eigen::Index ldm = M_.outerStride();
-    for (int c = 0; c < nw; ++c) {
-      const double vc = hp[c] * w.dinv[c];
-      hp[c] = vc;
-      const double* mc = Mp + c * ldm;
-      for (int r = c + 1; r < nz; ++r) hp[r] -= mc[r] * vc;
-    }
+    auto v = w.hm.head(nw);
+    M_.topLeftCorner(nw, nw).triangularView<Eigen::Lower>().solveInPlace(v);
+    w.p.noalias() -= M_.block(nw, 0, nx, nw) * v;
     // The later passes read only M's first nw columns.
     w.L.topLeftCorner(nz, nw) = M_.topLeftCorner(nz, nw);
   }
-  w.p = w.hm.segment(nw, nx);
   return true;
 }
 
@@ -620,21 +554,16 @@ void RiccatiSolver::forwardStage(int k) {
   Work& w = work_[idx(k)];
   Work& n = work_[idx(k + 1)];
   const int nw = w.nw, nz = nw + nx;
-  // y = [w; dx]: L_ww^T w = -(v + L_xw^T dx) by back substitution up L's first nw
-  // columns (w_c from the entries of y below c), then dx_{k+1} = [B A] y + b.
-  double* y = yz_.data();
-  for (int a = 0; a < nx; ++a) y[nw + a] = w.dx[a];
-  const double* Lp = w.L.data();
-  const Eigen::Index ldl = w.L.outerStride();
-  for (int c = nw - 1; c >= 0; --c) {
-    const double* lc = Lp + c * ldl;
-    double s = w.hm[c];
-    for (int r = c + 1; r < nz; ++r) s += lc[r] * y[r];
-    y[c] = -s * w.dinv[c];
+  auto wk = w.w.head(nw);
+  if (nw > 0) {
+    wk = w.hm.head(nw);
+    wk.noalias() += w.L.block(nw, 0, nx, nw).transpose() * w.dx;
+    w.L.topLeftCorner(nw, nw).transpose().triangularView<Eigen::Upper>().solveInPlace(wk);
+    wk = -wk;
   }
-  for (int c = 0; c < nw; ++c) w.w[c] = y[c];
-  kernels::gemmAdd(nx, 1, nz, w.BA.data(), w.BA.outerStride(), y, 1, 0,
-                   w.BA.data() + nz * w.BA.outerStride(), nx, n.dx.data(), nx);
+  n.dx = w.BA.col(nz);
+  n.dx.noalias() += w.BA.leftCols(nw) * wk;
+  n.dx.noalias() += w.BA.middleCols(nw, nx) * w.dx;
   n.lam = n.p;
   addCostToGoTimes(n, n.dx.data(), n.lam.data());
 }

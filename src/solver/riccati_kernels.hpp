@@ -201,14 +201,6 @@ inline void gemm(int m, int n, int K, const double* A, Index lda, const double* 
   }
 }
 
-/// C = Cin + A B (m x n; A m x K as in Term). C must not alias Cin or the operands.
-inline void gemmAdd(int m, int n, int K, const double* A, Index lda, const double* B, Index bk,
-                    Index bj, const double* Cin, Index ldi, double* C, Index ldc) {
-  if (m <= 0 || n <= 0) return;
-  const Term t{K, A, lda, B, bk, bj};
-  detail::columns<Store::Add>(m, 0, n, false, t, Term{}, Cin, ldi, C, ldc);
-}
-
 /// lower(C) = lower(Cin + A B) for n x n C and Cin (A n x K). Entries of C above the
 /// diagonal within the diagonal tiles (and up to a packet above them) are overwritten with
 /// unspecified values.
@@ -250,34 +242,30 @@ inline void syr2kLowerAccumulate(int n, int K, const double* V, Index ldv, const
 /// Yneg = -Y), the lower triangle of the n x n matrix
 ///   M = H + G + shift [I_nw 0; 0 0] = [Mww .; Mxw Mxx]
 /// becomes [L .; Lxw P] with L L^T = Mww, Lxw = Mxw L^-T and P = Mxx - Lxw Lxw^T (the
-/// Schur complement: the next cost-to-go Hessian); with nfactor = n (the square-root
-/// form) the Cholesky factorisation goes on into P: [L .; Lxw Lx] with Lx Lx^T = P.
-/// Left-looking in panels of 4 columns: each panel takes H - (A Yneg^T + L L^T) of its
-/// columns in one register-blocked pass (the product and the update by the factorised
-/// columns before it, in the same accumulators), then factorises its own columns. Only
-/// the lower triangle of H is read where it matters (the strict upper triangle of H is
-/// read into junk entries of M above its diagonal, which are overwritten with unspecified
-/// values). M must not alias H, A or Yneg. Returns -1, or the first column whose pivot is
-/// not positive and finite (M is then partly overwritten).
-/// `inv_diag` (optional, nw entries) receives the inverses of L's diagonal.
-inline int factorSchurColumns(int n, int nw, int nfactor, int K, const double* A, Index lda,
-                              const double* Yneg, Index ldy, const double* H, Index ldh, double* M,
-                              Index ldm, double shift = 0.0, double* inv_diag = nullptr) {
+/// Schur complement: the next cost-to-go Hessian). Left-looking in panels of 4 columns:
+/// each panel takes H - (A Yneg^T + L L^T) of its columns in one register-blocked pass
+/// (the product and the update by the columns of L before it, in the same accumulators),
+/// then factorises its own columns. Only the lower triangle of H is read where it matters
+/// (the strict upper triangle of H is read into junk entries of M above its diagonal,
+/// which are overwritten with unspecified values). M must not alias H, A or Yneg. False
+/// when a pivot is not positive and finite (M is then partly overwritten).
+inline bool factorSchur(int n, int nw, int K, const double* A, Index lda, const double* Yneg,
+                        Index ldy, const double* H, Index ldh, double* M, Index ldm,
+                        double shift = 0.0) {
   for (int j = 0; j < n; j += 4) {
     const int j1 = std::min(j + 4, n);
     const Term t1{K, A, lda, Yneg, ldy, 1};
-    const Term t2{std::min(j, nfactor), M, ldm, M, ldm, 1};
+    const Term t2{std::min(j, nw), M, ldm, M, ldm, 1};
     detail::columns<Store::Subtract>(n, j, j1, true, t1, t2, H, ldh, M, ldm);
-    // The panel's own columns: factorise the pivot columns, and update the later columns
-    // of the panel by them.
-    for (int c = j; c < std::min(j1, nfactor); ++c) {
+    // The panel's own columns: factorise those of the input block, and update the later
+    // columns of the panel by them.
+    for (int c = j; c < std::min(j1, nw); ++c) {
       double* mc = M + c * ldm;
-      const double d = mc[c] + (c < nw ? shift : 0.0);
-      if (!(d > 0.0) || !std::isfinite(d)) return c;
+      const double d = mc[c] + shift;
+      if (!(d > 0.0) || !std::isfinite(d)) return false;
       const double l = std::sqrt(d);
       mc[c] = l;
       const double inv = 1.0 / l;
-      if (inv_diag && c < nw) inv_diag[c] = inv;
       for (int r = c + 1; r < n; ++r) mc[r] *= inv;
       for (int c2 = c + 1; c2 < j1; ++c2) {
         double* m2 = M + c2 * ldm;
@@ -286,15 +274,7 @@ inline int factorSchurColumns(int n, int nw, int nfactor, int K, const double* A
       }
     }
   }
-  return -1;
-}
-
-/// factorSchurColumns with the pivot columns of the input block only (nfactor = nw):
-/// false when a pivot is not positive and finite.
-inline bool factorSchur(int n, int nw, int K, const double* A, Index lda, const double* Yneg,
-                        Index ldy, const double* H, Index ldh, double* M, Index ldm,
-                        double shift = 0.0) {
-  return factorSchurColumns(n, nw, nw, K, A, lda, Yneg, ldy, H, ldh, M, ldm, shift) < 0;
+  return true;
 }
 
 }  // namespace rollstep::solver::kernels

@@ -158,9 +158,8 @@ class RiccatiSolver {
     // (nu + nx) x nu: the first nw columns of M = [L 0; Lxw P] after backward (lower):
     // [L; Lxw], all that the forward sweep, resolveVectors and feedbackGain read.
     Eigen::MatrixXd L;
-    Eigen::VectorXd hm;    // nu + nx; its head(nw) becomes v = L^-1 h_w
-    Eigen::VectorXd dinv;  // nu: inverses of L's diagonal (first nw)
-    Eigen::VectorXd pb;    // nx
+    Eigen::VectorXd hm;  // nu + nx; its head(nw) becomes v = L^-1 h_w
+    Eigen::VectorXd pb;  // nx
     // nx x nx: the cost-to-go Hessian P (both triangles), or with `chol` its Cholesky
     // factor (P = P_L P_L^T, lower triangle, strict upper zero): the square-root form, in
     // which the previous stage's product is the triangular [B A b]^T P_L (half the
@@ -213,7 +212,6 @@ class RiccatiSolver {
   // -[B A b]^T P_L), (nu + nx + 1) x nx; Dt_ = [B A b]^T P_L.
   Eigen::MatrixXd BAt_, PBAt_, Dt_;
   Eigen::VectorXd tx_;  // nx: forward-sweep scratch
-  Eigen::VectorXd yz_;  // nu + nx: forward-sweep scratch [w; dx]
   // Backward scratch: M of the stage being factorised, (nu + nx)^2 (its Schur block gives
   // P; its first nw columns are kept in Work::L). One, where one per stage (23 kB for the
   // Tachyon 3 OCP) was written cold and mostly never read again.
