@@ -21,8 +21,6 @@ RiccatiSolver::RiccatiSolver(int horizon, int nx, int nu, int ne_max)
   BAt_ = MatrixXd::Zero(nu + nx + 1, nx);
   Hr_shared_ = MatrixXd::Zero(nu + nx + 1, nu + nx + 1);
   PBAt_ = MatrixXd::Zero(nu + nx + 1, nx);
-  Dt_ = MatrixXd::Zero(nu + nx + 1, nx);
-  tx_ = VectorXd::Zero(nx);
   M_ = MatrixXd::Zero(nu + nx, nu + nx);
   Q_shared_ = MatrixXd::Zero(nx, nx);
   R_shared_ = MatrixXd::Zero(nu, nu);
@@ -371,59 +369,11 @@ bool RiccatiSolver::projectStage(int k, double rank_tolerance, double* pivot_rat
   return true;
 }
 
-void RiccatiSolver::storeCostToGo(Work& w, const double* Pk, Eigen::Index ldp) {
-  const int nx = nx_;
-  double* L = w.P.data();
-  const Eigen::Index ldl = w.P.outerStride();
-  // The Cholesky factor by the backward step's own kernel (no product term, every column
-  // a pivot column). A pivot that is not positive (P singular or indefinite, such as an
-  // unweighted state at the end of the horizon) keeps P itself: the previous stage then
-  // takes the full product.
-  w.chol = kernels::factorSchur(nx, nx, 0, Pk, ldp, Pk, ldp, Pk, ldp, L, ldl);
-  if (w.chol) {
-    // The triangular product reads the diagonal blocks whole: clear the junk above the
-    // diagonal.
-    for (int c = 1; c < nx; ++c) std::fill(L + c * ldl, L + c * ldl + c, 0.0);
-  } else {
-    storeWhole(w.P, Eigen::Map<const MatrixXd, 0, Eigen::OuterStride<>>(Pk, nx, nx,
-                                                                        Eigen::OuterStride<>(ldp)));
-  }
-}
-
-void RiccatiSolver::addCostToGoTimes(const Work& w, const double* x, double* out) {
-  const int nx = nx_;
-  const double* L = w.P.data();
-  const Eigen::Index ldl = w.P.outerStride();
-  if (!w.chol) {
-    // P whole: out += sum_j P(:, j) x_j, down contiguous columns.
-    for (int j = 0; j < nx; ++j) {
-      const double xj = x[j];
-      const double* pj = L + j * ldl;
-      for (int i = 0; i < nx; ++i) out[i] += pj[i] * xj;
-    }
-    return;
-  }
-  // out += P_L (P_L^T x): column dot products, then column updates (lower part only).
-  double* t = tx_.data();
-  for (int j = 0; j < nx; ++j) {
-    const double* lj = L + j * ldl;
-    double s = 0.0;
-    for (int i = j; i < nx; ++i) s += lj[i] * x[i];
-    t[j] = s;
-  }
-  for (int j = 0; j < nx; ++j) {
-    const double tj = t[j];
-    const double* lj = L + j * ldl;
-    for (int i = j; i < nx; ++i) out[i] += lj[i] * tj;
-  }
-}
-
 void RiccatiSolver::beginBackward() {
   failed_stage_ = -1;
   regularization_ = 0.0;
   Work& t = work_[idx(N_)];
-  const MatrixXd& Q = hessian(N_).Q;
-  storeCostToGo(t, Q.data(), Q.outerStride());
+  storeWhole(t.P, hessian(N_).Q);
   t.p = stages_[idx(N_)].q;
 }
 
@@ -432,38 +382,14 @@ bool RiccatiSolver::backwardStage(int k) {
   Work& w = work_[idx(k)];
   const Work& n = work_[idx(k + 1)];
   const int nw = w.nw, nz = nw + nx;
-  // [B A b]^T, so that both products read their left operand down contiguous columns.
+  // [B A b]^T, so that both products read their left operand down contiguous columns:
+  // Yn = -[B A b]^T P (P is stored whole, so this is -(P [B A b])^T; its last row is
+  // -(P b)^T), then M = H + [B A]^T P [B A] and its factorisation in one fused pass.
   BAt_.topRows(nz + 1) = w.BA.leftCols(nz + 1).transpose();
   const Eigen::Index ldt = BAt_.outerStride(), ldy = PBAt_.outerStride();
-  const double* Aop = BAt_.data();  // M = H + Aop Yop^T, Yop = -Yn
-  Eigen::Index lda = ldt;
-  if (n.chol) {
-    // Square-root form: Dt = [B A b]^T P_L (triangular: panel j of 4 columns needs rows
-    // j.. of P_L only), M = H + Dt Dt^T, P b = P_L (last row of Dt)^T.
-    const double* Lp = n.P.data();
-    const Eigen::Index ldl = n.P.outerStride(), ldd = Dt_.outerStride();
-    for (int j = 0; j < nx; j += 4) {
-      kernels::gemm(nz + 1, std::min(4, nx - j), nx - j, BAt_.data() + j * ldt, ldt,
-                    Lp + j + j * ldl, 1, ldl, Dt_.data() + j * ldd, ldd);
-    }
-    PBAt_.topRows(nz + 1) = -Dt_.topRows(nz + 1);
-    Aop = Dt_.data();
-    lda = ldd;
-    w.pb = n.p;
-    double* pb = w.pb.data();
-    const double* db = Dt_.data() + nz;  // row nz: (P_L^T b)^T
-    for (int j = 0; j < nx; ++j) {
-      const double dj = db[j * ldd];
-      const double* lj = Lp + j * ldl;
-      for (int i = j; i < nx; ++i) pb[i] += lj[i] * dj;
-    }
-  } else {
-    // Yn = -[B A b]^T P (P is stored whole, so this is -(P [B A b])^T; its last row is
-    // -(P b)^T), then M = H + [B A]^T P [B A] and its factorisation in one fused pass.
-    kernels::gemm(nz + 1, nx, nx, BAt_.data(), ldt, n.P.data(), 1, n.P.outerStride(), PBAt_.data(),
-                  ldy, true);
-    w.pb = n.p - PBAt_.row(nz).transpose();
-  }
+  kernels::gemm(nz + 1, nx, nx, BAt_.data(), ldt, n.P.data(), 1, n.P.outerStride(), PBAt_.data(),
+                ldy, true);
+  w.pb = n.p - PBAt_.row(nz).transpose();
   auto h = w.hm.head(nz);
   h = w.gr.head(nz);
   h.noalias() += BAt_.topRows(nz) * w.pb;
@@ -477,8 +403,8 @@ bool RiccatiSolver::backwardStage(int k) {
       const double scale = 1.0 + Hr.topLeftCorner(nw, nw).diagonal().cwiseAbs().maxCoeff();
       reg = (attempt == 1) ? 1e-12 * scale : reg * 100.0;
     }
-    ok = kernels::factorSchur(nz, nw, nx, Aop, lda, PBAt_.data(), ldy, Hr.data(), Hr.outerStride(),
-                              M_.data(), M_.outerStride(), reg);
+    ok = kernels::factorSchur(nz, nw, nx, BAt_.data(), ldt, PBAt_.data(), ldy, Hr.data(),
+                              Hr.outerStride(), M_.data(), M_.outerStride(), reg);
     if (nw == 0) break;
   }
   if (!ok) {
@@ -486,7 +412,7 @@ bool RiccatiSolver::backwardStage(int k) {
     return false;
   }
   regularization_ = std::max(regularization_, reg);
-  storeCostToGo(w, M_.data() + nw + nw * M_.outerStride(), M_.outerStride());
+  storeWhole(w.P, M_.block(nw, nw, nx, nx));
   w.p = w.hm.segment(nw, nx);
   if (nw > 0) {
     auto v = w.hm.head(nw);
@@ -546,7 +472,7 @@ void RiccatiSolver::beginForward(const Eigen::Ref<const VectorXd>& dx0) {
   Work& w = work_[0];
   w.dx = dx0;
   w.lam = w.p;
-  addCostToGoTimes(w, w.dx.data(), w.lam.data());
+  w.lam.noalias() += w.P.selfadjointView<Eigen::Lower>() * w.dx;
 }
 
 void RiccatiSolver::forwardStage(int k) {
@@ -565,7 +491,7 @@ void RiccatiSolver::forwardStage(int k) {
   n.dx.noalias() += w.BA.leftCols(nw) * wk;
   n.dx.noalias() += w.BA.middleCols(nw, nx) * w.dx;
   n.lam = n.p;
-  addCostToGoTimes(n, n.dx.data(), n.lam.data());
+  n.lam.noalias() += n.P.selfadjointView<Eigen::Lower>() * n.dx;
 }
 
 void RiccatiSolver::forward(const Eigen::Ref<const VectorXd>& dx0) {
@@ -692,7 +618,7 @@ void RiccatiSolver::resolveVectors(const Eigen::Ref<const VectorXd>& dx0) {
     const Work& n = work_[idx(k + 1)];
     const int nw = w.nw, nz = nw + nx;
     w.pb = n.p;
-    addCostToGoTimes(n, w.BA.col(nz).data(), w.pb.data());
+    w.pb.noalias() += n.P.selfadjointView<Eigen::Lower>() * w.BA.col(nz);
     auto h = w.hm.head(nz);
     h = w.gr.head(nz);
     h.noalias() += w.BA.leftCols(nz).transpose() * w.pb;

@@ -160,13 +160,8 @@ class RiccatiSolver {
     Eigen::MatrixXd L;
     Eigen::VectorXd hm;  // nu + nx; its head(nw) becomes v = L^-1 h_w
     Eigen::VectorXd pb;  // nx
-    // nx x nx: the cost-to-go Hessian P (both triangles), or with `chol` its Cholesky
-    // factor (P = P_L P_L^T, lower triangle, strict upper zero): the square-root form, in
-    // which the previous stage's product is the triangular [B A b]^T P_L (half the
-    // multiply-adds of [B A b]^T P) and its symmetric update a rank-nx one.
-    Eigen::MatrixXd P;
-    bool chol = false;
-    Eigen::VectorXd p;  // nx
+    Eigen::MatrixXd P;   // nx x nx (both triangles)
+    Eigen::VectorXd p;   // nx
     Eigen::VectorXd dx, w, du, lam, mult, t, t1;
     mutable Eigen::MatrixXd Kw, KD;  // feedbackGain scratch
   };
@@ -202,16 +197,8 @@ class RiccatiSolver {
   int N_, nx_, nu_, ne_max_;
   std::vector<LqStage> stages_;
   std::vector<Work> work_;
-  /// Stores the cost-to-go Hessian `Pk` (lower triangle read) into w.P: its Cholesky
-  /// factor when Pk is positive definite (w.chol), else Pk itself (both triangles).
-  void storeCostToGo(Work& w, const double* Pk, Eigen::Index ldp);
-  /// out += P x for the cost-to-go Hessian of `w` (either form).
-  void addCostToGoTimes(const Work& w, const double* x, double* out);
-
-  // Backward scratch (sequential): [B A b]^T and -[B A b]^T P (or with a factorised P,
-  // -[B A b]^T P_L), (nu + nx + 1) x nx; Dt_ = [B A b]^T P_L.
-  Eigen::MatrixXd BAt_, PBAt_, Dt_;
-  Eigen::VectorXd tx_;  // nx: forward-sweep scratch
+  // Backward scratch (sequential): [B A b]^T and [B A b]^T P, (nu + nx + 1) x nx.
+  Eigen::MatrixXd BAt_, PBAt_;
   // Backward scratch: M of the stage being factorised, (nu + nx)^2 (its Schur block gives
   // P; its first nw columns are kept in Work::L). One, where one per stage (23 kB for the
   // Tachyon 3 OCP) was written cold and mostly never read again.
