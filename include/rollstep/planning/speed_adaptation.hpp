@@ -118,6 +118,17 @@ struct SpeedScheduleConfig {
   double approach_dip = 0.5;
 };
 
+/// What the approach timing did at one edge (a row of feet meeting a riser).
+struct EdgeTiming {
+  double delay = 0.0;                     ///< [s] the time the schedule was delayed by there
+  double dip_start = 0.0, dip_end = 0.0;  ///< [s] the dip, schedule times (delay > 0)
+  double touchdown = 0.0;                 ///< [s] the row's first touch-down past the riser
+  double target = 0.0;                    ///< [m] where it should land past the riser
+  double before = 0.0;                    ///< [m] where it landed past the riser without the delay
+  double after = 0.0;                     ///< [m] where it lands with it
+  bool up = false;                        ///< onto a higher level
+};
+
 /// What the approach timing did.
 struct ApproachTiming {
   bool timed = false;                     ///< a touch-down onto a step was found and timed
@@ -127,6 +138,10 @@ struct ApproachTiming {
   double target = 0.0;                    ///< [m] where it should land past the riser
   double before = 0.0;                    ///< [m] where it landed past the riser without the delay
   double after = 0.0;                     ///< [m] where it lands with it
+  /// Every edge in the order met (the first is the one above); a later edge is delayed only
+  /// where its dip fits between the touch-downs timed before it and half a period before its
+  /// own.
+  std::vector<EdgeTiming> edges;
 };
 
 /// The schedule the base reference should follow: `schedule` (times from its start; the
