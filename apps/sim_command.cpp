@@ -226,9 +226,9 @@ std::string speedRuleText(const sim::NmpcController& nmpc, double duration) {
     const planning::EdgeTiming& e = a.edges[k];
     if (e.touchdown >= duration) break;
     if (e.delay > 0.0) {
-      text += formatText("; %s delayed %.2f s (%.2f-%.2f s): %.2f m past its riser (%.2f m without)",
-                         e.up ? "step up" : "step down", e.delay, e.dip_start, e.dip_end, e.after,
-                         e.before);
+      text += formatText(
+          "; %s delayed %.2f s (%.2f-%.2f s): %.2f m past its riser (%.2f m without)",
+          e.up ? "step up" : "step down", e.delay, e.dip_start, e.dip_end, e.after, e.before);
     } else {
       text += formatText("; %s on time (%.2f m past its riser)", e.up ? "step up" : "step down",
                          e.after);

@@ -441,23 +441,25 @@ std::vector<TimedBaseCommand> adaptScheduleToTerrain(const std::vector<TimedBase
       }
     }
     timed_edges.push_back({first.row, first.riser});
-    // The dip: depth 1 - approach_dip, its ramps within max_acceleration at the schedule's
-    // top speed (shallower for a short delay), ending a gait period before the touch-down;
-    // after the first edge it must begin after the touch-downs timed before and end at
-    // least half a period before this one (the swing onto the step keeps its lift-off).
+    // The dip: depth 1 - approach_dip, its ramps within max_acceleration (shallower for a
+    // short delay), ending a gait period before the touch-down. The first edge's ramps are
+    // timed for the schedule's top speed (the approach may still be at it); a later edge's
+    // for the speed at its touch-down, and its dip must begin after the touch-downs timed
+    // before and end before its own.
     const double a = config.max_acceleration;
+    const double speed = edge == 0 ? top : commandSpeed(path.commandAt(first.time), 0.0);
     double depth = 1.0 - config.approach_dip;
-    double ramp = a > 0.0 ? depth * top / a : 0.0;
+    double ramp = a > 0.0 ? depth * speed / a : 0.0;
     double length = 0.0;
     if (delay >= depth * ramp) {
       length = delay / depth + ramp;
     } else {
-      depth = std::sqrt(delay * a / top);
-      ramp = depth * top / a;
+      depth = std::sqrt(delay * a / speed);
+      ramp = depth * speed / a;
       length = 2.0 * ramp;
     }
     const double dip_start = std::max(from_time, chosen.time - config.gait_period - length);
-    const bool fits = edge == 0 || dip_start + length <= chosen.time - half + 1e-9;
+    const bool fits = edge == 0 || (speed > 1e-9 && dip_start + length <= chosen.time + 1e-9);
     EdgeTiming timing;
     timing.delay = 0.0;
     timing.touchdown = first.time;
@@ -465,6 +467,7 @@ std::vector<TimedBaseCommand> adaptScheduleToTerrain(const std::vector<TimedBase
     timing.before = first.past;
     timing.after = first.past;
     timing.up = first.up;
+    timing.fits = fits;
     if (delay > 0.0 && fits) {
       double shift = 0.0;
       out = dipSchedule(out, dip_start, length, depth, ramp, config.resolution, &shift);

@@ -127,6 +127,7 @@ struct EdgeTiming {
   double before = 0.0;                    ///< [m] where it landed past the riser without the delay
   double after = 0.0;                     ///< [m] where it lands with it
   bool up = false;                        ///< onto a higher level
+  bool fits = true;                       ///< the dip it needed fits (else it was left as it was)
 };
 
 /// What the approach timing did.
@@ -139,8 +140,8 @@ struct ApproachTiming {
   double before = 0.0;                    ///< [m] where it landed past the riser without the delay
   double after = 0.0;                     ///< [m] where it lands with it
   /// Every edge in the order met (the first is the one above); a later edge is delayed only
-  /// where its dip fits between the touch-downs timed before it and half a period before its
-  /// own.
+  /// where its dip fits between the touch-downs timed before it (and the other trot group's
+  /// touch-down half a period after) and its own.
   std::vector<EdgeTiming> edges;
 };
 
