@@ -504,6 +504,7 @@ std::vector<TimedBaseCommand> adaptScheduleToTerrain(const std::vector<TimedBase
     // The other group of this row meets the riser half a period later: later dips begin
     // after it.
     from_time = std::max(from_time, timing.touchdown + half);
+    if (!config.time_every_edge) break;
   }
   return out;
 }

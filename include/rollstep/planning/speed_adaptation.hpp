@@ -116,6 +116,9 @@ struct SpeedScheduleConfig {
   double gait_time_at_start = 0.0;
   /// Share of the speed kept while the approach waits, in [0, 1).
   double approach_dip = 0.5;
+  /// Every next row of feet meeting a riser is timed too (a dip between the touch-downs
+  /// timed before and its own); false: the first touch-down onto a step only.
+  bool time_every_edge = true;
 };
 
 /// What the approach timing did at one edge (a row of feet meeting a riser).
