@@ -320,6 +320,20 @@ TEST(ApproachTiming, LandsEveryRowOnEveryEdgeAtMostAQuarterPeriodPastItWhereTheD
   // Without the timing many later edges land further; with it the dip fits nearly always.
   EXPECT_GT(later_off_untimed, later / 4);
   EXPECT_LE(later_off_timed, later / 10);
+  // The first edge only: one edge reported, and no dip after its touch-down.
+  planning::SpeedScheduleConfig first_only = timed;
+  first_only.time_every_edge = false;
+  planning::ApproachTiming approach;
+  const auto schedule =
+      planning::adaptScheduleToTerrain({{0.0, {0.3, 0.0, 0.0}}}, lie::SE3::Identity(),
+                                       blockTerrain(), kNominal, first_only, nullptr, &approach);
+  ASSERT_EQ(approach.edges.size(), 1u);
+  for (const planning::TimedBaseCommand& c : schedule) {
+    // Over the block (4 s at the limit): the limit's speed, never a dip below it.
+    if (c.time > approach.touchdown && c.time < approach.touchdown + 4.0) {
+      EXPECT_GE(c.command.v_x, first_only.step_speed_limit - 1e-9) << c.time;
+    }
+  }
 }
 
 TEST(ApproachTiming, LandsTheFirstTouchdownOnTheStepAtMostAQuarterPeriodPastTheRiser) {
