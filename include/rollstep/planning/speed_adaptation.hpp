@@ -33,6 +33,10 @@
 //   itself (ramped within max_acceleration) and comes back, the dip ending a gait period
 //   before that touch-down, by the least delay (less than half a period) that lands it within
 //   1.05 times that distance. The path is the same; only the time along it changes.
+//   With time_every_edge, each next row of feet meeting a riser (the hind row's climb, each
+//   row's step down; a row: the feet at one body x) is timed the same way, by a dip that
+//   begins after the touch-downs timed before (and the other trot group's, half a period
+//   later) and ends before its own; where none fits, that edge is left as it comes.
 //
 // Everything here runs once, when a command schedule is set (it allocates); nothing is
 // real-time.
@@ -154,8 +158,8 @@ struct ApproachTiming {
 /// `terrain` (so that the speed there is at most step_speed_limit), and with speed changes
 /// spread at max_acceleration. The path is the same; only the time along it changes.
 /// Appends every slowdown to `slowdowns` (if given). With the gait's timing in `config`, the
-/// approach to the first step is timed to it (see the file comment; what it did in `approach`
-/// if given). Throws std::invalid_argument for a bad schedule or config.
+/// approach to the first step (and with time_every_edge every later edge) is timed to it (see
+/// the file comment; what it did in `approach` if given). Throws std::invalid_argument for a bad schedule or config.
 std::vector<TimedBaseCommand> adaptScheduleToTerrain(const std::vector<TimedBaseCommand>& schedule,
                                                      const lie::SE3& start,
                                                      const TerrainModel& terrain,
