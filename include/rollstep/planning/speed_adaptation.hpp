@@ -159,7 +159,8 @@ struct ApproachTiming {
 /// spread at max_acceleration. The path is the same; only the time along it changes.
 /// Appends every slowdown to `slowdowns` (if given). With the gait's timing in `config`, the
 /// approach to the first step (and with time_every_edge every later edge) is timed to it (see
-/// the file comment; what it did in `approach` if given). Throws std::invalid_argument for a bad schedule or config.
+/// the file comment; what it did in `approach` if given). Throws std::invalid_argument for a bad
+/// schedule or config.
 std::vector<TimedBaseCommand> adaptScheduleToTerrain(const std::vector<TimedBaseCommand>& schedule,
                                                      const lie::SE3& start,
                                                      const TerrainModel& terrain,
