@@ -222,6 +222,18 @@ std::string speedRuleText(const sim::NmpcController& nmpc, double duration) {
     text += formatText("; approach on time (first touch-down onto a step %.2f m past its riser)",
                        a.after);
   }
+  for (std::size_t k = 1; k < a.edges.size(); ++k) {
+    const planning::EdgeTiming& e = a.edges[k];
+    if (e.touchdown >= duration) break;
+    if (e.delay > 0.0) {
+      text += formatText(
+          "; %s delayed %.2f s (%.2f-%.2f s): %.2f m past its riser (%.2f m without)",
+          e.up ? "step up" : "step down", e.delay, e.dip_start, e.dip_end, e.after, e.before);
+    } else {
+      text += formatText("; %s on time (%.2f m past its riser)", e.up ? "step up" : "step down",
+                         e.after);
+    }
+  }
   for (const planning::SidewaysHold& h : pipeline.sidewaysHolds()) {
     if (h.start >= duration) continue;
     text += formatText("; sideways motion held at a step %.2f-%.2f s", h.start,

@@ -80,6 +80,7 @@ settings::Table<OcpSettings> makeTable() {
       .field("step_speed_reach", &S::step_speed_reach, "m", Range::closed(0, 10))
       .field("command_acceleration", &S::command_acceleration, "m/s^2", Range::closed(0, 100))
       .field("approach_timing", &S::approach_timing)
+      .field("approach_timing_every_edge", &S::approach_timing_every_edge)
       .custom(
           "solver",
           [](const yaml::Node& value, S& s, settings::Reader& reader, const std::string& path) {

@@ -155,6 +155,7 @@ void ControlPipeline::adaptSchedule(double t0, const lie::SE3& start,
       std::find(modes.begin(), modes.end(), all) == modes.end()) {
     config.gait_period = gait.period();
     config.gait_time_at_start = t0;
+    config.time_every_edge = ocp.approach_timing_every_edge;
     config.touchdowns.assign(static_cast<std::size_t>(gait.numFeet()), {});
     const std::size_t n = modes.size();
     for (std::size_t j = 0; j < n; ++j) {

@@ -217,34 +217,51 @@ class PlanarPath {
   std::vector<lie::SE3> poses_;
 };
 
-/// The first touch-down onto another level (a step up or down) of any foot, with the path
-/// `delay` seconds late (the touch-down at schedule time t lands where the path is at t -
-/// delay): its time, how far past the riser it lands (along its foot's travel) and where it
-/// should (speed x period / 4).
+/// A touch-down onto another level (a step up or down): its time, its foot's row (body x of
+/// its sample point), where along the travel its riser lies, how far past the riser it lands
+/// (along its foot's travel) and where it should (speed x period / 4).
 struct StepTouchdown {
   bool found = false;
   double time = 0.0;
+  double row = 0.0;    // [m] body x of the foot's sample point
+  double riser = 0.0;  // [m] the riser's position along the travel direction at the touch-down
   double past = 0.0;
   double target = 0.0;
+  bool up = false;
 };
 
-StepTouchdown firstStepTouchdown(const PlanarPath& path, double path_end,
-                                 const TerrainModel& terrain,
-                                 const std::vector<Eigen::Vector2d>& samples,
-                                 const SpeedScheduleConfig& config, double delay) {
+/// Rows of feet closer than this along the body x are one row; risers closer than this along
+/// the travel are one riser [m].
+constexpr double kSameEdge = 0.05;
+
+/// An edge already timed: a row of feet (body x) meeting a riser (position along the travel).
+struct TimedEdge {
+  double row = 0.0;
+  double riser = 0.0;
+};
+
+/// The first touch-down onto another level of any foot whose row has not met that riser yet
+/// (not in `timed`), with the path `delay` seconds late from `from_time` on (a touch-down at
+/// schedule time t > from_time lands where the path is at max(t - delay, from_time); the
+/// gait clock runs on).
+StepTouchdown nextStepTouchdown(const PlanarPath& path, double path_end,
+                                const TerrainModel& terrain,
+                                const std::vector<Eigen::Vector2d>& samples,
+                                const SpeedScheduleConfig& config, double delay, double from_time,
+                                const std::vector<TimedEdge>& timed) {
   const double period = config.gait_period;
+  const auto pathTime = [&](double t) {
+    return t <= from_time ? std::max(t, 0.0) : std::max(t - delay, from_time);
+  };
   const auto foothold = [&](std::size_t f, double t) {
     const Eigen::Vector2d& s = samples[f];
-    return path.poseAt(std::max(t - delay, 0.0))
-        .act(Eigen::Vector3d(s.x(), s.y(), 0.0))
-        .head<2>()
-        .eval();
+    return path.poseAt(pathTime(t)).act(Eigen::Vector3d(s.x(), s.y(), 0.0)).head<2>().eval();
   };
   std::vector<Eigen::Vector2d> last(samples.size());
   for (std::size_t f = 0; f < samples.size(); ++f) last[f] = foothold(f, 0.0);
   std::vector<std::pair<double, std::size_t>> touchdowns;
   StepTouchdown best;
-  for (double base = 0.0; base - delay <= path_end; base += period) {
+  for (double base = 0.0; pathTime(base) <= path_end; base += period) {
     touchdowns.clear();
     for (std::size_t f = 0; f < samples.size(); ++f) {
       for (const double phase : config.touchdowns[f]) {
@@ -272,10 +289,22 @@ StepTouchdown firstStepTouchdown(const PlanarPath& path, double path_end,
           break;
         }
       }
-      const BaseVelocityCommand& c = path.commandAt(std::max(t - delay, 0.0));
+      // Where the riser lies along the body's travel (the heading at the touch-down).
+      const lie::SE3 pose = path.poseAt(pathTime(t));
+      const Eigen::Vector2d heading = (pose.rotation * Eigen::Vector3d::UnitX()).head<2>();
+      const double along = (from + riser * u).dot(heading);
+      const double row = samples[f].x();
+      const bool seen = std::any_of(timed.begin(), timed.end(), [&](const TimedEdge& e) {
+        return std::abs(e.row - row) < kSameEdge && std::abs(e.riser - along) < kSameEdge;
+      });
+      if (seen) continue;
+      const BaseVelocityCommand& c = path.commandAt(pathTime(t));
       best.found = true;
       best.time = t;
+      best.row = row;
+      best.riser = along;
       best.past = length - riser;
+      best.up = terrain.heightAt(p) > h0;
       best.target = 0.25 * period * commandSpeed(c, 0.0);
       return best;
     }
@@ -374,13 +403,10 @@ std::vector<TimedBaseCommand> adaptScheduleToTerrain(const std::vector<TimedBase
   if (approach != nullptr) *approach = ApproachTiming{};
   if (!timed || terrain.size() == 0) return out;
 
-  // The approach timing: the least delay (under half a period) that lands the first
-  // touch-down onto a step at its target past the riser.
+  // The approach timing, edge by edge: for the first touch-down onto a step, then for each
+  // next row of feet meeting a riser, the least delay (under half a period) that lands it at
+  // its target past the riser, by a dip that leaves the touch-downs timed before it alone.
   const lie::SE3 pose0 = planarStart(start);
-  const double path_end = out.back().time + config.scan_time;
-  const PlanarPath path(out, pose0);
-  const StepTouchdown first = firstStepTouchdown(path, path_end, terrain, samples, config, 0.0);
-  if (!first.found || !(first.target > 0.0)) return out;
   // Near enough: at most a twentieth past the target (nearer the riser the wheel behind it
   // is held for less; the footholds move with the tracking error). The least delay that
   // lands there, else the one that lands nearest the target.
@@ -388,58 +414,97 @@ std::vector<TimedBaseCommand> adaptScheduleToTerrain(const std::vector<TimedBase
   const auto nearEnough = [](const StepTouchdown& td) {
     return td.found && td.past <= 1.05 * td.target;
   };
+  const auto sameEdge = [](const StepTouchdown& a, const StepTouchdown& b) {
+    return a.found && b.found && std::abs(a.row - b.row) < kSameEdge &&
+           std::abs(a.riser - b.riser) < kSameEdge;
+  };
   constexpr double kDelayStep = 0.005;  // [s]
-  double delay = 0.0;
-  StepTouchdown chosen = first;
-  for (double d = kDelayStep; d < half && !nearEnough(chosen); d += kDelayStep) {
-    const StepTouchdown td = firstStepTouchdown(path, path_end, terrain, samples, config, d);
-    if (nearEnough(td) ||
-        (td.found && std::abs(td.past - td.target) < std::abs(chosen.past - chosen.target))) {
-      delay = d;
-      chosen = td;
-    }
-  }
-  if (approach != nullptr) {
-    approach->timed = true;
-    approach->touchdown = chosen.time;
-    approach->target = chosen.target;
-    approach->before = first.past;
-    approach->after = chosen.past;
-  }
-  if (delay <= 0.0) return out;
-  // The dip: depth 1 - approach_dip, its ramps within max_acceleration at the schedule's top
-  // speed (shallower for a short delay), ending a gait period before the touch-down.
+  constexpr int kMaxEdges = 64;         // bounds the work on long terrains
+  std::vector<TimedEdge> timed_edges;
+  double from_time = 0.0;  // [s] a dip begins no sooner (the touch-downs before it stay)
   const double top = maxCommandSpeed(out, 0.0);
-  if (!(top > 1e-9)) return out;
-  const double a = config.max_acceleration;
-  double depth = 1.0 - config.approach_dip;
-  double ramp = a > 0.0 ? depth * top / a : 0.0;
-  double length = 0.0;
-  if (delay >= depth * ramp) {
-    length = delay / depth + ramp;
-  } else {
-    depth = std::sqrt(delay * a / top);
-    ramp = depth * top / a;
-    length = 2.0 * ramp;
-  }
-  const double dip_start = std::max(0.0, chosen.time - config.gait_period - length);
-  double shift = 0.0;
-  out = dipSchedule(out, dip_start, length, depth, ramp, config.resolution, &shift);
-  if (slowdowns != nullptr) {
-    for (StepSlowdown& d : *slowdowns) {
-      if (d.start >= dip_start) d.start += shift;
-      if (d.end >= dip_start) d.end += shift;
+  for (int edge = 0; edge < kMaxEdges && top > 1e-9; ++edge) {
+    const double path_end = out.back().time + config.scan_time;
+    const PlanarPath path(out, pose0);
+    const StepTouchdown first =
+        nextStepTouchdown(path, path_end, terrain, samples, config, 0.0, from_time, timed_edges);
+    if (!first.found || !(first.target > 0.0)) break;
+    double delay = 0.0;
+    StepTouchdown chosen = first;
+    for (double d = kDelayStep; d < half && !nearEnough(chosen); d += kDelayStep) {
+      const StepTouchdown td =
+          nextStepTouchdown(path, path_end, terrain, samples, config, d, from_time, timed_edges);
+      if (!sameEdge(td, first)) continue;
+      if (nearEnough(td) || std::abs(td.past - td.target) < std::abs(chosen.past - chosen.target)) {
+        delay = d;
+        chosen = td;
+      }
     }
-  }
-  if (approach != nullptr) {
-    approach->delay = shift;
-    approach->dip_start = dip_start;
-    approach->dip_end = dip_start + length;
-    const PlanarPath timed_path(out, pose0);
-    const StepTouchdown after = firstStepTouchdown(timed_path, out.back().time + config.scan_time,
-                                                   terrain, samples, config, 0.0);
-    approach->after = after.found ? after.past : 0.0;
-    approach->touchdown = after.time;
+    timed_edges.push_back({first.row, first.riser});
+    // The dip: depth 1 - approach_dip, its ramps within max_acceleration (shallower for a
+    // short delay), ending a gait period before the touch-down. The first edge's ramps are
+    // timed for the schedule's top speed (the approach may still be at it); a later edge's
+    // for the speed at its touch-down, and its dip must begin after the touch-downs timed
+    // before and end before its own.
+    const double a = config.max_acceleration;
+    const double speed = edge == 0 ? top : commandSpeed(path.commandAt(first.time), 0.0);
+    double depth = 1.0 - config.approach_dip;
+    double ramp = a > 0.0 ? depth * speed / a : 0.0;
+    double length = 0.0;
+    if (delay >= depth * ramp) {
+      length = delay / depth + ramp;
+    } else {
+      depth = std::sqrt(delay * a / speed);
+      ramp = depth * speed / a;
+      length = 2.0 * ramp;
+    }
+    const double dip_start = std::max(from_time, chosen.time - config.gait_period - length);
+    const bool fits = edge == 0 || (speed > 1e-9 && dip_start + length <= chosen.time + 1e-9);
+    EdgeTiming timing;
+    timing.delay = 0.0;
+    timing.touchdown = first.time;
+    timing.target = first.target;
+    timing.before = first.past;
+    timing.after = first.past;
+    timing.up = first.up;
+    timing.fits = fits;
+    if (delay > 0.0 && fits) {
+      double shift = 0.0;
+      out = dipSchedule(out, dip_start, length, depth, ramp, config.resolution, &shift);
+      if (slowdowns != nullptr) {
+        for (StepSlowdown& d : *slowdowns) {
+          if (d.start >= dip_start) d.start += shift;
+          if (d.end >= dip_start) d.end += shift;
+        }
+      }
+      timing.delay = shift;
+      timing.dip_start = dip_start;
+      timing.dip_end = dip_start + length;
+      const PlanarPath timed_path(out, pose0);
+      std::vector<TimedEdge> before(timed_edges.begin(), timed_edges.end() - 1);
+      const StepTouchdown after =
+          nextStepTouchdown(timed_path, out.back().time + config.scan_time, terrain, samples,
+                            config, 0.0, from_time, before);
+      timing.after = sameEdge(after, first) ? after.past : chosen.past;
+      timing.touchdown = sameEdge(after, first) ? after.time : chosen.time;
+    }
+    if (approach != nullptr) {
+      if (edge == 0) {
+        approach->timed = true;
+        approach->delay = timing.delay;
+        approach->dip_start = timing.dip_start;
+        approach->dip_end = timing.dip_end;
+        approach->touchdown = timing.touchdown;
+        approach->target = timing.target;
+        approach->before = timing.before;
+        approach->after = timing.after;
+      }
+      approach->edges.push_back(timing);
+    }
+    // The other group of this row meets the riser half a period later: later dips begin
+    // after it.
+    from_time = std::max(from_time, timing.touchdown + half);
+    if (!config.time_every_edge) break;
   }
   return out;
 }

@@ -206,6 +206,10 @@ struct OcpSettings {
   /// dips before the step so that the first touch-down onto it lands at most a quarter
   /// period's travel past the riser (planning/speed_adaptation.hpp). Needs speed_adaptation.
   bool approach_timing = true;
+  /// With approach_timing: every next row of feet meeting a riser (the hind row's climb, each
+  /// row's step down) is timed the same way, by a dip between the touch-downs timed before
+  /// and its own; false: the first touch-down onto a step only.
+  bool approach_timing_every_edge = false;
   // --- the solver ------------------------------------------------------------------------
   /// Nested `solver:` mapping (config/solver.yaml's keys). Defaults: the solver's, but a
   /// Gauss-Newton Hessian (exact_hessian false) as in the paper: on Tachyon 3 standing it

@@ -33,6 +33,10 @@
 //   itself (ramped within max_acceleration) and comes back, the dip ending a gait period
 //   before that touch-down, by the least delay (less than half a period) that lands it within
 //   1.05 times that distance. The path is the same; only the time along it changes.
+//   With time_every_edge, each next row of feet meeting a riser (the hind row's climb, each
+//   row's step down; a row: the feet at one body x) is timed the same way, by a dip that
+//   begins after the touch-downs timed before (and the other trot group's, half a period
+//   later) and ends before its own; where none fits, that edge is left as it comes.
 //
 // Everything here runs once, when a command schedule is set (it allocates); nothing is
 // real-time.
@@ -116,6 +120,21 @@ struct SpeedScheduleConfig {
   double gait_time_at_start = 0.0;
   /// Share of the speed kept while the approach waits, in [0, 1).
   double approach_dip = 0.5;
+  /// Every next row of feet meeting a riser is timed too (a dip between the touch-downs
+  /// timed before and its own); false: the first touch-down onto a step only.
+  bool time_every_edge = true;
+};
+
+/// What the approach timing did at one edge (a row of feet meeting a riser).
+struct EdgeTiming {
+  double delay = 0.0;                     ///< [s] the time the schedule was delayed by there
+  double dip_start = 0.0, dip_end = 0.0;  ///< [s] the dip, schedule times (delay > 0)
+  double touchdown = 0.0;                 ///< [s] the row's first touch-down past the riser
+  double target = 0.0;                    ///< [m] where it should land past the riser
+  double before = 0.0;                    ///< [m] where it landed past the riser without the delay
+  double after = 0.0;                     ///< [m] where it lands with it
+  bool up = false;                        ///< onto a higher level
+  bool fits = true;                       ///< the dip it needed fits (else it was left as it was)
 };
 
 /// What the approach timing did.
@@ -127,6 +146,10 @@ struct ApproachTiming {
   double target = 0.0;                    ///< [m] where it should land past the riser
   double before = 0.0;                    ///< [m] where it landed past the riser without the delay
   double after = 0.0;                     ///< [m] where it lands with it
+  /// Every edge in the order met (the first is the one above); a later edge is delayed only
+  /// where its dip fits between the touch-downs timed before it (and the other trot group's
+  /// touch-down half a period after) and its own.
+  std::vector<EdgeTiming> edges;
 };
 
 /// The schedule the base reference should follow: `schedule` (times from its start; the
@@ -135,8 +158,9 @@ struct ApproachTiming {
 /// `terrain` (so that the speed there is at most step_speed_limit), and with speed changes
 /// spread at max_acceleration. The path is the same; only the time along it changes.
 /// Appends every slowdown to `slowdowns` (if given). With the gait's timing in `config`, the
-/// approach to the first step is timed to it (see the file comment; what it did in `approach`
-/// if given). Throws std::invalid_argument for a bad schedule or config.
+/// approach to the first step (and with time_every_edge every later edge) is timed to it (see
+/// the file comment; what it did in `approach` if given). Throws std::invalid_argument for a bad
+/// schedule or config.
 std::vector<TimedBaseCommand> adaptScheduleToTerrain(const std::vector<TimedBaseCommand>& schedule,
                                                      const lie::SE3& start,
                                                      const TerrainModel& terrain,
