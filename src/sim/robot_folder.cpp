@@ -27,6 +27,9 @@ constexpr double kMassRelativeTolerance = 1e-6;
 constexpr double kMassAbsoluteTolerance = 1e-9;  // [kg]
 constexpr double kRadiusTolerance = 1e-4;        // [m], as rollstep sim's check
 constexpr double kPostureTolerance = 1e-9;       // [rad or m] outside a range
+// [rad or m] the keyframe `nominal` against nominal_joint_positions: the controllers plan
+// from the description's posture, the plant starts at the keyframe's.
+constexpr double kKeyframeTolerance = 1e-4;
 
 std::string num(double v) {
   char text[32];
@@ -237,6 +240,34 @@ std::vector<std::string> crossCheckRobotFolder(const RobotFolder& folder) {
                            " for joint '" + name + "' is outside its range [" +
                            num(m->jnt_range[2 * j]) + ", " + num(m->jnt_range[2 * j + 1]) +
                            "] in the " + in_mjcf);
+      }
+    }
+    // The keyframe the plant starts from holds the same posture (qpos) and servo targets
+    // (ctrl of the joint's position actuator).
+    const int key = mj_name2id(m, mjOBJ_KEY, "nominal");
+    for (std::size_t k = 0; key >= 0 && k < urdf->jointNames.size(); ++k) {
+      const std::string& name = urdf->jointNames[k];
+      const int j = mj_name2id(m, mjOBJ_JOINT, name.c_str());
+      if (j < 0) continue;
+      const double value = d.nominal_joint_positions[static_cast<Eigen::Index>(k)];
+      const double key_qpos = m->key_qpos[key * m->nq + m->jnt_qposadr[j]];
+      if (std::abs(key_qpos - value) > kKeyframeTolerance) {
+        problems.push_back(in_mjcf + ": keyframe 'nominal': qpos of joint '" + name + "' is " +
+                           num(key_qpos) + ", nominal_joint_positions in '" + folder.description +
+                           "' says " + num(value));
+      }
+      for (int a = 0; a < m->nu; ++a) {
+        if (m->actuator_trntype[a] != mjTRN_JOINT || m->actuator_trnid[2 * a] != j) continue;
+        const double key_ctrl = m->key_ctrl[key * m->nu + a];
+        if (std::abs(key_ctrl - value) > kKeyframeTolerance) {
+          problems.push_back(in_mjcf + ": keyframe 'nominal': ctrl of actuator '" +
+                             std::string(mj_id2name(m, mjOBJ_ACTUATOR, a) != nullptr
+                                             ? mj_id2name(m, mjOBJ_ACTUATOR, a)
+                                             : "(unnamed)") +
+                             "' (joint '" + name + "') is " + num(key_ctrl) +
+                             ", nominal_joint_positions in '" + folder.description + "' says " +
+                             num(value));
+        }
       }
     }
   } else {
