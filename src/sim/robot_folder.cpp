@@ -275,6 +275,23 @@ std::vector<std::string> crossCheckRobotFolder(const RobotFolder& folder) {
                        std::to_string(d.nominal_joint_positions.size()) + " values, the " +
                        in_urdf + " has " + std::to_string(urdf->jointNames.size()) + " joints");
   }
+  // A drive wheel's axle: the controllers command its speed about the wheel frame's y
+  // (positive rolls forward); an axle along another axis rolls it the wrong way.
+  for (const std::string& wheel : d.drive_wheels) {
+    const int b = mj_name2id(m, mjOBJ_BODY, wheel.c_str());
+    if (b < 0 || m->body_jntnum[b] != 1 || m->jnt_type[m->body_jntadr[b]] != mjJNT_HINGE) continue;
+    const int j = m->body_jntadr[b];
+    const Eigen::Vector3d axle(m->jnt_axis[3 * j], m->jnt_axis[3 * j + 1], m->jnt_axis[3 * j + 2]);
+    if ((axle - Eigen::Vector3d::UnitY()).norm() > kAxisTolerance) {
+      problems.push_back(
+          in_mjcf + ": drive wheel '" + wheel + "': its axle '" +
+          std::string(mj_id2name(m, mjOBJ_JOINT, j) != nullptr ? mj_id2name(m, mjOBJ_JOINT, j)
+                                                               : "") +
+          "' turns about (" + num(axle.x()) + ", " + num(axle.y()) + ", " + num(axle.z()) +
+          ") in the wheel's frame; the controllers roll it about (0, 1, 0), "
+          "positive forward");
+    }
+  }
   for (int leg = 0; leg < layout.numLegs(); ++leg) {
     if (std::abs(d.contact_offset - plant->wheelRadius(leg)) > kRadiusTolerance) {
       problems.push_back(in_description + "contact_offset: " + num(d.contact_offset) +
