@@ -105,9 +105,19 @@ int runCheckRobot(const CheckRobotOptions& o) {
   if (!folder.lidar.empty()) {
     attempt("lidar", [&] { sim::loadLidarSettings(folder.lidar); });
   }
+  // The cross-check loads the description again: a problem found by both is listed once,
+  // and a cross-check that stopped at it did not compare the files.
+  std::size_t new_problems = 0;
   const std::vector<std::string> mismatches = sim::crossCheckRobotFolder(folder);
-  std::printf("  %-12s %s\n", "URDF = MJCF", mismatches.empty() ? "ok" : "FAILED");
-  problems.insert(problems.end(), mismatches.begin(), mismatches.end());
+  for (const std::string& m : mismatches) {
+    if (std::find(problems.begin(), problems.end(), m) != problems.end()) continue;
+    problems.push_back(m);
+    ++new_problems;
+  }
+  std::printf("  %-12s %s\n", "URDF = MJCF",
+              mismatches.empty()  ? "ok"
+              : new_problems == 0 ? "not checked: the description does not load"
+                                  : "FAILED");
   if (!problems.empty()) {
     std::string text = "robot folder '" + folder.directory +
                        "': " + std::to_string(problems.size()) + " problem" +

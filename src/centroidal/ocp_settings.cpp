@@ -190,7 +190,13 @@ RobotOcpDescription parseRobotOcpDescription(const std::string& yaml_text,
   };
   const auto requireContacts = [&](const char* key, const std::vector<std::string>& names) {
     for (const std::string& name : names) {
-      if (!isContact(name)) fail(key, "'" + name + "' is not a contact frame");
+      if (!isContact(name)) {
+        std::string frames;
+        for (const std::string& frame : file.contact_frames) {
+          frames += (frames.empty() ? "" : ", ") + frame;
+        }
+        fail(key, "'" + name + "' is not a contact frame (contact_frames: [" + frames + "])");
+      }
     }
   };
   requireContacts("drive_wheels", file.drive_wheels);

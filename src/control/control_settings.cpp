@@ -2,11 +2,13 @@
 
 #include <array>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <map>
 #include <optional>
 #include <set>
 #include <stdexcept>
+#include <string_view>
 #include <type_traits>
 #include <variant>
 #include <vector>
@@ -28,6 +30,24 @@ using settings::Range;
 
 constexpr std::size_t kMaxConfigBytes = std::size_t{1} << 20;
 constexpr double kBig = 1e12;  // upper end of weights: keeps a typo (1e21) out
+
+constexpr std::string_view kLibraryPrefix = "library:";
+
+/// The file an `extends:` value names: `library:NAME` is NAME in the library's config/
+/// ($ROLLSTEP_CONFIG_DIR if set), so that a robot folder anywhere can start from the
+/// library's files; anything else is a path relative to base_directory.
+std::filesystem::path extendedFile(const std::string& value,
+                                   const std::filesystem::path& base_directory) {
+  if (value.rfind(kLibraryPrefix, 0) == 0) {
+    const std::filesystem::path name = value.substr(kLibraryPrefix.size());
+    if (const char* dir = std::getenv("ROLLSTEP_CONFIG_DIR"); dir != nullptr && *dir != '\0') {
+      return std::filesystem::path(dir) / name;
+    }
+    return std::filesystem::path(ROLLSTEP_LIBRARY_CONFIG_DIR) / name;
+  }
+  const std::filesystem::path named(value);
+  return named.is_absolute() ? named : base_directory / named;
+}
 
 settings::Table<MpcSettings> makeMpcFields() {
   using S = MpcSettings;
@@ -251,8 +271,7 @@ ControlSettings readControlSettingsAt(const yaml::Node& root, settings::Reader& 
       reader.fail(value, prefix + "extends: more than " + std::to_string(kMaxExtendsDepth) +
                              " files deep (does a file extend itself?)");
     }
-    const std::filesystem::path named(value.scalar());
-    const std::filesystem::path file = named.is_absolute() ? named : base_directory / named;
+    const std::filesystem::path file = extendedFile(value.scalar(), base_directory);
     try {
       settings = loadControlSettingsAt(file.string(), depth + 1, sections_given);
     } catch (const std::runtime_error& e) {

@@ -27,6 +27,11 @@ constexpr double kSnap = 1e-10;
 // crossing).
 constexpr double kSideProbe = 1e-6;
 constexpr double kStepHeight = 1e-3;
+// Surfaces closer than this [m] meet: a scene file's numbers are written with a few digits
+// (a ramp's end from its slope), so a ramp meant to end on a block's edge ends a few um
+// short of it or past it. Such a hairline gap is no step (it is rechecked this far beside
+// the edge), and a piece of terrain narrower than it is no foothold (dropped).
+constexpr double kGapBridge = 2e-4;
 
 /// A surface seen from above: its footprint (convex, counter-clockwise) and its plane
 /// z = z0 + g . (p - p0).
@@ -151,6 +156,28 @@ bool boundsMeet(const Polygon& a, const Polygon& b) {
          blo.y() <= ahi.y() + t;
 }
 
+/// The smallest distance between two parallel lines enclosing a convex polygon, and their
+/// normal.
+std::pair<double, Eigen::Vector2d> width(const Polygon& p) {
+  double smallest = std::numeric_limits<double>::infinity();
+  Eigen::Vector2d across = Eigen::Vector2d::UnitX();
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const Eigen::Vector2d e = p[(i + 1) % p.size()] - p[i];
+    const double length = e.norm();
+    if (length < 1e-15) continue;
+    double farthest = 0.0;
+    for (const Eigen::Vector2d& v : p) {
+      const Eigen::Vector2d d = v - p[i];
+      farthest = std::max(farthest, std::abs(e.x() * d.y() - e.y() * d.x()) / length);
+    }
+    if (farthest < smallest) {
+      smallest = farthest;
+      across = Eigen::Vector2d(-e.y(), e.x()) / length;
+    }
+  }
+  return {smallest, across};
+}
+
 /// Height of the highest surface covering p; -inf where none does (beyond the floor).
 double visibleHeight(const std::vector<Surface>& surfaces, const Eigen::Vector2d& p) {
   double h = -std::numeric_limits<double>::infinity();
@@ -182,9 +209,12 @@ std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> stepParts(
     if ((ts[k + 1] - ts[k]) * length <= kLineTolerance) continue;
     const Eigen::Vector2d mid = a + 0.5 * (ts[k] + ts[k + 1]) * d;
     const double inside = visibleHeight(surfaces, mid - kSideProbe * outward);
-    const double beside = visibleHeight(surfaces, mid + kSideProbe * outward);
-    const bool step = std::isinf(inside) != std::isinf(beside) ||
-                      (!std::isinf(inside) && std::abs(inside - beside) > kStepHeight);
+    const auto jumps = [&](double probe) {
+      const double beside = visibleHeight(surfaces, mid + probe * outward);
+      return std::isinf(inside) != std::isinf(beside) ||
+             (!std::isinf(inside) && std::abs(inside - beside) > kStepHeight);
+    };
+    const bool step = jumps(kSideProbe) && jumps(kGapBridge);
     if (step && open) {
       parts.back().second = a + ts[k + 1] * d;  // continues the previous part
     } else if (step) {
@@ -322,6 +352,15 @@ TerrainModel regionsOf(const char* where, const TerrainBox& floor_box, double fl
     std::size_t best = 0;
     for (std::size_t k = 1; k < surfaces.size(); ++k) {
       if (surfaces[k].covers(m) && surfaces[k].heightAt(m) > surfaces[best].heightAt(m)) best = k;
+    }
+    // A hairline crevice between two higher surfaces that meet (see kGapBridge): no foothold.
+    const auto [narrow, across] = width(cell);
+    if (narrow < kGapBridge) {
+      const double floor_of_gap = surfaces[best].heightAt(m) + kStepHeight;
+      if (visibleHeight(surfaces, m + kGapBridge * across) > floor_of_gap &&
+          visibleHeight(surfaces, m - kGapBridge * across) > floor_of_gap) {
+        continue;
+      }
     }
     seen[best].insert(seen[best].end(), cell.begin(), cell.end());
     const bool in_band = std::any_of(bands.begin(), bands.end(), [&](const Polygon& band) {

@@ -27,6 +27,9 @@ constexpr double kMassRelativeTolerance = 1e-6;
 constexpr double kMassAbsoluteTolerance = 1e-9;  // [kg]
 constexpr double kRadiusTolerance = 1e-4;        // [m], as rollstep sim's check
 constexpr double kPostureTolerance = 1e-9;       // [rad or m] outside a range
+// [rad or m] the keyframe `nominal` against nominal_joint_positions: the controllers plan
+// from the description's posture, the plant starts at the keyframe's.
+constexpr double kKeyframeTolerance = 1e-4;
 
 std::string num(double v) {
   char text[32];
@@ -239,10 +242,55 @@ std::vector<std::string> crossCheckRobotFolder(const RobotFolder& folder) {
                            "] in the " + in_mjcf);
       }
     }
+    // The keyframe the plant starts from holds the same posture (qpos) and servo targets
+    // (ctrl of the joint's position actuator).
+    const int key = mj_name2id(m, mjOBJ_KEY, "nominal");
+    for (std::size_t k = 0; key >= 0 && k < urdf->jointNames.size(); ++k) {
+      const std::string& name = urdf->jointNames[k];
+      const int j = mj_name2id(m, mjOBJ_JOINT, name.c_str());
+      if (j < 0) continue;
+      const double value = d.nominal_joint_positions[static_cast<Eigen::Index>(k)];
+      const double key_qpos = m->key_qpos[key * m->nq + m->jnt_qposadr[j]];
+      if (std::abs(key_qpos - value) > kKeyframeTolerance) {
+        problems.push_back(in_mjcf + ": keyframe 'nominal': qpos of joint '" + name + "' is " +
+                           num(key_qpos) + ", nominal_joint_positions in '" + folder.description +
+                           "' says " + num(value));
+      }
+      for (int a = 0; a < m->nu; ++a) {
+        if (m->actuator_trntype[a] != mjTRN_JOINT || m->actuator_trnid[2 * a] != j) continue;
+        const double key_ctrl = m->key_ctrl[key * m->nu + a];
+        if (std::abs(key_ctrl - value) > kKeyframeTolerance) {
+          problems.push_back(in_mjcf + ": keyframe 'nominal': ctrl of actuator '" +
+                             std::string(mj_id2name(m, mjOBJ_ACTUATOR, a) != nullptr
+                                             ? mj_id2name(m, mjOBJ_ACTUATOR, a)
+                                             : "(unnamed)") +
+                             "' (joint '" + name + "') is " + num(key_ctrl) +
+                             ", nominal_joint_positions in '" + folder.description + "' says " +
+                             num(value));
+        }
+      }
+    }
   } else {
     problems.push_back(in_description + "nominal_joint_positions: " +
                        std::to_string(d.nominal_joint_positions.size()) + " values, the " +
                        in_urdf + " has " + std::to_string(urdf->jointNames.size()) + " joints");
+  }
+  // A drive wheel's axle: the controllers command its speed about the wheel frame's y
+  // (positive rolls forward); an axle along another axis rolls it the wrong way.
+  for (const std::string& wheel : d.drive_wheels) {
+    const int b = mj_name2id(m, mjOBJ_BODY, wheel.c_str());
+    if (b < 0 || m->body_jntnum[b] != 1 || m->jnt_type[m->body_jntadr[b]] != mjJNT_HINGE) continue;
+    const int j = m->body_jntadr[b];
+    const Eigen::Vector3d axle(m->jnt_axis[3 * j], m->jnt_axis[3 * j + 1], m->jnt_axis[3 * j + 2]);
+    if ((axle - Eigen::Vector3d::UnitY()).norm() > kAxisTolerance) {
+      problems.push_back(
+          in_mjcf + ": drive wheel '" + wheel + "': its axle '" +
+          std::string(mj_id2name(m, mjOBJ_JOINT, j) != nullptr ? mj_id2name(m, mjOBJ_JOINT, j)
+                                                               : "") +
+          "' turns about (" + num(axle.x()) + ", " + num(axle.y()) + ", " + num(axle.z()) +
+          ") in the wheel's frame; the controllers roll it about (0, 1, 0), "
+          "positive forward");
+    }
   }
   for (int leg = 0; leg < layout.numLegs(); ++leg) {
     if (std::abs(d.contact_offset - plant->wheelRadius(leg)) > kRadiusTolerance) {

@@ -317,5 +317,31 @@ TEST(ControlSettings, ExtendsStartsFromAnotherFileAndOverridesKeyByKey) {
   std::filesystem::remove_all(dir);
 }
 
+// A robot folder anywhere (not two levels under the source tree) starts from the library's
+// files by name: `library:NAME` is config/NAME, wherever the file that names it lies.
+TEST(ControlSettings, ExtendsLibraryNamesTheLibrarysConfigFile) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / "rollstep_control_settings_library";
+  std::filesystem::create_directories(dir);
+  const std::string file = (dir / "baseline.yaml").string();
+  std::ofstream(file)
+      << "extends: library:baseline.yaml\nintegrator:\n  deflection_compensation: 1\n";
+  const std::string library = std::string(ROLLSTEP_TEST_DATA_DIR) + "/../../config/baseline.yaml";
+  ControlSettings expected = loadControlSettings(library);
+  expected.integrator.deflection_compensation = 1;
+  EXPECT_EQ(toYaml(loadControlSettings(file)), toYaml(expected));
+  EXPECT_NE(toYaml(loadControlSettings(library)), toYaml(ControlSettings{}));
+  std::ofstream(file) << "extends: library:no_such_file.yaml\n";
+  try {
+    loadControlSettings(file);
+    ADD_FAILURE() << "a missing library file was accepted";
+  } catch (const std::runtime_error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("baseline.yaml: line 1: extends: "), std::string::npos) << what;
+    EXPECT_NE(what.find("no_such_file.yaml"), std::string::npos) << what;
+  }
+  std::filesystem::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace rollstep::control

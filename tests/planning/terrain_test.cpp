@@ -360,6 +360,41 @@ TEST(TerrainModel, SurfacesKeepTheirStepsOffButNotTheirCreases) {
   expectThrowsNaming([&] { terrainFromSurfaces(floor, 0.0, {ramp}, -1.0); }, "margin = -1");
 }
 
+// A ramp (slope 0.1 from x = 1) meant to end on the edge of a 0.2 m block at x = 3, written
+// with a few digits: it ends 3 um short of the block or 3 um under it. Either way the wheel
+// rolls from one onto the other: no step band at the seam (the ramp's region reaches the
+// block's, within the hairline), no floor region in the gap; the block's far end and the
+// ramp's sides stay steps.
+TEST(TerrainModel, AHairlineGapBetweenSurfacesThatMeetIsNoStep) {
+  using rollstep::planning::terrainFromSurfaces;
+  using rollstep::planning::TerrainSurface;
+  const TerrainBox floor{-5.0, 10.0, -5.0, 5.0, 0.0};
+  const double m = 0.05;
+  for (const double ramp_end : {3.0 - 3e-6, 3.0 + 3e-6}) {
+    const TerrainSurface ramp{{{1.0, -1.0}, {ramp_end, -1.0}, {ramp_end, 1.0}, {1.0, 1.0}},
+                              Vector3d(1.0, 0.0, 0.0),
+                              Vector3d(-0.1, 0.0, 1.0).normalized()};
+    const TerrainSurface block{{{3.0, -1.0}, {4.0, -1.0}, {4.0, 1.0}, {3.0, 1.0}},
+                               Vector3d(3.5, 0.0, 0.2),
+                               Vector3d::UnitZ()};
+    const TerrainModel t = terrainFromSurfaces(floor, 0.0, {ramp, block}, m);
+    const auto inside = [&](const Vector2d& p) {
+      const int r = t.regionAt(p);
+      return r >= 0 && t.region(r).contains(p);
+    };
+    for (const Vector2d& p : {Vector2d(2.97, 0.0), Vector2d(3.0 - 1e-5, 0.5), Vector2d(3.03, 0.0),
+                              Vector2d(3.0 + 1e-5, -0.5)}) {
+      EXPECT_TRUE(inside(p)) << "ramp end " << ramp_end << ": " << p.transpose();
+    }
+    EXPECT_NEAR(t.heightAt({2.97, 0.0}), 0.197, 1e-9);
+    EXPECT_NEAR(t.heightAt({3.03, 0.0}), 0.2, 1e-12);
+    EXPECT_NEAR(t.heightAt({3.0, 0.3}), 0.2, 1e-5);  // never the floor in the gap
+    for (const Vector2d& p : {Vector2d(3.97, 0.0), Vector2d(2.0, 0.97), Vector2d(3.5, 0.97)}) {
+      EXPECT_FALSE(inside(p)) << "ramp end " << ramp_end << ": " << p.transpose();
+    }
+  }
+}
+
 TEST(TerrainModel, BadBoxesThrow) {
   expectThrowsNaming([] { terrainFromBoxes({0, 0, -1, 1, 0}, 0.0, {}); }, "floor.x_max = 0");
   expectThrowsNaming([] { terrainFromBoxes(kFloor, std::numeric_limits<double>::quiet_NaN(), {}); },

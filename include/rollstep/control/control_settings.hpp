@@ -227,7 +227,8 @@ void checkSettings(const ControlSettings& settings);
 /// keys). Errors: std::runtime_error "control settings <source>: line L: <key>: <what>".
 /// A top-level `extends: FILE` starts from FILE's settings instead of the defaults (FILE
 /// relative to the directory of the file that names it; for text, to the working
-/// directory), and the keys given here override them one by one (`ocp:` and its `solver:`
+/// directory; `library:NAME` is the library's config/NAME, $ROLLSTEP_CONFIG_DIR/NAME when
+/// that is set), and the keys given here override them one by one (`ocp:` and its `solver:`
 /// too); chains up to 8 files deep.
 ControlSettings parseControlSettings(const std::string& yaml_text, const std::string& source_name);
 /// Same, from a file; `sections_given` (when not null) receives the top-level keys the file
