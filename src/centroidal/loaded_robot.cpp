@@ -123,6 +123,7 @@ planning::ContactPlannerSettings contactPlannerSettings(const OcpSettings& s) {
   c.edge_holds.max_up_hold = s.step_up_max_hold;
   c.edge_holds.setback = s.step_up_setback;
   c.edge_holds.up_reach = s.step_up_reach;
+  c.edge_holds.stance_stroke = s.edge_hold_stance_stroke;
   c.anchor_stance_feet = s.anchor_stance_feet;
   c.latch_touchdowns = s.latch_touchdowns;
   c.late_touchdown_tolerance = s.late_touchdown_tolerance;

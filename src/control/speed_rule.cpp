@@ -157,9 +157,11 @@ std::optional<planning::TrotTiming> timeTrotForSchedule(
     planning::GaitKind gait, const std::vector<planning::TimedBaseCommand>& schedule) {
   if (!settings.speed_adaptation || gait != planning::GaitKind::Trot) return std::nullopt;
   const model::Model model = model::buildModelFromUrdfFile(robot.urdf);
+  const planning::SpeedAdaptationLimits limits =
+      speedRuleLimits(model, robot.contact_frames, robot.nominal_joint_positions, settings);
   const planning::TrotTiming timing = trotTimingFor(
-      speedRuleLimits(model, robot.contact_frames, robot.nominal_joint_positions, settings),
-      schedule, turnRadius(model, robot.contact_frames, robot.nominal_joint_positions));
+      limits, schedule, turnRadius(model, robot.contact_frames, robot.nominal_joint_positions));
+  settings.edge_hold_stance_stroke = limits.stance_stroke;
   settings.gait_period = timing.period;
   settings.trot_duty = timing.duty;
   settings.step_up_max_hold = std::min(settings.step_up_max_hold, timing.max_edge_hold);

@@ -141,6 +141,58 @@ double edgeWait(const FootReferencePlanner& feet, const EdgeHoldConfig& config, 
   return wait;
 }
 
+/// Whether a hold of `duration` in the all-stance phase before the lift-off at gait time
+/// tau_lo (phase j of period k) carries the body further than config.stance_stroke over a
+/// stance foot stopped at a riser ahead of it: each foot in stance through the hold keeps
+/// its touch-down's foothold, rolls with the base up to the end of its region (the regions
+/// bound the wheel centres) and stands there while the body passes over it until its
+/// lift-off, which the hold delays by `duration`.
+bool overrunsStanceStroke(const Gait& gait, const FootReferencePlanner& feet,
+                          const EdgeHoldConfig& config, const GaitClock& clock, double k, int j,
+                          double duration) {
+  if (!(config.stance_stroke > 0.0)) return false;
+  const std::vector<double>& starts = gait.phaseStarts();
+  const std::vector<int>& modes = gait.phaseModes();
+  const int n = static_cast<int>(starts.size());
+  const double period = gait.period();
+  // Gait time of the start of phase i of period kk (i may run past either end).
+  const auto phaseStart = [&](double kk, int i) {
+    const int wrapped = ((i % n) + n) % n;
+    return (kk + std::floor(static_cast<double>(i) / n)) * period +
+           starts[static_cast<std::size_t>(wrapped)];
+  };
+  const int held = modes[static_cast<std::size_t>((j + n - 1) % n)];
+  for (int foot = 0; foot < feet.numFeet(); ++foot) {
+    if (!inContact(held, foot)) continue;
+    // Its touch-down: the start of the first phase of the run of stance phases before j.
+    int first = j - 1;
+    for (int m = 0;
+         m < n && inContact(modes[static_cast<std::size_t>(((first - 1) % n + n) % n)], foot);
+         ++m) {
+      --first;
+    }
+    // Its lift-off: the first phase from j on without it.
+    int last = j;
+    for (int m = 0; m < n && inContact(modes[static_cast<std::size_t>(last % n)], foot); ++m) {
+      ++last;
+    }
+    const double t_td = clock.loopTime(phaseStart(k, first));
+    const double t_lift = clock.loopTime(phaseStart(k, last)) + duration;
+    const Eigen::Vector2d v = feet.travelVelocity(t_td);
+    const double speed = v.norm();
+    if (!(speed > 1e-6)) continue;
+    const Eigen::Vector2d e = v / speed;
+    const Eigen::Vector2d p = feet.nominalFoothold(foot, t_td);
+    Edge edge;
+    if (!edgeAt(feet, p, e, t_td, edge) || !(edge.rise > config.min_step) || edge.exit < 0.0) {
+      continue;
+    }
+    const double travel = (feet.nominalFoothold(foot, t_lift) - p).dot(e);
+    if (travel - edge.exit > config.stance_stroke) return true;
+  }
+  return false;
+}
+
 }  // namespace
 
 void planEdgeHolds(const Gait& gait, const FootReferencePlanner& feet, const EdgeHoldConfig& config,
@@ -191,6 +243,7 @@ void planEdgeHolds(const Gait& gait, const FootReferencePlanner& feet, const Edg
       double start = std::max(clock.loopTime(0.5 * (tau_before + tau_lo)), first_start);
       if (clock.size() > 0) start = std::max(start, clock.hold(clock.size() - 1).end());
       if (start >= t_lo - 1e-6) continue;
+      if (overrunsStanceStroke(gait, feet, config, clock, k, j, need)) continue;
       clock.addHold(start, need);
     }
   }

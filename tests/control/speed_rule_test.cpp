@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "rollstep/centroidal/ocp_settings.hpp"
 
@@ -54,6 +55,25 @@ TEST(SpeedRule, LimitsComeFromTheRobotModel) {
       control::speedRuleLimits(t.model, t.robot.contact_frames, t.robot.nominal_joint_positions, s);
   EXPECT_NEAR(planning::adaptTrotToSpeed(0.0, l2).step_speed_limit,
               2.0 * planning::adaptTrotToSpeed(0.0, l).step_speed_limit, 1e-12);
+}
+
+TEST(SpeedRule, TimesTheTrotAndBoundsTheEdgeHolds) {
+  const Tachyon3 t;
+  centroidal::OcpSettings s;
+  const std::vector<planning::TimedBaseCommand> schedule{{0.0, {0.267, 0.0, 0.0}}};
+  const auto timing = control::timeTrotForSchedule(s, t.robot, planning::GaitKind::Trot, schedule);
+  ASSERT_TRUE(timing.has_value());
+  const planning::SpeedAdaptationLimits l =
+      control::speedRuleLimits(t.model, t.robot.contact_frames, t.robot.nominal_joint_positions, s);
+  EXPECT_EQ(s.gait_period, timing->period);
+  EXPECT_EQ(s.edge_hold_stance_stroke, l.stance_stroke);
+  EXPECT_LE(s.step_down_max_hold, timing->max_edge_hold);
+  // Without the rule nothing is timed and the holds are not bounded by a stroke.
+  centroidal::OcpSettings fixed;
+  fixed.speed_adaptation = false;
+  EXPECT_FALSE(
+      control::timeTrotForSchedule(fixed, t.robot, planning::GaitKind::Trot, schedule).has_value());
+  EXPECT_EQ(fixed.edge_hold_stance_stroke, 0.0);
 }
 
 TEST(SpeedRule, RevoluteLegsCountTheirFlexionJoints) {

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -39,7 +40,7 @@ struct BlockScene {
   planning::TerrainModel terrain;
   planning::BaseReference base{terrain, {0.375, kNominal}};
   planning::FootReferencePlanner feet;
-  planning::GaitScheduler scheduler{paperTrot(), kHorizon};
+  planning::GaitScheduler scheduler;
   ocp::ModeSchedule schedule{scheduler.requiredCapacity()};
   planning::GaitClock clock;
   planning::EdgeHoldConfig config;
@@ -47,9 +48,10 @@ struct BlockScene {
   /// The base starts at x0 with `speed` (negative: backwards); gap rule across the gap.
   explicit BlockScene(double x0, double speed = kSpeed, double max_hold = 0.9)
       : BlockScene(blockTerrain(), x0, speed, max_hold) {}
-  /// The same on another terrain.
-  BlockScene(planning::TerrainModel other, double x0, double speed, double max_hold)
-      : terrain(std::move(other)), feet(terrain, base, footConfig()) {
+  /// The same on another terrain (and with another gait).
+  BlockScene(planning::TerrainModel other, double x0, double speed, double max_hold,
+             const planning::Gait& gait = paperTrot())
+      : terrain(std::move(other)), feet(terrain, base, footConfig()), scheduler(gait, kHorizon) {
     base.reset(0.0, lie::SE3(Eigen::Vector3d(x0, 0.0, 0.0), Eigen::Quaterniond::Identity()),
                planning::BaseVelocityCommand{speed, 0.0, 0.0});
     config.max_down_hold = max_hold;
@@ -286,6 +288,59 @@ TEST(StepDownHolds, FloorHiddenBeyondTheDrop) {
 /// Before a step up (max_up_hold): no swing touches down on the floor short of the riser
 /// by more than the setback and less than what a hold can wait for; it lands setback short
 /// of the floor region's end instead (the next swing climbs).
+/// A trot at the speed rule's timing for 0.267 m/s (stance = stroke / speed) over the
+/// 1.2 m block, step-down and step-up holds as long as the rule allows: a hold before the
+/// front feet's step down at the far end can come while the rear feet wait at the riser of
+/// the step up, and it lengthens their stance. With the stroke check no stance foot stopped
+/// at a riser is passed by the body further than the stroke (from the end of its region to
+/// its lift-off); without it, some are (the test can fail), and holds are still made.
+TEST(EdgeHolds, NoHoldPassesTheBodyFurtherThanTheStrokeOverAFootAtARiser) {
+  constexpr double kStroke = 0.21, kFast = 0.267, kSwing = 0.72;
+  const double stance = kStroke / kFast;
+  const planning::Gait gait =
+      planning::Gait::trot(6, kSwing + stance, stance / (kSwing + stance),
+                           planning::contactMask(kFeet, {"LF", "RF", "MR"}),
+                           planning::contactMask(kFeet, {"MF", "LR", "RR"}));
+  const double floor_end = kEdgeUp - kMargin;
+  // The most body travel past a riser stop over any stance of a run, and how many holds.
+  const auto play = [&](double x0, bool checked) {
+    BlockScene s(blockTerrain(), x0, kFast, stance, gait);
+    s.config.max_up_hold = stance;
+    s.config.stance_stroke = checked ? kStroke : 0.0;
+    s.run(10.0);
+    const planning::GaitClock clock = s.history();
+    expectHoldsInAllStance(gait, clock, stance);
+    double worst = 0.0;
+    for (int foot = 0; foot < 6; ++foot) {
+      double touchdown = std::numeric_limits<double>::quiet_NaN();
+      bool was = gait.inStance(foot, clock.gaitTime(0.5));
+      for (double t = 0.5; t <= 9.0; t += 1e-3) {
+        const bool now = gait.inStance(foot, clock.gaitTime(t));
+        if (!was && now) touchdown = t;
+        if (was && !now && std::isfinite(touchdown)) {
+          const double foothold = s.feet.nominalFoothold(foot, touchdown).x();
+          if (foothold < floor_end) {
+            const double past = kFast * (t - touchdown) - (floor_end - foothold);
+            worst = std::max(worst, past);
+          }
+        }
+        was = now;
+      }
+    }
+    return std::make_pair(worst, clock.size());
+  };
+  double worst_unchecked = 0.0;
+  int held_runs = 0;
+  for (double x0 = -0.3; x0 < 0.0; x0 += 0.02) {
+    worst_unchecked = std::max(worst_unchecked, play(x0, false).first);
+    const auto [worst, holds] = play(x0, true);
+    EXPECT_LE(worst, kStroke + 1e-3) << "x0 " << x0;
+    if (holds > 0) ++held_runs;
+  }
+  EXPECT_GT(worst_unchecked, kStroke + 0.03);
+  EXPECT_GT(held_runs, 0);
+}
+
 TEST(StepUpHolds, TouchDownsCloseUpToTheRiser) {
   const double floor_end = kEdgeUp - kMargin;
   expectHoldsPrevent([&](double x0, bool on) {

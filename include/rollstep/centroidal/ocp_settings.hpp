@@ -195,6 +195,12 @@ struct OcpSettings {
   /// Share of the hips' sweep (the wheel's travel over the narrowest hip range at the
   /// nominal leg length) the body may pass over a stance foot held at a riser, in (0, 10].
   double stance_stroke_share = 1.0;
+  /// [m] Derived, not a key of the file: the stance stroke the speed rule found for the
+  /// robot (stance_stroke_share of the hips' sweep), set with the trot's timing
+  /// (control::timeTrotForSchedule); the edge holds never carry the body further than this
+  /// over a stance foot stopped at a riser (planning::EdgeHoldConfig::stance_stroke). 0:
+  /// unchecked (no speed rule).
+  double edge_hold_stance_stroke = 0.0;
   /// [m] A step counts for the slowdown when it lies within this distance ahead of or behind
   /// a nominal foot along the travel. In [0, 10].
   double step_speed_reach = 0.3;

@@ -45,7 +45,9 @@ planning::TrotTiming trotTimingFor(const planning::SpeedAdaptationLimits& limits
 
 /// The OCP settings timed for `schedule` by the speed rule: with ocp.speed_adaptation and a
 /// trot, gait_period and trot_duty from trotTimingFor (the schedule's fastest command), the
-/// edge waits capped at the timing's max_edge_hold; returns that timing. Otherwise the
+/// edge waits capped at the timing's max_edge_hold and kept from carrying the body further
+/// than the stance stroke over a foot stopped at a riser (edge_hold_stance_stroke); returns
+/// that timing. Otherwise the
 /// settings are left as they are and nothing is returned. Loads the robot's URDF
 /// (not real-time).
 std::optional<planning::TrotTiming> timeTrotForSchedule(

@@ -26,6 +26,11 @@
 //   most `up_reach` short of the step's region: a leg that must clear the riser first
 //   cannot reach far ahead of its hip, and one sent further lands short, on the corner
 //   (off unless up_reach > 0); at most max_up_hold.
+// A hold lengthens the stance of every foot standing through it, and a stance foot that
+// meets a riser ahead of it stands there while the body passes over it (its wheel cannot
+// roll into the step): no hold is made that would carry the body more than `stance_stroke`
+// over such a foot before its lift-off (the rear feet waiting at a step up while a front
+// swing would be held for the step down at the far end of a short block).
 // The hold goes in the middle of the all-stance phase before that swing's lift-off (as
 // long as the lift-off group's longest wait). Holds begin no sooner than `lead` after the
 // planning time, so a plan's clock reaches the real-time side before it matters; later
@@ -56,6 +61,9 @@ struct EdgeHoldConfig {
   /// [m] height difference below which the next region is not a step (no hold): the
   /// regions perception makes of one floor differ by up to a few centimetres.
   double min_step = 0.03;
+  /// [m] the most body travel over a stance foot stopped at a riser ahead of it (from the
+  /// end of its foothold region to its lift-off) that a hold may bring about; 0: unchecked.
+  double stance_stroke = 0.0;
 };
 
 /// Plans the holds of `clock` for the swings lifting off in [t0 + config.lead, t0 +
