@@ -199,6 +199,7 @@ void buildNmpc(BuiltRun& run) {
                                        stateSourceOf(spec, run.robot), edge_capacity);
   if (online) nmpc->setPerception(std::move(online), margin);
   nmpc->enablePlanLog(kPlanNodeStride, spec.duration);
+  nmpc->reserveUpdateLog(spec.duration);
   if (perception) nmpc->enableTerrainLog();
   run.start_regions = terrain;
   run.start_regions_source = perception ? "perception at the start" : "scene";
