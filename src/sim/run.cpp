@@ -333,15 +333,11 @@ std::string projectConfigFile(const std::string& name) {
   return std::string(ROLLSTEP_CONFIG_DIR) + "/" + name;
 }
 
-BuiltRun buildRun(const RunSpec& spec, const RunOverrides& overrides) {
+BuiltRun buildRun(const RunSpec& spec) {
   checkRunSpec(spec);
   BuiltRun run;
   run.spec = spec;
-  if (overrides.scene != nullptr) {
-    run.scene = withSceneNumbers(*overrides.scene, spec.scene_parameters);
-  } else {
-    run.scene = sceneOf(spec);
-  }
+  run.scene = sceneOf(spec);
   // The robot folder, its files checked against each other before anything runs.
   run.robot = robotFolderOf(spec);
   run.plant = std::make_unique<Plant>(run.scene, plantOptionsOf(spec, run.robot));
