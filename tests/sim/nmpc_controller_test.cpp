@@ -42,6 +42,32 @@ control::ControlSettings asynchronousMpc() {
   return s;
 }
 
+/// A trot at 0.1 m/s on the flat scene: the plant and the NMPC controller driving it.
+struct FlatTrot {
+  explicit FlatTrot(const control::ControlSettings& settings)
+      : plant(scene),
+        controller(plant, centroidal::loadRobotOcpDescription(tachyon3Description()), settings,
+                   terrainFromScene(scene, 0.085), planning::GaitKind::Trot,
+                   planning::BaseVelocityCommand{0.1, 0, 0}) {}
+  SceneConfig scene;
+  Plant plant;
+  NmpcController controller;
+};
+
+/// runTicks, counting the heap allocations of the controller's compute() on this thread.
+std::size_t allocationsOfTicks(Controller& controller, Plant& plant, int n) {
+  PlantCommand command = plant.command();
+  std::size_t allocations = 0;
+  for (int k = 0; k < n; ++k) {
+    rollstep::test::AllocationGuard guard;
+    controller.compute(plant.time(), plant.sensors(), command);
+    allocations += guard.count();
+    plant.setCommand(command);
+    plant.step();
+  }
+  return allocations;
+}
+
 TEST(NmpcController, StandsAndRepeatsBitForBit) {
   NmpcScenario sc;
   sc.settings = shortHorizon();
@@ -185,16 +211,8 @@ TEST(NmpcController, PlanLogNeverAllocatesInTheLoop) {
   // A run of 0.04 s: room for the solution in use and those of two more periods (+ 1).
   controller.enablePlanLog(5, 0.04);
   ASSERT_EQ(controller.planLogCapacity(), 5u);
-  PlantCommand command = plant.command();
-  std::size_t allocations = 0;
-  for (int k = 0; k < 200; ++k) {  // 0.2 s: about ten adopted solutions
-    rollstep::test::AllocationGuard guard;
-    controller.compute(plant.time(), plant.sensors(), command);
-    allocations += guard.count();
-    plant.setCommand(command);
-    plant.step();
-  }
-  EXPECT_EQ(allocations, 0u) << "the plan log allocated in the loop";
+  // 0.2 s: about ten adopted solutions.
+  EXPECT_EQ(allocationsOfTicks(controller, plant, 200), 0u) << "the plan log allocated in the loop";
   // The MPC log's records (mpc.csv) since the constructor: the initial solve and every
   // solution received, adopted or not.
   const auto& updates = controller.mpcUpdates();
@@ -212,23 +230,14 @@ TEST(NmpcController, PlanLogNeverAllocatesInTheLoop) {
 // exactly the adopted solutions whose state is at least half a period newer than the last
 // kept one (the first: the solution in use when the log starts), no other.
 TEST(NmpcController, AsynchronousPlanLogKeepsOneSolutionPerHalfPeriod) {
-  SceneConfig scene;
-  Plant plant(scene);
-  const centroidal::RobotOcpDescription robot =
-      centroidal::loadRobotOcpDescription(tachyon3Description());
-  const control::ControlSettings settings = asynchronousMpc();
-  const double half_period = 0.5 * settings.mpc.period;
-  NmpcController controller(plant, robot, settings, terrainFromScene(scene, 0.085),
-                            planning::GaitKind::Trot, planning::BaseVelocityCommand{0.1, 0, 0});
+  const double half_period = 0.5 * asynchronousMpc().mpc.period;
+  FlatTrot run(asynchronousMpc());
+  NmpcController& controller = run.controller;
   constexpr double kDuration = 0.12;  // [s]
   controller.enablePlanLog(5, kDuration);
-  PlantCommand command = plant.command();
-  const long ticks = std::lround(kDuration / plant.controlPeriod());
-  for (long k = 0; k < ticks; ++k) {
+  for (long k = 0; k < std::lround(kDuration / run.plant.controlPeriod()); ++k) {
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    controller.compute(plant.time(), plant.sensors(), command);
-    plant.setCommand(command);
-    plant.step();
+    runTicks(controller, run.plant, 1);
   }
   controller.pipeline().stop();
   ASSERT_EQ(controller.planLogDropped(), 0u);
@@ -265,12 +274,8 @@ TEST(NmpcController, AsynchronousPlanLogKeepsOneSolutionPerHalfPeriod) {
 // or per control period (asynchronous: a solution can arrive at any tick), never grown in
 // the loop; past the reserve the records are counted, not kept.
 TEST(NmpcController, UpdateLogNeverAllocatesInTheLoop) {
-  SceneConfig scene;
-  Plant plant(scene);
-  const centroidal::RobotOcpDescription robot =
-      centroidal::loadRobotOcpDescription(tachyon3Description());
-  NmpcController controller(plant, robot, shortHorizon(), terrainFromScene(scene, 0.085),
-                            planning::GaitKind::Trot, planning::BaseVelocityCommand{0.1, 0, 0});
+  FlatTrot run(shortHorizon());
+  NmpcController& controller = run.controller;
   EXPECT_THROW(controller.reserveUpdateLog(std::nan("")), std::invalid_argument);
   EXPECT_THROW(controller.reserveUpdateLog(-1.0), std::invalid_argument);
   EXPECT_THROW(controller.reserveUpdateLog(1e12), std::invalid_argument);  // terabytes
@@ -282,16 +287,9 @@ TEST(NmpcController, UpdateLogNeverAllocatesInTheLoop) {
   ASSERT_EQ(controller.updateLogCapacity(), 5u);
   ASSERT_EQ(controller.mpcUpdates().size(), 1u);
   const MpcUpdateRecord* storage = controller.mpcUpdates().data();
-  PlantCommand command = plant.command();
-  std::size_t allocations = 0;
-  for (int k = 0; k < 200; ++k) {  // 0.2 s: ten solutions received
-    rollstep::test::AllocationGuard guard;
-    controller.compute(plant.time(), plant.sensors(), command);
-    allocations += guard.count();
-    plant.setCommand(command);
-    plant.step();
-  }
-  EXPECT_EQ(allocations, 0u) << "the MPC update log allocated in the loop";
+  // 0.2 s: ten solutions received.
+  EXPECT_EQ(allocationsOfTicks(controller, run.plant, 200), 0u)
+      << "the MPC update log allocated in the loop";
   EXPECT_EQ(controller.mpcUpdates().data(), storage);
   EXPECT_EQ(controller.mpcUpdates().size(), 5u);
   const std::uint64_t received = controller.pipeline().counters().solutions_received;
@@ -321,12 +319,7 @@ TEST(NmpcController, ARunsUpdateLogIsReservedForItsDuration) {
   EXPECT_LE(controller.updateLogCapacity(), static_cast<std::size_t>(ticks) + 3);
   EXPECT_EQ(controller.mpcUpdates().capacity(), controller.updateLogCapacity());
   const MpcUpdateRecord* storage = controller.mpcUpdates().data();
-  PlantCommand command = plant.command();
-  for (long k = 0; k < ticks; ++k) {
-    controller.compute(plant.time(), plant.sensors(), command);
-    plant.setCommand(command);
-    plant.step();
-  }
+  runTicks(controller, plant, static_cast<int>(ticks));
   controller.pipeline().stop();
   EXPECT_EQ(controller.mpcUpdates().data(), storage);
   EXPECT_EQ(controller.mpcUpdates().capacity(), controller.updateLogCapacity());

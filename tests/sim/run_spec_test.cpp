@@ -270,37 +270,29 @@ TEST(RunSpec, InlineSceneRunsAndReadsBackEqual) {
   const BuiltRun run = buildRun(back);
   EXPECT_EQ(run.scene.name, "step20_moved");
   EXPECT_NEAR(terrainHeight(run.scene, 1.6, 1.2), 0.1, 1e-12);
-  // Errors: the scene's own, named under inline_scene with the spec's line.
-  const auto replaced = [&](const std::string& from, const std::string& to) {
-    std::string t = text;
-    t.replace(t.find(from), from.size(), to);
-    return t;
+  // Errors: the scene's own, named under inline_scene with the spec's line. Each case: the
+  // spec's text with `from` replaced by `to`, and a part of its message.
+  const struct {
+    const char* from;
+    const char* to;
+    const char* message;
+  } cases[] = {
+      {"    start_x: 1.5", "    start_x: [1]",
+       "line 6: inline_scene.parameters.start_x: expected a number, got a list"},
+      {"inline_scene:\n", "inline_scene:\n  base: flat\n",
+       "inline_scene.base: not in an inline scene"},
+      {"inline_scene:\n", "inline_scene:\n  walls: 1\n", "unknown key 'inline_scene.walls'"},
+      {"    step1_height: 0.2", "    step1_height: -1", "inline_scene: line "},
+      {"scene_file: \"\"", "scene_file: a.yaml", "inline_scene: and scene_file exclude each other"},
+      {"  step1_height: 0.1", "  height: 0.1", "'height' is not a number of scene step20_moved"},
+      {text.c_str(), "inline_scene: 3\n", "inline_scene: expected a mapping"},
   };
-  EXPECT_NE(errorOf(replaced("    start_x: 1.5", "    start_x: [1]"))
-                .find("line 6: inline_scene.parameters.start_x: expected a number, got a list"),
-            std::string::npos)
-      << errorOf(replaced("    start_x: 1.5", "    start_x: [1]"));
-  EXPECT_NE(errorOf(replaced("inline_scene:\n", "inline_scene:\n  base: flat\n"))
-                .find("inline_scene.base: not in an inline scene"),
-            std::string::npos);
-  EXPECT_NE(errorOf(replaced("inline_scene:\n", "inline_scene:\n  walls: 1\n"))
-                .find("unknown key 'inline_scene.walls'"),
-            std::string::npos)
-      << errorOf(replaced("inline_scene:\n", "inline_scene:\n  walls: 1\n"));
-  EXPECT_NE(errorOf(replaced("    step1_height: 0.2", "    step1_height: -1"))
-                .find("inline_scene: line "),
-            std::string::npos)
-      << errorOf(replaced("    step1_height: 0.2", "    step1_height: -1"));
-  EXPECT_NE(errorOf(replaced("scene_file: \"\"", "scene_file: a.yaml"))
-                .find("inline_scene: and scene_file exclude each other"),
-            std::string::npos)
-      << errorOf(replaced("scene_file: \"\"", "scene_file: a.yaml"));
-  EXPECT_NE(errorOf(replaced("  step1_height: 0.1", "  height: 0.1"))
-                .find("'height' is not a number of scene step20_moved"),
-            std::string::npos)
-      << errorOf(replaced("  step1_height: 0.1", "  height: 0.1"));
-  EXPECT_NE(errorOf("inline_scene: 3\n").find("inline_scene: expected a mapping"),
-            std::string::npos);
+  for (const auto& c : cases) {
+    std::string t = text;
+    t.replace(t.find(c.from), std::string(c.from).size(), c.to);
+    const std::string error = errorOf(t);
+    EXPECT_NE(error.find(c.message), std::string::npos) << error;
+  }
 }
 
 TEST(RunSpec, PathsRelativeToTheFileAndNamesKept) {
