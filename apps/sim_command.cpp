@@ -272,6 +272,12 @@ std::string nmpcResults(const sim::BuiltRun& run, const OutputFiles& files) {
                  "storage, reserved for the run's duration, was full)\n",
                  nmpc.planLogDropped());
   }
+  if (nmpc.mpcUpdatesDropped() > 0) {
+    std::fprintf(stderr,
+                 "rollstep sim: warning: mpc.csv lacks the last %zu MPC solutions (its "
+                 "storage, reserved for the run's duration, was full)\n",
+                 nmpc.mpcUpdatesDropped());
+  }
   if (run.spec.log_violations) {
     writeFileAtomically(files.violations.string(), nmpc.violationsCsv());
   }

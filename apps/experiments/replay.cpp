@@ -92,11 +92,35 @@ json columnsOf(const LogTable& table, std::size_t stride, double scale) {
 /// solution lacks; the first solution from zero): consecutive plans differ by millimetres,
 /// so most numbers are one or two digits. `rows_per_solution` lets the page undo it.
 json compactPlan(const LogTable& plan, const std::string& path) {
-  for (const char* c : {"solution_time[s]", "sequence[-]"}) {
-    if (!plan.has(c)) throw std::runtime_error("plan '" + path + "': no column " + c);
+  const auto bad = [&](const std::string& why) {
+    return std::runtime_error("plan '" + path + "': " + why + " (docs/REPLAY.md: plan.csv.gz)");
+  };
+  // The columns the page draws from: every contact's three, the rest by name.
+  for (const char* c : {"solution_time[s]", "time[s]", "sequence[-]", "mode[-]", "base_x[m]",
+                        "base_y[m]", "base_z[m]"}) {
+    if (!plan.has(c)) throw bad(std::string("no column ") + c);
+  }
+  for (const std::string& name : plan.names()) {
+    const std::string head = "foot_", tail = "_x[m]";
+    if (name.rfind(head, 0) != 0 || name.size() < head.size() + tail.size() ||
+        name.compare(name.size() - tail.size(), tail.size(), tail) != 0) {
+      continue;
+    }
+    const std::string stem = name.substr(0, name.size() - tail.size());
+    for (const char* axis : {"_y[m]", "_z[m]"}) {
+      if (!plan.has(stem + axis)) throw bad("column " + name + " without " + stem + axis);
+    }
   }
   const auto& t0 = plan.column("solution_time[s]");
   const auto& seq = plan.column("sequence[-]");
+  // The page draws at time t the last solution solved at or before t: in order of time.
+  for (std::size_t r = 1; r < plan.rows(); ++r) {
+    if (t0[r] < t0[r - 1]) {
+      throw bad("solution_time[s] goes back in time in data row " + std::to_string(r + 1) + " (" +
+                plan.text("solution_time[s]")[r] + " after " +
+                plan.text("solution_time[s]")[r - 1] + ")");
+    }
+  }
   std::vector<std::size_t> starts;  // first row of each solution
   for (std::size_t r = 0; r < plan.rows(); ++r) {
     if (r == 0 || t0[r] != t0[r - 1] || seq[r] != seq[r - 1]) starts.push_back(r);
@@ -126,8 +150,8 @@ json compactPlan(const LogTable& plan, const std::string& path) {
     std::vector<long long> q(c.size());
     for (std::size_t r = 0; r < c.size(); ++r) {
       if (!std::isfinite(c[r])) {
-        throw std::runtime_error("plan '" + path + "': " + name + " is not a number in row " +
-                                 std::to_string(r + 2));
+        throw bad(name + " is not a number in data row " + std::to_string(r + 1) + ": '" +
+                  plan.text(name)[r] + "'");
       }
       q[r] = std::llround(c[r] * scale);
     }

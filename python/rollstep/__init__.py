@@ -467,13 +467,13 @@ class Simulation:
     @property
     def spec(self):
         """The RunSpec of this run (a copy); control settings given as ControlSettings or a
-        dict are its `control` section."""
+        dict are its `control` section, a scene given as a SceneConfig or a dict its
+        `inline_scene` (`scene` then its name)."""
         return self._spec.copy()
 
     def save_spec(self, path):
-        """Writes the run's spec to `path` (paths absolute, control settings given in code
-        inline): `rollstep sim --spec PATH` runs the same run again (a scene given as a
-        SceneConfig is not part of the spec)."""
+        """Writes the run's spec to `path` (paths absolute, control settings and a scene
+        given in code inline): `rollstep sim --spec PATH` runs the same run again."""
         with open(path, "w", encoding="utf-8") as f:
             f.write(self._sim.spec_yaml())
 

@@ -208,7 +208,8 @@ class ControlSettings(Settings):
 
 class RunSpec(Settings):
     """A simulation run, the spec `rollstep sim` runs and writes to DIR/run.yaml: robot,
-    scene or scene_file, scene_parameters (a dict of the scene's numbers for this run: its
+    scene or scene_file or inline_scene (the scene itself: a dict of a scene file's keys,
+    scene then its name), scene_parameters (a dict of the scene's numbers for this run: its
     parameters, friction), controller ('stand', 'drive', 'nmpc', 'cbfqp'), duration [s], gait,
     command (a list of [time s, vx m/s, vy m/s, yaw_rate rad/s] entries, base frame, each from
     its time on), drive_speed and drive_turn_speed [m/s], control_config (a file)

@@ -39,12 +39,12 @@ std::vector<std::string> splitColumns(const std::string& text) {
 
 struct Simulation {
   /// The run of `spec` as buildRun builds it for `rollstep sim` (perception and the
-  /// estimator included), with `control` (then the spec's own, inline) and `scene` instead
+  /// estimator included), with `control` and `scene` (then the spec's own, inline) instead
   /// of the spec's files when given.
   Simulation(const sim::RunSpec& spec, std::optional<control::ControlSettings> control_settings,
              std::optional<sim::SceneConfig> scene_config)
-      : scene(std::move(scene_config)),
-        run(sim::buildRun(withControl(spec, std::move(control_settings)), overrides())),
+      : run(sim::buildRun(
+            withScene(withControl(spec, std::move(control_settings)), std::move(scene_config)))),
         plant(*run.plant),
         log_every(spec.log_every) {
     if (sim::OnlinePerception* p = run.perception(); p != nullptr) p->openLog();
@@ -68,10 +68,15 @@ struct Simulation {
     return spec;
   }
 
-  sim::RunOverrides overrides() const {
-    sim::RunOverrides o;
-    o.scene = scene ? &*scene : nullptr;
-    return o;
+  /// A scene given in code goes into the spec inline (replacing its scene file), for the
+  /// same reason; the spec's scene_parameters are set over it.
+  static sim::RunSpec withScene(sim::RunSpec spec, std::optional<sim::SceneConfig> scene) {
+    if (scene) {
+      spec.scene = scene->name.empty() ? "inline" : scene->name;
+      spec.scene_file.clear();
+      spec.inline_scene = std::move(scene);
+    }
+    return spec;
   }
 
   /// One log row: the ground truth at full precision, then the controller's columns.
@@ -139,7 +144,6 @@ struct Simulation {
     }
   }
 
-  std::optional<sim::SceneConfig> scene;
   sim::BuiltRun run;
   sim::Plant& plant;
   sim::PlantCommand command;

@@ -112,6 +112,27 @@ def test_simulation_with_perception_equals_the_command_line(tmp_path, controller
     _same_as_command_line(tmp_path, spec)
 
 
+def _rerun_saved_spec(tmp_path, spec):
+    """Runs `spec` in a Simulation, saves its spec and runs that with `rollstep sim --spec`:
+    the saved spec reads back equal, the command line's log equals the Simulation's, and the
+    run writes the same spec (what was given in code inline). Returns the Simulation."""
+    spec.out = str(tmp_path / "sim")
+    sim = rollstep.Simulation(spec=spec)
+    sim.run(spec.duration)
+    sim.save_spec(tmp_path / "run.yaml")
+    assert rollstep.RunSpec.load(tmp_path / "run.yaml") == spec
+    rollstep.run_command(["sim", "--spec", str(tmp_path / "run.yaml")], capture=True)
+    rows = _log_rows(tmp_path / "sim" / "log.csv")
+    log = sim.log(with_units=True)
+    assert len(rows) - 1 == len(log["time[s]"])
+    for column, name in enumerate(rows[0]):
+        if "[" in name:
+            theirs = [row[column] for row in rows[1:]]
+            assert [_printed(v, cell) for v, cell in zip(log[name], theirs)] == theirs, name
+    assert rollstep.RunSpec.load(tmp_path / "sim" / "run.yaml") == spec
+    return sim
+
+
 def test_simulation_with_control_settings_given_in_code_writes_a_spec_that_reruns_it(tmp_path):
     """Settings given in code are the spec's own control: section: the spec the Simulation
     saves runs the same with `rollstep sim --spec`, and reads back equal."""
@@ -127,23 +148,36 @@ def test_simulation_with_control_settings_given_in_code_writes_a_spec_that_rerun
     assert sim.spec.control.feedback.foot_kp == 300
     spec = sim.spec
     spec.duration = 0.3
-    spec.out = str(tmp_path / "sim")
-    sim = rollstep.Simulation(spec=spec)
-    sim.run(0.3)
-    sim.save_spec(tmp_path / "run.yaml")
-    assert rollstep.RunSpec.load(tmp_path / "run.yaml") == spec
-    rollstep.run_command(["sim", "--spec", str(tmp_path / "run.yaml")], capture=True)
-    rows = _log_rows(tmp_path / "sim" / "log.csv")
-    log = sim.log(with_units=True)
-    assert len(rows) - 1 == len(log["time[s]"])
-    for column, name in enumerate(rows[0]):
-        if "[" in name:
-            theirs = [row[column] for row in rows[1:]]
-            assert [_printed(v, cell) for v, cell in zip(log[name], theirs)] == theirs, name
-    # The run wrote the settings whole, inline: the same spec.
-    assert rollstep.RunSpec.load(tmp_path / "sim" / "run.yaml") == spec
+    sim = _rerun_saved_spec(tmp_path, spec)
     # The settings differ from the defaults: a run without them logs differently.
     default = rollstep.Simulation(scene="step20", controller="nmpc", gait="trot",
                                   command=(0.15, 0, 0), log_every=5)
     default.run(0.3)
     assert not np.array_equal(default.log()["base_x"], sim.log()["base_x"])
+
+
+def test_simulation_with_a_scene_given_in_code_writes_a_spec_that_reruns_it(tmp_path):
+    """A scene given in code (a SceneConfig) is the spec's inline_scene, `scene` its name: the
+    spec the Simulation saves runs on the same terrain with `rollstep sim --spec` (the same
+    log), reads back equal, and a spec file's errors name the inline scene's keys."""
+    program = os.environ.get("ROLLSTEP_PROGRAM") or rollstep._paths.PROGRAM
+    if not os.path.exists(program):
+        pytest.skip("the rollstep program is not built")
+    scene = rollstep.SceneConfig("flat")
+    scene.set("friction", 0.05)  # the wheels slip under the drive's 1 m/s^2 ramp
+    sim = rollstep.Simulation(scene=scene, controller="drive", speed=0.5, log_every=5)
+    spec = sim.spec
+    assert spec.scene == "flat"
+    assert spec.to_dict()["inline_scene"]["friction"] == 0.05
+    spec.duration = 0.6
+    sim = _rerun_saved_spec(tmp_path, spec)
+    # The scene's file (friction 0.8) is not what ran: there the robot gets further.
+    on_file = rollstep.Simulation(scene="flat", controller="drive", speed=0.5, log_every=5)
+    on_file.run(0.6)
+    assert on_file.log()["base_x"][-1] - sim.log()["base_x"][-1] > 0.02
+    # The inline scene's keys are checked as a scene file's, named under inline_scene.
+    text = spec.to_yaml().replace("friction: 0.05", "friction: [1]")
+    with pytest.raises(RuntimeError, match=r"line \d+: inline_scene\.friction"):
+        rollstep.RunSpec.from_yaml(text)
+    with pytest.raises(RuntimeError, match="inline_scene: and scene_file exclude each other"):
+        rollstep.RunSpec.from_yaml(spec.to_yaml().replace('scene_file: ""', "scene_file: a.yaml"))

@@ -7,6 +7,7 @@
 
 #include "check.hpp"
 #include "command_math.hpp"
+#include "terrain_scan.hpp"
 
 namespace rollstep::planning {
 
@@ -17,17 +18,16 @@ using detail::twistOf;
 using detail::yawOf;
 
 /// True when a sample point moved from where it is up to `reach` along the unit world
-/// direction e crosses surfaces whose heights differ by more than min_step.
+/// direction e meets a height more than min_step above or below the one under it.
 bool crossesStep(const TerrainModel& terrain, const lie::SE3& pose,
                  const std::vector<Eigen::Vector2d>& samples, const Eigen::Vector2d& e,
                  double reach, double min_step) {
-  constexpr double kSpacing = 0.02;  // [m] finer than any foothold region a wheel stands on
   for (const Eigen::Vector2d& s : samples) {
-    const Eigen::Vector2d w = pose.act(Eigen::Vector3d(s.x(), s.y(), 0.0)).head<2>();
+    const Eigen::Vector2d w = detail::worldPoint(pose, s);
     const double h0 = terrain.heightAt(w);
-    for (double d = kSpacing; d <= reach + 1e-9; d += kSpacing) {
-      if (std::abs(terrain.heightAt(w + d * e) - h0) > min_step) return true;
-    }
+    const detail::HeightRange r =
+        detail::heightRangeAlong(terrain, w, e, detail::kScanSpacing, reach);
+    if (r.hi - h0 > min_step || h0 - r.lo > min_step) return true;
   }
   return false;
 }

@@ -8,6 +8,7 @@
 
 #include "check.hpp"
 #include "command_math.hpp"
+#include "terrain_scan.hpp"
 
 namespace rollstep::planning {
 
@@ -40,17 +41,10 @@ BaseVelocityCommand scaled(const BaseVelocityCommand& c, double s) {
 bool nearStep(const TerrainModel& terrain, const lie::SE3& pose,
               const std::vector<Eigen::Vector2d>& samples, const Eigen::Vector2d& e, double behind,
               double ahead, double min_step) {
-  constexpr double kSpacing = 0.02;  // [m] finer than any foothold region a wheel stands on
   for (const Eigen::Vector2d& s : samples) {
-    const Eigen::Vector2d w = pose.act(Eigen::Vector3d(s.x(), s.y(), 0.0)).head<2>();
-    double lo = std::numeric_limits<double>::infinity();
-    double hi = -lo;
-    for (double d = -behind; d <= ahead + 1e-9; d += kSpacing) {
-      const double h = terrain.heightAt(w + d * e);
-      lo = std::min(lo, h);
-      hi = std::max(hi, h);
-    }
-    if (hi - lo > min_step) return true;
+    const detail::HeightRange r =
+        detail::heightRangeAlong(terrain, detail::worldPoint(pose, s), e, -behind, ahead);
+    if (r.hi - r.lo > min_step) return true;
   }
   return false;
 }

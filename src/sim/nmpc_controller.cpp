@@ -173,12 +173,35 @@ NmpcController::NmpcController(const Plant& plant, const centroidal::RobotOcpDes
     throw std::runtime_error("nmpc: no initial state");
   }
   initial_status_ = pipeline_->initializeSchedule(state_, schedule);
-  // One record per MPC period of the longest run the CLI allows, so that recording does not
-  // reallocate in the loop (a longer run still works; the vector then grows).
-  updates_.reserve(settings.mpc.period >= 1e-3
-                       ? static_cast<size_t>(3600.0 / settings.mpc.period) + 2
-                       : size_t{1} << 20);
+  reserveUpdateLog(kDefaultUpdateLogDuration);
   record(plant.time(), true);
+}
+
+void NmpcController::reserveUpdateLog(double duration) {
+  if (!std::isfinite(duration) || duration < 0.0) {
+    throw std::invalid_argument("nmpc: MPC update log duration must be finite and >= 0 s");
+  }
+  // Deterministic timing solves once per period of loop time; the asynchronous thread's
+  // solutions are taken once per tick at most (poll), whatever its period.
+  const control::ControlSettings& settings = pipeline_->settings();
+  const bool asynchronous = settings.mpc.timing == control::MpcTiming::Asynchronous;
+  const double interval =
+      asynchronous || !(settings.mpc.period > 0.0) ? settings.control_period : settings.mpc.period;
+  const double records = std::floor(duration / interval) + 3.0;  // + the initial solve's
+  const double bytes = records * static_cast<double>(sizeof(MpcUpdateRecord));
+  if (bytes > 8.0 * (1 << 30)) {
+    throw std::invalid_argument(
+        formatText("nmpc: the MPC update log of a %.0f s run needs %.1f GiB (more than 8 GiB): run "
+                   "shorter runs",
+                   duration, bytes / (1 << 30)));
+  }
+  update_capacity_ = static_cast<std::size_t>(records);
+  std::vector<MpcUpdateRecord> kept;  // exactly the run's size, the records so far in it
+  kept.reserve(update_capacity_);
+  kept.assign(updates_.begin(), updates_.begin() + static_cast<std::ptrdiff_t>(std::min(
+                                                       updates_.size(), update_capacity_)));
+  updates_.swap(kept);
+  updates_dropped_ = 0;
 }
 
 void NmpcController::record(double t, bool adopted) {
@@ -195,6 +218,10 @@ void NmpcController::record(double t, bool adopted) {
   r.solve_time_ms = s.solve_time_ms;
   r.adopted = adopted;
   r.gait_held = s.gait_clock.totalHeld();
+  if (updates_.size() == update_capacity_) {
+    ++updates_dropped_;  // past the run's reserve: never grow in the loop
+    return;
+  }
   updates_.push_back(r);
 }
 

@@ -199,6 +199,7 @@ void buildNmpc(BuiltRun& run) {
                                        stateSourceOf(spec, run.robot), edge_capacity);
   if (online) nmpc->setPerception(std::move(online), margin);
   nmpc->enablePlanLog(kPlanNodeStride, spec.duration);
+  nmpc->reserveUpdateLog(spec.duration);
   if (perception) nmpc->enableTerrainLog();
   run.start_regions = terrain;
   run.start_regions_source = perception ? "perception at the start" : "scene";
@@ -332,15 +333,11 @@ std::string projectConfigFile(const std::string& name) {
   return std::string(ROLLSTEP_CONFIG_DIR) + "/" + name;
 }
 
-BuiltRun buildRun(const RunSpec& spec, const RunOverrides& overrides) {
+BuiltRun buildRun(const RunSpec& spec) {
   checkRunSpec(spec);
   BuiltRun run;
   run.spec = spec;
-  if (overrides.scene != nullptr) {
-    run.scene = withSceneNumbers(*overrides.scene, spec.scene_parameters);
-  } else {
-    run.scene = sceneOf(spec);
-  }
+  run.scene = sceneOf(spec);
   // The robot folder, its files checked against each other before anything runs.
   run.robot = robotFolderOf(spec);
   run.plant = std::make_unique<Plant>(run.scene, plantOptionsOf(spec, run.robot));

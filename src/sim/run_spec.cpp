@@ -106,6 +106,23 @@ std::string writeControl(const RunSpec& s, const std::string& indent) {
   return "\n" + control::toYaml(*s.control, indent + "  ");
 }
 
+/// `inline_scene:` a mapping of a scene file's keys (the scene's own reader: its keys and
+/// checks, named inline_scene.<key>), or null for none.
+void readInlineScene(const yaml::Node& v, RunSpec& s, settings::Reader& r,
+                     const std::string& path) {
+  if (v.isNull()) {
+    s.inline_scene.reset();
+    return;
+  }
+  s.inline_scene = readSceneConfig(v, r, path + ".", s.scene);
+}
+
+std::string writeInlineScene(const RunSpec& s, const std::string& indent) {
+  if (!s.inline_scene) return " null";
+  const std::string keys = sceneYaml(*s.inline_scene, indent + "  ");
+  return keys.empty() ? " {}" : "\n" + keys;
+}
+
 /// `scene_parameters:` a mapping of name: number (the names are checked against the scene
 /// once the spec is read: parseRunSpec).
 void readSceneNumbers(const yaml::Node& v, RunSpec& s, settings::Reader& r,
@@ -142,6 +159,12 @@ settings::Table<RunSpec> makeTable(const std::string& base_dir) {
   addText(t, "robot", &RunSpec::robot);
   addText(t, "scene", &RunSpec::scene);
   addText(t, "scene_file", &RunSpec::scene_file);
+  t.custom("inline_scene", readInlineScene, writeInlineScene, /*is_section=*/true)
+      .documentedAs([](const std::string&) {
+        return std::string(
+            " null  # none: scene or scene_file; else a mapping of a scene file's keys, scene "
+            "its name\n");
+      });
   t.custom("scene_parameters", readSceneNumbers, writeSceneNumbers, /*is_section=*/true)
       .documentedAs([](const std::string&) {
         return std::string(
@@ -233,6 +256,9 @@ std::optional<settings::Problem> crossProblem(const RunSpec& s) {
       s.controller == ControllerKind::Nmpc || s.controller == ControllerKind::CbfQp;
   const bool nmpc = s.controller == ControllerKind::Nmpc;
   const bool perception = s.terrain == TerrainSource::Perception;
+  if (s.inline_scene && !s.scene_file.empty()) {
+    return settings::Problem{"inline_scene", "and scene_file exclude each other (give one)"};
+  }
   if (!s.scene_file.empty() && s.scene != d.scene) {
     return settings::Problem{"scene_file",
                              "and scene exclude each other (the file names its scene)"};
@@ -343,7 +369,10 @@ bool RunSpec::operator==(const RunSpec& o) const {
          estimator_config == o.estimator_config && sensor_config == o.sensor_config &&
          out == o.out && log_every == o.log_every && map_log == o.map_log &&
          map_log_rate == o.map_log_rate && log_violations == o.log_violations &&
-         scene_parameters == o.scene_parameters && control.has_value() == o.control.has_value() &&
+         scene_parameters == o.scene_parameters &&
+         inline_scene.has_value() == o.inline_scene.has_value() &&
+         (!inline_scene || sceneYaml(*inline_scene, "") == sceneYaml(*o.inline_scene, "")) &&
+         control.has_value() == o.control.has_value() &&
          (!control || control::toYaml(*control) == control::toYaml(*o.control));
 }
 
@@ -371,6 +400,7 @@ RunSpec parseRunSpec(const std::string& text, const std::string& source,
   // The inline control settings' extends: is relative to the spec's folder.
   const settings::Table<RunSpec> dir_table = makeTable(base_dir);
   dir_table.read(document.root(), spec, reader);
+  if (spec.inline_scene) spec.inline_scene->name = spec.scene;  // whichever key came first
   if (auto p = crossProblem(spec)) {
     reader.failAtLine(reader.lineOf({p->path}, document.root().line()), p->path + ": " + p->what);
   }
@@ -384,7 +414,9 @@ RunSpec parseRunSpec(const std::string& text, const std::string& source,
     const char* scene_key = spec.scene_file.empty() ? "scene" : "scene_file";
     SceneConfig scene;
     try {
-      scene = spec.scene_file.empty() ? loadScene(spec.scene) : loadSceneConfig(spec.scene_file);
+      scene = spec.inline_scene         ? *spec.inline_scene
+              : spec.scene_file.empty() ? loadScene(spec.scene)
+                                        : loadSceneConfig(spec.scene_file);
     } catch (const std::exception& e) {  // the scene itself cannot be loaded
       reader.failAtLine(reader.lineOf({scene_key, "scene_parameters"}, document.root().line()),
                         std::string(scene_key) + ": " + e.what());
@@ -464,8 +496,13 @@ SceneConfig withSceneNumbers(SceneConfig scene, const std::vector<SceneNumberVal
 }
 
 SceneConfig sceneOf(const RunSpec& spec) {
-  SceneConfig scene =
-      spec.scene_file.empty() ? loadScene(spec.scene) : loadSceneConfig(spec.scene_file);
+  SceneConfig scene;
+  if (spec.inline_scene) {
+    scene = *spec.inline_scene;
+    scene.name = spec.scene;
+  } else {
+    scene = spec.scene_file.empty() ? loadScene(spec.scene) : loadSceneConfig(spec.scene_file);
+  }
   return withSceneNumbers(std::move(scene), spec.scene_parameters);
 }
 

@@ -624,6 +624,37 @@ std::string toYaml(const SceneConfig& config) {
   return "# scene " + config.name + "\n" + sceneTable(false).write(config);
 }
 
+SceneConfig readSceneConfig(const yaml::Node& node, settings::Reader& reader,
+                            const std::string& prefix, const std::string& name) {
+  SceneConfig config;
+  config.name = name;
+  config.source = reader.head().substr(0, reader.head().size() - 2);
+  const std::string section = prefix.substr(0, prefix.size() - 1);
+  if (!node.isMapping()) {
+    reader.fail(node,
+                section + ": expected a mapping of a scene file's keys, got " + node.kindName());
+  }
+  for (std::size_t i = 0; i < node.size(); ++i) {
+    if (node.key(i).isScalar() && node.key(i).scalar() == "base") {
+      reader.fail(node.key(i), prefix + "base: not in an inline scene (give the scene's keys)");
+    }
+  }
+  sceneTable(false).read(node, config, reader, prefix);
+  try {
+    config.validate();
+  } catch (const std::invalid_argument& e) {  // names the line of the bad number
+    const std::string what = e.what();
+    const std::string head = config.source + ": ";
+    throw std::runtime_error(head + section + ": " +
+                             (what.rfind(head, 0) == 0 ? what.substr(head.size()) : what));
+  }
+  return config;
+}
+
+std::string sceneYaml(const SceneConfig& config, const std::string& indent) {
+  return sceneTable(false).write(config, indent);
+}
+
 std::string documentedScene() { return sceneTable(false).documented(); }
 
 // ---- Numbers by key path ----

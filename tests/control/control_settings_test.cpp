@@ -5,11 +5,14 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "rollstep/common/text_file.hpp"
 
@@ -54,6 +57,44 @@ TEST(ControlSettings, TheDocumentedFileEqualsTheDefaults) {
     if (in_ocp) continue;  // config/ocp.yaml's keys
     EXPECT_TRUE(has(text, "\n" + key + ":")) << key;
   }
+}
+
+// The ocp fuzz harness's seed of every control key (fuzz/corpus/ocp/control_defaults.yaml)
+// is the table's own writing of the defaults, so it names every key (ocp: and its solver:
+// included) and cannot fall behind a new one. Rewritten from the table with
+// ROLLSTEP_WRITE_FUZZ_SEEDS=1 in the environment (fuzz/README.md).
+TEST(ControlSettings, TheFuzzSeedHasEveryKey) {
+  const std::string path =
+      std::string(ROLLSTEP_TEST_DATA_DIR) + "/../../fuzz/corpus/ocp/control_defaults.yaml";
+  const std::string expected =
+      "# Every control settings key with its default, written by the settings table\n"
+      "# (tests/control/control_settings_test.cpp: TheFuzzSeedHasEveryKey).\n" +
+      toYaml(ControlSettings{});
+  if (const char* write = std::getenv("ROLLSTEP_WRITE_FUZZ_SEEDS"); write && *write == '1') {
+    std::ofstream(path) << expected;
+  }
+  const std::string seed = readTextFile(path, "fuzz seed", 1 << 20);
+  EXPECT_EQ(seed, expected) << "the seed is not the table's defaults: run this test with "
+                               "ROLLSTEP_WRITE_FUZZ_SEEDS=1 to write it";
+  EXPECT_EQ(toYaml(parseControlSettings(seed, "seed")), toYaml(ControlSettings{}));
+  // Every key path the table writes is in the seed, sections included.
+  std::vector<std::string> open;  // the sections around the line
+  const std::string all = toYaml(ControlSettings{});
+  std::size_t keys = 0;
+  for (std::size_t start = 0; start < all.size();) {
+    const std::size_t end = all.find('\n', start);
+    const std::string line = all.substr(start, end - start);
+    start = end + 1;
+    const std::size_t depth = line.find_first_not_of(' ') / 2;
+    open.resize(std::min(open.size(), depth));
+    const std::string key = line.substr(2 * depth, line.find(':') - 2 * depth);
+    open.push_back(key);
+    std::string at;
+    for (const std::string& k : open) at += (at.empty() ? "" : ".") + k;
+    EXPECT_NE(seed.find("\n" + std::string(2 * depth, ' ') + key + ":"), std::string::npos) << at;
+    ++keys;
+  }
+  EXPECT_GT(keys, 100u);  // the sections of control, ocp and solver
 }
 
 TEST(ControlSettings, RoundTripsNonDefaultValues) {

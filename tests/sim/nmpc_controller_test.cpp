@@ -14,6 +14,7 @@
 
 #include "common/alloc_counter.hpp"
 #include "rollstep/sim/online_perception.hpp"
+#include "rollstep/sim/run.hpp"
 #include "sim/closed_loop_ticks.hpp"
 #include "sim/nmpc_run.hpp"
 
@@ -39,6 +40,32 @@ control::ControlSettings asynchronousMpc() {
   s.ocp.step_down_max_hold = 0.0;
   s.ocp.step_up_max_hold = 0.0;
   return s;
+}
+
+/// A trot at 0.1 m/s on the flat scene: the plant and the NMPC controller driving it.
+struct FlatTrot {
+  explicit FlatTrot(const control::ControlSettings& settings)
+      : plant(scene),
+        controller(plant, centroidal::loadRobotOcpDescription(tachyon3Description()), settings,
+                   terrainFromScene(scene, 0.085), planning::GaitKind::Trot,
+                   planning::BaseVelocityCommand{0.1, 0, 0}) {}
+  SceneConfig scene;
+  Plant plant;
+  NmpcController controller;
+};
+
+/// runTicks, counting the heap allocations of the controller's compute() on this thread.
+std::size_t allocationsOfTicks(Controller& controller, Plant& plant, int n) {
+  PlantCommand command = plant.command();
+  std::size_t allocations = 0;
+  for (int k = 0; k < n; ++k) {
+    rollstep::test::AllocationGuard guard;
+    controller.compute(plant.time(), plant.sensors(), command);
+    allocations += guard.count();
+    plant.setCommand(command);
+    plant.step();
+  }
+  return allocations;
 }
 
 TEST(NmpcController, StandsAndRepeatsBitForBit) {
@@ -184,16 +211,8 @@ TEST(NmpcController, PlanLogNeverAllocatesInTheLoop) {
   // A run of 0.04 s: room for the solution in use and those of two more periods (+ 1).
   controller.enablePlanLog(5, 0.04);
   ASSERT_EQ(controller.planLogCapacity(), 5u);
-  PlantCommand command = plant.command();
-  std::size_t allocations = 0;
-  for (int k = 0; k < 200; ++k) {  // 0.2 s: about ten adopted solutions
-    rollstep::test::AllocationGuard guard;
-    controller.compute(plant.time(), plant.sensors(), command);
-    allocations += guard.count();
-    plant.setCommand(command);
-    plant.step();
-  }
-  EXPECT_EQ(allocations, 0u) << "the plan log allocated in the loop";
+  // 0.2 s: about ten adopted solutions.
+  EXPECT_EQ(allocationsOfTicks(controller, plant, 200), 0u) << "the plan log allocated in the loop";
   // The MPC log's records (mpc.csv) since the constructor: the initial solve and every
   // solution received, adopted or not.
   const auto& updates = controller.mpcUpdates();
@@ -203,6 +222,110 @@ TEST(NmpcController, PlanLogNeverAllocatesInTheLoop) {
   EXPECT_EQ(controller.planLogDropped() + 5u, adopted);
   const std::string csv = controller.planCsv();
   EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 1 + 5 * 9);  // header, 5 solutions
+}
+
+// The plan log under the asynchronous timing: a simulation slower than real time (10 ms of
+// wall time per 1 ms tick) gets a solution every few ticks from the MPC thread (at most one
+// per period of wall time), far more often than once per period of loop time. Kept are
+// exactly the adopted solutions whose state is at least half a period newer than the last
+// kept one (the first: the solution in use when the log starts), no other.
+TEST(NmpcController, AsynchronousPlanLogKeepsOneSolutionPerHalfPeriod) {
+  const double half_period = 0.5 * asynchronousMpc().mpc.period;
+  FlatTrot run(asynchronousMpc());
+  NmpcController& controller = run.controller;
+  constexpr double kDuration = 0.12;  // [s]
+  controller.enablePlanLog(5, kDuration);
+  for (long k = 0; k < std::lround(kDuration / run.plant.controlPeriod()); ++k) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    runTicks(controller, run.plant, 1);
+  }
+  controller.pipeline().stop();
+  ASSERT_EQ(controller.planLogDropped(), 0u);
+  // The kept solutions' sequence numbers, in order, from plan.csv.
+  std::vector<unsigned long long> kept;
+  const std::string csv = controller.planCsv();
+  for (std::size_t line = csv.find('\n') + 1; line < csv.size(); line = csv.find('\n', line) + 1) {
+    const std::size_t a = csv.find(',', line), b = csv.find(',', a + 1);
+    const unsigned long long sequence = std::stoull(csv.substr(b + 1));
+    if (kept.empty() || kept.back() != sequence) kept.push_back(sequence);
+  }
+  // The rule applied to every adopted solution, in order of arrival.
+  std::vector<unsigned long long> expected;
+  double last_kept = 0.0;
+  std::size_t adopted = 0, close = 0;
+  for (const MpcUpdateRecord& u : controller.mpcUpdates()) {
+    if (!u.adopted) continue;
+    ++adopted;
+    if (!expected.empty() && u.state_time < last_kept + half_period) {
+      ++close;
+      continue;
+    }
+    expected.push_back(u.sequence);
+    last_kept = u.state_time;
+  }
+  std::printf("%zu solutions adopted, %zu kept, %zu within half a period of the last kept\n",
+              adopted, kept.size(), close);
+  EXPECT_GT(close, 0u) << "no solution came within half a period: the rule was not exercised";
+  EXPECT_GE(expected.size(), 5u);
+  EXPECT_EQ(kept, expected);
+}
+
+// mpc.csv's records: reserved for the run's duration, one per MPC period (deterministic)
+// or per control period (asynchronous: a solution can arrive at any tick), never grown in
+// the loop; past the reserve the records are counted, not kept.
+TEST(NmpcController, UpdateLogNeverAllocatesInTheLoop) {
+  FlatTrot run(shortHorizon());
+  NmpcController& controller = run.controller;
+  EXPECT_THROW(controller.reserveUpdateLog(std::nan("")), std::invalid_argument);
+  EXPECT_THROW(controller.reserveUpdateLog(-1.0), std::invalid_argument);
+  EXPECT_THROW(controller.reserveUpdateLog(1e12), std::invalid_argument);  // terabytes
+  controller.reserveUpdateLog(7200.0);  // two hours: more than the one once reserved
+  EXPECT_GE(controller.updateLogCapacity(), static_cast<std::size_t>(7200.0 / 0.02) + 1);
+  // A run of 0.04 s: room for the initial solve's record and those of two more periods
+  // (+ 1 for the rounding); the record made so far is kept.
+  controller.reserveUpdateLog(0.04);
+  ASSERT_EQ(controller.updateLogCapacity(), 5u);
+  ASSERT_EQ(controller.mpcUpdates().size(), 1u);
+  const MpcUpdateRecord* storage = controller.mpcUpdates().data();
+  // 0.2 s: ten solutions received.
+  EXPECT_EQ(allocationsOfTicks(controller, run.plant, 200), 0u)
+      << "the MPC update log allocated in the loop";
+  EXPECT_EQ(controller.mpcUpdates().data(), storage);
+  EXPECT_EQ(controller.mpcUpdates().size(), 5u);
+  const std::uint64_t received = controller.pipeline().counters().solutions_received;
+  EXPECT_GE(received, 9u);
+  EXPECT_EQ(controller.mpcUpdates().size() + controller.mpcUpdatesDropped(), received + 1);
+}
+
+// A run built from its spec (as `rollstep sim` and the Python Simulation build it), with
+// the asynchronous timing: the recorder is sized for the run's duration at one record per
+// tick, and running the whole duration neither moves nor outgrows it.
+TEST(NmpcController, ARunsUpdateLogIsReservedForItsDuration) {
+  RunSpec spec;
+  spec.controller = ControllerKind::Nmpc;
+  spec.gait = planning::GaitKind::Trot;
+  spec.command = {{0.0, {0.1, 0.0, 0.0}}};
+  spec.duration = 0.1;
+  spec.control = asynchronousMpc();
+  spec.control->mpc.period = 0.0;  // back to back: as many solutions as the thread makes
+  BuiltRun run = buildRun(spec);
+  ASSERT_NE(run.nmpc, nullptr);
+  NmpcController& controller = *run.nmpc;
+  Plant& plant = *run.plant;
+  const long ticks = std::lround(spec.duration / plant.controlPeriod());
+  // The initial solve's record and one per tick at most, with little to spare: a reserve
+  // for a fixed hour (as once) is not the run's.
+  EXPECT_GE(controller.updateLogCapacity(), static_cast<std::size_t>(ticks) + 1);
+  EXPECT_LE(controller.updateLogCapacity(), static_cast<std::size_t>(ticks) + 3);
+  EXPECT_EQ(controller.mpcUpdates().capacity(), controller.updateLogCapacity());
+  const MpcUpdateRecord* storage = controller.mpcUpdates().data();
+  runTicks(controller, plant, static_cast<int>(ticks));
+  controller.pipeline().stop();
+  EXPECT_EQ(controller.mpcUpdates().data(), storage);
+  EXPECT_EQ(controller.mpcUpdates().capacity(), controller.updateLogCapacity());
+  EXPECT_EQ(controller.mpcUpdatesDropped(), 0u);
+  EXPECT_EQ(controller.mpcUpdates().size(),
+            controller.pipeline().counters().solutions_received + 1);
 }
 
 // Late touch-downs (ocp.late_touchdown_tolerance): LF's measured wheel held 4 cm above

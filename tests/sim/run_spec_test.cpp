@@ -76,7 +76,7 @@ TEST(RunSpec, WrittenAndReadBackEqual) {
 TEST(RunSpec, ErrorsNameFileLineAndKey) {
   EXPECT_EQ(errorOf("scene: flat\nspeed: 3\n"),
             "run spec 'r.yaml': line 2: unknown key 'speed' (known: robot, scene, scene_file, "
-            "scene_parameters, controller, duration, gait, command, drive_speed, "
+            "inline_scene, scene_parameters, controller, duration, gait, command, drive_speed, "
             "drive_turn_speed, control_config, control, mpc_timing, integrator, terrain, "
             "lidar_config, perception_config, "
             "perception_timing, state_source, estimator_config, sensor_config, out, log_every, "
@@ -234,6 +234,65 @@ TEST(RunSpec, SceneParametersCheckedAgainstTheScene) {
   EXPECT_EQ(errorOf("scene: step20\nscene_parameters: {width: wide}\n")
                 .rfind("run spec 'r.yaml': line 2: scene_parameters.width: ", 0),
             0u);
+}
+
+// A scene given in code (the Python Simulation's SceneConfig) is the spec's inline_scene,
+// `scene` its name: written whole, read back to the same numbers, checked as a scene file
+// is under inline_scene.<key>, and the run built from the spec runs on it.
+TEST(RunSpec, InlineSceneRunsAndReadsBackEqual) {
+  SceneConfig scene = loadScene("step20");
+  setSceneNumber(scene, "boxes[0].size[1]", 2.5);
+  ASSERT_EQ(scene.parameters[0].name, "start_x");
+  scene.parameters[0].value = 1.5;  // the block 0.5 m further
+  RunSpec s;
+  s.scene = "step20_moved";
+  s.inline_scene = scene;
+  s.scene_parameters = {{"step1_height", 0.1}};
+  const std::string text = toYaml(s);
+  EXPECT_NE(text.find("inline_scene:\n  parameters:\n    start_x: 1.5\n"), std::string::npos)
+      << text;
+  const RunSpec back = parseRunSpec(text, "run spec 'r.yaml'");
+  EXPECT_TRUE(back == s) << text;
+  EXPECT_EQ(toYaml(back), text);
+  ASSERT_TRUE(back.inline_scene.has_value());
+  EXPECT_EQ(back.inline_scene->name, "step20_moved");
+  RunSpec other = s;
+  setSceneNumber(*other.inline_scene, "friction", 0.5);
+  EXPECT_FALSE(other == s);
+  // The run's scene: the inline one with the spec's numbers over it, named by `scene`.
+  const SceneConfig ran = sceneOf(back);
+  EXPECT_EQ(ran.name, "step20_moved");
+  EXPECT_DOUBLE_EQ(sceneNumber(ran, "start_x"), 1.5);
+  EXPECT_DOUBLE_EQ(sceneNumber(ran, "step1_height"), 0.1);
+  EXPECT_DOUBLE_EQ(sceneNumber(ran, "boxes[0].size[1]"), 2.5);
+  EXPECT_EQ(terrainHeight(ran, 1.2, 0.0), 0.0);  // step20's block starts at 1 m
+  EXPECT_NEAR(terrainHeight(ran, 1.6, 1.2), 0.1, 1e-12);
+  const BuiltRun run = buildRun(back);
+  EXPECT_EQ(run.scene.name, "step20_moved");
+  EXPECT_NEAR(terrainHeight(run.scene, 1.6, 1.2), 0.1, 1e-12);
+  // Errors: the scene's own, named under inline_scene with the spec's line. Each case: the
+  // spec's text with `from` replaced by `to`, and a part of its message.
+  const struct {
+    const char* from;
+    const char* to;
+    const char* message;
+  } cases[] = {
+      {"    start_x: 1.5", "    start_x: [1]",
+       "line 6: inline_scene.parameters.start_x: expected a number, got a list"},
+      {"inline_scene:\n", "inline_scene:\n  base: flat\n",
+       "inline_scene.base: not in an inline scene"},
+      {"inline_scene:\n", "inline_scene:\n  walls: 1\n", "unknown key 'inline_scene.walls'"},
+      {"    step1_height: 0.2", "    step1_height: -1", "inline_scene: line "},
+      {"scene_file: \"\"", "scene_file: a.yaml", "inline_scene: and scene_file exclude each other"},
+      {"  step1_height: 0.1", "  height: 0.1", "'height' is not a number of scene step20_moved"},
+      {text.c_str(), "inline_scene: 3\n", "inline_scene: expected a mapping"},
+  };
+  for (const auto& c : cases) {
+    std::string t = text;
+    t.replace(t.find(c.from), std::string(c.from).size(), c.to);
+    const std::string error = errorOf(t);
+    EXPECT_NE(error.find(c.message), std::string::npos) << error;
+  }
 }
 
 TEST(RunSpec, PathsRelativeToTheFileAndNamesKept) {

@@ -153,8 +153,22 @@ class NmpcController final : public Controller {
   /// (its position, yaw, world velocity), est_gyro_bias_* and est_contacts_rejected.
   std::string logColumns() const override;
   void logValues(std::string& out) const override;
-  /// Every solution received so far, in order (the first one is the initial solve's).
+  /// Every solution received so far, in order (the first one is the initial solve's), up to
+  /// the reserve of reserveUpdateLog.
   const std::vector<MpcUpdateRecord>& mpcUpdates() const { return updates_; }
+  /// Reserves mpcUpdates() for a run of `duration` [s], so that recording never allocates in
+  /// the loop: one record per MPC period with the deterministic timing, one per control
+  /// period with the asynchronous one (its thread can hand a solution to every tick when
+  /// the simulation runs slower than real time), 80 B each. The constructor reserves
+  /// for kDefaultUpdateLogDuration. Past the reserve (a caller running longer) records are
+  /// counted (mpcUpdatesDropped), not kept. Throws std::invalid_argument for a negative or
+  /// non-finite duration or a reserve above 8 GiB.
+  void reserveUpdateLog(double duration);
+  static constexpr double kDefaultUpdateLogDuration = 60.0;  ///< [s]
+  /// Records mpcUpdates() has room for (reserveUpdateLog).
+  std::size_t updateLogCapacity() const { return update_capacity_; }
+  /// Solutions received but not recorded because the reserve was full.
+  std::size_t mpcUpdatesDropped() const { return updates_dropped_; }
   /// The mpc.csv text of mpcUpdates() (header with units, one row per update).
   std::string mpcUpdatesCsv() const;
   /// Diagnostics (deterministic MPC timing only; throws std::logic_error otherwise): from
@@ -239,6 +253,8 @@ class NmpcController final : public Controller {
   planning::TrotTiming trot_timing_;
   std::string violations_csv_;
   std::vector<MpcUpdateRecord> updates_;
+  std::size_t update_capacity_ = 0;
+  std::size_t updates_dropped_ = 0;
   const Plant* plant_ = nullptr;
   std::unique_ptr<OnlinePerception> perception_;
   double perception_margin_ = 0.0;

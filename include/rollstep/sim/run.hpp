@@ -39,20 +39,13 @@ struct BuiltRun {
   OnlinePerception* perception() const;
 };
 
-/// What the spec leaves to files, given in code instead (control settings given in code
-/// are the spec's own `control`).
-struct RunOverrides {
-  /// A scene instead of the spec's scene or scene_file (its scene_parameters set over it).
-  const SceneConfig* scene = nullptr;
-};
-
 /// Builds the run of `spec` (checkRunSpec first): loads the scene, the robot folder (its
 /// files cross-checked), the plant with its sensors, and the controller; the NMPC's first
 /// solve and perception's first terrain happen here. Nothing is written (the map log's
 /// files are opened by the caller: OnlinePerception::openLog). Errors: RunSpecError naming
 /// a key for values that do not fit this robot (drive speeds, a control file without a
 /// baseline section), InputError or std::runtime_error naming a file.
-BuiltRun buildRun(const RunSpec& spec, const RunOverrides& overrides = {});
+BuiltRun buildRun(const RunSpec& spec);
 
 /// `name` in $ROLLSTEP_CONFIG_DIR if that environment variable is set (an installed
 /// rollstep), else in the source tree's config/.

@@ -84,6 +84,11 @@ struct RunSpec {
   std::string scene = "flat";
   /// A scene file run instead of `scene` (the two exclude each other); "" = none.
   std::string scene_file;
+  /// The scene itself instead of a file (scene_file: the two exclude each other), `scene`
+  /// then only its name: a mapping of a scene file's keys (base: excepted). A run given its
+  /// scene in code (the Python Simulation) writes it here whole, so that its run.yaml runs
+  /// it again. None (null): the scene's file.
+  std::optional<SceneConfig> inline_scene;
   /// Numbers of the scene set for this run, in order: each a parameter the scene declares
   /// (its `parameters:`), its friction, or a number's key path (boxes[0].size[2]; see
   /// sim::setSceneNumber). Randomized trials give the numbers they draw here.

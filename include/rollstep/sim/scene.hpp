@@ -34,6 +34,13 @@
 #include <string_view>
 #include <vector>
 
+namespace rollstep::yaml {
+class Node;
+}
+namespace rollstep::settings {
+class Reader;
+}
+
 namespace rollstep::sim {
 
 /// A number of a scene file as written: an expression of numbers and parameters.
@@ -139,6 +146,15 @@ SceneConfig loadSceneConfig(const std::string& yaml_file);
 SceneConfig parseSceneConfig(const std::string& yaml_text, const std::string& source_name);
 /// A complete scene file (no base) that parseSceneConfig reads back to the same numbers.
 std::string toYaml(const SceneConfig& config);
+/// A scene given inside another YAML file (a run spec's `inline_scene:`): `node`, a mapping
+/// of a scene file's keys (base: excepted), read with `reader`, key paths under `prefix`
+/// ("inline_scene."), then checked as a scene file is; errors as the reader's, naming the
+/// line and the key path. The scene's name is `name`.
+SceneConfig readSceneConfig(const yaml::Node& node, settings::Reader& reader,
+                            const std::string& prefix, const std::string& name);
+/// toYaml's keys without its comment line, each line after `indent` (readSceneConfig reads
+/// them back to the same numbers).
+std::string sceneYaml(const SceneConfig& config, const std::string& indent);
 /// The keys of a scene file, each with its default (a box's and a ramp's as comments).
 std::string documentedScene();
 
