@@ -96,14 +96,14 @@ struct Solver::Impl {
     // W and gam with each mirrored pair merged on its first row: W_i + W_j, gam_i - gam_j.
     VectorXd Wc, gamc;
     VectorXd soft_dual;  // -weight beta'(c) of soft rows (reporting)
-    // The non-zero blocks of Gx and Gu (found by condenseRows, read by recoverNode): per
-    // block its first row, rows, first column and columns; Gx's from 0, Gu's from 4 ni_max.
+    // The non-zero blocks of Gx and Gu (found by every linearisation: condenseRows or
+    // findJacobianBlocks): per block its first row, rows, first column and columns; Gx's
+    // from 0, Gu's from 4 ni_max. The node keeps only the blocks' entries, packed
+    // (packJacobianBlocks): block after block, each column-major with its own rows as
+    // stride, Gx's blocks in d->Gx's storage and Gu's in d->Gu's, sized for ni_max rows of
+    // the columns the inequality terms declare (gx_columns, gu_columns).
     Eigen::VectorXi gblocks;
     int gblocks_x = 0, gblocks_u = 0;
-    // The blocks' entries are packed (packJacobianBlocks): block after block, each
-    // column-major with its own rows as stride, Gx's blocks from d->Gx.data() and Gu's from
-    // d->Gu.data(), whose dense contents are then not the node's. Else they are read in place.
-    bool gblocks_packed = false;
     // Constraint curvature (converging mode with exact_hessian), added to the Hessian and
     // taken out again by the inertia correction. Allocated by reserveCurvature() only for
     // settings that use it (empty otherwise).
@@ -177,11 +177,52 @@ struct Solver::Impl {
   // Per thread: the condensing's scratch, the weighted general-row Jacobians (transposed,
   // ndx x ni_max and nu x ni_max); condenseRows(k, t) on thread t.
   std::vector<MatrixXd> weighted_gx, weighted_gu;
-  /// Copies the non-zero blocks condenseRows found in the thread's shared inequality
+  /// Copies the non-zero blocks the linearisation found in the thread's shared inequality
   /// Jacobians (SharedDerivatives) into node k's own Gx and Gu storage, packed
-  /// (Node::gblocks_packed): 10.7 kB per node of the Tachyon 3 OCP where the dense rows in
-  /// use are 24.6 kB.
+  /// (Node::gblocks): 10.7 kB per node of the Tachyon 3 OCP where the dense rows in use are
+  /// 24.6 kB. Throws std::logic_error for a block outside gx_columns, gu_columns (a term
+  /// whose Jacobian is non-zero outside the columns it declares).
   void packJacobianBlocks(int k, int thread);
+  /// The dense Gx, Gu of node k (rows [0, ni)) from its packed blocks, into the thread's set.
+  void unpackJacobianBlocks(int k, int thread);
+  /// f() with node k's Gx and Gu dense (unpacked into the thread's set, swapped in): the
+  /// condensing's products and sums read them so, the same arithmetic as at linearisation.
+  template <class F>
+  void withDenseJacobians(int k, int thread, F&& f) {
+    unpackJacobianBlocks(k, thread);
+    SharedDerivatives& sh = shared[static_cast<std::size_t>(thread)];
+    NodeData& d = *node(k).d;
+    d.Gx.swap(sh.Gx);
+    d.Gu.swap(sh.Gu);
+    f();
+    d.Gx.swap(sh.Gx);
+    d.Gu.swap(sh.Gu);
+  }
+  /// Node::row_parts of the general rows from the dense d.Gx (and the mirrored pairs).
+  void markRowParts(Node& n, const NodeData& d, bool running);
+  /// f(first row, rows) for each maximal run of rows whose row_parts hold `mask`.
+  template <class F>
+  static void forEachRun(const Node& n, int m, int mask, const F& f) {
+    for (int i = 0; i < m;) {
+      if ((n.row_parts(i) & mask) != mask) {
+        ++i;
+        continue;
+      }
+      int j = i + 1;
+      while (j < m && (n.row_parts(j) & mask) == mask) ++j;
+      f(i, j - i);
+      i = j;
+    }
+  }
+  /// Appends the block of rows [i, i + r) x columns [a, a + s) (and the blocks of their
+  /// mirrored rows) to the list `out` of `count` blocks; none for s == 0.
+  static void recordBlock(const NodeData& d, int* out, int& count, int i, int r, int a, int s);
+  /// The blocks condenseRows records, from the dense Jacobians in node k's data, for a
+  /// linearisation that does not condense at once.
+  void findJacobianBlocks(int k);
+  /// The columns the inequality terms can be non-zero in (the hull of their declared
+  /// Residual::stateColumns, inputColumns), which the nodes' packed storage holds.
+  ocp::ColumnRange gx_columns, gu_columns;
   std::vector<detail::BoundRow> bound_rows;  // decoded layout of rows ni_max.. (fixed)
   std::vector<VectorXd> xs, us, xs_bak, us_bak, xs_trial, us_trial;
   std::vector<VectorXd> scaled;  // per-node scaled tangent steps (manifold states)
@@ -212,12 +253,12 @@ struct Solver::Impl {
   // condenseAndFactor returns its result.
   bool condense_in_linearize = false;
   bool condensed_early = false;
-  // Every linearisation evaluates the node's dynamics and equality Jacobians into one set
-  // per thread (the nodes have none of their own), and the fused pass also its inequality
-  // Jacobians and, straight into the stages' shared Q, R, S (RiccatiSolver::
-  // shareStageHessians: the condensing adds its rows there), its cost Hessian, all swapped
-  // in for the evaluation (O(1)) and in cache: they are read only while the node is
-  // linearised and condensed (but the inequality Jacobians' non-zero blocks, which
+  // Every linearisation evaluates the node's dynamics, equality and inequality Jacobians
+  // into one set per thread (the nodes have none of their own but the inequality
+  // Jacobians' non-zero blocks, packed), and the fused pass also, straight into the stages' shared
+  // Q, R, S (RiccatiSolver:: shareStageHessians: the condensing adds its rows there), its cost
+  // Hessian, all swapped in for the evaluation (O(1)) and in cache: they are read only while the
+  // node is linearised and condensed (but the inequality Jacobians' non-zero blocks, which
   // packJacobianBlocks keeps for the step recovery), and the nodes' own blocks would be
   // 60-70 kB of cold stores per node of the Tachyon 3 OCP. The nodes' own Hessian and
   // inequality blocks then hold stale values (derivatives_shared): the inertia correction,
@@ -264,15 +305,15 @@ struct Solver::Impl {
     st.Ex.swap(shared_stage_Ex);
     st.Eu.swap(shared_stage_Eu);
   }
-  /// The thread's Fx, Fu, Ex, Eu (the nodes hold none: every linearisation evaluates them
-  /// here, the stage keeps what it needs) and with `inequalities` its Gx, Gu.
-  void swapSharedJacobians(NodeData& d, int thread, bool inequalities) {
+  /// The thread's Fx, Fu, Ex, Eu, Gx, Gu (the nodes hold none: every linearisation
+  /// evaluates them here, the stage keeps what it needs, the node the packed blocks of Gx
+  /// and Gu).
+  void swapSharedJacobians(NodeData& d, int thread) {
     SharedDerivatives& sh = shared[static_cast<std::size_t>(thread)];
     d.Fx.swap(sh.Fx);
     d.Fu.swap(sh.Fu);
     d.Ex.swap(sh.Ex);
     d.Eu.swap(sh.Eu);
-    if (!inequalities) return;
     d.Gx.swap(sh.Gx);
     d.Gu.swap(sh.Gu);
   }
@@ -426,6 +467,7 @@ struct Solver::Impl {
   void condenseRows(int k, int thread);
   void projectNode(int k);
   void condenseGradient(int k);
+  void condenseGradientDense(int k);
   Factorization condenseAndFactor();
   /// One thread, real time: linearizeNode(k), projection and backward Riccati step of each
   /// node k = N .. 0 in one pass (the same arithmetic as linearize then condenseAndFactor).
