@@ -390,7 +390,8 @@ Solver::Impl::Factorization Solver::Impl::condenseAndFactor() {
   bool pd = true;
   const std::uint64_t run = ++pipeline_run;
   for (int t = 0; t < pool.size(); ++t) {
-    chunk_next[static_cast<std::size_t>(t)].store(chunkBegin(t + 1) - 1, std::memory_order_relaxed);
+    chunk_next[static_cast<std::size_t>(t)].next.store(chunkBegin(t + 1) - 1,
+                                                       std::memory_order_relaxed);
   }
   const auto condenseNext = [this, run](int id) {
     const int j = claimNode(id, true);

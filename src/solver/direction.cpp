@@ -152,7 +152,7 @@ void Solver::Impl::forwardAndRecover() {
     return;
   }
   for (int t = 0; t < pool.size(); ++t) {
-    chunk_next[static_cast<std::size_t>(t)].store(chunkBegin(t), std::memory_order_relaxed);
+    chunk_next[static_cast<std::size_t>(t)].next.store(chunkBegin(t), std::memory_order_relaxed);
   }
   forward_done.store(0, std::memory_order_relaxed);
   // recoverNode(j) needs forwardStage(j) (j < N), or the whole sweep (j = N).

@@ -75,6 +75,7 @@ inline BoundRow boundRow(int i, int ni_max, int nbu, int nbx, const ocp::BoundSe
 // ------------------------------------------------------------------------------------------
 struct Solver::Impl {
   using Clock = detail::Clock;
+  static constexpr std::size_t kCacheLine = 64;
 
   struct Node {
     std::unique_ptr<NodeData> d;
@@ -160,20 +161,28 @@ struct Solver::Impl {
   // in the pipeline run number ready[k]; claim counters of the nodes still to do.
   std::unique_ptr<std::atomic<std::uint64_t>[]> ready;
   std::uint64_t pipeline_run = 0;
-  std::atomic<int> forward_done{0};
+  // The counters one thread writes while the others poll them are each on a cache line of
+  // their own (a store invalidates the whole line in the other cores: the node pointers and
+  // chunk bounds beside them would be read from memory again at every node), and so are the
+  // per-thread claim counters.
+  alignas(kCacheLine) std::atomic<int> forward_done{0};
   // Per thread t, the next unclaimed node of its chunk of the linearisation partition
   // (ThreadPool::run's static split of 0..N): a thread condenses and recovers the nodes it
   // linearised first (their data is in its cache), then helps with the others.
-  std::unique_ptr<std::atomic<int>[]> chunk_next;
+  struct alignas(kCacheLine) ChunkCounter {
+    std::atomic<int> next{0};
+  };
+  alignas(kCacheLine) std::unique_ptr<ChunkCounter[]> chunk_next;
   // The nodes' partition into the threads' chunks (partitionNodes): chunk t is
   // [chunk_first[t], chunk_first[t + 1]). Fixed at construction: the nodes of one chunk
   // share their terms' workspaces.
   std::vector<int> chunk_first;
   // linearizeProjectAndFactor: the backward sweep has factorised the stages from sweep_at
   // up (N + 1: none yet); sweep_abort: a chunk threw, nobody waits for the sweep.
-  std::atomic<int> sweep_at{0};
+  alignas(kCacheLine) std::atomic<int> sweep_at{0};
   std::atomic<bool> sweep_abort{false};
-  std::vector<Node> nodes;
+  // Read by every thread at every node: not on the lines of the counters above.
+  alignas(kCacheLine) std::vector<Node> nodes;
   // Per thread: the condensing's scratch, the weighted general-row Jacobians (transposed,
   // ndx x ni_max and nu x ni_max); condenseRows(k, t) on thread t.
   std::vector<MatrixXd> weighted_gx, weighted_gu;
@@ -264,13 +273,16 @@ struct Solver::Impl {
   // inequality blocks then hold stale values (derivatives_shared): the inertia correction,
   // which condenses again from them, linearises the nodes again first (the same arithmetic,
   // the same values).
-  struct SharedDerivatives {
+  // Per-thread sets (shared, lin_scratch) are each on cache lines of their own: the
+  // linearisation swaps their matrices' headers at every node, and neighbouring threads'
+  // headers on one line would move that line between the cores at every swap.
+  struct alignas(kCacheLine) SharedDerivatives {
     MatrixXd Fx, Fu, Ex, Eu, Gx, Gu;
   };
   std::vector<SharedDerivatives> shared;  // per thread
   /// The scratch of a node's linearisation, one per thread (the thread of the node's chunk,
   /// as for `shared`): read and written only while the node is linearised.
-  struct LinearizeScratch {
+  struct alignas(kCacheLine) LinearizeScratch {
     MatrixXd J0, J1;  // difference Jacobians
     // Constraint curvature (reserveCurvature): central differences of the constraint part
     // of the Lagrangian gradient, evaluated into dp (a whole NodeData: 95 kB of the
@@ -395,7 +407,7 @@ struct Solver::Impl {
   void partitionNodes();
   /// Claims the next node of chunk t (downwards or upwards), or returns -1.
   int claimInChunk(int t, bool downwards) {
-    auto& next = chunk_next[static_cast<std::size_t>(t)];
+    auto& next = chunk_next[static_cast<std::size_t>(t)].next;
     const int lo = chunkBegin(t), hi = chunkBegin(t + 1);  // [lo, hi)
     if (downwards ? next.load(std::memory_order_relaxed) < lo
                   : next.load(std::memory_order_relaxed) >= hi) {

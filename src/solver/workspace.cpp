@@ -77,7 +77,7 @@ Solver::Impl::Impl(std::shared_ptr<ocp::OptimalControlProblem> p, SolverSettings
       lq(N, ndx, nu, ne_max),
       pool(s.num_threads, std::chrono::microseconds(s.thread_spin_us)),
       ready(new std::atomic<std::uint64_t>[static_cast<std::size_t>(N) + 1]),
-      chunk_next(new std::atomic<int>[static_cast<std::size_t>(pool.size())]) {
+      chunk_next(new ChunkCounter[static_cast<std::size_t>(pool.size())]) {
   has_curvature = prob->hasCurvature();
   // One thread condenses, projects and factorises each stage in turn (condenseAndFactor,
   // linearizeAndFactor).
