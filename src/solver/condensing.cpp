@@ -2,6 +2,7 @@
 // into its LQ stage and its equality rows projected out (condenseNode), the backward
 // Riccati sweep factorises the result (pipelined over the threads), and an Ipopt-style
 // inertia correction shifts the Hessian when the exact curvature makes it indefinite.
+#include <stdexcept>
 #include <utility>
 
 #include "riccati_kernels.hpp"
@@ -49,8 +50,29 @@ std::pair<int, int> columnSpan(const MatrixXd& G, int i, int r) {
 }  // namespace
 
 void Solver::Impl::condenseNode(int k, int thread) {
-  condenseRows(k, thread);
+  withDenseJacobians(k, thread, [this, k, thread] { condenseRows(k, thread); });
   projectNode(k);
+}
+
+void Solver::Impl::unpackJacobianBlocks(int k, int thread) {
+  const Node& n = node(k);
+  const NodeData& d = *n.d;
+  SharedDerivatives& sh = shared[static_cast<std::size_t>(thread)];
+  const int m = d.ni;
+  sh.Gx.topRows(m).setZero();
+  sh.Gu.topRows(m).setZero();
+  const auto unpack = [](const double* in, const int* blocks, int count, MatrixXd& G) {
+    for (int b = 0; b < count; ++b, blocks += 4) {
+      const int i = blocks[0], r = blocks[1], a = blocks[2], s = blocks[3];
+      for (int c = a; c < a + s; ++c) {
+        double* g = G.data() + i + c * G.outerStride();
+        for (int j = 0; j < r; ++j) g[j] = in[j];
+        in += r;
+      }
+    }
+  };
+  unpack(d.Gx.data(), n.gblocks.data(), n.gblocks_x, sh.Gx);
+  unpack(d.Gu.data(), n.gblocks.data() + 4 * ni_max, n.gblocks_u, sh.Gu);
 }
 
 void Solver::Impl::projectNode(int k) {
@@ -104,41 +126,16 @@ void Solver::Impl::condenseRows(int k, int thread) {
     }
   }
   n.gblocks_x = n.gblocks_u = 0;
-  n.gblocks_packed = false;
   if (d.ni > 0) {
     const int m = d.ni;
-    // A row whose Gx (Gu) is zero adds nothing to Q (R, S): the products run over the
-    // contiguous runs of rows with an x (u) part. The terms' rows come in blocks (torque
-    // rows act on x and u, friction rows on u only, region rows on x only). Gu is zero on
-    // state-only rows, and a node without hard rows has only state-only rows.
-    // The two rows of a two-sided limit (NodeData::mirror: Jacobians g and -g) add
-    // (W_i + W_j) g g^T: one product with the summed weight on the first row, the second
-    // row left out.
-    rowAbsSums(d.Gx.data(), d.Gx.outerStride(), m, d.Gx.cols(), n.tmp.data());
+    markRowParts(n, d, running);
     for (int i = 0; i < m; ++i) {
       const int j = d.mirror(i);
-      if (j >= 0 && j < i) {
-        n.row_parts(i) = 0;
-        continue;
-      }
+      if (j >= 0 && j < i) continue;
       n.Wc(i) = j > i ? n.W(i) + n.W(j) : n.W(i);
       n.gamc(i) = j > i ? n.gam(i) - n.gam(j) : n.gam(i);
-      const bool on_x = !(n.tmp(i) == 0.0);
-      const bool on_u = running && !d.state_only(i);
-      n.row_parts(i) = (on_x ? 1 : 0) | (on_u ? 2 : 0);
     }
-    const auto runs = [&n, m](int mask, const auto& f) {
-      for (int i = 0; i < m;) {
-        if ((n.row_parts(i) & mask) != mask) {
-          ++i;
-          continue;
-        }
-        int j = i + 1;
-        while (j < m && (n.row_parts(j) & mask) == mask) ++j;
-        f(i, j - i);
-        i = j;
-      }
-    };
+    const auto runs = [&n, m](int mask, const auto& f) { forEachRun(n, m, mask, f); };
     // Within a run, only the columns between the first and the last non-zero column of
     // its rows take part (columnSpan).
     // The weighted rows, transposed (W_k G(k, :)^T as column k, in the thread's scratch
@@ -161,28 +158,8 @@ void Solver::Impl::condenseRows(int k, int thread) {
         for (int c = a; c < a + s; ++c) t[c] = w * G[row + c * ldg];
       }
     };
-    // The same blocks, with the second rows of the mirrored pairs (Jacobian -g: the same
-    // columns), are the non-zero blocks of Gx and Gu that recoverNode reads.
     const auto record = [&d](int* out, int& count, int i, int r, int a, int s) {
-      if (s == 0) return;
-      const auto add = [&](int row, int rows) {
-        int* b = out + 4 * count++;
-        b[0] = row;
-        b[1] = rows;
-        b[2] = a;
-        b[3] = s;
-      };
-      add(i, r);
-      for (int q = i; q < i + r;) {
-        if (d.mirror(q) <= q) {
-          ++q;
-          continue;
-        }
-        int e = q + 1;
-        while (e < i + r && d.mirror(e) > e && d.mirror(e) == d.mirror(e - 1) + 1) ++e;
-        add(d.mirror(q), e - q);
-        q = e;
-      }
+      recordBlock(d, out, count, i, r, a, s);
     };
     int* blocks_x = n.gblocks.data();
     int* blocks_u = n.gblocks.data() + 4 * ni_max;
@@ -236,6 +213,73 @@ void Solver::Impl::condenseRows(int k, int thread) {
   }
 }
 
+void Solver::Impl::markRowParts(Node& n, const NodeData& d, bool running) {
+  // A row whose Gx (Gu) is zero adds nothing to Q (R, S): the products run over the
+  // contiguous runs of rows with an x (u) part. The terms' rows come in blocks (torque
+  // rows act on x and u, friction rows on u only, region rows on x only). Gu is zero on
+  // state-only rows, and a node without hard rows has only state-only rows.
+  // The two rows of a two-sided limit (NodeData::mirror: Jacobians g and -g) add
+  // (W_i + W_j) g g^T: one product with the summed weight on the first row, the second
+  // row left out.
+  const int m = d.ni;
+  rowAbsSums(d.Gx.data(), d.Gx.outerStride(), m, d.Gx.cols(), n.tmp.data());
+  for (int i = 0; i < m; ++i) {
+    const int j = d.mirror(i);
+    if (j >= 0 && j < i) {
+      n.row_parts(i) = 0;
+      continue;
+    }
+    const bool on_x = !(n.tmp(i) == 0.0);
+    const bool on_u = running && !d.state_only(i);
+    n.row_parts(i) = (on_x ? 1 : 0) | (on_u ? 2 : 0);
+  }
+}
+
+/// The runs of condenseRows (rows with an x part, with a u part) with the second rows of
+/// the mirrored pairs (Jacobian -g: the same columns) are the non-zero blocks of Gx and Gu
+/// that the node keeps, packed, and recoverNode reads.
+void Solver::Impl::recordBlock(const NodeData& d, int* out, int& count, int i, int r, int a,
+                               int s) {
+  if (s == 0) return;
+  const auto add = [&](int row, int rows) {
+    int* b = out + 4 * count++;
+    b[0] = row;
+    b[1] = rows;
+    b[2] = a;
+    b[3] = s;
+  };
+  add(i, r);
+  for (int q = i; q < i + r;) {
+    if (d.mirror(q) <= q) {
+      ++q;
+      continue;
+    }
+    int e = q + 1;
+    while (e < i + r && d.mirror(e) > e && d.mirror(e) == d.mirror(e - 1) + 1) ++e;
+    add(d.mirror(q), e - q);
+    q = e;
+  }
+}
+
+void Solver::Impl::findJacobianBlocks(int k) {
+  Node& n = node(k);
+  const NodeData& d = *n.d;
+  n.gblocks_x = n.gblocks_u = 0;
+  const int m = d.ni;
+  if (m == 0) return;
+  markRowParts(n, d, k < N);
+  int* blocks_x = n.gblocks.data();
+  int* blocks_u = n.gblocks.data() + 4 * ni_max;
+  forEachRun(n, m, 1, [&](int i, int r) {
+    const auto [a, s] = columnSpan(d.Gx, i, r);
+    recordBlock(d, blocks_x, n.gblocks_x, i, r, a, s);
+  });
+  forEachRun(n, m, 2, [&](int i, int r) {
+    const auto [a, s] = columnSpan(d.Gu, i, r);
+    recordBlock(d, blocks_u, n.gblocks_u, i, r, a, s);
+  });
+}
+
 void Solver::Impl::packJacobianBlocks(int k, int thread) {
   Node& n = node(k);
   const auto pack = [](const MatrixXd& G, const int* blocks, int count, double* out) {
@@ -248,10 +292,29 @@ void Solver::Impl::packJacobianBlocks(int k, int thread) {
       }
     }
   };
+  // The storage holds ni_max rows of the columns the inequality terms declare
+  // (Residual::stateColumns, inputColumns): every block must lie within them (the blocks
+  // hold each row at most once).
+  const auto check = [this, k](const int* blocks, int count, ocp::ColumnRange cols,
+                               const char* which) {
+    for (int b = 0; b < count; ++b, blocks += 4) {
+      if (blocks[2] < cols.first || blocks[2] + blocks[3] > cols.first + cols.count) {
+        ROLLSTEP_MSG(
+            "node %d: %s of inequality rows %d..%d is non-zero in columns %d..%d, "
+            "outside the columns %d..%d the inequality terms declare "
+            "(Residual::%s)",
+            k, which, blocks[0], blocks[0] + blocks[1] - 1, blocks[2], blocks[2] + blocks[3] - 1,
+            cols.first, cols.first + cols.count - 1,
+            which[1] == 'x' ? "stateColumns" : "inputColumns");
+        throw std::logic_error(message);
+      }
+    }
+  };
+  check(n.gblocks.data(), n.gblocks_x, gx_columns, "Gx");
+  check(n.gblocks.data() + 4 * ni_max, n.gblocks_u, gu_columns, "Gu");
   const SharedDerivatives& sh = shared[static_cast<std::size_t>(thread)];
   pack(sh.Gx, n.gblocks.data(), n.gblocks_x, n.d->Gx.data());
   pack(sh.Gu, n.gblocks.data() + 4 * ni_max, n.gblocks_u, n.d->Gu.data());
-  n.gblocks_packed = true;
 }
 
 /// The gradient part of condenseNode alone, for a new complementarity target (Mehrotra's
@@ -259,6 +322,10 @@ void Solver::Impl::packJacobianBlocks(int k, int thread) {
 /// the same Hessian: st.q and st.r of node k. Soft general rows keep the gradient
 /// condenseRows gave them; soft bounds are condensed from c again.
 void Solver::Impl::condenseGradient(int k) {
+  withDenseJacobians(k, chunkOf(k), [this, k] { condenseGradientDense(k); });
+}
+
+void Solver::Impl::condenseGradientDense(int k) {
   Node& n = node(k);
   const NodeData& d = *n.d;
   LqStage& st = lq.stage(k);
@@ -323,7 +390,8 @@ Solver::Impl::Factorization Solver::Impl::condenseAndFactor() {
   bool pd = true;
   const std::uint64_t run = ++pipeline_run;
   for (int t = 0; t < pool.size(); ++t) {
-    chunk_next[static_cast<std::size_t>(t)].store(chunkBegin(t + 1) - 1, std::memory_order_relaxed);
+    chunk_next[static_cast<std::size_t>(t)].next.store(chunkBegin(t + 1) - 1,
+                                                       std::memory_order_relaxed);
   }
   const auto condenseNext = [this, run](int id) {
     const int j = claimNode(id, true);

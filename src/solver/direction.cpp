@@ -152,7 +152,7 @@ void Solver::Impl::forwardAndRecover() {
     return;
   }
   for (int t = 0; t < pool.size(); ++t) {
-    chunk_next[static_cast<std::size_t>(t)].store(chunkBegin(t), std::memory_order_relaxed);
+    chunk_next[static_cast<std::size_t>(t)].next.store(chunkBegin(t), std::memory_order_relaxed);
   }
   forward_done.store(0, std::memory_order_relaxed);
   // recoverNode(j) needs forwardStage(j) (j < N), or the whole sweep (j = N).
@@ -242,19 +242,14 @@ void Solver::Impl::recoverNode(int k) {
     double* t = n.tmp.data();
     for (int i = 0; i < d.ni; ++i) t[i] = 0.0;
     const int fused_rows = d.ni - d.ni % 2;
-    // The blocks in place, or packed one after the other (Node::gblocks_packed).
-    const auto times = [&n, t, fused_rows](const MatrixXd& G, const int* blocks, int count,
-                                           const VectorXd& v) {
+    // The blocks packed one after the other (Node::gblocks).
+    const auto times = [t, fused_rows](const MatrixXd& G, const int* blocks, int count,
+                                       const VectorXd& v) {
       const double* packed = G.data();
       for (int b = 0; b < count; ++b, blocks += 4) {
         const int r = blocks[1];
-        if (n.gblocks_packed) {
-          blockTimes(packed, r, blocks, v.data(), t, fused_rows);
-          packed += r * blocks[3];
-        } else {
-          blockTimes(G.data() + blocks[0] + blocks[2] * G.outerStride(), G.outerStride(), blocks,
-                     v.data(), t, fused_rows);
-        }
+        blockTimes(packed, r, blocks, v.data(), t, fused_rows);
+        packed += r * blocks[3];
       }
     };
     times(d.Gx, n.gblocks.data(), n.gblocks_x, dx);

@@ -74,25 +74,28 @@ void Solver::Impl::linearizeNode(int k) {
   const VectorXd& x = xs[static_cast<std::size_t>(k)];
   const VectorXd& u = uOf(k);
   // The Jacobians go to the set of the thread of k's chunk (every pass runs node k on that
-  // thread: forNodes, linearizeAndFactor, linearizeProjectAndFactor): the dynamics and
-  // equality Jacobians always (read only here: the node holds none of its own), the
-  // inequality Jacobians in the fused pass.
+  // thread: forNodes, linearizeAndFactor, linearizeProjectAndFactor), read only here (the
+  // node holds none of its own) but the inequality Jacobians' non-zero blocks, which the
+  // node keeps packed (the condensing of a pass that does not condense at once unpacks
+  // them, withDenseJacobians).
   const int thread = chunkOf(k);
   const bool fused = condense_in_linearize;
   if (fused) swapStageHessian(k, d);
-  swapSharedJacobians(d, thread, fused);
+  swapSharedJacobians(d, thread);
   try {
     linearizeWithSharedJacobians(k, n, x, u);
   } catch (...) {
-    swapSharedJacobians(d, thread, fused);  // the thread's set back, whole
+    swapSharedJacobians(d, thread);  // the thread's set back, whole
     throw;
   }
   if (fused) {
     swapStageHessian(k, d);  // the stage's Q, R, S hold the cost Hessian: condensed in place
     condenseRows(k, thread);
+  } else {
+    findJacobianBlocks(k);
   }
-  swapSharedJacobians(d, thread, fused);
-  if (fused) packJacobianBlocks(k, thread);
+  swapSharedJacobians(d, thread);
+  packJacobianBlocks(k, thread);
 }
 
 void Solver::Impl::linearizeWithSharedJacobians(int k, Node& n, const VectorXd& x,

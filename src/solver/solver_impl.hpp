@@ -75,6 +75,7 @@ inline BoundRow boundRow(int i, int ni_max, int nbu, int nbx, const ocp::BoundSe
 // ------------------------------------------------------------------------------------------
 struct Solver::Impl {
   using Clock = detail::Clock;
+  static constexpr std::size_t kCacheLine = 64;
 
   struct Node {
     std::unique_ptr<NodeData> d;
@@ -96,14 +97,14 @@ struct Solver::Impl {
     // W and gam with each mirrored pair merged on its first row: W_i + W_j, gam_i - gam_j.
     VectorXd Wc, gamc;
     VectorXd soft_dual;  // -weight beta'(c) of soft rows (reporting)
-    // The non-zero blocks of Gx and Gu (found by condenseRows, read by recoverNode): per
-    // block its first row, rows, first column and columns; Gx's from 0, Gu's from 4 ni_max.
+    // The non-zero blocks of Gx and Gu (found by every linearisation: condenseRows or
+    // findJacobianBlocks): per block its first row, rows, first column and columns; Gx's
+    // from 0, Gu's from 4 ni_max. The node keeps only the blocks' entries, packed
+    // (packJacobianBlocks): block after block, each column-major with its own rows as
+    // stride, Gx's blocks in d->Gx's storage and Gu's in d->Gu's, sized for ni_max rows of
+    // the columns the inequality terms declare (gx_columns, gu_columns).
     Eigen::VectorXi gblocks;
     int gblocks_x = 0, gblocks_u = 0;
-    // The blocks' entries are packed (packJacobianBlocks): block after block, each
-    // column-major with its own rows as stride, Gx's blocks from d->Gx.data() and Gu's from
-    // d->Gu.data(), whose dense contents are then not the node's. Else they are read in place.
-    bool gblocks_packed = false;
     // Constraint curvature (converging mode with exact_hessian), added to the Hessian and
     // taken out again by the inertia correction. Allocated by reserveCurvature() only for
     // settings that use it (empty otherwise).
@@ -160,28 +161,77 @@ struct Solver::Impl {
   // in the pipeline run number ready[k]; claim counters of the nodes still to do.
   std::unique_ptr<std::atomic<std::uint64_t>[]> ready;
   std::uint64_t pipeline_run = 0;
-  std::atomic<int> forward_done{0};
+  // The counters one thread writes while the others poll them are each on a cache line of
+  // their own (a store invalidates the whole line in the other cores: the node pointers and
+  // chunk bounds beside them would be read from memory again at every node), and so are the
+  // per-thread claim counters.
+  alignas(kCacheLine) std::atomic<int> forward_done{0};
   // Per thread t, the next unclaimed node of its chunk of the linearisation partition
   // (ThreadPool::run's static split of 0..N): a thread condenses and recovers the nodes it
   // linearised first (their data is in its cache), then helps with the others.
-  std::unique_ptr<std::atomic<int>[]> chunk_next;
+  struct alignas(kCacheLine) ChunkCounter {
+    std::atomic<int> next{0};
+  };
+  alignas(kCacheLine) std::unique_ptr<ChunkCounter[]> chunk_next;
   // The nodes' partition into the threads' chunks (partitionNodes): chunk t is
   // [chunk_first[t], chunk_first[t + 1]). Fixed at construction: the nodes of one chunk
   // share their terms' workspaces.
   std::vector<int> chunk_first;
   // linearizeProjectAndFactor: the backward sweep has factorised the stages from sweep_at
   // up (N + 1: none yet); sweep_abort: a chunk threw, nobody waits for the sweep.
-  std::atomic<int> sweep_at{0};
+  alignas(kCacheLine) std::atomic<int> sweep_at{0};
   std::atomic<bool> sweep_abort{false};
-  std::vector<Node> nodes;
+  // Read by every thread at every node: not on the lines of the counters above.
+  alignas(kCacheLine) std::vector<Node> nodes;
   // Per thread: the condensing's scratch, the weighted general-row Jacobians (transposed,
   // ndx x ni_max and nu x ni_max); condenseRows(k, t) on thread t.
   std::vector<MatrixXd> weighted_gx, weighted_gu;
-  /// Copies the non-zero blocks condenseRows found in the thread's shared inequality
+  /// Copies the non-zero blocks the linearisation found in the thread's shared inequality
   /// Jacobians (SharedDerivatives) into node k's own Gx and Gu storage, packed
-  /// (Node::gblocks_packed): 10.7 kB per node of the Tachyon 3 OCP where the dense rows in
-  /// use are 24.6 kB.
+  /// (Node::gblocks): 10.7 kB per node of the Tachyon 3 OCP where the dense rows in use are
+  /// 24.6 kB. Throws std::logic_error for a block outside gx_columns, gu_columns (a term
+  /// whose Jacobian is non-zero outside the columns it declares).
   void packJacobianBlocks(int k, int thread);
+  /// The dense Gx, Gu of node k (rows [0, ni)) from its packed blocks, into the thread's set.
+  void unpackJacobianBlocks(int k, int thread);
+  /// f() with node k's Gx and Gu dense (unpacked into the thread's set, swapped in): the
+  /// condensing's products and sums read them so, the same arithmetic as at linearisation.
+  template <class F>
+  void withDenseJacobians(int k, int thread, F&& f) {
+    unpackJacobianBlocks(k, thread);
+    SharedDerivatives& sh = shared[static_cast<std::size_t>(thread)];
+    NodeData& d = *node(k).d;
+    d.Gx.swap(sh.Gx);
+    d.Gu.swap(sh.Gu);
+    f();
+    d.Gx.swap(sh.Gx);
+    d.Gu.swap(sh.Gu);
+  }
+  /// Node::row_parts of the general rows from the dense d.Gx (and the mirrored pairs).
+  void markRowParts(Node& n, const NodeData& d, bool running);
+  /// f(first row, rows) for each maximal run of rows whose row_parts hold `mask`.
+  template <class F>
+  static void forEachRun(const Node& n, int m, int mask, const F& f) {
+    for (int i = 0; i < m;) {
+      if ((n.row_parts(i) & mask) != mask) {
+        ++i;
+        continue;
+      }
+      int j = i + 1;
+      while (j < m && (n.row_parts(j) & mask) == mask) ++j;
+      f(i, j - i);
+      i = j;
+    }
+  }
+  /// Appends the block of rows [i, i + r) x columns [a, a + s) (and the blocks of their
+  /// mirrored rows) to the list `out` of `count` blocks; none for s == 0.
+  static void recordBlock(const NodeData& d, int* out, int& count, int i, int r, int a, int s);
+  /// The blocks condenseRows records, from the dense Jacobians in node k's data, for a
+  /// linearisation that does not condense at once.
+  void findJacobianBlocks(int k);
+  /// The columns the inequality terms can be non-zero in (the hull of their declared
+  /// Residual::stateColumns, inputColumns), which the nodes' packed storage holds.
+  ocp::ColumnRange gx_columns, gu_columns;
   std::vector<detail::BoundRow> bound_rows;  // decoded layout of rows ni_max.. (fixed)
   std::vector<VectorXd> xs, us, xs_bak, us_bak, xs_trial, us_trial;
   std::vector<VectorXd> scaled;  // per-node scaled tangent steps (manifold states)
@@ -212,24 +262,27 @@ struct Solver::Impl {
   // condenseAndFactor returns its result.
   bool condense_in_linearize = false;
   bool condensed_early = false;
-  // Every linearisation evaluates the node's dynamics and equality Jacobians into one set
-  // per thread (the nodes have none of their own), and the fused pass also its inequality
-  // Jacobians and, straight into the stages' shared Q, R, S (RiccatiSolver::
-  // shareStageHessians: the condensing adds its rows there), its cost Hessian, all swapped
-  // in for the evaluation (O(1)) and in cache: they are read only while the node is
-  // linearised and condensed (but the inequality Jacobians' non-zero blocks, which
+  // Every linearisation evaluates the node's dynamics, equality and inequality Jacobians
+  // into one set per thread (the nodes have none of their own but the inequality
+  // Jacobians' non-zero blocks, packed), and the fused pass also, straight into the stages' shared
+  // Q, R, S (RiccatiSolver:: shareStageHessians: the condensing adds its rows there), its cost
+  // Hessian, all swapped in for the evaluation (O(1)) and in cache: they are read only while the
+  // node is linearised and condensed (but the inequality Jacobians' non-zero blocks, which
   // packJacobianBlocks keeps for the step recovery), and the nodes' own blocks would be
   // 60-70 kB of cold stores per node of the Tachyon 3 OCP. The nodes' own Hessian and
   // inequality blocks then hold stale values (derivatives_shared): the inertia correction,
   // which condenses again from them, linearises the nodes again first (the same arithmetic,
   // the same values).
-  struct SharedDerivatives {
+  // Per-thread sets (shared, lin_scratch) are each on cache lines of their own: the
+  // linearisation swaps their matrices' headers at every node, and neighbouring threads'
+  // headers on one line would move that line between the cores at every swap.
+  struct alignas(kCacheLine) SharedDerivatives {
     MatrixXd Fx, Fu, Ex, Eu, Gx, Gu;
   };
   std::vector<SharedDerivatives> shared;  // per thread
   /// The scratch of a node's linearisation, one per thread (the thread of the node's chunk,
   /// as for `shared`): read and written only while the node is linearised.
-  struct LinearizeScratch {
+  struct alignas(kCacheLine) LinearizeScratch {
     MatrixXd J0, J1;  // difference Jacobians
     // Constraint curvature (reserveCurvature): central differences of the constraint part
     // of the Lagrangian gradient, evaluated into dp (a whole NodeData: 95 kB of the
@@ -264,15 +317,15 @@ struct Solver::Impl {
     st.Ex.swap(shared_stage_Ex);
     st.Eu.swap(shared_stage_Eu);
   }
-  /// The thread's Fx, Fu, Ex, Eu (the nodes hold none: every linearisation evaluates them
-  /// here, the stage keeps what it needs) and with `inequalities` its Gx, Gu.
-  void swapSharedJacobians(NodeData& d, int thread, bool inequalities) {
+  /// The thread's Fx, Fu, Ex, Eu, Gx, Gu (the nodes hold none: every linearisation
+  /// evaluates them here, the stage keeps what it needs, the node the packed blocks of Gx
+  /// and Gu).
+  void swapSharedJacobians(NodeData& d, int thread) {
     SharedDerivatives& sh = shared[static_cast<std::size_t>(thread)];
     d.Fx.swap(sh.Fx);
     d.Fu.swap(sh.Fu);
     d.Ex.swap(sh.Ex);
     d.Eu.swap(sh.Eu);
-    if (!inequalities) return;
     d.Gx.swap(sh.Gx);
     d.Gu.swap(sh.Gu);
   }
@@ -354,7 +407,7 @@ struct Solver::Impl {
   void partitionNodes();
   /// Claims the next node of chunk t (downwards or upwards), or returns -1.
   int claimInChunk(int t, bool downwards) {
-    auto& next = chunk_next[static_cast<std::size_t>(t)];
+    auto& next = chunk_next[static_cast<std::size_t>(t)].next;
     const int lo = chunkBegin(t), hi = chunkBegin(t + 1);  // [lo, hi)
     if (downwards ? next.load(std::memory_order_relaxed) < lo
                   : next.load(std::memory_order_relaxed) >= hi) {
@@ -426,6 +479,7 @@ struct Solver::Impl {
   void condenseRows(int k, int thread);
   void projectNode(int k);
   void condenseGradient(int k);
+  void condenseGradientDense(int k);
   Factorization condenseAndFactor();
   /// One thread, real time: linearizeNode(k), projection and backward Riccati step of each
   /// node k = N .. 0 in one pass (the same arithmetic as linearize then condenseAndFactor).

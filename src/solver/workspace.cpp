@@ -1,6 +1,8 @@
 // What memory does the solver hold? Dimensions first, then every workspace sized from
 // them at construction (nodes, trajectories, Riccati stages, thread pool, filter), so
 // that solve() and update() only touch memory that already exists.
+#include <stdexcept>
+
 #include "solver_impl.hpp"
 
 #if defined(__linux__)
@@ -75,7 +77,7 @@ Solver::Impl::Impl(std::shared_ptr<ocp::OptimalControlProblem> p, SolverSettings
       lq(N, ndx, nu, ne_max),
       pool(s.num_threads, std::chrono::microseconds(s.thread_spin_us)),
       ready(new std::atomic<std::uint64_t>[static_cast<std::size_t>(N) + 1]),
-      chunk_next(new std::atomic<int>[static_cast<std::size_t>(pool.size())]) {
+      chunk_next(new ChunkCounter[static_cast<std::size_t>(pool.size())]) {
   has_curvature = prob->hasCurvature();
   // One thread condenses, projects and factorises each stage in turn (condenseAndFactor,
   // linearizeAndFactor).
@@ -88,6 +90,47 @@ Solver::Impl::Impl(std::shared_ptr<ocp::OptimalControlProblem> p, SolverSettings
     bound_rows.push_back(
         detail::boundRow(i, ni_max, nbu, nbx, prob->inputBounds(), prob->stateBounds()));
   }
+  // Of the inequality Jacobians the nodes keep the non-zero blocks, packed
+  // (packJacobianBlocks): at most ni_max rows of the columns the terms can be non-zero in
+  // (for the Tachyon 3 OCP the configuration's 18 of 24 state columns and the contact
+  // forces' 18 of 30 input columns: 29 kB per node instead of 44 kB).
+  {
+    const auto hull = [](ocp::ColumnRange& h, ocp::ColumnRange c) {
+      if (c.count <= 0) return;
+      const int end =
+          h.count > 0 ? std::max(h.first + h.count, c.first + c.count) : c.first + c.count;
+      h.first = h.count > 0 ? std::min(h.first, c.first) : c.first;
+      h.count = end - h.first;
+    };
+    gx_columns = gu_columns = ocp::ColumnRange{};
+    for (std::size_t j = 0; j < prob->inequalityNames().size(); ++j) {
+      const ocp::Residual& r = prob->inequality(j);
+      const ocp::ColumnRange cx = r.stateColumns(), cu = r.inputColumns();
+      if (cx.first < 0 || cx.count < 0 || cx.first + cx.count > ndx || cu.first < 0 ||
+          cu.count < 0 || cu.first + cu.count > nu) {
+        throw std::invalid_argument("Solver: inequality '" + prob->inequalityNames()[j] +
+                                    "' declares Jacobian columns outside the state's tangent "
+                                    "or the input");
+      }
+      hull(gx_columns, cx);
+      hull(gu_columns, cu);
+    }
+  }
+  // The dynamics and equality Jacobians are read only while the node is linearised (the
+  // stage keeps A, B, Ex and Eu): every linearisation evaluates them into the thread's set
+  // (the real-time pass's derivatives, per thread, in the first node's shapes), and the
+  // nodes' own (25 kB per node of the Tachyon 3 OCP) are released, as are their dense
+  // inequality Jacobians, each node's right after it is created (the next one reuses the
+  // memory: the process never holds them all at once).
+  const auto releaseDenseJacobians = [this](NodeData& d) {
+    if (shared.empty()) {
+      shared.assign(static_cast<std::size_t>(pool.size()),
+                    SharedDerivatives{d.Fx, d.Fu, d.Ex, d.Eu, d.Gx, d.Gu});
+    }
+    for (MatrixXd* m : {&d.Fx, &d.Fu, &d.Ex, &d.Eu}) *m = MatrixXd();
+    d.Gx = MatrixXd::Zero(static_cast<Eigen::Index>(ni_max) * gx_columns.count, 1);
+    d.Gu = MatrixXd::Zero(static_cast<Eigen::Index>(ni_max) * gu_columns.count, 1);
+  };
   // The nodes of one thread's chunk (forNodes' static partition) are evaluated one after
   // the other and share their terms' workspaces and precomputation cache: one set stays
   // in cache from node to node, where one per node is cold memory at every node.
@@ -96,6 +139,7 @@ Solver::Impl::Impl(std::shared_ptr<ocp::OptimalControlProblem> p, SolverSettings
     for (int k = first; k < chunkBegin(t + 1); ++k) {
       node(k).d = k == first ? prob->createNodeData()
                              : prob->createNodeDataSharingWorkspaces(*node(first).d);
+      releaseDenseJacobians(*node(k).d);
     }
   }
   for (auto& n : nodes) {
@@ -133,18 +177,6 @@ Solver::Impl::Impl(std::shared_ptr<ocp::OptimalControlProblem> p, SolverSettings
   }
   weighted_gx.assign(static_cast<std::size_t>(pool.size()), MatrixXd::Zero(ndx, ni_max));
   weighted_gu.assign(static_cast<std::size_t>(pool.size()), MatrixXd::Zero(nu, ni_max));
-  {  // the real-time pass's derivatives, per thread (same shapes)
-    const NodeData& d = *node(0).d;
-    shared.assign(static_cast<std::size_t>(pool.size()),
-                  SharedDerivatives{d.Fx, d.Fu, d.Ex, d.Eu, d.Gx, d.Gu});
-  }
-  // The dynamics and equality Jacobians are read only while the node is linearised (the
-  // stage keeps A, B, Ex and Eu): every linearisation evaluates them into the thread's
-  // set, and the nodes' own (25 kB per node of the Tachyon 3 OCP) are released.
-  for (auto& n : nodes) {
-    NodeData& d = *n.d;
-    for (MatrixXd* m : {&d.Fx, &d.Fu, &d.Ex, &d.Eu}) *m = MatrixXd();
-  }
   if (pool.size() == 1) {  // linearizeAndFactor's shared stage Jacobians (same shapes)
     shared_A = lq.stage(0).A;
     shared_B = lq.stage(0).B;

@@ -545,6 +545,60 @@ TEST_F(Fixture, CalcDiffIntoWritesTheRowsOfCalcDiffAndNothingElse) {
   EXPECT_GT(swing_rows, 0);
 }
 
+// The solver keeps of the inequality Jacobians only the columns the terms declare
+// (Residual::stateColumns, inputColumns): every entry outside them must be exactly zero, in
+// every mode, at any state and input.
+TEST_F(Fixture, JacobiansAreZeroOutsideTheDeclaredColumns) {
+  StepScene s;
+  const StaticTorqueLimitResidual torque(robot);
+  TorqueLimitOptions at_origins;
+  at_origins.force_at_contact_point = false;
+  const StaticTorqueLimitResidual torque_at_origins(robot, at_origins);
+  const FrictionPyramidResidual friction(robot, s.references());
+  const FootRegionResidual stance(robot, s.references(), RegionUse::Stance);
+  const FootRegionResidual swing(robot, s.references(), RegionUse::Swing);
+  const std::vector<const ocp::Residual*> terms{&torque, &torque_at_origins, &friction, &stance,
+                                                &swing};
+  // The configuration's columns and the contact forces: narrower than the whole Jacobian.
+  EXPECT_EQ(torque.stateColumns().first, 0);
+  EXPECT_EQ(torque.stateColumns().count, robot->nv());
+  EXPECT_EQ(torque.inputColumns().first, robot->nj());
+  EXPECT_EQ(torque.inputColumns().count, 3 * robot->nc());
+  EXPECT_EQ(friction.stateColumns().count, 0);
+  EXPECT_EQ(stance.inputColumns().count, 0);
+  std::vector<std::unique_ptr<ocp::ResidualData>> data;
+  for (const auto* t : terms) data.push_back(t->createData());
+  std::vector<int> rows_seen(terms.size(), 0);
+  for (int trial = 0; trial < 4; ++trial) {
+    const VectorXd x = randomState(*robot, rng), u = randomInput(*robot, rng);
+    for (double t = 0.0; t < 7.5; t += 0.05) {
+      const ocp::NodeContext ctx = makeContext(s.schedule.modeAt(t), t, &s.schedule, cache.get());
+      pre.compute(ctx, x, u, true, *cache);
+      for (std::size_t k = 0; k < terms.size(); ++k) {
+        ocp::ResidualData& d = *data[k];
+        d.rows = terms[k]->rows(ctx);
+        d.Rx.setConstant(std::numeric_limits<double>::quiet_NaN());
+        d.Ru.setConstant(std::numeric_limits<double>::quiet_NaN());
+        terms[k]->calc(ctx, x, u, d);
+        terms[k]->calcDiff(ctx, x, u, d);
+        rows_seen[k] += d.rows;
+        const ocp::ColumnRange cx = terms[k]->stateColumns(), cu = terms[k]->inputColumns();
+        for (int i = 0; i < d.rows; ++i) {
+          for (int c = 0; c < robot->ndx(); ++c) {
+            if (c >= cx.first && c < cx.first + cx.count) continue;
+            ASSERT_EQ(d.Rx(i, c), 0.0) << "term " << k << " row " << i << " x column " << c;
+          }
+          for (int c = 0; c < robot->nu(); ++c) {
+            if (c >= cu.first && c < cu.first + cu.count) continue;
+            ASSERT_EQ(d.Ru(i, c), 0.0) << "term " << k << " row " << i << " u column " << c;
+          }
+        }
+      }
+    }
+  }
+  for (std::size_t k = 0; k < terms.size(); ++k) EXPECT_GT(rows_seen[k], 0) << "term " << k;
+}
+
 // ---- joint limit bounds ----------------------------------------------------------------------
 
 TEST_F(Fixture, JointLimitBoundsFromTheModel) {

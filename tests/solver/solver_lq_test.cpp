@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <array>
 #include <cstring>
+#include <stdexcept>
+#include <string>
 
 #include "common/alloc_counter.hpp"
 #include "common/malloc_guard.hpp"
@@ -746,6 +748,49 @@ class ModeBound final : public ocp::Residual {
     d.Ru(0, 0) = -1.0;
   }
 };
+
+/// ModeBound whose declaration leaves out the input column its Jacobian uses.
+class UndeclaredInputBound final : public ocp::Residual {
+ public:
+  UndeclaredInputBound() : Residual(2, 1, 1) {}
+  ocp::ColumnRange inputColumns() const override { return {0, 0}; }
+  void calc(const ocp::NodeContext&, ocp::ConstVecRef, ocp::ConstVecRef u,
+            ocp::ResidualData& d) const override {
+    d.r(0) = 2.0 - u(0);
+  }
+  void calcDiff(const ocp::NodeContext&, ocp::ConstVecRef, ocp::ConstVecRef,
+                ocp::ResidualData& d) const override {
+    d.Rx.setZero();
+    d.Ru(0, 0) = -1.0;
+  }
+};
+
+// The solver keeps the inequality Jacobians' columns the terms declare: a term whose
+// Jacobian is non-zero outside them is reported, in either mode and with any thread count,
+// not silently cut.
+TEST(SolverLq, JacobianOutsideTheDeclaredColumnsIsReported) {
+  for (const auto mode : {solver::SolverMode::Converging, solver::SolverMode::RealTime}) {
+    for (int threads : {1, 2}) {
+      auto p = pendulumProblem(10);
+      p->addInequality("bound", std::make_shared<UndeclaredInputBound>());
+      auto set = tight();
+      set.mode = mode;
+      set.num_threads = threads;
+      Solver s(p, set);
+      const VectorXd x = (VectorXd(2) << 1.0, 0.0).finished();
+      try {
+        if (mode == solver::SolverMode::RealTime) {
+          s.update(0.0, x);
+        } else {
+          s.solve(x);
+        }
+        ADD_FAILURE() << "no error, threads " << threads;
+      } catch (const std::logic_error& e) {
+        EXPECT_NE(std::string(e.what()).find("inputColumns"), std::string::npos) << e.what();
+      }
+    }
+  }
+}
 
 TEST(SolverRealTime, ShiftAcrossModeSwitchesDoesNotAllocate) {
   auto p = pendulumProblem(30);

@@ -91,6 +91,12 @@ class StaticTorqueLimitResidual final : public ocp::Residual {
   /// nj when every joint is limited on both sides (row j + nj is the lower limit of the
   /// joint of row j), 0 otherwise.
   int mirroredRows(const ocp::NodeContext& ctx) const override;
+  /// The configuration's columns (rho, theta, q_J) and the contact forces: no momentum,
+  /// no joint velocities.
+  ocp::ColumnRange stateColumns() const override { return {0, robot_->nv()}; }
+  ocp::ColumnRange inputColumns() const override {
+    return {robot_->nj(), robot_->nu() - robot_->nj()};
+  }
   std::unique_ptr<ocp::ResidualData> createData() const override;
   std::unique_ptr<ocp::ResidualData> createDataWithNodeCache() const override;
   void calc(const ocp::NodeContext& ctx, ocp::ConstVecRef x, ocp::ConstVecRef u,
@@ -142,6 +148,10 @@ class FrictionPyramidResidual final : public ocp::Residual {
   std::string rowName(const ocp::NodeContext& ctx, int row) const override;
   bool dependsOnState() const override { return false; }
   bool isLinear() const override { return true; }
+  /// The contact forces.
+  ocp::ColumnRange inputColumns() const override {
+    return {robot_->nj(), robot_->nu() - robot_->nj()};
+  }
   const FrictionPyramidOptions& options() const { return options_; }
   std::unique_ptr<ocp::ResidualData> createData() const override;
   /// The terrain frame of the file comment as the columns (t1, t2, n) of a rotation.
@@ -185,6 +195,8 @@ class FootRegionResidual final : public ocp::Residual {
   int rows(const ocp::NodeContext& ctx) const override;
   std::string rowName(const ocp::NodeContext& ctx, int row) const override;
   bool dependsOnInput() const override { return false; }
+  /// The configuration's columns (rho, theta, q_J): the feet do not move with the momentum.
+  ocp::ColumnRange stateColumns() const override { return {0, robot_->nv()}; }
   RegionUse use() const { return use_; }
   int maxEdges() const { return max_edges_; }
   std::unique_ptr<ocp::ResidualData> createData() const override;

@@ -21,6 +21,12 @@ struct ResidualData {
   MatrixXd Ru;   ///< d r / d u (rows x nu)
 };
 
+/// Columns [first, first + count) of a Jacobian.
+struct ColumnRange {
+  int first = 0;
+  int count = 0;
+};
+
 class Residual {
  public:
   /// @param ndx tangent size of the state, @param nu input size,
@@ -40,6 +46,14 @@ class Residual {
   virtual bool dependsOnInput() const { return true; }
   /// False when the residual depends on the input only (Rx == 0), e.g. input tracking.
   virtual bool dependsOnState() const { return true; }
+  /// The columns of Rx (tangent of x) and of Ru in which this residual's rows can be
+  /// non-zero, at any node and in any mode: a structural pattern (every entry outside it is
+  /// zero whatever x, u and the context). The solver sizes the storage it keeps of the
+  /// inequality Jacobians from it. Declaring too few columns is an error the solver reports
+  /// (std::logic_error) when it meets a non-zero there. Defaults: every column, none for
+  /// the x side when !dependsOnState(), none for the u side when !dependsOnInput().
+  virtual ColumnRange stateColumns() const { return {0, dependsOnState() ? ndx_ : 0}; }
+  virtual ColumnRange inputColumns() const { return {0, dependsOnInput() ? nu_ : 0}; }
   /// True when the residual is affine in the tangent coordinates everywhere:
   /// r(x (+) dx, u + du) = r(x, u) + Rx dx + Ru du for every x, u, dx, du. Its second
   /// derivatives are then zero and the solver computes no curvature for it (a cost on it

@@ -319,11 +319,11 @@ class Solver {
   const MatrixXd& feedbackGain(int k) const;
   /// The problem's evaluation of node k at the last linearisation or trial point
   /// (ne, ni: rows in use; g, e values). Its dynamics and equality Jacobians (Fx, Fu, Ex,
-  /// Eu) are empty: every linearisation evaluates them into one set per thread. After a
-  /// real-time iteration its cost Hessian (Lxx, Luu, Lux) is not the node's either: it was
-  /// evaluated into the Riccati stage's Q, R, S (with one thread one shared set); neither
-  /// are its inequality Jacobians (Gx, Gu: one set per thread; the node's Gx and Gu storage
-  /// holds their non-zero blocks, packed). The gradients are the node's.
+  /// Eu) are empty and its inequality Jacobians are not dense: every linearisation evaluates
+  /// them into one set per thread, and Gx and Gu (one column each) hold only the non-zero
+  /// blocks, packed. After a real-time iteration its cost Hessian (Lxx, Luu, Lux) is not
+  /// the node's either: it was evaluated into the Riccati stage's Q, R, S (with one thread
+  /// one shared set). The gradients are the node's.
   const ocp::NodeData& nodeData(int k) const;
   const std::vector<IterationStats>& stats() const;  ///< of the last solve/update
   int iterations() const;
