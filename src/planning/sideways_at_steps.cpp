@@ -7,6 +7,7 @@
 
 #include "check.hpp"
 #include "command_math.hpp"
+#include "surface_plane.hpp"
 
 namespace rollstep::planning {
 
@@ -24,9 +25,9 @@ bool crossesStep(const TerrainModel& terrain, const lie::SE3& pose,
   constexpr double kSpacing = 0.02;  // [m] finer than any foothold region a wheel stands on
   for (const Eigen::Vector2d& s : samples) {
     const Eigen::Vector2d w = pose.act(Eigen::Vector3d(s.x(), s.y(), 0.0)).head<2>();
-    const double h0 = terrain.heightAt(w);
+    const detail::SurfacePlane plane(terrain, w);  // a slope is no step
     for (double d = kSpacing; d <= reach + 1e-9; d += kSpacing) {
-      if (std::abs(terrain.heightAt(w + d * e) - h0) > min_step) return true;
+      if (std::abs(terrain.heightAt(w + d * e) - plane.at(w + d * e)) > min_step) return true;
     }
   }
   return false;

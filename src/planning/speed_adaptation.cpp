@@ -8,6 +8,7 @@
 
 #include "check.hpp"
 #include "command_math.hpp"
+#include "surface_plane.hpp"
 
 namespace rollstep::planning {
 
@@ -43,10 +44,11 @@ bool nearStep(const TerrainModel& terrain, const lie::SE3& pose,
   constexpr double kSpacing = 0.02;  // [m] finer than any foothold region a wheel stands on
   for (const Eigen::Vector2d& s : samples) {
     const Eigen::Vector2d w = pose.act(Eigen::Vector3d(s.x(), s.y(), 0.0)).head<2>();
+    const detail::SurfacePlane plane(terrain, w);  // a slope is no step
     double lo = std::numeric_limits<double>::infinity();
     double hi = -lo;
     for (double d = -behind; d <= ahead + 1e-9; d += kSpacing) {
-      const double h = terrain.heightAt(w + d * e);
+      const double h = terrain.heightAt(w + d * e) - plane.riseTo(w + d * e);
       lo = std::min(lo, h);
       hi = std::max(hi, h);
     }
@@ -275,8 +277,8 @@ StepTouchdown nextStepTouchdown(const PlanarPath& path, double path_end,
       const Eigen::Vector2d p = foothold(f, t);
       const Eigen::Vector2d from = last[f];
       last[f] = p;
-      const double h0 = terrain.heightAt(from);
-      if (!(std::abs(terrain.heightAt(p) - h0) > config.min_step)) continue;
+      const detail::SurfacePlane plane(terrain, from);  // a slope is no step
+      if (!(std::abs(terrain.heightAt(p) - plane.at(p)) > config.min_step)) continue;
       // The riser: where the height first changes along the foot's travel (in a gap between
       // regions heightAt gives the nearest region's: the change comes at the gap's middle).
       const double length = (p - from).norm();
@@ -284,7 +286,7 @@ StepTouchdown nextStepTouchdown(const PlanarPath& path, double path_end,
       constexpr double kScan = 0.005;  // [m]
       double riser = length;
       for (double d = 0.0; d <= length; d += kScan) {
-        if (std::abs(terrain.heightAt(from + d * u) - h0) > config.min_step) {
+        if (std::abs(terrain.heightAt(from + d * u) - plane.at(from + d * u)) > config.min_step) {
           riser = d;
           break;
         }
@@ -304,7 +306,7 @@ StepTouchdown nextStepTouchdown(const PlanarPath& path, double path_end,
       best.row = row;
       best.riser = along;
       best.past = length - riser;
-      best.up = terrain.heightAt(p) > h0;
+      best.up = terrain.heightAt(p) > plane.at(p);
       best.target = 0.25 * period * commandSpeed(c, 0.0);
       return best;
     }
