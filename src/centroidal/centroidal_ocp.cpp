@@ -92,8 +92,10 @@ CentroidalOcp::CentroidalOcp(const RobotOcpDescription& description, const OcpSe
   // Skid steering: the drive wheels' lateral rows leave the equalities (and the freed-row
   // cost) for a cost of their own on every stance drive wheel.
   const bool skid = settings.lateral_slip_weight > 0.0;
+  // Terrain normals of the stance velocity rows, the friction cones and the regions.
+  const TerrainReferences refs{terrain_model, foot_refs.get()};
   auto freed = std::make_shared<StanceVelocityResidual>(
-      pre_, StanceRows::Freed, skid ? StanceComponents::VerticalOnly : StanceComponents::All);
+      pre_, StanceRows::Freed, skid ? StanceComponents::VerticalOnly : StanceComponents::All, refs);
   problem_->addCost("freed_stance_velocity",
                     std::make_shared<ocp::LeastSquaresCost>(
                         freed, repeat(settings.freed_stance_velocity_weight, freed->maxRows())));
@@ -108,10 +110,10 @@ CentroidalOcp::CentroidalOcp(const RobotOcpDescription& description, const OcpSe
 
   // Equalities.
   problem_->addEquality("swing_force", std::make_shared<SwingForceResidual>(robot_ptr));
-  problem_->addEquality(
-      "stance_velocity",
-      std::make_shared<StanceVelocityResidual>(
-          pre_, StanceRows::Kept, skid ? StanceComponents::VerticalOnly : StanceComponents::All));
+  problem_->addEquality("stance_velocity",
+                        std::make_shared<StanceVelocityResidual>(
+                            pre_, StanceRows::Kept,
+                            skid ? StanceComponents::VerticalOnly : StanceComponents::All, refs));
   problem_->addEquality("swing_height", std::make_shared<SwingHeightResidual>(
                                             pre_, foot_refs, settings.swing_height_gain,
                                             settings.swing_height_max_correction));
@@ -133,7 +135,6 @@ CentroidalOcp::CentroidalOcp(const RobotOcpDescription& description, const OcpSe
   TorqueLimitOptions torque;
   torque.scale = settings.torque_limit_scale;
   problem_->addInequality("torque", std::make_shared<StaticTorqueLimitResidual>(robot_ptr, torque));
-  const TerrainReferences refs{terrain_model, foot_refs.get()};
   FrictionPyramidOptions friction;
   friction.mu = settings.friction_coefficient;
   friction.min_normal_force = settings.min_normal_force;

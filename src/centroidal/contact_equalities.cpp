@@ -75,12 +75,14 @@ void SwingForceResidual::calcDiffInto(const ocp::NodeContext& ctx, ocp::ConstVec
 // ---- StanceVelocityResidual -----------------------------------------------------------
 
 StanceVelocityResidual::StanceVelocityResidual(std::shared_ptr<const CentroidalPrecomputation> pre,
-                                               StanceRows rows, StanceComponents components)
+                                               StanceRows rows, StanceComponents components,
+                                               TerrainReferences terrain)
     : ocp::Residual(robotOf(pre, "StanceVelocityResidual").ndx(), pre ? pre->robot().nu() : 0,
                     pre ? stanceVelocityMaxRows(pre->robot()) : 0),
       pre_(std::move(pre)),
       which_(rows),
-      components_(components) {}
+      components_(components),
+      terrain_(terrain) {}
 
 bool StanceVelocityResidual::lateral(int i) const {
   return components_ != StanceComponents::VerticalOnly && pre_->robot().contact(i).drive_wheel;
@@ -114,7 +116,7 @@ std::string StanceVelocityResidual::rowName(const ocp::NodeContext& ctx, int row
   int n = 0;
   for (int i = 0; i < r.nc(); ++i) {
     if (!selected(ctx.mode, i)) continue;
-    if (vertical() && n++ == row) return r.contact(i).frame + ": vertical velocity";
+    if (vertical() && n++ == row) return r.contact(i).frame + ": normal velocity";
     if (lateral(i) && n++ == row) return r.contact(i).frame + ": lateral velocity";
   }
   return Residual::rowName(ctx, row);
@@ -130,7 +132,11 @@ void StanceVelocityResidual::calc(const ocp::NodeContext& ctx, ocp::ConstVecRef 
   for (int i = 0; i < r.nc(); ++i) {
     if (!selected(ctx.mode, i)) continue;
     const auto v = c.footVelocity(i);
-    if (vertical()) d.r[row++] = v.z();
+    if (vertical()) {
+      // Flat ground keeps the plain z component (bit for bit what it was before slopes).
+      const Eigen::Vector3d n = terrain_.normal(ctx, i);
+      d.r[row++] = n == Eigen::Vector3d::UnitZ() ? v.z() : n.dot(v);
+    }
     if (lateral(i)) {
       const double yaw = c.footYaw[i];
       d.r[row++] = -std::sin(yaw) * v.x() + std::cos(yaw) * v.y();
@@ -158,8 +164,15 @@ void StanceVelocityResidual::calcDiffInto(const ocp::NodeContext& ctx, ocp::Cons
     if (!selected(ctx.mode, i)) continue;
     const int k = 3 * i;
     if (vertical()) {
-      Rx.row(row) = c.footVelocity_dx.row(k + 2);
-      Ru.row(row).head(nj) = c.footVelocity_du.row(k + 2).head(nj);
+      // The region's normal is constant: the row is n^T dv_i.
+      const Eigen::Vector3d n = terrain_.normal(ctx, i);
+      if (n == Eigen::Vector3d::UnitZ()) {
+        Rx.row(row) = c.footVelocity_dx.row(k + 2);
+        Ru.row(row).head(nj) = c.footVelocity_du.row(k + 2).head(nj);
+      } else {
+        Rx.row(row) = n.transpose() * c.footVelocity_dx.middleRows<3>(k);
+        Ru.row(row).head(nj) = n.transpose() * c.footVelocity_du.middleRows<3>(k).leftCols(nj);
+      }
       Ru.row(row).tail(nf).setZero();
       ++row;
     }

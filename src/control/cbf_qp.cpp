@@ -114,6 +114,7 @@ struct CbfQpFilter::Work {
       : data(robot.model()),
         kin(robot),
         row(Eigen::RowVectorXd::Zero(robot.nv())),
+        normals(Eigen::Matrix3Xd::Zero(3, robot.nc())),
         joint_lower(Eigen::VectorXd::Zero(robot.nj())),
         joint_upper(Eigen::VectorXd::Zero(robot.nj())),
         joint_vmax(Eigen::VectorXd::Zero(robot.nj())),
@@ -129,6 +130,7 @@ struct CbfQpFilter::Work {
   model::Data data;
   ContactKinematics kin;
   Eigen::RowVectorXd row;                    ///< a contact row (scratch)
+  Eigen::Matrix3Xd normals;                  ///< terrain normal under each stance foot
   Eigen::VectorXd joint_lower, joint_upper;  ///< position limits with the margin (+-inf: none)
   Eigen::VectorXd joint_vmax;                ///< scaled velocity limits (+inf: none)
   std::vector<Eigen::Vector2d> support_xy;   ///< (x, y) of the support feet
@@ -438,7 +440,13 @@ CbfQpStatus CbfQpFilter::filter(const Eigen::Ref<const Eigen::VectorXd>& q,
   qp_.setDimensions(nv, n_eq, n_ineq);
 
   writeTrackingCost(s, w.kin, targets, robot.nj(), qp_);
-  writeContactRows(robot, s, w.kin, mode, lateral_rows, w.row, qp_);
+  for (int i = 0; i < nc; ++i) {
+    const int r = regions != nullptr && centroidal::CentroidalRobot::inStance(mode, i)
+                      ? regions[i].region
+                      : -1;
+    w.normals.col(i) = r >= 0 ? terrain_->region(r).normal : Eigen::Vector3d::UnitZ();
+  }
+  writeContactRows(robot, s, w.kin, mode, lateral_rows, w.row, qp_, &w.normals);
   writeJointBounds(q, v, w.joint_lower, w.joint_upper, w.joint_vmax, s.joint_position_gamma,
                    s.joint_velocity_gamma, qp_);
   int row = 0;

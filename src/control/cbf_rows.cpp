@@ -110,7 +110,7 @@ void writeTrackingCost(const CbfQpSettings& s, const ContactKinematics& kin,
 
 int writeContactRows(const centroidal::CentroidalRobot& robot, const CbfQpSettings& s,
                      const ContactKinematics& kin, int mode, bool lateral_rows,
-                     Eigen::RowVectorXd& row, DenseQpProblem& qp) {
+                     Eigen::RowVectorXd& row, DenseQpProblem& qp, const Eigen::Matrix3Xd* normals) {
   // Row a = target: an equality, or the cost for freed rows.
   const double k = s.contact_gain;
   int eq = 0;
@@ -132,8 +132,15 @@ int writeContactRows(const centroidal::CentroidalRobot& robot, const CbfQpSettin
     if (!centroidal::CentroidalRobot::inStance(mode, i)) continue;
     const bool kept = robot.keepsVelocityConstraints(mode, i);
     const auto J = kin.jacobian.middleRows<3>(3 * i);
-    row = J.row(2);
-    addRow(kept, -k * kin.velocity(2, i) - kin.drift(2, i));
+    const Eigen::Vector3d n =
+        normals != nullptr ? Eigen::Vector3d(normals->col(i)) : Eigen::Vector3d::UnitZ();
+    if (n == Eigen::Vector3d::UnitZ()) {  // flat: the plain z rows
+      row = J.row(2);
+      addRow(kept, -k * kin.velocity(2, i) - kin.drift(2, i));
+    } else {
+      row.noalias() = n.transpose() * J;
+      addRow(kept, -k * n.dot(kin.velocity.col(i)) - n.dot(kin.drift.col(i)));
+    }
     // Skid steering (lateral_slip_weight > 0): the wheels must slide sideways to turn, the
     // MPC's plan weighs that slip; here the lateral rows are left out (an acceleration-level
     // row pulling the slip to zero would hold the commanded turn back).

@@ -184,9 +184,25 @@ double BaseReference::terrainHeightAt(double t) const {
     const double reach = speed > 1e-9 ? config_.height_reach : 0.0;
     if (speed > 1e-9) e /= speed;
     double best = -std::numeric_limits<double>::infinity();
+    const Eigen::Vector2d centre = p.translation.head<2>();
     for (const Eigen::Vector2d& s : config_.height_samples) {
       const Eigen::Vector2d w = p.act(Eigen::Vector3d(s.x(), s.y(), 0.0)).head<2>();
-      best = std::max(best, terrain_->envelopeHeight(w, e, reach, config_.height_slope));
+      double h = terrain_->envelopeHeight(w, e, reach, config_.height_slope);
+      // On a sloped surface the wheels follow the plane: only terrain above that plane's
+      // continuation within reach raises the body, and the sample's height is carried to
+      // the body's centre along the plane (otherwise the front feet on an up-slope set the
+      // height and the rear legs overextend). Level surfaces keep the plain envelope.
+      const int under = terrain_->regionAt(w);
+      if (under >= 0) {
+        const Eigen::Vector3d& n = terrain_->region(under).normal;
+        if (n.x() != 0.0 || n.y() != 0.0) {
+          const Eigen::Vector2d grade = -n.head<2>() / n.z();
+          // The envelope looks reach ahead and behind: the plane rises on one side.
+          const double own_rise = reach * std::abs(grade.dot(e));
+          h = std::max(terrain_->heightAt(w), h - own_rise) - grade.dot(w - centre);
+        }
+      }
+      best = std::max(best, h);
     }
     return best;
   }

@@ -24,9 +24,10 @@ bool crossesStep(const TerrainModel& terrain, const lie::SE3& pose,
                  double reach, double min_step) {
   for (const Eigen::Vector2d& s : samples) {
     const Eigen::Vector2d w = detail::worldPoint(pose, s);
-    const double h0 = terrain.heightAt(w);
+    const detail::SurfacePlane plane(terrain, w);  // a slope is no step
+    const double h0 = plane.height();
     const detail::HeightRange r =
-        detail::heightRangeAlong(terrain, w, e, detail::kScanSpacing, reach);
+        detail::heightRangeAlong(terrain, w, e, detail::kScanSpacing, reach, plane);
     if (r.hi - h0 > min_step || h0 - r.lo > min_step) return true;
   }
   return false;

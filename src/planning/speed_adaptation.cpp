@@ -42,8 +42,9 @@ bool nearStep(const TerrainModel& terrain, const lie::SE3& pose,
               const std::vector<Eigen::Vector2d>& samples, const Eigen::Vector2d& e, double behind,
               double ahead, double min_step) {
   for (const Eigen::Vector2d& s : samples) {
-    const detail::HeightRange r =
-        detail::heightRangeAlong(terrain, detail::worldPoint(pose, s), e, -behind, ahead);
+    const Eigen::Vector2d w = detail::worldPoint(pose, s);
+    const detail::SurfacePlane plane(terrain, w);  // a slope is no step
+    const detail::HeightRange r = detail::heightRangeAlong(terrain, w, e, -behind, ahead, plane);
     if (r.hi - r.lo > min_step) return true;
   }
   return false;
@@ -269,8 +270,8 @@ StepTouchdown nextStepTouchdown(const PlanarPath& path, double path_end,
       const Eigen::Vector2d p = foothold(f, t);
       const Eigen::Vector2d from = last[f];
       last[f] = p;
-      const double h0 = terrain.heightAt(from);
-      if (!(std::abs(terrain.heightAt(p) - h0) > config.min_step)) continue;
+      const detail::SurfacePlane plane(terrain, from);  // a slope is no step
+      if (!(std::abs(terrain.heightAt(p) - plane.at(p)) > config.min_step)) continue;
       // The riser: where the height first changes along the foot's travel (in a gap between
       // regions heightAt gives the nearest region's: the change comes at the gap's middle).
       const double length = (p - from).norm();
@@ -278,7 +279,7 @@ StepTouchdown nextStepTouchdown(const PlanarPath& path, double path_end,
       constexpr double kScan = 0.005;  // [m]
       double riser = length;
       for (double d = 0.0; d <= length; d += kScan) {
-        if (std::abs(terrain.heightAt(from + d * u) - h0) > config.min_step) {
+        if (std::abs(terrain.heightAt(from + d * u) - plane.at(from + d * u)) > config.min_step) {
           riser = d;
           break;
         }
@@ -298,7 +299,7 @@ StepTouchdown nextStepTouchdown(const PlanarPath& path, double path_end,
       best.row = row;
       best.riser = along;
       best.past = length - riser;
-      best.up = terrain.heightAt(p) > h0;
+      best.up = terrain.heightAt(p) > plane.at(p);
       best.target = 0.25 * period * commandSpeed(c, 0.0);
       return best;
     }

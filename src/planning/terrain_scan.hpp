@@ -8,6 +8,7 @@
 
 #include "rollstep/lie/se3.hpp"
 #include "rollstep/planning/terrain.hpp"
+#include "surface_plane.hpp"
 
 namespace rollstep::planning::detail {
 
@@ -31,6 +32,21 @@ inline HeightRange heightRangeAlong(const TerrainModel& terrain, const Eigen::Ve
   HeightRange r;
   for (double d = from; d <= to + 1e-9; d += kScanSpacing) {
     const double h = terrain.heightAt(w + d * e);
+    r.lo = std::min(r.lo, h);
+    r.hi = std::max(r.hi, h);
+  }
+  return r;
+}
+
+/// Same, each height less the rise of `plane` (the surface a foot stands on, extended) from
+/// w: a slope is no step, a riser on it or its crest still is (level: the heights themselves).
+inline HeightRange heightRangeAlong(const TerrainModel& terrain, const Eigen::Vector2d& w,
+                                    const Eigen::Vector2d& e, double from, double to,
+                                    const SurfacePlane& plane) {
+  HeightRange r;
+  for (double d = from; d <= to + 1e-9; d += kScanSpacing) {
+    const Eigen::Vector2d q = w + d * e;
+    const double h = terrain.heightAt(q) - plane.riseTo(q);
     r.lo = std::min(r.lo, h);
     r.hi = std::max(r.hi, h);
   }

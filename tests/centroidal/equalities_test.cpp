@@ -5,6 +5,8 @@
 
 #include <cmath>
 #include <iostream>
+#include <string>
+#include <vector>
 
 #include "centroidal/fd_check.hpp"
 #include "common/alloc_counter.hpp"
@@ -129,6 +131,68 @@ TEST(Equalities, JacobiansMatchFiniteDifferencesInEveryModeClass) {
   const auto stance = makeContext(kAllStance, 0.0, s.scene.schedule.get(), nullptr);
   EXPECT_TRUE(refusesCallsWithoutNodeCache(s.velocity, stance, x, u));
   EXPECT_TRUE(refusesCallsWithoutNodeCache(s.height, ev.ctx, x, u));
+}
+
+TEST(Equalities, StanceRowsFollowTheTerrainNormalOnASlope) {
+  // One big region tilted 0.15 rad about world y (a ramp rising along +x): each stance
+  // row is the foot velocity along the region's normal, n^T v, not its world z velocity.
+  const double a = 0.15;
+  const Eigen::Vector3d n(-std::sin(a), 0.0, std::cos(a));
+  const auto terrain = std::make_shared<planning::TerrainModel>(std::vector<planning::ConvexRegion>{
+      planning::ConvexRegion::fromPolygon({{-5, -5}, {5, -5}, {5, 5}, {-5, 5}}, 0.0, n)});
+  Tachyon3Scene scene = makeTachyon3Scene("trot");
+  const auto base = std::make_shared<planning::BaseReference>(
+      *terrain, planning::BaseReferenceConfig{0.375, tachyon3NominalFeet()});
+  base->reset(0.0, lie::SE3(), {0.3, 0.0, 0.1});
+  const planning::FootReferencePlanner planner(
+      *terrain, *base,
+      planning::FootReferenceConfig{tachyon3NominalFeet(), 0.08, kTachyon3WheelRadius});
+  Fixture s;
+  const StanceVelocityResidual sloped(s.pre, StanceRows::Kept, StanceComponents::All,
+                                      {terrain.get(), &planner});
+  const StanceVelocityResidual sloped_freed(s.pre, StanceRows::Freed, StanceComponents::All,
+                                            {terrain.get(), &planner});
+  const StanceVelocityResidual sloped_vertical(
+      s.pre, StanceRows::Kept, StanceComponents::VerticalOnly, {terrain.get(), &planner});
+  std::mt19937 rng(23);
+  const int trot_a = maskOf({LF, RF, MR});
+  for (const int mode : {kAllStance, trot_a, maskOf({MF, LR, RR})}) {
+    const double t = scene.timeInMode(mode);
+    ASSERT_TRUE(std::isfinite(t)) << "mode " << mode;
+    const auto ctx = makeContext(mode, t, scene.schedule.get(), nullptr);
+    for (int trial = 0; trial < 3; ++trial) {
+      const Eigen::VectorXd x = randomState(*s.robot, rng);
+      const Eigen::VectorXd u = randomInput(*s.robot, rng);
+      const NodeEvaluator with{s.pre.get(), s.cache.get(), ctx};
+      const NodeEvaluator without{nullptr, nullptr, ctx};
+      for (const ocp::Residual* r :
+           std::vector<const ocp::Residual*>{&sloped, &sloped_freed, &sloped_vertical}) {
+        EXPECT_TRUE(checkResidualDerivatives(*r, *s.robot->space(), with, x, u))
+            << "mode " << mode << " trial " << trial;
+        EXPECT_TRUE(checkResidualDerivatives(*r, *s.robot->space(), without, x, u))
+            << "mode " << mode << " trial " << trial;
+      }
+    }
+  }
+  // Values: in trot A, LF keeps (normal, lateral), MR (normal); against the foot velocities.
+  const double t = scene.timeInMode(trot_a);
+  const auto ctx = makeContext(trot_a, t, scene.schedule.get(), nullptr);
+  const Eigen::VectorXd x = randomState(*s.robot, rng);
+  const Eigen::VectorXd u = randomInput(*s.robot, rng);
+  CentroidalCache c(*s.robot);
+  s.pre->compute(x, u, false, c);
+  const NodeEvaluator ev{nullptr, nullptr, ctx};
+  auto d = sloped.createData();
+  const Eigen::VectorXd r = residualValue(sloped, ev, x, u, *d);
+  ASSERT_EQ(r.size(), 3);
+  const Eigen::Vector3d v_lf = c.footVelocity(LF), v_mr = c.footVelocity(MR);
+  EXPECT_NEAR(r[0], n.dot(v_lf), 1e-12);
+  EXPECT_NEAR(r[2], n.dot(v_mr), 1e-12);
+  EXPECT_GT(std::abs(r[0] - v_lf.z()), 1e-3);  // not the world z velocity
+  // Without terrain the same rows are the world z velocity.
+  auto dz = s.velocity.createData();
+  EXPECT_NEAR(residualValue(s.velocity, ev, x, u, *dz)[0], v_lf.z(), 1e-12);  // flat: z
+  EXPECT_NE(sloped.rowName(ctx, 0).find("normal velocity"), std::string::npos);
 }
 
 TEST(Equalities, TheFiniteDifferenceCheckCatchesAWrongJacobian) {

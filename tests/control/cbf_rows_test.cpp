@@ -232,6 +232,35 @@ TEST(CbfRows, ContactRowsHoldTheStanceFeetsVelocities) {
   }
   EXPECT_GT(freed.norm(), 0.0);
   EXPECT_LE((all.H() - freed).norm(), 1e-9 * freed.norm());
+
+  // On a slope (normals tilted 0.15 rad about y): each kept foot's velocity along its
+  // normal decays, d/dt (n . v) = -k (n . v), not its world z velocity.
+  const Vector3d n(-std::sin(0.15), 0.0, std::cos(0.15));
+  const Eigen::Matrix3Xd normals = n.replicate(1, robot->nc());
+  DenseQpProblem sloped(DenseQpDims{nv, 8, 0});
+  sloped.H().setZero();
+  sloped.g().setZero();
+  ASSERT_EQ(control::writeContactRows(*robot, settings, kin, mode, true, scratch, sloped, &normals),
+            4);
+  sloped.setDimensions(nv, 4, 0);
+  const VectorXd as = sloped.Aeq().completeOrthogonalDecomposition().solve(sloped.beq());
+  ASSERT_LE((sloped.Aeq() * as - sloped.beq()).norm(), 1e-9);
+  for (int i : {ct::LF, ct::MF, ct::MR}) {
+    const Vector3d vi = kin.velocity.col(i);
+    const Derivatives fd = alongMotion(
+        m, s.q, s.v, as, [&](const VectorXd& qq) { return n.dot(footPosition(*robot, d, i, qq)); });
+    EXPECT_NEAR(fd.hdd, -settings.contact_gain * n.dot(vi), 2e-5 * (1.0 + std::abs(fd.hdd)))
+        << "foot " << i;
+  }
+  // +z normals give the rows without normals exactly.
+  const Eigen::Matrix3Xd up = Vector3d::UnitZ().replicate(1, robot->nc());
+  DenseQpProblem level(DenseQpDims{nv, 8, 0});
+  level.H().setZero();
+  level.g().setZero();
+  control::writeContactRows(*robot, settings, kin, mode, true, scratch, level, &up);
+  level.setDimensions(nv, 4, 0);
+  EXPECT_TRUE(MatrixXd(level.Aeq()) == MatrixXd(qp.Aeq()));
+  EXPECT_TRUE(VectorXd(level.beq()) == VectorXd(qp.beq()));
 }
 
 // ---- joint bounds ------------------------------------------------------------------------

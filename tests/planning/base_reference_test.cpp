@@ -153,6 +153,34 @@ TEST(BaseReference, EnvelopeRisesBeforeAStepUpAndComesDownAfterAStepDown) {
   EXPECT_NEAR(ref.poseAt(3.0).translation.z(), 0.575, 1e-12);
 }
 
+TEST(BaseReference, OnASlopeTheBodyStandsItsNominalHeightAboveTheSurfaceAtItsCentre) {
+  // An 8 deg plane rising along +x: the wheels follow it, so neither the front feet's
+  // higher ground nor the plane's rise within the reach ahead lifts the body (that
+  // overextended the rear legs up a ramp); up, down and across the slope.
+  const double grade = std::tan(8.0 * M_PI / 180.0);
+  const Vector3d n = Vector3d(-grade, 0.0, 1.0).normalized();
+  const planning::TerrainModel slope({planning::ConvexRegion::fromPolygon(
+      {{-5.0, -5.0}, {10.0, -5.0}, {10.0, 5.0}, {-5.0, 5.0}}, 0.0, n)});
+  BaseReferenceConfig feet{
+      0.375, {{0.33, 0.22}, {0.33, -0.22}, {-0.33, 0.22}, {-0.33, -0.22}}, 0.45, 0.5};
+  for (const double yaw : {0.0, M_PI, 0.5 * M_PI}) {
+    BaseReference ref(slope, feet);
+    ref.reset(0.0, startPose(0.0, 0.0, yaw), {0.5, 0.0, 0.0});
+    for (double t = 0.0; t < 4.0; t += 0.25) {
+      const lie::SE3 p = ref.poseAt(t);
+      EXPECT_NEAR(p.translation.z() - 0.375, slope.heightAt(p.translation.head<2>()), 1e-9)
+          << "yaw " << yaw << " t " << t;
+    }
+  }
+  // Level ground keeps the plain envelope (the step test above), bit for bit: a level
+  // plane gives exactly its height.
+  const planning::TerrainModel level({planning::ConvexRegion::fromPolygon(
+      {{-5.0, -5.0}, {10.0, -5.0}, {10.0, 5.0}, {-5.0, 5.0}}, 0.1)});
+  BaseReference flat(level, feet);
+  flat.reset(0.0, startPose(0.0, 0.0, 0.0), {0.5, 0.0, 0.0});
+  EXPECT_EQ(flat.poseAt(1.0).translation.z(), 0.375 + 0.1);
+}
+
 TEST(BaseReference, VelocityCarriesTheRateOfTheHeightRamp) {
   const planning::TerrainModel step =
       planning::terrainFromBoxes(kFloor, 0.0, {{1.0, 2.2, -3.0, 3.0, 0.20}}, 0.085);

@@ -172,6 +172,33 @@ TEST(StepSpeed, LeavesASlowCommandAndLevelGroundAlone) {
   EXPECT_NEAR(ramp.back().time, 0.5 / 0.5 - config.resolution, 1e-9);
 }
 
+TEST(StepSpeed, ASlopeIsNoStep) {
+  // A long 8 deg plane: along it the terrain under a foot rises 0.14 m per metre (past
+  // min_step within the reach), but a wheel rolls along it: no slowdown (the rule measured
+  // heights against the level before and slowed the whole way).
+  planning::SpeedScheduleConfig config;
+  config.step_speed_limit = 0.3;
+  config.step_reach = 0.3;
+  config.max_acceleration = 0.5;
+  const double grade = std::tan(8.0 * M_PI / 180.0);
+  const planning::TerrainModel slope(
+      {planning::ConvexRegion::fromPolygon({{-5.0, -2.0}, {20.0, -2.0}, {20.0, 2.0}, {-5.0, 2.0}},
+                                           0.0, Eigen::Vector3d(-grade, 0.0, 1.0).normalized())});
+  std::vector<planning::StepSlowdown> slowdowns;
+  planning::adaptScheduleToTerrain({{0.0, {0.5, 0.0, 0.0}}}, lie::SE3::Identity(), slope, kNominal,
+                                   config, &slowdowns);
+  EXPECT_TRUE(slowdowns.empty());
+  // A riser from the slope up onto a level block still counts.
+  const planning::TerrainModel with_block(
+      {planning::ConvexRegion::fromPolygon({{-5.0, -2.0}, {3.0, -2.0}, {3.0, 2.0}, {-5.0, 2.0}},
+                                           0.0, Eigen::Vector3d(-grade, 0.0, 1.0).normalized()),
+       planning::ConvexRegion::fromPolygon({{3.0, -2.0}, {20.0, -2.0}, {20.0, 2.0}, {3.0, 2.0}},
+                                           0.0 + 7.0 * grade + 0.1)});
+  planning::adaptScheduleToTerrain({{0.0, {0.5, 0.0, 0.0}}}, lie::SE3::Identity(), with_block,
+                                   kNominal, config, &slowdowns);
+  EXPECT_FALSE(slowdowns.empty());
+}
+
 TEST(StepSpeed, RefusesABadSchedule) {
   planning::SpeedScheduleConfig config;
   config.max_acceleration = 0.5;

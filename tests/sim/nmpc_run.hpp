@@ -68,6 +68,7 @@ struct NmpcOutcome {
   double command_rms_second_difference = 0.0;  ///< joint position commands [rad or m]
   std::vector<double> log;  ///< every tick: time, base pose, joint commands, wheel commands
   int warnings = 0;
+  long body_contact_periods = 0;  ///< control periods ending with a non-wheel contact
   double wall_time = 0.0;
   /// With the estimator: path length (horizontal, ground truth) and the estimate's error at
   /// the end (horizontal position, yaw), the largest errors over the run, its counters.
@@ -192,6 +193,7 @@ inline NmpcOutcome runNmpc(const NmpcScenario& sc) {
   out.counters = controller.pipeline().counters();
   out.gait_held = controller.pipeline().lastSolution().gait_clock.totalHeld();
   out.warnings = plant.warningCount() - warnings0;
+  out.body_contact_periods = g.body_contact_periods;
   double sum = 0.0;
   long n = 0;
   for (size_t k = 2; k < cmds.size(); ++k) {

@@ -8,11 +8,13 @@
 //
 //  - SwingForceResidual: r = [f_i] for every swing contact i (3 rows each; affine).
 //  - StanceVelocityResidual: for every stance contact that keeps its velocity
-//    constraints (CentroidalRobot::keepsVelocityConstraints), the world z velocity of its
-//    frame origin, and for a drive wheel then its lateral velocity in the yaw frame of the
-//    contact frame: e_lat^T v_i, e_lat = (-sin yaw_i, cos yaw_i, 0), yaw_i the yaw of the
-//    contact frame's x axis (for Tachyon 3, whose legs only pitch, the base yaw). Rows
-//    ordered per contact: z, then lateral.
+//    constraints (CentroidalRobot::keepsVelocityConstraints), the velocity of its frame
+//    origin along the terrain normal n_i of its stance region, n_i^T v_i (the world z
+//    velocity on flat ground or without terrain: a rolling wheel follows a slope), and for
+//    a drive wheel then its lateral velocity in the yaw frame of the contact frame:
+//    e_lat^T v_i, e_lat = (-sin yaw_i, cos yaw_i, 0), yaw_i the yaw of the contact frame's
+//    x axis (for Tachyon 3, whose legs only pitch, the base yaw). Rows ordered per
+//    contact: normal, then lateral.
 //
 // The contact velocities are total derivatives through v_b(q, h, v_J) (precomputation.hpp).
 // calc/calcDiff read the node cache (ctx.cache) when present and compute their own
@@ -20,6 +22,7 @@
 #include <memory>
 #include <string>
 
+#include "rollstep/centroidal/inequalities.hpp"
 #include "rollstep/centroidal/precomputation.hpp"
 #include "rollstep/centroidal/residual_data.hpp"
 #include "rollstep/ocp/residual.hpp"
@@ -61,18 +64,20 @@ enum class StanceRows {
 /// Which components of a selected stance foot's velocity a StanceVelocityResidual carries.
 enum class StanceComponents {
   All,           ///< vertical, and lateral for a drive wheel
-  VerticalOnly,  ///< the world z velocity only
+  VerticalOnly,  ///< the velocity along the terrain normal only
   LateralOnly,   ///< a drive wheel's lateral velocity only (none for other feet)
 };
 
-/// Stance contacts: zero world z velocity, zero lateral velocity for drive wheels, with the
-/// side-by-side rule (`rows` selects the kept or the freed ones, `components` which rows of
-/// each of them).
+/// Stance contacts: zero velocity along the terrain normal, zero lateral velocity for drive
+/// wheels, with the side-by-side rule (`rows` selects the kept or the freed ones,
+/// `components` which rows of each of them). `terrain` gives each stance foot's normal
+/// (TerrainReferences::normal: +z without terrain or region).
 class StanceVelocityResidual final : public ocp::Residual {
  public:
   explicit StanceVelocityResidual(std::shared_ptr<const CentroidalPrecomputation> pre,
                                   StanceRows rows = StanceRows::Kept,
-                                  StanceComponents components = StanceComponents::All);
+                                  StanceComponents components = StanceComponents::All,
+                                  TerrainReferences terrain = {});
   int rows(const ocp::NodeContext& ctx) const override;
   std::string rowName(const ocp::NodeContext& ctx, int row) const override;
   std::unique_ptr<ocp::ResidualData> createData() const override;
@@ -91,6 +96,7 @@ class StanceVelocityResidual final : public ocp::Residual {
   std::shared_ptr<const CentroidalPrecomputation> pre_;
   StanceRows which_;
   StanceComponents components_;
+  TerrainReferences terrain_;
   bool vertical() const { return components_ != StanceComponents::LateralOnly; }
   bool lateral(int i) const;  // drive wheel and lateral rows wanted
 };

@@ -50,11 +50,14 @@ void writeTrackingCost(const CbfQpSettings& s, const ContactKinematics& kin,
 
 /// Contact consistency of the stance feet of `mode`: kept rows as equalities a_row =
 /// -k v_row from equality row 0 on, freed rows (side-by-side rule) added to the cost.
-/// `lateral_rows`: drive wheels have their lateral rows (no skid steering). `row` is a
-/// 1 x nv scratch. Returns the equality rows written.
+/// The first row of a foot is along its terrain normal (column i of `normals`, 3 x nc;
+/// +z for every foot when null): a wheel rolls along a slope. `lateral_rows`: drive
+/// wheels have their lateral rows (no skid steering). `row` is a 1 x nv scratch. Returns
+/// the equality rows written.
 int writeContactRows(const centroidal::CentroidalRobot& robot, const CbfQpSettings& s,
                      const ContactKinematics& kin, int mode, bool lateral_rows,
-                     Eigen::RowVectorXd& row, DenseQpProblem& qp);
+                     Eigen::RowVectorXd& row, DenseQpProblem& qp,
+                     const Eigen::Matrix3Xd* normals = nullptr);
 
 /// Joint position (second-order) and velocity (first-order) barriers as bounds on the
 /// joint accelerations; the velocity interval wins a conflict. `lower`, `upper`: position
