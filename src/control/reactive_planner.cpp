@@ -216,7 +216,9 @@ void ReactivePlanner::plan(double t, const Eigen::VectorXd& q_meas, const Eigen:
   const Eigen::Quaterniond orientation(Eigen::AngleAxisd(yaw_ref_, Eigen::Vector3d::UnitZ()));
   const Eigen::Vector2d xy_int(q_int[0], q_int[1]);
   Eigen::Vector2d base_xy = xy_int;
-  if (settings_.position_leash > 0.0) {
+  // Only on level ground: where the terrain under and ahead of the feet differs, the
+  // baseline stays myopic (a robot held at a step is not pushed on).
+  if (settings_.position_leash > 0.0 && high - low <= kLevelTolerance) {
     const Eigen::Vector3d v_command =
         orientation * Eigen::Vector3d(command_.v_x, command_.v_y, 0.0);
     xy_ref_ += std::max(0.0, t - xy_time_) * v_command.head<2>();

@@ -276,8 +276,9 @@ TEST_P(EveryRobot, BaselineStands) {
 }
 
 TEST_P(EveryRobot, BaselineRollsAndTrots) {
-  // Half a metre per second rolling for 4 s, then 0.3 m/s trotting for 6 s: at least half the
-  // commanded distance after a second of ramp, straight.
+  // Half a metre per second rolling for 4 s, then 0.3 m/s trotting for 6 s: rolling at least
+  // half the commanded distance after a second of ramp, trotting 85 % of it (a baseline whose
+  // base reference only follows the state settled at 0.21 m/s: 1.24 m), straight.
   const BaselineOutcome roll = runBaseline(GetParam(), planning::GaitKind::Rolling, 0.5, 4.0);
   std::printf("%s, baseline, rolls 0.5 m/s: %s\n", GetParam().c_str(), roll.text().c_str());
   expectBaselineUpright(roll);
@@ -286,7 +287,7 @@ TEST_P(EveryRobot, BaselineRollsAndTrots) {
   const BaselineOutcome trot = runBaseline(GetParam(), planning::GaitKind::Trot, 0.3, 6.0);
   std::printf("%s, baseline, trots 0.3 m/s: %s\n", GetParam().c_str(), trot.text().c_str());
   expectBaselineUpright(trot);
-  EXPECT_GT(trot.end.x() - trot.start.x(), 0.5 * 0.3 * 5.0) << trot.text();
+  EXPECT_GT(trot.end.x() - trot.start.x(), 0.85 * 0.3 * 5.0) << trot.text();
   EXPECT_LT(std::abs(trot.end.y() - trot.start.y()), 0.1) << trot.text();
 }
 

@@ -174,8 +174,9 @@ struct BaselineSettings {
   double foothold_margin = 0.03;
   double stance_foot_gain = 1.0;  ///< scales foot_kp, foot_kd for stance feet (rolling wheels)
   /// [m] The base x, y reference runs along the command, at most this far from the internal
-  /// state (reactive_planner.hpp): the body keeps the commanded speed instead of settling
-  /// below it. 0: x, y of the internal state (myopic, no position along the command).
+  /// state, on level ground (reactive_planner.hpp): the body keeps the commanded speed
+  /// instead of settling below it. 0: x, y of the internal state (myopic, no position
+  /// along the command).
   double position_leash = 0.0;
 };
 
