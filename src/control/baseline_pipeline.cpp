@@ -152,7 +152,7 @@ void BaselinePipeline::tick(const RobotState& state, JointCommand& command) noex
 
   // Commands.
   computeDriveWheelSpeeds(r, *data_, tracking_->q(), tracking_->v(), drive_wheels_, 0.0,
-                          command.wheel_velocity);
+                          Eigen::Vector2d::Zero(), command.wheel_velocity);
   const double compensation = settings_.integrator.deflection_compensation;
   if (compensation > 0.0) {
     // As the NMPC pipeline's, with no planned forces: the weight spread evenly over the

@@ -122,7 +122,9 @@ settings::Table<WheelSettings> makeWheelFields() {
   using S = WheelSettings;
   return settings::Table<S>()
       .field("skid_track_factor", &S::skid_track_factor, "", Range::leftOpen(0, 100))
-      .field("skid_yaw_rate_gain", &S::skid_yaw_rate_gain, "", Range::closed(0, 1000));
+      .field("skid_yaw_rate_gain", &S::skid_yaw_rate_gain, "", Range::closed(0, 1000))
+      .field("skid_velocity_gain", &S::skid_velocity_gain, "", Range::closed(0, 1000))
+      .field("skid_position_gain", &S::skid_position_gain, "1/s", Range::closed(0, 1000));
 }
 
 settings::Table<BaselineSettings> makeBaselineFields() {
@@ -137,7 +139,8 @@ settings::Table<BaselineSettings> makeBaselineFields() {
       .field("height_offset", &S::height_offset, "m", Range::closed(0, 1))
       .field("max_height_rate", &S::max_height_rate, "m/s", Range::leftOpen(0, 10))
       .field("foothold_margin", &S::foothold_margin, "m", Range::closed(0, 1))
-      .field("stance_foot_gain", &S::stance_foot_gain, "", Range::closed(0, kBig));
+      .field("stance_foot_gain", &S::stance_foot_gain, "", Range::closed(0, kBig))
+      .field("position_leash", &S::position_leash, "m", Range::closed(0, 1));
 }
 
 // The whole file: control_period, the sections, ocp (the centroidal layer's table, read

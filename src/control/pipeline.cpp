@@ -203,12 +203,13 @@ void ControlPipeline::computeTargets() noexcept {
                  fb.foot_kd * (sample_.foot_velocity - tracking_->footVelocities());
 }
 
-void ControlPipeline::computeWheelCommands(JointCommand& command) noexcept {
+void ControlPipeline::computeWheelCommands(double t, JointCommand& command) noexcept {
   const Eigen::VectorXd& q = tracking_->q();
   const Eigen::VectorXd& v = tracking_->v();
   // Skid steering (pipeline.hpp): the extra yaw rate the wheels' speed difference is
   // commanded for, (factor - 1) w_cmd + gain (w_cmd - w_measured), world z.
   double extra_yaw_rate = 0.0;
+  Eigen::Vector2d extra_velocity = Eigen::Vector2d::Zero();
   if (settings_.ocp.lateral_slip_weight > 0.0) {
     const WheelSettings& ws = settings_.wheels;
     const double w_cmd = worldYawRate(q, v);
@@ -216,8 +217,21 @@ void ControlPipeline::computeWheelCommands(JointCommand& command) noexcept {
     extra_yaw_rate =
         (ws.skid_track_factor - 1.0) * w_cmd + ws.skid_yaw_rate_gain * (w_cmd - w_meas);
     if (!std::isfinite(extra_yaw_rate)) extra_yaw_rate = 0.0;
+    if (ws.skid_velocity_gain > 0.0 || ws.skid_position_gain > 0.0) {
+      // The base reference's planar pose and velocity (the command's, not the plan's: the plan
+      // starts from the measured state and so follows a drift) minus the measured ones.
+      const planning::BaseReference& reference = planner_->baseReference();
+      const lie::Vector6d twist = reference.twistAt(t);
+      const lie::SE3 pose = reference.planarPoseAt(t);
+      const Eigen::Vector3d v_ref = pose.rotation * Eigen::Vector3d(twist[0], twist[1], 0.0);
+      const Eigen::Quaterniond orientation(q_meas_[6], q_meas_[3], q_meas_[4], q_meas_[5]);
+      const Eigen::Vector3d v_world = orientation.normalized() * Eigen::Vector3d(v_meas_.head<3>());
+      extra_velocity = ws.skid_velocity_gain * (v_ref - v_world).head<2>() +
+                       ws.skid_position_gain * (pose.translation - q_meas_.head<3>()).head<2>();
+      if (!extra_velocity.allFinite()) extra_velocity.setZero();
+    }
   }
-  computeDriveWheelSpeeds(robot(), *data_, q, v, drive_wheels_, extra_yaw_rate,
+  computeDriveWheelSpeeds(robot(), *data_, q, v, drive_wheels_, extra_yaw_rate, extra_velocity,
                           command.wheel_velocity);
 }
 
@@ -317,7 +331,7 @@ void ControlPipeline::tick(const RobotState& state, JointCommand& command) noexc
   tracking_->step(q_meas_, v_meas_, command);
 
   // Commands.
-  computeWheelCommands(command);
+  computeWheelCommands(t_plan, command);
   const double compensation = settings_.integrator.deflection_compensation;
   if (compensation > 0.0) {
     // Each servo carries the static torque of the planned contact forces and sits tau / K

@@ -61,7 +61,7 @@ ReactivePlanner::ReactivePlanner(const centroidal::LoadedRobot& robot,
         "baseline.trot_duty must be in (0.5, 1)");
   check(settings.swing_clearance >= 0.0 && settings.foothold_lookahead >= 0.0 &&
             settings.height_lookahead >= 0.0 && settings.height_offset >= 0.0 &&
-            settings.max_height_rate > 0.0,
+            settings.max_height_rate > 0.0 && settings.position_leash >= 0.0,
         "baseline lengths must be >= 0 and max_height_rate > 0");
   planning::BaseReferenceConfig base_config;
   base_config.nominal_height = contacts.stance().height;
@@ -102,6 +102,8 @@ void ReactivePlanner::reset(double t, const Eigen::VectorXd& q,
   yaw_time_ = t;
   height_ref_ = q[2];
   height_time_ = t;
+  xy_ref_ = q.head<2>();
+  xy_time_ = t;
   for (Swing& s : swings_) s.planned = false;
   std::fill(stance_region_.begin(), stance_region_.end(), -1);
 }
@@ -209,9 +211,29 @@ void ReactivePlanner::plan(double t, const Eigen::VectorXd& q_meas, const Eigen:
   const double height_rate =
       std::abs(target - height_ref_) > 1e-9 ? std::copysign(settings_.max_height_rate, step) : 0.0;
 
-  // Base reference: the state's x, y; planned height; level at the yaw reference.
+  // Base reference: the state's x, y (or the command's, leashed to it); planned height;
+  // level at the yaw reference.
   const Eigen::Quaterniond orientation(Eigen::AngleAxisd(yaw_ref_, Eigen::Vector3d::UnitZ()));
-  out.q.head<3>() = Eigen::Vector3d(q_int[0], q_int[1], height_ref_);
+  const Eigen::Vector2d xy_int(q_int[0], q_int[1]);
+  Eigen::Vector2d base_xy = xy_int;
+  // Only on level ground: where the terrain under and ahead of the feet differs, the
+  // baseline stays myopic (a robot held at a step is not pushed on).
+  if (settings_.position_leash > 0.0 && high - low <= kLevelTolerance) {
+    const Eigen::Vector3d v_command =
+        orientation * Eigen::Vector3d(command_.v_x, command_.v_y, 0.0);
+    xy_ref_ += std::max(0.0, t - xy_time_) * v_command.head<2>();
+    Eigen::Vector2d lead = xy_ref_ - xy_int;
+    const double distance = lead.norm();
+    if (!(distance <= settings_.position_leash)) {
+      lead = distance > 0.0 && std::isfinite(distance)
+                 ? Eigen::Vector2d(lead * (settings_.position_leash / distance))
+                 : Eigen::Vector2d::Zero();
+    }
+    xy_ref_ = xy_int + lead;
+    base_xy = xy_ref_;
+  }
+  xy_time_ = t;
+  out.q.head<3>() = Eigen::Vector3d(base_xy.x(), base_xy.y(), height_ref_);
   out.q.segment<4>(3) = orientation.coeffs();  // x y z w
   out.q.tail(r.nj()) = robot_->description.nominal_joint_positions;
   // Twist in the LOCAL frame of the internal state's orientation.

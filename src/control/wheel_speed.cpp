@@ -9,6 +9,7 @@ namespace rollstep::control {
 void computeDriveWheelSpeeds(const centroidal::CentroidalRobot& robot, model::Data& data,
                              const Eigen::VectorXd& q, const Eigen::VectorXd& v,
                              const std::vector<int>& drive_wheels, double extra_yaw_rate,
+                             const Eigen::Vector2d& extra_velocity,
                              Eigen::Ref<Eigen::VectorXd> out) noexcept {
   const model::Model& m = robot.model();
   model::forwardKinematics(m, data, q, v);
@@ -29,6 +30,7 @@ void computeDriveWheelSpeeds(const centroidal::CentroidalRobot& robot, model::Da
       // The wheel centre's ground speed a yaw rate w about the base gives: w (e_z x d) . h.
       const Eigen::Vector3d d = data.opf[static_cast<size_t>(f)] - q.head<3>();
       speed += extra_yaw_rate * (heading.y() * d.x() - heading.x() * d.y()) / radius;
+      speed += heading.head<2>().dot(extra_velocity) / radius;
     }
     out[static_cast<Eigen::Index>(w)] = std::isfinite(speed) ? speed : 0.0;
   }

@@ -132,6 +132,9 @@ TEST(ControlSettings, RoundTripsNonDefaultValues) {
   s.integrator.velocity_time_constant = 0.05;
   s.wheels.skid_track_factor = 3.75;
   s.wheels.skid_yaw_rate_gain = 2.5;
+  s.wheels.skid_velocity_gain = 1.25;
+  s.wheels.skid_position_gain = 0.75;
+  s.baseline.position_leash = 0.0625;
   s.ocp.horizon = 37;
   s.ocp.dt = 0.01;
   s.ocp.base_velocity_weight << 1, 2, 3, 4, 5, 6.5;
@@ -148,6 +151,9 @@ TEST(ControlSettings, RoundTripsNonDefaultValues) {
   EXPECT_EQ(back.integrator.mode, IntegratorMode::Naive);
   EXPECT_EQ(back.wheels.skid_track_factor, 3.75);
   EXPECT_EQ(back.wheels.skid_yaw_rate_gain, 2.5);
+  EXPECT_EQ(back.wheels.skid_velocity_gain, 1.25);
+  EXPECT_EQ(back.wheels.skid_position_gain, 0.75);
+  EXPECT_EQ(back.baseline.position_leash, 0.0625);
   EXPECT_EQ(back.ocp.horizon, 37);
   EXPECT_EQ(back.ocp.solver.num_threads, 2);
   EXPECT_EQ(back.ocp.solver.barrier_realtime, 1e-4);
@@ -233,6 +239,10 @@ TEST(ControlSettings, ErrorsNameTheSourceLineAndFullKey) {
        "line 2: wheels.skid_track_factor: 0 is outside (0, 100]"},
       {"wheels:\n  skid_yaw_rate_gain: -1\n",
        "line 2: wheels.skid_yaw_rate_gain: -1 is outside [0, 1000]"},
+      {"wheels:\n  skid_velocity_gain: -1\n",
+       "line 2: wheels.skid_velocity_gain: -1 is outside [0, 1000]"},
+      {"wheels:\n  skid_position_gain: nan\n", "line 2: wheels.skid_position_gain"},
+      {"baseline:\n  position_leash: 2\n", "line 2: baseline.position_leash: 2 is outside [0, 1]"},
       {"wheels:\n  gain: 1\n", "line 2: unknown key 'wheels.gain'"},
       // contradictions between keys: the line of the first key named
       {"mpc:\n  timing: deterministic\n  period: 0\n", "line 3: mpc.period: 0 is allowed in"},

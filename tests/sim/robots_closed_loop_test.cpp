@@ -128,6 +128,27 @@ TEST_P(EveryRobot, TrotsAtThreeTenthsOfAMetrePerSecond) {
   EXPECT_GT(o.min_base_height, o.start.z() - 0.05) << describe(o);
 }
 
+TEST_P(EveryRobot, TurnsOnTheSpotWithItsWheels) {
+  // Skid steering, as `rollstep sim --gait rolling --yaw-rate 0.3 --control-config
+  // config/behaviours/turn_in_place.yaml`: the wheels slide at the friction limit with
+  // cancelling forces; a wheel unloaded for a moment must not start a drift that the wheel
+  // commands then keep going (it drifted 0.3 m in 6 s before the base's velocity and
+  // position errors were fed back into the wheel speeds).
+  NmpcScenario sc;
+  sc.robot = GetParam();
+  sc.settings = control::loadControlSettings(std::string(ROLLSTEP_SOURCE_DIR) +
+                                             "/config/behaviours/turn_in_place.yaml");
+  ASSERT_GT(sc.settings.ocp.lateral_slip_weight, 0.0);
+  sc.gait = planning::GaitKind::Rolling;
+  sc.command.yaw_rate = 0.3;
+  sc.duration = 6.0;
+  const NmpcOutcome o = runNmpc(sc);
+  std::printf("%s turns on the spot 0.3 rad/s: %s\n", GetParam().c_str(), describe(o).c_str());
+  expectStandsUp(o, 5.0);
+  EXPECT_NEAR(o.mean_yaw_rate, 0.3, 0.05) << describe(o);
+  EXPECT_LT((o.end - o.start).head<2>().norm(), 0.1) << describe(o);
+}
+
 /// The robot folder's closed_loop.yaml, if it has one.
 bool readChecks(const std::string& robot_name, ClosedLoopChecks& checks, std::string& file) {
   file = findRobotFolder(robot_name).directory + "/closed_loop.yaml";
@@ -261,8 +282,9 @@ TEST_P(EveryRobot, BaselineStands) {
 }
 
 TEST_P(EveryRobot, BaselineRollsAndTrots) {
-  // Half a metre per second rolling for 4 s, then 0.3 m/s trotting for 6 s: at least half the
-  // commanded distance after a second of ramp, straight.
+  // Half a metre per second rolling for 4 s, then 0.3 m/s trotting for 6 s: rolling at least
+  // half the commanded distance after a second of ramp, trotting 85 % of it (a baseline whose
+  // base reference only follows the state settled at 0.21 m/s: 1.24 m), straight.
   const BaselineOutcome roll = runBaseline(GetParam(), planning::GaitKind::Rolling, 0.5, 4.0);
   std::printf("%s, baseline, rolls 0.5 m/s: %s\n", GetParam().c_str(), roll.text().c_str());
   expectBaselineUpright(roll);
@@ -271,7 +293,7 @@ TEST_P(EveryRobot, BaselineRollsAndTrots) {
   const BaselineOutcome trot = runBaseline(GetParam(), planning::GaitKind::Trot, 0.3, 6.0);
   std::printf("%s, baseline, trots 0.3 m/s: %s\n", GetParam().c_str(), trot.text().c_str());
   expectBaselineUpright(trot);
-  EXPECT_GT(trot.end.x() - trot.start.x(), 0.5 * 0.3 * 5.0) << trot.text();
+  EXPECT_GT(trot.end.x() - trot.start.x(), 0.85 * 0.3 * 5.0) << trot.text();
   EXPECT_LT(std::abs(trot.end.y() - trot.start.y()), 0.1) << trot.text();
 }
 

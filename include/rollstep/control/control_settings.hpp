@@ -173,6 +173,11 @@ struct BaselineSettings {
   /// wheel centres; whoever builds the baseline's terrain applies it).
   double foothold_margin = 0.03;
   double stance_foot_gain = 1.0;  ///< scales foot_kp, foot_kd for stance feet (rolling wheels)
+  /// [m] The base x, y reference runs along the command, at most this far from the internal
+  /// state, on level ground (reactive_planner.hpp): the body keeps the commanded speed
+  /// instead of settling below it. 0: x, y of the internal state (myopic, no position
+  /// along the command).
+  double position_leash = 0.0;
 };
 
 struct IntegratorSettings {
@@ -204,6 +209,16 @@ struct WheelSettings {
   /// measured, world z) into the same differential wheel speeds: the yaw rate the wheels
   /// are commanded for is factor * w_cmd + gain * (w_cmd - w_measured). 0: none.
   double skid_yaw_rate_gain = 0.0;
+  /// [-] Feedback of the base's planar velocity error (the base reference's, i.e. the
+  /// command's, minus measured, world x y) into the drive-wheel speeds: each wheel gets
+  /// gain * error along its heading. Sliding wheels whose forces cancel leave the body's
+  /// velocity to whatever breaks that balance (a wheel unloaded for a moment), and the
+  /// commands, taken at the internal state and planned from the measured one, then follow
+  /// the drift instead of braking it. 0: none.
+  double skid_velocity_gain = 0.0;
+  /// [1/s] Same for the planar position error (the base reference's minus measured): a
+  /// drift that happened is driven back. 0: none.
+  double skid_position_gain = 0.0;
 };
 
 struct ControlSettings {

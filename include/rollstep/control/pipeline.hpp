@@ -175,7 +175,7 @@ class ControlPipeline {
   /// q_meas_, v_meas_ and the centroidal state x_meas_ (h = A(q) v) of a valid state.
   void measure(const RobotState& state) noexcept;
   void computeTargets() noexcept;
-  void computeWheelCommands(JointCommand& command) noexcept;
+  void computeWheelCommands(double t, JointCommand& command) noexcept;
 
   ControlSettings settings_;
   std::unique_ptr<MpcRunner> runner_;

@@ -32,7 +32,14 @@
 //   really landed: a swing may end short of its foothold) and the nominal foothold at t,
 //   projected into that region, as the (x, y) target (the wheels roll, the hips return to
 //   their nominal angle), z on that surface.
-// - Body: x, y and yaw rate from the command (yaw integrated from the start), roll and pitch
+// - Body: x, y from the internal state (myopic); with position_leash > 0 from the command
+//   integrated over time instead, kept within position_leash of the internal state, while
+//   the terrain under and ahead of the feet (as for the height below) is level: the position
+//   feedback then makes up what the velocity feedback alone loses against the integrator's
+//   fast blend of the measured velocity (the body settles below the commanded speed
+//   otherwise), and a stalled robot is never asked for more than the leash; at a step it
+//   stays myopic.
+// - Body: yaw rate from the command (yaw integrated from the start), roll and pitch
 //   0, height = nominal height + the highest terrain under the support polygon's footholds
 //   (the nominal footholds at t, and each moved height_lookahead ahead along the command) +
 //   height_offset where those heights differ, rate-limited to max_height_rate: the
@@ -132,6 +139,8 @@ class ReactivePlanner {
   std::vector<int> stance_region_;
   double yaw_ref_ = 0.0, yaw_time_ = 0.0;
   double height_ref_ = 0.0, height_time_ = 0.0;
+  Eigen::Vector2d xy_ref_ = Eigen::Vector2d::Zero();  ///< world x, y (position_leash > 0)
+  double xy_time_ = 0.0;
   double support_preview_ = 0.0;
 };
 
