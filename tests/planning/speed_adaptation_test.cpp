@@ -228,8 +228,11 @@ struct Landing {
   bool found = false;
   double time = 0.0, past = 0.0, speed = 0.0;
 };
-Landing firstLanding(const std::vector<PathSample>& path, const planning::TerrainModel& terrain,
-                     const planning::SpeedScheduleConfig& config) {
+/// Every foot's touch-down along the integrated path (the trot's two offsets each period),
+/// in time order: visit(time, x, sample, foot, height, previous height) returns false to stop.
+template <class Visit>
+void forEachTouchdown(const std::vector<PathSample>& path, const planning::TerrainModel& terrain,
+                      const planning::SpeedScheduleConfig& config, Visit&& visit) {
   const double dt = path[1].t - path[0].t;
   const auto at = [&](double t) {
     return path[std::min(static_cast<std::size_t>(std::lround(t / dt)), path.size() - 1)];
@@ -243,12 +246,25 @@ Landing firstLanding(const std::vector<PathSample>& path, const planning::Terrai
         const PathSample s = at(t);
         const double x = s.x + kNominal[f].x();
         const double h = terrain.heightAt(Vector2d(x, s.y + kNominal[f].y()));
-        if (std::abs(h - last_height[f]) > config.min_step) return {true, t, x - kEdgeUp, s.speed};
+        const double previous = last_height[f];
         last_height[f] = h;
+        if (!visit(t, x, s, f, h, previous)) return;
       }
     }
   }
-  return {};
+}
+
+Landing firstLanding(const std::vector<PathSample>& path, const planning::TerrainModel& terrain,
+                     const planning::SpeedScheduleConfig& config) {
+  Landing out;
+  forEachTouchdown(
+      path, terrain, config,
+      [&](double t, double x, const PathSample& s, std::size_t, double h, double previous) {
+        if (std::abs(h - previous) <= config.min_step) return true;
+        out = {true, t, x - kEdgeUp, s.speed};
+        return false;
+      });
+  return out;
 }
 
 /// The delay of every edge the timing delayed.
@@ -267,32 +283,19 @@ struct RowLanding {
 std::vector<RowLanding> rowLandings(const std::vector<PathSample>& path,
                                     const planning::TerrainModel& terrain,
                                     const planning::SpeedScheduleConfig& config, double edge_down) {
-  const double dt = path[1].t - path[0].t;
-  const auto at = [&](double t) {
-    return path[std::min(static_cast<std::size_t>(std::lround(t / dt)), path.size() - 1)];
-  };
   std::vector<RowLanding> out;
-  std::vector<double> last_height(kNominal.size(), 0.0);
-  for (double base = 0.0; base < path.back().t - config.gait_period; base += config.gait_period) {
-    for (const double offset : {0.0, 0.72}) {
-      const double t = base + offset;
-      for (std::size_t f = 0; f < kNominal.size(); ++f) {
-        if (config.touchdowns[f].front() != offset) continue;
-        const PathSample s = at(t);
-        const double x = s.x + kNominal[f].x();
-        const double h = terrain.heightAt(Vector2d(x, s.y + kNominal[f].y()));
-        const bool changed = std::abs(h - last_height[f]) > config.min_step;
-        const bool up = h > last_height[f];
-        last_height[f] = h;
-        if (!changed) continue;
+  forEachTouchdown(
+      path, terrain, config,
+      [&](double t, double x, const PathSample& s, std::size_t f, double h, double previous) {
+        if (std::abs(h - previous) <= config.min_step) return true;
+        const bool up = h > previous;
         const bool front = kNominal[f].x() > 0.0;
         const bool seen = std::any_of(out.begin(), out.end(), [&](const RowLanding& l) {
           return l.front == front && l.up == up;
         });
         if (!seen) out.push_back({front, up, t, x - (up ? kEdgeUp : edge_down), s.speed});
-      }
-    }
-  }
+        return true;
+      });
   return out;
 }
 
