@@ -267,9 +267,8 @@ void BM_Tachyon3LinearizeAllNodes(benchmark::State& state) {
     }
     benchmark::DoNotOptimize(d->Fx.data());
   }
-  state.counters["s_per_node"] =
-      benchmark::Counter(n + 1, benchmark::Counter::kIsIterationInvariantRate |
-                                    benchmark::Counter::kInvert);
+  state.counters["s_per_node"] = benchmark::Counter(
+      n + 1, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
 BENCHMARK(BM_Tachyon3LinearizeAllNodes)->Unit(benchmark::kMillisecond);
 
