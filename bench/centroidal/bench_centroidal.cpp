@@ -244,9 +244,11 @@ BENCHMARK(BM_Tachyon3RtiUpdateN100)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecon
 
 /// The term evaluation alone of BM_Tachyon3RtiUpdateN100's linearisation: every node of
 /// the same OCP (every cost, equality and inequality, the terrain and foot planner) linearised
-/// in turn at the converged solution, through one node data that stays in cache (no
-/// condensing, projection or Riccati step, no per-node memory). Counter s_per_node: the time
-/// of one node. BM_NodeLinearize times a smaller problem (no inequalities, no terrain).
+/// in turn at the converged solution (no condensing, projection or Riccati step). Arg 0:
+/// through one node data that stays in cache; Arg 1: through a node data of its own per node
+/// (every node's workspaces, cache and results apart, about 25 MB: what the memory costs the
+/// term evaluation). Counter s_per_node: the time of one node. BM_NodeLinearize times a
+/// smaller problem (no inequalities, no terrain).
 void BM_Tachyon3LinearizeAllNodes(benchmark::State& state) {
   OcpSettings settings;
   settings.solver.realtime_iterations = 1;
@@ -259,18 +261,21 @@ void BM_Tachyon3LinearizeAllNodes(benchmark::State& state) {
   solver.solve(x0);
   const ocp::OptimalControlProblem& problem = *ocp->problem();
   const int n = problem.horizon();
-  const auto d = problem.createNodeData();
+  const bool per_node = state.range(0) != 0;
+  std::vector<std::unique_ptr<ocp::NodeData>> data;
+  for (int k = 0; k <= (per_node ? n : 0); ++k) data.push_back(problem.createNodeData());
   for (auto _ : state) {
     for (int k = 0; k <= n; ++k) {
+      ocp::NodeData& d = *data[per_node ? static_cast<std::size_t>(k) : 0];
       problem.linearize(k, solver.states()[static_cast<std::size_t>(k)],
-                        solver.inputs()[static_cast<std::size_t>(std::min(k, n - 1))], *d);
+                        solver.inputs()[static_cast<std::size_t>(std::min(k, n - 1))], d);
+      benchmark::DoNotOptimize(d.Fx.data());
     }
-    benchmark::DoNotOptimize(d->Fx.data());
   }
   state.counters["s_per_node"] = benchmark::Counter(
       n + 1, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
-BENCHMARK(BM_Tachyon3LinearizeAllNodes)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Tachyon3LinearizeAllNodes)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
 /// CentroidalOcp::advance over step20 (regions shrunk by 0.085 m, climb.yaml's gait and
 /// foothold rule) at t0 sweeping 1-17 s, over both of the block's edges: the horizon's mode
