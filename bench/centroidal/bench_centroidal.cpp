@@ -246,9 +246,11 @@ BENCHMARK(BM_Tachyon3RtiUpdateN100)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecon
 /// the same OCP (every cost, equality and inequality, the terrain and foot planner) linearised
 /// in turn at the converged solution (no condensing, projection or Riccati step). Arg 0:
 /// through one node data that stays in cache; Arg 1: through a node data of its own per node
-/// (every node's workspaces, cache and results apart, about 25 MB: what the memory costs the
-/// term evaluation). Counter s_per_node: the time of one node. BM_NodeLinearize times a
-/// smaller problem (no inequalities, no terrain).
+/// (every node's workspaces, cache and results apart: what the memory costs the term
+/// evaluation); Arg 2: a node data per node sharing the first one's workspaces and cache, as
+/// the solver's nodes on one thread do (the nodes' own results apart). Counter s_per_node: the time
+/// of one node; data_bytes: the heap the node data hold. BM_NodeLinearize times a smaller
+/// problem (no inequalities, no terrain).
 void BM_Tachyon3LinearizeAllNodes(benchmark::State& state) {
   OcpSettings settings;
   settings.solver.realtime_iterations = 1;
@@ -263,7 +265,12 @@ void BM_Tachyon3LinearizeAllNodes(benchmark::State& state) {
   const int n = problem.horizon();
   const bool per_node = state.range(0) != 0;
   std::vector<std::unique_ptr<ocp::NodeData>> data;
-  for (int k = 0; k <= (per_node ? n : 0); ++k) data.push_back(problem.createNodeData());
+  const double heap_before = heapBytesInUse();
+  data.push_back(problem.createNodeData());
+  for (int k = 1; per_node && k <= n; ++k) {
+    data.push_back(state.range(0) == 1 ? problem.createNodeData()
+                                       : problem.createNodeDataSharingWorkspaces(*data[0]));
+  }
   for (auto _ : state) {
     for (int k = 0; k <= n; ++k) {
       ocp::NodeData& d = *data[per_node ? static_cast<std::size_t>(k) : 0];
@@ -272,10 +279,11 @@ void BM_Tachyon3LinearizeAllNodes(benchmark::State& state) {
       benchmark::DoNotOptimize(d.Fx.data());
     }
   }
+  state.counters["data_bytes"] = heapBytesInUse() - heap_before;
   state.counters["s_per_node"] = benchmark::Counter(
       n + 1, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
-BENCHMARK(BM_Tachyon3LinearizeAllNodes)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Tachyon3LinearizeAllNodes)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
 
 /// CentroidalOcp::advance over step20 (regions shrunk by 0.085 m, climb.yaml's gait and
 /// foothold rule) at t0 sweeping 1-17 s, over both of the block's edges: the horizon's mode
