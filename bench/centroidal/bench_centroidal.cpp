@@ -248,9 +248,9 @@ BENCHMARK(BM_Tachyon3RtiUpdateN100)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecon
 /// through one node data that stays in cache; Arg 1: through a node data of its own per node
 /// (every node's workspaces, cache and results apart: what the memory costs the term
 /// evaluation); Arg 2: a node data per node sharing the first one's workspaces and cache, as
-/// the solver's nodes on one thread do (the nodes' own results apart). Counter s_per_node: the time
-/// of one node; data_bytes: the heap the node data hold. BM_NodeLinearize times a smaller
-/// problem (no inequalities, no terrain).
+/// the solver's nodes on one thread do (the nodes' own results apart). Counters: s_per_node,
+/// the time of one node; data_bytes, the heap the node data hold. BM_NodeLinearize times a
+/// smaller problem (no inequalities, no terrain).
 void BM_Tachyon3LinearizeAllNodes(benchmark::State& state) {
   OcpSettings settings;
   settings.solver.realtime_iterations = 1;
