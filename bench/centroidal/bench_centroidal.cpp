@@ -7,7 +7,9 @@
 
 #include <algorithm>
 #include <cstdlib>
+#include <memory>
 #include <string>
+#include <vector>
 #if defined(__GLIBC__)
 #include <malloc.h>
 #endif
@@ -188,6 +190,17 @@ void BM_RealTimeIterationN100(benchmark::State& state) {
 }
 BENCHMARK(BM_RealTimeIterationN100)->Unit(benchmark::kMillisecond);
 
+/// The Tachyon 3 OCP as `rollstep plan` builds it on flat ground, trotting at 0.15 m/s.
+std::unique_ptr<CentroidalOcp> tachyon3FlatTrotOcp(const OcpSettings& settings) {
+  const RobotOcpDescription robot =
+      loadRobotOcpDescription(std::string(ROLLSTEP_ROBOTS_DIR) + "/tachyon3/centroidal.yaml");
+  auto ocp = std::make_unique<CentroidalOcp>(
+      robot, settings, planning::terrainFromBoxes({-20, 20, -5, 5, 0}, 0.0, {}),
+      planning::GaitKind::Trot);
+  ocp->reset(0.0, lie::SE3::Identity(), planning::BaseVelocityCommand{0.15, 0.0, 0.0});
+  return ocp;
+}
+
 /// The whole OCP as `rollstep plan` builds it (every cost, equality and
 /// inequality, joint bounds; config defaults) on flat ground, trotting at 0.15 m/s, solved
 /// to convergence once; then one real-time iteration per benchmark iteration (linearise
@@ -202,11 +215,8 @@ void BM_Tachyon3RtiUpdateN100(benchmark::State& state) {
   settings.solver.num_threads = static_cast<int>(state.range(0));
   const char* huge = std::getenv("ROLLSTEP_BENCH_HUGE_PAGES");
   if (huge != nullptr && std::string(huge) == "0") settings.solver.huge_pages = false;
-  const RobotOcpDescription robot =
-      loadRobotOcpDescription(std::string(ROLLSTEP_ROBOTS_DIR) + "/tachyon3/centroidal.yaml");
-  CentroidalOcp ocp(robot, settings, planning::terrainFromBoxes({-20, 20, -5, 5, 0}, 0.0, {}),
-                    planning::GaitKind::Trot);
-  ocp.reset(0.0, lie::SE3::Identity(), planning::BaseVelocityCommand{0.15, 0.0, 0.0});
+  const std::unique_ptr<CentroidalOcp> ocp_ptr = tachyon3FlatTrotOcp(settings);
+  CentroidalOcp& ocp = *ocp_ptr;
   const double heap_before = heapBytesInUse();
   solver::Solver solver(ocp.problem(), settings.solver);
   const double solver_bytes = heapBytesInUse() - heap_before;
@@ -231,6 +241,49 @@ void BM_Tachyon3RtiUpdateN100(benchmark::State& state) {
   state.counters["solver_bytes"] = solver_bytes;
 }
 BENCHMARK(BM_Tachyon3RtiUpdateN100)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+/// The term evaluation alone of BM_Tachyon3RtiUpdateN100's linearisation: every node of
+/// the same OCP (every cost, equality and inequality, the terrain and foot planner) linearised
+/// in turn at the converged solution (no condensing, projection or Riccati step). Arg 0:
+/// through one node data that stays in cache; Arg 1: through a node data of its own per node
+/// (every node's workspaces, cache and results apart: what the memory costs the term
+/// evaluation); Arg 2: a node data per node sharing the first one's workspaces and cache, as
+/// the solver's nodes on one thread do (the nodes' own results apart). Counters: s_per_node,
+/// the time of one node; data_bytes, the heap the node data hold. BM_NodeLinearize times a
+/// smaller problem (no inequalities, no terrain).
+void BM_Tachyon3LinearizeAllNodes(benchmark::State& state) {
+  OcpSettings settings;
+  settings.solver.realtime_iterations = 1;
+  const std::unique_ptr<CentroidalOcp> ocp = tachyon3FlatTrotOcp(settings);
+  solver::Solver solver(ocp->problem(), settings.solver);
+  const Eigen::VectorXd x0 = ocp->standingState(0.0, 0.0, 0.0);
+  std::vector<Eigen::VectorXd> xs, us;
+  ocp->initialGuess(xs, us);
+  solver.setInitialGuess(xs, us);
+  solver.solve(x0);
+  const ocp::OptimalControlProblem& problem = *ocp->problem();
+  const int n = problem.horizon();
+  const bool per_node = state.range(0) != 0;
+  std::vector<std::unique_ptr<ocp::NodeData>> data;
+  const double heap_before = heapBytesInUse();
+  data.push_back(problem.createNodeData());
+  for (int k = 1; per_node && k <= n; ++k) {
+    data.push_back(state.range(0) == 1 ? problem.createNodeData()
+                                       : problem.createNodeDataSharingWorkspaces(*data[0]));
+  }
+  for (auto _ : state) {
+    for (int k = 0; k <= n; ++k) {
+      ocp::NodeData& d = *data[per_node ? static_cast<std::size_t>(k) : 0];
+      problem.linearize(k, solver.states()[static_cast<std::size_t>(k)],
+                        solver.inputs()[static_cast<std::size_t>(std::min(k, n - 1))], d);
+      benchmark::DoNotOptimize(d.Fx.data());
+    }
+  }
+  state.counters["data_bytes"] = heapBytesInUse() - heap_before;
+  state.counters["s_per_node"] = benchmark::Counter(
+      n + 1, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_Tachyon3LinearizeAllNodes)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
 
 /// CentroidalOcp::advance over step20 (regions shrunk by 0.085 m, climb.yaml's gait and
 /// foothold rule) at t0 sweeping 1-17 s, over both of the block's edges: the horizon's mode
