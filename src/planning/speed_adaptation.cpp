@@ -406,8 +406,12 @@ std::vector<TimedBaseCommand> adaptScheduleToTerrain(const std::vector<TimedBase
   // is held for less; the footholds move with the tracking error). The least delay that
   // lands there, else the one that lands nearest the target.
   const double half = 0.5 * config.gait_period;
-  const auto nearEnough = [](const StepTouchdown& td) {
-    return td.found && td.past <= 1.05 * td.target;
+  // With every edge timed, also no nearer than half the target: nearer, the nominal foothold
+  // falls in the band beside the riser where the foothold regions leave no room, and the
+  // wheel stalls there as one that lands too far does.
+  const auto nearEnough = [&config](const StepTouchdown& td) {
+    return td.found && td.past <= 1.05 * td.target &&
+           (!config.time_every_edge || td.past >= 0.5 * td.target);
   };
   const auto sameEdge = [](const StepTouchdown& a, const StepTouchdown& b) {
     return a.found && b.found && std::abs(a.row - b.row) < kSameEdge &&

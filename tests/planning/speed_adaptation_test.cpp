@@ -299,13 +299,14 @@ std::vector<RowLanding> rowLandings(const std::vector<PathSample>& path,
   return out;
 }
 
-TEST(ApproachTiming, LandsEveryRowOnEveryEdgeAtMostAQuarterPeriodPastItWhereTheDipFits) {
+TEST(ApproachTiming, LandsEveryRowOnEveryEdgeClearOfTheRiserAndAtMostAQuarterPeriodPastIt) {
   // Block lengths that bring the later edges anywhere in the gait's cycle.
   const planning::SpeedScheduleConfig timed = timedConfig();
   planning::SpeedScheduleConfig untimed = timed;
   untimed.gait_period = 0.0;
   const double target = 0.25 * timed.gait_period * timed.step_speed_limit;
   int later = 0, later_off_untimed = 0, later_off_timed = 0;
+  int edges = 0, near_untimed = 0, near_timed = 0;  // nearer the riser than half the target
   for (const double length : {1.0, 1.1, 1.2, 1.3, 1.45}) {
     const planning::TerrainModel terrain = planning::terrainFromBoxes(
         {-5.0, 10.0, -1.5, 1.5, 0.0}, 0.0, {{kEdgeUp, kEdgeUp + length, -1.5, 1.5, 0.20}}, 0.085);
@@ -337,7 +338,13 @@ TEST(ApproachTiming, LandsEveryRowOnEveryEdgeAtMostAQuarterPeriodPastItWhereTheD
           if (k == 0 || e.fits) {
             EXPECT_LE(l.past, 1.05 * target + 0.006)
                 << "length " << length << " v " << v << " x0 " << x0 << " edge " << k;
+            // Clear of the band beside the riser where no foothold lies.
+            EXPECT_GE(l.past, 0.5 * target - 0.006)
+                << "length " << length << " v " << v << " x0 " << x0 << " edge " << k;
           }
+          ++edges;
+          near_untimed += plain_landings[k].past < 0.5 * target - 0.006 ? 1 : 0;
+          near_timed += l.past < 0.5 * target - 0.006 ? 1 : 0;
           if (k > 0) {
             ++later;
             later_off_untimed += plain_landings[k].past > 1.05 * target + 0.006 ? 1 : 0;
@@ -350,6 +357,9 @@ TEST(ApproachTiming, LandsEveryRowOnEveryEdgeAtMostAQuarterPeriodPastItWhereTheD
   // Without the timing many later edges land further; with it the dip fits nearly always.
   EXPECT_GT(later_off_untimed, later / 4);
   EXPECT_LE(later_off_timed, later / 10);
+  // Untimed, some edges land in the band beside the riser; timed, only where no dip fits.
+  EXPECT_GT(near_untimed, edges / 10);
+  EXPECT_LE(near_timed, edges / 20);
   // The first edge only: one edge reported, and no dip after its touch-down.
   planning::SpeedScheduleConfig first_only = timed;
   first_only.time_every_edge = false;
@@ -368,7 +378,8 @@ TEST(ApproachTiming, LandsEveryRowOnEveryEdgeAtMostAQuarterPeriodPastItWhereTheD
 
 TEST(ApproachTiming, LandsTheFirstTouchdownOnTheStepAtMostAQuarterPeriodPastTheRiser) {
   const planning::TerrainModel terrain = blockTerrain();
-  const planning::SpeedScheduleConfig timed = timedConfig();
+  planning::SpeedScheduleConfig timed = timedConfig();
+  timed.time_every_edge = false;  // the first edge only (no lower bound on the landing)
   planning::SpeedScheduleConfig untimed = timed;
   untimed.gait_period = 0.0;
   int off_target_untimed = 0, cases = 0;

@@ -214,7 +214,8 @@ struct OcpSettings {
   bool approach_timing = true;
   /// With approach_timing: every next row of feet meeting a riser (the hind row's climb, each
   /// row's step down) is timed the same way, by a dip between the touch-downs timed before
-  /// and its own; false: the first touch-down onto a step only.
+  /// and its own, and every edge timed lands at least half its target past the riser (clear
+  /// of the band where no foothold lies); false: the first touch-down onto a step only.
   bool approach_timing_every_edge = false;
   // --- the solver ------------------------------------------------------------------------
   /// Nested `solver:` mapping (config/solver.yaml's keys). Defaults: the solver's, but a

@@ -36,7 +36,10 @@
 //   With time_every_edge, each next row of feet meeting a riser (the hind row's climb, each
 //   row's step down; a row: the feet at one body x) is timed the same way, by a dip that
 //   begins after the touch-downs timed before (and the other trot group's, half a period
-//   later) and ends before its own; where none fits, that edge is left as it comes.
+//   later) and ends before its own; where none fits, that edge is left as it comes. Every
+//   edge timed (the first too) also lands no nearer than half its target past the riser:
+//   nearer, the nominal foothold falls in the band beside the riser where the foothold
+//   regions leave no room, and the wheel stalls at the riser as one that lands too far does.
 //
 // Everything here runs once, when a command schedule is set (it allocates); nothing is
 // real-time.
@@ -121,7 +124,8 @@ struct SpeedScheduleConfig {
   /// Share of the speed kept while the approach waits, in [0, 1).
   double approach_dip = 0.5;
   /// Every next row of feet meeting a riser is timed too (a dip between the touch-downs
-  /// timed before and its own); false: the first touch-down onto a step only.
+  /// timed before and its own), and every edge timed lands at least half its target past
+  /// the riser; false: the first touch-down onto a step only, at most 1.05 times its target.
   bool time_every_edge = true;
 };
 
