@@ -107,9 +107,9 @@ double edgeWait(const FootReferencePlanner& feet, const EdgeHoldConfig& config, 
         in_gap = edge.exit < 0.0;
         if (in_gap && !(config.up_reach > 0.0)) return 0.0;
         // Short of a riser by more than a stride: the foot's next touch-down still lands on
-        // this surface, and that swing, not this one, climbs (from nearer the riser). A hold
-        // here would only stand every foot while the body passes a stride's worth of
-        // travel (longer-legged robots, whose strides are short against their reach).
+        // this surface, and that swing, not this one, climbs (from nearer the riser; it is
+        // held if it needs to be). A hold here would stand every foot for more than a
+        // stride of travel (a trot whose stride is short against max_up_hold's travel).
         if (!in_gap && (feet.nominalFoothold(foot, t + period) - p).dot(e) < edge.exit) {
           return 0.0;
         }

@@ -27,8 +27,8 @@
 //   cannot reach far ahead of its hip, and one sent further lands short, on the corner
 //   (off unless up_reach > 0); at most max_up_hold. None for a touch-down whose next one
 //   (a gait period later) still lands short of the region's end: that next swing climbs,
-//   from nearer the riser (a robot whose stride is short against the hold's reach would
-//   otherwise stand every foot for up to a stride of travel, and tip at the restart).
+//   from nearer the riser, and is held if it needs to be (a trot whose stride is short
+//   against max_up_hold's travel would otherwise stand every foot for more than a stride).
 // A hold lengthens the stance of every foot standing through it, and a stance foot that
 // meets a riser ahead of it stands there while the body passes over it (its wheel cannot
 // roll into the step): no hold is made that would carry the body more than `stance_stroke`
