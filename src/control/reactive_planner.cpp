@@ -234,7 +234,7 @@ void ReactivePlanner::plan(double t, const Eigen::VectorXd& q_meas, const Eigen:
   } else {
     // Off level ground the leash restarts from the state when the ground levels again: a
     // lead kept from before a step lies far behind the robot by then, and clamped to the
-    // leash it pulled the base reference back (wheelquad fell onto the riser).
+    // leash it pulled the base reference a leash's length back (past the step).
     xy_ref_ = xy_int;
   }
   xy_time_ = t;
