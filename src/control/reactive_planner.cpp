@@ -231,6 +231,11 @@ void ReactivePlanner::plan(double t, const Eigen::VectorXd& q_meas, const Eigen:
     }
     xy_ref_ = xy_int + lead;
     base_xy = xy_ref_;
+  } else {
+    // Off level ground the leash restarts from the state when the ground levels again: a
+    // lead kept from before a step lies far behind the robot by then, and clamped to the
+    // leash it pulled the base reference a leash's length back (past the step).
+    xy_ref_ = xy_int;
   }
   xy_time_ = t;
   out.q.head<3>() = Eigen::Vector3d(base_xy.x(), base_xy.y(), height_ref_);

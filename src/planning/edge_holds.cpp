@@ -77,11 +77,12 @@ bool edgeAt(const FootReferencePlanner& feet, const Eigen::Vector2d& p, const Ei
 /// How long the gait must wait for `foot`'s touch-down at t_td (see the header): before a
 /// step down, until its foothold is past the end of the surface it leaves and at most
 /// config.reach short of the lower one; short of a step up, until it is config.setback
-/// short of its region's end, or from the gap before the riser, until it is at most
+/// short of its region's end (unless the foot's next touch-down, a gait `period` later,
+/// still lands on that surface), or from the gap before the riser, until it is at most
 /// config.up_reach short of the step's region. 0 when none applies or the wait would
 /// exceed that kind's longest hold.
 double edgeWait(const FootReferencePlanner& feet, const EdgeHoldConfig& config, int foot,
-                double t_td) {
+                double t_td, double period) {
   if (feet.terrain().size() == 0) return 0.0;
   double wait = 0.0, max_wait = 0.0;
   Edge edge;
@@ -105,6 +106,13 @@ double edgeWait(const FootReferencePlanner& feet, const EdgeHoldConfig& config, 
         max_wait = config.max_up_hold;
         in_gap = edge.exit < 0.0;
         if (in_gap && !(config.up_reach > 0.0)) return 0.0;
+        // Short of a riser by more than a stride: the foot's next touch-down still lands on
+        // this surface, and that swing, not this one, climbs (from nearer the riser; it is
+        // held if it needs to be). A hold here would stand every foot for more than a
+        // stride of travel (a trot whose stride is short against max_up_hold's travel).
+        if (!in_gap && (feet.nominalFoothold(foot, t + period) - p).dot(e) < edge.exit) {
+          return 0.0;
+        }
       } else {
         return 0.0;
       }
@@ -230,7 +238,7 @@ void planEdgeHolds(const Gait& gait, const FootReferencePlanner& feet, const Edg
           const double tau_td = (k + static_cast<double>((j + m) / n)) * period +
                                 starts[static_cast<std::size_t>(jm)];
           // No hold lies inside a swing: its loop-time length is its gait-time length.
-          need = std::max(need, edgeWait(feet, config, foot, t_lo + (tau_td - tau_lo)));
+          need = std::max(need, edgeWait(feet, config, foot, t_lo + (tau_td - tau_lo), period));
           break;
         }
       }

@@ -361,6 +361,31 @@ TEST(StepUpHolds, TouchDownsCloseUpToTheRiser) {
   });
 }
 
+/// A trot whose stride is short against the longest hold (0.99 s at 0.3 m/s: 0.30 m, holds
+/// up to 1.5 s, 0.45 m; a longer-legged robot's): a touch-down whose next one (a period
+/// later) still lands short of the floor's end is not held, since that next swing climbs
+/// from nearer the riser. Without the rule the hold before such a touch-down carries the body
+/// up to 0.45 m with every foot standing (heavyquad tipped over at the restart).
+TEST(StepUpHolds, NoHoldWhereTheNextTouchDownStillLandsShortOfTheRiser) {
+  const double period = 0.99, speed = 0.3, stride = period * speed;
+  const planning::Gait gait =
+      planning::Gait::trot(6, period, 0.6, planning::contactMask(kFeet, {"LF", "RF", "MR"}),
+                           planning::contactMask(kFeet, {"MF", "LR", "RR"}));
+  int runs_held = 0;
+  for (double x0 = -0.3; x0 < 0.0; x0 += 0.02) {
+    BlockScene s(blockTerrain(), x0, speed, 0.0, gait);
+    s.config.max_up_hold = 1.5;
+    s.run(7.0);
+    const planning::GaitClock clock = s.history();
+    expectHoldsInAllStance(gait, clock, 1.5);
+    if (clock.size() > 0) ++runs_held;
+    for (int i = 0; i < clock.size(); ++i) {
+      EXPECT_LE(clock.hold(i).duration * speed, stride) << "x0 " << x0 << " hold " << i;
+    }
+  }
+  EXPECT_GT(runs_held, 0);  // the rule does not remove every step-up hold
+}
+
 /// A swing whose nominal touch-down lies in the gap before the riser (the foothold rule
 /// sends it up onto the block, out of a leg's reach once it has cleared the riser) waits
 /// until it is at most up_reach short of the block's region (up_reach 0: off); a setback

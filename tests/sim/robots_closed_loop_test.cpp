@@ -172,14 +172,16 @@ Block blockOf(const std::string& scene_name) {
   return b;
 }
 
-TEST_P(EveryRobot, TrotsOntoAndOffItsStep) {
+/// The NMPC trots onto and off the step a robot folder declares (closed_loop.yaml, step);
+/// skipped when it declares none.
+void expectTrotsOntoAndOffItsStep(const std::string& robot) {
   ClosedLoopChecks checks;
   std::string file;
-  if (!readChecks(GetParam(), checks, file)) {
-    GTEST_SKIP() << GetParam() << " declares no step (" << file << ")";
+  if (!readChecks(robot, checks, file)) {
+    GTEST_SKIP() << robot << " declares no step (" << file << ")";
   }
   ASSERT_EQ(checks.step.scene.size(), 1u) << file << ": step.scene names one scene";
-  NmpcScenario sc = scenario();
+  NmpcScenario sc = scenarioFor(robot);
   sc.scene = checks.step.scene.front();
   sc.gait = planning::GaitKind::Trot;
   sc.command.v_x = checks.step.vx;
@@ -188,7 +190,7 @@ TEST_P(EveryRobot, TrotsOntoAndOffItsStep) {
   const Block block = blockOf(sc.scene);
   const double far_edge = block.far_edge, height = block.height;
   const NmpcOutcome o = runNmpc(sc);
-  std::printf("%s over %s at %.2f m/s: %s\n", GetParam().c_str(), sc.scene.c_str(), checks.step.vx,
+  std::printf("%s over %s at %.2f m/s: %s\n", robot.c_str(), sc.scene.c_str(), checks.step.vx,
               describe(o).c_str());
   // The report's pass criteria on a step: a joint may overshoot its limit by 0.01 rad or m
   // (config/experiments.yaml, criteria.joint_limit_tolerance).
@@ -200,6 +202,8 @@ TEST_P(EveryRobot, TrotsOntoAndOffItsStep) {
   EXPECT_NEAR(o.end.z(), o.start.z(), 0.03) << describe(o);
   EXPECT_LT(std::abs(o.end.y() - o.start.y()), 0.15) << describe(o);
 }
+
+TEST_P(EveryRobot, TrotsOntoAndOffItsStep) { expectTrotsOntoAndOffItsStep(GetParam()); }
 
 /// What a CBF-QP baseline run did (ground truth).
 struct BaselineOutcome {
@@ -336,7 +340,8 @@ INSTANTIATE_TEST_SUITE_P(Robots, EveryRobot, ::testing::ValuesIn(robotNames()), 
 
 /// The robot folders under tests/robots/: made from docs/ROBOTS.md alone, with another leg
 /// count, order and naming than the robots under robots/ (tests/robots/README.md). They
-/// stand and roll here (the every-robot suite above runs the robots under robots/ only).
+/// stand, roll and climb the step they declare here (the every-robot suite above runs the
+/// robots under robots/ only).
 std::vector<std::string> fixtureRobots() {
   std::vector<std::string> dirs;
   const std::filesystem::path root = std::filesystem::path(ROLLSTEP_SOURCE_DIR) / "tests/robots";
@@ -354,6 +359,8 @@ class FixtureRobot : public ::testing::TestWithParam<std::string> {};
 TEST_P(FixtureRobot, Stands) { expectStands(GetParam()); }
 
 TEST_P(FixtureRobot, RollsAtHalfAMetrePerSecond) { expectRollsAtHalfAMetrePerSecond(GetParam()); }
+
+TEST_P(FixtureRobot, TrotsOntoAndOffItsStep) { expectTrotsOntoAndOffItsStep(GetParam()); }
 
 std::string fixtureTestName(const ::testing::TestParamInfo<std::string>& robot) {
   ::testing::TestParamInfo<std::string> named(

@@ -25,7 +25,10 @@
 //   gap before the riser (the foothold rule sends it up onto the step), until it is at
 //   most `up_reach` short of the step's region: a leg that must clear the riser first
 //   cannot reach far ahead of its hip, and one sent further lands short, on the corner
-//   (off unless up_reach > 0); at most max_up_hold.
+//   (off unless up_reach > 0); at most max_up_hold. None for a touch-down whose next one
+//   (a gait period later) still lands short of the region's end: that next swing climbs,
+//   from nearer the riser, and is held if it needs to be (a trot whose stride is short
+//   against max_up_hold's travel would otherwise stand every foot for more than a stride).
 // A hold lengthens the stance of every foot standing through it, and a stance foot that
 // meets a riser ahead of it stands there while the body passes over it (its wheel cannot
 // roll into the step): no hold is made that would carry the body more than `stance_stroke`
