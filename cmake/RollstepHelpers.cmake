@@ -79,6 +79,13 @@ endfunction()
 function(rollstep_add_test name)
   cmake_parse_arguments(ARG "SERIAL" "" "SOURCES;LIBS;LABELS" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
+  # A tree that runs none of its tests does not build it by default (the sanitizer trees
+  # leave out the closed-loop and slow labels: scripts/sanitize).
+  foreach(label IN LISTS ARG_LABELS)
+    if(label IN_LIST ROLLSTEP_UNBUILT_TEST_LABELS)
+      set_target_properties(${name} PROPERTIES EXCLUDE_FROM_ALL TRUE)
+    endif()
+  endforeach()
   target_link_libraries(${name} PRIVATE ${ARG_LIBS} rollstep_test_common GTest::gtest_main)
   target_compile_definitions(${name} PRIVATE
     ROLLSTEP_ROBOTS_DIR="${ROLLSTEP_ROBOTS_DIR}"
